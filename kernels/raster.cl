@@ -1,0 +1,163 @@
+/* raster.cl -- layered orthographic depth maps of a mesh for many views.
+ *
+ * Kernel render_depth_layers: one work-item per view (map). Each work-item
+ * walks every triangle, projects it into its own view and inserts the depth
+ * of every texel centre it covers into that texel's sorted list of the
+ * LAYERS nearest depths (depth peeling in one pass). No two work-items write
+ * the same memory, so no atomics are needed.
+ *
+ * Triangles are read 16 at a time from a structure-of-arrays buffer and
+ * projected with float16 arithmetic; only triangles whose screen bounding box
+ * holds a texel centre (about 40 % for a 70k-triangle mesh at 128^2) go on to
+ * the scalar coverage test. The projected coordinates of a vertex are the
+ * same in every triangle that uses it (same operations, FP contraction off),
+ * which the watertight edge rule of raster_common.h relies on.
+ *
+ * Conventions (DESIGN.md, pyshadow.raster): normalised object frame
+ * (bounding sphere centre 0, radius 1). Map k has basis rows (u, v, d);
+ * texel (row r, col c) is the ray x*u + y*v + d - t*d with
+ * x = 2(c+0.5)/RES - 1, y = 2(r+0.5)/RES - 1; a surface point p has depth
+ * (1 - p.d)/2 in [0, 1]. In screen coordinates sx = (x+1)*RES/2 - 0.5 the
+ * texel centres are the integers.
+ *
+ * Buffers
+ *   tris   float  (9, tpad)  corner coordinates a.x a.y a.z b.x ... c.z as
+ *                            rows, tpad a multiple of 16; read
+ *   bases  float  (D, 9)     rows u, v, d of each view of the launch; read
+ *   depth  float  (D, LAYERS, RES, RES)   written; must hold +inf on entry
+ * Scalars
+ *   n_tris  triangles in use (<= tpad); tpad  row stride of tris
+ *   n_views views in the launch (work-items beyond it return at once)
+ * Macros
+ *   RES     texels per side (1 .. 4096)
+ *   LAYERS  depth layers kept (1 .. 3)
+ */
+#include "raster_common.h"
+
+/* edge function of a->b at p for 16 lanes: the same operations, in the same
+ * canonical endpoint order, as edge_fn() */
+#define EDGE16(AX, AY, BX, BY, PX, PY) edge16((AX), (AY), (BX), (BY), (PX), (PY))
+inline float16 edge16(float16 ax, float16 ay, float16 bx, float16 by, float16 px, float16 py)
+{
+    const int16 sw = (bx < ax) | ((bx == ax) & (by < ay));
+    const float16 ox = select(ax, bx, sw), oy = select(ay, by, sw);
+    const float16 ex = select(bx - ax, ax - bx, sw), ey = select(by - ay, ay - by, sw);
+    const float16 e = ex * (py - oy) - ey * (px - ox);
+    return select(e, -e, sw);
+}
+/* edge_owns() for 16 lanes */
+#define OWNS16(AX, AY, BX, BY) ((((BY) - (AY)) > 0.0f) | ((((BY) - (AY)) == 0.0f) & (((BX) - (AX)) < 0.0f)))
+
+/* insert z into the sorted LAYERS-deep list of one texel */
+inline void insert_depth(__global float *px, const size_t plane, float z)
+{
+    for (int l = 0; l < LAYERS; ++l) {
+        const float cur = px[l * plane];
+        if (z < cur) { px[l * plane] = z; z = cur; }
+    }
+}
+
+#define PROJ(PX, PY, PZ, A) (((PX) * (A).x + (PY) * (A).y + (PZ) * (A).z + 1.0f) * half_res - 0.5f)
+
+__kernel void render_depth_layers(__global const float *tris,
+                                  const int n_tris,
+                                  const int tpad,
+                                  __global const float *bases,
+                                  const int n_views,
+                                  __global float *depth)
+{
+    const int view = get_global_id(0);
+    if (view >= n_views) return;
+    __global const float *B = bases + 9 * view;
+    const float3 U = (float3)(B[0], B[1], B[2]);
+    const float3 Vv = (float3)(B[3], B[4], B[5]);
+    const float3 Dd = (float3)(B[6], B[7], B[8]);
+    const float half_res = 0.5f * (float)RES;
+    const float last = (float)(RES - 1);
+    const size_t plane = (size_t)RES * RES;
+    __global float *out = depth + (size_t)view * LAYERS * plane;
+
+    float sx0[16], sy0[16], sx1[16], sy1[16], sx2[16], sy2[16], sz0[16], sz1[16], sz2[16];
+    float zhit[16];
+    int flag[16], cpos[16], rpos[16];
+
+    for (int base = 0; base < n_tris; base += 16) {
+        const float16 ax = vload16(0, tris + 0 * (size_t)tpad + base);
+        const float16 ay = vload16(0, tris + 1 * (size_t)tpad + base);
+        const float16 az = vload16(0, tris + 2 * (size_t)tpad + base);
+        const float16 bx = vload16(0, tris + 3 * (size_t)tpad + base);
+        const float16 by = vload16(0, tris + 4 * (size_t)tpad + base);
+        const float16 bz = vload16(0, tris + 5 * (size_t)tpad + base);
+        const float16 cx = vload16(0, tris + 6 * (size_t)tpad + base);
+        const float16 cy = vload16(0, tris + 7 * (size_t)tpad + base);
+        const float16 cz = vload16(0, tris + 8 * (size_t)tpad + base);
+        const float16 x0 = PROJ(ax, ay, az, U), y0 = PROJ(ax, ay, az, Vv);
+        const float16 x1 = PROJ(bx, by, bz, U), y1 = PROJ(bx, by, bz, Vv);
+        const float16 x2 = PROJ(cx, cy, cz, U), y2 = PROJ(cx, cy, cz, Vv);
+        const float16 c0 = fmax(ceil(fmin(x0, fmin(x1, x2))), 0.0f);
+        const float16 c1 = fmin(floor(fmax(x0, fmax(x1, x2))), last);
+        const float16 r0 = fmax(ceil(fmin(y0, fmin(y1, y2))), 0.0f);
+        const float16 r1 = fmin(floor(fmax(y0, fmax(y1, y2))), last);
+        const int16 live = (c0 <= c1) & (r0 <= r1);
+        if (!any(live)) continue;
+        /* Most live triangles hold one texel centre in their bounding box:
+         * test it for all 16 lanes at once with the scalar rule's exact
+         * operations (see tri_covers); lanes with bigger boxes go scalar. */
+        const int16 multi = live & ((c1 > c0) | (r1 > r0));
+        const float16 area = EDGE16(x0, y0, x1, y1, x2, y2);
+        float16 e0 = EDGE16(x1, y1, x2, y2, c0, r0);
+        float16 e1 = EDGE16(x2, y2, x0, y0, c0, r0);
+        float16 e2 = EDGE16(x0, y0, x1, y1, c0, r0);
+        const int16 pos = area > 0.0f;
+        e0 = select(-e0, e0, pos); e1 = select(-e1, e1, pos); e2 = select(-e2, e2, pos);
+        const int16 o0 = select(OWNS16(x2, y2, x1, y1), OWNS16(x1, y1, x2, y2), pos);
+        const int16 o1 = select(OWNS16(x0, y0, x2, y2), OWNS16(x2, y2, x0, y0), pos);
+        const int16 o2 = select(OWNS16(x1, y1, x0, y0), OWNS16(x0, y0, x1, y1), pos);
+        const float16 esum = e0 + e1 + e2;
+        const int16 in = (e0 >= 0.0f) & (e1 >= 0.0f) & (e2 >= 0.0f)
+                       & ((e0 > 0.0f) | o0) & ((e1 > 0.0f) | o1) & ((e2 > 0.0f) | o2)
+                       & (esum > 0.0f) & (area != 0.0f);
+        const float16 dz0 = (1.0f - (ax * Dd.x + ay * Dd.y + az * Dd.z)) * 0.5f;
+        const float16 dz1 = (1.0f - (bx * Dd.x + by * Dd.y + bz * Dd.z)) * 0.5f;
+        const float16 dz2 = (1.0f - (cx * Dd.x + cy * Dd.y + cz * Dd.z)) * 0.5f;
+        const float16 zc = (e0 / esum) * dz0 + (e1 / esum) * dz1 + (e2 / esum) * dz2;
+        const int16 single = live & in & ~multi;
+        if (!any(single | multi)) continue;
+        vstore16(zc, 0, zhit);
+        vstore16(select((int16)0, (int16)1, single) | select((int16)0, (int16)2, multi), 0, flag);
+        vstore16(convert_int16(c0), 0, cpos);
+        vstore16(convert_int16(r0), 0, rpos);
+        const int any_multi = any(multi);
+        if (any_multi) {
+            vstore16(x0, 0, sx0); vstore16(y0, 0, sy0);
+            vstore16(x1, 0, sx1); vstore16(y1, 0, sy1);
+            vstore16(x2, 0, sx2); vstore16(y2, 0, sy2);
+            vstore16(dz0, 0, sz0); vstore16(dz1, 0, sz1); vstore16(dz2, 0, sz2);
+        }
+        const int lanes = min(16, n_tris - base);
+        for (int i = 0; i < lanes; ++i) {
+            const int f = flag[i];
+            if (f == 0) continue;
+            if (f == 1) {
+                insert_depth(out + (size_t)rpos[i] * RES + cpos[i], plane, zhit[i]);
+                continue;
+            }
+            const float2 p0 = (float2)(sx0[i], sy0[i]);
+            const float2 p1 = (float2)(sx1[i], sy1[i]);
+            const float2 p2 = (float2)(sx2[i], sy2[i]);
+            const float ar = edge_fn(p0, p1, p2);
+            if (ar == 0.0f) continue;
+            const int cc0 = cpos[i], rr0 = rpos[i];
+            const int cc1 = (int)fmin(floor(fmax(p0.x, fmax(p1.x, p2.x))), last);
+            const int rr1 = (int)fmin(floor(fmax(p0.y, fmax(p1.y, p2.y))), last);
+            const float z0 = sz0[i], z1 = sz1[i], z2 = sz2[i];
+            for (int r = rr0; r <= rr1; ++r) {
+                for (int col = cc0; col <= cc1; ++col) {
+                    float3 w;
+                    if (!tri_covers(p0, p1, p2, ar, (float2)((float)col, (float)r), &w)) continue;
+                    insert_depth(out + (size_t)r * RES + col, plane, w.x * z0 + w.y * z1 + w.z * z2);
+                }
+            }
+        }
+    }
+}

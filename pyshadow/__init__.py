@@ -1,0 +1,26 @@
+"""pyshadow: ambient occlusion and shadows between moving rigid bodies from
+Coherent Shadow Maps, as OpenCL kernels (GPU, or CPU cores through PoCL).
+
+Conventions used throughout (DESIGN.md): right-handed, y up; directions from
+polar angles ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)``;
+AO is the unoccluded, cosine-weighted fraction of the hemisphere in [0, 1];
+every per-object structure lives in the object's normalised frame (bounding
+sphere centre at the origin, radius 1).
+"""
+from ._version import __version__
+from ._cl import DeviceNotFoundError, KernelBuildError, device_info
+from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh
+from .views import ViewSet
+from .raster import render_depth
+
+__all__ = [
+    "__version__",
+    "DeviceNotFoundError",
+    "KernelBuildError",
+    "MeshCleanupWarning",
+    "ViewSet",
+    "bounding_sphere",
+    "device_info",
+    "load_mesh",
+    "render_depth",
+]

@@ -1,0 +1,285 @@
+"""Mesh loading, validation, hole filling and the normalised frame.
+
+Every per-object structure of pyshadow (depth maps, CSMs) lives in the
+object's *normalised frame*: ``p_norm = (p - centre) / radius`` with the
+object's bounding sphere (:func:`bounding_sphere`). See DESIGN.md,
+"Conventions".
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+__all__ = [
+    "MeshCleanupWarning",
+    "load_mesh",
+    "bounding_sphere",
+    "close_holes",
+    "mesh_hash",
+    "normalised_vertices",
+]
+
+
+class MeshCleanupWarning(UserWarning):
+    """Faces were removed from a mesh while loading it (degenerate or duplicate)."""
+
+
+def _as_trimesh(source, label: str) -> trimesh.Trimesh:
+    """Turn what trimesh gives back for ``source`` into one Trimesh (no processing)."""
+    if isinstance(source, trimesh.Trimesh):
+        return trimesh.Trimesh(
+            vertices=np.array(source.vertices, dtype=np.float64),
+            faces=np.array(source.faces, dtype=np.int64),
+            process=False,
+        )
+    if isinstance(source, trimesh.Scene):
+        meshes = [g for g in source.geometry.values() if isinstance(g, trimesh.Trimesh)]
+        if not meshes:
+            raise ValueError(f"{label}: the scene holds no triangle meshes")
+        # to_geometry applies every node's transform and concatenates
+        geom = source.to_geometry()
+        if not isinstance(geom, trimesh.Trimesh):
+            raise ValueError(f"{label}: the scene could not be concatenated into one mesh")
+        return _as_trimesh(geom, label)
+    raise ValueError(
+        f"{label}: not a triangle mesh (trimesh returned {type(source).__name__})"
+    )
+
+
+def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
+    """Load and validate a triangle mesh.
+
+    Parameters
+    ----------
+    path_or_trimesh : str, os.PathLike, trimesh.Trimesh or trimesh.Scene
+        A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
+        object. A scene (GLB/GLTF) is flattened: every node's transform is
+        applied and the meshes are concatenated.
+    fill_holes : bool, optional
+        Close every boundary loop with a fan of triangles around the loop's
+        centroid (see :func:`close_holes`). Closed meshes compress much better:
+        thesis 000, section 5.2.1 reports 30.5:1 instead of 17.5:1 for the
+        hole-filled Stanford bunny at 64x128 maps.
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        Vertices float64 (V, 3), faces int64 (T, 3); coincident vertices
+        merged; degenerate faces (repeated vertices or zero area) and
+        duplicate faces (the same three vertices in any order or winding)
+        removed. Visual attributes (UVs, colours) are dropped.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path_or_trimesh`` is a path that does not exist.
+    ValueError
+        If the format is unknown, the file has no triangles, or a vertex is
+        NaN or infinite; the message names the path and the reason.
+
+    Warns
+    -----
+    MeshCleanupWarning
+        When faces were removed, with their counts.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> m = load_mesh(trimesh.creation.box())
+    >>> m.faces.shape
+    (12, 3)
+    """
+    if isinstance(path_or_trimesh, (trimesh.Trimesh, trimesh.Scene)):
+        label = f"<{type(path_or_trimesh).__name__}>"
+        raw = path_or_trimesh
+    elif isinstance(path_or_trimesh, (str, os.PathLike)):
+        path = Path(path_or_trimesh)
+        label = str(path)
+        if not path.exists():
+            raise FileNotFoundError(f"mesh file not found: {path}")
+        if not path.is_file():
+            raise ValueError(f"{path}: not a regular file")
+        try:
+            raw = trimesh.load(str(path), process=False)
+        except (NotImplementedError, KeyError) as exc:
+            raise ValueError(
+                f"{path}: unknown or unsupported mesh format {path.suffix!r} ({exc})"
+            ) from exc
+        except Exception as exc:  # parsers raise anything on garbage input
+            raise ValueError(f"{path}: could not be read as a mesh ({exc})") from exc
+    else:
+        raise TypeError(
+            "load_mesh expects a path or a trimesh.Trimesh/Scene, "
+            f"got {type(path_or_trimesh).__name__}"
+        )
+
+    if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
+        raise ValueError(f"{label}: the file holds no geometry (empty mesh)")
+    mesh = _as_trimesh(raw, label)
+    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+        raise ValueError(f"{label}: the mesh has no triangles (empty mesh)")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():
+        raise ValueError(
+            f"{label}: {int(bad.sum())} of {len(bad)} vertices are not finite "
+            "(NaN or inf), e.g. vertex %d = %s" % (int(np.argmax(bad)), mesh.vertices[np.argmax(bad)])
+        )
+    if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
+        raise ValueError(f"{label}: a face refers to a vertex that does not exist")
+
+    mesh.merge_vertices(merge_tex=True, merge_norm=True)
+    faces = np.asarray(mesh.faces)
+    verts = np.asarray(mesh.vertices)
+
+    # degenerate: repeated indices or zero area (relative to the mesh size)
+    repeated = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+    tri = verts[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(cross, axis=1)
+    extent = float(np.ptp(verts, axis=0).max()) or 1.0
+    flat = area2 <= (1e-12 * extent) ** 2
+    degenerate = repeated | flat
+    # duplicates: the same vertex set, whatever the order or winding
+    key = np.sort(faces, axis=1)
+    keep = ~degenerate
+    idx = np.flatnonzero(keep)
+    _, first = np.unique(key[idx], axis=0, return_index=True)
+    unique_mask = np.zeros(len(faces), dtype=bool)
+    unique_mask[idx[first]] = True
+    n_degenerate = int(degenerate.sum())
+    n_duplicate = int(keep.sum() - unique_mask.sum())
+    if n_degenerate or n_duplicate:
+        warnings.warn(
+            f"{label}: removed {n_degenerate} degenerate and {n_duplicate} duplicate faces "
+            f"of {len(faces)}",
+            MeshCleanupWarning,
+            stacklevel=2,
+        )
+    faces = faces[np.sort(np.flatnonzero(unique_mask))]
+    if len(faces) == 0:
+        raise ValueError(f"{label}: every face is degenerate (empty mesh after cleaning)")
+    mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
+    mesh.remove_unreferenced_vertices()
+    if fill_holes:
+        mesh = close_holes(mesh)
+    return mesh
+
+
+def _boundary_loops(faces: np.ndarray) -> list[list[tuple[int, int]]]:
+    """Directed boundary edges (a, b) of ``faces`` chained into closed loops."""
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    und = np.sort(directed, axis=1)
+    _, inverse, counts = np.unique(und, axis=0, return_inverse=True, return_counts=True)
+    boundary = directed[counts[inverse.ravel()] == 1]
+    outgoing: dict[int, list[int]] = {}
+    for a, b in boundary.tolist():
+        outgoing.setdefault(a, []).append(b)
+    loops = []
+    for start in sorted(outgoing):
+        while outgoing.get(start):
+            loop = []
+            a = start
+            while True:
+                nxt = outgoing[a]
+                b = nxt.pop()
+                loop.append((a, b))
+                a = b
+                if a == start or not outgoing.get(a):
+                    break
+            loops.append(loop)
+    return loops
+
+
+def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """Close every boundary loop of ``mesh`` with a triangle fan.
+
+    Each loop of boundary edges gets one new vertex at the loop's centroid
+    and one triangle per boundary edge, wound against the edge so the new
+    faces continue the orientation of their neighbours.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        A mesh from :func:`load_mesh`.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        A new mesh; ``is_watertight`` holds when every boundary was a
+        simple closed loop.
+    """
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    new_verts = [verts]
+    new_faces = [faces]
+    n = len(verts)
+    for loop in _boundary_loops(faces):
+        if len(loop) < 3:
+            continue
+        ring = np.array([a for a, _ in loop])
+        centre = verts[ring].mean(axis=0)
+        new_verts.append(centre[None])
+        fan = np.array([(b, a, n) for a, b in loop], dtype=np.int64)
+        new_faces.append(fan)
+        n += 1
+    return trimesh.Trimesh(
+        vertices=np.concatenate(new_verts), faces=np.concatenate(new_faces), process=False
+    )
+
+
+def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
+    """Minimal sphere around the mesh's vertices: the object's normalised frame.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+
+    Returns
+    -------
+    centre : ndarray, shape (3,), float64
+    radius : float
+        At least the largest vertex distance from ``centre`` (enlarged by a
+        relative 1e-9 so every vertex maps inside the unit sphere after
+        ``p_norm = (p - centre) / radius``).
+
+    Notes
+    -----
+    The minimal enclosing sphere of the convex-hull vertices (trimesh's
+    ``minimum_nsphere``), so the result is deterministic and does not depend
+    on vertex order beyond round-off.
+    """
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    if len(verts) == 0:
+        raise ValueError("bounding_sphere: the mesh has no vertices")
+    try:
+        centre, _ = trimesh.nsphere.minimum_nsphere(mesh)
+        centre = np.asarray(centre, dtype=np.float64)
+        if not np.isfinite(centre).all():
+            raise ValueError
+    except Exception:
+        lo, hi = verts.min(axis=0), verts.max(axis=0)
+        centre = 0.5 * (lo + hi)
+    radius = float(np.sqrt(((verts - centre) ** 2).sum(axis=1).max()))
+    if not radius > 0:
+        raise ValueError("bounding_sphere: all vertices coincide (radius 0)")
+    return centre, radius * (1.0 + 1e-9)
+
+
+def normalised_vertices(mesh: trimesh.Trimesh, centre=None, radius=None) -> np.ndarray:
+    """Vertices in the normalised frame, float64 (V, 3)."""
+    if centre is None or radius is None:
+        centre, radius = bounding_sphere(mesh)
+    return (np.asarray(mesh.vertices, dtype=np.float64) - centre) / radius
+
+
+def mesh_hash(mesh: trimesh.Trimesh) -> str:
+    """SHA-256 (hex) of the mesh's vertices (float64) and faces (int64)."""
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(mesh.vertices, dtype="<f8").tobytes())
+    h.update(np.ascontiguousarray(mesh.faces, dtype="<i8").tobytes())
+    return h.hexdigest()

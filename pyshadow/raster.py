@@ -1,0 +1,274 @@
+"""Layered orthographic depth maps (depth peeling) of a mesh for a view set.
+
+Stage "rasterise depth maps" of the pipeline (DESIGN.md); thesis 000,
+section 5.2.2. One OpenCL work-item renders one whole map: it walks every
+triangle and keeps, per texel, the ``layers`` nearest depths in sorted order.
+
+Convention (relied on by every later stage): in the object's normalised frame
+(see :func:`pyshadow.bounding_sphere`) texel ``(row r, column c)`` of map
+``k`` is the ray with origin ``x*u_k + y*v_k + d_k``,
+``x = 2(c+0.5)/R - 1``, ``y = 2(r+0.5)/R - 1``, direction ``-d_k``; a surface
+point ``p`` hit by it has depth ``(1 - p.d_k)/2`` in [0, 1]. Layer 1 is the
+nearest surface, layer 2 the next one behind it, layer 3 the one after;
+``+inf`` where there is none.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+from . import _cl
+from .mesh import bounding_sphere, load_mesh
+from .views import ViewSet
+
+__all__ = ["render_depth", "render_depth_reference", "DepthRenderer", "texel_rays"]
+
+MAX_RESOLUTION = 4096
+
+
+def _check_args(views, resolution, layers):
+    if not isinstance(views, ViewSet):
+        raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
+    if len(views) == 0:
+        raise ValueError("the view set is empty: nothing to render")
+    _check_resolution_layers(resolution, layers)
+
+
+def _check_resolution_layers(resolution, layers):
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+        raise TypeError(f"resolution must be an int, got {resolution!r}")
+    if not 1 <= int(resolution) <= MAX_RESOLUTION:
+        raise ValueError(f"resolution must be in 1..{MAX_RESOLUTION}, got {resolution}")
+    if isinstance(layers, bool) or layers not in (1, 2, 3):
+        raise ValueError(f"layers must be 1, 2 or 3, got {layers!r}")
+
+
+def _prepare_mesh(mesh, frame):
+    if not isinstance(mesh, trimesh.Trimesh):
+        mesh = load_mesh(mesh)
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces)
+    if len(faces) == 0:
+        raise ValueError("the mesh has no faces")
+    if not np.isfinite(verts).all():
+        raise ValueError("the mesh has non-finite vertices (use pyshadow.load_mesh)")
+    if faces.min() < 0 or faces.max() >= len(verts):
+        raise ValueError("a face refers to a vertex that does not exist")
+    if len(faces) >= 2**31 or len(verts) >= 2**31:
+        raise ValueError("meshes beyond 2^31 faces or vertices are not supported")
+    centre, radius = frame if frame is not None else bounding_sphere(mesh)
+    vn = (verts - np.asarray(centre, dtype=np.float64)) / float(radius)
+    return vn, faces.astype(np.int32)
+
+
+def texel_rays(basis, resolution: int):
+    """Origins and direction of the rays through every texel centre of one map.
+
+    Parameters
+    ----------
+    basis : ndarray, shape (3, 3)
+        Rows ``(u, v, d)`` of the map.
+    resolution : int
+
+    Returns
+    -------
+    origins : ndarray, shape (R, R, 3), float64
+        ``x*u + y*v + d`` in the normalised frame, indexed ``[row, col]``.
+    direction : ndarray, shape (3,), float64
+        ``-d``.
+    """
+    basis = np.asarray(basis, dtype=np.float64)
+    R = int(resolution)
+    s = 2.0 * (np.arange(R) + 0.5) / R - 1.0
+    y, x = np.meshgrid(s, s, indexing="ij")
+    origins = x[..., None] * basis[0] + y[..., None] * basis[1] + basis[2]
+    return origins, -basis[2]
+
+
+class DepthRenderer:
+    """Device-resident mesh that renders blocks of depth maps.
+
+    Used by :func:`render_depth` and by the streaming CSM build, which keeps
+    each block on the device. Construct once per mesh; :meth:`render` may be
+    called for any number of blocks.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or path
+    resolution : int
+    layers : {1, 2, 3}
+    frame : (centre, radius), optional
+        Normalised frame; default :func:`pyshadow.bounding_sphere` of the mesh.
+    """
+
+    def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None):
+        _check_resolution_layers(resolution, layers)
+        self.resolution = int(resolution)
+        self.layers = int(layers)
+        verts, faces = _prepare_mesh(mesh, frame)
+        self.n_faces = len(faces)
+        tpad = -(-len(faces) // 16) * 16
+        soa = np.zeros((9, tpad), dtype=np.float32)
+        soa[:, : len(faces)] = verts.astype(np.float32)[faces].reshape(len(faces), 9).T
+        self._tpad = tpad
+        self._tris = _cl.to_device(soa)
+        self._kernel = _cl.kernel(
+            "raster.cl", "render_depth_layers", {"RES": self.resolution, "LAYERS": self.layers}
+        )
+
+    @property
+    def bytes_per_map(self) -> int:
+        return 4 * self.layers * self.resolution**2
+
+    def render(self, bases: np.ndarray, out: cl.Buffer | None = None) -> cl.Buffer:
+        """Render maps with ``bases`` (B, 3, 3) into a device buffer (B, layers, R, R) float32."""
+        bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
+        n = len(bases)
+        if n == 0:
+            raise ValueError("no views to render")
+        nbytes = n * self.bytes_per_map
+        if out is None:
+            out = _cl.empty(nbytes)
+        elif out.size < nbytes:
+            raise ValueError(f"output buffer holds {out.size} bytes, {nbytes} needed")
+        q = _cl.queue()
+        cl.enqueue_fill_buffer(q, out, np.float32(np.inf), 0, nbytes)
+        bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
+        self._kernel(
+            q, (n,), None, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
+            bases_buf, np.int32(n), out,
+        )
+        return out
+
+
+def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
+                 frame=None, block: int | None = None, progress: bool = False) -> np.ndarray:
+    """Layered depth maps of ``mesh`` for every view of ``views``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh or path
+        Anything :func:`pyshadow.load_mesh` accepts (a Trimesh is used as is).
+    views : ViewSet
+        ``D`` views, at least one.
+    resolution : int, optional
+        Texels per side ``R``, 1 .. 4096.
+    layers : {1, 2, 3}, optional
+        Depth layers kept per texel.
+    frame : (centre, radius), optional
+        Normalised frame; default :func:`pyshadow.bounding_sphere` of the mesh.
+    block : int, optional
+        Maps per kernel launch; default keeps a launch's output near 64 MiB.
+    progress : bool, optional
+        Show a progress bar over the blocks.
+
+    Returns
+    -------
+    depth : ndarray, shape (D, layers, R, R), float32
+        Depth in [0, 1] of the ``layers`` nearest surfaces per texel, nearest
+        first; ``+inf`` where the ray meets fewer surfaces. See the module
+        docstring for the exact texel and depth convention.
+
+    Raises
+    ------
+    ValueError
+        Empty view set, resolution outside 1..4096, layers not in {1, 2, 3},
+        or an invalid mesh. Nothing is launched.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> d = render_depth(trimesh.creation.icosphere(), ViewSet.zigzag(2, 4), 8)
+    >>> d.shape
+    (8, 2, 8, 8)
+    """
+    _check_args(views, resolution, layers)
+    renderer = DepthRenderer(mesh, resolution, layers, frame=frame)
+    D = len(views)
+    if block is None:
+        block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
+    block = int(block)
+    if block < 1:
+        raise ValueError(f"block must be >= 1, got {block}")
+    out = np.empty((D, renderer.layers, renderer.resolution, renderer.resolution), np.float32)
+    buf = _cl.empty(min(block, D) * renderer.bytes_per_map)
+    starts = range(0, D, block)
+    if progress:
+        from tqdm.auto import tqdm
+
+        starts = tqdm(starts, desc="depth maps", unit="block")
+    q = _cl.queue()
+    for s in starts:
+        e = min(D, s + block)
+        renderer.render(views.bases[s:e], buf)
+        cl.enqueue_copy(q, out[s:e], buf)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# NumPy reference (small inputs only)
+# ---------------------------------------------------------------------------
+def _edge(a, b, p):
+    """cross(b - a, p - a) from the canonical endpoint, as in raster_common.h."""
+    swap = (b[0] < a[0]) or (b[0] == a[0] and b[1] < a[1])
+    if swap:
+        return -((a[0] - b[0]) * (p[..., 1] - b[1]) - (a[1] - b[1]) * (p[..., 0] - b[0]))
+    return (b[0] - a[0]) * (p[..., 1] - a[1]) - (b[1] - a[1]) * (p[..., 0] - a[0])
+
+
+def _owns(a, b):
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    return dy > 0 or (dy == 0 and dx < 0)
+
+
+def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: int = 2,
+                           *, frame=None) -> np.ndarray:
+    """NumPy version of :func:`render_depth` (same rules, float64; slow).
+
+    For each view and each triangle the texel centres inside the triangle's
+    bounding box are tested with the same canonical edge functions and
+    top-left rule as the kernel; every covered texel collects the depth, and
+    the ``layers`` smallest depths per texel are kept.
+    """
+    _check_args(views, resolution, layers)
+    verts, faces = _prepare_mesh(mesh, frame)
+    R = int(resolution)
+    out = np.full((len(views), layers, R, R), np.inf)
+    for k, B in enumerate(views.bases):
+        scr = (verts @ B[:2].T + 1.0) * (0.5 * R) - 0.5  # (V, 2) screen coords
+        z = (1.0 - verts @ B[2]) * 0.5
+        hits = [[[] for _ in range(R)] for _ in range(R)]
+        for f in faces:
+            p0, p1, p2 = scr[f[0]], scr[f[1]], scr[f[2]]
+            lo = np.ceil(np.minimum(np.minimum(p0, p1), p2)).astype(int)
+            hi = np.floor(np.maximum(np.maximum(p0, p1), p2)).astype(int)
+            lo = np.maximum(lo, 0)
+            hi = np.minimum(hi, R - 1)
+            if (lo > hi).any():
+                continue
+            area = _edge(p0, p1, p2)
+            if area == 0:
+                continue
+            cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+            p = np.stack([cols, rows], axis=-1).astype(np.float64)
+            e = np.stack([_edge(p1, p2, p), _edge(p2, p0, p), _edge(p0, p1, p)])
+            if area > 0:
+                owns = [_owns(p1, p2), _owns(p2, p0), _owns(p0, p1)]
+            else:
+                e = -e
+                owns = [_owns(p2, p1), _owns(p0, p2), _owns(p1, p0)]
+            inside = (e >= 0).all(axis=0)
+            for i in range(3):
+                inside &= (e[i] > 0) | owns[i]
+            if not inside.any():
+                continue
+            w = e[:, inside] / e[:, inside].sum(axis=0)
+            zz = w[0] * z[f[0]] + w[1] * z[f[1]] + w[2] * z[f[2]]
+            for r, c, d in zip(rows[inside], cols[inside], zz):
+                hits[r][c].append(d)
+        for r in range(R):
+            for c in range(R):
+                h = sorted(hits[r][c])[:layers]
+                out[k, : len(h), r, c] = h
+    return out.astype(np.float32)

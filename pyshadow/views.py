@@ -1,0 +1,353 @@
+"""View sets: the directions of the orthographic depth maps and their order.
+
+A view set discretises the sphere of light directions around an object
+(thesis 000, section 5.2.1). Map ``k`` looks along ``-d_k`` at the object's
+unit bounding sphere from the point ``d_k``; its camera basis is the rows
+``(u_k, v_k, d_k)`` of ``bases[k]``: orthonormal and right-handed
+(``u_k x v_k = d_k``). The order of the maps is the compression order of a
+Coherent Shadow Map, so consecutive maps must see the object from nearby
+directions with nearby bases.
+
+Layouts
+-------
+``zigzag``
+    The thesis grid (Listing 5.1): ``theta`` rows with ``theta_i = i*pi/theta``
+    (row 0 lies *on* the north pole), ``phi`` columns with
+    ``phi_j = j*2*pi/phi``; even rows run up in phi, odd rows back down.
+    Basis ``u = (sin phi, 0, -cos phi)``, ``v = d x u`` -- the thesis's
+    up-vector basis (eq. 5.4) written in the grid angles, so it stays defined
+    on the pole row, where ``(0, 1, 0) x d`` vanishes.
+``hilbert``
+    An equal-area octahedral map of the sphere onto a ``2^k x 2^k`` grid
+    (Clarberg 2008), cells visited along one Hilbert curve (as in Ritschel
+    et al. 2007). Bases are parallel-transported along the curve: each
+    basis is its predecessor rotated by the smallest rotation taking
+    ``d_{k-1}`` to ``d_k``, so consecutive bases differ as little as the
+    directions do and no pole is special.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "ViewSet",
+    "polar_direction",
+    "octahedral_decode",
+    "octahedral_encode",
+    "hilbert_d2xy",
+]
+
+
+def polar_direction(theta, phi) -> np.ndarray:
+    """Unit direction of polar angles, thesis eq. 5.1 (y up).
+
+    ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)``.
+    """
+    theta = np.asarray(theta, dtype=np.float64)
+    phi = np.asarray(phi, dtype=np.float64)
+    st = np.sin(theta)
+    return np.stack([st * np.cos(phi), np.cos(theta), st * np.sin(phi)], axis=-1)
+
+
+# ---------------------------------------------------------------------------
+# equal-area octahedral map (y is the octahedron's polar axis)
+# ---------------------------------------------------------------------------
+def octahedral_decode(uv) -> np.ndarray:
+    """Square ``[-1, 1]^2`` to unit directions, equal-area octahedral map.
+
+    Parameters
+    ----------
+    uv : array_like, shape (..., 2)
+        The centre ``(0, 0)`` maps to the north pole ``(0, 1, 0)``, the
+        diamond ``|u| + |v| = 1`` to the equator, the four corners to the
+        south pole; ``u`` signs x, ``v`` signs z.
+
+    Returns
+    -------
+    ndarray, shape (..., 3), float64
+    """
+    uv = np.asarray(uv, dtype=np.float64)
+    u, v = uv[..., 0], uv[..., 1]
+    a, b = np.abs(u), np.abs(v)
+    sd = 1.0 - (a + b)
+    r = 1.0 - np.abs(sd)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phi = np.where(r > 0, (np.pi / 4) * ((b - a) / r + 1.0), 0.0)
+    y = np.sign(sd) * (1.0 - r * r)
+    y = np.where(sd == 0, 0.0, y)
+    s = r * np.sqrt(np.maximum(2.0 - r * r, 0.0))
+    x = np.where(u < 0, -1.0, 1.0) * s * np.cos(phi)
+    z = np.where(v < 0, -1.0, 1.0) * s * np.sin(phi)
+    out = np.stack([x, y, z], axis=-1)
+    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+
+
+def octahedral_encode(dirs) -> np.ndarray:
+    """Unit directions to the square ``[-1, 1]^2``; inverse of :func:`octahedral_decode`."""
+    d = np.asarray(dirs, dtype=np.float64)
+    d = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    ay = np.abs(y)
+    # 1 - |y| without cancellation near the poles
+    r = np.sqrt((x * x + z * z) / (1.0 + ay))
+    phi = np.arctan2(np.abs(z), np.abs(x))
+    t = phi * (4.0 / np.pi) - 1.0
+    upper = y >= 0
+    a = np.where(upper, r * (1.0 - t) * 0.5, (2.0 - r - r * t) * 0.5)
+    b = np.where(upper, r * (1.0 + t) * 0.5, (2.0 - r + r * t) * 0.5)
+    u = np.where(x < 0, -a, a)
+    v = np.where(z < 0, -b, b)
+    return np.stack([u, v], axis=-1)
+
+
+# ---------------------------------------------------------------------------
+# Hilbert curve on a 2^k x 2^k grid
+# ---------------------------------------------------------------------------
+def hilbert_d2xy(level: int, d) -> tuple[np.ndarray, np.ndarray]:
+    """Cell ``(x, y)`` of position ``d`` along the Hilbert curve of order ``level``.
+
+    Vectorised over ``d``; consecutive ``d`` give edge-adjacent cells.
+    """
+    d = np.asarray(d, dtype=np.int64)
+    x = np.zeros_like(d)
+    y = np.zeros_like(d)
+    t = d.copy()
+    s = 1
+    n = 1 << level
+    while s < n:
+        rx = (t // 2) & 1
+        ry = (t ^ rx) & 1
+        # rotate the sub-square
+        flip = ry == 0
+        swap_x = np.where(flip & (rx == 1), s - 1 - x, x)
+        swap_y = np.where(flip & (rx == 1), s - 1 - y, y)
+        x, y = np.where(flip, swap_y, swap_x), np.where(flip, swap_x, swap_y)
+        x = x + s * rx
+        y = y + s * ry
+        t //= 4
+        s *= 2
+    return x, y
+
+
+def _transport_bases(dirs: np.ndarray, u0: np.ndarray) -> np.ndarray:
+    """Bases along a path of directions by parallel transport from ``u0``."""
+    n = len(dirs)
+    bases = np.empty((n, 3, 3))
+    u = u0 - np.dot(u0, dirs[0]) * dirs[0]
+    u /= np.linalg.norm(u)
+    for k in range(n):
+        d = dirs[k]
+        if k:
+            p = dirs[k - 1]
+            axis = np.cross(p, d)
+            s = np.linalg.norm(axis)
+            c = float(np.dot(p, d))
+            if s > 1e-15:
+                axis /= s
+                # Rodrigues rotation of u about axis by the angle between p and d
+                u = u * c + np.cross(axis, u) * s + axis * np.dot(axis, u) * (1.0 - c)
+            u = u - np.dot(u, d) * d
+            u /= np.linalg.norm(u)
+        v = np.cross(d, u)
+        bases[k, 0], bases[k, 1], bases[k, 2] = u, v, d
+    return bases
+
+
+class ViewSet:
+    """Directions and camera bases of the depth maps of a CSM, in order.
+
+    Build one with :meth:`zigzag` or :meth:`hilbert`; ``views[i:j]`` gives a
+    view set of the maps ``i .. j-1`` (layout ``'custom'``).
+
+    Attributes
+    ----------
+    directions : ndarray, shape (D, 3), float64
+        Unit vectors ``d_k`` from the object towards camera ``k``.
+    bases : ndarray, shape (D, 3, 3), float64
+        Rows ``(u_k, v_k, d_k)``; orthonormal, ``u_k x v_k = d_k``.
+    layout : str
+        ``'zigzag'``, ``'hilbert'`` or ``'custom'``.
+    params : dict
+        Layout parameters: ``{'theta', 'phi'}`` or ``{'level'}``.
+    """
+
+    def __init__(self, directions, bases, layout: str = "custom", params: dict | None = None):
+        directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+        bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
+        if len(directions) != len(bases):
+            raise ValueError(
+                f"ViewSet: {len(directions)} directions but {len(bases)} bases"
+            )
+        if not (np.isfinite(directions).all() and np.isfinite(bases).all()):
+            raise ValueError("ViewSet: directions and bases must be finite")
+        self.directions = directions
+        self.bases = bases
+        self.layout = layout
+        self.params = dict(params or {})
+        self._tree = None
+
+    # -- constructors -----------------------------------------------------
+    @classmethod
+    def zigzag(cls, theta: int = 64, phi: int = 128) -> "ViewSet":
+        """The thesis grid in zigzag order (thesis 000, Listing 5.1).
+
+        Parameters
+        ----------
+        theta, phi : int
+            Rows (polar angle steps of ``pi/theta``, row 0 on the north pole)
+            and columns (azimuth steps of ``2*pi/phi``); ``D = theta*phi``.
+        """
+        theta, phi = int(theta), int(phi)
+        if theta < 1 or phi < 1:
+            raise ValueError(f"ViewSet.zigzag needs theta >= 1 and phi >= 1, got {theta}x{phi}")
+        rows = np.repeat(np.arange(theta), phi)
+        k = np.tile(np.arange(phi), theta)
+        cols = np.where(rows % 2 == 0, k, phi - 1 - k)
+        th = rows * (np.pi / theta)
+        ph = cols * (2.0 * np.pi / phi)
+        d = polar_direction(th, ph)
+        u = np.stack([np.sin(ph), np.zeros_like(ph), -np.cos(ph)], axis=-1)
+        v = np.cross(d, u)
+        bases = np.stack([u, v, d], axis=1)
+        return cls(d, bases, "zigzag", {"theta": theta, "phi": phi})
+
+    @classmethod
+    def hilbert(cls, level: int = 6) -> "ViewSet":
+        """Equal-area octahedral grid of ``2^level x 2^level`` cells in Hilbert order.
+
+        Parameters
+        ----------
+        level : int
+            0 .. 10; ``D = 4**level`` (level 6: 4096 maps, 7: 16384).
+        """
+        level = int(level)
+        if not 0 <= level <= 10:
+            raise ValueError(f"ViewSet.hilbert needs 0 <= level <= 10, got {level}")
+        n = 1 << level
+        x, y = hilbert_d2xy(level, np.arange(n * n))
+        uv = np.stack([(x + 0.5) / n * 2.0 - 1.0, (y + 0.5) / n * 2.0 - 1.0], axis=-1)
+        d = octahedral_decode(uv)
+        # start from the basis the zigzag layout would give at d_0
+        u0 = np.array([d[0, 2], 0.0, -d[0, 0]])
+        if np.linalg.norm(u0) < 1e-9:
+            u0 = np.array([1.0, 0.0, 0.0])
+        bases = _transport_bases(d, u0)
+        return cls(d, bases, "hilbert", {"level": level})
+
+    @classmethod
+    def from_params(cls, layout: str, params: dict) -> "ViewSet":
+        """Rebuild a zigzag or hilbert view set from its layout and parameters."""
+        if layout == "zigzag":
+            return cls.zigzag(params["theta"], params["phi"])
+        if layout == "hilbert":
+            return cls.hilbert(params["level"])
+        raise ValueError(f"unknown view-set layout {layout!r}")
+
+    # -- container protocol ------------------------------------------------
+    def __len__(self) -> int:
+        return len(self.directions)
+
+    def __getitem__(self, item) -> "ViewSet":
+        if not isinstance(item, slice):
+            raise TypeError("ViewSet supports slicing only: views[i:j]")
+        return ViewSet(self.directions[item], self.bases[item], "custom")
+
+    def __repr__(self) -> str:
+        p = ", ".join(f"{k}={v}" for k, v in self.params.items())
+        return f"ViewSet.{self.layout}({p}) with {len(self)} maps"
+
+    # -- nearest view ------------------------------------------------------
+    def nearest(self, dirs) -> np.ndarray:
+        """Index of the view whose ``d_k`` is closest to each direction.
+
+        Parameters
+        ----------
+        dirs : array_like, shape (N, 3)
+            Directions (need not be unit length; must be non-zero).
+
+        Returns
+        -------
+        ndarray, shape (N,), int32
+            For ``zigzag`` and ``hilbert`` an O(1) lookup per direction: the
+            grid cell holding the direction and its neighbours are compared
+            (on the pole row of the zigzag grid, whose maps share one
+            direction, the column of the direction's azimuth is taken). A
+            ``custom`` set uses a k-d tree.
+        """
+        d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+        if len(self) == 0:
+            raise ValueError("nearest: the view set is empty")
+        norm = np.linalg.norm(d, axis=1)
+        if not (np.isfinite(d).all() and (norm > 0).all()):
+            raise ValueError("nearest: directions must be finite and non-zero")
+        d = d / norm[:, None]
+        if self.layout == "zigzag":
+            idx = self._nearest_zigzag(d)
+        elif self.layout == "hilbert":
+            idx = self._nearest_hilbert(d)
+        else:
+            if self._tree is None:
+                from scipy.spatial import cKDTree
+
+                self._tree = cKDTree(self.directions)
+            idx = self._tree.query(d)[1]
+        return np.asarray(idx, dtype=np.int32)
+
+    def _zigzag_index(self, row, col):
+        T, P = self.params["theta"], self.params["phi"]
+        return row * P + np.where(row % 2 == 0, col, P - 1 - col)
+
+    def _nearest_zigzag(self, d):
+        T, P = self.params["theta"], self.params["phi"]
+        theta = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
+        phi = np.arctan2(d[:, 2], d[:, 0])
+        phi = np.where(phi < 0, phi + 2 * np.pi, phi)
+        r0 = np.clip(np.floor(theta / (np.pi / T)).astype(np.int64), 0, T - 1)
+        c0 = np.floor(phi / (2 * np.pi / P)).astype(np.int64) % P
+        best = np.full(len(d), -np.inf)
+        out = np.zeros(len(d), dtype=np.int64)
+        for dr in (0, 1):
+            r = np.minimum(r0 + dr, T - 1)
+            for dc in (0, 1):
+                c = (c0 + dc) % P
+                k = self._zigzag_index(r, c)
+                dot = np.einsum("ij,ij->i", self.directions[k], d)
+                take = dot > best
+                best = np.where(take, dot, best)
+                out = np.where(take, k, out)
+        return out
+
+    def _hilbert_cells(self):
+        if not hasattr(self, "_cell_to_index"):
+            level = self.params["level"]
+            n = 1 << level
+            x, y = hilbert_d2xy(level, np.arange(n * n))
+            table = np.empty((n, n), dtype=np.int64)
+            table[x, y] = np.arange(n * n)
+            self._cell_to_index = table
+        return self._cell_to_index
+
+    def _nearest_hilbert(self, d):
+        n = 1 << self.params["level"]
+        table = self._hilbert_cells()
+        uv = octahedral_encode(d)
+        ci = np.clip(np.floor((uv[:, 0] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
+        cj = np.clip(np.floor((uv[:, 1] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
+        best = np.full(len(d), -np.inf)
+        out = np.zeros(len(d), dtype=np.int64)
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                i, j = ci + di, cj + dj
+                # fold across the square's border (octahedral wrap)
+                out_i = (i < 0) | (i >= n)
+                i = np.where(i < 0, 0, np.where(i >= n, n - 1, i))
+                j = np.where(out_i, n - 1 - j, j)
+                out_j = (j < 0) | (j >= n)
+                j = np.where(j < 0, 0, np.where(j >= n, n - 1, j))
+                i = np.where(out_j, n - 1 - i, i)
+                k = table[i, j]
+                dot = np.einsum("ij,ij->i", self.directions[k], d)
+                take = dot > best
+                best = np.where(take, dot, best)
+                out = np.where(take, k, out)
+        return out

@@ -12,9 +12,12 @@ from ._cl import DeviceNotFoundError, KernelBuildError, device_info
 from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh
 from .views import ViewSet
 from .raster import render_depth
+from .camera import Camera
+from .gbuffer import render_gbuffer
 
 __all__ = [
     "__version__",
+    "Camera",
     "DeviceNotFoundError",
     "KernelBuildError",
     "MeshCleanupWarning",
@@ -23,4 +26,5 @@ __all__ = [
     "device_info",
     "load_mesh",
     "render_depth",
+    "render_gbuffer",
 ]

@@ -38,6 +38,8 @@ __all__ = [
     "kernel",
     "kernel_dir",
     "kernel_source",
+    "build_source",
+    "program",
 ]
 
 _lock = threading.RLock()
@@ -133,7 +135,7 @@ def _describe(found) -> str:
     if not found:
         return "no OpenCL devices at all (is pocl-binary-distribution installed?)"
     return "; ".join(
-        f"{pi}:{di} {plat.name.strip()} / {dev.name.strip()} ({cl.device_type.to_string(dev.type)})"
+        f"{pi}:{di} {plat.name.strip()} / {dev.name.strip()} ({_type_name(dev.type)})"
         for pi, di, plat, dev in found
     )
 
@@ -211,6 +213,14 @@ def device() -> cl.Device:
     return _init()["device"]
 
 
+def _type_name(t) -> str:
+    for flag, name in ((cl.device_type.GPU, "GPU"), (cl.device_type.CPU, "CPU"),
+                       (cl.device_type.ACCELERATOR, "ACCELERATOR")):
+        if t & flag:
+            return name
+    return cl.device_type.to_string(t)
+
+
 def device_info() -> dict:
     """Describe the OpenCL device pyshadow runs on.
 
@@ -235,7 +245,7 @@ def device_info() -> dict:
     return {
         "platform": st["platform"].name.strip(),
         "name": dev.name.strip(),
-        "type": cl.device_type.to_string(dev.type),
+        "type": _type_name(dev.type),
         "compute_units": int(dev.max_compute_units),
         "opencl_version": dev.version.strip(),
         "opencl_c_version": dev.opencl_c_version.strip(),
@@ -243,7 +253,7 @@ def device_info() -> dict:
         "max_alloc_bytes": int(dev.max_mem_alloc_size),
         "index": "%d:%d" % st["index"],
         "available": [
-            f"{pi}:{di} {d.name.strip()} ({cl.device_type.to_string(d.type)})"
+            f"{pi}:{di} {d.name.strip()} ({_type_name(d.type)})"
             for pi, di, _p, d in _all_devices()
         ],
     }
@@ -271,21 +281,33 @@ def program(source_file: str, defines: dict | None = None) -> cl.Program:
     key = (id(st["context"]), source_file, opts)
     with _lock:
         prg = _programs.get(key)
-        if prg is not None:
-            return prg
-        src = kernel_source(source_file)
-        try:
-            prg = cl.Program(st["context"], src).build(options=list(opts))
-        except (cl.RuntimeError, cl.LogicError) as exc:
-            digest = hashlib.sha1(src.encode()).hexdigest()[:12]
-            dump = Path(tempfile.gettempdir()) / f"pyshadow-{Path(source_file).stem}-{digest}.cl"
-            dump.write_text(src)
-            raise KernelBuildError(
-                f"building {source_file} failed on {st['device'].name.strip()} "
-                f"with options {' '.join(opts)}; full source saved to {dump}\n{exc}"
-            ) from exc
-        _programs[key] = prg
+        if prg is None:
+            prg = build_source(kernel_source(source_file), source_file, defines)
+            _programs[key] = prg
         return prg
+
+
+def build_source(src: str, label: str, defines: dict | None = None) -> cl.Program:
+    """Build OpenCL C text ``src`` (not cached); ``label`` names it in errors.
+
+    Raises
+    ------
+    KernelBuildError
+        With the options used, the compiler log, and the path of a file that
+        holds the full source as compiled.
+    """
+    st = _init()
+    opts = _options(defines)
+    try:
+        return cl.Program(st["context"], src).build(options=list(opts))
+    except (cl.RuntimeError, cl.LogicError) as exc:
+        digest = hashlib.sha1(src.encode()).hexdigest()[:12]
+        dump = Path(tempfile.gettempdir()) / f"pyshadow-{Path(label).stem}-{digest}.cl"
+        dump.write_text(src)
+        raise KernelBuildError(
+            f"building {label} failed on {st['device'].name.strip()} "
+            f"with options {' '.join(opts)}; full source saved to {dump}\n{exc}"
+        ) from exc
 
 
 def kernel(source_file: str, name: str, defines: dict | None = None) -> cl.Kernel:

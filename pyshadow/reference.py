@@ -13,7 +13,7 @@ import trimesh
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
-__all__ = ["EmbreeScene", "depth_layers", "ray_epsilon"]
+__all__ = ["EmbreeScene", "depth_layers", "gbuffer", "ray_epsilon"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -113,3 +113,46 @@ def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
             out[k, layer].reshape(-1)[alive] = (travelled[alive] * 0.5).astype(np.float32)
             travelled[alive] += eps
     return out
+
+
+def gbuffer(items, camera) -> dict:
+    """Primary-ray G-buffer by Embree: the same dict as :func:`pyshadow.render_gbuffer`.
+
+    Rays start at the camera's eye; triangles are moved into eye-relative
+    coordinates first (float64), so Embree's float32 stays precise for scenes
+    far from the world origin.
+    """
+    from .gbuffer import check_transform
+
+    tris, obj, face = [], [], []
+    for oid, (mesh, T) in enumerate(items):
+        if not isinstance(mesh, trimesh.Trimesh):
+            mesh = load_mesh(mesh)
+        T = check_transform(T, name=f"transform of item {oid}")
+        w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
+        tris.append((w - camera.eye)[np.asarray(mesh.faces)])
+        obj.append(np.full(len(mesh.faces), oid, np.int32))
+        face.append(np.arange(len(mesh.faces)))
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    obj = np.concatenate(obj) if obj else np.zeros(0, np.int32)
+    face = np.concatenate(face) if face else np.zeros(0, np.int64)
+    scene = EmbreeScene(tris)
+    dirs = camera.ray_directions().reshape(-1, 3)
+    t, prim, _ng = scene.intersect(np.zeros_like(dirs), dirs)
+    hit = prim >= 0
+    p = np.where(hit, prim, 0)
+    tri = tris[p]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    n = np.where((np.einsum("ij,ij->i", n, dirs) > 0)[:, None], -n, n)
+    H, W = camera.height, camera.width
+    pos = camera.eye + np.where(hit, t, 0.0)[:, None] * dirs
+    pos[~hit] = np.nan
+    n[~hit] = 0.0
+    return {
+        "position": pos.reshape(H, W, 3).astype(np.float32),
+        "normal": n.reshape(H, W, 3).astype(np.float32),
+        "object_id": np.where(hit, obj[p], -1).reshape(H, W).astype(np.int32),
+        "face": np.where(hit, face[p], -1).reshape(H, W).astype(np.int32),
+        "depth": np.where(hit, t, np.inf).reshape(H, W).astype(np.float32),
+    }

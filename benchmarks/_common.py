@@ -1,0 +1,44 @@
+"""Helpers shared by the benchmark scripts: timing, device name, JSON output."""
+from __future__ import annotations
+
+import json
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+MESHES = REPO.parent / "shared" / "meshes"
+
+
+def median_time(fn, repeats: int = 3, warmup: int = 1):
+    """Run ``fn`` ``warmup`` times untimed, then ``repeats`` times; return (median s, all)."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), times
+
+
+def environment() -> dict:
+    import pyshadow
+
+    info = pyshadow.device_info()
+    return {
+        "device": info["name"],
+        "platform": info["platform"],
+        "device_type": info["type"],
+        "compute_units": info["compute_units"],
+        "python": sys.version.split()[0],
+        "machine": platform.machine(),
+        "pyshadow": pyshadow.__version__,
+    }
+
+
+def emit(result: dict, as_json: bool):
+    if as_json:
+        print(json.dumps(result, indent=2))

@@ -1,0 +1,92 @@
+"""Pinhole camera: the eye rays of a perspective image."""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["Camera"]
+
+
+def _vec3(x, name):
+    a = np.asarray(x, dtype=np.float64).reshape(-1)
+    if a.shape != (3,) or not np.isfinite(a).all():
+        raise ValueError(f"Camera: {name} must be 3 finite numbers, got {x!r}")
+    return a
+
+
+class Camera:
+    """A perspective camera looking from ``eye`` at ``target``.
+
+    Parameters
+    ----------
+    eye, target : array_like, shape (3,)
+        World positions (any unit); they must differ.
+    up : array_like, shape (3,), optional
+        Approximate up direction; must not be parallel to ``target - eye``.
+    fov_y : float, optional
+        Vertical field of view in degrees, in (0, 180).
+    width, height : int, optional
+        Image size in pixels, 1 .. 16384.
+
+    Attributes
+    ----------
+    forward, right, up : ndarray, shape (3,), float64
+        Orthonormal camera frame: ``right = forward x up_hint`` normalised,
+        ``up = right x forward``.
+
+    Notes
+    -----
+    Pixel ``(row i, column j)`` (row 0 at the top) is the ray from ``eye``
+    through ``forward + x*right + y*up`` with
+    ``x = (2(j+0.5)/W - 1) * tan(fov_y/2) * W/H`` and
+    ``y = (1 - 2(i+0.5)/H) * tan(fov_y/2)``.
+    """
+
+    def __init__(self, eye, target, up=(0.0, 1.0, 0.0), fov_y: float = 45.0,
+                 width: int = 640, height: int = 480):
+        self.eye = _vec3(eye, "eye")
+        self.target = _vec3(target, "target")
+        up = _vec3(up, "up")
+        f = self.target - self.eye
+        n = np.linalg.norm(f)
+        if not n > 0:
+            raise ValueError("Camera: eye and target coincide")
+        f /= n
+        r = np.cross(f, up)
+        rn = np.linalg.norm(r)
+        if not rn > 1e-9 * np.linalg.norm(up):
+            raise ValueError("Camera: up is parallel to the viewing direction")
+        r /= rn
+        self.forward, self.right, self.up = f, r, np.cross(r, f)
+        fov_y = float(fov_y)
+        if not 0.0 < fov_y < 180.0:
+            raise ValueError(f"Camera: fov_y must be in (0, 180) degrees, got {fov_y}")
+        self.fov_y = fov_y
+        for name, val in (("width", width), ("height", height)):
+            if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or not 1 <= val <= 16384:
+                raise ValueError(f"Camera: {name} must be an int in 1..16384, got {val!r}")
+        self.width, self.height = int(width), int(height)
+
+    @property
+    def tan_half(self) -> float:
+        return float(np.tan(np.radians(self.fov_y) / 2.0))
+
+    @property
+    def aspect(self) -> float:
+        return self.width / self.height
+
+    @property
+    def rotation(self) -> np.ndarray:
+        """World-to-camera rotation, rows (right, up, forward); (3, 3) float64."""
+        return np.stack([self.right, self.up, self.forward])
+
+    def ray_directions(self) -> np.ndarray:
+        """Unit world directions of every pixel's ray; (H, W, 3) float64."""
+        W, H = self.width, self.height
+        x = (2.0 * (np.arange(W) + 0.5) / W - 1.0) * self.tan_half * self.aspect
+        y = (1.0 - 2.0 * (np.arange(H) + 0.5) / H) * self.tan_half
+        d = (self.forward + x[None, :, None] * self.right + y[:, None, None] * self.up)
+        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+    def __repr__(self) -> str:
+        return (f"Camera(eye={self.eye.tolist()}, target={self.target.tolist()}, "
+                f"fov_y={self.fov_y}, width={self.width}, height={self.height})")

@@ -1,0 +1,281 @@
+"""G-buffer: per-pixel position, normal, object id and depth of a scene.
+
+Stage "G-buffer" of the pipeline (DESIGN.md). Triangles of every item are
+moved into camera space on the host in float64 (relative to the eye, so a
+scene far from the world origin keeps its precision), clipped against the
+near plane, then rasterised by ``kernels/gbuffer.cl``: nearest depth, then
+the id of the triangle holding it, then the exact distance along each eye
+ray to that triangle's plane.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+from . import _cl
+from .camera import Camera
+from .mesh import load_mesh
+
+__all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
+
+
+def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.ndarray:
+    """Validate a 4x4 affine transform; return it as float64.
+
+    With ``rigid=True`` only rotation, translation and uniform positive scale
+    are accepted (the transforms a CSM instance may have).
+    """
+    T = np.asarray(T, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise ValueError(f"{name} must be a 4x4 matrix, got shape {T.shape}")
+    if not np.isfinite(T).all():
+        raise ValueError(f"{name} has non-finite entries")
+    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-12):
+        raise ValueError(f"{name} must be affine (last row 0 0 0 1), got {T[3].tolist()}")
+    A = T[:3, :3]
+    det = np.linalg.det(A)
+    if not abs(det) > 1e-300:
+        raise ValueError(f"{name} is singular")
+    if rigid:
+        s = np.cbrt(det)
+        if not s > 0:
+            raise ValueError(f"{name} mirrors (negative determinant); only rotations are rigid")
+        Q = A / s
+        err = np.abs(Q.T @ Q - np.eye(3)).max()
+        if err > 1e-6:
+            raise ValueError(
+                f"{name} is not rigid: after removing the uniform scale {s:.6g} the 3x3 part "
+                f"deviates from a rotation by {err:.3g} (shear or non-uniform scale)"
+            )
+    return T
+
+
+def _clip_near(tri: np.ndarray, near: float):
+    """Clip camera-space triangles (N, 3, 3) to z >= near; returns (M, 3, 3) and source index."""
+    z = tri[:, :, 2]
+    inside = z >= near
+    full = inside.all(axis=1)
+    part = inside.any(axis=1) & ~full
+    out = [tri[full]]
+    src = [np.flatnonzero(full)]
+    for i in np.flatnonzero(part):
+        poly = []
+        for k in range(3):
+            a, b = tri[i, k], tri[i, (k + 1) % 3]
+            ina, inb = a[2] >= near, b[2] >= near
+            if ina:
+                poly.append(a)
+            if ina != inb:
+                s = (near - a[2]) / (b[2] - a[2])
+                p = a + s * (b - a)
+                p[2] = near
+                poly.append(p)
+        for k in range(1, len(poly) - 1):
+            out.append(np.stack([poly[0], poly[k], poly[k + 1]])[None])
+            src.append(np.array([i]))
+    return np.concatenate(out), np.concatenate(src)
+
+
+def gbuffer_triangles(items, camera: Camera):
+    """Camera-space, near-clipped triangles of ``items``.
+
+    Returns
+    -------
+    tris : ndarray, shape (M, 3, 3), float64
+        Corners in camera space (x right, y up, z forward, eye at 0).
+    object_id : ndarray, shape (M,), int32
+        Index of the item each triangle comes from.
+    face : ndarray, shape (M,), int64
+        Face index within its item's mesh.
+    near : float
+        The near-plane distance used.
+    """
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a pyshadow.Camera, got {type(camera).__name__}")
+    items = list(items)
+    R = camera.rotation
+    per = []
+    far = 0.0
+    for oid, item in enumerate(items):
+        try:
+            mesh, T = item
+        except (TypeError, ValueError):
+            raise ValueError(f"item {oid} must be a (mesh, 4x4 transform) pair") from None
+        if not isinstance(mesh, trimesh.Trimesh):
+            mesh = load_mesh(mesh)
+        T = check_transform(T, name=f"transform of item {oid}")
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        w = v @ T[:3, :3].T + T[:3, 3]
+        c = (w - camera.eye) @ R.T
+        tri = c[np.asarray(mesh.faces)]
+        far = max(far, float(np.abs(c).max()) if len(c) else 0.0)
+        per.append((tri, oid))
+    near = max(far * 1e-6, 1e-30)
+    all_tri, all_obj, all_face = [], [], []
+    for tri, oid in per:
+        if len(tri) == 0:
+            continue
+        # drop triangles entirely outside one side of the view frustum
+        z = tri[:, :, 2]
+        tx = camera.tan_half * camera.aspect
+        ty = camera.tan_half
+        out = (z < near).all(1)
+        out |= (tri[:, :, 0] > tx * z).all(1) | (tri[:, :, 0] < -tx * z).all(1)
+        out |= (tri[:, :, 1] > ty * z).all(1) | (tri[:, :, 1] < -ty * z).all(1)
+        keep = np.flatnonzero(~out)
+        clipped, src = _clip_near(tri[keep], near)
+        all_tri.append(clipped)
+        all_obj.append(np.full(len(clipped), oid, dtype=np.int32))
+        all_face.append(keep[src])
+    if not all_tri:
+        return np.zeros((0, 3, 3)), np.zeros(0, np.int32), np.zeros(0, np.int64), near
+    return np.concatenate(all_tri), np.concatenate(all_obj), np.concatenate(all_face), near
+
+
+def _finish(camera, t, n_cam, obj, face):
+    """Assemble the output dict from per-pixel distance, camera normal and ids."""
+    H, W = camera.height, camera.width
+    hit = np.isfinite(t)
+    obj = np.asarray(obj).reshape(H, W)
+    face = np.asarray(face).reshape(H, W)
+    dirs = camera.ray_directions()
+    pos = camera.eye + np.where(hit, t, 0.0)[..., None] * dirs
+    pos[~hit] = np.nan
+    normal = n_cam @ camera.rotation
+    normal[~hit] = 0.0
+    return {
+        "position": pos.astype(np.float32),
+        "normal": normal.astype(np.float32),
+        "object_id": np.where(hit, obj, -1).astype(np.int32).reshape(H, W),
+        "face": np.where(hit, face, -1).astype(np.int32).reshape(H, W),
+        "depth": np.where(hit, t, np.inf).astype(np.float32),
+    }
+
+
+def render_gbuffer(items, camera: Camera) -> dict:
+    """Rasterise a scene of rigidly placed meshes into a G-buffer.
+
+    Parameters
+    ----------
+    items : sequence of (mesh, transform)
+        ``mesh`` a trimesh.Trimesh (or a path for :func:`pyshadow.load_mesh`),
+        ``transform`` a 4x4 affine matrix from mesh to world coordinates.
+        The item's position in the sequence is its object id.
+    camera : Camera
+
+    Returns
+    -------
+    dict of ndarray, each (H, W, ...)
+        ``'position'`` float32 (H, W, 3): world position of the visible
+        surface (NaN where none). ``'normal'`` float32 (H, W, 3): unit
+        geometric (face) normal in world space, turned to face the camera
+        (0 where none). ``'object_id'`` int32 (H, W): item index, -1 for
+        background. ``'face'`` int32 (H, W): face index within that item's
+        mesh, -1 for background. ``'depth'`` float32 (H, W): distance from
+        the eye along the pixel's ray, in world units (inf for background).
+
+    Notes
+    -----
+    Pixel centres are sampled with the watertight edge rule of the depth-map
+    rasteriser, so no pixel falls between two triangles of a closed mesh.
+    Distances come from intersecting each pixel's exact ray with the plane of
+    the visible triangle, so positions match a ray tracer's primary hits.
+    """
+    tris, obj, face, _near = gbuffer_triangles(items, camera)
+    H, W = camera.height, camera.width
+    npix = H * W
+    t = np.full(npix, np.inf, np.float32)
+    n_cam = np.zeros((npix, 3), np.float32)
+    ids = np.full(npix, np.iinfo(np.int32).max, np.int32)
+    if len(tris):
+        if len(tris) >= 2**31 - 1:
+            raise ValueError("too many triangles for one G-buffer")
+        q = _cl.queue()
+        tb = _cl.to_device(tris.reshape(-1, 9), np.float32)
+        zbuf = _cl.empty(4 * npix)
+        idbuf = _cl.empty(4 * npix)
+        cl.enqueue_fill_buffer(q, zbuf, np.uint32(0xFFFFFFFF), 0, 4 * npix)
+        cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
+        fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
+        fy = np.float32(H / (2.0 * camera.tan_half))
+        k = _cl.kernel("gbuffer.cl", "gbuffer_raster")
+        for p in (0, 1):
+            k(q, (len(tris),), None, tb, np.int32(len(tris)), np.int32(W), np.int32(H),
+              fx, fy, np.int32(p), zbuf, idbuf)
+        t_buf = _cl.empty(4 * npix)
+        n_buf = _cl.empty(12 * npix)
+        _cl.kernel("gbuffer.cl", "gbuffer_resolve")(
+            q, (npix,), None, tb, np.int32(W), np.int32(H),
+            np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half),
+            idbuf, t_buf, n_buf)
+        cl.enqueue_copy(q, ids, idbuf)
+        cl.enqueue_copy(q, t, t_buf)
+        cl.enqueue_copy(q, n_cam, n_buf)
+    hit = ids != np.iinfo(np.int32).max
+    tri_idx = np.where(hit, ids, 0)
+    o = obj[tri_idx] if len(obj) else np.zeros(npix, np.int32)
+    f = face[tri_idx] if len(face) else np.zeros(npix, np.int64)
+    t64 = np.where(hit, t.astype(np.float64), np.inf).reshape(H, W)
+    return _finish(camera, t64, n_cam.astype(np.float64).reshape(H, W, 3), o, f)
+
+
+def render_gbuffer_reference(items, camera: Camera) -> dict:
+    """NumPy version of :func:`render_gbuffer` for small images (same rules, float64).
+
+    Loops over triangles; for each, tests the pixel centres of its bounding
+    box with the canonical edge functions and top-left rule of the kernel,
+    keeps the nearest view-space depth per pixel (lowest triangle index on
+    ties) and intersects the pixel ray with the winning triangle's plane.
+    """
+    from .raster import _edge, _owns
+
+    tris, obj, face, _near = gbuffer_triangles(items, camera)
+    H, W = camera.height, camera.width
+    fx = W / (2.0 * camera.tan_half * camera.aspect)
+    fy = H / (2.0 * camera.tan_half)
+    zbest = np.full((H, W), np.inf)
+    win = np.full((H, W), -1, np.int64)
+    for i, tri in enumerate(tris):
+        s = np.stack([tri[:, 0] / tri[:, 2] * fx + (0.5 * W - 0.5),
+                      (0.5 * H - 0.5) - tri[:, 1] / tri[:, 2] * fy], axis=1)
+        p0, p1, p2 = s
+        area = _edge(p0, p1, p2)
+        if area == 0 or not np.isfinite(area):
+            continue
+        lo = np.maximum(np.ceil(s.min(0)).astype(int), 0)
+        hi = np.minimum(np.floor(s.max(0)).astype(int), [W - 1, H - 1])
+        if (lo > hi).any():
+            continue
+        cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+        p = np.stack([cols, rows], axis=-1).astype(np.float64)
+        e = np.stack([_edge(p1, p2, p), _edge(p2, p0, p), _edge(p0, p1, p)])
+        if area > 0:
+            owns = [_owns(p1, p2), _owns(p2, p0), _owns(p0, p1)]
+        else:
+            e = -e
+            owns = [_owns(p2, p1), _owns(p0, p2), _owns(p1, p0)]
+        inside = (e >= 0).all(axis=0)
+        for k in range(3):
+            inside &= (e[k] > 0) | owns[k]
+        if not inside.any():
+            continue
+        w = e[:, inside] / e[:, inside].sum(axis=0)
+        z = 1.0 / (w[0] / tri[0, 2] + w[1] / tri[1, 2] + w[2] / tri[2, 2])
+        rr, cc = rows[inside], cols[inside]
+        better = z < zbest[rr, cc]
+        zbest[rr[better], cc[better]] = z[better]
+        win[rr[better], cc[better]] = i
+    dirs_cam = camera.ray_directions() @ camera.rotation.T
+    t = np.full((H, W), np.inf)
+    n_cam = np.zeros((H, W, 3))
+    hit = win >= 0
+    tri = tris[win[hit]]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    d = dirs_cam[hit]
+    dn = np.einsum("ij,ij->i", n, d)
+    t[hit] = np.einsum("ij,ij->i", n, tri[:, 0]) / dn
+    n_cam[hit] = np.where((dn > 0)[:, None], -n, n)
+    wi = np.where(hit, win, 0)
+    return _finish(camera, t, n_cam, obj[wi] if len(obj) else wi, face[wi] if len(face) else wi)

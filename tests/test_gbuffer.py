@@ -1,0 +1,127 @@
+"""Camera and render_gbuffer against Embree primary rays and the NumPy reference."""
+import numpy as np
+import pytest
+import trimesh
+
+import pyshadow
+from pyshadow import reference
+from pyshadow.gbuffer import check_transform, render_gbuffer_reference
+
+from conftest import load
+
+
+def unit_frame(mesh):
+    c, r = pyshadow.bounding_sphere(mesh)
+    T = np.eye(4)
+    T[:3, :3] /= r
+    T[:3, 3] = -c / r
+    return T
+
+
+def two_objects_on_ground(offset=0.0, scale=1.0):
+    bunny = load("stanford-bunny.obj")
+    fan = load("fandisk.obj")
+    place = np.eye(4)
+    place[:3, :3] *= scale
+    place[:3, 3] = offset
+    rot = trimesh.transformations.rotation_matrix(0.7, [0, 1, 0])
+    rot[:3, 3] = [2.2, 0.3, 0.0]
+    ground = trimesh.Trimesh([[-5, -1, -5], [5, -1, -5], [5, -1, 5], [-5, -1, 5]], [[0, 2, 1], [0, 3, 2]])
+    items = [(bunny, place @ unit_frame(bunny)), (fan, place @ rot @ unit_frame(fan)), (ground, place)]
+    eye = np.array([1.0, 1.5, 5.0]) * scale + offset
+    target = np.array([1.0, 0.0, 0.0]) * scale + offset
+    return items, pyshadow.Camera(eye, target, width=320, height=240)
+
+
+@pytest.mark.parametrize("offset, scale", [(0.0, 1.0), (1e5, 1.0), (0.0, 1e-3), (0.0, 1e4), (1e5, 1e3)])
+def test_gbuffer_positions_agree_with_embree(offset, scale):
+    items, cam = two_objects_on_ground(offset, scale)
+    g = pyshadow.render_gbuffer(items, cam)
+    e = reference.gbuffer(items, cam)
+    covered = e["object_id"] >= 0
+    assert covered.mean() > 0.5 and (~covered).any()
+    assert set(np.unique(e["object_id"])) == {-1, 0, 1, 2}
+    size = 10.0 * scale                                 # the scene's extent
+    err = np.linalg.norm(g["position"].astype(np.float64) - e["position"], axis=-1)
+    ok = (g["object_id"] == e["object_id"]) & (err <= 1e-4 * size + 4 * np.spacing(np.float32(offset + size)))
+    assert ok[covered].mean() >= 0.995
+    assert (g["object_id"] == e["object_id"]).mean() >= 0.999
+    np.testing.assert_allclose(g["depth"][covered & ok], e["depth"][covered & ok], rtol=1e-4)
+
+
+def test_gbuffer_matches_numpy_reference():
+    sphere = trimesh.creation.icosphere(2)
+    box = trimesh.creation.box(extents=(8, 0.2, 8))
+    box.apply_translation([0, -1.1, 0])
+    items = [(sphere, np.eye(4)), (box, np.eye(4))]
+    cam = pyshadow.Camera([1.0, 1.5, 5.0], [0.0, 0.0, 0.0], width=64, height=48)
+    g = pyshadow.render_gbuffer(items, cam)
+    r = render_gbuffer_reference(items, cam)
+    np.testing.assert_array_equal(g["object_id"], r["object_id"])
+    np.testing.assert_array_equal(g["face"], r["face"])
+    hit = r["object_id"] >= 0
+    np.testing.assert_allclose(g["position"][hit], r["position"][hit], atol=1e-5)
+    np.testing.assert_allclose(g["normal"][hit], r["normal"][hit], atol=1e-5)
+    assert np.isnan(g["position"][~hit]).all() and np.isinf(g["depth"][~hit]).all()
+
+
+def test_gbuffer_normals_face_the_camera_and_are_unit():
+    items, cam = two_objects_on_ground()
+    g = pyshadow.render_gbuffer(items, cam)
+    hit = g["object_id"] >= 0
+    n = g["normal"][hit]
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5)
+    view = g["position"][hit] - cam.eye
+    assert (np.einsum("ij,ij->i", n, view) <= 0).all()
+    # the ground plane's normal is +y from above
+    ground = g["object_id"] == 2
+    np.testing.assert_allclose(g["normal"][ground], np.broadcast_to([0, 1, 0], (ground.sum(), 3)), atol=1e-6)
+
+
+def test_gbuffer_camera_inside_geometry_clips_near_plane():
+    # the camera stands on a huge floor that crosses the near plane
+    floor = trimesh.Trimesh([[-100, 0, -100], [100, 0, -100], [100, 0, 100], [-100, 0, 100]],
+                            [[0, 2, 1], [0, 3, 2]])
+    cam = pyshadow.Camera([0, 0.5, 0], [0, 0, -5], width=80, height=60)
+    g = pyshadow.render_gbuffer([(floor, np.eye(4))], cam)
+    e = reference.gbuffer([(floor, np.eye(4))], cam)
+    np.testing.assert_array_equal(g["object_id"], e["object_id"])
+    hit = e["object_id"] == 0
+    np.testing.assert_allclose(g["position"][hit], e["position"][hit], atol=1e-3)
+
+
+def test_camera_pixel_convention():
+    cam = pyshadow.Camera([0, 0, 0], [0, 0, -1], fov_y=90.0, width=4, height=2)
+    d = cam.ray_directions()
+    assert d.shape == (2, 4, 3)
+    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0      # row 0 is the top, column 0 the left
+    assert d[1, 3, 0] > 0 and d[1, 3, 1] < 0
+    np.testing.assert_allclose(d[..., 2].min(), -1 / np.linalg.norm([0.5, 0.5, 1]), rtol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(eye=[0, 0, 0], target=[0, 0, 0]), "coincide"),
+    (dict(eye=[0, 0, 0], target=[0, 1, 0]), "parallel"),
+    (dict(eye=[0, 0, 0], target=[0, 0, 1], fov_y=0), "fov_y"),
+    (dict(eye=[0, 0, 0], target=[0, 0, 1], fov_y=180), "fov_y"),
+    (dict(eye=[0, 0, 0], target=[0, 0, 1], width=0), "width"),
+    (dict(eye=[np.nan, 0, 0], target=[0, 0, 1]), "eye"),
+])
+def test_camera_rejects_bad_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        pyshadow.Camera(**kwargs)
+
+
+def test_check_transform_rigid():
+    R = trimesh.transformations.rotation_matrix(0.3, [1, 2, 3])
+    R[:3, :3] *= 2.5
+    check_transform(R, rigid=True)
+    S = np.diag([1.0, 2.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="not rigid"):
+        check_transform(S, rigid=True)
+    with pytest.raises(ValueError, match="4x4"):
+        check_transform(np.eye(3))
+    P = np.eye(4)
+    P[3, 0] = 0.1
+    with pytest.raises(ValueError, match="affine"):
+        check_transform(P)

@@ -1,0 +1,158 @@
+"""render_depth against its NumPy reference and against Embree rays."""
+import numpy as np
+import pytest
+import trimesh
+
+import pyshadow
+from pyshadow import raster, reference
+from pyshadow.raster import render_depth_reference
+
+from conftest import load
+
+
+def agreement(ours, truth):
+    """(coverage agreement, share of |dz| <= 1e-4 where both hit) per layer."""
+    out = []
+    for l in range(ours.shape[1]):
+        a, b = ours[:, l], truth[:, l]
+        cov = (np.isfinite(a) == np.isfinite(b)).mean()
+        both = np.isfinite(a) & np.isfinite(b)
+        close = (np.abs(a[both] - b[both]) <= 1e-4).mean() if both.any() else 1.0
+        out.append((cov, close, both.sum()))
+    return out
+
+
+def test_render_depth_matches_numpy_reference():
+    m = load("suzanne.ply")
+    views = pyshadow.ViewSet.zigzag(3, 6)
+    ours = pyshadow.render_depth(m, views, 24, 3)
+    ref = render_depth_reference(m, views, 24, 3)
+    assert ours.shape == ref.shape == (18, 3, 24, 24)
+    assert ours.dtype == np.float32
+    np.testing.assert_array_equal(np.isfinite(ours), np.isfinite(ref))
+    hit = np.isfinite(ref)
+    np.testing.assert_allclose(ours[hit], ref[hit], atol=1e-5)
+    # the data is not trivial: misses, one-layer and multi-layer texels all occur
+    assert (~hit[:, 0]).any() and hit[:, 2].any() and (hit[:, 0] & ~hit[:, 1]).any()
+
+
+@pytest.mark.parametrize("name", ["stanford-bunny.obj", "fandisk.obj", "teapot.obj", "pyvista:airplane"])
+@pytest.mark.parametrize("layout", ["zigzag", "hilbert"])
+def test_render_depth_agrees_with_embree(name, layout):
+    m = load(name)
+    views = pyshadow.ViewSet.zigzag(8, 8) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
+    assert len(views) >= 64
+    ours = pyshadow.render_depth(m, views, 128, 2)
+    truth = reference.depth_layers(m, views, 128, 2)
+    for layer, (cov, close, n) in enumerate(agreement(ours, truth), start=1):
+        assert n > 1000, f"layer {layer}: too few texels hit to judge"
+        assert cov >= 0.995, f"layer {layer}: coverage agrees on {cov:.4%}"
+        assert close >= 0.995, f"layer {layer}: |dz| <= 1e-4 on {close:.4%}"
+
+
+def test_render_depth_depth_range_and_convention():
+    # unit sphere around the origin: texel (r, c) at (x, y) has depth (1 - sqrt(1-x^2-y^2))/2
+    sphere = pyshadow.load_mesh(trimesh.creation.icosphere(subdivisions=6))
+    views = pyshadow.ViewSet.hilbert(1)
+    R = 64
+    d = pyshadow.render_depth(sphere, views, R, 2)
+    s = 2 * (np.arange(R) + 0.5) / R - 1
+    y, x = np.meshgrid(s, s, indexing="ij")
+    rho2 = x * x + y * y
+    inner = rho2 < 0.9
+    h = np.sqrt(np.clip(1 - rho2, 0, None))
+    expect1, expect2 = (1 - h) / 2, (1 + h) / 2
+    for k in range(len(views)):
+        assert np.abs(d[k, 0][inner] - expect1[inner]).max() < 2e-3   # tessellation error
+        assert np.abs(d[k, 1][inner] - expect2[inner]).max() < 2e-3
+        assert np.isinf(d[k, 0][rho2 > 1.0001]).all()
+    assert np.nanmin(d[np.isfinite(d)]) >= 0 and d[np.isfinite(d)].max() <= 1
+
+
+def test_render_depth_row_and_column_orientation():
+    # a small triangle at +u, -v of map 0 must land at high column, low row
+    views = pyshadow.ViewSet.zigzag(2, 4)
+    u, v, dd = views.bases[0]
+    centre = 0.5 * u - 0.5 * v
+    tri = trimesh.Trimesh(np.array([centre + 0.25 * u, centre - 0.25 * v, centre + 0.25 * v]),
+                          [[0, 1, 2]], process=False)
+    R = 32
+    d = pyshadow.render_depth(tri, views[0:1], R, 1, frame=(np.zeros(3), 1.0))
+    rows, cols = np.nonzero(np.isfinite(d[0, 0]))
+    assert len(rows) > 2
+    # x = 2(c+0.5)/R - 1 = 0.5 -> c = 0.75R - 0.5;  y = -0.5 -> r = 0.25R - 0.5
+    assert (np.abs(cols - (0.75 * R - 0.5)) <= 0.25 * R / 2 + 1).all()
+    assert (np.abs(rows - (0.25 * R - 0.5)) <= 0.25 * R / 2 + 1).all()
+    np.testing.assert_allclose(d[0, 0][rows, cols], 0.5, atol=1e-6)   # the plane p.d = 0
+
+
+@pytest.mark.parametrize("name", ["fandisk.obj", "torus.STL"])
+def test_render_depth_watertight_on_closed_mesh(name):
+    """Every ray entering a closed mesh leaves it: no cracks, no double counts."""
+    m = load(name)
+    assert m.is_watertight
+    d = pyshadow.render_depth(m, pyshadow.ViewSet.hilbert(3), 128, 3)
+    l1, l2 = np.isfinite(d[:, 0]), np.isfinite(d[:, 1])
+    assert l1.sum() > 10000
+    np.testing.assert_array_equal(l1, l2)
+    assert (d[:, 1][l2] > d[:, 0][l2]).all()
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e4, 1e5)])
+def test_render_depth_invariant_to_scale_and_position(scale, offset):
+    m = load("fandisk.obj")
+    moved = trimesh.Trimesh(m.vertices * scale + offset, m.faces, process=False)
+    views = pyshadow.ViewSet.zigzag(4, 8)
+    a = pyshadow.render_depth(m, views, 64, 2)
+    b = pyshadow.render_depth(moved, views, 64, 2)
+    cov = (np.isfinite(a) == np.isfinite(b)).mean()
+    assert cov > 0.999
+    both = np.isfinite(a) & np.isfinite(b)
+    assert np.quantile(np.abs(a[both] - b[both]), 0.999) < 1e-5
+
+
+def test_render_depth_blocks_give_the_same_maps():
+    m = load("suzanne.ply")
+    views = pyshadow.ViewSet.zigzag(4, 8)
+    a = pyshadow.render_depth(m, views, 32, 2)
+    b = pyshadow.render_depth(m, views, 32, 2, block=5)
+    np.testing.assert_array_equal(a, b)
+
+
+@pytest.fixture
+def no_launch(monkeypatch):
+    """Fail the test if anything reaches the device."""
+    def boom(*a, **k):
+        raise AssertionError("a kernel was launched or a buffer created")
+    monkeypatch.setattr(raster.DepthRenderer, "__init__", boom)
+    monkeypatch.setattr(raster._cl, "empty", boom)
+
+
+@pytest.mark.parametrize("resolution", [0, -1, 4097, 10**6])
+def test_render_depth_rejects_resolution(no_launch, resolution):
+    with pytest.raises(ValueError, match="resolution must be in 1..4096"):
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution)
+
+
+@pytest.mark.parametrize("resolution", [2.5, "64", None])
+def test_render_depth_rejects_non_integer_resolution(no_launch, resolution):
+    with pytest.raises(TypeError, match="resolution must be an int"):
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution)
+
+
+@pytest.mark.parametrize("layers", [0, 4, -1, 2.5, "2", True])
+def test_render_depth_rejects_layers(no_launch, layers):
+    with pytest.raises(ValueError, match=r"layers must be 1, 2 or 3"):
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), 16, layers)
+
+
+def test_render_depth_rejects_empty_view_set(no_launch):
+    empty = pyshadow.ViewSet.zigzag(2, 2)[0:0]
+    assert len(empty) == 0
+    with pytest.raises(ValueError, match="view set is empty"):
+        pyshadow.render_depth(load("suzanne.ply"), empty, 16)
+
+
+def test_render_depth_rejects_non_view_set(no_launch):
+    with pytest.raises(TypeError, match="ViewSet"):
+        pyshadow.render_depth(load("suzanne.ply"), np.eye(3), 16)

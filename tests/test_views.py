@@ -1,0 +1,154 @@
+"""View sets: grid, order, bases and the O(1) nearest-view lookup."""
+import numpy as np
+import pytest
+
+import pyshadow
+from pyshadow.views import hilbert_d2xy, octahedral_decode, octahedral_encode
+
+LAYOUTS = [
+    pytest.param(lambda: pyshadow.ViewSet.zigzag(64, 128), id="zigzag64x128"),
+    pytest.param(lambda: pyshadow.ViewSet.zigzag(8, 16), id="zigzag8x16"),
+    pytest.param(lambda: pyshadow.ViewSet.zigzag(3, 5), id="zigzag3x5"),
+    pytest.param(lambda: pyshadow.ViewSet.hilbert(6), id="hilbert6"),
+    pytest.param(lambda: pyshadow.ViewSet.hilbert(3), id="hilbert3"),
+    pytest.param(lambda: pyshadow.ViewSet.hilbert(1), id="hilbert1"),
+]
+
+
+def special_directions():
+    """Poles, next to the poles, the phi seam (z = -0 / +0 on the +x side), axes."""
+    e = [0.0, 1e-12, 1e-7, 1e-3]
+    dirs = []
+    for y in (1.0, -1.0):
+        for a in e:
+            for ang in np.linspace(0, 2 * np.pi, 13):
+                dirs.append([a * np.cos(ang), y, a * np.sin(ang)])
+    for a in e:
+        for s in (-1, 1):
+            dirs.append([1.0, 0.3, s * a])
+            dirs.append([1.0, -0.7, s * a])
+    dirs += [[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1], [1, 0, -0.0]]
+    d = np.array(dirs, dtype=np.float64)
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("make", LAYOUTS)
+def test_nearest_agrees_with_brute_force(make, rng):
+    views = make()
+    dirs = np.concatenate([rng.normal(size=(100_000, 3)), special_directions()])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    # directions exactly between two neighbouring maps and at the maps themselves
+    k = rng.integers(0, len(views), 500)
+    mid = views.directions[k] + views.directions[np.minimum(k + 1, len(views) - 1)]
+    mid = mid[np.linalg.norm(mid, axis=1) > 1e-6]
+    dirs = np.concatenate([dirs, mid / np.linalg.norm(mid, axis=1, keepdims=True), views.directions])
+    idx = views.nearest(dirs)
+    assert idx.dtype == np.int32 and idx.shape == (len(dirs),)
+    best = np.empty(len(dirs))
+    for s in range(0, len(dirs), 20000):
+        best[s:s + 20000] = (dirs[s:s + 20000] @ views.directions.T).max(axis=1)
+    got = np.einsum("ij,ij->i", views.directions[idx], dirs)
+    # equal up to round-off: ties (the pole row, exact midpoints) may pick either map
+    assert (got >= best - 1e-12).all(), np.flatnonzero(got < best - 1e-12)[:5]
+
+
+@pytest.mark.parametrize("make", LAYOUTS)
+def test_bases_orthonormal_right_handed(make):
+    views = make()
+    B = views.bases
+    assert B.shape == (len(views), 3, 3)
+    np.testing.assert_allclose(np.einsum("kij,klj->kil", B, B), np.broadcast_to(np.eye(3), B.shape), atol=1e-12)
+    np.testing.assert_allclose(np.cross(B[:, 0], B[:, 1]), B[:, 2], atol=1e-12)
+    np.testing.assert_array_equal(B[:, 2], views.directions)
+
+
+@pytest.mark.parametrize("make", LAYOUTS)
+def test_bases_vary_smoothly_along_the_order(make):
+    views = make()
+    B = views.bases
+    rel = np.einsum("kij,klj->kil", B[1:], B[:-1])
+    basis_angle = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1))
+    if views.layout == "zigzag":
+        step = np.pi / views.params["theta"]       # = 2 pi / phi when phi = 2 theta
+        step = max(step, 2 * np.pi / views.params["phi"])
+    else:
+        step = np.arccos(np.clip(np.einsum("ij,ij->i", views.directions[1:], views.directions[:-1]), -1, 1)).max()
+    # a basis never turns by more than one grid step between consecutive maps
+    assert basis_angle.max() <= step * (1 + 1e-9)
+
+
+def test_zigzag_matches_thesis_listing_5_1():
+    theta_divs, phi_divs = 6, 12
+    expected = []
+    inc_phi = True
+    for i_theta in range(theta_divs):          # Listing 5.1, literally
+        for i_phi in range(0 + (not inc_phi), phi_divs + (not inc_phi)):
+            theta = (i_theta / theta_divs) * np.pi
+            phi = (i_phi / phi_divs) * 2.0 * np.pi
+            if not inc_phi:
+                phi = 2.0 * np.pi - phi
+            expected.append([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)])
+        inc_phi = not inc_phi
+    views = pyshadow.ViewSet.zigzag(theta_divs, phi_divs)
+    np.testing.assert_allclose(views.directions, expected, atol=1e-12)
+    assert len(views) == 72
+
+
+def test_zigzag_pole_row_bases_are_defined():
+    views = pyshadow.ViewSet.zigzag(64, 128)
+    pole = views.bases[:128]
+    np.testing.assert_allclose(pole[:, 2], np.broadcast_to([0, 1, 0], (128, 3)), atol=1e-15)
+    assert np.isfinite(pole).all()
+    # the up-vector construction of eq. 5.4 (o x d) degenerates here; ours does not
+    assert np.allclose(np.linalg.norm(np.cross([0, 1, 0], pole[:, 2]), axis=1), 0)
+    assert np.allclose(np.linalg.norm(pole[:, 0], axis=1), 1)
+
+
+def test_octahedral_map_round_trip_and_equal_area(rng):
+    uv = rng.uniform(-1, 1, size=(200_000, 2))
+    np.testing.assert_allclose(octahedral_encode(octahedral_decode(uv)), uv, atol=1e-12)
+    # uniform directions land uniformly on the square (equal-area map)
+    d = rng.normal(size=(400_000, 3))
+    h, _, _ = np.histogram2d(*octahedral_encode(d).T, bins=8, range=[[-1, 1], [-1, 1]])
+    expected = len(d) / 64
+    chi2 = ((h - expected) ** 2 / expected).sum()
+    assert chi2 < 120           # 63 degrees of freedom: p < 1e-5 beyond this
+
+
+def test_hilbert_curve_steps_to_edge_neighbours():
+    for level in (1, 2, 5):
+        x, y = hilbert_d2xy(level, np.arange(4**level))
+        assert (np.abs(np.diff(x)) + np.abs(np.diff(y)) == 1).all()
+        assert len(set(zip(x.tolist(), y.tolist()))) == 4**level
+
+
+def test_hilbert_directions_cover_sphere_evenly():
+    views = pyshadow.ViewSet.hilbert(5)
+    assert len(views) == 1024
+    # nearest-neighbour spacing varies little over the sphere (near-uniform)
+    dots = views.directions @ views.directions.T
+    np.fill_diagonal(dots, -1)
+    nn = np.arccos(dots.max(axis=1))
+    assert nn.max() / nn.min() < 2.5
+
+
+@pytest.mark.parametrize("args", [(0, 4), (4, 0), (-1, 2)])
+def test_zigzag_rejects_empty_grid(args):
+    with pytest.raises(ValueError, match="theta >= 1"):
+        pyshadow.ViewSet.zigzag(*args)
+
+
+def test_nearest_rejects_zero_and_nan():
+    views = pyshadow.ViewSet.zigzag(4, 8)
+    with pytest.raises(ValueError):
+        views.nearest([[0, 0, 0]])
+    with pytest.raises(ValueError):
+        views.nearest([[np.nan, 1, 0]])
+
+
+def test_slices_are_view_sets():
+    views = pyshadow.ViewSet.hilbert(2)
+    sub = views[3:7]
+    assert len(sub) == 4 and sub.layout == "custom"
+    np.testing.assert_array_equal(sub.bases, views.bases[3:7])
+    np.testing.assert_array_equal(sub.nearest(views.directions[3:7]), np.arange(4))

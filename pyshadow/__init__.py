@@ -13,11 +13,14 @@ from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh
 from .views import ViewSet
 from .raster import render_depth
 from .camera import Camera
+from .csm import CoherentShadowMap, CSMFormatError
 from .gbuffer import render_gbuffer
 
 __all__ = [
     "__version__",
     "Camera",
+    "CoherentShadowMap",
+    "CSMFormatError",
     "DeviceNotFoundError",
     "KernelBuildError",
     "MeshCleanupWarning",

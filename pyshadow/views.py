@@ -206,9 +206,10 @@ class ViewSet:
         th = rows * (np.pi / theta)
         ph = cols * (2.0 * np.pi / phi)
         d = polar_direction(th, ph)
-        u = np.stack([np.sin(ph), np.zeros_like(ph), -np.cos(ph)], axis=-1)
-        v = np.cross(d, u)
-        bases = np.stack([u, v, d], axis=1)
+        # start from the thesis's basis at the first map (eq. 5.4 written in
+        # the grid angles, defined on the pole), then transport it along the order
+        u0 = np.array([np.sin(ph[0]), 0.0, -np.cos(ph[0])])
+        bases = _transport_bases(d, u0)
         return cls(d, bases, "zigzag", {"theta": theta, "phi": phi})
 
     @classmethod

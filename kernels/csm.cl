@@ -1,0 +1,137 @@
+/* csm.cl -- streaming compression of depth maps into a Coherent Shadow Map,
+ * and stored-depth lookup (thesis 000, sections 4.2.1 and 5.3.2).
+ *
+ * csm_fold      one work-item per texel. Folds the maps of one block (in
+ *               view-set order) into the texel's open run: the run keeps the
+ *               intersection [lo, hi2] of the maps' [z1, z2) intervals (as
+ *               keys, see csm_common.h) and [lo, hi3] of their [z1, z3)
+ *               intervals (LAYER_RULE 3). When the next map's interval does
+ *               not meet the run, the run is emitted as (depth, i_end) and a
+ *               new run starts. A map hit once is the point interval {z1}; a
+ *               miss is {+inf} and meets only misses. The last block (last =
+ *               1) also emits every open run with i_end = D - 1.
+ *               Emitted depth: middle of [lo, hi2] when not empty, else the
+ *               middle of [lo, hi3], or lo when hi3 is unbounded.
+ * csm_compact   one work-item per texel; copies the block's emitted segments
+ *               from the per-texel scratch into one packed array.
+ *
+ * Buffers
+ *   depth  float (B, LAYERS, RES, RES)  block of depth maps, read (fold)
+ *   state  uint  (RES*RES, 4)  lo, hi2, hi3, started; read+written (fold)
+ *   seg_z  depth_t (RES*RES, BLOCK+1)  scratch, written (fold), read (compact);
+ *          a block emits at most one segment per map plus the final one
+ *   seg_i  uint  (RES*RES, BLOCK+1)  scratch i_end, as seg_z
+ *   count  uint  (RES*RES)  segments emitted in this block; written (fold)
+ *   start  uint  (RES*RES)  exclusive prefix sum of count; read (compact)
+ *   out_z  depth_t (S_block), out_i IEND_T (S_block)  written (compact)
+ * Macros
+ *   RES, LAYERS (1..3, layers in the depth block), LAYER_RULE (2 or 3),
+ *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint)
+ */
+#include "csm_common.h"
+
+inline uint run_value(uint lo, uint hi2, uint hi3)
+{
+    uint hi;
+    if (lo <= hi2) hi = hi2;
+    else if (hi3 == KEY_UNBOUNDED) return lo;
+    else hi = hi3;
+#if DEPTH_BITS == 16
+    return (lo + hi) >> 1;
+#else
+    if (lo == KEY_MISS) return lo;
+    const float a = as_float(lo), b = as_float(hi);
+    const uint m = as_uint(a + (b - a) * 0.5f);
+    return clamp(m, lo, hi);
+#endif
+}
+
+inline depth_t key_to_stored(uint k)
+{
+#if DEPTH_BITS == 16
+    return (depth_t)k;
+#else
+    return as_float(k);
+#endif
+}
+
+__kernel void csm_fold(__global const float *depth, const int n_maps, const int first_map,
+                       const int last, __global uint *state,
+                       __global depth_t *seg_z, __global uint *seg_i, __global uint *count)
+{
+    const int t = get_global_id(0);
+    const size_t plane = (size_t)RES * RES;
+    if (t >= RES * RES) return;
+    __global uint *st = state + 4 * t;
+    uint lo = st[0], hi2 = st[1], hi3 = st[2], started = st[3];
+    uint n = 0;
+    __global depth_t *oz = seg_z + (size_t)t * (BLOCK + 1);
+    __global uint *oi = seg_i + (size_t)t * (BLOCK + 1);
+    for (int b = 0; b < n_maps; ++b) {
+        const size_t at = (size_t)b * LAYERS * plane + t;
+        const float z1 = depth[at];
+#if LAYERS >= 2
+        const float z2 = depth[at + plane];
+#else
+        const float z2 = INFINITY;
+#endif
+#if LAYERS >= 3
+        const float z3 = depth[at + 2 * plane];
+#else
+        const float z3 = INFINITY;
+#endif
+        uint mlo, mhi2, mhi3;
+        if (!(z1 < INFINITY)) {                   /* miss */
+            mlo = mhi2 = mhi3 = KEY_MISS;
+        } else {
+            mlo = key_at_or_above(z1);
+            if (z2 < INFINITY) {
+                mhi2 = key_below(z2);
+                if (mhi2 < mlo || mhi2 == (uint)-1) mhi2 = mlo;   /* no key fits: stands alone */
+            } else {
+                mhi2 = mlo;                      /* hit once: {z1} */
+            }
+#if LAYER_RULE == 3
+            if (z2 < INFINITY) {
+                mhi3 = (z3 < INFINITY) ? max(key_below(z3), mhi2) : KEY_UNBOUNDED;
+            } else {
+                mhi3 = mhi2;
+            }
+#else
+            mhi3 = mhi2;
+#endif
+        }
+        if (started) {
+            const uint nlo = max(lo, mlo), nhi3 = min(hi3, mhi3);
+            if (nlo <= nhi3) {                   /* the map joins the run */
+                lo = nlo; hi2 = min(hi2, mhi2); hi3 = nhi3;
+                continue;
+            }
+            oz[n] = key_to_stored(run_value(lo, hi2, hi3));
+            oi[n] = (uint)(first_map + b - 1);
+            ++n;
+        }
+        lo = mlo; hi2 = mhi2; hi3 = mhi3; started = 1u;
+    }
+    if (last && started) {
+        oz[n] = key_to_stored(run_value(lo, hi2, hi3));
+        oi[n] = (uint)(first_map + n_maps - 1);
+        ++n;
+        started = 0u;
+    }
+    st[0] = lo; st[1] = hi2; st[2] = hi3; st[3] = started;
+    count[t] = n;
+}
+
+__kernel void csm_compact(__global const depth_t *seg_z, __global const uint *seg_i,
+                          __global const uint *count, __global const uint *start,
+                          __global depth_t *out_z, __global IEND_T *out_i)
+{
+    const int t = get_global_id(0);
+    if (t >= RES * RES) return;
+    const uint n = count[t], s = start[t];
+    for (uint j = 0; j < n; ++j) {
+        out_z[s + j] = seg_z[(size_t)t * (BLOCK + 1) + j];
+        out_i[s + j] = (IEND_T)seg_i[(size_t)t * (BLOCK + 1) + j];
+    }
+}

@@ -1,0 +1,663 @@
+"""Coherent Shadow Maps: streaming compression, stored-depth queries, .csm files.
+
+Stage "compress" of the pipeline (DESIGN.md "CSM compression"; thesis 000,
+sections 4.2.1, 5.2.1-5.2.3; Ritschel et al. 2007).
+
+For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
+Map ``i`` allows a set of stored depths that still gives the right shadow
+test along the texel's ray:
+
+* hit at least twice: ``[z1, z2)`` (with ``layers=3``: ``[z1, z3)``, see
+  :meth:`CoherentShadowMap.build`);
+* hit once (a hole behind the first surface): only ``z1``;
+* missed: only ``+inf`` (a miss meets nothing but other misses).
+
+A run of consecutive maps whose sets still intersect is stored as one segment
+``(z, i_end)`` with ``z`` inside the intersection and ``i_end`` the run's last
+map; greedy extension gives the fewest segments for the order. Per texel the
+segments are sorted by ``i_end``; ``offsets[t] .. offsets[t+1]`` is texel
+``t``'s list. The build streams: a block of maps is rendered, folded into the
+per-texel run state on the device and dropped, so memory does not grow with
+the number of maps.
+
+Depth storage: 16 bit fixed point ``k / 65534`` (``k = 65535`` is a miss) or
+32 bit float (``+inf`` a miss). Quantised values obey the same rule: each
+map's set becomes a set of integer keys (``[ceil(z1*Q), ceil(z2*Q) - 1]``)
+and runs intersect those exactly, so a stored 16-bit depth always lies inside
+the interval of every map of its run -- except where a single map's
+``[z1, z2)`` holds no quantum at all (surfaces closer than 1/65534); such a
+map stands alone with the smallest quantum at or above ``z1``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+from . import _cl
+from ._version import __version__
+from .mesh import bounding_sphere, load_mesh, mesh_hash
+from .raster import DepthRenderer, _check_resolution_layers
+from .views import ViewSet
+
+__all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16"]
+
+DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
+MISS16 = 65535           # 16-bit stored value of a miss (+inf)
+MAGIC = b"PYSHCSM\x00"
+FORMAT_VERSION = 1
+ALIGN = 64
+_LAYOUTS = ("zigzag", "hilbert")
+
+
+class CSMFormatError(ValueError):
+    """A .csm file is truncated, corrupted, foreign or inconsistent."""
+
+
+def _defines(resolution, layers, rule, block, depth_bits, iend_dtype):
+    return {
+        "RES": int(resolution),
+        "LAYERS": int(layers),
+        "LAYER_RULE": int(rule),
+        "BLOCK": int(block),
+        "DEPTH_BITS": int(depth_bits),
+        "IEND_T": "ushort" if np.dtype(iend_dtype) == np.uint16 else "uint",
+    }
+
+
+def _depth_dtype(bits):
+    return np.dtype(np.uint16) if bits == 16 else np.dtype(np.float32)
+
+
+def _iend_dtype(maps):
+    return np.dtype(np.uint16) if maps <= 65536 else np.dtype(np.uint32)
+
+
+def _offsets_dtype(segments):
+    return np.dtype(np.uint32) if segments < 2**32 else np.dtype(np.uint64)
+
+
+class CoherentShadowMap:
+    """Compressed visibility of one rigid object from every map direction.
+
+    Build with :meth:`build` or read with :meth:`load`. All geometry lives in
+    the object's normalised frame (``centre``, ``radius``).
+
+    Attributes
+    ----------
+    views : ViewSet
+        The ``D`` map directions in compression order.
+    resolution : int
+        Texels per map side ``R``.
+    depth_bits : {16, 32}
+    layer_rule : {2, 3}
+        2: runs intersect ``[z1, z2)``; 3: ``[z1, z3)`` (closed meshes).
+    centre : ndarray, shape (3,), float64
+    radius : float
+    mesh_hash : str
+        SHA-256 of the mesh the maps were rendered from.
+    offsets : ndarray, shape (R*R + 1,), uint32 or uint64
+        Texel ``t = row*R + col`` owns segments ``offsets[t]:offsets[t+1]``.
+    iend : ndarray, shape (S,), uint16 (D <= 65536) or uint32
+        Last map index of each segment, strictly increasing within a list,
+        the last of every list ``D - 1``.
+    depth : ndarray, shape (S,), uint16 or float32
+        Stored depth (see module docstring for the encoding).
+    stats : dict
+        See :attr:`stats`.
+    """
+
+    def __init__(self, *, views, resolution, depth_bits, layer_rule, centre, radius, mesh_hash,
+                 offsets, iend, depth, build_seconds=float("nan"), peak_bytes=0):
+        self.views = views
+        self.resolution = int(resolution)
+        self.depth_bits = int(depth_bits)
+        self.layer_rule = int(layer_rule)
+        self.centre = np.asarray(centre, dtype=np.float64)
+        self.radius = float(radius)
+        self.mesh_hash = str(mesh_hash)
+        self.offsets = offsets
+        self.iend = iend
+        self.depth = depth
+        self._build_seconds = float(build_seconds)
+        self._peak_bytes = int(peak_bytes)
+        self._device = None
+
+    # ------------------------------------------------------------------
+    # build
+    # ------------------------------------------------------------------
+    @classmethod
+    def build(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
+              layers="auto", block: int | None = None, progress: bool = True) -> "CoherentShadowMap":
+        """Render and compress the depth maps of ``mesh`` for ``views``.
+
+        Parameters
+        ----------
+        mesh : trimesh.Trimesh or path
+            Anything :func:`pyshadow.load_mesh` accepts.
+        views : ViewSet
+            A ``zigzag`` or ``hilbert`` view set (their nearest-map lookup is
+            what the query kernels implement).
+        resolution : int, optional
+            Texels per side, 1 .. 4096.
+        depth_bits : {16, 32}, optional
+            Stored depth precision.
+        layers : {'auto', 2, 3}, optional
+            Which surfaces bound a map's interval of valid depths.
+            ``2``: ``[z1, z2)`` -- every shadow query along a texel's ray is
+            exact (up to the depth quantum and the map discretisation), for
+            points anywhere: on this object, on other objects, on the ground.
+            ``3``: ``[z1, z3)`` (Ritschel et al.; thesis 4.2.1, footnote 2),
+            closed meshes only. Fewer segments; exact for points on this
+            object's own surface whose normal faces the light (the back face
+            at ``z2`` is never asked: its hemisphere excludes the light), and
+            for any point in front of the first exit ``z2`` or behind ``z3``.
+            A point of *another* body lying behind the object, between its
+            first exit ``z2`` and the next entry ``z3`` (or beyond ``z2``
+            when there is no third surface), may be reported lit where it is
+            in shadow. To limit that, the stored depth is taken inside
+            ``[z1, z2)`` of every map of the run whenever that is possible.
+            ``'auto'``: 3 for watertight meshes, else 2.
+        block : int, optional
+            Maps rendered and folded per step; default keeps the device
+            working set near 96 MiB. Peak memory depends on ``block`` and
+            ``resolution``, not on ``len(views)``.
+        progress : bool, optional
+            Progress bar over the blocks (shown only on a terminal).
+
+        Returns
+        -------
+        CoherentShadowMap
+        """
+        t0 = time.perf_counter()
+        if not isinstance(views, ViewSet):
+            raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
+        if views.layout not in _LAYOUTS:
+            raise ValueError(f"a CSM needs a 'zigzag' or 'hilbert' view set, got {views.layout!r}")
+        if len(views) == 0:
+            raise ValueError("the view set is empty")
+        if len(views) >= 2**32 - 1:
+            raise ValueError("too many maps")
+        if depth_bits not in (16, 32) or isinstance(depth_bits, bool):
+            raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+        _check_resolution_layers(resolution, 2)
+        if not isinstance(mesh, trimesh.Trimesh):
+            mesh = load_mesh(mesh)
+        if layers == "auto":
+            rule = 3 if mesh.is_watertight else 2
+        elif layers in (2, 3) and not isinstance(layers, bool):
+            rule = int(layers)
+            if rule == 3 and not mesh.is_watertight:
+                raise ValueError("layers=3 ([z1, z3) intervals) needs a watertight mesh; "
+                                 "this one has boundary edges (use layers=2 or fill_holes=True)")
+        else:
+            raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
+        R = int(resolution)
+        D = len(views)
+        centre, radius = bounding_sphere(mesh)
+        dtype_z = _depth_dtype(depth_bits)
+        dtype_i = _iend_dtype(D)
+        per_map = rule * R * R * 4 + R * R * (dtype_z.itemsize + 4)
+        if block is None:
+            block = max(1, min(D, (96 << 20) // per_map))
+        block = int(block)
+        if block < 1:
+            raise ValueError(f"block must be >= 1, got {block}")
+        block = min(block, D)
+
+        renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius))
+        defs = _defines(R, rule, rule, block, depth_bits, dtype_i)
+        k_fold = _cl.kernel("csm.cl", "csm_fold", defs)
+        k_compact = _cl.kernel("csm.cl", "csm_compact", defs)
+        q = _cl.queue()
+        T = R * R
+        depth_buf = _cl.empty(block * renderer.bytes_per_map)
+        state = _cl.empty(T * 16)
+        cl.enqueue_fill_buffer(q, state, np.uint32(0), 0, T * 16)
+        slots = block + 1          # a block emits at most one segment per map, plus the last
+        seg_z = _cl.empty(T * slots * dtype_z.itemsize)
+        seg_i = _cl.empty(T * slots * 4)
+        count_buf = _cl.empty(T * 4)
+        device_bytes = (block * renderer.bytes_per_map + T * 16 + T * slots * (dtype_z.itemsize + 4)
+                        + T * 8 + 36 * renderer.n_faces)
+        counts = np.empty(T, np.uint32)
+        blocks = []
+        host_bytes = 0
+        starts = range(0, D, block)
+        bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            bar = tqdm(total=D, desc="CSM build", unit="map", disable=None, leave=False)
+        try:
+            for s in starts:
+                e = min(D, s + block)
+                renderer.render(views.bases[s:e], depth_buf)
+                k_fold(q, (T,), None, depth_buf, np.int32(e - s), np.int32(s), np.int32(e == D),
+                       state, seg_z, seg_i, count_buf)
+                cl.enqueue_copy(q, counts, count_buf)
+                total = int(counts.sum(dtype=np.int64))
+                start = np.zeros(T, np.uint32)
+                np.cumsum(counts[:-1], out=start[1:])
+                zb = np.empty(total, dtype_z)
+                ib = np.empty(total, dtype_i)
+                if total:
+                    out_z = _cl.empty(total * dtype_z.itemsize)
+                    out_i = _cl.empty(total * dtype_i.itemsize)
+                    k_compact(q, (T,), None, seg_z, seg_i, count_buf, _cl.to_device(start),
+                              out_z, out_i)
+                    cl.enqueue_copy(q, zb, out_z)
+                    cl.enqueue_copy(q, ib, out_i)
+                blocks.append((counts.copy(), zb, ib))
+                host_bytes += zb.nbytes + ib.nbytes + counts.nbytes
+                if bar is not None:
+                    bar.update(e - s)
+        finally:
+            if bar is not None:
+                bar.close()
+        # assemble the per-texel lists (blocks arrive in map order)
+        per_texel = np.zeros(T, np.int64)
+        for c, _, _ in blocks:
+            per_texel += c
+        S = int(per_texel.sum())
+        offsets = np.zeros(T + 1, _offsets_dtype(S))
+        np.cumsum(per_texel, out=offsets[1:])
+        zs = np.empty(S, dtype_z)
+        ie = np.empty(S, dtype_i)
+        cursor = offsets[:-1].astype(np.int64)
+        for c, zb, ib in blocks:
+            if len(zb) == 0:
+                continue
+            texel = np.repeat(np.arange(T), c)
+            first = np.cumsum(c, dtype=np.int64) - c
+            pos = cursor[texel] + (np.arange(len(zb)) - first[texel])
+            zs[pos] = zb
+            ie[pos] = ib
+            cursor += c
+        peak = device_bytes + host_bytes + zs.nbytes + ie.nbytes + offsets.nbytes
+        return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
+                   centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
+                   iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak)
+
+    # ------------------------------------------------------------------
+    # sizes and statistics
+    # ------------------------------------------------------------------
+    @property
+    def maps(self) -> int:
+        return len(self.views)
+
+    @property
+    def segments(self) -> int:
+        return int(len(self.depth))
+
+    @property
+    def stats(self) -> dict:
+        """Sizes and build figures.
+
+        Returns
+        -------
+        dict
+            ``maps`` (D), ``resolution`` (R), ``segments`` (S), ``bytes``
+            (segments plus offset table, as stored), ``uncompressed_bytes``
+            (``D * R^2 * depth_bits / 8``), ``ratio`` (uncompressed / bytes),
+            ``build_seconds``, ``peak_bytes`` (device and host working set of
+            the build), ``depth_bits``, ``layer_rule``, ``layout``.
+        """
+        nbytes = int(self.depth.nbytes + self.iend.nbytes + self.offsets.nbytes)
+        unc = self.maps * self.resolution**2 * self.depth_bits // 8
+        return {
+            "maps": self.maps,
+            "resolution": self.resolution,
+            "segments": self.segments,
+            "bytes": nbytes,
+            "uncompressed_bytes": unc,
+            "ratio": unc / nbytes,
+            "build_seconds": self._build_seconds,
+            "peak_bytes": self._peak_bytes,
+            "depth_bits": self.depth_bits,
+            "layer_rule": self.layer_rule,
+            "layout": self.views.layout,
+        }
+
+    def texel_segment_counts(self) -> np.ndarray:
+        """Segments per texel, (R, R) int64, indexed ``[row, col]``."""
+        return np.diff(self.offsets.astype(np.int64)).reshape(self.resolution, self.resolution)
+
+    def stored_to_depth(self, stored) -> np.ndarray:
+        """Decode stored depth values to float64 normalised depth (+inf for a miss)."""
+        s = np.asarray(stored)
+        if self.depth_bits == 16:
+            return np.where(s == MISS16, np.inf, s.astype(np.float64) / DEPTH_Q)
+        return s.astype(np.float64)
+
+    # ------------------------------------------------------------------
+    # device side
+    # ------------------------------------------------------------------
+    @property
+    def defines(self) -> dict:
+        """Compile-time macros that describe this CSM's storage to a kernel."""
+        return {"RES": self.resolution, "DEPTH_BITS": self.depth_bits,
+                "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint"}
+
+    def device_buffers(self):
+        """(offsets, iend, depth) as device buffers, uploaded once and kept."""
+        if self._device is None:
+            if self.offsets.dtype != np.uint32:
+                raise ValueError("CSMs with 2^32 or more segments are not supported on the device")
+            self._device = (_cl.to_device(self.offsets), _cl.to_device(self.iend),
+                            _cl.to_device(self.depth))
+        return self._device
+
+    def segment_index(self, map_index, rows, cols) -> np.ndarray:
+        """Index of the segment holding (map, texel), by the kernels' binary search."""
+        m, r, c = np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols))
+        shape = m.shape
+        m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (m, r, c))
+        R, D = self.resolution, self.maps
+        if len(m) and (m.min() < 0 or m.max() >= D):
+            raise ValueError(f"map index outside 0..{D - 1}")
+        if len(r) and (min(r.min(), c.min()) < 0 or max(r.max(), c.max()) >= R):
+            raise ValueError(f"row/column outside 0..{R - 1}")
+        out = np.empty(len(m), np.uint32)
+        if len(m):
+            k = _cl.kernel("csm_query.cl", "csm_lookup", self.defines)
+            buf = _cl.empty(out.nbytes)
+            offs, iend, _z = self.device_buffers()
+            k(_cl.queue(), (len(m),), None, offs, iend, np.int32(len(m)),
+              _cl.to_device(m, np.int32), _cl.to_device(r * R + c, np.int32), buf)
+            cl.enqueue_copy(_cl.queue(), out, buf)
+        return out.reshape(shape)
+
+    def depth_for(self, map_index, rows, cols) -> np.ndarray:
+        """Stored depth of texels ``(rows, cols)`` of map ``map_index``.
+
+        Parameters
+        ----------
+        map_index : int or array_like of int
+            Map index in view-set order, 0 .. D-1.
+        rows, cols : array_like of int
+            Texel coordinates, 0 .. R-1; broadcast against ``map_index``.
+
+        Returns
+        -------
+        ndarray, float64
+            Normalised depth the shadow test compares against (``+inf`` where
+            the texel's ray misses the object), found by the binary search the
+            visibility kernel uses.
+        """
+        return self.stored_to_depth(self.depth[self.segment_index(map_index, rows, cols)])
+
+    def segment_index_reference(self, map_index, rows, cols) -> np.ndarray:
+        """NumPy version of :meth:`segment_index` (searchsorted per texel)."""
+        m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1)
+                   for a in np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols)))
+        t = r * self.resolution + c
+        out = np.empty(len(m), np.int64)
+        for i, (tt, mm) in enumerate(zip(t, m)):
+            a, b = int(self.offsets[tt]), int(self.offsets[tt + 1])
+            out[i] = a + np.searchsorted(self.iend[a:b], mm, side="left")
+        return out
+
+    # ------------------------------------------------------------------
+    # files
+    # ------------------------------------------------------------------
+    def _header(self) -> dict:
+        return {
+            "format": "pyshadow-csm",
+            "version": FORMAT_VERSION,
+            "writer": f"pyshadow {__version__}",
+            "resolution": self.resolution,
+            "maps": self.maps,
+            "layout": self.views.layout,
+            "layout_params": self.views.params,
+            "centre": [float(x) for x in self.centre],
+            "radius": self.radius,
+            "depth_bits": self.depth_bits,
+            "layer_rule": self.layer_rule,
+            "mesh_hash": self.mesh_hash,
+            "segments": self.segments,
+            "offsets_dtype": self.offsets.dtype.str,
+            "build_seconds": self._build_seconds if np.isfinite(self._build_seconds) else None,
+        }
+
+    @staticmethod
+    def _array_layout(start: int, resolution: int, maps: int, segments: int, depth_bits: int,
+                      offsets_dtype) -> list:
+        """(name, dtype, count, byte offset) of each array, 64-byte aligned from ``start``."""
+        specs = [
+            ("offsets", np.dtype(offsets_dtype), resolution * resolution + 1),
+            ("iend", _iend_dtype(maps), segments),
+            ("depth", _depth_dtype(depth_bits), segments),
+        ]
+        out, pos = [], start
+        for name, dt, n in specs:
+            pos = -(-pos // ALIGN) * ALIGN
+            out.append((name, dt.newbyteorder("<"), n, pos))
+            pos += dt.itemsize * n
+        return out, pos
+
+    def save(self, path) -> Path:
+        """Write the CSM to ``path`` atomically (temporary file, then rename).
+
+        File layout (little-endian, version 1):
+
+        ========  =====================================================
+        bytes     content
+        ========  =====================================================
+        0-7       magic ``b"PYSHCSM\\0"``
+        8-11      uint32 format version (1)
+        12-15     uint32 length H of the JSON header
+        16-       JSON header (UTF-8): resolution, maps, layout and
+                  layout_params, centre, radius, depth_bits, layer_rule,
+                  mesh_hash, segments, offsets_dtype, writer
+        aligned   arrays at 64-byte boundaries after the header, in order:
+                  offsets (R*R+1, uint32 or uint64), iend (S, uint16 when
+                  D <= 65536 else uint32), depth (S, uint16 or float32)
+        last 32   SHA-256 of every byte before it
+        ========  =====================================================
+
+        16-bit depth ``k`` means ``k / 65534``, ``65535`` a miss; float32
+        depth ``+inf`` is a miss. Never pickled.
+        """
+        path = Path(path)
+        head = json.dumps(self._header(), sort_keys=True).encode()
+        start = 16 + len(head)
+        layout, end = self._array_layout(start, self.resolution, self.maps, self.segments,
+                                         self.depth_bits, self.offsets.dtype)
+        arrays = {"offsets": self.offsets, "iend": self.iend, "depth": self.depth}
+        h = hashlib.sha256()
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent or ".")
+        try:
+            with os.fdopen(fd, "wb") as f:
+                def put(b):
+                    h.update(b)
+                    f.write(b)
+
+                put(MAGIC + np.uint32(FORMAT_VERSION).tobytes() + np.uint32(len(head)).tobytes() + head)
+                pos = start
+                for name, dt, n, off in layout:
+                    put(b"\x00" * (off - pos))
+                    data = np.ascontiguousarray(arrays[name], dtype=dt)
+                    assert data.size == n
+                    put(memoryview(data).cast("B"))
+                    pos = off + data.nbytes
+                f.write(h.digest())
+                f.flush()
+                os.fsync(f.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path, mmap: bool = True) -> "CoherentShadowMap":
+        """Read and validate a .csm file written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+        mmap : bool, optional
+            Map the arrays from the file instead of reading them into memory.
+
+        Raises
+        ------
+        FileNotFoundError
+            If the file does not exist.
+        CSMFormatError
+            If the file is truncated, its checksum does not match, its header
+            is not a pyshadow CSM of a known version, or its arrays break a
+            rule the kernels rely on (offsets monotone and in bounds, every
+            list non-empty with strictly increasing i_end ending at D - 1,
+            depths finite or the miss value).
+        """
+        path = Path(path)
+        size = path.stat().st_size
+        if size < 16 + 32:
+            raise CSMFormatError(f"{path}: {size} bytes is too short for a CSM file")
+        with open(path, "rb") as f:
+            pre = f.read(16)
+            if pre[:8] != MAGIC:
+                raise CSMFormatError(f"{path}: not a pyshadow CSM file (magic {pre[:8]!r})")
+            version = int(np.frombuffer(pre[8:12], "<u4")[0])
+            if version != FORMAT_VERSION:
+                raise CSMFormatError(f"{path}: format version {version} is not supported "
+                                     f"(this pyshadow reads version {FORMAT_VERSION})")
+            hlen = int(np.frombuffer(pre[12:16], "<u4")[0])
+            if 16 + hlen + 32 > size:
+                raise CSMFormatError(f"{path}: header length {hlen} runs past the end of the file")
+            # checksum over everything but the trailing digest
+            h = hashlib.sha256(pre)
+            remaining = size - 32 - 16
+            while remaining > 0:
+                chunk = f.read(min(remaining, 1 << 24))
+                if not chunk:
+                    raise CSMFormatError(f"{path}: truncated")
+                h.update(chunk)
+                remaining -= len(chunk)
+            digest = f.read(32)
+        if digest != h.digest():
+            raise CSMFormatError(f"{path}: checksum mismatch (corrupted or truncated file)")
+        with open(path, "rb") as f:
+            f.seek(16)
+            head_bytes = f.read(hlen)
+        try:
+            head = json.loads(head_bytes.decode("utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise CSMFormatError(f"{path}: unreadable header ({exc})") from None
+        return cls._from_header(path, head, 16 + hlen, size, mmap)
+
+    @classmethod
+    def _from_header(cls, path, head, start, size, mmap):
+        def need(key, kind):
+            if not isinstance(head, dict) or key not in head:
+                raise CSMFormatError(f"{path}: header lacks {key!r}")
+            val = head[key]
+            if kind is int and (isinstance(val, bool) or not isinstance(val, int)):
+                raise CSMFormatError(f"{path}: header {key!r} must be an integer, got {val!r}")
+            if kind is not int and not isinstance(val, kind):
+                raise CSMFormatError(f"{path}: header {key!r} has the wrong type")
+            return val
+
+        if head.get("format") != "pyshadow-csm" or head.get("version") != FORMAT_VERSION:
+            raise CSMFormatError(f"{path}: header is not a pyshadow-csm version {FORMAT_VERSION}")
+        R = need("resolution", int)
+        D = need("maps", int)
+        S = need("segments", int)
+        bits = need("depth_bits", int)
+        rule = need("layer_rule", int)
+        layout = need("layout", str)
+        params = need("layout_params", dict)
+        centre = need("centre", list)
+        radius = need("radius", (int, float))
+        mh = need("mesh_hash", str)
+        odt = need("offsets_dtype", str)
+        if not 1 <= R <= 4096:
+            raise CSMFormatError(f"{path}: resolution {R} outside 1..4096")
+        if bits not in (16, 32):
+            raise CSMFormatError(f"{path}: depth_bits {bits} is not 16 or 32")
+        if rule not in (2, 3):
+            raise CSMFormatError(f"{path}: layer_rule {rule} is not 2 or 3")
+        if layout not in _LAYOUTS:
+            raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
+        if odt not in ("<u4", "<u8"):
+            raise CSMFormatError(f"{path}: offsets dtype {odt!r} not supported")
+        if len(centre) != 3 or not all(isinstance(x, (int, float)) and np.isfinite(x) for x in centre):
+            raise CSMFormatError(f"{path}: centre must be 3 finite numbers")
+        if not (np.isfinite(radius) and radius > 0):
+            raise CSMFormatError(f"{path}: radius must be finite and positive, got {radius}")
+        try:
+            if layout == "zigzag":
+                ok = set(params) == {"theta", "phi"} and all(
+                    isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in params)
+            else:
+                ok = set(params) == {"level"} and isinstance(params["level"], int) and 0 <= params["level"] <= 10
+            if not ok:
+                raise ValueError
+            views = ViewSet.from_params(layout, params)
+        except (ValueError, KeyError, TypeError):
+            raise CSMFormatError(f"{path}: invalid {layout} parameters {params!r}") from None
+        if len(views) != D:
+            raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {len(views)}")
+        if not D <= S or S > 2**40:
+            raise CSMFormatError(f"{path}: {S} segments cannot cover {D} maps")
+        if S < R * R:
+            raise CSMFormatError(f"{path}: {S} segments for {R * R} texels (every texel needs one)")
+        arrays, end = cls._array_layout(start, R, D, S, bits, odt)
+        if end + 32 != size:
+            raise CSMFormatError(f"{path}: size {size} bytes does not match the header "
+                                 f"({end + 32} expected)")
+        data = {}
+        for name, dt, n, off in arrays:
+            if mmap:
+                data[name] = np.memmap(path, dtype=dt, mode="r", offset=off, shape=(n,))
+            else:
+                with open(path, "rb") as f:
+                    f.seek(off)
+                    data[name] = np.frombuffer(f.read(dt.itemsize * n), dtype=dt).copy()
+        cls._validate_arrays(path, data, R, D, S, bits)
+        return cls(views=views, resolution=R, depth_bits=bits, layer_rule=rule,
+                   centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
+                   offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
+                   build_seconds=head.get("build_seconds") or float("nan"))
+
+    @staticmethod
+    def _validate_arrays(path, data, R, D, S, bits):
+        off = np.asarray(data["offsets"]).astype(np.int64)
+        if off[0] != 0 or off[-1] != S:
+            raise CSMFormatError(f"{path}: offset table does not span 0..{S}")
+        lengths = np.diff(off)
+        if (lengths < 1).any():
+            t = int(np.argmax(lengths < 1))
+            raise CSMFormatError(f"{path}: segment list of texel {t} is empty or offsets decrease")
+        iend = np.asarray(data["iend"]).astype(np.int64)
+        if (iend >= D).any():
+            raise CSMFormatError(f"{path}: an i_end is beyond the last map {D - 1}")
+        if (iend[off[1:] - 1] != D - 1).any():
+            t = int(np.argmax(iend[off[1:] - 1] != D - 1))
+            raise CSMFormatError(f"{path}: segment list of texel {t} does not end at map {D - 1}")
+        inc = np.diff(iend) > 0
+        inc[off[1:-1] - 1] = True          # list boundaries may go down
+        if not inc.all():
+            raise CSMFormatError(f"{path}: i_end values of a segment list are not strictly increasing")
+        if bits == 32:
+            z = np.asarray(data["depth"])
+            bad = ~(np.isposinf(z) | (np.isfinite(z) & (z >= 0) & (z <= 2)))
+            if bad.any():
+                raise CSMFormatError(f"{path}: stored depth {z[np.argmax(bad)]!r} is neither finite "
+                                     "in [0, 2] nor the miss value +inf")
+
+    def __repr__(self) -> str:
+        s = self.stats
+        return (f"<CoherentShadowMap {s['layout']} {s['maps']} maps {s['resolution']}^2, "
+                f"{s['segments']} segments, {s['bytes'] / 1e6:.2f} MB, {s['ratio']:.1f}:1>")

@@ -1,0 +1,400 @@
+"""CoherentShadowMap: exactness of the compression, queries, files."""
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import trimesh
+
+import pyshadow
+from pyshadow import CoherentShadowMap, CSMFormatError
+from pyshadow.csm import DEPTH_Q
+
+from conftest import REPO, load
+
+Q = 1.0 / DEPTH_Q
+
+
+def all_pairs(csm):
+    D, R = csm.maps, csm.resolution
+    return np.meshgrid(np.arange(D), np.arange(R), np.arange(R), indexing="ij")
+
+
+def check_exact(csm, layers, maps=None, rows=None, cols=None):
+    """Assert the stored depth obeys the shadow-test rules; return counts per case.
+
+    ``layers`` are the depth maps the CSM was built from, (D, L, R, R).
+    """
+    if maps is None:
+        maps, rows, cols = all_pairs(csm)
+    z = csm.depth_for(maps, rows, cols)
+    z1 = layers[maps, 0, rows, cols].astype(np.float64)
+    z2 = layers[maps, 1, rows, cols].astype(np.float64)
+    q = Q if csm.depth_bits == 16 else 0.0
+    miss = ~np.isfinite(z1)
+    one = np.isfinite(z1) & ~np.isfinite(z2)
+    two = np.isfinite(z2)
+    if csm.depth_bits == 16:
+        fits = np.ceil(z1 * DEPTH_Q) <= np.ceil(z2 * DEPTH_Q) - 1
+    else:
+        fits = z1 < z2
+    tight = two & ~fits                      # no stored value fits in [z1, z2)
+    two = two & fits
+    assert (z[miss] >= 1).all(), "a missed texel must store the far side (+inf)"
+    assert np.isposinf(z[miss]).all()
+    bad = ~((z1[two] <= z[two]) & (z[two] < z2[two]))
+    assert not bad.any(), f"{bad.sum()} two-layer texels store a depth outside [z1, z2)"
+    for case in (one, tight):
+        ok = (z[case] >= z1[case]) & (z[case] <= z1[case] + q)
+        assert ok.all(), f"{(~ok).sum()} texels store a depth not within one quantum above z1"
+    return {"miss": int(miss.sum()), "one": int(one.sum()), "two": int(two.sum()), "tight": int(tight.sum())}
+
+
+@pytest.mark.parametrize("name", ["stanford-bunny.obj", "fandisk.obj", "teapot.obj"])
+@pytest.mark.parametrize("layout", ["zigzag", "hilbert"])
+@pytest.mark.parametrize("bits", [16, 32])
+def test_csm_exact_for_shadow_tests_exhaustive(name, layout, bits):
+    mesh = load(name)
+    views = pyshadow.ViewSet.zigzag(8, 16) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
+    csm = CoherentShadowMap.build(mesh, views, 32, depth_bits=bits, layers=2, progress=False)
+    layers = pyshadow.render_depth(mesh, views, 32, 2)
+    counts = check_exact(csm, layers)
+    # the check saw every case that matters
+    assert counts["miss"] > 0 and counts["two"] > 0
+    if not mesh.is_watertight:
+        assert counts["one"] > 0
+    assert csm.stats["ratio"] > 1
+
+
+def test_csm_exact_on_random_pairs_of_the_thesis_build(rng):
+    """10^5 random (map, texel) pairs of the 64x128 @ 128^2 Stanford bunny."""
+    mesh = load("stanford-bunny.obj")
+    views = pyshadow.ViewSet.zigzag(64, 128)
+    csm = CoherentShadowMap.build(mesh, views, 128, progress=False)
+    n = 100_000
+    maps = rng.integers(0, len(views), n)
+    rows = rng.integers(0, 128, n)
+    cols = rng.integers(0, 128, n)
+    # include the first and last maps and the pole row
+    maps[:128] = np.arange(128)
+    maps[128:256] = len(views) - 1 - np.arange(128)
+    order = np.argsort(maps, kind="stable")
+    maps, rows, cols = maps[order], rows[order], cols[order]
+    uniq = np.unique(maps)
+    layers = np.full((len(views), 2, 128, 128), np.inf, np.float32)
+    for s in range(0, len(uniq), 512):
+        sel = uniq[s:s + 512]
+        sub = pyshadow.ViewSet(views.directions[sel], views.bases[sel])
+        layers[sel] = pyshadow.render_depth(mesh, sub, 128, 2)
+    counts = check_exact(csm, layers, maps, rows, cols)
+    assert counts["miss"] > 1000 and counts["two"] > 1000 and counts["one"] > 10
+    assert csm.iend.dtype == np.uint16 and csm.depth.dtype == np.uint16
+
+
+def test_csm_layer_rule_3_on_closed_mesh():
+    mesh = load("fandisk.obj")
+    views = pyshadow.ViewSet.hilbert(3)
+    csm3 = CoherentShadowMap.build(mesh, views, 32, progress=False)          # 'auto'
+    csm2 = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
+    assert csm3.layer_rule == 3 and csm2.layer_rule == 2
+    assert csm3.segments < csm2.segments
+    layers = pyshadow.render_depth(mesh, views, 32, 3)
+    maps, rows, cols = all_pairs(csm3)
+    z = csm3.depth_for(maps, rows, cols)
+    z1, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 2))
+    hit = np.isfinite(z1)
+    assert np.isposinf(z[~hit]).all()
+    assert (z[hit] >= z1[hit]).all()
+    has3 = np.isfinite(z3)
+    assert (z[has3] < z3[has3]).all()
+
+
+def test_csm_layers_3_rejects_open_mesh():
+    with pytest.raises(ValueError, match="watertight"):
+        CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, layers=3,
+                                progress=False)
+
+
+def test_csm_search_matches_numpy_reference(rng):
+    mesh = load("teapot.obj")
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(8, 16), 32, progress=False)
+    maps = rng.integers(0, csm.maps, 5000)
+    rows = rng.integers(0, 32, 5000)
+    cols = rng.integers(0, 32, 5000)
+    np.testing.assert_array_equal(csm.segment_index(maps, rows, cols),
+                                  csm.segment_index_reference(maps, rows, cols))
+
+
+def test_csm_blocks_do_not_change_the_result():
+    mesh = load("suzanne.ply")
+    views = pyshadow.ViewSet.zigzag(6, 12)
+    a = CoherentShadowMap.build(mesh, views, 32, progress=False)
+    b = CoherentShadowMap.build(mesh, views, 32, block=5, progress=False)
+    c = CoherentShadowMap.build(mesh, views, 32, block=1, progress=False)
+    for x in (b, c):
+        np.testing.assert_array_equal(a.offsets, x.offsets)
+        np.testing.assert_array_equal(a.iend, x.iend)
+        np.testing.assert_array_equal(a.depth, x.depth)
+
+
+def test_csm_stats_and_counts():
+    mesh = load("suzanne.ply")
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.hilbert(3), 32, progress=False)
+    s = csm.stats
+    assert s["maps"] == 64 and s["resolution"] == 32 and s["segments"] == csm.segments
+    assert s["uncompressed_bytes"] == 64 * 32 * 32 * 2
+    assert s["bytes"] == csm.segments * 4 + (32 * 32 + 1) * 4
+    assert s["ratio"] == pytest.approx(s["uncompressed_bytes"] / s["bytes"])
+    assert s["build_seconds"] > 0 and s["peak_bytes"] > 0
+    counts = csm.texel_segment_counts()
+    assert counts.shape == (32, 32) and counts.sum() == csm.segments and counts.min() >= 1
+    # texels far outside the silhouette never change: one segment (all misses)
+    assert counts[0, 0] == 1 and np.isposinf(csm.depth_for(0, 0, 0))
+    assert csm.mesh_hash == pyshadow.mesh.mesh_hash(mesh)
+    c, r = pyshadow.bounding_sphere(mesh)
+    np.testing.assert_array_equal(csm.centre, c)
+    assert csm.radius == r
+
+
+def test_csm_i_end_beyond_16_bits():
+    """256 x 512 = 131072 maps: i_end must be stored in 32 bits."""
+    mesh = load("suzanne.ply")
+    views = pyshadow.ViewSet.zigzag(256, 512)
+    csm = CoherentShadowMap.build(mesh, views, 8, progress=False)
+    assert csm.iend.dtype == np.uint32
+    assert int(csm.iend.max()) == len(views) - 1 > 65535
+    rng = np.random.default_rng(1)
+    maps = np.sort(rng.integers(65536, len(views), 300))
+    layers = pyshadow.render_depth(mesh, pyshadow.ViewSet(views.directions[maps], views.bases[maps]), 8, 2)
+    full = np.full((len(views), 2, 8, 8), np.inf, np.float32)
+    full[maps] = layers
+    m = np.repeat(maps, 64)
+    r = np.tile(np.repeat(np.arange(8), 8), len(maps))
+    c = np.tile(np.arange(8), 8 * len(maps))
+    counts = check_exact(csm, full, m, r, c)
+    assert counts["two"] > 0 and counts["miss"] > 0
+
+
+@pytest.mark.parametrize("resolution", [1, 8, 1024])
+def test_csm_resolution_extremes(resolution):
+    mesh = load("suzanne.ply")
+    views = pyshadow.ViewSet.zigzag(2, 4)
+    csm = CoherentShadowMap.build(mesh, views, resolution, progress=False)
+    layers = pyshadow.render_depth(mesh, views, resolution, 2)
+    check_exact(csm, layers)
+
+
+def test_csm_build_rejects_bad_input():
+    mesh = load("suzanne.ply")
+    with pytest.raises(ValueError, match="zigzag"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4)[0:4], 16, progress=False)
+    with pytest.raises(ValueError, match="depth_bits"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, depth_bits=8, progress=False)
+    with pytest.raises(ValueError, match="resolution"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 0, progress=False)
+    with pytest.raises(ValueError, match="layers"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, layers=1, progress=False)
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
+    with pytest.raises(ValueError, match="map index"):
+        csm.depth_for(8, 0, 0)
+    with pytest.raises(ValueError, match="row/column"):
+        csm.depth_for(0, 16, 0)
+
+
+# ---------------------------------------------------------------------------
+# files
+# ---------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def small_csm():
+    return CoherentShadowMap.build(load("stanford-bunny.obj"), pyshadow.ViewSet.zigzag(8, 16), 32,
+                                   progress=False)
+
+
+@pytest.mark.parametrize("mmap", [True, False])
+@pytest.mark.parametrize("bits", [16, 32])
+def test_csm_save_load_round_trip_is_bit_identical(tmp_path, mmap, bits):
+    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.hilbert(3), 32, depth_bits=bits,
+                                  progress=False)
+    path = csm.save(tmp_path / "teapot.csm")
+    back = CoherentShadowMap.load(path, mmap=mmap)
+    for name in ("offsets", "iend", "depth"):
+        a, b = getattr(csm, name), getattr(back, name)
+        assert a.dtype == b.dtype
+        assert a.tobytes() == b.tobytes()
+    assert isinstance(back.depth, np.memmap) == mmap
+    np.testing.assert_array_equal(back.centre, csm.centre)
+    assert back.radius == csm.radius and back.mesh_hash == csm.mesh_hash
+    assert back.views.layout == "hilbert" and back.views.params == {"level": 3}
+    np.testing.assert_array_equal(back.views.bases, csm.views.bases)
+    assert back.depth_bits == bits and back.layer_rule == csm.layer_rule
+    maps, rows, cols = all_pairs(csm)
+    np.testing.assert_array_equal(back.depth_for(maps, rows, cols), csm.depth_for(maps, rows, cols))
+    # a second save gives the same bytes
+    again = back.save(tmp_path / "again.csm")
+    assert again.read_bytes() == path.read_bytes()
+
+
+def test_csm_save_is_atomic(tmp_path, small_csm, monkeypatch):
+    path = tmp_path / "a.csm"
+    small_csm.save(path)
+    before = path.read_bytes()
+
+    def fail(*a, **k):
+        raise OSError("disk full")
+    monkeypatch.setattr(os, "fsync", fail)
+    with pytest.raises(OSError, match="disk full"):
+        small_csm.save(path)
+    assert path.read_bytes() == before                     # old file untouched
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csm"]   # no temp file left
+
+
+def test_csm_load_fuzz(tmp_path, small_csm):
+    path = small_csm.save(tmp_path / "good.csm")
+    good = path.read_bytes()
+    ref = np.asarray(small_csm.depth).copy()
+    rng = np.random.default_rng(2024)
+    outcomes = {"error": 0, "same": 0}
+    for i in range(200):
+        data = bytearray(good)
+        if i % 2 == 0:
+            data = data[: rng.integers(0, len(data))]
+        else:
+            for _ in range(rng.integers(1, 4)):
+                pos = rng.integers(0, len(data))
+                data[pos] ^= 1 << int(rng.integers(0, 8))
+        bad = tmp_path / f"fuzz{i}.csm"
+        bad.write_bytes(bytes(data))
+        try:
+            back = CoherentShadowMap.load(bad, mmap=bool(i % 3))
+        except CSMFormatError:
+            outcomes["error"] += 1
+        else:
+            assert bytes(data) == good or np.array_equal(np.asarray(back.depth), ref)
+            assert np.array_equal(np.asarray(back.offsets), small_csm.offsets)
+            outcomes["same"] += 1
+        finally:
+            bad.unlink()
+    assert outcomes["error"] >= 195
+
+
+def _rewrite(path, out, edit_header=None, edit_arrays=None):
+    """Rewrite a .csm file with edits and a *valid* checksum (a hostile writer)."""
+    import hashlib
+    raw = bytearray(path.read_bytes())
+    hlen = int(np.frombuffer(bytes(raw[12:16]), "<u4")[0])
+    head = json.loads(raw[16:16 + hlen])
+    body = raw[16 + hlen:-32]
+    if edit_header:
+        edit_header(head)
+    if edit_arrays:
+        body = edit_arrays(head, bytearray(body), 16 + hlen)
+    hb = json.dumps(head, sort_keys=True).encode()
+    pad = b""
+    if len(hb) != hlen:                  # keep the arrays where they were
+        assert len(hb) < hlen
+        hb = hb + b" " * (hlen - len(hb))
+    data = bytes(raw[:12]) + np.uint32(len(hb)).tobytes() + hb + pad + bytes(body)
+    out.write_bytes(data + hashlib.sha256(data).digest())
+    return out
+
+
+def test_csm_load_rejects_foreign_and_truncated(tmp_path, small_csm):
+    png = tmp_path / "x.csm"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n" + b"\0" * 100)
+    with pytest.raises(CSMFormatError, match="not a pyshadow CSM"):
+        CoherentShadowMap.load(png)
+    empty = tmp_path / "e.csm"
+    empty.write_bytes(b"")
+    with pytest.raises(CSMFormatError, match="too short"):
+        CoherentShadowMap.load(empty)
+    good = small_csm.save(tmp_path / "g.csm")
+    cut = tmp_path / "cut.csm"
+    cut.write_bytes(good.read_bytes()[:-100])
+    with pytest.raises(CSMFormatError, match="checksum"):
+        CoherentShadowMap.load(cut)
+    with pytest.raises(FileNotFoundError):
+        CoherentShadowMap.load(tmp_path / "missing.csm")
+
+
+def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
+    good = small_csm.save(tmp_path / "g.csm")
+    S, T = small_csm.segments, 32 * 32
+
+    def arrays(head, start):
+        layout, _ = CoherentShadowMap._array_layout(start, 32, head["maps"], head["segments"],
+                                                    head["depth_bits"], head["offsets_dtype"])
+        return {name: (dt, n, off - start) for name, dt, n, off in layout}
+
+    def poke(name, fn):
+        def edit(head, body, start):
+            dt, n, off = arrays(head, start)[name]
+            a = np.frombuffer(bytes(body[off:off + dt.itemsize * n]), dt).copy()
+            fn(a)
+            body[off:off + dt.itemsize * n] = a.tobytes()
+            return body
+        return edit
+
+    cases = [
+        ("version", dict(edit_header=lambda h: h.update(version=2)), "pyshadow-csm version 1"),
+        ("layout", dict(edit_header=lambda h: h.update(layout="spiral")), "unknown view layout"),
+        ("maps", dict(edit_header=lambda h: h.update(maps=h["maps"] + 1)), "maps"),
+        ("radius", dict(edit_header=lambda h: h.update(radius=-1.0)), "radius"),
+        ("bits", dict(edit_header=lambda h: h.update(depth_bits=8)), "depth_bits"),
+        ("offset past end", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, S + 10))), "offset"),
+        ("offsets decrease", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, a[4]))), "empty or offsets decrease"),
+        ("iend beyond D", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(0, 60000))), "beyond the last map"),
+        ("list end", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(-1, a[-1] - 1))), "does not end"),
+        ("not increasing", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(
+            int(np.argmax(np.diff(small_csm.offsets.astype(int)) > 2)) and
+            int(small_csm.offsets[np.argmax(np.diff(small_csm.offsets.astype(int)) > 2)]) + 1,
+            0))), "strictly increasing"),
+    ]
+    for label, kw, match in cases:
+        bad = _rewrite(good, tmp_path / f"{label}.csm", **kw)
+        with pytest.raises(CSMFormatError, match=match):
+            CoherentShadowMap.load(bad)
+
+
+def test_csm_load_rejects_nan_depth(tmp_path):
+    csm = CoherentShadowMap.build(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 4), 16, depth_bits=32,
+                                  progress=False)
+    good = csm.save(tmp_path / "g.csm")
+
+    def edit(head, body, start):
+        layout, _ = CoherentShadowMap._array_layout(start, 16, head["maps"], head["segments"], 32,
+                                                    head["offsets_dtype"])
+        _, dt, n, off = layout[2]
+        a = np.frombuffer(bytes(body[off - start:off - start + 4 * n]), "<f4").copy()
+        a[3] = np.nan
+        body[off - start:off - start + 4 * n] = a.tobytes()
+        return body
+    bad = _rewrite(good, tmp_path / "nan.csm", edit_arrays=edit)
+    with pytest.raises(CSMFormatError, match="miss value"):
+        CoherentShadowMap.load(bad)
+
+
+@pytest.mark.slow
+def test_csm_build_memory_does_not_grow_with_maps(tmp_path):
+    """Peak RSS of builds with 512 and 4096 maps differ by far less than the maps' size."""
+    code = textwrap.dedent(f"""
+        import resource, sys, warnings
+        import pyshadow
+        warnings.simplefilter("ignore")
+        m = pyshadow.load_mesh({str(REPO.parent / 'shared' / 'meshes' / 'suzanne.ply')!r})
+        theta = int(sys.argv[1])
+        csm = pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(theta, 2 * theta), 128,
+                                               block=64, progress=False)
+        print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, csm.stats["bytes"])
+    """)
+    rss = {}
+    for theta in (16, 45):
+        out = subprocess.run([sys.executable, "-c", code, str(theta)], capture_output=True, text=True,
+                             timeout=600, cwd=tmp_path)
+        assert out.returncode == 0, out.stderr
+        rss[theta] = [int(x) for x in out.stdout.split()]
+    maps_bytes = (45 * 90 - 16 * 32) * 128 * 128 * 2 * 4       # the extra depth maps, uncompressed
+    grew = rss[45][0] - rss[16][0]
+    assert grew < 0.1 * maps_bytes + 4 * (rss[45][1] - rss[16][1]), (grew, maps_bytes)

@@ -213,27 +213,40 @@ class ViewSet:
         return cls(d, bases, "zigzag", {"theta": theta, "phi": phi})
 
     @classmethod
-    def hilbert(cls, level: int = 6) -> "ViewSet":
-        """Equal-area octahedral grid of ``2^level x 2^level`` cells in Hilbert order.
+    def hilbert(cls, level: int = 6, hemispheres: bool = False) -> "ViewSet":
+        """Equal-area octahedral grid visited along a Hilbert curve.
 
         Parameters
         ----------
         level : int
-            0 .. 10; ``D = 4**level`` (level 6: 4096 maps, 7: 16384).
+            0 .. 10. One square of ``2^level x 2^level`` cells: ``D = 4**level``
+            (level 5: 1024 maps, 6: 4096, 7: 16384).
+        hemispheres : bool, optional
+            Map each hemisphere onto its own square (the octahedral diamond
+            turned by 45 degrees) and join the squares side by side into a
+            ``2^(level+1) x 2^level`` rectangle, traversed by two Hilbert
+            curves that meet across the equator: ``D = 2 * 4**level``
+            (level 5: 2048 maps, 6: 8192), the sizes of the thesis's
+            ``theta x 2 theta`` grids.
         """
         level = int(level)
         if not 0 <= level <= 10:
             raise ValueError(f"ViewSet.hilbert needs 0 <= level <= 10, got {level}")
         n = 1 << level
         x, y = hilbert_d2xy(level, np.arange(n * n))
-        uv = np.stack([(x + 0.5) / n * 2.0 - 1.0, (y + 0.5) / n * 2.0 - 1.0], axis=-1)
-        d = octahedral_decode(uv)
+        if hemispheres:
+            x = np.concatenate([x, x + n])
+            y = np.concatenate([y, y])
+        d = _hilbert_cell_directions(level, bool(hemispheres), x, y)
         # start from the basis the zigzag layout would give at d_0
         u0 = np.array([d[0, 2], 0.0, -d[0, 0]])
         if np.linalg.norm(u0) < 1e-9:
             u0 = np.array([1.0, 0.0, 0.0])
         bases = _transport_bases(d, u0)
-        return cls(d, bases, "hilbert", {"level": level})
+        params = {"level": level}
+        if hemispheres:
+            params["hemispheres"] = True
+        return cls(d, bases, "hilbert", params)
 
     @classmethod
     def from_params(cls, layout: str, params: dict) -> "ViewSet":
@@ -241,7 +254,7 @@ class ViewSet:
         if layout == "zigzag":
             return cls.zigzag(params["theta"], params["phi"])
         if layout == "hilbert":
-            return cls.hilbert(params["level"])
+            return cls.hilbert(params["level"], bool(params.get("hemispheres", False)))
         raise ValueError(f"unknown view-set layout {layout!r}")
 
     # -- container protocol ------------------------------------------------
@@ -322,33 +335,83 @@ class ViewSet:
         if not hasattr(self, "_cell_to_index"):
             level = self.params["level"]
             n = 1 << level
+            split = self.params.get("hemispheres", False)
             x, y = hilbert_d2xy(level, np.arange(n * n))
-            table = np.empty((n, n), dtype=np.int64)
-            table[x, y] = np.arange(n * n)
+            if split:
+                x = np.concatenate([x, x + n])
+                y = np.concatenate([y, y])
+            table = np.empty((2 * n if split else n, n), dtype=np.int64)
+            table[x, y] = np.arange(len(x))
             self._cell_to_index = table
         return self._cell_to_index
 
     def _nearest_hilbert(self, d):
         n = 1 << self.params["level"]
+        split = self.params.get("hemispheres", False)
         table = self._hilbert_cells()
-        uv = octahedral_encode(d)
-        ci = np.clip(np.floor((uv[:, 0] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
-        cj = np.clip(np.floor((uv[:, 1] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
+        hemi, sq = _hilbert_square_coords(split, d)
+        ci = np.clip(np.floor((sq[:, 0] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
+        cj = np.clip(np.floor((sq[:, 1] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
         best = np.full(len(d), -np.inf)
         out = np.zeros(len(d), dtype=np.int64)
         for di in (-1, 0, 1):
             for dj in (-1, 0, 1):
-                i, j = ci + di, cj + dj
-                # fold across the square's border (octahedral wrap)
-                out_i = (i < 0) | (i >= n)
-                i = np.where(i < 0, 0, np.where(i >= n, n - 1, i))
-                j = np.where(out_i, n - 1 - j, j)
-                out_j = (j < 0) | (j >= n)
-                j = np.where(j < 0, 0, np.where(j >= n, n - 1, j))
-                i = np.where(out_j, n - 1 - i, i)
-                k = table[i, j]
+                i, j, h = _hilbert_neighbour(split, n, ci + di, cj + dj, hemi)
+                k = table[i + h * n, j]
                 dot = np.einsum("ij,ij->i", self.directions[k], d)
                 take = dot > best
                 best = np.where(take, dot, best)
                 out = np.where(take, k, out)
         return out
+
+
+def _hilbert_cell_directions(level, split, x, y):
+    """Directions of the centres of cells (x, y) of a hilbert layout."""
+    n = 1 << level
+    h = x // n if split else np.zeros_like(x)
+    s = ((x - h * n) + 0.5) / n * 2.0 - 1.0
+    t = (y + 0.5) / n * 2.0 - 1.0
+    if not split:
+        return octahedral_decode(np.stack([s, t], axis=-1))
+    s = np.where(h == 1, -s, s)          # the lower square is mirrored in s
+    uv = np.stack([(s - t) * 0.5, (s + t) * 0.5], axis=-1)
+    d = octahedral_decode(uv)
+    d[:, 1] = np.where(h == 1, -np.abs(d[:, 1]), np.abs(d[:, 1]))
+    return d
+
+
+def _hilbert_square_coords(split, d):
+    """(hemisphere (N,), square coordinates (N, 2) in [-1, 1]) of unit directions."""
+    if not split:
+        return np.zeros(len(d), np.int64), octahedral_encode(d)
+    lower = d[:, 1] < 0
+    up = d.copy()
+    up[:, 1] = np.abs(up[:, 1])
+    uv = octahedral_encode(up)
+    s = uv[:, 0] + uv[:, 1]
+    t = uv[:, 1] - uv[:, 0]
+    s = np.where(lower, -s, s)
+    return lower.astype(np.int64), np.stack([s, t], axis=-1)
+
+
+def _hilbert_neighbour(split, n, i, j, h):
+    """Fold cell indices that left the square back onto the sphere."""
+    if not split:
+        # octahedral wrap of the single square
+        out_i = (i < 0) | (i >= n)
+        i = np.where(i < 0, 0, np.where(i >= n, n - 1, i))
+        j = np.where(out_i, n - 1 - j, j)
+        out_j = (j < 0) | (j >= n)
+        j = np.where(j < 0, 0, np.where(j >= n, n - 1, j))
+        i = np.where(out_j, n - 1 - i, i)
+        return i, j, h
+    # leaving across an s edge: same t, other hemisphere, opposite s edge
+    out_i = (i < 0) | (i >= n)
+    h = np.where(out_i, 1 - h, h)
+    i = np.where(i >= n, 0, np.where(i < 0, n - 1, i))
+    # leaving across a t edge: same (u, v) point, other hemisphere, s mirrored
+    out_j = (j < 0) | (j >= n)
+    h = np.where(out_j, 1 - h, h)
+    i = np.where(out_j, n - 1 - i, i)
+    j = np.where(j >= n, n - 1, np.where(j < 0, 0, j))
+    return i, j, h

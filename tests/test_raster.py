@@ -23,7 +23,9 @@ def agreement(ours, truth):
 
 
 def test_render_depth_matches_numpy_reference():
-    m = load("suzanne.ply")
+    # suzanne (closed parts: 2+ layers) beside an open sheet (1 layer)
+    sheet = trimesh.Trimesh([[1.5, -1, -1], [1.5, 1, -1], [1.5, 1, 1], [1.5, -1, 1]], [[0, 1, 2], [0, 2, 3]])
+    m = pyshadow.load_mesh(trimesh.util.concatenate([load("suzanne.ply"), sheet]))
     views = pyshadow.ViewSet.zigzag(3, 6)
     ours = pyshadow.render_depth(m, views, 24, 3)
     ref = render_depth_reference(m, views, 24, 3)

@@ -1,0 +1,93 @@
+"""Compression study: thesis Table 5.1 beside pyshadow's CSMs of the Stanford bunny.
+
+For the bunny with holes (and the hole-filled bunny at 64x128 maps), 128^2
+texels, 16-bit depth: the thesis's compressed size and ratio next to ours
+for the zigzag layout (the thesis's grid and order) and for the hilbert
+layout at equal or nearly equal map count. Ratio = D * R^2 * 2 bytes /
+(segments * 4 bytes + offset table).
+
+    python benchmarks/compression.py [--json] [--quick]
+"""
+from __future__ import annotations
+
+import argparse
+
+import pyshadow
+from _common import MESHES, emit, environment
+
+# thesis 000, Table 5.1: (theta, phi) -> (compressed MB, ratio); bunny with holes
+THESIS = {(32, 32): (3.7, 8.7), (32, 64): (5.1, 12.5), (45, 45): (6.0, 10.5),
+          (45, 90): (8.5, 14.9), (64, 64): (10.1, 12.6), (64, 128): (14.6, 17.5)}
+THESIS_FILLED = (8.4, 30.5)     # 64 x 128, holes filled (section 5.2.1)
+
+
+def hilbert_for(maps):
+    """The hilbert view set with the map count nearest ``maps``."""
+    options = [pyshadow.ViewSet.hilbert(l, h) for l in (4, 5, 6, 7) for h in (False, True)]
+    return min(options, key=lambda v: (abs(len(v) - maps), len(v)))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
+    ap.add_argument("--resolution", type=int, default=128)
+    ap.add_argument("--quick", action="store_true", help="only the 32x32 and 64x128 rows")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+
+    holes = pyshadow.load_mesh(args.mesh)
+    filled = pyshadow.load_mesh(args.mesh, fill_holes=True)
+    grids = [(32, 32), (64, 128)] if args.quick else list(THESIS)
+    rows = []
+    cache = {}
+
+    def build(mesh, views, layers="auto"):
+        key = (id(mesh), views.layout, tuple(sorted(views.params.items())), layers)
+        if key not in cache:
+            csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, layers=layers,
+                                                   progress=False)
+            cache[key] = csm.stats
+        return cache[key]
+
+    for (t, p) in grids:
+        z = build(holes, pyshadow.ViewSet.zigzag(t, p))
+        hv = hilbert_for(t * p)
+        h = build(holes, hv)
+        rows.append({"mesh": "bunny (holes)", "grid": f"{t}x{p}", "maps": t * p,
+                     "thesis_mb": THESIS[(t, p)][0], "thesis_ratio": THESIS[(t, p)][1],
+                     "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
+                     "layer_rule": z["layer_rule"]})
+    for rule in ("auto", 2):
+        z = build(filled, pyshadow.ViewSet.zigzag(64, 128), rule)
+        hv = hilbert_for(8192)
+        h = build(filled, hv, rule)
+        rows.append({"mesh": "bunny (filled)", "grid": "64x128", "maps": 8192,
+                     "thesis_mb": THESIS_FILLED[0], "thesis_ratio": THESIS_FILLED[1],
+                     "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
+                     "layer_rule": z["layer_rule"]})
+    result = {"benchmark": "compression", **environment(), "resolution": args.resolution, "rows": rows}
+    if args.json:
+        emit(result, True)
+        return
+    print(f"device: {result['device']}; {args.resolution}^2 texels, 16-bit depth, "
+          "ratio = D*R^2*2 B / (4 B per segment + offset table)")
+    hdr = (f"{'mesh':15} {'maps':>7} {'rule':>4} | {'thesis MB':>9} {'ratio':>6} | "
+           f"{'zigzag MB':>9} {'ratio':>6} {'build s':>7} | {'hilbert D':>9} {'MB':>6} {'ratio':>6} | winner")
+    print(hdr)
+    print("-" * len(hdr))
+    for r in rows:
+        z, h = r["zigzag"], r["hilbert"]
+        zr = z["ratio"]
+        hr = h["ratio"]
+        if r["hilbert_maps"] == r["maps"]:
+            win = f"{'zigzag' if zr >= hr else 'hilbert'} +{abs(zr / hr - 1) * 100:.0f}%"
+        else:
+            win = "(D differs)"
+        print(f"{r['mesh']:15} {r['grid']:>7} {r['layer_rule']:>4} | {r['thesis_mb']:>9.1f} "
+              f"{r['thesis_ratio']:>5.1f}:1 | {z['bytes'] / 1e6:>9.2f} {zr:>5.1f}:1 "
+              f"{z['build_seconds']:>7.1f} | {r['hilbert_maps']:>9} {h['bytes'] / 1e6:>6.2f} "
+              f"{hr:>5.1f}:1 | {win}")
+
+
+if __name__ == "__main__":
+    main()

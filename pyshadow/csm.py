@@ -601,7 +601,9 @@ class CoherentShadowMap:
                 ok = set(params) == {"theta", "phi"} and all(
                     isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in params)
             else:
-                ok = set(params) == {"level"} and isinstance(params["level"], int) and 0 <= params["level"] <= 10
+                ok = (set(params) in ({"level"}, {"level", "hemispheres"})
+                      and isinstance(params["level"], int) and 0 <= params["level"] <= 10
+                      and params.get("hemispheres", True) is True)
             if not ok:
                 raise ValueError
             views = ViewSet.from_params(layout, params)

@@ -12,6 +12,8 @@ LAYOUTS = [
     pytest.param(lambda: pyshadow.ViewSet.hilbert(6), id="hilbert6"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(3), id="hilbert3"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(1), id="hilbert1"),
+    pytest.param(lambda: pyshadow.ViewSet.hilbert(6, hemispheres=True), id="hilbert6x2"),
+    pytest.param(lambda: pyshadow.ViewSet.hilbert(2, hemispheres=True), id="hilbert2x2"),
 ]
 
 
@@ -122,9 +124,13 @@ def test_hilbert_curve_steps_to_edge_neighbours():
         assert len(set(zip(x.tolist(), y.tolist()))) == 4**level
 
 
-def test_hilbert_directions_cover_sphere_evenly():
-    views = pyshadow.ViewSet.hilbert(5)
-    assert len(views) == 1024
+@pytest.mark.parametrize("hemispheres", [False, True])
+def test_hilbert_directions_cover_sphere_evenly(hemispheres):
+    views = pyshadow.ViewSet.hilbert(5, hemispheres)
+    assert len(views) == 1024 * (2 if hemispheres else 1)
+    # consecutive maps are neighbours on the sphere (the curve never jumps)
+    step = np.arccos(np.clip(np.einsum("ij,ij->i", views.directions[1:], views.directions[:-1]), -1, 1))
+    assert step.max() < 3.0 * np.sqrt(4 * np.pi / len(views))
     # nearest-neighbour spacing varies little over the sphere (near-uniform)
     dots = views.directions @ views.directions.T
     np.fill_diagonal(dots, -1)

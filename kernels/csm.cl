@@ -5,13 +5,14 @@
  *               view-set order) into the texel's open run: the run keeps the
  *               intersection [lo, hi2] of the maps' [z1, z2) intervals (as
  *               keys, see csm_common.h) and [lo, hi3] of their [z1, z3)
- *               intervals (LAYER_RULE 3). When the next map's interval does
+ *               intervals (LAYER_RULE 3; [z1, z2) where the ray does not
+ *               re-enter the object). When the next map's interval does
  *               not meet the run, the run is emitted as (depth, i_end) and a
  *               new run starts. A map hit once is the point interval {z1}; a
  *               miss is {+inf} and meets only misses. The last block (last =
  *               1) also emits every open run with i_end = D - 1.
  *               Emitted depth: middle of [lo, hi2] when not empty, else the
- *               middle of [lo, hi3], or lo when hi3 is unbounded.
+ *               middle of [lo, hi3].
  * csm_compact   one work-item per texel; copies the block's emitted segments
  *               from the per-texel scratch into one packed array.
  *
@@ -32,10 +33,7 @@
 
 inline uint run_value(uint lo, uint hi2, uint hi3)
 {
-    uint hi;
-    if (lo <= hi2) hi = hi2;
-    else if (hi3 == KEY_UNBOUNDED) return lo;
-    else hi = hi3;
+    const uint hi = (lo <= hi2) ? hi2 : hi3;
 #if DEPTH_BITS == 16
     return (lo + hi) >> 1;
 #else
@@ -92,11 +90,9 @@ __kernel void csm_fold(__global const float *depth, const int n_maps, const int 
                 mhi2 = mlo;                      /* hit once: {z1} */
             }
 #if LAYER_RULE == 3
-            if (z2 < INFINITY) {
-                mhi3 = (z3 < INFINITY) ? max(key_below(z3), mhi2) : KEY_UNBOUNDED;
-            } else {
-                mhi3 = mhi2;
-            }
+            /* [z1, z3) only where the ray re-enters the object (z3 exists):
+             * beyond the last exit everything must stay in shadow */
+            mhi3 = (z2 < INFINITY && z3 < INFINITY) ? max(key_below(z3), mhi2) : mhi2;
 #else
             mhi3 = mhi2;
 #endif

@@ -15,11 +15,11 @@
 #include "csm_common.h"
 
 __kernel void csm_lookup(__global const uint *offsets, __global const IEND_T *iend,
-                         const int n_queries, __global const int *maps,
+                         const int n_maps, const int n_queries, __global const int *maps,
                          __global const int *texels, __global uint *out)
 {
     const int q = get_global_id(0);
     if (q >= n_queries) return;
     const uint t = (uint)texels[q];
-    out[q] = csm_find(iend, offsets[t], offsets[t + 1], (uint)maps[q]);
+    out[q] = csm_find(iend, offsets[t], offsets[t + 1], (uint)maps[q], (uint)n_maps);
 }

@@ -14,6 +14,10 @@ from .views import ViewSet
 from .raster import render_depth
 from .camera import Camera
 from .csm import CoherentShadowMap, CSMFormatError
+from .sampling import STRATEGIES, sample_directions
+from .scene import Scene
+from .filters import bilateral, edge_aware_box, upsample
+from .io import read_image, write_image
 from .gbuffer import render_gbuffer
 
 __all__ = [
@@ -25,9 +29,17 @@ __all__ = [
     "KernelBuildError",
     "MeshCleanupWarning",
     "ViewSet",
+    "bilateral",
     "bounding_sphere",
     "device_info",
+    "edge_aware_box",
     "load_mesh",
+    "read_image",
     "render_depth",
     "render_gbuffer",
+    "sample_directions",
+    "Scene",
+    "STRATEGIES",
+    "upsample",
+    "write_image",
 ]

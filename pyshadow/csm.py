@@ -7,8 +7,8 @@ For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
 Map ``i`` allows a set of stored depths that still gives the right shadow
 test along the texel's ray:
 
-* hit at least twice: ``[z1, z2)`` (with ``layers=3``: ``[z1, z3)``, see
-  :meth:`CoherentShadowMap.build`);
+* hit at least twice: ``[z1, z2)`` (with ``layers=3``: ``[z1, z3)`` where
+  a third surface exists, see :meth:`CoherentShadowMap.build`);
 * hit once (a hole behind the first surface): only ``z1``;
 * missed: only ``+inf`` (a miss meets nothing but other misses).
 
@@ -154,16 +154,21 @@ class CoherentShadowMap:
             ``2``: ``[z1, z2)`` -- every shadow query along a texel's ray is
             exact (up to the depth quantum and the map discretisation), for
             points anywhere: on this object, on other objects, on the ground.
-            ``3``: ``[z1, z3)`` (Ritschel et al.; thesis 4.2.1, footnote 2),
-            closed meshes only. Fewer segments; exact for points on this
-            object's own surface whose normal faces the light (the back face
-            at ``z2`` is never asked: its hemisphere excludes the light), and
-            for any point in front of the first exit ``z2`` or behind ``z3``.
-            A point of *another* body lying behind the object, between its
-            first exit ``z2`` and the next entry ``z3`` (or beyond ``z2``
-            when there is no third surface), may be reported lit where it is
-            in shadow. To limit that, the stored depth is taken inside
-            ``[z1, z2)`` of every map of the run whenever that is possible.
+            ``3``: ``[z1, z3)`` (Ritschel et al.; thesis 4.2.1, footnote 2)
+            where the texel's ray re-enters the object (a third surface
+            exists), ``[z1, z2)`` elsewhere; closed meshes only. Fewer
+            segments. Exact for points on this object's own surface whose
+            normal faces the light (the back face at ``z2`` is never asked:
+            its hemisphere excludes the light) and for every other point
+            except those inside a concavity of the object along the ray,
+            between its exit ``z2`` and re-entry ``z3``: such a point (on
+            another body, say, tucked under an arch of this one) may be
+            reported lit where it is in shadow. The stored depth is taken
+            inside ``[z1, z2)`` of every map of the run whenever that is
+            possible. (Leaving ``[z1, inf)`` to rays with no third surface
+            would compress further -- 38:1 instead of 27:1 for the filled
+            bunny at 64x128 -- but then a body drops its shadows on everything
+            behind it, the ground included: AO 0.60 instead of 0 under a box.)
             ``'auto'``: 3 for watertight meshes, else 2.
         block : int, optional
             Maps rendered and folded per step; default keeps the device
@@ -370,7 +375,7 @@ class CoherentShadowMap:
             k = _cl.kernel("csm_query.cl", "csm_lookup", self.defines)
             buf = _cl.empty(out.nbytes)
             offs, iend, _z = self.device_buffers()
-            k(_cl.queue(), (len(m),), None, offs, iend, np.int32(len(m)),
+            k(_cl.queue(), (len(m),), None, offs, iend, np.int32(D), np.int32(len(m)),
               _cl.to_device(m, np.int32), _cl.to_device(r * R + c, np.int32), buf)
             cl.enqueue_copy(_cl.queue(), out, buf)
         return out.reshape(shape)

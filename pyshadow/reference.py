@@ -13,7 +13,8 @@ import trimesh
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
-__all__ = ["EmbreeScene", "depth_layers", "gbuffer", "ray_epsilon"]
+__all__ = ["EmbreeScene", "depth_layers", "gbuffer", "ray_epsilon", "visible", "ambient_occlusion",
+           "render", "surface_epsilon"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -156,3 +157,136 @@ def gbuffer(items, camera) -> dict:
         "face": np.where(hit, face[p], -1).reshape(H, W).astype(np.int32),
         "depth": np.where(hit, t, np.inf).reshape(H, W).astype(np.float32),
     }
+
+
+# ---------------------------------------------------------------------------
+# scenes: visibility and ambient occlusion by ray tracing
+# ---------------------------------------------------------------------------
+def _scene_rays(scene):
+    """Embree scene of every caster (world space, relative to the scene anchor)."""
+    anchor = scene._anchor()
+    tris = []
+    for i, inst in enumerate(scene.instances):
+        if not inst.casts:
+            continue
+        if inst.mesh is None:
+            raise ValueError(f"instance {i} was added as a CSM without its mesh: the reference "
+                             "ray tracer needs the geometry (pass mesh= to Scene.add)")
+        T = inst.transform
+        w = np.asarray(inst.mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3] - anchor
+        tris.append(w[np.asarray(inst.mesh.faces)])
+    return EmbreeScene(np.concatenate(tris) if tris else np.zeros((0, 3, 3))), anchor
+
+
+def _ground_occludes(scene, rel_points, dirs, anchor):
+    if scene.ground is None:
+        return np.zeros(len(rel_points), bool)
+    h = rel_points[:, 1] - (scene.ground - anchor[1])
+    eps = 1e-5 * scene.scale()
+    return ((h >= -eps) & (dirs[:, 1] < 0)) | ((h < -eps) & (dirs[:, 1] > 0))
+
+
+def surface_epsilon(scene) -> float:
+    """Offset that lifts a ray origin off a surface: 2e-5 of the scene's largest radius,
+    and at least 64 float32 ulps of the coordinates (``ray_epsilon``)."""
+    return float(max(2e-5 * scene.scale(), ray_epsilon(scene.scale())))
+
+
+def visible(scene, points, directions) -> np.ndarray:
+    """Ground-truth :meth:`pyshadow.Scene.visible`: Embree occlusion rays.
+
+    Each ray starts at the point moved by :func:`surface_epsilon` along its
+    direction (so a point on a surface does not hit that surface) and runs
+    to infinity; the ground plane is tested analytically as in the kernel.
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    rays, anchor = _scene_rays(scene)
+    rel = p - anchor
+    occ = _ground_occludes(scene, rel, w, anchor)
+    todo = np.flatnonzero(~occ)
+    if len(todo):
+        occ[todo] = rays.occluded(rel[todo] + surface_epsilon(scene) * w[todo], w[todo])
+    return ~occ
+
+
+def ambient_occlusion(scene, points, normals, samples: int = 36, strategy: str = "hammersley",
+                      seed: int = 0, patterns: int = 256, bent_normals: bool = False, indices=None):
+    """Ground-truth :meth:`pyshadow.Scene.ambient_occlusion` on the identical directions.
+
+    The directions are :func:`pyshadow.sample_directions`' (the ones the
+    kernel traces); ray origins are lifted off the surface along the normal
+    by :func:`surface_epsilon`.
+    """
+    from .sampling import sample_directions
+
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    if indices is None:
+        dirs = sample_directions(n, samples, strategy, patterns, seed).astype(np.float64)
+    else:
+        dirs = _directions_for(n, np.asarray(indices), samples, strategy, patterns, seed)
+    rays, anchor = _scene_rays(scene)
+    N, S = dirs.shape[:2]
+    flat = dirs.reshape(-1, 3)
+    # the ground is tested at the point itself, as the kernel does
+    occ = _ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
+    origins = np.repeat(p - anchor + surface_epsilon(scene) * n, S, axis=0)
+    todo = np.flatnonzero(~occ)
+    chunk = 1 << 21
+    for s in range(0, len(todo), chunk):
+        sel = todo[s:s + chunk]
+        occ[sel] = rays.occluded(origins[sel], flat[sel])
+    vis = ~occ.reshape(N, S)
+    ao = vis.mean(axis=1).astype(np.float32)
+    if not bent_normals:
+        return ao
+    b = (dirs * vis[..., None]).sum(axis=1)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
+    return ao, b.astype(np.float32)
+
+
+def _directions_for(normals, indices, samples, strategy, patterns, seed):
+    """sample_directions for arbitrary pattern indices (same float32 kernel)."""
+    from . import _cl
+    from .sampling import direction_table, pattern_indices
+    import pyopencl as cl
+
+    N = len(normals)
+    out = np.empty((N, samples, 3), np.float32)
+    if N:
+        k = _cl.kernel("sampling.cl", "sample_directions", {"SAMPLES": int(samples)})
+        buf = _cl.empty(out.nbytes)
+        k(_cl.queue(), (N,), None, _cl.to_device(normals, np.float32),
+          _cl.to_device(pattern_indices(indices, patterns, seed), np.int32),
+          _cl.to_device(direction_table(samples, strategy, patterns, seed)), np.int32(N), buf)
+        cl.enqueue_copy(_cl.queue(), out, buf)
+    return out.astype(np.float64)
+
+
+def render(scene, camera, samples: int = 36, strategy: str = "hammersley", seed: int = 0,
+           patterns: int = 256, *, ground_size=None) -> dict:
+    """Ground-truth :meth:`pyshadow.Scene.render`: Embree primary rays, then Embree AO
+    rays along the identical directions (pixel ``r*W + c`` uses the same pattern)."""
+    from .scene import GROUND_ID  # noqa: F401  (documented id of the ground)
+
+    items, ids = scene.draw_items(ground_size)
+    g = gbuffer(items, camera)
+    H, W = camera.height, camera.width
+    hit = g["object_id"] >= 0
+    obj = np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
+    sel = np.flatnonzero(hit.reshape(-1))
+    ao = np.ones(H * W, np.float32)
+    bent = np.zeros((H * W, 3), np.float32)
+    if len(sel):
+        dirs = camera.ray_directions().reshape(-1, 3)
+        pos = camera.eye + g["depth"].reshape(-1)[sel, None].astype(np.float64) * dirs[sel]
+        a, b = ambient_occlusion(scene, pos, g["normal"].reshape(-1, 3)[sel], samples, strategy, seed,
+                                 patterns, True, indices=sel)
+        ao[sel] = a
+        bent[sel] = b
+    return {"ao": ao.reshape(H, W), "bent_normal": bent.reshape(H, W, 3), "depth": g["depth"],
+            "normal": g["normal"], "object_id": obj, "position": g["position"]}

@@ -1,0 +1,250 @@
+"""Image files: float EXR for data, 8-bit sRGB PNG/JPEG for viewing.
+
+Everything goes through OpenImageIO. Arrays are ``(H, W)`` or ``(H, W, C)``,
+row 0 at the top, as everywhere in pyshadow.
+
+File kinds, chosen by the (case-insensitive) extension
+------------------------------------------------------
+``.exr``
+    32-bit float channels, lossless ZIP compression: a float32 array comes
+    back bit for bit, NaN and +-inf included (depth maps with +inf
+    background, normals, bent normals, AO). Channels: 1 -> ``Y``;
+    3 -> ``R, G, B``; 4 -> ``R, G, B, A`` (array channel k is the k-th name;
+    for normals R, G, B hold x, y, z).
+``.png``, ``.jpg``, ``.jpeg``
+    8 bits per channel, sRGB-encoded. A float array is read as *linear*
+    values, clipped to [0, 1], encoded with the sRGB transfer function
+    (IEC 61966-2-1, :func:`linear_to_srgb`) and rounded to the nearest of
+    0 .. 255; a ``uint8`` array is taken as already encoded and written as
+    is. An alpha channel (the 4th) is stored linearly, never encoded, and as
+    straight (unassociated) alpha, as PNG defines it. Channels: 1 -> grey,
+    3 -> RGB, 4 -> RGBA (PNG only; JPEG has no alpha). JPEG is lossy
+    (quality 95).
+
+Writes are atomic: the image goes to a hidden temporary file in the target's
+directory (same extension, so OpenImageIO picks the same format), which then
+replaces the target with :func:`os.replace`. If anything fails, the temporary
+file is removed and an existing target is left untouched.
+"""
+from __future__ import annotations
+
+import errno
+import os
+import secrets
+from pathlib import Path
+
+import numpy as np
+import OpenImageIO as oiio
+
+__all__ = ["write_image", "read_image", "linear_to_srgb", "srgb_to_linear", "EXTENSIONS"]
+
+_KIND = {".exr": "exr", ".png": "srgb8", ".jpg": "srgb8", ".jpeg": "srgb8"}
+#: File extensions :func:`write_image` accepts.
+EXTENSIONS = tuple(_KIND)
+_JPEG_QUALITY = 95
+_CHANNEL_NAMES = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
+
+
+def linear_to_srgb(x) -> np.ndarray:
+    """sRGB transfer function (IEC 61966-2-1): linear [0, 1] -> encoded [0, 1].
+
+    ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x^(1/2.4) - 0.055``.
+    Input is clipped to [0, 1]; float64 out.
+    """
+    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def srgb_to_linear(c) -> np.ndarray:
+    """Inverse of :func:`linear_to_srgb`: encoded [0, 1] -> linear [0, 1].
+
+    ``c / 12.92`` for ``c <= 0.04045``, else ``((c + 0.055) / 1.055)^2.4``.
+    Input is clipped to [0, 1]; float64 out.
+    """
+    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    return np.where(c <= 0.04045, c / 12.92, np.power((c + 0.055) / 1.055, 2.4))
+
+
+def _kind(path: Path) -> str:
+    ext = path.suffix.lower()
+    if ext not in _KIND:
+        raise ValueError(f"cannot tell the image format of {str(path)!r} from its extension "
+                         f"{ext!r}; use one of {', '.join(EXTENSIONS)}")
+    return _KIND[ext]
+
+
+def _pixels(array, kind: str, path: Path) -> np.ndarray:
+    """Validate ``array``; return the (H, W, C) C-contiguous data to store."""
+    a = np.asarray(array)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.ndim != 3 or a.shape[2] not in _CHANNEL_NAMES:
+        raise ValueError(f"image must have shape (H, W) or (H, W, C) with C in 1, 3, 4 "
+                         f"(got shape {np.shape(array)})")
+    if a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError(f"image is empty (shape {np.shape(array)})")
+    if kind == "exr":
+        if not np.issubdtype(a.dtype, np.floating):
+            raise TypeError(f"EXR files store float images (expected a float array vs got dtype "
+                            f"{a.dtype}); for 8-bit data divide by 255 or write a PNG")
+        with np.errstate(over="ignore"):     # beyond float32's range -> +-inf, as documented
+            return np.ascontiguousarray(a, dtype=np.float32)
+    if path.suffix.lower() != ".png" and a.shape[2] == 4:
+        raise ValueError(f"JPEG has no alpha channel: cannot write a 4-channel image to {path}")
+    if a.dtype == np.uint8:
+        return np.ascontiguousarray(a)
+    if not np.issubdtype(a.dtype, np.floating):
+        raise TypeError(f"8-bit images are written from linear float arrays in [0, 1] or from "
+                        f"uint8 arrays (got dtype {a.dtype})")
+    if np.isnan(a).any():
+        raise ValueError(f"image holds {int(np.isnan(a).sum())} NaN value(s), which 8-bit "
+                         f"{path.suffix} cannot store")
+    enc = np.clip(a.astype(np.float64), 0.0, 1.0)
+    colour = slice(0, 3) if a.shape[2] == 4 else slice(None)
+    enc[:, :, colour] = linear_to_srgb(enc[:, :, colour])
+    return np.floor(enc * 255.0 + 0.5).astype(np.uint8)
+
+
+def _write_oiio(tmp: Path, data: np.ndarray, kind: str):
+    """Write (H, W, C) ``data`` to ``tmp`` with OpenImageIO; raise OSError on failure."""
+    H, W, C = data.shape
+    fmt = oiio.TypeFloat if kind == "exr" else oiio.TypeUInt8
+    spec = oiio.ImageSpec(W, H, C, fmt)
+    spec.channelnames = _CHANNEL_NAMES[C]
+    spec.alpha_channel = 3 if C == 4 else -1
+    if kind == "exr":
+        spec.attribute("compression", "zip")
+    else:
+        spec.attribute("oiio:UnassociatedAlpha", 1)
+        spec.attribute("oiio:ColorSpace", "sRGB")
+        spec.attribute("Compression", f"jpeg:{_JPEG_QUALITY}")
+    out = oiio.ImageOutput.create(str(tmp))
+    if out is None:
+        raise OSError(f"OpenImageIO has no writer for {tmp}: {oiio.geterror()}")
+    if not out.open(str(tmp), spec):
+        raise OSError(f"could not open {tmp} for writing: {out.geterror() or oiio.geterror()}")
+    ok = out.write_image(data)
+    err = out.geterror() if not ok else ""
+    closed = out.close()
+    if not ok or not closed:
+        raise OSError(f"could not write {tmp}: {err or out.geterror() or oiio.geterror()}")
+
+
+def write_image(path, array) -> None:
+    """Write an image file atomically; the format follows the extension.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Ends in ``.exr``, ``.png``, ``.jpg`` or ``.jpeg`` (any case). Its
+        directory must exist; an existing file is replaced.
+    array : ndarray, shape (H, W) or (H, W, C), C in {1, 3, 4}
+        EXR: any float dtype, stored as float32 (float64 is rounded to
+        nearest; magnitudes beyond float32's range become +-inf).
+        PNG/JPEG: linear float in [0, 1] (clipped, sRGB-encoded, rounded to
+        8 bits; no NaN) or ``uint8`` (written as is). See the module
+        docstring for channel names and the alpha channel.
+
+    Raises
+    ------
+    ValueError
+        Unknown extension, wrong shape, NaN for an 8-bit file, 4 channels
+        for JPEG.
+    TypeError
+        Non-float array for EXR; neither float nor uint8 for PNG/JPEG.
+    FileNotFoundError
+        The directory does not exist.
+    OSError
+        OpenImageIO failed to write (no file is left behind).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> depth = np.array([[1.5, np.inf]], np.float32)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_image(os.path.join(d, "depth.exr"), depth)
+    ...     print(read_image(os.path.join(d, "depth.exr")).tolist())
+    [[1.5, inf]]
+    """
+    path = Path(os.fspath(path))
+    kind = _kind(path)
+    data = _pixels(array, kind, path)
+    parent = path.parent
+    if not parent.is_dir():
+        raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(parent))
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "cannot write an image over a directory", str(path))
+    tmp = parent / f".{path.stem}.{secrets.token_hex(6)}.tmp{path.suffix}"
+    try:
+        _write_oiio(tmp, data, kind)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+
+
+def read_image(path) -> np.ndarray:
+    """Read an image file as float32.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Any format OpenImageIO reads; the first subimage is read.
+
+    Returns
+    -------
+    image : ndarray, float32, shape (H, W) for one channel, else (H, W, C)
+        Float files (EXR, HDR, float TIFF) come back as stored (half is
+        widened exactly). Integer files (8-bit PNG/JPEG, 16-bit PNG) are
+        taken as sRGB-encoded: value ``v`` of ``2^b - 1`` decodes to
+        ``srgb_to_linear(v / (2^b - 1))``, linear in [0, 1]; an alpha channel
+        is only scaled to [0, 1] (straight alpha, as stored).
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at ``path``.
+    ValueError
+        ``path`` is not a file or OpenImageIO cannot read it (the message
+        names the path and OpenImageIO's reason).
+
+    Notes
+    -----
+    A (H, W, 1) array written to EXR reads back as (H, W), with the same bits.
+    """
+    path = Path(os.fspath(path))
+    if not path.exists():
+        raise FileNotFoundError(errno.ENOENT, "no such image file", str(path))
+    if not path.is_file():
+        raise ValueError(f"cannot read image {path}: not a file")
+    config = oiio.ImageSpec()
+    config.attribute("oiio:UnassociatedAlpha", 1)
+    inp = oiio.ImageInput.open(str(path), config)
+    if inp is None:
+        raise ValueError(f"cannot read image {path}: {oiio.geterror()}")
+    try:
+        spec = inp.spec()
+        C, alpha = spec.nchannels, spec.alpha_channel
+        fmt = spec.format
+        if fmt == oiio.TypeUInt8 or fmt == oiio.TypeUInt16:
+            native = inp.read_image(fmt)
+            top = 255.0 if fmt == oiio.TypeUInt8 else 65535.0
+        elif fmt.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE):
+            native, top = inp.read_image(oiio.TypeFloat), None
+        else:  # other integer types: OpenImageIO maps them to [0, 1]
+            native, top = inp.read_image(oiio.TypeFloat), 1.0
+        if native is None:
+            raise ValueError(f"cannot read image {path}: {inp.geterror() or oiio.geterror()}")
+    finally:
+        inp.close()
+    data = np.asarray(native).reshape(spec.height, spec.width, C)
+    if top is not None:
+        enc = data.astype(np.float64) / top
+        colour = [c for c in range(C) if c != alpha]
+        enc[:, :, colour] = srgb_to_linear(enc[:, :, colour])
+        data = enc
+    data = np.ascontiguousarray(data, dtype=np.float32)
+    return data[:, :, 0] if C == 1 else data

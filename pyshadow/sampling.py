@@ -1,0 +1,211 @@
+"""Sample patterns and cosine-weighted hemisphere directions (thesis 000, 5.3.1).
+
+``M`` patterns of ``N`` 2-D points ``(xi1, xi2)`` in ``[0, 1)^2`` are made for
+a strategy and a seed; every query point picks one pattern by a hash of its
+index, and each 2-D point becomes the cosine-weighted direction
+``(sqrt(xi1) cos 2 pi xi2, sqrt(1 - xi1), sqrt(xi1) sin 2 pi xi2)`` in the
+frame ``(t, n, b)`` of the point's normal ``n`` (thesis eq. 5.9 and the
+combined form after it).
+
+Strategies
+----------
+``random``           independent uniform points.
+``stratified``       jittered ``a x b`` grid, ``a*b = N`` (``a`` the largest
+                     divisor of ``N`` not above ``sqrt(N)``).
+``latin_hypercube``  N-rooks: one point per row and per column of an N x N grid.
+``halton``           bases 2 and 3, a Cranley-Patterson rotation (random shift
+                     modulo 1) per pattern (eq. 5.12).
+``hammersley``       ``(k/N, Phi_2(k))``, each coordinate's 32 binary digits
+                     XOR-scrambled by a random word per pattern (Kollig and
+                     Keller's random digit scrambling); for ``N`` a power of
+                     two the points stay a (0, m, 2)-net.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _cl
+
+__all__ = ["STRATEGIES", "sample_patterns", "pattern_indices", "sample_directions",
+           "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
+
+STRATEGIES = ("random", "stratified", "latin_hypercube", "halton", "hammersley")
+_CODES = {s: i for i, s in enumerate(STRATEGIES)}
+MAX_SAMPLES = 4096
+MAX_PATTERNS = 65536
+
+
+def check_sampling(samples, strategy, patterns):
+    """Validate the sampling arguments shared by every AO entry point."""
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)):
+        raise TypeError(f"samples must be an int, got {samples!r}")
+    if not 1 <= samples <= MAX_SAMPLES:
+        raise ValueError(f"samples must be in 1..{MAX_SAMPLES}, got {samples}")
+    if strategy not in _CODES:
+        raise ValueError(f"unknown strategy {strategy!r}; expected one of {', '.join(STRATEGIES)}")
+    if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
+        raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+
+
+def _radical_inverse(k, base):
+    k = np.asarray(k, dtype=np.int64).copy()
+    out = np.zeros(k.shape)
+    f = 1.0 / base
+    while (k > 0).any():
+        out += (k % base) * f
+        k //= base
+        f /= base
+    return out
+
+
+def _bits_to_unit(b):
+    """uint32 words to floats in [0, 1): the centre of each 2^-32 cell."""
+    return (b.astype(np.float64) + 0.5) / 2.0**32
+
+
+def sample_patterns(samples: int, strategy: str = "hammersley", patterns: int = 256,
+                    seed: int = 0) -> np.ndarray:
+    """The 2-D sample patterns of a strategy.
+
+    Returns
+    -------
+    ndarray, shape (patterns, samples, 2), float64
+        Points ``(xi1, xi2)`` in ``[0, 1)``; deterministic for ``seed``.
+    """
+    check_sampling(samples, strategy, patterns)
+    N, M = int(samples), int(patterns)
+    rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, _CODES[strategy], N])
+    k = np.arange(N)
+    if strategy == "random":
+        pts = rng.random((M, N, 2))
+    elif strategy == "stratified":
+        a = max(d for d in range(1, int(np.sqrt(N)) + 1) if N % d == 0)
+        b = N // a
+        i, j = np.divmod(k, b)                      # row i of a, column j of b
+        jitter = rng.random((M, N, 2))
+        pts = np.stack([(i + jitter[..., 0]) / a, (j + jitter[..., 1]) / b], axis=-1)
+    elif strategy == "latin_hypercube":
+        p1 = np.argsort(rng.random((M, N)), axis=1)
+        p2 = np.argsort(rng.random((M, N)), axis=1)
+        jitter = rng.random((M, N, 2))
+        pts = np.stack([(p1 + jitter[..., 0]) / N, (p2 + jitter[..., 1]) / N], axis=-1)
+    elif strategy == "halton":
+        base = np.stack([_radical_inverse(k + 1, 2), _radical_inverse(k + 1, 3)], axis=-1)
+        shift = rng.random((M, 1, 2))
+        pts = np.mod(base[None] + shift, 1.0)
+    else:  # hammersley with random digit scrambling
+        x = np.floor(k / N * 2.0**32).astype(np.uint64).astype(np.uint32)
+        y = np.floor(_radical_inverse(k, 2) * 2.0**32).astype(np.uint64).astype(np.uint32)
+        s = rng.integers(0, 2**32, size=(M, 1, 2), dtype=np.uint64).astype(np.uint32)
+        pts = np.stack([_bits_to_unit(x[None] ^ s[..., 0]), _bits_to_unit(y[None] ^ s[..., 1])], axis=-1)
+    return np.minimum(pts, np.nextafter(1.0, 0.0))
+
+
+def pattern_indices(indices, patterns: int, seed: int = 0) -> np.ndarray:
+    """Pattern used by query point ``indices`` (a hash, so chunking cannot change it)."""
+    i = np.asarray(indices, dtype=np.uint64)
+    z = i + np.uint64((int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & 0xFFFFFFFFFFFFFFFF)
+    with np.errstate(over="ignore"):
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        z = z ^ (z >> np.uint64(31))
+    return (z % np.uint64(patterns)).astype(np.int32)
+
+
+def hemisphere_frame(normals) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent ``t`` and bitangent ``b`` of unit normals (float64, NumPy).
+
+    The branch-free frame of Duff et al. (2017): with ``s = sign(n_z)``
+    (+1 for ``n_z = 0``), ``a = -1/(s + n_z)``, ``c = n_x n_y a``:
+    ``t = (1 + s n_x^2 a, s c, -s n_x)``, ``b = (c, s + n_y^2 a, -n_y)``.
+    ``(t, n, b)`` is orthonormal; the kernels build the same frame in float32.
+    """
+    n = np.asarray(normals, dtype=np.float64)
+    s = np.where(n[..., 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (s + n[..., 2])
+    c = n[..., 0] * n[..., 1] * a
+    t = np.stack([1.0 + s * n[..., 0] ** 2 * a, s * c, -s * n[..., 0]], axis=-1)
+    b = np.stack([c, s + n[..., 1] ** 2 * a, -n[..., 1]], axis=-1)
+    return t, b
+
+
+def _check_normals(normals):
+    n = np.asarray(normals)
+    if n.ndim != 2 or n.shape[1] != 3:
+        raise ValueError(f"normals must have shape (N, 3), got {n.shape}")
+    n = n.astype(np.float64)
+    if not np.isfinite(n).all():
+        raise ValueError("normals must be finite")
+    length = np.linalg.norm(n, axis=1)
+    if (length < 1e-12).any():
+        raise ValueError(f"{int((length < 1e-12).sum())} normals are zero; AO needs a hemisphere")
+    return n / length[:, None]
+
+
+def local_directions(points) -> np.ndarray:
+    """Cosine-weighted local directions ``(x, y, z)`` (y along the normal) of 2-D points.
+
+    ``(sqrt(xi1) cos 2 pi xi2, sqrt(1 - xi1), sqrt(xi1) sin 2 pi xi2)``, float64.
+    """
+    xi = np.asarray(points, dtype=np.float64)
+    r = np.sqrt(xi[..., 0])
+    ang = 2.0 * np.pi * xi[..., 1]
+    return np.stack([r * np.cos(ang), np.sqrt(1.0 - xi[..., 0]), r * np.sin(ang)], axis=-1)
+
+
+def direction_table(samples: int, strategy: str = "hammersley", patterns: int = 256,
+                    seed: int = 0) -> np.ndarray:
+    """Local directions of every pattern, (patterns, samples, 3) float32, as the kernels read them."""
+    return local_directions(sample_patterns(samples, strategy, patterns, seed)).astype(np.float32)
+
+
+def sample_directions_reference(normals, samples: int = 36, strategy: str = "hammersley",
+                                patterns: int = 256, seed: int = 0) -> np.ndarray:
+    """NumPy (float64) version of :func:`sample_directions`."""
+    n = _check_normals(normals)
+    local = local_directions(sample_patterns(samples, strategy, patterns, seed))
+    loc = local[pattern_indices(np.arange(len(n)), patterns, seed)]       # (N, S, 3)
+    t, b = hemisphere_frame(n)
+    return loc[..., 0:1] * t[:, None] + loc[..., 1:2] * n[:, None] + loc[..., 2:3] * b[:, None]
+
+
+def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
+                      patterns: int = 256, seed: int = 0) -> np.ndarray:
+    """The exact directions the AO kernels trace for each normal.
+
+    Parameters
+    ----------
+    normals : array_like, shape (N, 3)
+        Surface normals (world frame; normalised here, must be non-zero).
+        Query point ``i`` uses pattern ``pattern_indices(i, patterns, seed)``.
+    samples : int
+        Directions per point, 1 .. 4096.
+    strategy : str
+        One of :data:`STRATEGIES`.
+    patterns : int
+        Number of precomputed patterns ``M`` (thesis: 256).
+    seed : int
+
+    Returns
+    -------
+    ndarray, shape (N, samples, 3), float32
+        Unit directions in the upper hemisphere of each normal, computed by
+        the same OpenCL function the AO kernel calls, so a ray tracer given
+        these directions traces exactly the rays pyshadow tests.
+    """
+    check_sampling(samples, strategy, patterns)
+    n = _check_normals(normals)
+    N, S = len(n), int(samples)
+    out = np.empty((N, S, 3), np.float32)
+    if N == 0:
+        return out
+    import pyopencl as cl
+
+    table = direction_table(S, strategy, patterns, seed)
+    pidx = pattern_indices(np.arange(N), patterns, seed)
+    k = _cl.kernel("sampling.cl", "sample_directions", {"SAMPLES": S})
+    buf = _cl.empty(out.nbytes)
+    k(_cl.queue(), (N,), None, _cl.to_device(n, np.float32), _cl.to_device(pidx, np.int32),
+      _cl.to_device(table), np.int32(N), buf)
+    cl.enqueue_copy(_cl.queue(), out, buf)
+    return out

@@ -1,0 +1,625 @@
+"""Scenes of rigid bodies: visibility queries, ambient occlusion, AO images.
+
+Stage "visibility kernel" of the pipeline (DESIGN.md "Visibility query",
+"Sampling"; thesis 000, 5.3, 5.3.1-5.3.3). A scene holds instances of
+Coherent Shadow Maps (casters) and of plain meshes (receivers), each with a
+rigid 4x4 transform (rotation, translation, uniform scale), and optionally an
+analytic ground plane ``y = ground``. Moving an instance changes one small
+buffer; no CSM is rebuilt.
+
+Kernels are specialised to the scene through compile-time macros (number of
+CSM types, ground plane or not, layouts present, sample count, bent normals
+or not) and cached per configuration by :mod:`pyshadow._cl`.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+from . import _cl
+from .csm import DEPTH_Q, MISS16, CoherentShadowMap
+from .gbuffer import check_transform
+from .mesh import bounding_sphere, load_mesh, mesh_hash
+from .sampling import check_sampling, direction_table, pattern_indices
+from .views import ViewSet
+
+__all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN"]
+
+GROUND_ID = -2           # object id of the ground plane in rendered images
+DEFAULT_BIAS_TEXELS = 1.5
+DEFAULT_BIAS_TAN = 0.5
+_LAYOUT_CODE = {"zigzag": 0, "hilbert": 1}
+
+
+@dataclass
+class Instance:
+    """One placed object of a :class:`Scene`."""
+
+    transform: np.ndarray
+    casts: bool
+    csm: CoherentShadowMap | None = None
+    mesh: trimesh.Trimesh | None = None
+    # mesh data derived once (object frame)
+    _normals: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def scale(self) -> float:
+        return float(np.cbrt(np.linalg.det(self.transform[:3, :3])))
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return self.transform[:3, :3] / self.scale
+
+    def object_sphere(self):
+        if self.csm is not None:
+            return self.csm.centre, self.csm.radius
+        return bounding_sphere(self.mesh)
+
+    def world_sphere(self):
+        c, r = self.object_sphere()
+        T = self.transform
+        return T[:3, :3] @ c + T[:3, 3], r * self.scale
+
+
+def _rows3(a, name, n=None, dtype=np.float64):
+    """Validate an (N, 3) numeric array of finite values; return it as ``dtype``."""
+    a = np.asarray(a)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+    if n is not None and len(a) != n:
+        raise ValueError(f"{name} has {len(a)} rows but points has {n} (shapes must match)")
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be numeric, got {a.dtype}")
+    a = np.asarray(a, dtype=dtype)
+    if not np.isfinite(a).all():
+        bad = int((~np.isfinite(a).all(axis=1)).sum())
+        raise ValueError(f"{name}: {bad} rows are not finite")
+    return a
+
+
+def _nonzero(a, name):
+    sq = np.einsum("ij,ij->i", a, a)
+    if (sq <= 0).any():
+        raise ValueError(f"{name}: {int((sq <= 0).sum())} rows are zero vectors")
+    return a
+
+
+class Scene:
+    """Rigid bodies with CSMs, receivers and an optional ground plane.
+
+    Parameters
+    ----------
+    ground : float, optional
+        Height ``h`` of an infinite ground plane ``y = h`` (analytic, no CSM):
+        a ray from a point above it that points downwards is occluded.
+    views : ViewSet, optional
+        Map directions for CSMs built by :meth:`add` from meshes; default
+        ``ViewSet.zigzag(64, 128)`` (the thesis's 8192 maps).
+    resolution, depth_bits, layers :
+        Passed to :meth:`CoherentShadowMap.build` for meshes added as casters.
+    progress : bool, optional
+        Progress bars while building CSMs.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> scene = Scene(ground=0.0, views=ViewSet.zigzag(8, 16), resolution=32)
+    >>> box = trimesh.creation.box((1, 1, 1))
+    >>> i = scene.add(box, trimesh.transformations.translation_matrix([0, 0.5, 0]))
+    >>> float(scene.ambient_occlusion([[3.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], samples=64)[0]) > 0.8
+    True
+    """
+
+    def __init__(self, ground: float | None = None, *, views: ViewSet | None = None,
+                 resolution: int = 128, depth_bits: int = 16, layers="auto", progress: bool = False):
+        if ground is not None:
+            ground = float(ground)
+            if not np.isfinite(ground):
+                raise ValueError(f"ground must be a finite height, got {ground}")
+        self.ground = ground
+        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128),
+                                resolution=resolution, depth_bits=depth_bits, layers=layers)
+        self.progress = progress
+        self.instances: list[Instance] = []
+        self._built: dict = {}           # id(mesh) -> CSM built by add()
+        self._atlas = None
+        self._atlas_key = None
+
+    # ------------------------------------------------------------------
+    # building the scene
+    # ------------------------------------------------------------------
+    def add(self, obj, transform=None, casts: bool = True, *, mesh=None) -> int:
+        """Place an object; returns its instance id.
+
+        Parameters
+        ----------
+        obj : CoherentShadowMap, trimesh.Trimesh or path
+            A CSM (a caster; several instances share one CSM and its device
+            buffers), or a mesh. A mesh with ``casts=True`` gets a CSM built
+            with the scene's options (once per mesh object); with
+            ``casts=False`` it only receives (walls, floors).
+        transform : array_like, shape (4, 4), optional
+            Object-to-world transform: rotation, translation and uniform
+            positive scale only. Default identity.
+        casts : bool, optional
+        mesh : trimesh.Trimesh, optional
+            The mesh of a CSM given as ``obj``, needed to draw it
+            (:meth:`render`) and for :meth:`vertex_ao` and the Embree
+            reference; it must be the mesh the CSM was built from.
+
+        Raises
+        ------
+        ValueError
+            Non-rigid transform, a CSM added with ``casts=False``, or a mesh
+            that does not match the CSM.
+        """
+        T = check_transform(np.eye(4) if transform is None else transform, rigid=True,
+                            name="transform")
+        if isinstance(obj, CoherentShadowMap):
+            if not casts:
+                raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")
+            if mesh is not None:
+                if not isinstance(mesh, trimesh.Trimesh):
+                    mesh = load_mesh(mesh)
+                if mesh_hash(mesh) != obj.mesh_hash:
+                    raise ValueError("mesh does not match the CSM (different mesh hash)")
+            inst = Instance(T, True, csm=obj, mesh=mesh)
+        else:
+            if mesh is not None:
+                raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
+            if not isinstance(obj, trimesh.Trimesh):
+                obj = load_mesh(obj)
+            csm = None
+            if casts:
+                csm = self._built.get(id(obj))
+                if csm is None:
+                    o = self.csm_options
+                    csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
+                                                  o["layers"], progress=self.progress)
+                    self._built[id(obj)] = csm
+            inst = Instance(T, bool(casts), csm=csm, mesh=obj)
+        self.instances.append(inst)
+        return len(self.instances) - 1
+
+    def _instance(self, instance_id) -> Instance:
+        if isinstance(instance_id, bool) or not isinstance(instance_id, (int, np.integer)) \
+                or not 0 <= instance_id < len(self.instances):
+            raise IndexError(f"no instance {instance_id!r} (the scene has {len(self.instances)})")
+        return self.instances[int(instance_id)]
+
+    def set_transform(self, instance_id: int, transform) -> None:
+        """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt."""
+        inst = self._instance(instance_id)
+        inst.transform = check_transform(transform, rigid=True, name="transform")
+
+    def transform(self, instance_id: int) -> np.ndarray:
+        """The current 4x4 transform of an instance (a copy)."""
+        return self._instance(instance_id).transform.copy()
+
+    @property
+    def casters(self) -> list[int]:
+        return [i for i, inst in enumerate(self.instances) if inst.casts]
+
+    # ------------------------------------------------------------------
+    # device data
+    # ------------------------------------------------------------------
+    def _types(self):
+        seen, types = {}, []
+        for inst in self.instances:
+            if inst.casts and id(inst.csm) not in seen:
+                seen[id(inst.csm)] = len(types)
+                types.append(inst.csm)
+        return types, seen
+
+    def _device_atlas(self):
+        """Concatenated CSM data of every caster type (rebuilt only when types change)."""
+        types, index = self._types()
+        key = tuple(id(c) for c in types)
+        if self._atlas is not None and self._atlas_key == key:
+            return self._atlas, index
+        bits = 16 if all(c.depth_bits == 16 for c in types) else 32
+        wide = any(c.iend.dtype != np.uint16 for c in types)
+        trow, offs, iends, zs, bases, cells = [], [], [], [], [], []
+        seg = view = cell = tex = 0
+        for c in types:
+            R, D = c.resolution, c.maps
+            if c.segments + seg >= 2**32:
+                raise ValueError("the scene's CSMs hold 2^32 or more segments together")
+            layout = _LAYOUT_CODE[c.views.layout]
+            p = c.views.params
+            if c.views.layout == "zigzag":
+                p1, p2 = p["theta"], p["phi"]
+            else:
+                p1, p2 = p["level"], 0
+                if p.get("hemispheres"):
+                    layout = 2
+                table = c.views._hilbert_cells().reshape(-1)
+                cells.append(table.astype(np.int32))
+            trow.append([R, D, layout, p1, p2, tex, view, cell])
+            offs.append(np.asarray(c.offsets[:-1], dtype=np.int64) + seg)
+            iends.append(np.asarray(c.iend, dtype=np.uint32 if wide else np.uint16))
+            if bits == 16:
+                zs.append(np.asarray(c.depth, dtype=np.uint16))
+            else:
+                zs.append(c.stored_to_depth(c.depth).astype(np.float32))
+            bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
+            seg += c.segments
+            view += D
+            tex += R * R
+            cell += len(cells[-1]) if c.views.layout == "hilbert" else 0
+        offs.append(np.array([seg], dtype=np.int64))
+        # every type's list table ends where the next begins: offsets[tex_base + R*R]
+        # is the next type's first entry (or the final total), as the search needs.
+        dz = np.uint16 if bits == 16 else np.float32
+        di = np.uint32 if wide else np.uint16
+
+        def cat(parts, dtype):
+            return np.concatenate(parts).astype(dtype) if parts else np.zeros(1, dtype)
+
+        atlas = {
+            "bits": bits,
+            "iend_t": "uint" if wide else "ushort",
+            "ntypes": len(types),
+            "layouts": {c.views.layout for c in types},
+            "quantum": 1.0 / DEPTH_Q if bits == 16 else 0.0,
+            "buffers": [
+                _cl.to_device(np.array(trow, np.int32).reshape(-1, 8) if trow else np.zeros((1, 8), np.int32)),
+                _cl.to_device(cat(offs, np.uint32)),
+                _cl.to_device(cat(iends, di)),
+                _cl.to_device(cat(zs, dz) if zs else np.array([MISS16 if bits == 16 else np.inf], dz)),
+                _cl.to_device(cat(bases, np.float32)),
+                _cl.to_device(cat(cells, np.int32)),
+            ],
+        }
+        self._atlas, self._atlas_key = atlas, key
+        return atlas, index
+
+    def _anchor(self, points=None) -> np.ndarray:
+        """A world point near the scene; device coordinates are relative to it."""
+        if self.instances:
+            return np.mean([inst.world_sphere()[0] for inst in self.instances], axis=0)
+        if points is not None and len(points):
+            return points.mean(axis=0)
+        return np.zeros(3)
+
+    def scale(self) -> float:
+        """Largest world bounding-sphere radius of the instances (1 for an empty scene)."""
+        if not self.instances:
+            return 1.0
+        return max(inst.world_sphere()[1] for inst in self.instances)
+
+    def _instance_data(self, anchor, index):
+        rows, itype = [], []
+        for inst in self.instances:
+            if not inst.casts:
+                continue
+            s = inst.scale
+            Rm = inst.rotation
+            c, r = inst.csm.centre, inst.csm.radius
+            t = inst.transform[:3, 3]
+            A = Rm.T / (s * r)
+            cvec = Rm.T @ (anchor - t) / (s * r) - c / r
+            wc, wr = inst.world_sphere()
+            row = np.zeros(32)
+            row[0:9] = A.reshape(-1)
+            row[9:12] = cvec
+            row[12:21] = Rm.T.reshape(-1)
+            row[21:24] = wc - anchor
+            row[24] = wr * (1 + 1e-6)
+            rows.append(row)
+            itype.append(index[id(inst.csm)])
+        if not rows:
+            return _cl.to_device(np.zeros(32, np.float32)), _cl.to_device(np.zeros(1, np.int32)), 0
+        return (_cl.to_device(np.array(rows), np.float32), _cl.to_device(np.array(itype), np.int32),
+                len(rows))
+
+    def _bias(self, bias, atlas):
+        q = atlas["quantum"] + 1e-7
+        if bias is None:
+            return q, DEFAULT_BIAS_TEXELS, DEFAULT_BIAS_TAN, q
+        bias = float(bias)
+        if not np.isfinite(bias):
+            raise ValueError(f"bias must be finite, got {bias}")
+        return bias, 0.0, 0.0, bias
+
+    def _owners(self, surface_ids, n):
+        """Caster slot of each point's surface for the kernels (-1 unknown, -2 none)."""
+        if surface_ids is None:
+            return np.full(n, -1, np.int32)
+        ids = np.asarray(surface_ids)
+        if not np.issubdtype(ids.dtype, np.integer):
+            raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
+        ids = np.broadcast_to(ids, (n,)).astype(np.int64)
+        ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(self.instances)))
+        if not ok.all():
+            raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); "
+                             f"got {int(ids[~ok][0])}")
+        slot = np.full(len(self.instances) + 2, -2, np.int32)     # receivers: -2
+        for k, i in enumerate(self.casters):
+            slot[i] = k
+        slot[-1] = -1                                            # index -1: unknown
+        slot[-2] = -2                                            # index -2: ground
+        return slot[ids]
+
+    def _defines(self, atlas, **extra):
+        d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "NTYPES": atlas["ntypes"],
+             "GROUND": int(self.ground is not None),
+             "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
+             "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"])}
+        d.update(extra)
+        return d
+
+    def _scene_args(self, anchor, bias):
+        atlas, index = self._device_atlas()
+        inst, itype, ninst = self._instance_data(anchor, index)
+        b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
+        gy = (self.ground - anchor[1]) if self.ground is not None else 0.0
+        g_eps = 1e-5 * self.scale()
+        args = [*atlas["buffers"], inst, itype, np.int32(ninst), np.float32(gy), np.float32(g_eps),
+                np.float32(b_abs), np.float32(b_tex), np.float32(b_tan),
+                np.float32(b_other)]
+        return atlas, args
+
+    # ------------------------------------------------------------------
+    # queries
+    # ------------------------------------------------------------------
+    def visible(self, points, directions, *, bias: float | None = None, surface_ids=None) -> np.ndarray:
+        """Is each ray unoccluded by the scene's casters and ground plane?
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 3)
+            World positions (a point on a caster's surface is not occluded
+            by that surface itself: see ``bias``).
+        directions : array_like, shape (N, 3)
+            World directions (normalised here; must be non-zero).
+        bias : float, optional
+            Depth tolerance in normalised depth units (1 = the diameter of a
+            CSM's bounding sphere), against every caster. Default: against
+            the caster a point lies on (see ``surface_ids``),
+            ``quantum + (b0 + b1 tan a) / R`` with ``a`` the angle between the
+            direction and the map's axis, ``R`` the CSM resolution and
+            ``b0, b1 = DEFAULT_BIAS_TEXELS, DEFAULT_BIAS_TAN`` (1.5 and 0.5,
+            tuned on the Stanford bunny against Embree: see
+            benchmarks/accuracy.py); against every other caster only the
+            depth quantum (1/65534 for 16-bit depth).
+        surface_ids : int or array_like of int, optional
+            Instance id of the surface each point lies on; ``-1`` (default)
+            means unknown (the default bias then applies against every
+            caster), ``GROUND_ID`` (-2) the ground plane. Points on receivers
+            and the ground need no self-bias, so contact shadows stay sharp.
+
+        Returns
+        -------
+        ndarray, shape (N,), bool
+            True where the ray reaches the sky.
+        """
+        p = _rows3(points, "points")
+        w = _nonzero(_rows3(directions, "directions", len(p), np.float32), "directions")
+        own = self._owners(surface_ids, len(p))
+        out = np.empty(len(p), np.bool_)
+        if len(p) == 0:
+            return out
+        anchor = self._anchor(p)
+        atlas, args = self._scene_args(anchor, bias)
+        k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas))
+        q = _cl.queue()
+        chunk = 1 << 22
+        for s in range(0, len(p), chunk):
+            e = min(len(p), s + chunk)
+            buf = _cl.empty(e - s)
+            rel = (p[s:e] - anchor).astype(np.float32)
+            k(q, (e - s,), None, *args, np.int32(e - s), _cl.to_device(rel), _cl.to_device(w[s:e]),
+              _cl.to_device(own[s:e]), buf)
+            cl.enqueue_copy(q, out[s:e].view(np.uint8), buf)
+        return out
+
+    def ambient_occlusion(self, points, normals, samples: int = 36, strategy: str = "hammersley",
+                          patterns: int = 256, seed: int = 0, bent_normals: bool = False, *,
+                          bias: float | None = None, indices=None, surface_ids=None):
+        """Ambient occlusion of surface points (DESIGN.md convention: 1 = open).
+
+        Parameters
+        ----------
+        points : array_like, shape (N, 3)
+            World positions.
+        normals : array_like, shape (N, 3)
+            Surface normals (normalised here; zero normals are an error).
+        samples : int, optional
+            Cosine-weighted directions per point, 1 .. 4096 (thesis: 36).
+        strategy : str, optional
+            'random', 'stratified', 'latin_hypercube', 'halton' or
+            'hammersley' (see :mod:`pyshadow.sampling`).
+        patterns : int, optional
+            Precomputed patterns; point ``i`` uses pattern
+            ``pattern_indices(indices[i], patterns, seed)``.
+        seed : int, optional
+        bent_normals : bool, optional
+            Also return the normalised sum of the unoccluded directions (the
+            normal itself where every direction is occluded).
+        bias, surface_ids : optional
+            As in :meth:`visible`.
+        indices : array_like of int, optional
+            Sample-pattern index of each point; default ``arange(N)``.
+            :func:`pyshadow.sample_directions` returns the directions used
+            for ``indices = arange(N)``.
+
+        Returns
+        -------
+        ao : ndarray, shape (N,), float32
+            Unoccluded cosine-weighted fraction in [0, 1].
+        bent : ndarray, shape (N, 3), float32
+            Only with ``bent_normals=True``.
+        """
+        check_sampling(samples, strategy, patterns)
+        p = _rows3(points, "points")
+        n = _nonzero(_rows3(normals, "normals", len(p)), "normals")
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        N, S = len(p), int(samples)
+        idx = np.arange(N) if indices is None else np.asarray(indices, dtype=np.int64)
+        if idx.shape != (N,):
+            raise ValueError(f"indices must have shape ({N},), got {idx.shape}")
+        own = self._owners(surface_ids, N)
+        ao = np.empty(N, np.float32)
+        bent = np.empty((N, 3), np.float32)
+        if N:
+            anchor = self._anchor(p)
+            atlas, args = self._scene_args(anchor, bias)
+            k = _cl.kernel("visibility.cl", "scene_ao",
+                           self._defines(atlas, SAMPLES=S, BENT_NORMALS=int(bool(bent_normals))))
+            table = _cl.to_device(direction_table(S, strategy, patterns, seed))
+            pidx = pattern_indices(idx, patterns, seed)
+            q = _cl.queue()
+            chunk = max(1, (1 << 24) // S)
+            for s in range(0, N, chunk):
+                e = min(N, s + chunk)
+                ao_buf = _cl.empty(4 * (e - s))
+                bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
+                k(q, (e - s,), None, *args, np.int32(e - s),
+                  _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
+                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf)
+                cl.enqueue_copy(q, ao[s:e], ao_buf)
+                if bent_normals:
+                    cl.enqueue_copy(q, bent[s:e], bent_buf)
+        return (ao, bent) if bent_normals else ao
+
+    # ------------------------------------------------------------------
+    # meshes, vertices, images
+    # ------------------------------------------------------------------
+    def vertex_points(self, instance_id: int):
+        """World vertex positions (V, 3) and unit vertex normals (V, 3) of an instance, float64."""
+        inst = self._instance(instance_id)
+        if inst.mesh is None:
+            raise ValueError(f"instance {instance_id} was added as a CSM without its mesh (pass mesh=)")
+        if inst._normals is None:
+            inst._normals = np.asarray(inst.mesh.vertex_normals, dtype=np.float64)
+        T = inst.transform
+        pts = np.asarray(inst.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
+        nrm = inst._normals @ inst.rotation.T
+        return pts, nrm
+
+    def vertex_ao(self, instance_id: int, samples: int = 64, strategy: str = "hammersley",
+                  patterns: int = 256, seed: int = 0, bent_normals: bool = False, *,
+                  bias: float | None = None):
+        """Per-vertex AO of an instance's mesh (for display), as :meth:`ambient_occlusion`.
+
+        Points are the mesh's vertices in world space, normals its
+        area-weighted vertex normals. Returns ``(V,)`` float32 (and
+        ``(V, 3)`` bent normals).
+        """
+        pts, nrm = self.vertex_points(instance_id)
+        ok = np.linalg.norm(nrm, axis=1) > 0
+        if not ok.all():       # isolated vertices: give them any normal
+            nrm = nrm.copy()
+            nrm[~ok] = [0.0, 1.0, 0.0]
+        return self.ambient_occlusion(pts, nrm, samples, strategy, patterns, seed, bent_normals,
+                                      bias=bias, surface_ids=int(instance_id))
+
+    def ground_quad(self, size: float | None = None) -> trimesh.Trimesh:
+        """A finite square of the ground plane for drawing, centred under the scene.
+
+        ``size`` is the side length; default 8 times the diameter of the
+        region the instances occupy (at least 8 times the largest radius).
+        """
+        if self.ground is None:
+            raise ValueError("the scene has no ground plane")
+        anchor = self._anchor()
+        if size is None:
+            reach = max([np.linalg.norm(c - anchor) + r for c, r in
+                         (inst.world_sphere() for inst in self.instances)] or [1.0])
+            size = 16.0 * reach
+        h = 0.5 * float(size)
+        cx, cz = anchor[0], anchor[2]
+        v = np.array([[cx - h, self.ground, cz - h], [cx + h, self.ground, cz - h],
+                      [cx + h, self.ground, cz + h], [cx - h, self.ground, cz + h]])
+        return trimesh.Trimesh(v, [[0, 2, 1], [0, 3, 2]], process=False)
+
+    def draw_items(self, ground_size: float | None = None):
+        """(mesh, transform) items to draw and the object id of each."""
+        items, ids = [], []
+        for i, inst in enumerate(self.instances):
+            if inst.mesh is not None:
+                items.append((inst.mesh, inst.transform))
+                ids.append(i)
+        if self.ground is not None:
+            items.append((self.ground_quad(ground_size), np.eye(4)))
+            ids.append(GROUND_ID)
+        return items, np.array(ids, dtype=np.int32)
+
+    def render(self, camera, samples: int = 36, strategy: str = "hammersley", seed: int = 0,
+               patterns: int = 256, *, filter: str | None = None, ao_scale: int = 1,
+               ground_size: float | None = None, bias: float | None = None) -> dict:
+        """Render AO and the G-buffer of the scene from ``camera``.
+
+        Parameters
+        ----------
+        camera : Camera
+        samples, strategy, seed, patterns :
+            As in :meth:`ambient_occlusion`; pixel ``(r, c)`` uses pattern
+            index ``r * W + c``.
+        filter : {None, 'bilateral', 'separable', 'box'}, optional
+            Edge-aware filtering of the AO image (:mod:`pyshadow.filters`).
+        ao_scale : {1, 2, 4}, optional
+            Compute AO at 1/ao_scale resolution and upsample it with the
+            full-resolution G-buffer (joint bilateral upsampling).
+        ground_size : float, optional
+            Side of the drawn ground quad (:meth:`ground_quad`).
+
+        Returns
+        -------
+        dict of ndarray
+            ``'ao'`` float32 (H, W) in [0, 1], 1 on the background;
+            ``'bent_normal'`` float32 (H, W, 3), 0 on the background;
+            ``'depth'`` float32 (H, W), distance along the eye ray, inf on the
+            background; ``'normal'`` float32 (H, W, 3) world normals facing
+            the camera; ``'object_id'`` int32 (H, W): instance id,
+            ``GROUND_ID`` (-2) for the ground, -1 for the background;
+            ``'position'`` float32 (H, W, 3) world positions (NaN on the
+            background).
+        """
+        from .gbuffer import render_gbuffer
+
+        if filter not in (None, "bilateral", "separable", "box"):
+            raise ValueError(f"filter must be None, 'bilateral', 'separable' or 'box', got {filter!r}")
+        if ao_scale not in (1, 2, 4) or isinstance(ao_scale, bool):
+            raise ValueError(f"ao_scale must be 1, 2 or 4, got {ao_scale!r}")
+        check_sampling(samples, strategy, patterns)
+        items, ids = self.draw_items(ground_size)
+        g = render_gbuffer(items, camera)
+        H, W = camera.height, camera.width
+        hit = g["object_id"] >= 0
+        obj = np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
+        dirs = camera.ray_directions()
+        pos = camera.eye + np.where(hit, g["depth"], 0.0)[..., None].astype(np.float64) * dirs
+        ao = np.ones((H, W), np.float32)
+        bent = np.zeros((H, W, 3), np.float32)
+        if ao_scale == 1:
+            sel = np.flatnonzero(hit.reshape(-1))
+        else:
+            sub = np.zeros((H, W), bool)
+            sub[::ao_scale, ::ao_scale] = True
+            sel = np.flatnonzero((hit & sub).reshape(-1))
+        if len(sel):
+            a, b = self.ambient_occlusion(pos.reshape(-1, 3)[sel], g["normal"].reshape(-1, 3)[sel],
+                                          samples, strategy, patterns, seed, True, bias=bias,
+                                          indices=sel, surface_ids=obj.reshape(-1)[sel])
+            ao.reshape(-1)[sel] = a
+            bent.reshape(-1, 3)[sel] = b
+        out = {"ao": ao, "bent_normal": bent, "depth": g["depth"], "normal": g["normal"],
+               "object_id": obj, "position": g["position"]}
+        if ao_scale != 1 or filter is not None:
+            from . import filters
+
+            if ao_scale != 1:
+                low = ao[::ao_scale, ::ao_scale]
+                out["ao"] = filters.upsample(low, g["depth"], g["normal"], scale=ao_scale)
+            if filter == "bilateral":
+                out["ao"] = filters.bilateral(out["ao"], g["depth"], g["normal"])
+            elif filter == "separable":
+                out["ao"] = filters.bilateral(out["ao"], g["depth"], g["normal"], separable=True)
+            elif filter == "box":
+                out["ao"] = filters.edge_aware_box(out["ao"], g["depth"], g["normal"])
+        return out

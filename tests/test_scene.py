@@ -1,0 +1,373 @@
+"""Scenes: visibility and AO from CSMs against Embree, sampling, bad input."""
+import numpy as np
+import pytest
+import trimesh
+
+import pyshadow
+from pyshadow import reference, sampling
+from pyshadow.scene import GROUND_ID
+
+from conftest import load
+
+
+def unit_frame(mesh, scale=1.0, offset=(0.0, 0.0, 0.0), rotation=None):
+    """Transform that puts ``mesh``'s bounding sphere at ``offset`` with radius ``scale``."""
+    c, r = pyshadow.bounding_sphere(mesh)
+    T = np.eye(4)
+    if rotation is not None:
+        T[:3, :3] = rotation
+    T[:3, :3] *= scale / r
+    T[:3, 3] = np.asarray(offset, dtype=float) - T[:3, :3] @ c
+    return T
+
+
+def on_ground(mesh, T):
+    """Shift transform ``T`` up or down so the mesh's lowest vertex touches y = 0."""
+    T = T.copy()
+    T[1, 3] -= (mesh.vertices @ T[:3, :3].T + T[:3, 3])[:, 1].min()
+    return T
+
+
+def surface_queries(scene, instance_id, n_points, samples, rng, uniform=False):
+    """Points sampled uniformly on an instance's faces, with directions in the
+    hemispheres of their face normals (cosine-weighted AO directions, or uniform)."""
+    inst = scene.instances[instance_id]
+    T = inst.transform
+    seed = int(rng.integers(1 << 30))
+    local, face = trimesh.sample.sample_surface(inst.mesh, n_points, seed=seed)
+    p = local @ T[:3, :3].T + T[:3, 3]
+    n = inst.mesh.face_normals[face] @ inst.rotation.T
+    if uniform:
+        d = rng.normal(size=(n_points * samples, 3))
+        n_rep = np.repeat(n, samples, axis=0)
+        d = np.where(np.einsum("ij,ij->i", d, n_rep)[:, None] < 0, -d, d)
+    else:
+        d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3)
+    return np.repeat(p, samples, axis=0), d.astype(np.float64)
+
+
+@pytest.fixture(scope="module")
+def bunny_scene():
+    bunny = load("stanford-bunny.obj")
+    scene = pyshadow.Scene(ground=float(bunny.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(64, 128),
+                           resolution=128)
+    scene.add(bunny)
+    return scene
+
+
+@pytest.fixture(scope="module")
+def two_object_scene(bunny_scene):
+    bunny = load("stanford-bunny.obj")
+    fan = load("fandisk.obj")
+    bunny_csm = bunny_scene.instances[0].csm
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
+    scene.add(bunny_csm, on_ground(bunny, unit_frame(bunny)), mesh=bunny)
+    rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
+    scene.add(fan, on_ground(fan, unit_frame(fan, scale=0.8, rotation=rot, offset=(1.7, 0.0, 0.4))))
+    return scene
+
+
+def test_visible_agrees_with_embree_bunny(bunny_scene, rng):
+    p, d = surface_queries(bunny_scene, 0, 20000, 16, rng)
+    ours = bunny_scene.visible(p, d)
+    truth = reference.visible(bunny_scene, p, d)
+    assert 0.2 < truth.mean() < 0.9                     # both outcomes are common
+    assert (ours == truth).mean() >= 0.99
+
+
+def test_visible_agrees_with_embree_two_objects(two_object_scene, rng):
+    scene = two_object_scene
+    for inst in (0, 1):
+        p, d = surface_queries(scene, inst, 10000, 16, rng)
+        ours = scene.visible(p, d)
+        truth = reference.visible(scene, p, d)
+        assert 0.2 < truth.mean() < 0.95
+        assert (ours == truth).mean() >= 0.99, inst
+    # the fandisk really shadows the bunny and the other way round somewhere
+    p, d = surface_queries(scene, 1, 4000, 16, rng)
+    without = pyshadow.Scene(ground=0.0)
+    without.add(scene.instances[1].csm, scene.transform(1), mesh=scene.instances[1].mesh)
+    assert (reference.visible(scene, p, d) != reference.visible(without, p, d)).any()
+
+
+def test_visible_uniform_hemisphere_directions(bunny_scene, rng):
+    """Uniform (not cosine-weighted) directions include many grazing ones: lower bound."""
+    p, d = surface_queries(bunny_scene, 0, 10000, 8, rng, uniform=True)
+    agree = (bunny_scene.visible(p, d) == reference.visible(bunny_scene, p, d)).mean()
+    assert agree >= 0.98
+
+
+def test_visible_agreement_rises_with_maps_and_resolution(rng):
+    bunny = load("stanford-bunny.obj")
+    agreement = {}
+    ref_scene = None
+    p = d = None
+    for grid, R in [((8, 16), 64), ((16, 32), 64), ((32, 64), 64), ((32, 64), 32), ((32, 64), 128)]:
+        scene = pyshadow.Scene(ground=float(bunny.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(*grid),
+                               resolution=R)
+        scene.add(bunny)
+        if p is None:
+            p, d = surface_queries(scene, 0, 8000, 8, rng)
+            truth = reference.visible(scene, p, d)
+        agreement[grid, R] = (scene.visible(p, d) == truth).mean()
+    assert agreement[(8, 16), 64] < agreement[(16, 32), 64] < agreement[(32, 64), 64]
+    assert agreement[(32, 64), 32] < agreement[(32, 64), 64] < agreement[(32, 64), 128]
+
+
+def test_vertex_ao_matches_embree_256_samples(bunny_scene):
+    ours = bunny_scene.vertex_ao(0, samples=256)
+    pts, nrm = bunny_scene.vertex_points(0)
+    truth = reference.ambient_occlusion(bunny_scene, pts, nrm, 256)
+    err = np.abs(ours.astype(np.float64) - truth)
+    assert ours.dtype == np.float32 and ours.shape == (len(pts),)
+    assert err.mean() <= 0.01
+    assert np.quantile(err, 0.99) <= 0.05
+    assert truth.min() < 0.2 and truth.max() > 0.9         # occluded and open vertices both occur
+
+
+def test_sampling_strategies_order_matches_thesis(bunny_scene):
+    """RMSE at 36 samples against a 4096-sample Embree reference (thesis 5.3.1, Fig. 5.7)."""
+    pts, nrm = bunny_scene.vertex_points(0)
+    sel = np.random.default_rng(7).choice(len(pts), 2000, replace=False)
+    p, n = pts[sel], nrm[sel]
+    truth = reference.ambient_occlusion(bunny_scene, p, n, 4096, "hammersley", seed=99, patterns=16)
+    rmse = {}
+    for strategy in pyshadow.STRATEGIES:
+        ao = bunny_scene.ambient_occlusion(p, n, 36, strategy, seed=3)
+        rmse[strategy] = float(np.sqrt(np.mean((ao - truth) ** 2)))
+    assert max(rmse, key=rmse.get) == "random"
+    best = sorted(rmse, key=rmse.get)[:2]
+    assert set(best) == {"halton", "hammersley"}, rmse
+
+
+def test_set_transform_moves_without_rebuilding(monkeypatch):
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(16, 32), resolution=64)
+    i = scene.add(box, trimesh.transformations.translation_matrix([0, 0.5, 0]))
+    point = np.array([[0.0, 0.0, 1.2]])
+    up = np.array([[0.0, 1.0, 0.0]])
+    ao_before = scene.ambient_occlusion(point, up, 256)
+    atlas_before = scene._device_atlas()[0]
+
+    def no_build(*a, **k):
+        raise AssertionError("a CSM was rebuilt")
+    monkeypatch.setattr(pyshadow.CoherentShadowMap, "build", no_build)
+    scene.set_transform(i, trimesh.transformations.translation_matrix([0, 0.5, 20]))
+    ao_after = scene.ambient_occlusion(point, up, 256)
+    assert scene._device_atlas()[0] is atlas_before
+    truth = reference.ambient_occlusion(scene, point, up, 256)
+    assert ao_after[0] == 1.0 and truth[0] == 1.0
+    scene.set_transform(i, trimesh.transformations.translation_matrix([0, 0.5, 0]))
+    truth = reference.ambient_occlusion(scene, point, up, 256)
+    assert ao_before[0] < 0.9 and abs(ao_before[0] - truth[0]) < 0.02
+    # and back: the same answer as before
+    np.testing.assert_array_equal(scene.ambient_occlusion(point, up, 256), ao_before)
+
+
+def test_scene_with_several_csm_types_is_order_independent(rng):
+    """Every CSM type of a scene is found at its own place in the concatenated data."""
+    fan, monkey = load("fandisk.obj"), load("suzanne.ply")
+    csm_f = pyshadow.CoherentShadowMap.build(fan, pyshadow.ViewSet.zigzag(16, 32), 64, progress=False)
+    csm_m = pyshadow.CoherentShadowMap.build(monkey, pyshadow.ViewSet.hilbert(4, True), 32, progress=False)
+    results = []
+    for order in (0, 1):
+        scene = pyshadow.Scene()
+        far = unit_frame(monkey, offset=(100.0, 0.0, 0.0))
+        if order:
+            scene.add(csm_m, far, mesh=monkey)
+        i = scene.add(csm_f, np.eye(4), mesh=fan)
+        if not order:
+            scene.add(csm_m, far, mesh=monkey)
+        p, d = surface_queries(scene, i, 3000, 8, np.random.default_rng(0))
+        results.append(scene.visible(p, d))
+        assert (results[-1] == reference.visible(scene, p, d)).mean() > 0.96   # 0.90 when misplaced
+    np.testing.assert_array_equal(results[0], results[1])
+
+
+def test_instances_share_one_csm():
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    scene = pyshadow.Scene(views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    a = scene.add(box)
+    b = scene.add(box, trimesh.transformations.translation_matrix([3, 0, 0]))
+    assert scene.instances[a].csm is scene.instances[b].csm
+    assert scene._device_atlas()[0]["ntypes"] == 1
+
+
+@pytest.mark.parametrize("layers", [2, "auto"])
+def test_point_under_closed_box_has_zero_ao(layers):
+    """Ground points under a box resting on the ground see nothing of the sky.
+
+    The box's bottom face lies exactly in the ground plane, so the few samples
+    within a map spacing of horizontal can leak through the texel row at the
+    boundary: away from the box's edges AO stays below 1/100.
+    """
+    box = trimesh.creation.box((2.0, 2.0, 2.0))
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128,
+                           layers=layers)
+    scene.add(box, trimesh.transformations.translation_matrix([0, 1.0, 0]))
+    assert scene.instances[0].csm.layer_rule == (2 if layers == 2 else 3)
+    pts = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, -0.3], [-0.6, 0.0, 0.6], [40.0, 0.0, 0.0]])
+    up = np.tile([0.0, 1.0, 0.0], (4, 1))
+    ao = scene.ambient_occlusion(pts, up, 512, surface_ids=GROUND_ID)
+    assert ao[0] == 0.0
+    assert (ao[1:3] <= 0.01).all()
+    assert ao[3] == 1.0                        # far from the box: the open ground plane
+    truth = reference.ambient_occlusion(scene, pts, up, 512)
+    np.testing.assert_array_equal(truth, [0, 0, 0, 1])
+
+
+def test_open_plane_receiver_has_ao_one():
+    floor = trimesh.Trimesh([[-5, 0, -5], [5, 0, -5], [5, 0, 5], [-5, 0, 5]], [[0, 2, 1], [0, 3, 2]])
+    scene = pyshadow.Scene(ground=0.0)
+    scene.add(floor, casts=False)
+    g = np.random.default_rng(0).uniform(-4, 4, size=(500, 3))
+    g[:, 1] = 0.0
+    ao = scene.ambient_occlusion(g, np.tile([0.0, 1.0, 0.0], (500, 1)), 64)
+    np.testing.assert_array_equal(ao, 1.0)
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e3, 1e5)])
+def test_visibility_at_extreme_scales_and_positions(scale, offset, rng):
+    bunny = load("stanford-bunny.obj")
+    csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(32, 64), 64, progress=False)
+    T = unit_frame(bunny, scale=scale, offset=(offset, offset, -offset))
+    v = bunny.vertices @ T[:3, :3].T + T[:3, 3]
+    scene = pyshadow.Scene(ground=float(v[:, 1].min()))
+    scene.add(csm, T, mesh=bunny)
+    p, d = surface_queries(scene, 0, 4000, 8, rng)
+    ours = scene.visible(p, d)
+    truth = reference.visible(scene, p, d)
+    assert 0.2 < truth.mean() < 0.9
+    assert (ours == truth).mean() >= 0.985
+
+
+def test_ambient_occlusion_bent_normals(bunny_scene):
+    pts, nrm = bunny_scene.vertex_points(0)
+    sel = slice(0, 3000)
+    ao, bent = bunny_scene.ambient_occlusion(pts[sel], nrm[sel], 64, bent_normals=True)
+    ref_ao, ref_bent = reference.ambient_occlusion(bunny_scene, pts[sel], nrm[sel], 64, bent_normals=True)
+    np.testing.assert_allclose(np.linalg.norm(bent, axis=1), 1, atol=1e-5)
+    same = ao == ref_ao
+    assert same.mean() > 0.8
+    # where the same directions were found open, the bent normals are the same
+    close = np.einsum("ij,ij->i", bent[same], ref_bent[same]) > 1 - 1e-5
+    assert close.mean() > 0.99
+    # bent normals lean away from occluders: towards +y on a bunny standing on the ground
+    assert (bent[:, 1] - nrm[sel, 1]).mean() > 0
+
+
+def test_render_matches_reference_and_has_ground(two_object_scene):
+    scene = two_object_scene
+    cam = pyshadow.Camera([1.0, 2.0, 5.0], [0.8, 0.3, 0.0], width=96, height=72)
+    img = scene.render(cam, samples=36)
+    ref = reference.render(scene, cam, samples=36)
+    assert set(img) >= {"ao", "bent_normal", "depth", "normal", "object_id"}
+    assert img["ao"].dtype == np.float32 and img["ao"].shape == (72, 96)
+    assert set(np.unique(img["object_id"])) == {-1, GROUND_ID, 0, 1}
+    np.testing.assert_array_equal(img["object_id"], ref["object_id"])
+    hit = img["object_id"] != -1
+    assert (img["ao"][~hit] == 1).all() and np.isinf(img["depth"][~hit]).all()
+    assert 0 <= img["ao"].min() and img["ao"].max() <= 1
+    diff = np.abs(img["ao"] - ref["ao"])[hit]
+    assert diff.mean() < 0.02
+
+
+def test_sample_directions_match_numpy_reference():
+    n = np.random.default_rng(1).normal(size=(3000, 3))
+    n[:4] = [[0, 0, 1], [0, 0, -1], [1e-9, 0, -1], [0, 1, 0]]
+    for strategy in pyshadow.STRATEGIES:
+        d = pyshadow.sample_directions(n, 36, strategy, 64, seed=5)
+        r = sampling.sample_directions_reference(n, 36, strategy, 64, seed=5)
+        assert d.shape == (3000, 36, 3) and d.dtype == np.float32
+        np.testing.assert_allclose(d, r, atol=1e-6)
+        unit_n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        cos = np.einsum("nsk,nk->ns", r, unit_n)
+        assert (cos > 0).all()
+        assert abs(cos.mean() - 2 / 3) < 0.01          # cosine-weighted: E[cos] = 2/3
+
+
+def test_sample_patterns_properties():
+    N = 16
+    for strategy in pyshadow.STRATEGIES:
+        a = sampling.sample_patterns(N, strategy, 8, seed=1)
+        b = sampling.sample_patterns(N, strategy, 8, seed=1)
+        c = sampling.sample_patterns(N, strategy, 8, seed=2)
+        np.testing.assert_array_equal(a, b)
+        assert not np.array_equal(a, c)
+        assert ((a >= 0) & (a < 1)).all()
+    s = sampling.sample_patterns(N, "stratified", 8)
+    cells = np.floor(s * 4).astype(int)
+    for pat in cells:                                   # one point per 4x4 cell
+        assert len({tuple(x) for x in pat}) == 16
+    for strategy in ("latin_hypercube", "hammersley"):  # one point per row and per column
+        s = sampling.sample_patterns(N, strategy, 8)
+        for pat in s:
+            assert len(set(np.floor(pat[:, 0] * N).astype(int))) == N
+            assert len(set(np.floor(pat[:, 1] * N).astype(int))) == N
+    h = sampling.sample_patterns(N, "hammersley", 8)    # a (0, 4, 2)-net: every 2x8 box holds one
+    for pat in h:
+        assert len({(int(x * 2), int(y * 8)) for x, y in pat}) == 16
+
+
+@pytest.fixture
+def small_scene():
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+    scene.add(trimesh.creation.box((1.0, 1.0, 1.0)))
+    return scene
+
+
+@pytest.fixture
+def no_launch(monkeypatch):
+    def boom(*a, **k):
+        raise AssertionError("a kernel was launched")
+    monkeypatch.setattr(pyshadow.scene._cl, "kernel", boom)
+
+
+@pytest.mark.parametrize("points, dirs, match", [
+    ([[0, np.nan, 0]], [[0, 1, 0]], "points: 1 rows are not finite"),
+    ([[0, 0, 0]], [[0, np.inf, 0]], "directions: 1 rows are not finite"),
+    ([[0, 0, 0]], [[0, 0, 0]], "zero vectors"),
+    ([[0, 0, 0], [1, 1, 1]], [[0, 1, 0]], "shapes must match"),
+    ([[0, 0]], [[0, 1]], r"shape \(N, 3\)"),
+])
+def test_visible_rejects_bad_input(small_scene, no_launch, points, dirs, match):
+    with pytest.raises(ValueError, match=match):
+        small_scene.visible(points, dirs)
+
+
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(normals=[[0, 0, 0]]), ValueError, "zero vectors"),
+    (dict(samples=0), ValueError, "samples must be in 1..4096"),
+    (dict(samples=5000), ValueError, "samples must be in 1..4096"),
+    (dict(samples=2.5), TypeError, "samples must be an int"),
+    (dict(strategy="sobol"), ValueError, "unknown strategy 'sobol'"),
+    (dict(points=[[0, 0, 0], [1, 0, 0]]), ValueError, "shapes must match"),
+    (dict(points=[[0, 0, np.nan]]), ValueError, "not finite"),
+])
+def test_ambient_occlusion_rejects_bad_input(small_scene, no_launch, kwargs, exc, match):
+    args = dict(points=[[0.0, 0.0, 0.0]], normals=[[0.0, 1.0, 0.0]])
+    args.update(kwargs)
+    with pytest.raises(exc, match=match):
+        small_scene.ambient_occlusion(**args)
+
+
+@pytest.mark.parametrize("T, match", [
+    (np.diag([1.0, 2.0, 1.0, 1.0]), "not rigid"),
+    (np.diag([-1.0, 1.0, 1.0, 1.0]), "mirrors"),
+    (np.array([[1, 0.5, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]]), "not rigid"),
+    (np.eye(3), "4x4"),
+])
+def test_scene_rejects_non_rigid_transforms(small_scene, T, match):
+    with pytest.raises(ValueError, match=match):
+        small_scene.set_transform(0, T)
+    with pytest.raises(ValueError, match=match):
+        small_scene.add(small_scene.instances[0].csm, T)
+
+
+def test_scene_rejects_bad_instances(small_scene):
+    with pytest.raises(IndexError):
+        small_scene.set_transform(5, np.eye(4))
+    with pytest.raises(ValueError, match="always casts"):
+        small_scene.add(small_scene.instances[0].csm, casts=False)
+    with pytest.raises(ValueError, match="does not match"):
+        small_scene.add(small_scene.instances[0].csm, mesh=trimesh.creation.icosphere())

@@ -247,11 +247,11 @@ def test_ambient_occlusion_bent_normals(bunny_scene):
     ao, bent = bunny_scene.ambient_occlusion(pts[sel], nrm[sel], 64, bent_normals=True)
     ref_ao, ref_bent = reference.ambient_occlusion(bunny_scene, pts[sel], nrm[sel], 64, bent_normals=True)
     np.testing.assert_allclose(np.linalg.norm(bent, axis=1), 1, atol=1e-5)
-    same = ao == ref_ao
-    assert same.mean() > 0.8
-    # where the same directions were found open, the bent normals are the same
-    close = np.einsum("ij,ij->i", bent[same], ref_bent[same]) > 1 - 1e-5
-    assert close.mean() > 0.99
+    # the same open directions give the same bent normal: most agree to round-off
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", bent, ref_bent), -1, 1)))
+    assert np.median(angle) < 0.01
+    assert np.quantile(angle, 0.95) < 10.0
+    assert np.abs(ao - ref_ao).mean() < 0.01
     # bent normals lean away from occluders: towards +y on a bunny standing on the ground
     assert (bent[:, 1] - nrm[sel, 1]).mean() > 0
 

@@ -31,8 +31,9 @@
  *   types    int   (NTYPES, 8): R, D, layout (0 zigzag, 1 hilbert, 2 hilbert
  *                  over two hemispheres), p1 (theta or level), p2 (phi),
  *                  offsets base, view base, cell-table base
- *   offsets  uint  (sum R^2 + 1 per type); values index iend/depth directly
- *   iend     IEND_T (S total)      depth  depth_t (S total)
+ *   offsets, soff  uint (sum R^2, + 1); summary IEND_T; pairs pair_t: the
+ *            search layout of csm_common.h, every type's entries shifted so
+ *            they index the concatenated arrays directly
  *   bases    float (sum D, 9)      rows u, v, d of every map
  *   cells    int   (sum cells)     hilbert cell -> map index
  *   inst     float (NINST, 32): A (3x3, rows) 0..8, c 9..11, Rw (3x3) 12..20,
@@ -49,7 +50,7 @@
  * its precision for scenes far from the world origin).
  *
  * Macros
- *   DEPTH_BITS, IEND_T   storage of the atlas (csm_common.h)
+ *   DEPTH_BITS, IEND_T, PAIR_WIDE   storage of the atlas (csm_common.h)
  *   NTYPES               number of CSM types (>= 0)
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
@@ -65,29 +66,6 @@ inline float3 bases_row(__global const float *bases, int view, int row)
     return vload3(3 * view + row, bases);
 }
 
-#if LAYOUT_ZIGZAG
-inline int nearest_zigzag(__global const float *bases, int vbase, int T, int P, float3 w)
-{
-    const float th = acos(clamp(w.y, -1.0f, 1.0f));
-    float ph = atan2(w.z, w.x);
-    if (ph < 0.0f) ph += 2.0f * PI_F;
-    const int r0 = clamp((int)floor(th * ((float)T / PI_F)), 0, T - 1);
-    int c0 = clamp((int)floor(ph * ((float)P / (2.0f * PI_F))), 0, P);
-    if (c0 >= P) c0 -= P;
-    int best = 0;
-    float bd = -2.0f;
-    for (int dr = 0; dr < 2; ++dr) {
-        const int r = min(r0 + dr, T - 1);
-        for (int dc = 0; dc < 2; ++dc) {
-            const int c = (c0 + dc >= P) ? c0 + dc - P : c0 + dc;
-            const int k = r * P + ((r & 1) ? (P - 1 - c) : c);
-            const float dd = dot(bases_row(bases, vbase + k, 2), w);
-            if (dd > bd) { bd = dd; best = k; }
-        }
-    }
-    return best;
-}
-#endif
 
 #if LAYOUT_HILBERT
 /* fold a cell index that left its square back onto the sphere (views.py) */
@@ -145,8 +123,9 @@ inline int nearest_hilbert(__global const float *bases, int vbase, __global cons
 typedef struct {
     __global const int *types;
     __global const uint *offsets;
-    __global const IEND_T *iend;
-    __global const depth_t *zs;
+    __global const uint *soff;
+    __global const IEND_T *summary;
+    __global const pair_t *pairs;
     __global const float *bases;
     __global const int *cells;
     __global const float *inst;
@@ -156,98 +135,211 @@ typedef struct {
     float bias_abs, bias_texels, bias_tan, bias_other;
 } scene_t;
 
-/* 1 if instance j's CSM shadows point p (world, anchor-relative) along w.
- * self: whether p may lie on instance j's own surface (then the bias keeps
- * that surface from shadowing itself; against any other caster only the
- * depth quantum is allowed, so contact shadows stay sharp). */
-inline int instance_occludes(const scene_t *S, int j, float3 p, float3 w, int self)
-{
-    __global const float *I = S->inst + 32 * j;
-    /* bounding-sphere cull: the ray p + t w, t >= 0, must come within radius */
-    const float3 oc = (float3)(I[21], I[22], I[23]) - p;
-    const float rad = I[24];
-    const float tca = dot(oc, w);
-    const float oc2 = dot(oc, oc);
-    if (oc2 > rad * rad && (tca < 0.0f || oc2 - tca * tca > rad * rad)) return 0;
+/* ---------------------------------------------------------------------
+ * Queries are answered LANES (16) at a time: the arithmetic runs on float16
+ * vectors (one lane per query), the table reads (map bases, list offsets,
+ * the binary searches, stored depths) run lane by lane -- the searches in
+ * lockstep, so the lanes' cache misses overlap instead of queueing.
+ * ------------------------------------------------------------------- */
+#define LANES 16
+typedef float16 fv;
+typedef int16 iv;
 
-    __global const int *T = S->types + 8 * S->itype[j];
-    const int R = T[0], layout = T[2], vbase = T[6];
-    const float3 pn = (float3)(I[0] * p.x + I[1] * p.y + I[2] * p.z + I[9],
-                               I[3] * p.x + I[4] * p.y + I[5] * p.z + I[10],
-                               I[6] * p.x + I[7] * p.y + I[8] * p.z + I[11]);
-    const float3 wn = normalize((float3)(I[12] * w.x + I[13] * w.y + I[14] * w.z,
-                                         I[15] * w.x + I[16] * w.y + I[17] * w.z,
-                                         I[18] * w.x + I[19] * w.y + I[20] * w.z));
-    int k = 0;
 #if LAYOUT_ZIGZAG
-    if (layout == 0) k = nearest_zigzag(S->bases, vbase, T[3], T[4], wn);
-#endif
-#if LAYOUT_HILBERT
-    if (layout != 0) k = nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2, wn);
-#endif
-    const float3 bu = bases_row(S->bases, vbase + k, 0);
-    const float3 bv = bases_row(S->bases, vbase + k, 1);
-    const float3 bd = bases_row(S->bases, vbase + k, 2);
-    const float depth = (1.0f - dot(pn, bd)) * 0.5f;
-    if (!(depth > 0.0f)) return 0;
-    const float fx = (dot(pn, bu) + 1.0f) * 0.5f * (float)R;
-    const float fy = (dot(pn, bv) + 1.0f) * 0.5f * (float)R;
-    if (!(fx >= 0.0f && fx < (float)R && fy >= 0.0f && fy < (float)R)) return 0;
-    const int col = min((int)fx, R - 1), row = min((int)fy, R - 1);
-    const uint tex = (uint)(row * R + col);
-    __global const uint *off = S->offsets + T[5];
-    const uint s = csm_find(S->iend, off[tex], off[tex + 1], (uint)k, (uint)T[1]);
-    const float z = stored_depth(S->zs[s]);
-    /* depth tolerance against the point's own surface: a quantum, a share
-     * of a texel and the angle a between the query direction and the map's
-     * axis; against other casters only bias_other (the quantum) */
-    float bias = S->bias_other;
-    if (self) {
-        const float ca = clamp(dot(wn, bd), 1e-3f, 1.0f);
-        const float tan_a = sqrt(fmax(1.0f - ca * ca, 0.0f)) / ca;
-        bias = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+/* map nearest to each lane's direction on a zigzag grid (views.py): the
+ * 2 x 2 grid points around (theta, phi), compared by dot product */
+inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
+{
+    const fv th = acos(clamp(wy, -1.0f, 1.0f));
+    fv ph = atan2(wz, wx);
+    ph = select(ph, ph + 2.0f * PI_F, ph < 0.0f);
+    const iv r0 = clamp(convert_int16(floor(th * ((float)T / PI_F))), 0, T - 1);
+    iv c0 = clamp(convert_int16(floor(ph * ((float)P / (2.0f * PI_F)))), 0, P);
+    c0 = select(c0, c0 - P, c0 >= P);
+    const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
+    fv best_d = (fv)(-2.0f);
+    iv best = (iv)(0);
+    for (int dr = 0; dr < 2; ++dr) {
+        const iv r = min(r0 + dr, T - 1);
+        fv ct;
+        const fv st = sincos(convert_float16(r) * dth, &ct);
+        for (int dc = 0; dc < 2; ++dc) {
+            iv c = c0 + dc;
+            c = select(c, c - P, c >= P);
+            fv cp;
+            const fv sp = sincos(convert_float16(c) * dph, &cp);
+            const fv dd = wx * (st * cp) + wy * ct + wz * (st * sp);
+            const iv k = r * P + select(c, (iv)(P - 1) - c, (r & 1) != 0);
+            const iv take = dd > best_d;
+            best_d = select(best_d, dd, take);
+            best = select(best, k, take);
+        }
     }
-    return depth > z + bias;
+    return best;
 }
+#endif
 
-/* owner: caster slot whose surface p lies on; -1 unknown (bias against
- * every caster); -2 on no caster (ground, receivers: no self bias) */
-inline int occluded(const scene_t *S, float3 p, float3 w, int owner)
+/* lanes (-1 = true) occluded by the scene; occ: lanes already decided */
+inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own, iv occ)
 {
 #if GROUND
     /* within ground_eps of the plane counts as on it (above) */
-    const float h = p.y - S->ground_y;
-    if ((h >= -S->ground_eps && w.y < 0.0f) || (h < -S->ground_eps && w.y > 0.0f)) return 1;
+    const fv h = py - S->ground_y;
+    occ |= ((h >= -S->ground_eps) & (wy < 0.0f)) | ((h < -S->ground_eps) & (wy > 0.0f));
 #endif
     for (int j = 0; j < S->ninst; ++j) {
-        if (instance_occludes(S, j, p, w, owner == -1 || owner == j)) return 1;
+        if (all(occ)) break;
+        __global const float *I = S->inst + 32 * j;
+        /* bounding-sphere cull: the ray p + t w, t >= 0, must come within radius */
+        const fv ox = I[21] - px, oy = I[22] - py, oz = I[23] - pz;
+        const fv tca = ox * wx + oy * wy + oz * wz;
+        const fv oc2 = ox * ox + oy * oy + oz * oz;
+        const float r2 = I[24] * I[24];
+        const iv act = ~occ & ~((oc2 > r2) & ((tca < 0.0f) | (oc2 - tca * tca > r2)));
+        if (!any(act)) continue;
+
+        __global const int *T = S->types + 8 * S->itype[j];
+        const int R = T[0], layout = T[2], vbase = T[6];
+        const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
+        const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
+        const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
+        fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
+        fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
+        fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
+        const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
+        vx *= inv; vy *= inv; vz *= inv;
+
+        iv k = (iv)(0);
+#if LAYOUT_ZIGZAG
+        if (layout == 0) k = nearest_zigzag16(T[3], T[4], vx, vy, vz);
+#endif
+        int ka[LANES], am[LANES];
+        vstore16(act, 0, am);
+#if LAYOUT_HILBERT
+        if (layout != 0) {
+            float ax[LANES], ay[LANES], az[LANES];
+            vstore16(vx, 0, ax); vstore16(vy, 0, ay); vstore16(vz, 0, az);
+            for (int l = 0; l < LANES; ++l)
+                ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+                                                (float3)(ax[l], ay[l], az[l])) : 0;
+        } else
+#endif
+        {
+            vstore16(k, 0, ka);
+        }
+        /* the bases of each lane's map */
+        float bu[3][LANES], bv[3][LANES], bd[3][LANES];
+        for (int l = 0; l < LANES; ++l) {
+            __global const float *B = S->bases + 9 * (vbase + ka[l]);
+            bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
+            bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
+            bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
+        }
+        const fv dx = vload16(0, bd[0]), dy = vload16(0, bd[1]), dz = vload16(0, bd[2]);
+        const fv depth = (1.0f - (qx * dx + qy * dy + qz * dz)) * 0.5f;
+        const fv fx = (qx * vload16(0, bu[0]) + qy * vload16(0, bu[1]) + qz * vload16(0, bu[2]) + 1.0f)
+                      * (0.5f * (float)R);
+        const fv fy = (qx * vload16(0, bv[0]) + qy * vload16(0, bv[1]) + qz * vload16(0, bv[2]) + 1.0f)
+                      * (0.5f * (float)R);
+        const iv valid = act & (depth > 0.0f) & (fx >= 0.0f) & (fx < (float)R)
+                         & (fy >= 0.0f) & (fy < (float)R);
+        if (!any(valid)) continue;
+        const iv tex = min(convert_int16(fy), R - 1) * R + min(convert_int16(fx), R - 1);
+        int ta[LANES], va[LANES];
+        vstore16(tex, 0, ta);
+        vstore16(valid, 0, va);
+        /* csm_find() of csm_common.h for every lane, the lanes in lockstep:
+         * first the list's block summary, then the block */
+        __global const uint *off = S->offsets + T[5];
+        __global const uint *sof = S->soff + T[5];
+        uint lo[LANES], hi[LANES], base[LANES], ba[LANES], end[LANES];
+        for (int l = 0; l < LANES; ++l) {
+            const uint t = va[l] ? (uint)ta[l] : 0u;
+            base[l] = off[t];
+            end[l] = off[t + 1];
+            ba[l] = sof[t];
+            lo[l] = ba[l];
+            hi[l] = va[l] ? sof[t + 1] - 1u : ba[l];
+        }
+        for (int more = 1; more;) {
+            more = 0;
+            for (int l = 0; l < LANES; ++l) {
+                if (lo[l] < hi[l]) {
+                    const uint mid = lo[l] + ((hi[l] - lo[l]) >> 1);
+                    if ((uint)S->summary[mid] < (uint)ka[l]) lo[l] = mid + 1u; else hi[l] = mid;
+                    more = 1;
+                }
+            }
+        }
+        for (int l = 0; l < LANES; ++l) {
+            const uint b0 = base[l] + SEARCH_BLOCK * (lo[l] - ba[l]);
+            lo[l] = b0;
+            hi[l] = va[l] ? min(b0 + SEARCH_BLOCK, end[l]) - 1u : b0;
+        }
+        for (int more = 1; more;) {
+            more = 0;
+            for (int l = 0; l < LANES; ++l) {
+                if (lo[l] < hi[l]) {
+                    const uint mid = lo[l] + ((hi[l] - lo[l]) >> 1);
+                    if ((uint)PAIR_IEND(S->pairs[mid]) < (uint)ka[l]) lo[l] = mid + 1u; else hi[l] = mid;
+                    more = 1;
+                }
+            }
+        }
+        float za[LANES];
+        for (int l = 0; l < LANES; ++l)
+            za[l] = va[l] ? stored_depth(PAIR_STORED(S->pairs[lo[l]])) : INFINITY;
+        /* depth tolerance against the point's own surface: a quantum, a share
+         * of a texel and the angle a between the query direction and the
+         * map's axis; against other casters only bias_other (the quantum) */
+        const fv ca = clamp(vx * dx + vy * dy + vz * dz, 1e-3f, 1.0f);
+        const fv tan_a = sqrt(fmax(1.0f - ca * ca, 0.0f)) / ca;
+        const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+        const fv bias = select((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+        occ |= valid & (depth > vload16(0, za) + bias);
     }
-    return 0;
+    return occ;
 }
 
 #define SCENE_ARGS __global const int *types, __global const uint *offsets,           \
-                   __global const IEND_T *iend, __global const depth_t *zs,             \
+                   __global const uint *soff, __global const IEND_T *summary,            \
+                   __global const pair_t *pairs,                                         \
                    __global const float *bases, __global const int *cells,              \
                    __global const float *inst, __global const int *itype,               \
                    const int ninst, const float ground_y, const float ground_eps,        \
                    const float bias_abs,                                                 \
                    const float bias_texels, const float bias_tan, const float bias_other
 
-#define SCENE_INIT scene_t S = {types, offsets, iend, zs, bases, cells, inst, itype,   \
+#define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
+                                inst, itype,                                            \
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
                                 bias_other}
 
+/* queries LANES at a time; inputs are structure-of-arrays padded to a
+ * multiple of LANES (padding lanes are answered and ignored by the host) */
 __kernel void scene_visible(SCENE_ARGS, const int n, __global const float *points,
                             __global const float *dirs, __global const int *owner,
                             __global uchar *out)
 {
-    const int i = get_global_id(0);
-    if (i >= n) return;
+    const int base = get_global_id(0) * LANES;
+    if (base >= n) return;
     SCENE_INIT;
-    out[i] = occluded(&S, vload3(i, points), normalize(vload3(i, dirs)), owner[i]) ? 0 : 1;
+    const int stride = get_global_size(0) * LANES;     /* = padded N */
+    const fv px = vload16(0, points + base), py = vload16(0, points + stride + base),
+             pz = vload16(0, points + 2 * stride + base);
+    fv wx = vload16(0, dirs + base), wy = vload16(0, dirs + stride + base),
+       wz = vload16(0, dirs + 2 * stride + base);
+    const fv inv = 1.0f / sqrt(wx * wx + wy * wy + wz * wz);
+    wx *= inv; wy *= inv; wz *= inv;
+    const iv occ = occluded16(&S, px, py, pz, wx, wy, wz, vload16(0, owner + base), (iv)(0));
+    vstore16(convert_uchar16(occ + 1), 0, out + base);     /* -1 -> 0, 0 -> 1 */
 }
 
 #ifdef SAMPLES
+/* one work-item per point; its SAMPLES directions LANES at a time. table:
+ * local directions per pattern as (M, 3, SPAD) structure of arrays, SPAD =
+ * SAMPLES rounded up to LANES (padding lanes are masked out). */
+#define SPAD (((SAMPLES + LANES - 1) / LANES) * LANES)
 __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *normals, __global const int *pidx,
                        __global const int *owner,
@@ -259,20 +351,34 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     SCENE_INIT;
     const float3 p = vload3(i, points);
     const float3 nrm = vload3(i, normals);
-    const int own = owner[i];
+    const iv own = (iv)(owner[i]);
     float3 t, b;
     hemisphere_frame(nrm, &t, &b);
-    __global const float *pat = table + (size_t)pidx[i] * SAMPLES * 3;
+    __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
     int open = 0;
     float3 sum = (float3)(0.0f);
-    for (int s = 0; s < SAMPLES; ++s) {
-        const float3 w = cosine_direction(nrm, t, b, vload3(s, pat));
-        if (!occluded(&S, p, w, own)) {
-            ++open;
+    for (int s0 = 0; s0 < SPAD; s0 += LANES) {
+        const fv lx = vload16(0, pat + s0), ly = vload16(0, pat + SPAD + s0),
+                 lz = vload16(0, pat + 2 * SPAD + s0);
+        /* cosine_direction() of sampling.h, per lane, same operations */
+        const fv wx = (lx * t.x + ly * nrm.x) + lz * b.x;
+        const fv wy = (lx * t.y + ly * nrm.y) + lz * b.y;
+        const fv wz = (lx * t.z + ly * nrm.z) + lz * b.z;
+        const iv pad = (iv)(s0) + (iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15) >= SAMPLES;
+        const iv occ = occluded16(&S, (fv)(p.x), (fv)(p.y), (fv)(p.z), wx, wy, wz, own, pad);
+        const iv lit = ~occ & ~pad;
+        open -= (lit.s0 + lit.s1 + lit.s2 + lit.s3 + lit.s4 + lit.s5 + lit.s6 + lit.s7
+                 + lit.s8 + lit.s9 + lit.sa + lit.sb + lit.sc + lit.sd + lit.se + lit.sf);
 #if BENT_NORMALS
-            sum += w;
+        const fv m = convert_float16(-lit);
+        const fv sx = wx * m, sy = wy * m, sz = wz * m;
+        sum += (float3)(sx.s0 + sx.s1 + sx.s2 + sx.s3 + sx.s4 + sx.s5 + sx.s6 + sx.s7
+                        + sx.s8 + sx.s9 + sx.sa + sx.sb + sx.sc + sx.sd + sx.se + sx.sf,
+                        sy.s0 + sy.s1 + sy.s2 + sy.s3 + sy.s4 + sy.s5 + sy.s6 + sy.s7
+                        + sy.s8 + sy.s9 + sy.sa + sy.sb + sy.sc + sy.sd + sy.se + sy.sf,
+                        sz.s0 + sz.s1 + sz.s2 + sz.s3 + sz.s4 + sz.s5 + sz.s6 + sz.s7
+                        + sz.s8 + sz.s9 + sz.sa + sz.sb + sz.sc + sz.sd + sz.se + sz.sf);
 #endif
-        }
     }
     ao[i] = (float)open / (float)SAMPLES;
 #if BENT_NORMALS

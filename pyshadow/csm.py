@@ -50,6 +50,7 @@ from .views import ViewSet
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
+SEARCH_BLOCK = 16        # segments per block of the device search summary
 MISS16 = 65535           # 16-bit stored value of a miss (+inf)
 MAGIC = b"PYSHCSM\x00"
 FORMAT_VERSION = 1
@@ -346,22 +347,61 @@ class CoherentShadowMap:
     # device side
     # ------------------------------------------------------------------
     @property
+    def pair_wide(self) -> bool:
+        """Whether the device pairs need 32-bit fields (32-bit depth or i_end)."""
+        return self.depth_bits == 32 or self.iend.dtype != np.uint16
+
+    @property
     def defines(self) -> dict:
         """Compile-time macros that describe this CSM's storage to a kernel."""
         return {"RES": self.resolution, "DEPTH_BITS": self.depth_bits,
-                "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint"}
+                "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint",
+                "PAIR_WIDE": int(self.pair_wide)}
+
+    def search_arrays(self, wide: bool | None = None) -> dict:
+        """The device layout the search kernels read (kernels/csm_common.h).
+
+        Returns
+        -------
+        dict
+            ``offsets`` uint32 (R*R+1); ``soff`` uint32 (R*R+1), each texel's
+            range in ``summary``; ``summary`` (iend dtype), the last i_end of
+            every block of ``SEARCH_BLOCK`` (16) segments of a list; ``pairs``
+            each segment's i_end and stored depth side by side: uint32
+            ``depth << 16 | iend`` or, when ``wide`` (default
+            :attr:`pair_wide`), uint32 (S, 2) ``(iend, depth bits)``.
+        """
+        wide = self.pair_wide if wide is None else bool(wide)
+        if self.offsets.dtype != np.uint32:
+            raise ValueError("CSMs with 2^32 or more segments are not supported on the device")
+        off = np.asarray(self.offsets, dtype=np.int64)
+        iend = np.asarray(self.iend)
+        lens = np.diff(off)
+        nblocks = -(-lens // SEARCH_BLOCK)
+        soff = np.zeros(len(off), np.int64)
+        np.cumsum(nblocks, out=soff[1:])
+        texel = np.repeat(np.arange(len(lens)), nblocks)
+        j = np.arange(int(soff[-1])) - soff[:-1][texel]
+        last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
+        summary = iend[last]
+        if wide:
+            pairs = np.empty((len(iend), 2), np.uint32)
+            pairs[:, 0] = iend
+            pairs[:, 1] = np.asarray(self.depth).view(np.uint32) if self.depth_bits == 32 else self.depth
+        else:
+            pairs = (np.asarray(self.depth, np.uint32) << 16) | np.asarray(iend, np.uint32)
+        return {"offsets": off.astype(np.uint32), "soff": soff.astype(np.uint32),
+                "summary": summary, "pairs": pairs}
 
     def device_buffers(self):
-        """(offsets, iend, depth) as device buffers, uploaded once and kept."""
+        """(offsets, soff, summary, pairs) as device buffers, uploaded once and kept."""
         if self._device is None:
-            if self.offsets.dtype != np.uint32:
-                raise ValueError("CSMs with 2^32 or more segments are not supported on the device")
-            self._device = (_cl.to_device(self.offsets), _cl.to_device(self.iend),
-                            _cl.to_device(self.depth))
+            a = self.search_arrays()
+            self._device = tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs"))
         return self._device
 
     def segment_index(self, map_index, rows, cols) -> np.ndarray:
-        """Index of the segment holding (map, texel), by the kernels' binary search."""
+        """Index of the segment holding (map, texel), by the kernels' search (csm_find)."""
         m, r, c = np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols))
         shape = m.shape
         m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (m, r, c))
@@ -374,8 +414,7 @@ class CoherentShadowMap:
         if len(m):
             k = _cl.kernel("csm_query.cl", "csm_lookup", self.defines)
             buf = _cl.empty(out.nbytes)
-            offs, iend, _z = self.device_buffers()
-            k(_cl.queue(), (len(m),), None, offs, iend, np.int32(D), np.int32(len(m)),
+            k(_cl.queue(), (len(m),), None, *self.device_buffers(), np.int32(len(m)),
               _cl.to_device(m, np.int32), _cl.to_device(r * R + c, np.int32), buf)
             cl.enqueue_copy(_cl.queue(), out, buf)
         return out.reshape(shape)

@@ -20,13 +20,14 @@ import pyopencl as cl
 import trimesh
 
 from . import _cl
-from .csm import DEPTH_Q, MISS16, CoherentShadowMap
+from .csm import DEPTH_Q, CoherentShadowMap
 from .gbuffer import check_transform
 from .mesh import bounding_sphere, load_mesh, mesh_hash
 from .sampling import check_sampling, direction_table, pattern_indices
 from .views import ViewSet
 
-__all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN"]
+__all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
+           "visible_reference"]
 
 GROUND_ID = -2           # object id of the ground plane in rendered images
 DEFAULT_BIAS_TEXELS = 1.5
@@ -77,6 +78,34 @@ def _rows3(a, name, n=None, dtype=np.float64):
     if not np.isfinite(a).all():
         bad = int((~np.isfinite(a).all(axis=1)).sum())
         raise ValueError(f"{name}: {bad} rows are not finite")
+    return a
+
+
+LANES = 16          # queries per work-item in kernels/visibility.cl
+
+
+def _lane_table(table):
+    """(M, S, 3) local directions -> (M, 3, S padded to LANES) for the lane kernels.
+
+    Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
+    """
+    M, S, _ = table.shape
+    spad = -(-S // LANES) * LANES
+    out = np.zeros((M, 3, spad), np.float32)
+    out[:, 1, :] = 1.0
+    out[:, :, :S] = table.transpose(0, 2, 1)
+    return out
+
+
+def _check_rows(a, name, n=None):
+    """Shape and dtype checks of an (N, 3) array, no copy (values are checked later)."""
+    a = np.asarray(a)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+    if n is not None and len(a) != n:
+        raise ValueError(f"{name} has {len(a)} rows but points has {n} (shapes must match)")
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be numeric, got {a.dtype}")
     return a
 
 
@@ -221,9 +250,11 @@ class Scene:
         if self._atlas is not None and self._atlas_key == key:
             return self._atlas, index
         bits = 16 if all(c.depth_bits == 16 for c in types) else 32
-        wide = any(c.iend.dtype != np.uint16 for c in types)
-        trow, offs, iends, zs, bases, cells = [], [], [], [], [], []
-        seg = view = cell = tex = 0
+        wide_iend = any(c.iend.dtype != np.uint16 for c in types)
+        wide = bits == 32 or wide_iend
+        di = np.uint32 if wide_iend else np.uint16
+        trow, offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], [], []
+        seg = blk = view = cell = tex = 0
         for c in types:
             R, D = c.resolution, c.maps
             if c.segments + seg >= 2**32:
@@ -236,42 +267,51 @@ class Scene:
                 p1, p2 = p["level"], 0
                 if p.get("hemispheres"):
                     layout = 2
-                table = c.views._hilbert_cells().reshape(-1)
-                cells.append(table.astype(np.int32))
+                cells.append(c.views._hilbert_cells().reshape(-1).astype(np.int32))
+            a = c.search_arrays(wide=c.pair_wide)
             trow.append([R, D, layout, p1, p2, tex, view, cell])
-            offs.append(np.asarray(c.offsets[:-1], dtype=np.int64) + seg)
-            iends.append(np.asarray(c.iend, dtype=np.uint32 if wide else np.uint16))
-            if bits == 16:
-                zs.append(np.asarray(c.depth, dtype=np.uint16))
+            offs.append(a["offsets"][:-1].astype(np.int64) + seg)
+            soffs.append(a["soff"][:-1].astype(np.int64) + blk)
+            summ.append(a["summary"].astype(di))
+            if not wide:
+                pairs.append(a["pairs"])
             else:
-                zs.append(c.stored_to_depth(c.depth).astype(np.float32))
+                pr = np.empty((c.segments, 2), np.uint32)
+                pr[:, 0] = c.iend
+                if bits == 32:
+                    pr[:, 1] = c.stored_to_depth(c.depth).astype(np.float32).view(np.uint32)
+                else:
+                    pr[:, 1] = c.depth
+                pairs.append(pr)
             bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
             seg += c.segments
+            blk += len(a["summary"])
             view += D
             tex += R * R
             cell += len(cells[-1]) if c.views.layout == "hilbert" else 0
+        # every type's tables end where the next type's begin; the last entries
+        # close the final type (offsets[tex_base + R*R], soff[...] as the search needs)
         offs.append(np.array([seg], dtype=np.int64))
-        # every type's list table ends where the next begins: offsets[tex_base + R*R]
-        # is the next type's first entry (or the final total), as the search needs.
-        dz = np.uint16 if bits == 16 else np.float32
-        di = np.uint32 if wide else np.uint16
+        soffs.append(np.array([blk], dtype=np.int64))
 
-        def cat(parts, dtype):
-            return np.concatenate(parts).astype(dtype) if parts else np.zeros(1, dtype)
+        def cat(parts, dtype, empty):
+            return np.concatenate(parts).astype(dtype) if parts else np.asarray(empty, dtype)
 
         atlas = {
             "bits": bits,
-            "iend_t": "uint" if wide else "ushort",
+            "iend_t": "uint" if wide_iend else "ushort",
+            "pair_wide": int(wide),
             "ntypes": len(types),
             "layouts": {c.views.layout for c in types},
             "quantum": 1.0 / DEPTH_Q if bits == 16 else 0.0,
             "buffers": [
                 _cl.to_device(np.array(trow, np.int32).reshape(-1, 8) if trow else np.zeros((1, 8), np.int32)),
-                _cl.to_device(cat(offs, np.uint32)),
-                _cl.to_device(cat(iends, di)),
-                _cl.to_device(cat(zs, dz) if zs else np.array([MISS16 if bits == 16 else np.inf], dz)),
-                _cl.to_device(cat(bases, np.float32)),
-                _cl.to_device(cat(cells, np.int32)),
+                _cl.to_device(cat(offs, np.uint32, [0])),
+                _cl.to_device(cat(soffs, np.uint32, [0])),
+                _cl.to_device(cat(summ, di, [0])),
+                _cl.to_device(cat(pairs, np.uint32, [0, 0] if wide else [0])),
+                _cl.to_device(cat(bases, np.float32, np.zeros(9))),
+                _cl.to_device(cat(cells, np.int32, [0])),
             ],
         }
         self._atlas, self._atlas_key = atlas, key
@@ -345,7 +385,8 @@ class Scene:
         return slot[ids]
 
     def _defines(self, atlas, **extra):
-        d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "NTYPES": atlas["ntypes"],
+        d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
+             "NTYPES": atlas["ntypes"],
              "GROUND": int(self.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"])}
@@ -397,24 +438,45 @@ class Scene:
         ndarray, shape (N,), bool
             True where the ray reaches the sky.
         """
-        p = _rows3(points, "points")
-        w = _nonzero(_rows3(directions, "directions", len(p), np.float32), "directions")
-        own = self._owners(surface_ids, len(p))
-        out = np.empty(len(p), np.bool_)
-        if len(p) == 0:
+        p = _check_rows(points, "points")
+        w = _check_rows(directions, "directions", len(p))
+        n = len(p)
+        own = self._owners(surface_ids, n)
+        out = np.empty(n, np.bool_)
+        if n == 0:
             return out
         anchor = self._anchor(p)
-        atlas, args = self._scene_args(anchor, bias)
-        k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas))
-        q = _cl.queue()
-        chunk = 1 << 22
-        for s in range(0, len(p), chunk):
-            e = min(len(p), s + chunk)
-            buf = _cl.empty(e - s)
-            rel = (p[s:e] - anchor).astype(np.float32)
-            k(q, (e - s,), None, *args, np.int32(e - s), _cl.to_device(rel), _cl.to_device(w[s:e]),
-              _cl.to_device(own[s:e]), buf)
-            cl.enqueue_copy(q, out[s:e].view(np.uint8), buf)
+        k = None
+        chunk = 1 << 22                       # a multiple of the kernel's 16 lanes
+        for s in range(0, n, chunk):
+            e = min(n, s + chunk)
+            m = -(-(e - s) // LANES) * LANES  # padded to whole lanes
+            # structure of arrays, float32, relative to the anchor (one pass per column)
+            soa_p = np.zeros((3, m), np.float32)
+            soa_w = np.zeros((3, m), np.float32)
+            soa_w[1, e - s:] = 1.0
+            for c in range(3):
+                np.subtract(p[s:e, c], anchor[c], out=soa_p[c, : e - s], casting="unsafe")
+                soa_w[c, : e - s] = w[s:e, c]
+            for name, arr in (("points", soa_p), ("directions", soa_w)):
+                if not np.isfinite(arr).all():
+                    bad = int((~np.isfinite(arr).all(axis=0)).sum())
+                    raise ValueError(f"{name}: {bad} rows are not finite")
+            sq = soa_w[0] * soa_w[0] + soa_w[1] * soa_w[1] + soa_w[2] * soa_w[2]
+            if not (sq > 0).all():
+                raise ValueError(f"directions: {int((sq <= 0).sum())} rows are zero vectors")
+            o = np.full(m, -2, np.int32)
+            o[: e - s] = own[s:e]
+            if k is None:                     # inputs are valid: now touch the device
+                atlas, args = self._scene_args(anchor, bias)
+                k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas))
+                q = _cl.queue()
+            buf = _cl.empty(m)
+            k(q, (m // LANES,), None, *args, np.int32(m), _cl.to_device(soa_p), _cl.to_device(soa_w),
+              _cl.to_device(o), buf)
+            res = np.empty(m, np.uint8)
+            cl.enqueue_copy(q, res, buf)
+            out[s:e] = res[: e - s].view(np.bool_)
         return out
 
     def ambient_occlusion(self, points, normals, samples: int = 36, strategy: str = "hammersley",
@@ -470,7 +532,7 @@ class Scene:
             atlas, args = self._scene_args(anchor, bias)
             k = _cl.kernel("visibility.cl", "scene_ao",
                            self._defines(atlas, SAMPLES=S, BENT_NORMALS=int(bool(bent_normals))))
-            table = _cl.to_device(direction_table(S, strategy, patterns, seed))
+            table = _cl.to_device(_lane_table(direction_table(S, strategy, patterns, seed)))
             pidx = pattern_indices(idx, patterns, seed)
             q = _cl.queue()
             chunk = max(1, (1 << 24) // S)
@@ -623,3 +685,72 @@ class Scene:
             elif filter == "box":
                 out["ao"] = filters.edge_aware_box(out["ao"], g["depth"], g["normal"])
         return out
+
+
+# ---------------------------------------------------------------------------
+# NumPy reference of the visibility kernel (float64, small inputs)
+# ---------------------------------------------------------------------------
+def visible_reference(scene: Scene, points, directions, *, bias: float | None = None,
+                      surface_ids=None) -> np.ndarray:
+    """NumPy version of :meth:`Scene.visible` (the same rules in float64).
+
+    For each caster: bounding-sphere cull, the point and direction in the
+    instance's normalised frame, the nearest map (:meth:`ViewSet.nearest`),
+    the texel, the stored depth of that (map, texel) found with
+    ``searchsorted`` on the segment lists, and the comparison with the bias;
+    then the analytic ground plane. Differences to the kernel come only from
+    float32 rounding (e.g. a direction almost exactly between two maps).
+    """
+    p = _rows3(points, "points")
+    w = _nonzero(_rows3(directions, "directions", len(p)), "directions")
+    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    own = scene._owners(surface_ids, len(p))
+    occ = np.zeros(len(p), bool)
+    if scene.ground is not None:
+        h = p[:, 1] - scene.ground
+        eps = 1e-5 * scene.scale()
+        occ |= ((h >= -eps) & (w[:, 1] < 0)) | ((h < -eps) & (w[:, 1] > 0))
+    types, _ = scene._types()
+    bits = 16 if all(c.depth_bits == 16 for c in types) else 32
+    quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
+    for slot, i in enumerate(scene.casters):
+        inst = scene.instances[i]
+        csm = inst.csm
+        wc, wr = inst.world_sphere()
+        oc = wc - p
+        tca = np.einsum("ij,ij->i", oc, w)
+        oc2 = np.einsum("ij,ij->i", oc, oc)
+        r2 = (wr * (1 + 1e-6)) ** 2
+        act = ~occ & ~((oc2 > r2) & ((tca < 0) | (oc2 - tca * tca > r2)))
+        if not act.any():
+            continue
+        Rm, s = inst.rotation, inst.scale
+        t = inst.transform[:3, 3]
+        pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
+        wn = w[act] @ Rm
+        k = csm.views.nearest(wn)
+        B = csm.views.bases[k]
+        R = csm.resolution
+        depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
+        fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
+        fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
+        valid = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
+        tex = np.minimum(fy.astype(np.int64), R - 1) * R + np.minimum(fx.astype(np.int64), R - 1)
+        # global keys texel * D + i_end are sorted: one searchsorted finds every segment
+        off = np.asarray(csm.offsets, dtype=np.int64)
+        seg_texel = np.repeat(np.arange(R * R), np.diff(off))
+        keys = seg_texel * csm.maps + np.asarray(csm.iend, dtype=np.int64)
+        seg = np.searchsorted(keys, np.where(valid, tex, 0) * csm.maps + k)
+        z = csm.stored_to_depth(np.asarray(csm.depth)[np.minimum(seg, len(keys) - 1)])
+        if bias is None:
+            ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
+            tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
+            b_self = quantum + (DEFAULT_BIAS_TEXELS + DEFAULT_BIAS_TAN * tan_a) / R
+            self_ = (own[act] == -1) | (own[act] == slot)
+            b = np.where(self_, b_self, quantum)
+        else:
+            b = float(bias)
+        hit = valid & (depth > z + b)
+        idx = np.flatnonzero(act)
+        occ[idx[hit]] = True
+    return ~occ

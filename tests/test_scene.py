@@ -371,3 +371,27 @@ def test_scene_rejects_bad_instances(small_scene):
         small_scene.add(small_scene.instances[0].csm, casts=False)
     with pytest.raises(ValueError, match="does not match"):
         small_scene.add(small_scene.instances[0].csm, mesh=trimesh.creation.icosphere())
+
+
+@pytest.mark.parametrize("layout", ["zigzag", "hilbert", "hilbert2"])
+def test_visible_kernel_matches_numpy_reference(layout, rng):
+    """The kernel against the float64 NumPy reference of the same rules."""
+    from pyshadow.scene import visible_reference
+
+    bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
+    views = {"zigzag": pyshadow.ViewSet.zigzag(16, 32), "hilbert": pyshadow.ViewSet.hilbert(4),
+             "hilbert2": pyshadow.ViewSet.hilbert(4, True)}[layout]
+    scene = pyshadow.Scene(ground=0.0, views=views, resolution=64)
+    scene.add(bunny, on_ground(bunny, unit_frame(bunny)))
+    scene.add(fan, on_ground(fan, unit_frame(fan, 0.7, rotation=trimesh.transformations.rotation_matrix(
+        0.5, [0, 1, 0])[:3, :3], offset=(1.6, 0, 0.3))))
+    p0, d0 = surface_queries(scene, 0, 2000, 8, rng)
+    p1, d1 = surface_queries(scene, 1, 1000, 8, rng)
+    p = np.concatenate([p0, p1])
+    d = np.concatenate([d0, d1])
+    ids = np.concatenate([np.zeros(len(p0), int), np.ones(len(p1), int)])
+    for kwargs in ({}, {"surface_ids": ids}, {"bias": 0.01}):
+        ours = scene.visible(p, d, **kwargs)
+        ref = visible_reference(scene, p, d, **kwargs)
+        assert 0.2 < ref.mean() < 0.95
+        assert (ours == ref).mean() > 0.999, kwargs

@@ -12,7 +12,7 @@
  *   out uint (N)  written
  * Macros: RES, DEPTH_BITS (16 or 32), IEND_T (ushort or uint), PAIR_WIDE
  */
-#include "csm_common.h"
+#include "csm_search.h"
 
 __kernel void csm_lookup(__global const uint *offsets, __global const uint *soff,
                          __global const IEND_T *summary, __global const pair_t *pairs,

@@ -55,8 +55,11 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH  (benchmarks/visibility.py
+ *       --profile only: replace the nearest-map choice or the segment search
+ *       by a trivial stand-in to measure their share; results are wrong)
  */
-#include "csm_common.h"
+#include "csm_search.h"
 #include "sampling.h"
 
 #define PI_F 3.14159265358979f
@@ -146,13 +149,36 @@ typedef float16 fv;
 typedef int16 iv;
 
 #if LAYOUT_ZIGZAG
+/* acos to 5e-5 rad (Abramowitz & Stegun 4.4.45) */
+inline fv acos16(fv x)
+{
+    const fv a = fabs(x);
+    const fv r = sqrt(1.0f - a) * (1.5707288f + a * (-0.2121144f + a * (0.0742610f - 0.0187293f * a)));
+    return select(r, PI_F - r, x < 0.0f);
+}
+
+/* atan2 in [0, 2 pi) to 1e-5 rad (A&S 4.4.49 after octant reduction) */
+inline fv atan2_pos16(fv y, fv x)
+{
+    const fv ax = fabs(x), ay = fabs(y);
+    const fv mx = fmax(ax, ay);
+    const fv t = fmin(ax, ay) / select(mx, (fv)(1.0f), mx == 0.0f);
+    const fv t2 = t * t;
+    fv r = t * (0.9998660f + t2 * (-0.3302995f + t2 * (0.1801410f + t2 * (-0.0851330f + t2 * 0.0208351f))));
+    r = select(r, 0.5f * PI_F - r, ay > ax);
+    r = select(r, PI_F - r, x < 0.0f);
+    return select(r, 2.0f * PI_F - r, y < 0.0f);
+}
+
 /* map nearest to each lane's direction on a zigzag grid (views.py): the
- * 2 x 2 grid points around (theta, phi), compared by dot product */
+ * 2 x 2 grid points around (theta, phi), compared by dot product. theta
+ * and phi need only be near: an error far below the grid step can only move
+ * the 2 x 2 window when the direction is next to a grid line, and then the
+ * grid point on that line -- the nearest -- stays in the window. */
 inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
 {
-    const fv th = acos(clamp(wy, -1.0f, 1.0f));
-    fv ph = atan2(wz, wx);
-    ph = select(ph, ph + 2.0f * PI_F, ph < 0.0f);
+    const fv th = acos16(clamp(wy, -1.0f, 1.0f));
+    const fv ph = atan2_pos16(wz, wx);
     const iv r0 = clamp(convert_int16(floor(th * ((float)T / PI_F))), 0, T - 1);
     iv c0 = clamp(convert_int16(floor(ph * ((float)P / (2.0f * PI_F)))), 0, P);
     c0 = select(c0, c0 - P, c0 >= P);
@@ -211,7 +237,11 @@ inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz,
 
         iv k = (iv)(0);
 #if LAYOUT_ZIGZAG
+#if PROFILE_SKIP_NEAREST
+        if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
+#else
         if (layout == 0) k = nearest_zigzag16(T[3], T[4], vx, vy, vz);
+#endif
 #endif
         int ka[LANES], am[LANES];
         vstore16(act, 0, am);
@@ -248,8 +278,8 @@ inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz,
         int ta[LANES], va[LANES];
         vstore16(tex, 0, ta);
         vstore16(valid, 0, va);
-        /* csm_find() of csm_common.h for every lane, the lanes in lockstep:
-         * first the list's block summary, then the block */
+        /* the search of csm_find() (csm_common.h) for every lane: first the
+         * list's block summary, then the block */
         __global const uint *off = S->offsets + T[5];
         __global const uint *sof = S->soff + T[5];
         uint lo[LANES], hi[LANES], base[LANES], ba[LANES], end[LANES];
@@ -260,31 +290,22 @@ inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz,
             ba[l] = sof[t];
             lo[l] = ba[l];
             hi[l] = va[l] ? sof[t + 1] - 1u : ba[l];
+#if PROFILE_SKIP_SEARCH
+            hi[l] = lo[l];
+#endif
         }
-        for (int more = 1; more;) {
-            more = 0;
-            for (int l = 0; l < LANES; ++l) {
-                if (lo[l] < hi[l]) {
-                    const uint mid = lo[l] + ((hi[l] - lo[l]) >> 1);
-                    if ((uint)S->summary[mid] < (uint)ka[l]) lo[l] = mid + 1u; else hi[l] = mid;
-                    more = 1;
-                }
-            }
-        }
+        /* counting scans: the number of summary entries below the map is the
+         * block, the number of i_end below it in that block the segment --
+         * branch-free, sequential reads, no mispredicted jumps */
         for (int l = 0; l < LANES; ++l) {
-            const uint b0 = base[l] + SEARCH_BLOCK * (lo[l] - ba[l]);
-            lo[l] = b0;
-            hi[l] = va[l] ? min(b0 + SEARCH_BLOCK, end[l]) - 1u : b0;
-        }
-        for (int more = 1; more;) {
-            more = 0;
-            for (int l = 0; l < LANES; ++l) {
-                if (lo[l] < hi[l]) {
-                    const uint mid = lo[l] + ((hi[l] - lo[l]) >> 1);
-                    if ((uint)PAIR_IEND(S->pairs[mid]) < (uint)ka[l]) lo[l] = mid + 1u; else hi[l] = mid;
-                    more = 1;
-                }
-            }
+            const uint k = (uint)ka[l];
+            uint c = 0u;
+            for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
+            const uint b0 = base[l] + SEARCH_BLOCK * c;
+            const uint e0 = va[l] ? min(b0 + SEARCH_BLOCK, end[l]) - 1u : b0;
+            uint c2 = 0u;
+            for (uint j = b0; j < e0; ++j) c2 += ((uint)PAIR_IEND(S->pairs[j]) < k);
+            lo[l] = b0 + c2;
         }
         float za[LANES];
         for (int l = 0; l < LANES; ++l)

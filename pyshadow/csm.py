@@ -356,7 +356,7 @@ class CoherentShadowMap:
         """Compile-time macros that describe this CSM's storage to a kernel."""
         return {"RES": self.resolution, "DEPTH_BITS": self.depth_bits,
                 "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint",
-                "PAIR_WIDE": int(self.pair_wide)}
+                "PAIR_WIDE": int(self.pair_wide), "SEARCH_BLOCK": SEARCH_BLOCK}
 
     def search_arrays(self, wide: bool | None = None) -> dict:
         """The device layout the search kernels read (kernels/csm_common.h).

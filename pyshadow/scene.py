@@ -20,6 +20,7 @@ import pyopencl as cl
 import trimesh
 
 from . import _cl
+from . import csm as csm_module
 from .csm import DEPTH_Q, CoherentShadowMap
 from .gbuffer import check_transform
 from .mesh import bounding_sphere, load_mesh, mesh_hash
@@ -386,6 +387,7 @@ class Scene:
 
     def _defines(self, atlas, **extra):
         d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
+             "SEARCH_BLOCK": csm_module.SEARCH_BLOCK,
              "NTYPES": atlas["ntypes"],
              "GROUND": int(self.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),

@@ -1,0 +1,180 @@
+"""Benchmark: shadow queries per second, pyshadow against Embree on identical rays.
+
+The bunny AO workload: points sampled on the Stanford bunny's faces (on a
+ground plane), 36 cosine-weighted directions each from
+``pyshadow.sample_directions`` (the AO kernel's own directions), at least
+3.6 M rays. Timed, as medians of several runs after a warm-up, in one process
+on all cores:
+
+* ``Scene.visible(points, directions)`` end to end (host checks, upload, kernel,
+  download) and the kernel alone;
+* ``Scene.ambient_occlusion(points, normals, 36)`` (the same workload through
+  the AO kernel, which makes the directions on the device);
+* Embree occlusion rays on the identical (origin, direction) pairs, spread over
+  a thread pool with one thread per core (embreex releases the GIL);
+* a second pose after ``set_transform`` (no rebuild; same time expected).
+
+``--profile`` also times the kernel with the nearest-map choice or the
+segment search replaced by trivial stand-ins (compile-time macros), to show
+what limits it.
+
+    python benchmarks/visibility.py [--points 100000] [--samples 36] [--repeats 5] [--profile] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+import pyshadow
+from pyshadow import _cl, reference
+from pyshadow.scene import LANES
+from _common import MESHES, emit, environment, median_time
+
+
+def workload(scene, n_points, samples, seed=0):
+    inst = scene.instances[0]
+    local, face = trimesh.sample.sample_surface(inst.mesh, n_points, seed=seed)
+    T = inst.transform
+    p = local @ T[:3, :3].T + T[:3, 3]
+    n = inst.mesh.face_normals[face] @ inst.rotation.T
+    d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3)
+    return p, n, np.repeat(p, samples, axis=0), d
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
+    ap.add_argument("--points", type=int, default=100_000)
+    ap.add_argument("--samples", type=int, default=36)
+    ap.add_argument("--theta", type=int, default=64)
+    ap.add_argument("--phi", type=int, default=128)
+    ap.add_argument("--resolution", type=int, default=128)
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--threads", type=int, default=os.cpu_count())
+    ap.add_argument("--profile", action="store_true", help="ablation timings of the kernel")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+
+    mesh = pyshadow.load_mesh(args.mesh)
+    t0 = time.perf_counter()
+    scene = pyshadow.Scene(ground=float(mesh.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(args.theta, args.phi),
+                           resolution=args.resolution)
+    scene.add(mesh)
+    build_s = time.perf_counter() - t0
+    p, n, P, D = workload(scene, args.points, args.samples)
+    N = len(P)
+    ids = np.zeros(N, np.int32)
+
+    out = {}
+    vis_s, vis_all = median_time(lambda: out.__setitem__("vis", scene.visible(P, D, surface_ids=ids)),
+                                 args.repeats)
+    ao_s, _ = median_time(lambda: out.__setitem__("ao", scene.ambient_occlusion(p, n, args.samples,
+                                                                                 surface_ids=0)),
+                          args.repeats)
+
+    # the kernel alone, on device-resident inputs
+    anchor = scene._anchor(P)
+    atlas, kargs = scene._scene_args(anchor, None)
+    soa_p = _cl.to_device(np.ascontiguousarray((P - anchor).T, dtype=np.float32))
+    soa_w = _cl.to_device(np.ascontiguousarray(D.T, dtype=np.float32))
+    own = _cl.to_device(np.zeros(N, np.int32))
+    buf = _cl.empty(N)
+    q = _cl.queue()
+    assert N % LANES == 0
+
+    def kernel_time(extra=None):
+        k = _cl.kernel("visibility.cl", "scene_visible", scene._defines(atlas, **(extra or {})))
+
+        def run():
+            k(q, (N // LANES,), None, *kargs, np.int32(N), soa_p, soa_w, own, buf)
+            q.finish()
+        return median_time(run, args.repeats)[0]
+
+    kernel_s = kernel_time()
+    profile = {}
+    if args.profile:
+        profile = {"kernel_s": kernel_s,
+                   "without_nearest_map_s": kernel_time({"PROFILE_SKIP_NEAREST": 1}),
+                   "without_segment_search_s": kernel_time({"PROFILE_SKIP_SEARCH": 1}),
+                   "without_both_s": kernel_time({"PROFILE_SKIP_NEAREST": 1, "PROFILE_SKIP_SEARCH": 1})}
+
+    # Embree on the identical rays, one thread per core
+    rays, ranchor = reference._scene_rays(scene)
+    eps = reference.surface_epsilon(scene)
+    ground = reference._ground_occludes(scene, P - ranchor, D, ranchor)
+    todo = np.flatnonzero(~ground)
+    origins = (P[todo] - ranchor + eps * D[todo]).astype(np.float32)
+    dirs = D[todo].astype(np.float32)
+    chunks = np.array_split(np.arange(len(todo)), 8 * args.threads)
+    emb = {}
+    with ThreadPoolExecutor(args.threads) as pool:
+        def embree_all():
+            parts = list(pool.map(lambda c: rays.occluded(origins[c], dirs[c]), chunks))
+            emb["occ"] = np.concatenate(parts)
+        embree_s, embree_all_t = median_time(embree_all, args.repeats)
+    truth = np.ones(N, bool)
+    truth[ground] = False
+    truth[todo] = ~emb["occ"]
+    agreement = float((out["vis"] == truth).mean())
+
+    # a second pose: move the body, nothing is rebuilt
+    shift = np.array([0.3 * scene.scale(), 0.0, 0.1 * scene.scale()])
+    T2 = scene.transform(0)
+    T2[:3, 3] += shift
+    scene.set_transform(0, T2)
+    moved = P + shift
+    pose2_s, _ = median_time(lambda: scene.visible(moved, D, surface_ids=ids), args.repeats)
+
+    result = {
+        "benchmark": "visibility",
+        **environment(),
+        "mesh": args.mesh,
+        "maps": args.theta * args.phi,
+        "resolution": args.resolution,
+        "csm_build_s": build_s,
+        "queries": N,
+        "threads_embree": args.threads,
+        "visible_s": vis_s,
+        "visible_Mq_per_s": N / vis_s / 1e6,
+        "kernel_s": kernel_s,
+        "kernel_Mq_per_s": N / kernel_s / 1e6,
+        "ambient_occlusion_s": ao_s,
+        "ambient_occlusion_Mq_per_s": N / ao_s / 1e6,
+        "embree_s": embree_s,
+        "embree_Mrays_per_s": len(todo) / embree_s / 1e6,
+        "embree_rays_traced": int(len(todo)),
+        "ratio_visible_vs_embree": embree_s / vis_s,
+        "ratio_ao_vs_embree": embree_s / ao_s,
+        "ratio_kernel_vs_embree": embree_s / kernel_s,
+        "visibility_agreement": agreement,
+        "second_pose_visible_s": pose2_s,
+        "profile": profile,
+    }
+    if args.json:
+        emit(result, True)
+        return
+    r = result
+    print(f"device          {r['device']} ({r['platform']}); Embree on {args.threads} threads")
+    print(f"workload        {N / 1e6:.2f} M rays ({args.points} points x {args.samples}), "
+          f"CSM {args.theta}x{args.phi} @ {args.resolution}^2 (built in {build_s:.1f} s)")
+    print(f"Scene.visible   {r['visible_Mq_per_s']:6.2f} M queries/s  (median {vis_s:.3f} s; kernel alone "
+          f"{r['kernel_Mq_per_s']:.2f} M/s)")
+    print(f"ambient_occl.   {r['ambient_occlusion_Mq_per_s']:6.2f} M queries/s  (median {ao_s:.3f} s)")
+    print(f"Embree          {r['embree_Mrays_per_s']:6.2f} M rays/s     (median {embree_s:.3f} s; "
+          f"{len(todo)} rays not stopped by the ground)")
+    print(f"ratio           visible {r['ratio_visible_vs_embree']:.2f}x, ambient_occlusion "
+          f"{r['ratio_ao_vs_embree']:.2f}x, kernel {r['ratio_kernel_vs_embree']:.2f}x Embree")
+    print(f"agreement       {agreement:.4%} of rays")
+    print(f"second pose     {pose2_s:.3f} s after set_transform (first {vis_s:.3f} s)")
+    if profile:
+        print("kernel profile  " + ", ".join(f"{k} {v:.3f}" for k, v in profile.items()))
+
+
+if __name__ == "__main__":
+    main()

@@ -55,6 +55,8 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   INPUT_F64            scene_visible reads float64 (N, 3) points and dirs
+ *                        (needs cl_khr_fp64; else float32 SoA from the host)
  *   PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH  (benchmarks/visibility.py
  *       --profile only: replace the nearest-map choice or the segment search
  *       by a trivial stand-in to measure their share; results are wrong)
@@ -175,32 +177,52 @@ inline fv atan2_pos16(fv y, fv x)
  * and phi need only be near: an error far below the grid step can only move
  * the 2 x 2 window when the direction is next to a grid line, and then the
  * grid point on that line -- the nearest -- stays in the window. */
+/* cos and sin of a small angle d (|d| < 0.2: error below 1e-8) */
+inline fv cos_small(fv d) { const fv d2 = d * d; return 1.0f - d2 * (0.5f - d2 * (1.0f / 24.0f - d2 * (1.0f / 720.0f))); }
+inline fv sin_small(fv d) { const fv d2 = d * d; return d * (1.0f - d2 * (1.0f / 6.0f - d2 * (1.0f / 120.0f))); }
+
 inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
 {
     const fv th = acos16(clamp(wy, -1.0f, 1.0f));
     const fv ph = atan2_pos16(wz, wx);
+    const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
     const iv r0 = clamp(convert_int16(floor(th * ((float)T / PI_F))), 0, T - 1);
     iv c0 = clamp(convert_int16(floor(ph * ((float)P / (2.0f * PI_F)))), 0, P);
     c0 = select(c0, c0 - P, c0 >= P);
-    const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
+    /* the candidate grid directions by angle addition from the query's own
+     * (cos, sin) of theta and phi: rotate back by the small offsets to the
+     * grid lines, then forward by one grid step */
+    const fv rho = sqrt(wx * wx + wz * wz);
+    const iv pole = rho == 0.0f;
+    const fv cph = select(wx / rho, (fv)(1.0f), pole), sph = select(wz / rho, (fv)(0.0f), pole);
+    const fv cth = wy, sth = rho;
+    const fv drow = th - convert_float16(r0) * dth, dcol = ph - convert_float16(c0) * dph;
+    const fv cd = cos_small(drow), sd = sin_small(drow);
+    const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
+    const fv ce = cos_small(dcol), se = sin_small(dcol);
+    const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
+    const float cst = cos(dth), sst = sin(dth), csp = cos(dph), ssp = sin(dph);
+    const iv last = r0 + 1 > T - 1;
+    const fv ct1 = select(ct0 * cst - st0 * sst, ct0, last), st1 = select(st0 * cst + ct0 * sst, st0, last);
+    const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
+    iv c1 = c0 + 1;
+    c1 = select(c1, c1 - P, c1 >= P);
+    const iv r1 = min(r0 + 1, T - 1);
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
-    for (int dr = 0; dr < 2; ++dr) {
-        const iv r = min(r0 + dr, T - 1);
-        fv ct;
-        const fv st = sincos(convert_float16(r) * dth, &ct);
-        for (int dc = 0; dc < 2; ++dc) {
-            iv c = c0 + dc;
-            c = select(c, c - P, c >= P);
-            fv cp;
-            const fv sp = sincos(convert_float16(c) * dph, &cp);
-            const fv dd = wx * (st * cp) + wy * ct + wz * (st * sp);
-            const iv k = r * P + select(c, (iv)(P - 1) - c, (r & 1) != 0);
-            const iv take = dd > best_d;
-            best_d = select(best_d, dd, take);
-            best = select(best, k, take);
-        }
+#define ZZ_CANDIDATE(R, C, CT, ST, CP, SP)                                           \
+    {                                                                                 \
+        const fv dd = wx * ((ST) * (CP)) + wy * (CT) + wz * ((ST) * (SP));            \
+        const iv k = (R) * P + select((C), (iv)(P - 1) - (C), ((R) & 1) != 0);        \
+        const iv take = dd > best_d;                                                   \
+        best_d = select(best_d, dd, take);                                             \
+        best = select(best, k, take);                                                  \
     }
+    ZZ_CANDIDATE(r0, c0, ct0, st0, cp0, sp0)
+    ZZ_CANDIDATE(r0, c1, ct0, st0, cp1, sp1)
+    ZZ_CANDIDATE(r1, c0, ct1, st1, cp0, sp0)
+    ZZ_CANDIDATE(r1, c1, ct1, st1, cp1, sp1)
+#undef ZZ_CANDIDATE
     return best;
 }
 #endif
@@ -336,8 +358,44 @@ inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz,
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
                                 bias_other}
 
-/* queries LANES at a time; inputs are structure-of-arrays padded to a
- * multiple of LANES (padding lanes are answered and ignored by the host) */
+#if INPUT_F64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+/* queries LANES at a time, straight from the caller's float64 (N, 3) arrays
+ * (no host-side conversion): points are made anchor-relative in double, then
+ * rounded to float. Lanes past n are answered as "visible" and not written. */
+__kernel void scene_visible(SCENE_ARGS, const int n, __global const double *points,
+                            __global const double *dirs, const double ax, const double ay,
+                            const double az, __global const int *owner, __global uchar *out)
+{
+    const int base = get_global_id(0) * LANES;
+    if (base >= n) return;
+    SCENE_INIT;
+    float a[6][LANES];
+    int ow[LANES];
+    for (int l = 0; l < LANES; ++l) {
+        const int i = min(base + l, n - 1);
+        a[0][l] = (float)(points[3 * i] - ax);
+        a[1][l] = (float)(points[3 * i + 1] - ay);
+        a[2][l] = (float)(points[3 * i + 2] - az);
+        a[3][l] = (float)dirs[3 * i];
+        a[4][l] = (float)dirs[3 * i + 1];
+        a[5][l] = (float)dirs[3 * i + 2];
+        ow[l] = owner[i];
+    }
+    fv wx = vload16(0, a[3]), wy = vload16(0, a[4]), wz = vload16(0, a[5]);
+    const fv inv = 1.0f / sqrt(wx * wx + wy * wy + wz * wz);
+    wx *= inv; wy *= inv; wz *= inv;
+    const iv pad = (iv)(base) + (iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15) >= n;
+    const iv occ = occluded16(&S, vload16(0, a[0]), vload16(0, a[1]), vload16(0, a[2]),
+                              wx, wy, wz, vload16(0, ow), pad);
+    uchar res[LANES];
+    vstore16(convert_uchar16(occ + 1), 0, res);            /* -1 -> 0, 0 -> 1 */
+    for (int l = 0; l < min(LANES, n - base); ++l) out[base + l] = res[l];
+}
+#else
+/* queries LANES at a time; inputs are float structure-of-arrays, anchor-
+ * relative, padded to a multiple of LANES (padding lanes are answered and
+ * ignored by the host). Used where the device has no double precision. */
 __kernel void scene_visible(SCENE_ARGS, const int n, __global const float *points,
                             __global const float *dirs, __global const int *owner,
                             __global uchar *out)
@@ -355,6 +413,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const float *point
     const iv occ = occluded16(&S, px, py, pz, wx, wy, wz, vload16(0, owner + base), (iv)(0));
     vstore16(convert_uchar16(occ + 1), 0, out + base);     /* -1 -> 0, 0 -> 1 */
 }
+#endif
 
 #ifdef SAMPLES
 /* one work-item per point; its SAMPLES directions LANES at a time. table:

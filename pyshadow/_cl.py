@@ -334,6 +334,40 @@ def to_device(array: np.ndarray, dtype=None) -> cl.Buffer:
     return cl.Buffer(context(), mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
 
 
+def host_buffer(array: np.ndarray, writable: bool = False) -> cl.Buffer:
+    """A device buffer over a C-contiguous host array (no copy on CPU devices).
+
+    The array must stay alive, and unchanged, until the kernels using the
+    buffer have finished; for a writable buffer, map it (or finish the queue)
+    before reading the array.
+    """
+    a = np.asarray(array)
+    if not a.flags.c_contiguous:
+        raise ValueError("host_buffer needs a C-contiguous array")
+    if a.nbytes == 0:
+        return to_device(np.zeros(1, a.dtype))
+    mf = cl.mem_flags
+    flags = (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.USE_HOST_PTR
+    return cl.Buffer(context(), flags, hostbuf=a)
+
+
+def sync_host_buffer(buf: cl.Buffer, array: np.ndarray) -> None:
+    """Make a :func:`host_buffer`'s device writes visible in its host array.
+
+    Maps the buffer for reading and unmaps it again (free on CPU devices,
+    where the buffer is the array; a copy back elsewhere).
+    """
+    mapped, _ev = cl.enqueue_map_buffer(queue(), buf, cl.map_flags.READ, 0, array.shape, array.dtype)
+    mapped.base.release(queue())
+    queue().finish()
+
+
+def has_fp64() -> bool:
+    """Whether the device computes in double precision (cl_khr_fp64)."""
+    dev = device()
+    return bool(dev.double_fp_config) and "cl_khr_fp64" in dev.extensions
+
+
 def empty(nbytes: int) -> cl.Buffer:
     """A new device buffer of ``nbytes`` (at least 1)."""
     return cl.Buffer(context(), cl.mem_flags.READ_WRITE, size=max(int(nbytes), 4))

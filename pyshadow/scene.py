@@ -448,18 +448,19 @@ class Scene:
         if n == 0:
             return out
         anchor = self._anchor(p)
+        if _cl.has_fp64():
+            return self._visible_f64(p, w, own, anchor, bias, out)
         k = None
         chunk = 1 << 22                       # a multiple of the kernel's 16 lanes
         for s in range(0, n, chunk):
             e = min(n, s + chunk)
             m = -(-(e - s) // LANES) * LANES  # padded to whole lanes
-            # structure of arrays, float32, relative to the anchor (one pass per column)
+            # structure of arrays, float32, relative to the anchor
             soa_p = np.zeros((3, m), np.float32)
             soa_w = np.zeros((3, m), np.float32)
             soa_w[1, e - s:] = 1.0
-            for c in range(3):
-                np.subtract(p[s:e, c], anchor[c], out=soa_p[c, : e - s], casting="unsafe")
-                soa_w[c, : e - s] = w[s:e, c]
+            np.subtract(p[s:e].T, anchor[:, None], out=soa_p[:, : e - s], casting="unsafe")
+            soa_w[:, : e - s] = w[s:e].T
             for name, arr in (("points", soa_p), ("directions", soa_w)):
                 if not np.isfinite(arr).all():
                     bad = int((~np.isfinite(arr).all(axis=0)).sum())
@@ -471,7 +472,7 @@ class Scene:
             o[: e - s] = own[s:e]
             if k is None:                     # inputs are valid: now touch the device
                 atlas, args = self._scene_args(anchor, bias)
-                k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas))
+                k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas, INPUT_F64=0))
                 q = _cl.queue()
             buf = _cl.empty(m)
             k(q, (m // LANES,), None, *args, np.int32(m), _cl.to_device(soa_p), _cl.to_device(soa_w),
@@ -479,6 +480,33 @@ class Scene:
             res = np.empty(m, np.uint8)
             cl.enqueue_copy(q, res, buf)
             out[s:e] = res[: e - s].view(np.bool_)
+        return out
+
+    def _visible_f64(self, p, w, own, anchor, bias, out):
+        """visible() on devices with double precision: the kernel reads the caller's
+        float64 arrays directly (no host-side conversion pass)."""
+        p = np.ascontiguousarray(p, dtype=np.float64)
+        w = np.ascontiguousarray(w, dtype=np.float64)
+        for name, arr in (("points", p), ("directions", w)):
+            if not np.isfinite(arr).all():
+                bad = int((~np.isfinite(arr).all(axis=1)).sum())
+                raise ValueError(f"{name}: {bad} rows are not finite")
+        sq = np.einsum("ij,ij->i", w, w)
+        if not (sq > 0).all():
+            raise ValueError(f"directions: {int((sq <= 0).sum())} rows are zero vectors")
+        atlas, args = self._scene_args(anchor, bias)
+        k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas, INPUT_F64=1))
+        q = _cl.queue()
+        n = len(p)
+        chunk = 1 << 22
+        res = out.view(np.uint8)
+        for s in range(0, n, chunk):
+            e = min(n, s + chunk)
+            buf = _cl.host_buffer(res[s:e], writable=True)
+            k(q, (-(-(e - s) // LANES),), None, *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
+              _cl.host_buffer(w[s:e]), np.float64(anchor[0]), np.float64(anchor[1]),
+              np.float64(anchor[2]), _cl.host_buffer(np.ascontiguousarray(own[s:e])), buf)
+            _cl.sync_host_buffer(buf, res[s:e])
         return out
 
     def ambient_occlusion(self, points, normals, samples: int = 36, strategy: str = "hammersley",

@@ -1,0 +1,147 @@
+"""Accuracy study: pyshadow's CSM visibility and AO against Embree.
+
+Prints (and with --json returns):
+
+1. visibility agreement with Embree on identical (point, direction) pairs --
+   points sampled uniformly on the Stanford bunny's faces (standing on a ground
+   plane), cosine-weighted AO directions of their face normals, and uniform
+   hemisphere directions -- for CSMs of several map counts D and resolutions R;
+2. the same for a two-object scene (bunny and fandisk, the fandisk rotated,
+   scaled and moved, both on the ground) at 64x128 maps, 128^2;
+3. per-vertex AO of the bunny on the ground, 256 samples, against Embree on
+   the identical directions (mean and 99th percentile of |dAO|);
+4. AO RMSE at 36 samples against a 4096-sample Embree reference over 2000
+   bunny vertices, for every sampling strategy (thesis 5.3.1, Fig. 5.7).
+
+    python benchmarks/accuracy.py [--quick] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+import trimesh
+
+import pyshadow
+from pyshadow import reference
+from _common import MESHES, emit, environment
+
+
+def place(mesh, scale=1.0, offset=(0.0, 0.0, 0.0), rotation=None):
+    c, r = pyshadow.bounding_sphere(mesh)
+    T = np.eye(4)
+    if rotation is not None:
+        T[:3, :3] = rotation
+    T[:3, :3] *= scale / r
+    T[:3, 3] = np.asarray(offset, float) - T[:3, :3] @ c
+    T[1, 3] -= (mesh.vertices @ T[:3, :3].T + T[:3, 3])[:, 1].min()      # stand on y = 0
+    return T
+
+
+def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
+    inst = scene.instances[inst_id]
+    local, face = trimesh.sample.sample_surface(inst.mesh, n_points, seed=seed)
+    T = inst.transform
+    p = local @ T[:3, :3].T + T[:3, 3]
+    n = inst.mesh.face_normals[face] @ inst.rotation.T
+    if uniform:
+        rng = np.random.default_rng(seed)
+        d = rng.normal(size=(n_points * samples, 3))
+        nr = np.repeat(n, samples, axis=0)
+        d = np.where(np.einsum("ij,ij->i", d, nr)[:, None] < 0, -d, d)
+    else:
+        d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3).astype(np.float64)
+    return np.repeat(p, samples, axis=0), d
+
+
+def agreement(scene, inst_id, n_points, samples, seed, uniform=False):
+    P, D = surface_rays(scene, inst_id, n_points, samples, seed, uniform)
+    ids = np.full(len(P), inst_id)
+    return float((scene.visible(P, D, surface_ids=ids) == reference.visible(scene, P, D)).mean())
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer configurations and rays")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    t_start = time.perf_counter()
+    bunny = pyshadow.load_mesh(MESHES / "stanford-bunny.obj")
+    fandisk = pyshadow.load_mesh(MESHES / "fandisk.obj")
+    Tb = place(bunny)
+    n_pts = 5000 if args.quick else 20000
+
+    # 1. agreement against D and R
+    grids = [(16, 32), (32, 64), (64, 128)]
+    resolutions = [64, 128] if args.quick else [32, 64, 128, 256]
+    table = []
+    csm_64x128 = None
+    for grid in grids:
+        for R in resolutions:
+            csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(*grid), R, progress=False)
+            scene = pyshadow.Scene(ground=0.0)
+            scene.add(csm, Tb, mesh=bunny)
+            row = {"maps": grid[0] * grid[1], "grid": f"{grid[0]}x{grid[1]}", "resolution": R,
+                   "ratio": csm.stats["ratio"],
+                   "agreement_ao_rays": agreement(scene, 0, n_pts, 16, 1),
+                   "agreement_uniform_rays": agreement(scene, 0, n_pts // 2, 16, 2, uniform=True)}
+            table.append(row)
+            if grid == (64, 128) and R == 128:
+                csm_64x128 = csm
+
+    # 2. two bodies on the ground
+    rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
+    two = pyshadow.Scene(ground=0.0)
+    two.add(csm_64x128, Tb, mesh=bunny)
+    fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
+                                               progress=False)
+    two.add(fan_csm, place(fandisk, 0.8, (1.7, 0.0, 0.4), rot), mesh=fandisk)
+    two_scene = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3),
+                 "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4),
+                 "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True),
+                 "fandisk_uniform_rays": agreement(two, 1, n_pts // 2, 16, 6, uniform=True)}
+
+    # 3. per-vertex AO, 256 samples
+    solo = pyshadow.Scene(ground=0.0)
+    solo.add(csm_64x128, Tb, mesh=bunny)
+    pts, nrm = solo.vertex_points(0)
+    ours = solo.vertex_ao(0, samples=256)
+    truth = reference.ambient_occlusion(solo, pts, nrm, 256)
+    err = np.abs(ours - truth)
+    vertex = {"vertices": int(len(pts)), "samples": 256, "mean_abs": float(err.mean()),
+              "p99_abs": float(np.quantile(err, 0.99)), "max_abs": float(err.max()),
+              "mean_signed": float((ours - truth).mean())}
+
+    # 4. strategies at 36 samples against a 4096-sample reference
+    sel = np.random.default_rng(7).choice(len(pts), 2000, replace=False)
+    conv = reference.ambient_occlusion(solo, pts[sel], nrm[sel], 4096, "hammersley", seed=99, patterns=16)
+    strategies = {}
+    for strategy in pyshadow.STRATEGIES:
+        ao = solo.ambient_occlusion(pts[sel], nrm[sel], 36, strategy, seed=3, surface_ids=0)
+        ref36 = reference.ambient_occlusion(solo, pts[sel], nrm[sel], 36, strategy, seed=3)
+        strategies[strategy] = {"rmse": float(np.sqrt(np.mean((ao - conv) ** 2))),
+                                "rmse_embree_same_directions": float(np.sqrt(np.mean((ref36 - conv) ** 2)))}
+    result = {"benchmark": "accuracy", **environment(), "agreement_table": table, "two_objects": two_scene,
+              "vertex_ao": vertex, "strategies_36_samples": strategies,
+              "seconds": time.perf_counter() - t_start}
+    if args.json:
+        emit(result, True)
+        return
+    print(f"device: {result['device']}")
+    print("\n1. visibility agreement with Embree, Stanford bunny on the ground (rays from its surface)")
+    print(f"{'maps':>9} {'R':>5} {'ratio':>7} {'AO rays':>9} {'uniform':>9}")
+    for r in table:
+        print(f"{r['grid']:>9} {r['resolution']:>5} {r['ratio']:>6.1f}: {r['agreement_ao_rays']:>8.3%} "
+              f"{r['agreement_uniform_rays']:>8.3%}")
+    print("\n2. two-object scene (64x128 maps @128^2): " + ", ".join(f"{k} {v:.3%}" for k, v in two_scene.items()))
+    print(f"\n3. per-vertex AO, 256 samples, {vertex['vertices']} vertices: mean |dAO| {vertex['mean_abs']:.4f}, "
+          f"p99 {vertex['p99_abs']:.4f}, max {vertex['max_abs']:.3f}, mean signed {vertex['mean_signed']:+.4f}")
+    print("\n4. AO RMSE at 36 samples vs 4096-sample Embree, 2000 bunny vertices")
+    for k, v in sorted(strategies.items(), key=lambda kv: kv[1]["rmse"]):
+        print(f"   {k:16} pyshadow {v['rmse']:.4f}   (Embree, same directions {v['rmse_embree_same_directions']:.4f})")
+    print(f"\n({result['seconds']:.0f} s)")
+
+
+if __name__ == "__main__":
+    main()

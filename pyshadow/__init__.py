@@ -18,6 +18,7 @@ from .sampling import STRATEGIES, sample_directions
 from .scene import Scene
 from .filters import bilateral, edge_aware_box, upsample
 from .io import read_image, write_image
+from . import data
 from .gbuffer import render_gbuffer
 
 __all__ = [

@@ -228,7 +228,7 @@ def render_gbuffer_reference(items, camera: Camera) -> dict:
     keeps the nearest view-space depth per pixel (lowest triangle index on
     ties) and intersects the pixel ray with the winning triangle's plane.
     """
-    from .raster import _edge, _owns
+    from .raster import covered_samples
 
     tris, obj, face, _near = gbuffer_triangles(items, camera)
     H, W = camera.height, camera.width
@@ -240,29 +240,15 @@ def render_gbuffer_reference(items, camera: Camera) -> dict:
         s = np.stack([tri[:, 0] / tri[:, 2] * fx + (0.5 * W - 0.5),
                       (0.5 * H - 0.5) - tri[:, 1] / tri[:, 2] * fy], axis=1)
         p0, p1, p2 = s
-        area = _edge(p0, p1, p2)
-        if area == 0 or not np.isfinite(area):
-            continue
         lo = np.maximum(np.ceil(s.min(0)).astype(int), 0)
         hi = np.minimum(np.floor(s.max(0)).astype(int), [W - 1, H - 1])
         if (lo > hi).any():
             continue
-        cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
-        p = np.stack([cols, rows], axis=-1).astype(np.float64)
-        e = np.stack([_edge(p1, p2, p), _edge(p2, p0, p), _edge(p0, p1, p)])
-        if area > 0:
-            owns = [_owns(p1, p2), _owns(p2, p0), _owns(p0, p1)]
-        else:
-            e = -e
-            owns = [_owns(p2, p1), _owns(p0, p2), _owns(p1, p0)]
-        inside = (e >= 0).all(axis=0)
-        for k in range(3):
-            inside &= (e[k] > 0) | owns[k]
-        if not inside.any():
+        cov = covered_samples(p0, p1, p2, lo, hi)
+        if cov is None:
             continue
-        w = e[:, inside] / e[:, inside].sum(axis=0)
+        rr, cc, w = cov
         z = 1.0 / (w[0] / tri[0, 2] + w[1] / tri[1, 2] + w[2] / tri[2, 2])
-        rr, cc = rows[inside], cols[inside]
         better = z < zbest[rr, cc]
         zbest[rr[better], cc[better]] = z[better]
         win[rr[better], cc[better]] = i

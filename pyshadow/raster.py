@@ -22,7 +22,7 @@ from . import _cl
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
-__all__ = ["render_depth", "render_depth_reference", "DepthRenderer", "texel_rays"]
+__all__ = ["render_depth", "render_depth_reference", "DepthRenderer", "texel_rays", "covered_samples"]
 
 MAX_RESOLUTION = 4096
 
@@ -222,6 +222,33 @@ def _owns(a, b):
     return dy > 0 or (dy == 0 and dx < 0)
 
 
+def covered_samples(p0, p1, p2, lo, hi):
+    """Sample points of a screen triangle's box that it covers (NumPy, float64).
+
+    The canonical edge functions and top-left rule of ``raster_common.h``:
+    ``lo``, ``hi`` the integer box (inclusive). Returns ``(rows, cols, w)``
+    of the covered samples and their barycentric weights (3, n), or ``None``
+    when the triangle is degenerate or covers nothing.
+    """
+    area = _edge(p0, p1, p2)
+    if area == 0 or not np.isfinite(area):
+        return None
+    cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+    p = np.stack([cols, rows], axis=-1).astype(np.float64)
+    e = np.stack([_edge(p1, p2, p), _edge(p2, p0, p), _edge(p0, p1, p)])
+    if area > 0:
+        owns = [_owns(p1, p2), _owns(p2, p0), _owns(p0, p1)]
+    else:
+        e = -e
+        owns = [_owns(p2, p1), _owns(p0, p2), _owns(p1, p0)]
+    inside = (e >= 0).all(axis=0)
+    for i in range(3):
+        inside &= (e[i] > 0) | owns[i]
+    if not inside.any():
+        return None
+    return rows[inside], cols[inside], e[:, inside] / e[:, inside].sum(axis=0)
+
+
 def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: int = 2,
                            *, frame=None) -> np.ndarray:
     """NumPy version of :func:`render_depth` (same rules, float64; slow).
@@ -247,25 +274,12 @@ def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: i
             hi = np.minimum(hi, R - 1)
             if (lo > hi).any():
                 continue
-            area = _edge(p0, p1, p2)
-            if area == 0:
+            cov = covered_samples(p0, p1, p2, lo, hi)
+            if cov is None:
                 continue
-            cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
-            p = np.stack([cols, rows], axis=-1).astype(np.float64)
-            e = np.stack([_edge(p1, p2, p), _edge(p2, p0, p), _edge(p0, p1, p)])
-            if area > 0:
-                owns = [_owns(p1, p2), _owns(p2, p0), _owns(p0, p1)]
-            else:
-                e = -e
-                owns = [_owns(p2, p1), _owns(p0, p2), _owns(p1, p0)]
-            inside = (e >= 0).all(axis=0)
-            for i in range(3):
-                inside &= (e[i] > 0) | owns[i]
-            if not inside.any():
-                continue
-            w = e[:, inside] / e[:, inside].sum(axis=0)
+            rows, cols, w = cov
             zz = w[0] * z[f[0]] + w[1] * z[f[1]] + w[2] * z[f[2]]
-            for r, c, d in zip(rows[inside], cols[inside], zz):
+            for r, c, d in zip(rows, cols, zz):
                 hits[r][c].append(d)
         for r in range(R):
             for c in range(R):

@@ -68,14 +68,7 @@ class Instance:
 
 def _rows3(a, name, n=None, dtype=np.float64):
     """Validate an (N, 3) numeric array of finite values; return it as ``dtype``."""
-    a = np.asarray(a)
-    if a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
-    if n is not None and len(a) != n:
-        raise ValueError(f"{name} has {len(a)} rows but points has {n} (shapes must match)")
-    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
-        raise TypeError(f"{name} must be numeric, got {a.dtype}")
-    a = np.asarray(a, dtype=dtype)
+    a = np.asarray(_check_rows(a, name, n), dtype=dtype)
     if not np.isfinite(a).all():
         bad = int((~np.isfinite(a).all(axis=1)).sum())
         raise ValueError(f"{name}: {bad} rows are not finite")

@@ -1,0 +1,36 @@
+"""The README's commands and its Python example."""
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import REPO
+
+README = (REPO / "README.md").read_text()
+
+
+def test_readme_opens_with_the_two_commands():
+    first_block = re.search(r"```\n(.*?)```", README, re.S)
+    assert README.index("```") < README.index("\n\n", README.index("# pyshadow") + 11) + 2
+    commands = [c for c in first_block.group(1).splitlines() if c.strip()]
+    assert len(commands) == 2
+    assert commands[0].endswith("pyshadow-bench") and "pip install ." in commands[0]
+    assert commands[1].endswith("pytest") and "'.[test]'" in commands[1]
+    # CI runs exactly the README's test command
+    ci = (REPO / ".ci" / "run").read_text()
+    assert commands[1] in ci
+
+
+@pytest.mark.slow
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    code = re.search(r"```python\n(.*?)```", README, re.S).group(1)
+    monkeypatch.chdir(tmp_path)
+    ns = {}
+    exec(compile(code, "README.md", "exec"), ns)
+    assert (tmp_path / "ao.png").is_file() and (tmp_path / "bunny.csm").is_file()
+    img = ns["img"]
+    hit = img["object_id"] >= 0
+    assert 0.02 < hit.mean() < 0.6
+    assert img["ao"][hit].min() < 0.6 < img["ao"][hit].max()
+    assert ns["ao"].shape == (len(ns["bunny"].vertices),) and np.isfinite(ns["ao"]).all()

@@ -33,7 +33,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -42,6 +41,7 @@ import pyopencl as cl
 import trimesh
 
 from . import _cl
+from ._files import atomic_path
 from ._version import __version__
 from .mesh import bounding_sphere, load_mesh, mesh_hash
 from .raster import DepthRenderer, _check_resolution_layers
@@ -517,31 +517,22 @@ class CoherentShadowMap:
                                          self.depth_bits, self.offsets.dtype)
         arrays = {"offsets": self.offsets, "iend": self.iend, "depth": self.depth}
         h = hashlib.sha256()
-        fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent or ".")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                def put(b):
-                    h.update(b)
-                    f.write(b)
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            def put(b):
+                h.update(b)
+                f.write(b)
 
-                put(MAGIC + np.uint32(FORMAT_VERSION).tobytes() + np.uint32(len(head)).tobytes() + head)
-                pos = start
-                for name, dt, n, off in layout:
-                    put(b"\x00" * (off - pos))
-                    data = np.ascontiguousarray(arrays[name], dtype=dt)
-                    assert data.size == n
-                    put(memoryview(data).cast("B"))
-                    pos = off + data.nbytes
-                f.write(h.digest())
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-            raise
+            put(MAGIC + np.uint32(FORMAT_VERSION).tobytes() + np.uint32(len(head)).tobytes() + head)
+            pos = start
+            for name, dt, n, off in layout:
+                put(b"\x00" * (off - pos))
+                data = np.ascontiguousarray(arrays[name], dtype=dt)
+                assert data.size == n
+                put(memoryview(data).cast("B"))
+                pos = off + data.nbytes
+            f.write(h.digest())
+            f.flush()
+            os.fsync(f.fileno())
         return path
 
     @classmethod

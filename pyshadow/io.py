@@ -30,11 +30,12 @@ from __future__ import annotations
 
 import errno
 import os
-import secrets
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
+
+from ._files import atomic_path
 
 __all__ = ["write_image", "read_image", "linear_to_srgb", "srgb_to_linear", "EXTENSIONS"]
 
@@ -174,16 +175,8 @@ def write_image(path, array) -> None:
         raise FileNotFoundError(errno.ENOENT, "directory does not exist", str(parent))
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "cannot write an image over a directory", str(path))
-    tmp = parent / f".{path.stem}.{secrets.token_hex(6)}.tmp{path.suffix}"
-    try:
+    with atomic_path(path) as tmp:
         _write_oiio(tmp, data, kind)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
 
 
 def read_image(path) -> np.ndarray:

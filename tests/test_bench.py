@@ -1,0 +1,396 @@
+"""pyshadow-bench (pyshadow/bench.py): the CLI run as a subprocess at tiny settings,
+its cache, outputs and errors, and the helpers it measures with."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import mesh_path
+
+TINY = ["--maps", "8x16", "--resolution", "32", "--size", "64x48", "--samples", "8",
+        "--reference-samples", "64", "--repeats", "1"]
+
+
+def bench(*args, cache=None, env_cache=None, check=True):
+    """Run ``python -m pyshadow.bench`` and return the CompletedProcess."""
+    env = dict(os.environ)
+    env.pop("PYSHADOW_CACHE", None)
+    if env_cache is not None:
+        env["PYSHADOW_CACHE"] = str(env_cache)
+    cmd = [sys.executable, "-m", "pyshadow.bench", *map(str, args)]
+    if cache is not None:
+        cmd += ["--cache-dir", str(cache)]
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    if check and p.returncode != 0:
+        raise AssertionError(f"{cmd} failed ({p.returncode}):\n{p.stderr[-3000:]}")
+    return p
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory):
+    return tmp_path_factory.mktemp("cache")
+
+
+@pytest.fixture(scope="module")
+def first(tmp_path_factory, cache_dir):
+    """A cold run with --json: (parsed stdout, output dir, process)."""
+    out = tmp_path_factory.mktemp("out1")
+    p = bench(*TINY, "--out", out, "--json", cache=cache_dir)
+    return json.loads(p.stdout), out, p
+
+
+@pytest.fixture(scope="module")
+def second(tmp_path_factory, cache_dir, first):
+    """The same run again, the cache given through $PYSHADOW_CACHE."""
+    out = tmp_path_factory.mktemp("out2")
+    files = sorted(cache_dir.rglob("*.csm"))
+    before = {f: f.stat().st_mtime_ns for f in files}
+    p = bench(*TINY, "--out", out, "--json", env_cache=cache_dir)
+    return json.loads(p.stdout), out, p, before
+
+
+# ---------------------------------------------------------------------------
+# the single benchmark
+# ---------------------------------------------------------------------------
+def test_bench_json_stdout_is_results_json(first):
+    result, out, p = first
+    assert json.loads((out / "results.json").read_text()) == result
+    assert p.stdout.lstrip().startswith("{") and p.stdout.rstrip().endswith("}")
+    assert "visibility agreement" in p.stderr          # the table went to stderr
+    assert result["schema"] == "pyshadow-bench/1"
+    assert result["mode"] == "custom"
+    assert result["config"]["width"] == 64 and result["config"]["height"] == 48
+    assert result["config"]["samples"] == 8 and result["config"]["maps"] == "8x16"
+
+
+def test_bench_every_figure_has_value_and_unit(first):
+    result, _, _ = first
+    expected = {"csm_build_time", "csm_time", "csm_size", "csm_bytes", "csm_ratio", "covered_pixels",
+                "frame_time", "ao_time", "ao_throughput", "embree_time", "embree_throughput",
+                "embree_ray_rate", "speedup", "visibility_agreement", "ao_rmse_identical",
+                "ao_mae_identical", "ao_rmse_converged", "ao_mae_converged", "reference_noise_rmse",
+                "converged_time", "total_time"}
+    figs = result["figures"]
+    assert expected <= set(figs)
+    for name, f in figs.items():
+        assert set(f) == {"value", "unit", "label"}, name
+        assert isinstance(f["unit"], str) and f["unit"], name
+    assert figs["frame_time"]["unit"] == "s" and figs["ao_throughput"]["unit"] == "Msamples/s"
+    assert figs["embree_ray_rate"]["unit"] == "Mrays/s"
+
+
+def test_bench_figures_plausible(first):
+    result, _, _ = first
+    f = {k: v["value"] for k, v in result["figures"].items()}
+    assert 0.9 < f["visibility_agreement"] <= 1.0
+    assert f["false_visible"] + f["false_occluded"] == pytest.approx(1.0 - f["visibility_agreement"])
+    for k in ("ao_rmse_identical", "ao_mae_identical", "ao_rmse_converged", "ao_mae_converged"):
+        assert 0.0 <= f[k] < 0.25, k
+        assert f[k.replace("mae", "rmse")] >= f[k.replace("rmse", "mae")] - 1e-12
+    assert f["csm_ratio"] > 1.0
+    assert f["csm_bytes"] == sum(c["bytes"]["value"] for c in result["csm"]["casters"])
+    assert f["covered_pixels"] == 64 * 48                  # the default camera sees no sky
+    assert f["ao_samples"] == 8 * f["covered_pixels"]
+    assert 0 < f["embree_rays"] <= f["ao_samples"]
+    assert f["frame_time"] > 0 and f["ao_time"] > 0 and f["embree_time"] > 0
+    assert f["speedup"] == pytest.approx(f["ao_throughput"] / f["embree_throughput"], rel=1e-6)
+    assert f["primary_agreement"] > 0.95
+    assert result["csm"]["source"] == "built"
+    assert [c["name"] for c in result["csm"]["casters"]] == ["bunny", "torus"]
+    # per surface: the pixels and rays add up to the whole
+    surf = result["surfaces"]
+    assert {"ground", "bunny", "torus", "back_wall"} <= {x["surface"] for x in surf}
+    px = [x["pixels"]["value"] for x in surf]
+    assert sum(px) == f["covered_pixels"]
+    agree = sum(x["visibility_agreement"]["value"] * n for x, n in zip(surf, px)) / sum(px)
+    assert agree == pytest.approx(f["visibility_agreement"], abs=1e-9)
+    for x in surf:
+        assert -0.25 < x["ao_bias_identical"]["value"] < 0.25
+        assert x["ao_rmse_identical"]["value"] >= abs(x["ao_bias_identical"]["value"]) - 1e-9
+    # the AO kernel and per-ray visibility agree (at most one ray of a pixel apart)
+    assert result["checks"]["ao_equals_render"]
+    assert result["checks"]["ao_vs_visible_max_abs"] <= 1.0 / 8 + 1e-6
+
+
+def test_bench_images_written_and_not_blank(first):
+    import pyshadow
+
+    result, out, _ = first
+    for name in ("ao.png", "reference.png", "difference.png", "ao.exr", "reference.exr",
+                 "converged.exr"):
+        assert (out / name).is_file(), name
+        assert result["files"][name] == str(out / name)
+    ao = pyshadow.read_image(out / "ao.png")
+    ref = pyshadow.read_image(out / "reference.png")
+    diff = pyshadow.read_image(out / "difference.png")
+    exr = pyshadow.read_image(out / "ao.exr")
+    assert ao.shape == ref.shape == exr.shape == (48, 64)
+    assert diff.shape == (48, 64, 3)
+    for img in (ao, ref, diff, exr):
+        assert float(np.var(img)) > 1e-4
+    assert exr.dtype == np.float32 and 0.0 <= exr.min() and exr.max() <= 1.0
+    # the PNG is the EXR, sRGB-encoded to 8 bits
+    assert np.abs(ao - exr).max() < 0.02
+    # zero difference maps to RdBu's centre (near white): most pixels agree
+    centre = np.all(diff > 0.8, axis=-1).mean()
+    assert centre > 0.5
+
+
+def test_bench_cache_reused(first, second):
+    r1, _, _ = first
+    r2, _, p2, before = second
+    assert r2["csm"]["source"] == "cached"
+    assert all(c["source"] == "cached" for c in r2["csm"]["casters"])
+    assert "building the CSM" not in p2.stderr
+    assert r2["converged_source"] == "cached"
+    assert r2["figures"]["converged_time"]["value"] is None
+    # the cache files were read, not rewritten; the original build time is kept
+    assert before and all(f.stat().st_mtime_ns == t for f, t in before.items())
+    assert r2["figures"]["csm_build_time"]["value"] == pytest.approx(
+        r1["figures"]["csm_build_time"]["value"])
+    # the measurement itself does not depend on where the CSMs came from
+    for k in ("visibility_agreement", "ao_rmse_identical", "ao_rmse_converged", "csm_bytes"):
+        assert r2["figures"][k]["value"] == pytest.approx(r1["figures"][k]["value"], rel=1e-9), k
+
+
+def test_bench_corrupt_cache_file_rebuilt(tmp_path, first, cache_dir):
+    import pyshadow
+
+    cache = tmp_path / "cache"
+    import shutil
+
+    shutil.copytree(cache_dir, cache)
+    files = sorted(cache.rglob("*.csm"))
+    assert len(files) == 2
+    victim = files[0]
+    data = bytearray(victim.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    victim.write_bytes(bytes(data))
+    with pytest.raises(pyshadow.CSMFormatError):
+        pyshadow.CoherentShadowMap.load(victim)
+    p = bench(*TINY, "--out", tmp_path / "out", "--json", cache=cache)
+    r = json.loads(p.stdout)
+    sources = sorted(c["source"] for c in r["csm"]["casters"])
+    assert sources == ["cached", "rebuilt"]
+    assert r["csm"]["source"] == "partly cached"
+    assert "rebuilding" in p.stderr and victim.name in p.stderr
+    pyshadow.CoherentShadowMap.load(victim)            # a good file again
+    assert r["figures"]["visibility_agreement"]["value"] == pytest.approx(
+        first[0]["figures"]["visibility_agreement"]["value"], rel=1e-9)
+
+
+def test_bench_table_on_stdout_without_json(tmp_path, cache_dir, first):
+    p = bench(*TINY, "--out", tmp_path, "--quiet", cache=cache_dir)
+    assert "visibility agreement" in p.stdout and "CSM build" in p.stdout
+    assert "cached" in p.stdout
+    assert p.stderr.strip() == ""                   # --quiet
+    assert (tmp_path / "results.json").is_file()
+
+
+def test_bench_user_meshes(tmp_path, cache_dir):
+    paths = [mesh_path("spot.obj"), mesh_path("teapot.obj")]
+    p = bench(*TINY, "--mesh", paths[0], "--mesh", paths[1], "--out", tmp_path, "--json",
+              cache=cache_dir)
+    r = json.loads(p.stdout)
+    assert "spot" in r["scene"] and "teapot" in r["scene"]
+    assert [c["name"] for c in r["csm"]["casters"]] == ["spot", "teapot"]
+    f = {k: v["value"] for k, v in r["figures"].items()}
+    assert 0.9 < f["visibility_agreement"] <= 1.0
+    assert 0 < f["covered_pixels"] <= 64 * 48
+
+
+# ---------------------------------------------------------------------------
+# the sweep
+# ---------------------------------------------------------------------------
+def test_bench_sweep_tiny_and_max_error(tmp_path, cache_dir):
+    import pyshadow
+
+    p = bench(*TINY, "--sweep", "--sweep-grid", "tiny", "--max-error", "0.2", "--out", tmp_path,
+              "--json", cache=cache_dir)
+    sw = json.loads(p.stdout)
+    assert json.loads((tmp_path / "sweep.json").read_text()) == sw
+    assert sw["schema"] == "pyshadow-bench-sweep/1" and sw["grid"] == "tiny"
+    labels = [r["label"] for r in sw["rows"]]
+    assert len(labels) == len(set(labels)) == 5
+    assert {r["varies"] for r in sw["rows"]} == {"base", "samples", "filter", "maps", "depth_bits"}
+    for r in sw["rows"]:
+        f = {k: v["value"] for k, v in r["figures"].items()}
+        assert all(set(v) == {"value", "unit", "label"} for v in r["figures"].values())
+        assert 0.85 < f["visibility_agreement"] <= 1.0
+        assert f["ao_rmse_converged"] >= 0 and f["frame_time"] > 0 and f["csm_bytes"] > 0
+        assert f["build_time"] is not None and f["build_time"] > 0
+    rows = {r["label"]: r for r in sw["rows"]}
+    # fewer samples are noisier; the filter lowers the error against the converged reference
+    base = rows["8x16 r32 16b s8"]["figures"]
+    assert (rows["8x16 r32 16b s4"]["figures"]["ao_rmse_converged"]["value"]
+            > base["ao_rmse_converged"]["value"])
+    assert (rows["8x16 r32 16b s8 bilateral"]["figures"]["ao_rmse_converged"]["value"]
+            < base["ao_rmse_converged"]["value"])
+    # the filter does not change per-ray visibility; 32-bit depth does not change the sample set
+    assert (rows["8x16 r32 16b s8 bilateral"]["figures"]["visibility_agreement"]["value"]
+            == base["visibility_agreement"]["value"])
+    assert rows["8x16 r32 32b s8"]["figures"]["csm_bytes"]["value"] > base["csm_bytes"]["value"]
+    # Pareto flags: exactly the non-dominated rows
+    pts = [(r["figures"]["frame_time"]["value"], r["figures"]["ao_rmse_converged"]["value"])
+           for r in sw["rows"]]
+    for r, (t, e) in zip(sw["rows"], pts):
+        dominated = any(t2 <= t and e2 <= e and (t2 < t or e2 < e) for t2, e2 in pts)
+        assert r["pareto"] == (not dominated), r["label"]
+    assert sw["pareto"] == sorted((r["label"] for r in sw["rows"] if r["pareto"]),
+                                  key=lambda l: rows[l]["figures"]["frame_time"]["value"])
+    # --max-error: the fastest row that meets it
+    ok = [r for r in sw["rows"] if r["figures"]["ao_rmse_converged"]["value"] <= 0.2]
+    best = min(ok, key=lambda r: r["figures"]["frame_time"]["value"])
+    assert sw["max_error"]["label"] == best["label"]
+    md = (tmp_path / "sweep.md").read_text()
+    assert md.count("\n| 8x16") + md.count("\n| 4x8") == 5 and best["label"] in md
+    png = pyshadow.read_image(tmp_path / "pareto.png")
+    assert png.shape[0] > 200 and float(np.var(png)) > 1e-4
+
+    # --max-error alone answers from sweep.json, without running anything
+    q = bench("--max-error", "0.2", "--out", tmp_path)
+    assert best["label"] in q.stdout
+    q = bench("--max-error", "1e-9", "--out", tmp_path, "--json")
+    assert json.loads(q.stdout)["max_error"]["label"] is None
+    strictest = min(r["figures"]["ao_rmse_converged"]["value"] for r in sw["rows"])
+    q = bench("--max-error", repr(strictest), "--out", tmp_path, "--json")
+    assert json.loads(q.stdout)["max_error"]["row"]["figures"]["ao_rmse_converged"]["value"] == strictest
+
+
+# ---------------------------------------------------------------------------
+# errors
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("args, message", [
+    (["--size", "640"], "WIDTHxHEIGHT"),
+    (["--size", "0x10"], "between 1 and 16384"),
+    (["--maps", "64by128"], "AxB"),
+    (["--samples", "0"], "--samples must be in 1..4096"),
+    (["--resolution", "big"], "--resolution must be an integer"),
+    (["--depth-bits", "24"], "invalid choice"),
+    (["--max-error", "-0.1"], "positive finite number"),
+    (["--sweep-grid", "tiny"], "--sweep-grid needs --sweep"),
+    (["--mesh", "/nonexistent/dir/bunny.obj"], "no such file"),
+])
+def test_bench_bad_arguments(tmp_path, args, message):
+    p = bench(*args, "--out", tmp_path / "o", check=False)
+    assert p.returncode == 2
+    assert message in p.stderr
+    assert p.stdout == ""
+    assert not (tmp_path / "o" / "results.json").exists()
+
+
+def test_bench_bad_mesh_file(tmp_path):
+    bad = tmp_path / "broken.obj"
+    bad.write_text("this is not a mesh\n")
+    p = bench("--mesh", bad, "--out", tmp_path / "o", check=False)
+    assert p.returncode == 2 and "--mesh" in p.stderr and "broken.obj" in p.stderr
+
+
+def test_bench_unwritable_out(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    p = bench("--out", blocker / "sub", check=False)        # a path under a regular file
+    assert p.returncode == 2 and "cannot write there" in p.stderr
+    p = bench("--out", blocker, check=False)
+    assert p.returncode == 2 and "not a directory" in p.stderr
+
+
+def test_bench_max_error_without_sweep_json(tmp_path):
+    p = bench("--max-error", "0.02", "--out", tmp_path, check=False)
+    assert p.returncode == 2 and "sweep.json" in p.stderr and "--sweep" in p.stderr
+
+
+# ---------------------------------------------------------------------------
+# helpers, in process
+# ---------------------------------------------------------------------------
+def test_pareto_front_cases():
+    from pyshadow.bench import pareto_front
+
+    pts = [(1.0, 0.5), (2.0, 0.3), (2.0, 0.4), (3.0, 0.3), (0.5, 0.9), (4.0, 0.1), (5.0, None)]
+    assert pareto_front(pts) == [4, 0, 1, 5]
+    assert pareto_front([(1.0, 1.0), (1.0, 1.0)]) == [0, 1]         # ties dominate neither
+    assert pareto_front([]) == []
+
+
+def test_sweep_grids_vary_one_knob_then_combine():
+    from pyshadow.bench import PRESETS, Config, sweep_configs
+
+    p = PRESETS["default"]
+    base = Config(p["maps"], p["resolution"], p["depth_bits"], p["samples"])
+    rows = sweep_configs(base, "full")
+    assert rows[0] == (base, "base")
+    singles = [c for c, v in rows if v not in ("base", "combination")]
+    for c in singles:
+        diff = [k for k in ("maps", "resolution", "depth_bits", "samples", "filter")
+                if getattr(c, k) != getattr(base, k)]
+        assert len(diff) == 1
+    assert {v for _, v in rows} >= {"maps", "resolution", "depth_bits", "samples", "filter",
+                                    "combination"}
+    assert len({c for c, _ in rows}) == len(rows)
+
+
+def test_embree_tracer_matches_reference_ambient_occlusion():
+    """The threaded Embree rays are reference.ambient_occlusion's, bit for bit."""
+    import pyshadow
+    from pyshadow import reference
+    from pyshadow.bench import EmbreeTracer, GBuffer, embree_pass
+    from pyshadow.data import default_scene
+
+    scene, camera = default_scene(views=pyshadow.ViewSet.zigzag(4, 8), resolution=16, width=40,
+                                  height=30)
+    gb = GBuffer.from_render(scene.render(camera, 4), camera)
+    tracer = EmbreeTracer(scene, 2)
+    try:
+        got = embree_pass(tracer, gb, 12, "halton", 3, 64)
+    finally:
+        tracer.close()
+    want = reference.ambient_occlusion(scene, gb.points, gb.normals, 12, "halton", 3, 64,
+                                       indices=gb.sel)
+    np.testing.assert_array_equal(got["ao"], want)
+    occ = got["occluded"]
+    assert occ.shape == (gb.n * 12,) and 0.0 < occ.mean() < 1.0      # both outcomes present
+    assert 0 < got["traced"] < gb.n * 12                            # some rays hit the ground plane
+    assert np.any(want == 1.0) and np.any(want < 0.7)
+
+
+def test_mesh_scene_frames_every_body():
+    import pyshadow
+    from pyshadow.bench import mesh_scene
+    from conftest import load
+
+    meshes = [("spot", load("spot.obj")), ("cow", load("cow.obj")), ("teapot", load("teapot.obj"))]
+    scene, camera = mesh_scene(meshes, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16,
+                               width=96, height=48)
+    assert len(scene.instances) == 3 and scene.ground == 0.0
+    ys, xs = [], []
+    for i in range(3):
+        pts, _ = scene.vertex_points(i)
+        c, r = scene.instances[i].world_sphere()
+        assert r == pytest.approx(1.0)
+        assert pts[:, 1].min() == pytest.approx(0.0, abs=1e-9)       # standing on the ground
+        ys.append(pts[:, 1].max())
+        xs.append(c[0])
+    assert xs[0] < xs[1] < xs[2]
+    assert all(b - a >= 2.0 for a, b in zip(xs, xs[1:]))               # spheres do not overlap
+    ids = scene.render(camera, 1)["object_id"]
+    for i in range(3):
+        assert (ids == i).sum() > 20, i                                  # every body is in view
+    # no body is cut by the image border
+    border = np.concatenate([ids[0], ids[-1], ids[:, 0], ids[:, -1]])
+    assert not np.isin(border, [0, 1, 2]).any()
+
+
+def test_bench_unwritable_cache_only_disables_caching(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    p = bench(*TINY, "--out", tmp_path / "o", "--json", env_cache=blocker / "cache")
+    r = json.loads(p.stdout)
+    assert "not caching" in p.stderr
+    assert r["csm"]["source"] == "built"
+    assert all(c["file"] is None for c in r["csm"]["casters"])

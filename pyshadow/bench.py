@@ -54,6 +54,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._files import write_bytes_atomic
+
 __all__ = ["main", "PRESETS", "SWEEP_GRIDS", "Config", "CSMCache", "EmbreeTracer", "mesh_scene",
            "pareto_front"]
 
@@ -165,12 +167,6 @@ def _fig(value, unit: str, label: str) -> dict:
     if isinstance(value, float) and not math.isfinite(value):
         value = None
     return {"value": value, "unit": unit, "label": label}
-
-
-def _write_atomic(path: Path, data: bytes):
-    from pyshadow._files import write_bytes_atomic
-
-    write_bytes_atomic(path, data)
 
 
 def environment(threads: int) -> dict:
@@ -328,7 +324,7 @@ class CSMCache:
         if path is not None:
             try:
                 csm.save(path)
-                _write_atomic(side, json.dumps({"key": key, "build_seconds": seconds, "name": name},
+                write_bytes_atomic(side, json.dumps({"key": key, "build_seconds": seconds, "name": name},
                                                indent=1).encode())
             except OSError as e:
                 self.log(f"warning: cannot write the cache file {path} ({e})")
@@ -371,7 +367,7 @@ class CSMCache:
         np.savez_compressed(buf, data=a, sha256=np.frombuffer(hashlib.sha256(a.tobytes()).digest(),
                                                               np.uint8))
         try:
-            _write_atomic(path, buf.getvalue())
+            write_bytes_atomic(path, buf.getvalue())
         except OSError as e:
             self.log(f"warning: cannot write the cache file {path} ({e})")
 
@@ -1432,7 +1428,7 @@ def _check_out(ap, out: Path):
 def _emit(obj, path: Path | None, as_json: bool):
     text = json.dumps(obj, indent=2, allow_nan=False)
     if path is not None:
-        _write_atomic(path, (text + "\n").encode())
+        write_bytes_atomic(path, (text + "\n").encode())
     if as_json:
         sys.stdout.write(text + "\n")
         sys.stdout.flush()
@@ -1509,7 +1505,7 @@ def main(argv=None) -> int:
         if args.max_error is not None:
             sw["max_error"] = _answer(sw, args.max_error)
         pareto_plot(sw, out / "pareto.png", args.max_error)
-        _write_atomic(out / "sweep.md", sweep_markdown(sw).encode())
+        write_bytes_atomic(out / "sweep.md", sweep_markdown(sw).encode())
         _emit(sw, out / "sweep.json", args.json)
         print(sweep_markdown(sw), file=sys.stderr if args.json else sys.stdout)
         return 0

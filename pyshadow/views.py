@@ -14,16 +14,22 @@ Layouts
     The thesis grid (Listing 5.1): ``theta`` rows with ``theta_i = i*pi/theta``
     (row 0 lies *on* the north pole), ``phi`` columns with
     ``phi_j = j*2*pi/phi``; even rows run up in phi, odd rows back down.
-    Basis ``u = (sin phi, 0, -cos phi)``, ``v = d x u`` -- the thesis's
-    up-vector basis (eq. 5.4) written in the grid angles, so it stays defined
-    on the pole row, where ``(0, 1, 0) x d`` vanishes.
 ``hilbert``
     An equal-area octahedral map of the sphere onto a ``2^k x 2^k`` grid
     (Clarberg 2008), cells visited along one Hilbert curve (as in Ritschel
-    et al. 2007). Bases are parallel-transported along the curve: each
-    basis is its predecessor rotated by the smallest rotation taking
-    ``d_{k-1}`` to ``d_k``, so consecutive bases differ as little as the
-    directions do and no pole is special.
+    et al. 2007); or one square per hemisphere, joined across the equator
+    (``hemispheres=True``, ``D = 2 * 4^k``).
+
+Bases (both layouts) are parallel-transported along the order: each basis is
+its predecessor rotated by the smallest rotation taking ``d_{k-1}`` to
+``d_k``, starting from the thesis's up-vector basis (eq. 5.4) at the first
+map, written in the grid angles (``u = (sin phi, 0, -cos phi)``) so that it
+is defined on the zigzag grid's pole row, where ``(0, 1, 0) x d`` vanishes.
+Consecutive bases then differ exactly as much as their directions, no pole is
+special, and the maps of the zigzag pole row (one direction) are identical.
+Compared with the up-vector basis at every map, whose image turns by
+``dphi * cos(theta)`` between neighbours along a row, this cuts the 64x128
+bunny CSM from 5.30 M to 4.32 M segments (12.6:1 to 15.5:1).
 """
 from __future__ import annotations
 

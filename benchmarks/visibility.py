@@ -28,7 +28,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import pyopencl as cl
 import trimesh
 
 import pyshadow

@@ -31,6 +31,7 @@ __all__ = [
     "MeshCleanupWarning",
     "ViewSet",
     "bilateral",
+    "data",
     "bounding_sphere",
     "device_info",
     "edge_aware_box",

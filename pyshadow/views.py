@@ -314,7 +314,7 @@ class ViewSet:
         return np.asarray(idx, dtype=np.int32)
 
     def _zigzag_index(self, row, col):
-        T, P = self.params["theta"], self.params["phi"]
+        P = self.params["phi"]
         return row * P + np.where(row % 2 == 0, col, P - 1 - col)
 
     def _nearest_zigzag(self, d):

@@ -7,7 +7,6 @@ import textwrap
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
@@ -322,7 +321,7 @@ def test_csm_load_rejects_foreign_and_truncated(tmp_path, small_csm):
 
 def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
     good = small_csm.save(tmp_path / "g.csm")
-    S, T = small_csm.segments, 32 * 32
+    S = small_csm.segments
 
     def arrays(head, start):
         layout, _ = CoherentShadowMap._array_layout(start, 32, head["maps"], head["segments"],

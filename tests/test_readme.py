@@ -1,6 +1,5 @@
 """The README's commands and its Python example."""
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest

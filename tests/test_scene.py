@@ -100,7 +100,6 @@ def test_visible_uniform_hemisphere_directions(bunny_scene, rng):
 def test_visible_agreement_rises_with_maps_and_resolution(rng):
     bunny = load("stanford-bunny.obj")
     agreement = {}
-    ref_scene = None
     p = d = None
     for grid, R in [((8, 16), 64), ((16, 32), 64), ((32, 64), 64), ((32, 64), 32), ((32, 64), 128)]:
         scene = pyshadow.Scene(ground=float(bunny.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(*grid),

@@ -224,10 +224,7 @@ def ambient_occlusion(scene, points, normals, samples: int = 36, strategy: str =
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    if indices is None:
-        dirs = sample_directions(n, samples, strategy, patterns, seed).astype(np.float64)
-    else:
-        dirs = _directions_for(n, np.asarray(indices), samples, strategy, patterns, seed)
+    dirs = sample_directions(n, samples, strategy, patterns, seed, indices=indices).astype(np.float64)
     rays, anchor = _scene_rays(scene)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
@@ -247,24 +244,6 @@ def ambient_occlusion(scene, points, normals, samples: int = 36, strategy: str =
     length = np.linalg.norm(b, axis=1, keepdims=True)
     b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
     return ao, b.astype(np.float32)
-
-
-def _directions_for(normals, indices, samples, strategy, patterns, seed):
-    """sample_directions for arbitrary pattern indices (same float32 kernel)."""
-    from . import _cl
-    from .sampling import direction_table, pattern_indices
-    import pyopencl as cl
-
-    N = len(normals)
-    out = np.empty((N, samples, 3), np.float32)
-    if N:
-        k = _cl.kernel("sampling.cl", "sample_directions", {"SAMPLES": int(samples)})
-        buf = _cl.empty(out.nbytes)
-        k(_cl.queue(), (N,), None, _cl.to_device(normals, np.float32),
-          _cl.to_device(pattern_indices(indices, patterns, seed), np.int32),
-          _cl.to_device(direction_table(samples, strategy, patterns, seed)), np.int32(N), buf)
-        cl.enqueue_copy(_cl.queue(), out, buf)
-    return out.astype(np.float64)
 
 
 def render(scene, camera, samples: int = 36, strategy: str = "hammersley", seed: int = 0,

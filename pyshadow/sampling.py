@@ -170,7 +170,7 @@ def sample_directions_reference(normals, samples: int = 36, strategy: str = "ham
 
 
 def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
-                      patterns: int = 256, seed: int = 0) -> np.ndarray:
+                      patterns: int = 256, seed: int = 0, *, indices=None) -> np.ndarray:
     """The exact directions the AO kernels trace for each normal.
 
     Parameters
@@ -185,6 +185,9 @@ def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
     patterns : int
         Number of precomputed patterns ``M`` (thesis: 256).
     seed : int
+    indices : array_like of int, shape (N,), optional
+        Pattern index of each point (as ``Scene.ambient_occlusion``'s
+        ``indices``, e.g. pixel numbers); default ``arange(N)``.
 
     Returns
     -------
@@ -202,7 +205,10 @@ def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
     import pyopencl as cl
 
     table = direction_table(S, strategy, patterns, seed)
-    pidx = pattern_indices(np.arange(N), patterns, seed)
+    idx = np.arange(N) if indices is None else np.asarray(indices, dtype=np.int64)
+    if idx.shape != (N,):
+        raise ValueError(f"indices must have shape ({N},), got {idx.shape}")
+    pidx = pattern_indices(idx, patterns, seed)
     k = _cl.kernel("sampling.cl", "sample_directions", {"SAMPLES": S})
     buf = _cl.empty(out.nbytes)
     k(_cl.queue(), (N,), None, _cl.to_device(n, np.float32), _cl.to_device(pidx, np.int32),

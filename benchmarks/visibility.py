@@ -32,7 +32,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import _cl, reference
-from pyshadow.scene import LANES
+from pyshadow.scene import BATCH, _grid
 from _common import MESHES, emit, environment, median_time
 
 
@@ -77,21 +77,23 @@ def main(argv=None):
                                                                                  surface_ids=0)),
                           args.repeats)
 
-    # the kernel alone, on device-resident inputs
+    # the kernel alone, on device-resident inputs (anchor-relative float32)
     anchor = scene._anchor(P)
     atlas, kargs = scene._scene_args(anchor, None)
-    soa_p = _cl.to_device(np.ascontiguousarray((P - anchor).T, dtype=np.float32))
-    soa_w = _cl.to_device(np.ascontiguousarray(D.T, dtype=np.float32))
+    dev_p = _cl.to_device(np.ascontiguousarray(P - anchor, dtype=np.float32))
+    dev_w = _cl.to_device(np.ascontiguousarray(D, dtype=np.float32))
     own = _cl.to_device(np.zeros(N, np.int32))
     buf = _cl.empty(N)
     q = _cl.queue()
-    assert N % LANES == 0
+    fp64 = _cl.has_fp64()
+    zero = [np.float64(0.0) if fp64 else np.float32(0.0)] * 3
 
     def kernel_time(extra=None):
-        k = _cl.kernel("visibility.cl", "scene_visible", scene._defines(atlas, **(extra or {})))
+        k = _cl.kernel("visibility.cl", "scene_visible",
+                       scene._defines(atlas, HAVE_FP64=int(fp64), POINTS_F64=0, DIRS_F64=0, **(extra or {})))
 
         def run():
-            k(q, (N // LANES,), None, *kargs, np.int32(N), soa_p, soa_w, own, buf)
+            k(q, *_grid(-(-N // BATCH)), *kargs, np.int32(N), dev_p, dev_w, *zero, own, buf)
             q.finish()
         return median_time(run, args.repeats)[0]
 

@@ -2,8 +2,8 @@
  * sections 5.3, 5.3.2, 5.3.3) and ambient occlusion from them.
  *
  * Kernels
- *   scene_visible   one work-item per (point, direction) query: 1 if the ray
- *                   from the point along the direction is unoccluded.
+ *   scene_visible   one work-item per BATCH (point, direction) queries: 1 if
+ *                   the ray from the point along the direction is unoccluded.
  *   scene_ao        one work-item per point: SAMPLES cosine-weighted
  *                   directions from pattern pidx[i] (sampling.h); writes the
  *                   unoccluded fraction and, with BENT_NORMALS, the
@@ -28,12 +28,16 @@
  *   (depth <= 0) cannot be shadowed by that instance.
  *
  * Scene data ("atlas": every CSM type of the scene concatenated)
- *   types    int   (NTYPES, 8): R, D, layout (0 zigzag, 1 hilbert, 2 hilbert
+ *   types    int   (NTYPES, 16): R, D, layout (0 zigzag, 1 hilbert, 2 hilbert
  *                  over two hemispheres), p1 (theta or level), p2 (phi),
- *                  offsets base, view base, cell-table base
+ *                  offsets base, view base, cell-table base; zigzag only:
+ *                  the float bits of cos and sin of pi / theta and of
+ *                  2 pi / phi (the grid steps); 4 unused
  *   offsets, soff  uint (sum R^2, + 1); summary IEND_T; pairs pair_t: the
- *            search layout of csm_common.h, every type's entries shifted so
- *            they index the concatenated arrays directly
+ *            search layout of csm_search.h with every list padded to whole
+ *            blocks (CoherentShadowMap.search_arrays(padded=True)), every
+ *            type's entries shifted so they index the concatenated arrays
+ *            directly
  *   bases    float (sum D, 9)      rows u, v, d of every map
  *   cells    int   (sum cells)     hilbert cell -> map index
  *   inst     float (NINST, 32): A (3x3, rows) 0..8, c 9..11, Rw (3x3) 12..20,
@@ -43,11 +47,13 @@
  * the map/texel indices stay inside their arrays whatever the query.
  * Query data: owner int (N): caster slot of the surface each point lies on,
  * -1 unknown, -2 none (validated: -2 <= owner < NINST);
- * points, normals, dirs float (N, 3) (dirs need not be unit:
- * normalised here; normals are unit); pidx int (N); table float
- * (M, SAMPLES, 3) local directions; outputs uchar / float (N), float (N, 3).
- * Points are relative to the scene anchor chosen by the host (float32 keeps
- * its precision for scenes far from the world origin).
+ * scene_visible: points, dirs (N, 3) of point_t / dir_t, the caller's own
+ * arrays (dirs need not be unit, only non-zero: normalised here) and the
+ * scene anchor chosen by the host; points are made anchor-relative before
+ * they are rounded to float, which keeps their precision for scenes far from
+ * the world origin. scene_ao: points (anchor-relative) and unit normals float
+ * (N, 3); pidx int (N); table float (M, 3, SPAD) local directions. Outputs
+ * uchar / float (N), float (N, 3).
  *
  * Macros
  *   DEPTH_BITS, IEND_T, PAIR_WIDE   storage of the atlas (csm_common.h)
@@ -55,8 +61,12 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
- *   INPUT_F64            scene_visible reads float64 (N, 3) points and dirs
- *                        (needs cl_khr_fp64; else float32 SoA from the host)
+ *   BATCH                queries packed per work-item (default 64, a
+ *                        multiple of LANES): see batch_occluded()
+ *   HAVE_FP64            the device has cl_khr_fp64 (anchor arithmetic in
+ *                        double)
+ *   POINTS_F64, DIRS_F64 scene_visible's inputs are double (needs HAVE_FP64)
+ *                        or float
  *   PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH  (benchmarks/visibility.py
  *       --profile only: replace the nearest-map choice or the segment search
  *       by a trivial stand-in to measure their share; results are wrong)
@@ -149,6 +159,19 @@ typedef struct {
 #define LANES 16
 typedef float16 fv;
 typedef int16 iv;
+/* private lane arrays are 64-byte aligned and moved as whole vectors (PoCL
+ * calls, rather than inlines, vload16 / vstore16); the type follows the
+ * array, so one macro serves float, int and uint arrays */
+#define LANE_ARRAY __attribute__((aligned(64)))
+/* a cache-line prefetch that does not hold up the lane loop (PoCL's OpenCL
+ * prefetch() is a no-op; clang's builtin becomes the CPU's prefetch) */
+#if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
+#define PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))  /* flat memory on CPUs */
+#else
+#define PREFETCH(p) prefetch((p), 1)
+#endif
+#define LANE_LOAD(a) (*(__typeof__(vload16(0, (a))) *)(a))
+#define LANE_STORE(v, a) (*(__typeof__(vload16(0, (a))) *)(a) = (v))
 
 #if LAYOUT_ZIGZAG
 /* acos to 5e-5 rad (Abramowitz & Stegun 4.4.45) */
@@ -181,7 +204,8 @@ inline fv atan2_pos16(fv y, fv x)
 inline fv cos_small(fv d) { const fv d2 = d * d; return 1.0f - d2 * (0.5f - d2 * (1.0f / 24.0f - d2 * (1.0f / 720.0f))); }
 inline fv sin_small(fv d) { const fv d2 = d * d; return d * (1.0f - d2 * (1.0f / 6.0f - d2 * (1.0f / 120.0f))); }
 
-inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
+inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float ssp,
+                            fv wx, fv wy, fv wz)
 {
     const fv th = acos16(clamp(wy, -1.0f, 1.0f));
     const fv ph = atan2_pos16(wz, wx);
@@ -201,7 +225,6 @@ inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
     const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
     const fv ce = cos_small(dcol), se = sin_small(dcol);
     const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
-    const float cst = cos(dth), sst = sin(dth), csp = cos(dph), ssp = sin(dph);
     const iv last = r0 + 1 > T - 1;
     const fv ct1 = select(ct0 * cst - st0 * sst, ct0, last), st1 = select(st0 * cst + ct0 * sst, st0, last);
     const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
@@ -227,121 +250,194 @@ inline iv nearest_zigzag16(int T, int P, fv wx, fv wy, fv wz)
 }
 #endif
 
-/* lanes (-1 = true) occluded by the scene; occ: lanes already decided */
-inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own, iv occ)
-{
 #if GROUND
-    /* within ground_eps of the plane counts as on it (above) */
+/* lanes (-1) whose ray crosses the ground plane y = ground_y; within
+ * ground_eps of the plane counts as on it (above) */
+inline iv ground16(const scene_t *S, fv py, fv wy)
+{
     const fv h = py - S->ground_y;
-    occ |= ((h >= -S->ground_eps) & (wy < 0.0f)) | ((h < -S->ground_eps) & (wy > 0.0f));
+    return ((h >= -S->ground_eps) & (wy < 0.0f)) | ((h < -S->ground_eps) & (wy > 0.0f));
+}
 #endif
-    for (int j = 0; j < S->ninst; ++j) {
-        if (all(occ)) break;
-        __global const float *I = S->inst + 32 * j;
-        /* bounding-sphere cull: the ray p + t w, t >= 0, must come within radius */
-        const fv ox = I[21] - px, oy = I[22] - py, oz = I[23] - pz;
-        const fv tca = ox * wx + oy * wy + oz * wz;
-        const fv oc2 = ox * ox + oy * oy + oz * oz;
-        const float r2 = I[24] * I[24];
-        const iv act = ~occ & ~((oc2 > r2) & ((tca < 0.0f) | (oc2 - tca * tca > r2)));
-        if (!any(act)) continue;
 
-        __global const int *T = S->types + 8 * S->itype[j];
-        const int R = T[0], layout = T[2], vbase = T[6];
-        const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
-        const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
-        const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
-        fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
-        fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
-        fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
-        const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
-        vx *= inv; vy *= inv; vz *= inv;
+/* lanes (-1) whose ray p + t w, t >= 0, can come within instance j's
+ * bounding sphere */
+inline iv sphere16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz)
+{
+    __global const float *I = S->inst + 32 * j;
+    const fv ox = I[21] - px, oy = I[22] - py, oz = I[23] - pz;
+    const fv tca = ox * wx + oy * wy + oz * wz;
+    const fv oc2 = ox * ox + oy * oy + oz * oz;
+    const float r2 = I[24] * I[24];
+    return ~((oc2 > r2) & ((tca < 0.0f) | (oc2 - tca * tca > r2)));
+}
 
-        iv k = (iv)(0);
+/* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
+inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
+                     iv act)
+{
+    __global const float *I = S->inst + 32 * j;
+    __global const int *T = S->types + 16 * S->itype[j];
+    const int R = T[0], layout = T[2], vbase = T[6];
+    const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
+    const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
+    const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
+    fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
+    fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
+    fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
+    const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
+    vx *= inv; vy *= inv; vz *= inv;
+
+    iv k = (iv)(0);
 #if LAYOUT_ZIGZAG
 #if PROFILE_SKIP_NEAREST
-        if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
+    if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
 #else
-        if (layout == 0) k = nearest_zigzag16(T[3], T[4], vx, vy, vz);
+    if (layout == 0) k = nearest_zigzag16(T[3], T[4], as_float(T[8]), as_float(T[9]),
+                                         as_float(T[10]), as_float(T[11]), vx, vy, vz);
 #endif
 #endif
-        int ka[LANES], am[LANES];
-        vstore16(act, 0, am);
+    LANE_ARRAY int ka[LANES], am[LANES];
+    LANE_STORE(act, am);
 #if LAYOUT_HILBERT
-        if (layout != 0) {
-            float ax[LANES], ay[LANES], az[LANES];
-            vstore16(vx, 0, ax); vstore16(vy, 0, ay); vstore16(vz, 0, az);
-            for (int l = 0; l < LANES; ++l)
-                ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
-                                                (float3)(ax[l], ay[l], az[l])) : 0;
-        } else
-#endif
-        {
-            vstore16(k, 0, ka);
-        }
-        /* the bases of each lane's map */
-        float bu[3][LANES], bv[3][LANES], bd[3][LANES];
-        for (int l = 0; l < LANES; ++l) {
-            __global const float *B = S->bases + 9 * (vbase + ka[l]);
-            bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
-            bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
-            bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
-        }
-        const fv dx = vload16(0, bd[0]), dy = vload16(0, bd[1]), dz = vload16(0, bd[2]);
-        const fv depth = (1.0f - (qx * dx + qy * dy + qz * dz)) * 0.5f;
-        const fv fx = (qx * vload16(0, bu[0]) + qy * vload16(0, bu[1]) + qz * vload16(0, bu[2]) + 1.0f)
-                      * (0.5f * (float)R);
-        const fv fy = (qx * vload16(0, bv[0]) + qy * vload16(0, bv[1]) + qz * vload16(0, bv[2]) + 1.0f)
-                      * (0.5f * (float)R);
-        const iv valid = act & (depth > 0.0f) & (fx >= 0.0f) & (fx < (float)R)
-                         & (fy >= 0.0f) & (fy < (float)R);
-        if (!any(valid)) continue;
-        const iv tex = min(convert_int16(fy), R - 1) * R + min(convert_int16(fx), R - 1);
-        int ta[LANES], va[LANES];
-        vstore16(tex, 0, ta);
-        vstore16(valid, 0, va);
-        /* the search of csm_find() (csm_common.h) for every lane: first the
-         * list's block summary, then the block */
-        __global const uint *off = S->offsets + T[5];
-        __global const uint *sof = S->soff + T[5];
-        uint lo[LANES], hi[LANES], base[LANES], ba[LANES], end[LANES];
-        for (int l = 0; l < LANES; ++l) {
-            const uint t = va[l] ? (uint)ta[l] : 0u;
-            base[l] = off[t];
-            end[l] = off[t + 1];
-            ba[l] = sof[t];
-            lo[l] = ba[l];
-            hi[l] = va[l] ? sof[t + 1] - 1u : ba[l];
-#if PROFILE_SKIP_SEARCH
-            hi[l] = lo[l];
-#endif
-        }
-        /* counting scans: the number of summary entries below the map is the
-         * block, the number of i_end below it in that block the segment --
-         * branch-free, sequential reads, no mispredicted jumps */
-        for (int l = 0; l < LANES; ++l) {
-            const uint k = (uint)ka[l];
-            uint c = 0u;
-            for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
-            const uint b0 = base[l] + SEARCH_BLOCK * c;
-            const uint e0 = va[l] ? min(b0 + SEARCH_BLOCK, end[l]) - 1u : b0;
-            uint c2 = 0u;
-            for (uint j = b0; j < e0; ++j) c2 += ((uint)PAIR_IEND(S->pairs[j]) < k);
-            lo[l] = b0 + c2;
-        }
-        float za[LANES];
+    if (layout != 0) {
+        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
+        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
         for (int l = 0; l < LANES; ++l)
-            za[l] = va[l] ? stored_depth(PAIR_STORED(S->pairs[lo[l]])) : INFINITY;
-        /* depth tolerance against the point's own surface: a quantum, a share
-         * of a texel and the angle a between the query direction and the
-         * map's axis; against other casters only bias_other (the quantum) */
-        const fv ca = clamp(vx * dx + vy * dy + vz * dz, 1e-3f, 1.0f);
-        const fv tan_a = sqrt(fmax(1.0f - ca * ca, 0.0f)) / ca;
-        const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
-        const fv bias = select((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
-        occ |= valid & (depth > vload16(0, za) + bias);
+            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+                                            (float3)(ax[l], ay[l], az[l])) : 0;
+    } else
+#endif
+    {
+        LANE_STORE(k, ka);
     }
-    return occ;
+    /* the bases of each lane's map */
+    LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
+    for (int l = 0; l < LANES; ++l) {
+        __global const float *B = S->bases + 9 * (vbase + ka[l]);
+        bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
+        bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
+        bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
+    }
+    const fv dx = LANE_LOAD(bd[0]), dy = LANE_LOAD(bd[1]), dz = LANE_LOAD(bd[2]);
+    const fv depth = (1.0f - (qx * dx + qy * dy + qz * dz)) * 0.5f;
+    const fv fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f)
+                  * (0.5f * (float)R);
+    const fv fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f)
+                  * (0.5f * (float)R);
+    const iv valid = act & (depth > 0.0f) & (fx >= 0.0f) & (fx < (float)R)
+                     & (fy >= 0.0f) & (fy < (float)R);
+    if (!any(valid)) return (iv)(0);
+    const iv tex = min(convert_int16(fy), R - 1) * R + min(convert_int16(fx), R - 1);
+    LANE_ARRAY int ta[LANES], va[LANES];
+    LANE_STORE(tex, ta);
+    LANE_STORE(valid, va);
+    /* the search of csm_find() (csm_common.h) for every lane: first the
+     * list's block summary, then the block */
+    __global const uint *off = S->offsets + T[5];
+    __global const uint *sof = S->soff + T[5];
+    LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
+    for (int l = 0; l < LANES; ++l) {
+        const uint t = va[l] ? (uint)ta[l] : 0u;
+        base[l] = off[t];
+        lo[l] = sof[t];
+        hi[l] = va[l] ? sof[t + 1] - 1u : lo[l];
+        PREFETCH(S->summary + lo[l]);
+#if PROFILE_SKIP_SEARCH
+        hi[l] = lo[l];
+#endif
+    }
+    /* counting scans: the number of summary entries below the map is the
+     * block, the number of i_end below it in that block the segment --
+     * branch-free, sequential reads, no mispredicted jumps. The lists are
+     * padded to whole blocks (search_arrays(padded=True)) with copies of
+     * their last pair (i_end = D - 1, never below the map), so every block is
+     * SEARCH_BLOCK pairs at an aligned start. First every lane's block is
+     * found and its first pair read (the lanes' cache misses are in flight
+     * together), then the blocks are counted. */
+    LANE_ARRAY uint b0a[LANES];
+    LANE_ARRAY pair_t first[LANES];
+    for (int l = 0; l < LANES; ++l) {
+        const uint k = (uint)ka[l];
+        uint c = 0u;
+        for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
+        b0a[l] = base[l] + SEARCH_BLOCK * c;
+        PREFETCH(S->pairs + b0a[l]);
+    }
+    for (int l = 0; l < LANES; ++l) {
+        const uint k = (uint)ka[l], b0 = b0a[l];
+        uint c2 = 0u;
+        for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
+        first[l] = S->pairs[b0 + c2];
+    }
+    LANE_ARRAY float za[LANES];
+    for (int l = 0; l < LANES; ++l)
+        za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
+    /* depth tolerance against the point's own surface: a quantum, a share
+     * of a texel and the angle a between the query direction and the
+     * map's axis; against other casters only bias_other (the quantum) */
+    const fv ca = clamp(vx * dx + vy * dy + vz * dz, 1e-3f, 1.0f);
+    const fv tan_a = sqrt(fmax(1.0f - ca * ca, 0.0f)) / ca;
+    const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+    const fv bias = select((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+    return valid & (depth > LANE_LOAD(za) + bias);
+}
+
+/* ---------------------------------------------------------------------
+ * A batch of BATCH queries (private arrays; BATCH a multiple of LANES):
+ * occ[i] != 0 on entry marks queries already decided (padding), on exit
+ * the occluded ones. The ground plane is tested for all; then, per caster,
+ * only the undecided queries whose ray can meet its bounding sphere are
+ * packed into groups of LANES for the CSM lookup -- rays stopped by the
+ * ground or missing a body cost no search.
+ * ------------------------------------------------------------------- */
+#ifndef BATCH
+#define BATCH 64
+#endif
+#define LANE_IDS ((iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
+
+inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
+                           const float *wx, const float *wy, const float *wz, const int *own,
+                           int *occ)
+{
+#if GROUND
+    for (int c = 0; c < BATCH; c += LANES)
+        LANE_STORE(LANE_LOAD(occ + c) | ground16(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
+#endif
+    for (int j = 0; j < S->ninst; ++j) {
+        LANE_ARRAY int idx[BATCH];
+        int cnt = 0;
+        for (int c = 0; c < BATCH; c += LANES) {
+            const iv act = ~LANE_LOAD(occ + c)
+                           & sphere16(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
+                                      LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c));
+            LANE_ARRAY int am[LANES];
+            LANE_STORE(act, am);
+            for (int l = 0; l < LANES; ++l) {       /* branch-free packing; cnt <= c + l here */
+                idx[cnt] = c + l;
+                cnt += (am[l] != 0);
+            }
+        }
+        for (int g = 0; g < cnt; g += LANES) {
+            LANE_ARRAY float a[6][LANES];
+            LANE_ARRAY int ow[LANES], gi[LANES];
+            for (int l = 0; l < LANES; ++l) {
+                const int i = idx[min(g + l, cnt - 1)];
+                gi[l] = i;
+                a[0][l] = px[i]; a[1][l] = py[i]; a[2][l] = pz[i];
+                a[3][l] = wx[i]; a[4][l] = wy[i]; a[5][l] = wz[i];
+                ow[l] = own[i];
+            }
+            const iv act = (iv)(g) + LANE_IDS < cnt;
+            const iv r = instance16(S, j, LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
+                                    LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]),
+                                    LANE_LOAD(ow), act);
+            LANE_ARRAY int ra[LANES];
+            LANE_STORE(r, ra);
+            for (int l = 0; l < min(LANES, cnt - g); ++l)
+                occ[gi[l]] |= ra[l];
+        }
+    }
 }
 
 #define SCENE_ARGS __global const int *types, __global const uint *offsets,           \
@@ -358,62 +454,108 @@ inline iv occluded16(const scene_t *S, fv px, fv py, fv pz, fv wx, fv wy, fv wz,
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
                                 bias_other}
 
-#if INPUT_F64
+/* Inputs of scene_visible: (N, 3) rows of POINT_T and DIR_T (float or, with
+ * HAVE_FP64, double), read in place from the caller's arrays. Points are made
+ * relative to the anchor (in double where the device has it) and rounded to
+ * float; directions are rescaled by a power of two where squaring them in
+ * float would underflow or overflow, then normalised. */
+#if HAVE_FP64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
-/* queries LANES at a time, straight from the caller's float64 (N, 3) arrays
- * (no host-side conversion): points are made anchor-relative in double, then
- * rounded to float. Lanes past n are answered as "visible" and not written. */
-__kernel void scene_visible(SCENE_ARGS, const int n, __global const double *points,
-                            __global const double *dirs, const double ax, const double ay,
-                            const double az, __global const int *owner, __global uchar *out)
-{
-    const int base = get_global_id(0) * LANES;
-    if (base >= n) return;
-    SCENE_INIT;
-    float a[6][LANES];
-    int ow[LANES];
-    for (int l = 0; l < LANES; ++l) {
-        const int i = min(base + l, n - 1);
-        a[0][l] = (float)(points[3 * i] - ax);
-        a[1][l] = (float)(points[3 * i + 1] - ay);
-        a[2][l] = (float)(points[3 * i + 2] - az);
-        a[3][l] = (float)dirs[3 * i];
-        a[4][l] = (float)dirs[3 * i + 1];
-        a[5][l] = (float)dirs[3 * i + 2];
-        ow[l] = owner[i];
-    }
-    fv wx = vload16(0, a[3]), wy = vload16(0, a[4]), wz = vload16(0, a[5]);
-    const fv inv = 1.0f / sqrt(wx * wx + wy * wy + wz * wz);
-    wx *= inv; wy *= inv; wz *= inv;
-    const iv pad = (iv)(base) + (iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15) >= n;
-    const iv occ = occluded16(&S, vload16(0, a[0]), vload16(0, a[1]), vload16(0, a[2]),
-                              wx, wy, wz, vload16(0, ow), pad);
-    uchar res[LANES];
-    vstore16(convert_uchar16(occ + 1), 0, res);            /* -1 -> 0, 0 -> 1 */
-    for (int l = 0; l < min(LANES, n - base); ++l) out[base + l] = res[l];
-}
+typedef double anchor_t;
+typedef double wide_t;
 #else
-/* queries LANES at a time; inputs are float structure-of-arrays, anchor-
- * relative, padded to a multiple of LANES (padding lanes are answered and
- * ignored by the host). Used where the device has no double precision. */
-__kernel void scene_visible(SCENE_ARGS, const int n, __global const float *points,
-                            __global const float *dirs, __global const int *owner,
-                            __global uchar *out)
+typedef float anchor_t;
+typedef float wide_t;
+#endif
+#if POINTS_F64
+typedef double point_t;
+typedef double16 point16_t;
+#else
+typedef float point_t;
+typedef float16 point16_t;
+#endif
+#if DIRS_F64
+typedef double dir_t;
+typedef double16 dir16_t;
+#else
+typedef float dir_t;
+typedef float16 dir16_t;
+#endif
+#if HAVE_FP64
+#define TO_WIDE16(x) convert_double16(x)
+#else
+#define TO_WIDE16(x) (x)
+#endif
+/* rows 0..15 of an (N, 3) array from its 48 values in a0, a1, a2 */
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a0.s6, a0.s9, a0.sc, a0.sf, a1.s2, a1.s5, a1.s8, a1.sb, a1.se,  \
+            a2.s1, a2.s4, a2.s7, a2.sa, a2.sd);                                            \
+    Y = (T)(a0.s1, a0.s4, a0.s7, a0.sa, a0.sd, a1.s0, a1.s3, a1.s6, a1.s9, a1.sc, a1.sf,  \
+            a2.s2, a2.s5, a2.s8, a2.sb, a2.se);                                            \
+    Z = (T)(a0.s2, a0.s5, a0.s8, a0.sb, a0.se, a1.s1, a1.s4, a1.s7, a1.sa, a1.sd, a2.s0,  \
+            a2.s3, a2.s6, a2.s9, a2.sc, a2.sf)
+
+/* BATCH queries per work-item; lanes past n are answered as "visible" and
+ * not written. */
+__kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *points,
+                            __global const dir_t *dirs, const anchor_t ax, const anchor_t ay,
+                            const anchor_t az, __global const int *owner, __global uchar *out)
 {
-    const int base = get_global_id(0) * LANES;
+    const int base = get_global_id(0) * BATCH;
     if (base >= n) return;
     SCENE_INIT;
-    const int stride = get_global_size(0) * LANES;     /* = padded N */
-    const fv px = vload16(0, points + base), py = vload16(0, points + stride + base),
-             pz = vload16(0, points + 2 * stride + base);
-    fv wx = vload16(0, dirs + base), wy = vload16(0, dirs + stride + base),
-       wz = vload16(0, dirs + 2 * stride + base);
-    const fv inv = 1.0f / sqrt(wx * wx + wy * wy + wz * wz);
-    wx *= inv; wy *= inv; wz *= inv;
-    const iv occ = occluded16(&S, px, py, pz, wx, wy, wz, vload16(0, owner + base), (iv)(0));
-    vstore16(convert_uchar16(occ + 1), 0, out + base);     /* -1 -> 0, 0 -> 1 */
+    LANE_ARRAY float px[BATCH], py[BATCH], pz[BATCH], wx[BATCH], wy[BATCH], wz[BATCH];
+    LANE_ARRAY int ow[BATCH], occ[BATCH];
+    const int m = min(BATCH, n - base);
+    for (int c = 0; c < BATCH; c += LANES) {
+        if (c + LANES <= m) {
+            /* 16 whole rows: three vector loads per array, deinterleaved */
+            __global const point_t *pp = points + 3 * (base + c);
+            __global const dir_t *dp = dirs + 3 * (base + c);
+            point16_t a0 = vload16(0, pp), a1 = vload16(1, pp), a2 = vload16(2, pp), x, y, z;
+            DEINTERLEAVE3(point16_t, a0, a1, a2, x, y, z);
+            LANE_STORE(convert_float16(TO_WIDE16(x) - ax), px + c);
+            LANE_STORE(convert_float16(TO_WIDE16(y) - ay), py + c);
+            LANE_STORE(convert_float16(TO_WIDE16(z) - az), pz + c);
+            dir16_t b0 = vload16(0, dp), b1 = vload16(1, dp), b2 = vload16(2, dp), u, v, w;
+            DEINTERLEAVE3(dir16_t, b0, b1, b2, u, v, w);
+            const dir16_t sq = u * u + v * v + w * w;
+            if (all((sq > (dir_t)1e-30) & (sq < (dir_t)1e30))) {
+                LANE_STORE(convert_float16(u), wx + c);
+                LANE_STORE(convert_float16(v), wy + c);
+                LANE_STORE(convert_float16(w), wz + c);
+                LANE_STORE(vload16(0, owner + base + c), ow + c);
+                LANE_STORE((iv)(0), occ + c);
+                continue;
+            }
+        }
+        for (int l = c; l < c + LANES; ++l) {          /* the batch's tail, or rescaling */
+            const int i = base + min(l, m - 1);
+            px[l] = (float)((wide_t)points[3 * i] - ax);
+            py[l] = (float)((wide_t)points[3 * i + 1] - ay);
+            pz[l] = (float)((wide_t)points[3 * i + 2] - az);
+            dir_t x = dirs[3 * i], y = dirs[3 * i + 1], z = dirs[3 * i + 2];
+            const dir_t sq = x * x + y * y + z * z;
+            if (!(sq > (dir_t)1e-30 && sq < (dir_t)1e30)) {
+                /* rescale first, by a power of two (exact): the largest
+                 * component to [0.5, 1) */
+                int e;
+                (void)frexp(fmax(fabs(x), fmax(fabs(y), fabs(z))), &e);
+                x = ldexp(x, -e); y = ldexp(y, -e); z = ldexp(z, -e);
+            }
+            wx[l] = (float)x; wy[l] = (float)y; wz[l] = (float)z;
+            ow[l] = owner[i];
+            occ[l] = (l < m) ? 0 : -1;
+        }
+    }
+    for (int c = 0; c < BATCH; c += LANES) {
+        fv x = LANE_LOAD(wx + c), y = LANE_LOAD(wy + c), z = LANE_LOAD(wz + c);
+        const fv inv = 1.0f / sqrt(x * x + y * y + z * z);
+        LANE_STORE(x * inv, wx + c); LANE_STORE(y * inv, wy + c); LANE_STORE(z * inv, wz + c);
+    }
+    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ);
+    for (int l = 0; l < m; ++l) out[base + l] = occ[l] ? 0 : 1;
 }
-#endif
 
 #ifdef SAMPLES
 /* one work-item per point; its SAMPLES directions LANES at a time. table:
@@ -437,28 +579,29 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
     int open = 0;
     float3 sum = (float3)(0.0f);
-    for (int s0 = 0; s0 < SPAD; s0 += LANES) {
-        const fv lx = vload16(0, pat + s0), ly = vload16(0, pat + SPAD + s0),
-                 lz = vload16(0, pat + 2 * SPAD + s0);
-        /* cosine_direction() of sampling.h, per lane, same operations */
-        const fv wx = (lx * t.x + ly * nrm.x) + lz * b.x;
-        const fv wy = (lx * t.y + ly * nrm.y) + lz * b.y;
-        const fv wz = (lx * t.z + ly * nrm.z) + lz * b.z;
-        const iv pad = (iv)(s0) + (iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15) >= SAMPLES;
-        const iv occ = occluded16(&S, (fv)(p.x), (fv)(p.y), (fv)(p.z), wx, wy, wz, own, pad);
-        const iv lit = ~occ & ~pad;
-        open -= (lit.s0 + lit.s1 + lit.s2 + lit.s3 + lit.s4 + lit.s5 + lit.s6 + lit.s7
-                 + lit.s8 + lit.s9 + lit.sa + lit.sb + lit.sc + lit.sd + lit.se + lit.sf);
+    for (int s0 = 0; s0 < SPAD; s0 += BATCH) {
+        LANE_ARRAY float px[BATCH], py[BATCH], pz[BATCH], wx[BATCH], wy[BATCH], wz[BATCH];
+        LANE_ARRAY int ow[BATCH], occ[BATCH];
+        for (int c = 0; c < BATCH; c += LANES) {
+            const int s = min(s0 + c, SPAD - LANES);
+            const fv lx = vload16(0, pat + s), ly = vload16(0, pat + SPAD + s),
+                     lz = vload16(0, pat + 2 * SPAD + s);
+            /* cosine_direction() of sampling.h, per lane, same operations */
+            LANE_STORE((lx * t.x + ly * nrm.x) + lz * b.x, wx + c);
+            LANE_STORE((lx * t.y + ly * nrm.y) + lz * b.y, wy + c);
+            LANE_STORE((lx * t.z + ly * nrm.z) + lz * b.z, wz + c);
+            LANE_STORE((fv)(p.x), px + c); LANE_STORE((fv)(p.y), py + c); LANE_STORE((fv)(p.z), pz + c);
+            LANE_STORE(own, ow + c);
+            LANE_STORE((iv)(s0 + c) + LANE_IDS >= SAMPLES, occ + c);   /* padding: decided */
+        }
+        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ);
+        for (int l = 0; l < min(BATCH, SAMPLES - s0); ++l) {
+            if (occ[l]) continue;
+            ++open;
 #if BENT_NORMALS
-        const fv m = convert_float16(-lit);
-        const fv sx = wx * m, sy = wy * m, sz = wz * m;
-        sum += (float3)(sx.s0 + sx.s1 + sx.s2 + sx.s3 + sx.s4 + sx.s5 + sx.s6 + sx.s7
-                        + sx.s8 + sx.s9 + sx.sa + sx.sb + sx.sc + sx.sd + sx.se + sx.sf,
-                        sy.s0 + sy.s1 + sy.s2 + sy.s3 + sy.s4 + sy.s5 + sy.s6 + sy.s7
-                        + sy.s8 + sy.s9 + sy.sa + sy.sb + sy.sc + sy.sd + sy.se + sy.sf,
-                        sz.s0 + sz.s1 + sz.s2 + sz.s3 + sz.s4 + sz.s5 + sz.s6 + sz.s7
-                        + sz.s8 + sz.s9 + sz.sa + sz.sb + sz.sc + sz.sd + sz.se + sz.sf);
+            sum += (float3)(wx[l], wy[l], wz[l]);
 #endif
+        }
     }
     ao[i] = (float)open / (float)SAMPLES;
 #if BENT_NORMALS

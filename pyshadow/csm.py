@@ -358,18 +358,31 @@ class CoherentShadowMap:
                 "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint",
                 "PAIR_WIDE": int(self.pair_wide), "SEARCH_BLOCK": SEARCH_BLOCK}
 
-    def search_arrays(self, wide: bool | None = None) -> dict:
-        """The device layout the search kernels read (kernels/csm_common.h).
+    def search_arrays(self, wide: bool | None = None, padded: bool = False) -> dict:
+        """The device layout the search kernels read (kernels/csm_search.h).
+
+        Parameters
+        ----------
+        wide : bool, optional
+            Pair layout (default :attr:`pair_wide`).
+        padded : bool, optional
+            Pad every list with copies of its last pair to a whole number of
+            ``SEARCH_BLOCK`` (16) pairs, so that each block is one aligned
+            run of 16 pairs (one cache line when pairs are 4 bytes): the
+            layout of the scene kernels (kernels/visibility.cl). The copies
+            have i_end = D - 1, so counting the i_end below a map index over
+            a whole block gives the same answer.
 
         Returns
         -------
         dict
             ``offsets`` uint32 (R*R+1); ``soff`` uint32 (R*R+1), each texel's
             range in ``summary``; ``summary`` (iend dtype), the last i_end of
-            every block of ``SEARCH_BLOCK`` (16) segments of a list; ``pairs``
+            every block of ``SEARCH_BLOCK`` segments of a list; ``pairs``
             each segment's i_end and stored depth side by side: uint32
-            ``depth << 16 | iend`` or, when ``wide`` (default
-            :attr:`pair_wide`), uint32 (S, 2) ``(iend, depth bits)``.
+            ``depth << 16 | iend`` or, when ``wide``, uint32 (S, 2)
+            ``(iend, depth bits)``; ``segment`` int64, the index into
+            :attr:`iend` / :attr:`depth` of every pair.
         """
         wide = self.pair_wide if wide is None else bool(wide)
         if self.offsets.dtype != np.uint32:
@@ -384,14 +397,23 @@ class CoherentShadowMap:
         j = np.arange(int(soff[-1])) - soff[:-1][texel]
         last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
         summary = iend[last]
-        if wide:
-            pairs = np.empty((len(iend), 2), np.uint32)
-            pairs[:, 0] = iend
-            pairs[:, 1] = np.asarray(self.depth).view(np.uint32) if self.depth_bits == 32 else self.depth
+        if padded:
+            starts = SEARCH_BLOCK * soff            # every list starts on a block boundary
+            owner = np.repeat(np.arange(len(lens)), SEARCH_BLOCK * nblocks)
+            within = np.arange(int(starts[-1])) - starts[:-1][owner]
+            segment = off[:-1][owner] + np.minimum(within, lens[owner] - 1)
+            off = starts
         else:
-            pairs = (np.asarray(self.depth, np.uint32) << 16) | np.asarray(iend, np.uint32)
+            segment = np.arange(len(iend), dtype=np.int64)
+        if wide:
+            pairs = np.empty((len(segment), 2), np.uint32)
+            pairs[:, 0] = iend[segment]
+            depth = np.asarray(self.depth)[segment]
+            pairs[:, 1] = depth.view(np.uint32) if self.depth_bits == 32 else depth
+        else:
+            pairs = ((np.asarray(self.depth, np.uint32) << 16) | np.asarray(iend, np.uint32))[segment]
         return {"offsets": off.astype(np.uint32), "soff": soff.astype(np.uint32),
-                "summary": summary, "pairs": pairs}
+                "summary": summary, "pairs": pairs, "segment": segment}
 
     def device_buffers(self):
         """(offsets, soff, summary, pairs) as device buffers, uploaded once and kept."""

@@ -13,6 +13,7 @@ or not) and cached per configuration by :mod:`pyshadow._cl`.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -69,13 +70,81 @@ class Instance:
 def _rows3(a, name, n=None, dtype=np.float64):
     """Validate an (N, 3) numeric array of finite values; return it as ``dtype``."""
     a = np.asarray(_check_rows(a, name, n), dtype=dtype)
-    if not np.isfinite(a).all():
-        bad = int((~np.isfinite(a).all(axis=1)).sum())
-        raise ValueError(f"{name}: {bad} rows are not finite")
+    _check_values(a, name)
     return a
 
 
-LANES = 16          # queries per work-item in kernels/visibility.cl
+def _check_values(a, name, nonzero=False):
+    """Raise ValueError for rows of an (N, 3) array that are not finite (or,
+    with ``nonzero``, are zero vectors).
+
+    Cheap for valid input (query batches hold millions of rows): the sum of
+    all entries is finite unless an entry is not (or finite entries overflow
+    it: then the rows are checked exactly), and a zero row is three zero
+    entries in a row of the flat array, found among the (usually few) zero
+    entries. No BLAS call: its worker threads would keep spinning on the cores
+    the kernel is about to use.
+    """
+    if len(a) == 0:
+        return
+    if not np.issubdtype(a.dtype, np.integer):
+        with np.errstate(all="ignore"):
+            total = np.add.reduce(a, axis=None)
+        if not np.isfinite(total):
+            bad = int((~np.isfinite(a).all(axis=1)).sum())
+            if bad:
+                raise ValueError(f"{name}: {bad} rows are not finite")
+    if nonzero:
+        z = np.flatnonzero(a.reshape(-1) == 0)
+        if len(z) >= 3:
+            head = z[:-2]
+            zero = int(((z[2:] - head == 2) & (head % 3 == 0)).sum())
+            if zero:
+                raise ValueError(f"{name}: {zero} rows are zero vectors")
+
+
+_checker = None
+
+
+def _check_both(p, p_name, w, w_name):
+    """_check_values of points and of (non-zero) directions, side by side on
+    two threads for large batches (NumPy releases the GIL); the first error in
+    argument order is raised."""
+    global _checker
+    if len(p) < 100_000:
+        _check_values(p, p_name)
+        _check_values(w, w_name, nonzero=True)
+        return
+    if _checker is None:
+        _checker = ThreadPoolExecutor(1, thread_name_prefix="pyshadow-check")
+    future = _checker.submit(_check_values, p, p_name)
+    try:
+        _check_values(w, w_name, nonzero=True)
+    except ValueError:
+        future.result()                 # points first, as in the sequential order
+        raise
+    future.result()
+
+
+def _kernel_rows(a, name, n=None):
+    """An (N, 3) array as the visibility kernel reads it: C-contiguous float32
+    or float64 (other dtypes are converted to float64; no copy otherwise)."""
+    a = _check_rows(a, name, n)
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+    return np.ascontiguousarray(a)
+
+
+LANES = 16          # queries per vector in kernels/visibility.cl
+BATCH = 128         # queries per work-item of scene_visible, a multiple of LANES
+WORK_GROUP = 16     # work-items per group of the query kernels: small, since each
+                    # holds BATCH queries in private arrays (PoCL keeps a group's
+                    # private arrays together; thousands of them overflow its stack)
+
+
+def _grid(items):
+    """Global and local sizes covering ``items`` work-items in groups of WORK_GROUP."""
+    return (-(-items // WORK_GROUP) * WORK_GROUP,), (WORK_GROUP,)
 
 
 def _lane_table(table):
@@ -104,9 +173,7 @@ def _check_rows(a, name, n=None):
 
 
 def _nonzero(a, name):
-    sq = np.einsum("ij,ij->i", a, a)
-    if (sq <= 0).any():
-        raise ValueError(f"{name}: {int((sq <= 0).sum())} rows are zero vectors")
+    _check_values(a, name, nonzero=True)
     return a
 
 
@@ -251,7 +318,8 @@ class Scene:
         seg = blk = view = cell = tex = 0
         for c in types:
             R, D = c.resolution, c.maps
-            if c.segments + seg >= 2**32:
+            a = c.search_arrays(wide=c.pair_wide, padded=True)
+            if len(a["pairs"]) + seg >= 2**32:
                 raise ValueError("the scene's CSMs hold 2^32 or more segments together")
             layout = _LAYOUT_CODE[c.views.layout]
             p = c.views.params
@@ -262,23 +330,27 @@ class Scene:
                 if p.get("hemispheres"):
                     layout = 2
                 cells.append(c.views._hilbert_cells().reshape(-1).astype(np.int32))
-            a = c.search_arrays(wide=c.pair_wide)
-            trow.append([R, D, layout, p1, p2, tex, view, cell])
+            # zigzag grid steps' cos and sin (float32 bits): the kernel's angle addition
+            steps = (np.array([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
+                               np.sin(2 * np.pi / p2)], np.float32).view(np.int32)
+                     if c.views.layout == "zigzag" else np.zeros(4, np.int32))
+            trow.append([R, D, layout, p1, p2, tex, view, cell, *steps, 0, 0, 0, 0])
             offs.append(a["offsets"][:-1].astype(np.int64) + seg)
             soffs.append(a["soff"][:-1].astype(np.int64) + blk)
             summ.append(a["summary"].astype(di))
             if not wide:
                 pairs.append(a["pairs"])
             else:
-                pr = np.empty((c.segments, 2), np.uint32)
-                pr[:, 0] = c.iend
+                sg = a["segment"]
+                pr = np.empty((len(sg), 2), np.uint32)
+                pr[:, 0] = c.iend[sg]
                 if bits == 32:
-                    pr[:, 1] = c.stored_to_depth(c.depth).astype(np.float32).view(np.uint32)
+                    pr[:, 1] = c.stored_to_depth(c.depth[sg]).astype(np.float32).view(np.uint32)
                 else:
-                    pr[:, 1] = c.depth
+                    pr[:, 1] = c.depth[sg]
                 pairs.append(pr)
             bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
-            seg += c.segments
+            seg += len(a["pairs"])
             blk += len(a["summary"])
             view += D
             tex += R * R
@@ -299,7 +371,7 @@ class Scene:
             "layouts": {c.views.layout for c in types},
             "quantum": 1.0 / DEPTH_Q if bits == 16 else 0.0,
             "buffers": [
-                _cl.to_device(np.array(trow, np.int32).reshape(-1, 8) if trow else np.zeros((1, 8), np.int32)),
+                _cl.to_device(np.array(trow, np.int32).reshape(-1, 16) if trow else np.zeros((1, 16), np.int32)),
                 _cl.to_device(cat(offs, np.uint32, [0])),
                 _cl.to_device(cat(soffs, np.uint32, [0])),
                 _cl.to_device(cat(summ, di, [0])),
@@ -366,6 +438,10 @@ class Scene:
         ids = np.asarray(surface_ids)
         if not np.issubdtype(ids.dtype, np.integer):
             raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
+        if (ids.dtype == np.int32 and ids.shape == (n,) and ids.flags.c_contiguous and n
+                and self.casters == list(range(len(self.instances)))
+                and ids.min() >= GROUND_ID and ids.max() < len(self.instances)):
+            return ids          # every instance casts: ids are the slots (-1, -2 included)
         ids = np.broadcast_to(ids, (n,)).astype(np.int64)
         ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(self.instances)))
         if not ok.all():
@@ -384,7 +460,8 @@ class Scene:
              "NTYPES": atlas["ntypes"],
              "GROUND": int(self.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
-             "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"])}
+             "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
+             "BATCH": BATCH}
         d.update(extra)
         return d
 
@@ -433,72 +510,39 @@ class Scene:
         ndarray, shape (N,), bool
             True where the ray reaches the sky.
         """
-        p = _check_rows(points, "points")
-        w = _check_rows(directions, "directions", len(p))
+        p = _kernel_rows(points, "points")
+        w = _kernel_rows(directions, "directions", len(p))
+        _check_both(p, "points", w, "directions")
         n = len(p)
         own = self._owners(surface_ids, n)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
         anchor = self._anchor(p)
-        if _cl.has_fp64():
-            return self._visible_f64(p, w, own, anchor, bias, out)
-        k = None
-        chunk = 1 << 22                       # a multiple of the kernel's 16 lanes
-        for s in range(0, n, chunk):
-            e = min(n, s + chunk)
-            m = -(-(e - s) // LANES) * LANES  # padded to whole lanes
-            # structure of arrays, float32, relative to the anchor
-            soa_p = np.zeros((3, m), np.float32)
-            soa_w = np.zeros((3, m), np.float32)
-            soa_w[1, e - s:] = 1.0
-            np.subtract(p[s:e].T, anchor[:, None], out=soa_p[:, : e - s], casting="unsafe")
-            soa_w[:, : e - s] = w[s:e].T
-            for name, arr in (("points", soa_p), ("directions", soa_w)):
-                if not np.isfinite(arr).all():
-                    bad = int((~np.isfinite(arr).all(axis=0)).sum())
-                    raise ValueError(f"{name}: {bad} rows are not finite")
-            sq = soa_w[0] * soa_w[0] + soa_w[1] * soa_w[1] + soa_w[2] * soa_w[2]
-            if not (sq > 0).all():
-                raise ValueError(f"directions: {int((sq <= 0).sum())} rows are zero vectors")
-            o = np.full(m, -2, np.int32)
-            o[: e - s] = own[s:e]
-            if k is None:                     # inputs are valid: now touch the device
-                atlas, args = self._scene_args(anchor, bias)
-                k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas, INPUT_F64=0))
-                q = _cl.queue()
-            buf = _cl.empty(m)
-            k(q, (m // LANES,), None, *args, np.int32(m), _cl.to_device(soa_p), _cl.to_device(soa_w),
-              _cl.to_device(o), buf)
-            res = np.empty(m, np.uint8)
-            cl.enqueue_copy(q, res, buf)
-            out[s:e] = res[: e - s].view(np.bool_)
-        return out
-
-    def _visible_f64(self, p, w, own, anchor, bias, out):
-        """visible() on devices with double precision: the kernel reads the caller's
-        float64 arrays directly (no host-side conversion pass)."""
-        p = np.ascontiguousarray(p, dtype=np.float64)
-        w = np.ascontiguousarray(w, dtype=np.float64)
-        for name, arr in (("points", p), ("directions", w)):
-            if not np.isfinite(arr).all():
-                bad = int((~np.isfinite(arr).all(axis=1)).sum())
-                raise ValueError(f"{name}: {bad} rows are not finite")
-        sq = np.einsum("ij,ij->i", w, w)
-        if not (sq > 0).all():
-            raise ValueError(f"directions: {int((sq <= 0).sum())} rows are zero vectors")
+        fp64 = _cl.has_fp64()
+        if not fp64:
+            # float-only device: the host does what the kernel does in double
+            # elsewhere, with the same roundings: points relative to the
+            # anchor, rounded once to float32; float64 directions scaled by a
+            # power of two (exact) so their largest component lies in
+            # [0.5, 1) before they are rounded to float32
+            p = (p - anchor).astype(np.float32)
+            if w.dtype == np.float64:
+                w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
         atlas, args = self._scene_args(anchor, bias)
-        k = _cl.kernel("visibility.cl", "scene_visible", self._defines(atlas, INPUT_F64=1))
+        k = _cl.kernel("visibility.cl", "scene_visible",
+                       self._defines(atlas, HAVE_FP64=int(fp64), POINTS_F64=int(p.dtype == np.float64),
+                                     DIRS_F64=int(w.dtype == np.float64)))
+        # what the kernel subtracts from the points (the host already did on float-only devices)
+        a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
         q = _cl.queue()
-        n = len(p)
-        chunk = 1 << 22
         res = out.view(np.uint8)
+        chunk = 1 << 22                       # a multiple of BATCH
         for s in range(0, n, chunk):
             e = min(n, s + chunk)
             buf = _cl.host_buffer(res[s:e], writable=True)
-            k(q, (-(-(e - s) // LANES),), None, *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
-              _cl.host_buffer(w[s:e]), np.float64(anchor[0]), np.float64(anchor[1]),
-              np.float64(anchor[2]), _cl.host_buffer(np.ascontiguousarray(own[s:e])), buf)
+            k(q, *_grid(-(-(e - s) // BATCH)), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
+              _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)
             _cl.sync_host_buffer(buf, res[s:e])
         return out
 
@@ -563,7 +607,7 @@ class Scene:
                 e = min(N, s + chunk)
                 ao_buf = _cl.empty(4 * (e - s))
                 bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
-                k(q, (e - s,), None, *args, np.int32(e - s),
+                k(q, *_grid(e - s), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
                   _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf)
                 cl.enqueue_copy(q, ao[s:e], ao_buf)

@@ -127,6 +127,34 @@ def test_csm_search_matches_numpy_reference(rng):
                                   csm.segment_index_reference(maps, rows, cols))
 
 
+@pytest.mark.parametrize("wide", [False, True])
+def test_padded_search_layout_finds_the_same_segments(rng, wide):
+    """The scene kernels' layout (lists padded to whole blocks of 16 with
+    copies of their last pair): the search of kernels/visibility.cl, written
+    out in NumPy over one whole block, lands on the same segment as the
+    unpadded search, and the padding copies the list's last pair."""
+    from pyshadow.csm import SEARCH_BLOCK
+
+    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(8, 16), 32, progress=False)
+    a = csm.search_arrays(wide=wide, padded=True)
+    plain = csm.search_arrays(wide=wide)
+    off, soff, summary, pairs, seg = (a[k] for k in ("offsets", "soff", "summary", "pairs", "segment"))
+    lens = np.diff(off.astype(np.int64))
+    assert (off % SEARCH_BLOCK == 0).all() and (lens == SEARCH_BLOCK * np.diff(soff.astype(np.int64))).all()
+    np.testing.assert_array_equal(pairs, plain["pairs"][seg])
+    last = csm.offsets[1:].astype(np.int64) - 1
+    assert (np.isin(seg, last) | (np.diff(seg, append=-1) == 1)).all()  # runs, then repeats of the last
+    iend = pairs[:, 0] if wide else pairs & 0xFFFF
+    maps = rng.integers(0, csm.maps, 5000)
+    texel = rng.integers(0, 32 * 32, 5000)
+    found = np.empty(5000, np.int64)
+    for q, (k, t) in enumerate(zip(maps, texel)):
+        c = int((summary[soff[t]:soff[t + 1] - 1] < k).sum())
+        b0 = int(off[t]) + SEARCH_BLOCK * c
+        found[q] = seg[b0 + int((iend[b0:b0 + SEARCH_BLOCK] < k).sum())]
+    np.testing.assert_array_equal(found, csm.segment_index(maps, texel // 32, texel % 32))
+
+
 def test_csm_blocks_do_not_change_the_result():
     mesh = load("suzanne.ply")
     views = pyshadow.ViewSet.zigzag(6, 12)

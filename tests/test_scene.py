@@ -394,3 +394,63 @@ def test_visible_kernel_matches_numpy_reference(layout, rng):
         ref = visible_reference(scene, p, d, **kwargs)
         assert 0.2 < ref.mean() < 0.95
         assert (ours == ref).mean() > 0.999, kwargs
+    # int32 ids of an all-caster scene are passed through unmapped: same answers
+    assert (scene.visible(p, d, surface_ids=ids.astype(np.int32))
+            == scene.visible(p, d, surface_ids=ids)).all()
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int64])
+def test_check_values_matches_the_exact_definition(dtype):
+    """The one-pass checks of visible() against isfinite / any row by row, on
+    small arrays drawn from values that hit every case (zeros of both signs,
+    overflowing sums, inf, nan)."""
+    from pyshadow.scene import _check_values
+
+    rng = np.random.default_rng(3)
+    big = np.finfo(dtype).max / 2 if dtype != np.int64 else 2**62
+    values = [0, 1, -2, big] + ([-0.0, np.inf, -np.inf, np.nan] if dtype != np.int64 else [])
+    raised = 0
+    for _ in range(3000):
+        a = rng.choice(np.array(values, dtype=dtype), size=(int(rng.integers(1, 7)), 3))
+        bad = int((~np.isfinite(a).all(axis=1)).sum()) if dtype != np.int64 else 0
+        zero = int((~a.any(axis=1)).sum())
+        expect = (f"x: {bad} rows are not finite" if bad else
+                  f"x: {zero} rows are zero vectors" if zero else None)
+        try:
+            _check_values(a, "x", nonzero=True)
+            got = None
+        except ValueError as e:
+            got = str(e)
+        assert got == expect, a
+        raised += got is not None
+    assert 100 < raised < 2900                      # both outcomes were exercised
+
+
+def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, rng, monkeypatch):
+    """Bit-identical answers whatever the input dtypes, for directions scaled by
+    powers of two far outside float32's range (the kernel's exact rescaling),
+    for batches that end mid-vector, and on a device without double precision
+    (the host then makes the same roundings)."""
+    p, d = surface_queries(bunny_scene, 0, 3001, 16, rng)   # 48016 queries: a partial batch
+    p = p.astype(np.float32).astype(np.float64)             # values float32 holds exactly
+    d = d.astype(np.float32).astype(np.float64)
+    ids = np.zeros(len(p), np.int32)
+    base = bunny_scene.visible(p, d, surface_ids=ids)
+    assert 0.2 < base.mean() < 0.9
+    mixed = d.copy()
+    mixed[::7] *= 2.0**-700
+    mixed[3::11] *= 2.0**700
+    variants = {
+        "float32 points": (p.astype(np.float32), d),
+        "float32 directions": (p, d.astype(np.float32)),
+        "tiny float64 directions": (p, d * 2.0**-700),
+        "huge float64 directions": (p, d * 2.0**700),
+        "tiny float32 directions": (p, (d * 2.0**-70).astype(np.float32)),
+        "huge float32 directions": (p, (d * 2.0**70).astype(np.float32)),
+        "mixed scales": (p, mixed),
+    }
+    for name, (pp, dd) in variants.items():
+        assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
+    monkeypatch.setattr(pyshadow.scene._cl, "has_fp64", lambda: False)
+    for name, (pp, dd) in [("float-only device", (p, d)), ("float-only, huge", (p, d * 2.0**700))]:
+        assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name

@@ -6,8 +6,9 @@ ground plane), 36 cosine-weighted directions each from
 3.6 M rays. Timed, as medians of several runs after a warm-up, in one process
 on all cores:
 
-* ``Scene.visible(points, directions)`` end to end (host checks, upload, kernel,
-  download) and the kernel alone;
+* ``Scene.visible(points, directions)`` end to end (host checks, kernel reading
+  the caller's arrays, results) and the kernel alone on device-resident float32
+  inputs;
 * ``Scene.ambient_occlusion(points, normals, 36)`` (the same workload through
   the AO kernel, which makes the directions on the device);
 * Embree occlusion rays on the identical (origin, direction) pairs, spread over

@@ -153,8 +153,10 @@ typedef struct {
 /* ---------------------------------------------------------------------
  * Queries are answered LANES (16) at a time: the arithmetic runs on float16
  * vectors (one lane per query), the table reads (map bases, list offsets,
- * the binary searches, stored depths) run lane by lane -- the searches in
- * lockstep, so the lanes' cache misses overlap instead of queueing.
+ * the counting searches, stored depths) run lane by lane, each phase for all
+ * lanes before the next, with the block summaries and the blocks prefetched
+ * as soon as their addresses are known -- so the lanes' cache misses overlap
+ * instead of queueing (memory latency is what limits these kernels on CPUs).
  * ------------------------------------------------------------------- */
 #define LANES 16
 typedef float16 fv;

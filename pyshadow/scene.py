@@ -486,9 +486,13 @@ class Scene:
         ----------
         points : array_like, shape (N, 3)
             World positions (a point on a caster's surface is not occluded
-            by that surface itself: see ``bias``).
+            by that surface itself: see ``bias``). float64 or float32
+            C-contiguous arrays are read in place by the kernel (no copy);
+            other dtypes are converted to float64 first.
         directions : array_like, shape (N, 3)
-            World directions (normalised here; must be non-zero).
+            World directions, float64 or float32 as for ``points``;
+            normalised here, so any non-zero length works (lengths far outside
+            float32's range are first scaled by an exact power of two).
         bias : float, optional
             Depth tolerance in normalised depth units (1 = the diameter of a
             CSM's bounding sphere), against every caster. Default: against

@@ -33,7 +33,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import _cl, reference
-from pyshadow.scene import BATCH, _grid
+from pyshadow.scene import _grid, batch_size
 from _common import MESHES, emit, environment, median_time
 
 
@@ -94,7 +94,7 @@ def main(argv=None):
                        scene._defines(atlas, HAVE_FP64=int(fp64), POINTS_F64=0, DIRS_F64=0, **(extra or {})))
 
         def run():
-            k(q, *_grid(-(-N // BATCH)), *kargs, np.int32(N), dev_p, dev_w, *zero, own, buf)
+            k(q, *_grid(-(-N // batch_size())), *kargs, np.int32(N), dev_p, dev_w, *zero, own, buf)
             q.finish()
         return median_time(run, args.repeats)[0]
 

@@ -136,10 +136,17 @@ def _kernel_rows(a, name, n=None):
 
 
 LANES = 16          # queries per vector in kernels/visibility.cl
-BATCH = 128         # queries per work-item of scene_visible, a multiple of LANES
+BATCH_CPU = 128     # queries per work-item of the query kernels on CPUs (a multiple
+                    # of LANES): the more, the fuller the packed lane groups
+BATCH_OTHER = 16    # elsewhere (GPUs: small private arrays per work-item)
 WORK_GROUP = 16     # work-items per group of the query kernels: small, since each
                     # holds BATCH queries in private arrays (PoCL keeps a group's
                     # private arrays together; thousands of them overflow its stack)
+
+
+def batch_size() -> int:
+    """Queries per work-item of the query kernels on the chosen device."""
+    return BATCH_CPU if _cl.device().type & cl.device_type.CPU else BATCH_OTHER
 
 
 def _grid(items):
@@ -461,7 +468,7 @@ class Scene:
              "GROUND": int(self.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
-             "BATCH": BATCH}
+             "BATCH": batch_size()}
         d.update(extra)
         return d
 
@@ -541,11 +548,12 @@ class Scene:
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
         q = _cl.queue()
         res = out.view(np.uint8)
-        chunk = 1 << 22                       # a multiple of BATCH
+        batch = batch_size()
+        chunk = 1 << 22                       # a multiple of the batch size
         for s in range(0, n, chunk):
             e = min(n, s + chunk)
             buf = _cl.host_buffer(res[s:e], writable=True)
-            k(q, *_grid(-(-(e - s) // BATCH)), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
+            k(q, *_grid(-(-(e - s) // batch)), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
               _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)
             _cl.sync_host_buffer(buf, res[s:e])
         return out

@@ -454,3 +454,20 @@ def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, r
     monkeypatch.setattr(pyshadow.scene._cl, "has_fp64", lambda: False)
     for name, (pp, dd) in [("float-only device", (p, d)), ("float-only, huge", (p, d * 2.0**700))]:
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
+
+
+def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng, monkeypatch):
+    """The batch size other devices use (16) gives the CPU's answers (128):
+    packing the undecided rays of a batch changes nothing but speed."""
+    p, d = surface_queries(bunny_scene, 0, 1001, 16, rng)
+    pts, nrm = bunny_scene.vertex_points(0)
+    pts, nrm = pts[:3000], nrm[:3000]
+    ids = np.zeros(len(p), np.int32)
+    vis = bunny_scene.visible(p, d, surface_ids=ids)
+    ao, bent = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
+    assert 0.2 < vis.mean() < 0.9 and 0.2 < ao.mean() < 0.95
+    monkeypatch.setattr(pyshadow.scene, "BATCH_CPU", 16)
+    assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
+    ao16, bent16 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
+    np.testing.assert_array_equal(ao16, ao)
+    np.testing.assert_array_equal(bent16, bent)

@@ -161,6 +161,12 @@ typedef struct {
 #define LANES 16
 typedef float16 fv;
 typedef int16 iv;
+/* select(), min() and max() on lane vectors as operators: PoCL calls its
+ * vector builtins instead of inlining them. Not for NaN operands (there are
+ * none: inputs are validated, directions normalised). */
+#define VSEL(a, b, c) ((c) ? (b) : (a))
+#define VMIN(a, b) (((b) < (a)) ? (b) : (a))
+#define VMAX(a, b) (((b) > (a)) ? (b) : (a))
 /* private lane arrays are 64-byte aligned and moved as whole vectors (PoCL
  * calls, rather than inlines, vload16 / vstore16); the type follows the
  * array, so one macro serves float, int and uint arrays */
@@ -181,20 +187,20 @@ inline fv acos16(fv x)
 {
     const fv a = fabs(x);
     const fv r = sqrt(1.0f - a) * (1.5707288f + a * (-0.2121144f + a * (0.0742610f - 0.0187293f * a)));
-    return select(r, PI_F - r, x < 0.0f);
+    return VSEL(r, PI_F - r, x < 0.0f);
 }
 
 /* atan2 in [0, 2 pi) to 1e-5 rad (A&S 4.4.49 after octant reduction) */
 inline fv atan2_pos16(fv y, fv x)
 {
     const fv ax = fabs(x), ay = fabs(y);
-    const fv mx = fmax(ax, ay);
-    const fv t = fmin(ax, ay) / select(mx, (fv)(1.0f), mx == 0.0f);
+    const fv mx = VMAX(ax, ay);
+    const fv t = VMIN(ax, ay) / VSEL(mx, (fv)(1.0f), mx == 0.0f);
     const fv t2 = t * t;
     fv r = t * (0.9998660f + t2 * (-0.3302995f + t2 * (0.1801410f + t2 * (-0.0851330f + t2 * 0.0208351f))));
-    r = select(r, 0.5f * PI_F - r, ay > ax);
-    r = select(r, PI_F - r, x < 0.0f);
-    return select(r, 2.0f * PI_F - r, y < 0.0f);
+    r = VSEL(r, 0.5f * PI_F - r, ay > ax);
+    r = VSEL(r, PI_F - r, x < 0.0f);
+    return VSEL(r, 2.0f * PI_F - r, y < 0.0f);
 }
 
 /* map nearest to each lane's direction on a zigzag grid (views.py): the
@@ -209,18 +215,19 @@ inline fv sin_small(fv d) { const fv d2 = d * d; return d * (1.0f - d2 * (1.0f /
 inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz)
 {
-    const fv th = acos16(clamp(wy, -1.0f, 1.0f));
+    const fv th = acos16(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
     const fv ph = atan2_pos16(wz, wx);
     const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
-    const iv r0 = clamp(convert_int16(floor(th * ((float)T / PI_F))), 0, T - 1);
-    iv c0 = clamp(convert_int16(floor(ph * ((float)P / (2.0f * PI_F)))), 0, P);
-    c0 = select(c0, c0 - P, c0 >= P);
+    /* th, ph >= 0: truncation is floor */
+    const iv r0 = VMIN(VMAX(convert_int16(th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
+    iv c0 = VMIN(VMAX(convert_int16(ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
+    c0 = VSEL(c0, c0 - P, c0 >= P);
     /* the candidate grid directions by angle addition from the query's own
      * (cos, sin) of theta and phi: rotate back by the small offsets to the
      * grid lines, then forward by one grid step */
     const fv rho = sqrt(wx * wx + wz * wz);
     const iv pole = rho == 0.0f;
-    const fv cph = select(wx / rho, (fv)(1.0f), pole), sph = select(wz / rho, (fv)(0.0f), pole);
+    const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
     const fv cth = wy, sth = rho;
     const fv drow = th - convert_float16(r0) * dth, dcol = ph - convert_float16(c0) * dph;
     const fv cd = cos_small(drow), sd = sin_small(drow);
@@ -228,20 +235,20 @@ inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float 
     const fv ce = cos_small(dcol), se = sin_small(dcol);
     const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
     const iv last = r0 + 1 > T - 1;
-    const fv ct1 = select(ct0 * cst - st0 * sst, ct0, last), st1 = select(st0 * cst + ct0 * sst, st0, last);
+    const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last), st1 = VSEL(st0 * cst + ct0 * sst, st0, last);
     const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
     iv c1 = c0 + 1;
-    c1 = select(c1, c1 - P, c1 >= P);
-    const iv r1 = min(r0 + 1, T - 1);
+    c1 = VSEL(c1, c1 - P, c1 >= P);
+    const iv r1 = VMIN(r0 + 1, (iv)(T - 1));
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
 #define ZZ_CANDIDATE(R, C, CT, ST, CP, SP)                                           \
     {                                                                                 \
         const fv dd = wx * ((ST) * (CP)) + wy * (CT) + wz * ((ST) * (SP));            \
-        const iv k = (R) * P + select((C), (iv)(P - 1) - (C), ((R) & 1) != 0);        \
+        const iv k = (R) * P + VSEL((C), (iv)(P - 1) - (C), ((R) & 1) != 0);          \
         const iv take = dd > best_d;                                                   \
-        best_d = select(best_d, dd, take);                                             \
-        best = select(best, k, take);                                                  \
+        best_d = VSEL(best_d, dd, take);                                               \
+        best = VSEL(best, k, take);                                                    \
     }
     ZZ_CANDIDATE(r0, c0, ct0, st0, cp0, sp0)
     ZZ_CANDIDATE(r0, c1, ct0, st0, cp1, sp1)
@@ -330,7 +337,7 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     const iv valid = act & (depth > 0.0f) & (fx >= 0.0f) & (fx < (float)R)
                      & (fy >= 0.0f) & (fy < (float)R);
     if (!any(valid)) return (iv)(0);
-    const iv tex = min(convert_int16(fy), R - 1) * R + min(convert_int16(fx), R - 1);
+    const iv tex = VMIN(convert_int16(fy), (iv)(R - 1)) * R + VMIN(convert_int16(fx), (iv)(R - 1));
     LANE_ARRAY int ta[LANES], va[LANES];
     LANE_STORE(tex, ta);
     LANE_STORE(valid, va);
@@ -378,10 +385,10 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     /* depth tolerance against the point's own surface: a quantum, a share
      * of a texel and the angle a between the query direction and the
      * map's axis; against other casters only bias_other (the quantum) */
-    const fv ca = clamp(vx * dx + vy * dy + vz * dz, 1e-3f, 1.0f);
-    const fv tan_a = sqrt(fmax(1.0f - ca * ca, 0.0f)) / ca;
+    const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
+    const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
     const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
-    const fv bias = select((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+    const fv bias = VSEL((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
     return valid & (depth > LANE_LOAD(za) + bias);
 }
 
@@ -483,6 +490,21 @@ typedef double16 dir16_t;
 typedef float dir_t;
 typedef float16 dir16_t;
 #endif
+/* whole-vector loads of rows that are only element-aligned: vload16, or on
+ * clang CPU targets a vector type of reduced alignment (PoCL calls vload16
+ * rather than inlining it; measured 5 % of the kernel) */
+#if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
+typedef point16_t point16u_t __attribute__((aligned(sizeof(point_t))));
+typedef dir16_t dir16u_t __attribute__((aligned(sizeof(dir_t))));
+typedef int16 int16u_t __attribute__((aligned(4)));
+typedef uchar16 uchar16u_t __attribute__((aligned(1)));
+typedef float16 float16u_t __attribute__((aligned(4)));
+#define LOADU16(T, p, i) (((__global const T *)(p))[i])
+#define STOREU16(T, p, v) (*(__global T *)(p) = (v))
+#else
+#define LOADU16(T, p, i) vload16((i), (p))
+#define STOREU16(T, p, v) vstore16((v), 0, (p))
+#endif
 #if HAVE_FP64
 #define TO_WIDE16(x) convert_double16(x)
 #else
@@ -509,24 +531,34 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
     LANE_ARRAY float px[BATCH], py[BATCH], pz[BATCH], wx[BATCH], wy[BATCH], wz[BATCH];
     LANE_ARRAY int ow[BATCH], occ[BATCH];
     const int m = min(BATCH, n - base);
+    {   /* the next work-item's rows (the same thread's, in PoCL's loop over
+         * a work-group): start their transfer now, under this batch's work */
+        __global const uchar *np_ = (__global const uchar *)(points + 3 * (base + BATCH));
+        __global const uchar *nd_ = (__global const uchar *)(dirs + 3 * (base + BATCH));
+        const int rows = clamp(n - base - BATCH, 0, BATCH);
+        for (int b = 0; b < rows * 3 * (int)sizeof(point_t); b += 64) PREFETCH(np_ + b);
+        for (int b = 0; b < rows * 3 * (int)sizeof(dir_t); b += 64) PREFETCH(nd_ + b);
+    }
     for (int c = 0; c < BATCH; c += LANES) {
         if (c + LANES <= m) {
             /* 16 whole rows: three vector loads per array, deinterleaved */
             __global const point_t *pp = points + 3 * (base + c);
             __global const dir_t *dp = dirs + 3 * (base + c);
-            point16_t a0 = vload16(0, pp), a1 = vload16(1, pp), a2 = vload16(2, pp), x, y, z;
+            point16_t a0 = LOADU16(point16u_t, pp, 0), a1 = LOADU16(point16u_t, pp, 1),
+                      a2 = LOADU16(point16u_t, pp, 2), x, y, z;
             DEINTERLEAVE3(point16_t, a0, a1, a2, x, y, z);
             LANE_STORE(convert_float16(TO_WIDE16(x) - ax), px + c);
             LANE_STORE(convert_float16(TO_WIDE16(y) - ay), py + c);
             LANE_STORE(convert_float16(TO_WIDE16(z) - az), pz + c);
-            dir16_t b0 = vload16(0, dp), b1 = vload16(1, dp), b2 = vload16(2, dp), u, v, w;
+            dir16_t b0 = LOADU16(dir16u_t, dp, 0), b1 = LOADU16(dir16u_t, dp, 1),
+                    b2 = LOADU16(dir16u_t, dp, 2), u, v, w;
             DEINTERLEAVE3(dir16_t, b0, b1, b2, u, v, w);
             const dir16_t sq = u * u + v * v + w * w;
             if (all((sq > (dir_t)1e-30) & (sq < (dir_t)1e30))) {
                 LANE_STORE(convert_float16(u), wx + c);
                 LANE_STORE(convert_float16(v), wy + c);
                 LANE_STORE(convert_float16(w), wz + c);
-                LANE_STORE(vload16(0, owner + base + c), ow + c);
+                LANE_STORE(LOADU16(int16u_t, owner + base + c, 0), ow + c);
                 LANE_STORE((iv)(0), occ + c);
                 continue;
             }
@@ -556,7 +588,13 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
         LANE_STORE(x * inv, wx + c); LANE_STORE(y * inv, wy + c); LANE_STORE(z * inv, wz + c);
     }
     batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ);
-    for (int l = 0; l < m; ++l) out[base + l] = occ[l] ? 0 : 1;
+    for (int c = 0; c < m; c += LANES) {
+        if (c + LANES <= m) {                     /* -1 (occluded) -> 0, 0 -> 1 */
+            STOREU16(uchar16u_t, out + base + c, convert_uchar16(LANE_LOAD(occ + c) + 1));
+        } else {
+            for (int l = c; l < m; ++l) out[base + l] = occ[l] ? 0 : 1;
+        }
+    }
 }
 
 #ifdef SAMPLES
@@ -586,8 +624,8 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         LANE_ARRAY int ow[BATCH], occ[BATCH];
         for (int c = 0; c < BATCH; c += LANES) {
             const int s = min(s0 + c, SPAD - LANES);
-            const fv lx = vload16(0, pat + s), ly = vload16(0, pat + SPAD + s),
-                     lz = vload16(0, pat + 2 * SPAD + s);
+            const fv lx = LOADU16(float16u_t, pat + s, 0), ly = LOADU16(float16u_t, pat + SPAD + s, 0),
+                     lz = LOADU16(float16u_t, pat + 2 * SPAD + s, 0);
             /* cosine_direction() of sampling.h, per lane, same operations */
             LANE_STORE((lx * t.x + ly * nrm.x) + lz * b.x, wx + c);
             LANE_STORE((lx * t.y + ly * nrm.y) + lz * b.y, wy + c);

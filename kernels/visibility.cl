@@ -167,19 +167,30 @@ typedef int16 iv;
 #define VSEL(a, b, c) ((c) ? (b) : (a))
 #define VMIN(a, b) (((b) < (a)) ? (b) : (a))
 #define VMAX(a, b) (((b) > (a)) ? (b) : (a))
-/* private lane arrays are 64-byte aligned and moved as whole vectors (PoCL
- * calls, rather than inlines, vload16 / vstore16); the type follows the
- * array, so one macro serves float, int and uint arrays */
-#define LANE_ARRAY __attribute__((aligned(64)))
-/* a cache-line prefetch that does not hold up the lane loop (PoCL's OpenCL
- * prefetch() is a no-op; clang's builtin becomes the CPU's prefetch) */
+/* CPU targets of clang (PoCL): builtins PoCL would call rather than inline
+ * get inline forms below; other compilers use the standard builtins */
+#ifndef CPU_CLANG                /* the host may set it (tests: 0 on PoCL too) */
 #if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
-#define PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))  /* flat memory on CPUs */
+#define CPU_CLANG 1
 #else
-#define PREFETCH(p) prefetch((p), 1)
+#define CPU_CLANG 0
 #endif
+#endif
+/* private lane arrays: 64-byte aligned, moved as whole vectors (the type
+ * follows the array, so one macro serves float, int and uint arrays) */
+#define LANE_ARRAY __attribute__((aligned(64)))
+#if CPU_CLANG
 #define LANE_LOAD(a) (*(__typeof__(vload16(0, (a))) *)(a))
 #define LANE_STORE(v, a) (*(__typeof__(vload16(0, (a))) *)(a) = (v))
+/* a cache-line prefetch that does not hold up the lane loop (PoCL's
+ * prefetch() is a no-op; clang's builtin becomes the CPU's prefetch
+ * instruction; memory is flat on CPUs) */
+#define PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))
+#else
+#define LANE_LOAD(a) vload16(0, (a))
+#define LANE_STORE(v, a) vstore16((v), 0, (a))
+#define PREFETCH(p) prefetch((p), 1)
+#endif
 
 #if LAYOUT_ZIGZAG
 /* acos to 5e-5 rad (Abramowitz & Stegun 4.4.45) */
@@ -393,7 +404,7 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
 }
 
 /* ---------------------------------------------------------------------
- * A batch of BATCH queries (private arrays; BATCH a multiple of LANES):
+ * A batch of nb <= BATCH queries (private arrays; nb a multiple of LANES):
  * occ[i] != 0 on entry marks queries already decided (padding), on exit
  * the occluded ones. The ground plane is tested for all; then, per caster,
  * only the undecided queries whose ray can meet its bounding sphere are
@@ -407,16 +418,16 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
 
 inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own,
-                           int *occ)
+                           int *occ, const int nb)
 {
 #if GROUND
-    for (int c = 0; c < BATCH; c += LANES)
+    for (int c = 0; c < nb; c += LANES)
         LANE_STORE(LANE_LOAD(occ + c) | ground16(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
 #endif
     for (int j = 0; j < S->ninst; ++j) {
         LANE_ARRAY int idx[BATCH];
         int cnt = 0;
-        for (int c = 0; c < BATCH; c += LANES) {
+        for (int c = 0; c < nb; c += LANES) {
             const iv act = ~LANE_LOAD(occ + c)
                            & sphere16(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
                                       LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c));
@@ -490,10 +501,10 @@ typedef double16 dir16_t;
 typedef float dir_t;
 typedef float16 dir16_t;
 #endif
-/* whole-vector loads of rows that are only element-aligned: vload16, or on
- * clang CPU targets a vector type of reduced alignment (PoCL calls vload16
- * rather than inlining it; measured 5 % of the kernel) */
-#if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
+/* whole-vector loads and stores of rows that are only element-aligned:
+ * vload16 / vstore16, or on clang CPU targets vector types of reduced
+ * alignment (measured 5 % of the kernel) */
+#if CPU_CLANG
 typedef point16_t point16u_t __attribute__((aligned(sizeof(point_t))));
 typedef dir16_t dir16u_t __attribute__((aligned(sizeof(dir_t))));
 typedef int16 int16u_t __attribute__((aligned(4)));
@@ -587,7 +598,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
         const fv inv = 1.0f / sqrt(x * x + y * y + z * z);
         LANE_STORE(x * inv, wx + c); LANE_STORE(y * inv, wy + c); LANE_STORE(z * inv, wz + c);
     }
-    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ);
+    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH);
     for (int c = 0; c < m; c += LANES) {
         if (c + LANES <= m) {                     /* -1 (occluded) -> 0, 0 -> 1 */
             STOREU16(uchar16u_t, out + base + c, convert_uchar16(LANE_LOAD(occ + c) + 1));
@@ -602,6 +613,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
  * local directions per pattern as (M, 3, SPAD) structure of arrays, SPAD =
  * SAMPLES rounded up to LANES (padding lanes are masked out). */
 #define SPAD (((SAMPLES + LANES - 1) / LANES) * LANES)
+#define AO_BATCH (SPAD < BATCH ? SPAD : BATCH)     /* samples per batch_occluded() */
 __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *normals, __global const int *pidx,
                        __global const int *owner,
@@ -619,10 +631,11 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
     int open = 0;
     float3 sum = (float3)(0.0f);
-    for (int s0 = 0; s0 < SPAD; s0 += BATCH) {
-        LANE_ARRAY float px[BATCH], py[BATCH], pz[BATCH], wx[BATCH], wy[BATCH], wz[BATCH];
-        LANE_ARRAY int ow[BATCH], occ[BATCH];
-        for (int c = 0; c < BATCH; c += LANES) {
+    for (int s0 = 0; s0 < SPAD; s0 += AO_BATCH) {
+        LANE_ARRAY float px[AO_BATCH], py[AO_BATCH], pz[AO_BATCH], wx[AO_BATCH], wy[AO_BATCH],
+                         wz[AO_BATCH];
+        LANE_ARRAY int ow[AO_BATCH], occ[AO_BATCH];
+        for (int c = 0; c < AO_BATCH; c += LANES) {
             const int s = min(s0 + c, SPAD - LANES);
             const fv lx = LOADU16(float16u_t, pat + s, 0), ly = LOADU16(float16u_t, pat + SPAD + s, 0),
                      lz = LOADU16(float16u_t, pat + 2 * SPAD + s, 0);
@@ -634,8 +647,8 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
             LANE_STORE(own, ow + c);
             LANE_STORE((iv)(s0 + c) + LANE_IDS >= SAMPLES, occ + c);   /* padding: decided */
         }
-        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ);
-        for (int l = 0; l < min(BATCH, SAMPLES - s0); ++l) {
+        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH);
+        for (int l = 0; l < min(AO_BATCH, SAMPLES - s0); ++l) {
             if (occ[l]) continue;
             ++open;
 #if BENT_NORMALS

@@ -471,3 +471,19 @@ def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng, monkeypatch)
     ao16, bent16 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
     np.testing.assert_array_equal(ao16, ao)
     np.testing.assert_array_equal(bent16, bent)
+
+
+def test_query_kernels_portable_code_path_agrees(bunny_scene, rng, monkeypatch):
+    """The kernels' standard-OpenCL forms (vload16, prefetch(), what GPUs
+    compile) give the answers of their inline CPU forms."""
+    p, d = surface_queries(bunny_scene, 0, 1001, 16, rng)
+    pts, nrm = bunny_scene.vertex_points(0)
+    pts, nrm = pts[:3000], nrm[:3000]
+    ids = np.zeros(len(p), np.int32)
+    vis = bunny_scene.visible(p, d, surface_ids=ids)
+    ao = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0)
+    defines = pyshadow.Scene._defines
+    monkeypatch.setattr(pyshadow.Scene, "_defines", lambda self, atlas, **kw: {
+        **defines(self, atlas, **kw), "CPU_CLANG": 0})
+    assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
+    np.testing.assert_array_equal(bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0), ao)

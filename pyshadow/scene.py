@@ -139,6 +139,7 @@ LANES = 16          # queries per vector in kernels/visibility.cl
 BATCH_CPU = 128     # queries per work-item of the query kernels on CPUs (a multiple
                     # of LANES): the more, the fuller the packed lane groups
 BATCH_OTHER = 16    # elsewhere (GPUs: small private arrays per work-item)
+QUERY_CHUNK = 1 << 22   # queries per launch of scene_visible (keeps int32 indices small)
 WORK_GROUP = 16     # work-items per group of the query kernels: small, since each
                     # holds BATCH queries in private arrays (PoCL keeps a group's
                     # private arrays together; thousands of them overflow its stack)
@@ -549,9 +550,8 @@ class Scene:
         q = _cl.queue()
         res = out.view(np.uint8)
         batch = batch_size()
-        chunk = 1 << 22                       # a multiple of the batch size
-        for s in range(0, n, chunk):
-            e = min(n, s + chunk)
+        for s in range(0, n, QUERY_CHUNK):
+            e = min(n, s + QUERY_CHUNK)
             buf = _cl.host_buffer(res[s:e], writable=True)
             k(q, *_grid(-(-(e - s) // batch)), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
               _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)

@@ -429,8 +429,8 @@ def test_check_values_matches_the_exact_definition(dtype):
 def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, rng, monkeypatch):
     """Bit-identical answers whatever the input dtypes, for directions scaled by
     powers of two far outside float32's range (the kernel's exact rescaling),
-    for batches that end mid-vector, and on a device without double precision
-    (the host then makes the same roundings)."""
+    for batches that end mid-vector, split over many launches, and on a device
+    without double precision (the host then makes the same roundings)."""
     p, d = surface_queries(bunny_scene, 0, 3001, 16, rng)   # 48016 queries: a partial batch
     p = p.astype(np.float32).astype(np.float64)             # values float32 holds exactly
     d = d.astype(np.float32).astype(np.float64)
@@ -451,6 +451,8 @@ def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, r
     }
     for name, (pp, dd) in variants.items():
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
+    monkeypatch.setattr(pyshadow.scene, "QUERY_CHUNK", 1000)       # many launches, odd sizes
+    assert (bunny_scene.visible(p, d, surface_ids=ids) == base).all(), "chunked"
     monkeypatch.setattr(pyshadow.scene._cl, "has_fp64", lambda: False)
     for name, (pp, dd) in [("float-only device", (p, d)), ("float-only, huge", (p, d * 2.0**700))]:
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name

@@ -455,8 +455,9 @@ class CoherentShadowMap:
         -------
         ndarray, float64
             Normalised depth the shadow test compares against (``+inf`` where
-            the texel's ray misses the object), found by the binary search the
-            visibility kernel uses.
+            the texel's ray misses the object), found by the counting search of
+            kernels/csm_search.h (block summary, then block), which lands on
+            the same segment as the visibility kernel's search (tested).
         """
         return self.stored_to_depth(self.depth[self.segment_index(map_index, rows, cols)])
 

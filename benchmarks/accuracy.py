@@ -28,15 +28,9 @@ from pyshadow import reference
 from _common import MESHES, emit, environment
 
 
-def place(mesh, scale=1.0, offset=(0.0, 0.0, 0.0), rotation=None):
-    c, r = pyshadow.bounding_sphere(mesh)
-    T = np.eye(4)
-    if rotation is not None:
-        T[:3, :3] = rotation
-    T[:3, :3] *= scale / r
-    T[:3, 3] = np.asarray(offset, float) - T[:3, :3] @ c
-    T[1, 3] -= (mesh.vertices @ T[:3, :3].T + T[:3, 3])[:, 1].min()      # stand on y = 0
-    return T
+def place(mesh, scale=1.0, offset=(0.0, 0.0), rotation=None):
+    """Bounding sphere of radius ``scale`` over world ``(x, z) = offset``, standing on y = 0."""
+    return pyshadow.stand_on_ground(mesh, radius=scale, position=offset, rotation=rotation)
 
 
 def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
@@ -96,7 +90,7 @@ def main(argv=None):
     two.add(csm_64x128, Tb, mesh=bunny)
     fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
                                                progress=False)
-    two.add(fan_csm, place(fandisk, 0.8, (1.7, 0.0, 0.4), rot), mesh=fandisk)
+    two.add(fan_csm, place(fandisk, 0.8, (1.7, 0.4), rot), mesh=fandisk)
     two_scene = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3),
                  "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4),
                  "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True),

@@ -52,11 +52,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
 
     bunny = pyshadow.load_mesh(MESHES / "stanford-bunny.obj")
-    c, r = pyshadow.bounding_sphere(bunny)
-    T = np.eye(4)
-    T[:3, :3] /= r
-    T[:3, 3] = -c / r
-    T[1, 3] -= (bunny.vertices @ T[:3, :3].T + T[:3, 3])[:, 1].min()
+    T = pyshadow.stand_on_ground(bunny)
     scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
     scene.add(bunny, T)
     cam = pyshadow.Camera([1.6, 1.5, 3.2], [0.0, 0.55, 0.0], width=args.width, height=args.height)

@@ -61,8 +61,8 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
- *   BATCH                queries packed per work-item (default 64, a
- *                        multiple of LANES): see batch_occluded()
+ *   BATCH                queries per work-item, a multiple of LANES
+ *                        (scene.batch_size()): see batch_occluded()
  *   HAVE_FP64            the device has cl_khr_fp64 (anchor arithmetic in
  *                        double)
  *   POINTS_F64, DIRS_F64 scene_visible's inputs are double (needs HAVE_FP64)
@@ -412,7 +412,7 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
  * ground or missing a body cost no search.
  * ------------------------------------------------------------------- */
 #ifndef BATCH
-#define BATCH 64
+#error "BATCH (queries per work-item, a multiple of LANES) must be defined by the host"
 #endif
 #define LANE_IDS ((iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
 

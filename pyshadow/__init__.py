@@ -9,7 +9,7 @@ sphere centre at the origin, radius 1).
 """
 from ._version import __version__
 from ._cl import DeviceNotFoundError, KernelBuildError, device_info
-from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh
+from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh, stand_on_ground
 from .views import ViewSet
 from .raster import render_depth
 from .camera import Camera
@@ -36,6 +36,7 @@ __all__ = [
     "device_info",
     "edge_aware_box",
     "load_mesh",
+    "stand_on_ground",
     "read_image",
     "render_depth",
     "render_gbuffer",

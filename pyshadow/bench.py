@@ -402,20 +402,14 @@ def mesh_scene(meshes, *, views, resolution: int = 128, depth_bits: int = 16, la
         distance where the bounding sphere of all bodies fits the image.
     """
     from pyshadow import Camera, CoherentShadowMap, Scene
-    from pyshadow.mesh import bounding_sphere
+    from pyshadow.mesh import stand_on_ground
 
     scene = Scene(ground=0.0, views=views, resolution=resolution, depth_bits=depth_bits,
                   layers=layers)
     n = len(meshes)
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     for i, (name, mesh) in enumerate(meshes):
-        c, r = bounding_sphere(mesh)
-        T = np.eye(4)
-        T[:3, :3] /= r
-        T[:3, 3] = -np.asarray(c) / r
-        v = np.asarray(mesh.vertices) @ T[:3, :3].T + T[:3, 3]
-        T[1, 3] -= v[:, 1].min()
-        T[0, 3] += (i - (n - 1) / 2.0) * (2.0 + gap)
+        T = stand_on_ground(mesh, position=((i - (n - 1) / 2.0) * (2.0 + gap), 0.0))
         w = np.asarray(mesh.vertices) @ T[:3, :3].T + T[:3, 3]
         lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
         csm = csm_for(name, mesh) if csm_for is not None else None

@@ -33,6 +33,8 @@ import sys
 
 import numpy as np
 
+from .mesh import stand_on_ground  # noqa: F401  (placement helper, part of viz's API)
+
 __all__ = [
     "BACKGROUND",
     "TEXT_COLOR",
@@ -696,43 +698,6 @@ def segment_heatmap(csm):
 # ---------------------------------------------------------------------------
 # scene layout for the examples
 # ---------------------------------------------------------------------------
-def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=None,
-                    ground: float = 0.0) -> np.ndarray:
-    """A rigid transform that sizes a mesh and stands it on the ground plane.
-
-    Parameters
-    ----------
-    mesh : trimesh.Trimesh
-    radius : float, optional
-        World radius of the mesh's bounding sphere (uniform scale).
-    position : (float, float), optional
-        World ``(x, z)`` of the bounding sphere's centre.
-    rotation : array_like, shape (3, 3) or (4, 4), optional
-        Rotation about the bounding sphere's centre, applied before
-        standing (a 4x4 contributes only its 3x3 block).
-    ground : float, optional
-        Height of the plane the lowest vertex touches.
-
-    Returns
-    -------
-    ndarray, shape (4, 4), float64
-    """
-    from .mesh import bounding_sphere
-
-    if not radius > 0:
-        raise ValueError(f"stand_on_ground: radius must be positive, got {radius}")
-    c, r = bounding_sphere(mesh)
-    Rm = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)[:3, :3]
-    s = float(radius) / r
-    T = np.eye(4)
-    T[:3, :3] = s * Rm
-    x, z = (float(v) for v in position)
-    T[:3, 3] = np.array([x, 0.0, z]) - T[:3, :3] @ c
-    low = (np.asarray(mesh.vertices) @ T[:3, :3].T + T[:3, 3])[:, 1].min()
-    T[1, 3] += float(ground) - low
-    return T
-
-
 def ground_grid(centre=(0.0, 0.0), size: float = 6.0, divisions: int = 48,
                 height: float = 0.0):
     """A square receiver mesh on the ground, normals up, for per-vertex ground AO.

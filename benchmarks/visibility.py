@@ -107,9 +107,9 @@ def main(argv=None):
                    "without_both_s": kernel_time({"PROFILE_SKIP_NEAREST": 1, "PROFILE_SKIP_SEARCH": 1})}
 
     # Embree on the identical rays, one thread per core
-    rays, ranchor = reference._scene_rays(scene)
+    rays, ranchor = reference.caster_scene(scene)
     eps = reference.surface_epsilon(scene)
-    ground = reference._ground_occludes(scene, P - ranchor, D, ranchor)
+    ground = reference.ground_occludes(scene, P - ranchor, D, ranchor)
     todo = np.flatnonzero(~ground)
     origins = (P[todo] - ranchor + eps * D[todo]).astype(np.float32)
     dirs = D[todo].astype(np.float32)

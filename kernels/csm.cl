@@ -4,9 +4,10 @@
  * csm_fold      one work-item per texel. Folds the maps of one block (in
  *               view-set order) into the texel's open run: the run keeps the
  *               intersection [lo, hi2] of the maps' [z1, z2) intervals (as
- *               keys, see csm_common.h) and [lo, hi3] of their [z1, z3)
- *               intervals (LAYER_RULE 3; [z1, z2) where the ray does not
- *               re-enter the object). When the next map's interval does
+ *               keys, see csm_common.h) and [lo, hi3] of their
+ *               [z1, z3 - Z3_MARGIN) intervals (LAYER_RULE 3; [z1, z2) where
+ *               the ray does not re-enter the object or z3 - Z3_MARGIN <= z2).
+ *               When the next map's interval does
  *               not meet the run, the run is emitted as (depth, i_end) and a
  *               new run starts. A map hit once is the point interval {z1}; a
  *               miss is {+inf} and meets only misses. The last block (last =
@@ -27,9 +28,14 @@
  *   out_z  depth_t (S_block), out_i IEND_T (S_block)  written (compact)
  * Macros
  *   RES, LAYERS (1..3, layers in the depth block), LAYER_RULE (2 or 3),
- *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint)
+ *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint),
+ *   Z3_MARGIN (LAYER_RULE 3: float depth margin in front of z3)
  */
 #include "csm_common.h"
+
+#if LAYER_RULE == 3 && !defined(Z3_MARGIN)
+#error "the host sets Z3_MARGIN (depth units) for LAYER_RULE 3"
+#endif
 
 inline uint run_value(uint lo, uint hi2, uint hi3)
 {
@@ -90,9 +96,11 @@ __kernel void csm_fold(__global const float *depth, const int n_maps, const int 
                 mhi2 = mlo;                      /* hit once: {z1} */
             }
 #if LAYER_RULE == 3
-            /* [z1, z3) only where the ray re-enters the object (z3 exists):
-             * beyond the last exit everything must stay in shadow */
-            mhi3 = (z2 < INFINITY && z3 < INFINITY) ? max(key_below(z3), mhi2) : mhi2;
+            /* [z1, z3 - Z3_MARGIN) only where the ray re-enters the object
+             * (z3 exists; beyond the last exit everything must stay in
+             * shadow) and that reaches past z2 */
+            const float z3m = z3 - Z3_MARGIN;
+            mhi3 = (z2 < INFINITY && z3 < INFINITY && z3m > z2) ? max(key_below(z3m), mhi2) : mhi2;
 #else
             mhi3 = mhi2;
 #endif

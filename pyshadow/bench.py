@@ -205,7 +205,10 @@ def _code_digest() -> str:
     import pyshadow
     from pyshadow import _cl
 
+    from pyshadow.csm import Z3_MARGIN_TEXELS
+
     h = hashlib.sha256(pyshadow.__version__.encode())
+    h.update(repr(Z3_MARGIN_TEXELS).encode())
     for name in ("csm.cl", "raster.cl"):
         try:
             h.update(_cl.kernel_source(name).encode())
@@ -596,7 +599,7 @@ class EmbreeTracer:
         from pyshadow import reference
 
         self.scene = scene
-        self.rays, self.anchor = reference._scene_rays(scene)
+        self.rays, self.anchor = reference.caster_scene(scene)
         self.eps = reference.surface_epsilon(scene)
         self.threads = int(threads)
         self.pool = ThreadPoolExecutor(self.threads)
@@ -642,7 +645,7 @@ class EmbreeTracer:
 
         S = int(samples)
         rel = points - self.anchor
-        ground = reference._ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
+        ground = reference.ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
         origins = np.repeat((rel + self.eps * normals).astype(np.float32), S, axis=0)
         todo = np.flatnonzero(~ground)
         return ground, todo, origins[todo], dirs32[todo]

@@ -13,8 +13,8 @@ import trimesh
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
-__all__ = ["EmbreeScene", "depth_layers", "gbuffer", "ray_epsilon", "visible", "ambient_occlusion",
-           "render", "surface_epsilon"]
+__all__ = ["EmbreeScene", "caster_scene", "depth_layers", "gbuffer", "ground_occludes", "ray_epsilon",
+           "visible", "ambient_occlusion", "render", "surface_epsilon"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -162,8 +162,23 @@ def gbuffer(items, camera) -> dict:
 # ---------------------------------------------------------------------------
 # scenes: visibility and ambient occlusion by ray tracing
 # ---------------------------------------------------------------------------
-def _scene_rays(scene):
-    """Embree scene of every caster (world space, relative to the scene anchor)."""
+def caster_scene(scene) -> tuple[EmbreeScene, np.ndarray]:
+    """Embree scene of every caster of a :class:`pyshadow.Scene`, for rays of one's own.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+        Every instance added with ``casts=True`` must carry its mesh.
+
+    Returns
+    -------
+    rays : EmbreeScene
+        The casters' triangles in world space minus ``anchor`` (float32 in
+        Embree, so coordinates stay small wherever the scene is).
+    anchor : ndarray, shape (3,), float64
+        World point subtracted from the triangles: rays must be given
+        relative to it.
+    """
     anchor = scene._anchor()
     tris = []
     for i, inst in enumerate(scene.instances):
@@ -178,12 +193,34 @@ def _scene_rays(scene):
     return EmbreeScene(np.concatenate(tris) if tris else np.zeros((0, 3, 3))), anchor
 
 
-def _ground_occludes(scene, rel_points, dirs, anchor):
+def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
+    """The scene's ground plane, decided analytically as the visibility kernel does.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : ndarray, shape (N, 3), float64
+        Ray origins: world space, or relative to ``anchor`` when it is given.
+    directions : ndarray, shape (N, 3)
+        Ray directions (any length).
+    anchor : ndarray, shape (3,), optional
+        The anchor of :func:`caster_scene`.
+
+    Returns
+    -------
+    ndarray, shape (N,), bool
+        True where the plane y = ``scene.ground`` blocks the ray: a point on or
+        above it (within 1e-5 of the scene's largest radius) looking down, or
+        a point below it looking up. All False without a ground plane.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    directions = np.asarray(directions).reshape(-1, 3)
     if scene.ground is None:
-        return np.zeros(len(rel_points), bool)
-    h = rel_points[:, 1] - (scene.ground - anchor[1])
+        return np.zeros(len(points), bool)
+    level = scene.ground - (0.0 if anchor is None else anchor[1])
+    h = points[:, 1] - level
     eps = 1e-5 * scene.scale()
-    return ((h >= -eps) & (dirs[:, 1] < 0)) | ((h < -eps) & (dirs[:, 1] > 0))
+    return ((h >= -eps) & (directions[:, 1] < 0)) | ((h < -eps) & (directions[:, 1] > 0))
 
 
 def surface_epsilon(scene) -> float:
@@ -202,9 +239,9 @@ def visible(scene, points, directions) -> np.ndarray:
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
-    rays, anchor = _scene_rays(scene)
+    rays, anchor = caster_scene(scene)
     rel = p - anchor
-    occ = _ground_occludes(scene, rel, w, anchor)
+    occ = ground_occludes(scene, rel, w, anchor)
     todo = np.flatnonzero(~occ)
     if len(todo):
         occ[todo] = rays.occluded(rel[todo] + surface_epsilon(scene) * w[todo], w[todo])
@@ -225,11 +262,11 @@ def ambient_occlusion(scene, points, normals, samples: int = 36, strategy: str =
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
     dirs = sample_directions(n, samples, strategy, patterns, seed, indices=indices).astype(np.float64)
-    rays, anchor = _scene_rays(scene)
+    rays, anchor = caster_scene(scene)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
     # the ground is tested at the point itself, as the kernel does
-    occ = _ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
+    occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
     origins = np.repeat(p - anchor + surface_epsilon(scene) * n, S, axis=0)
     todo = np.flatnonzero(~occ)
     chunk = 1 << 21

@@ -10,7 +10,7 @@ import pytest
 
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
-from pyshadow.csm import DEPTH_Q
+from pyshadow.csm import DEPTH_Q, Z3_MARGIN_TEXELS, compress_reference, z3_margin
 
 from conftest import REPO, load
 
@@ -100,15 +100,43 @@ def test_csm_layer_rule_3_on_closed_mesh():
     csm2 = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
     assert csm3.layer_rule == 3 and csm2.layer_rule == 2
     assert csm3.segments < csm2.segments
+    assert csm3.z3_margin_texels == Z3_MARGIN_TEXELS and csm2.z3_margin_texels == 0.0
     layers = pyshadow.render_depth(mesh, views, 32, 3)
     maps, rows, cols = all_pairs(csm3)
     z = csm3.depth_for(maps, rows, cols)
-    z1, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 2))
+    z1, z2, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1, 2))
     hit = np.isfinite(z1)
     assert np.isposinf(z[~hit]).all()
     assert (z[hit] >= z1[hit]).all()
+    # the stored depth stays Z3_MARGIN_TEXELS texels in front of the re-entry
+    # surface (or inside [z1, z2), or within a quantum of z1 where nothing fits)
     has3 = np.isfinite(z3)
-    assert (z[has3] < z3[has3]).all()
+    z3m = (layers[maps, 2, rows, cols] - z3_margin(32)).astype(np.float64)
+    bound = np.where(z3m > z2, z3m, z2)
+    ok = (z < bound) | (z <= z1 + Q)
+    assert ok[has3].all()
+    assert (z[has3] < z3[has3] - 2.9 / 32).any() and (z[has3] >= z2[has3]).any()
+    # the margin is in effect: without it the runs are longer
+    off0, _, _ = compress_reference(layers, 3, 16, z3_margin_depth=0.0)
+    assert off0[-1] < csm3.segments
+
+
+@pytest.mark.parametrize("name, rule", [("stanford-bunny.obj", 2), ("fandisk.obj", 3), ("torus.STL", 3)])
+@pytest.mark.parametrize("layout", ["zigzag", "hilbert"])
+@pytest.mark.parametrize("bits", [16, 32])
+def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
+    """The fold kernel's segment lists equal the NumPy greedy compressor's, bit for bit
+    (a resolution of 32 and an odd one, a block size that splits runs)."""
+    mesh = load(name)
+    views = pyshadow.ViewSet.zigzag(8, 16) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
+    for R, block in ((32, None), (17, 5)):
+        csm = CoherentShadowMap.build(mesh, views, R, depth_bits=bits, layers=rule, block=block,
+                                      progress=False)
+        offsets, iend, depth = compress_reference(pyshadow.render_depth(mesh, views, R, rule), rule, bits)
+        np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)
+        np.testing.assert_array_equal(csm.iend.astype(np.int64), iend)
+        assert depth.dtype == csm.depth.dtype and depth.tobytes() == np.asarray(csm.depth).tobytes()
+        assert csm.segments > R * R                     # runs were split somewhere
 
 
 def test_csm_layers_3_rejects_open_mesh():
@@ -258,6 +286,7 @@ def test_csm_save_load_round_trip_is_bit_identical(tmp_path, mmap, bits, hemisph
     assert back.views.layout == "hilbert" and back.views.params == views.params
     np.testing.assert_array_equal(back.views.bases, csm.views.bases)
     assert back.depth_bits == bits and back.layer_rule == csm.layer_rule
+    assert back.z3_margin_texels == csm.z3_margin_texels
     maps, rows, cols = all_pairs(csm)
     np.testing.assert_array_equal(back.depth_for(maps, rows, cols), csm.depth_for(maps, rows, cols))
     # a second save gives the same bytes
@@ -371,6 +400,8 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         ("maps", dict(edit_header=lambda h: h.update(maps=h["maps"] + 1)), "maps"),
         ("radius", dict(edit_header=lambda h: h.update(radius=-1.0)), "radius"),
         ("bits", dict(edit_header=lambda h: h.update(depth_bits=8)), "depth_bits"),
+        ("margin nan", dict(edit_header=lambda h: h.update(z3_margin_texels=float("nan"))), "z3_margin"),
+        ("margin type", dict(edit_header=lambda h: h.update(z3_margin_texels="x")), "z3_margin"),
         ("offset past end", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, S + 10))), "offset"),
         ("offsets decrease", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, a[4]))), "empty or offsets decrease"),
         ("iend beyond D", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(0, 60000))), "beyond the last map"),
@@ -384,6 +415,17 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         bad = _rewrite(good, tmp_path / f"{label}.csm", **kw)
         with pytest.raises(CSMFormatError, match=match):
             CoherentShadowMap.load(bad)
+
+
+def test_csm_file_without_margin_field_loads(tmp_path):
+    """Files written before the layers=3 margin existed carry no z3_margin_texels: 0."""
+    csm = CoherentShadowMap.build(load("fandisk.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
+    assert csm.layer_rule == 3 and csm.stats["z3_margin_texels"] == Z3_MARGIN_TEXELS
+    old = _rewrite(csm.save(tmp_path / "f.csm"), tmp_path / "old.csm",
+                   edit_header=lambda h: h.pop("z3_margin_texels"))
+    back = CoherentShadowMap.load(old)
+    assert back.layer_rule == 3 and back.z3_margin_texels == 0.0
+    assert back.depth.tobytes() == csm.depth.tobytes()
 
 
 def test_csm_load_rejects_nan_depth(tmp_path):

@@ -4,14 +4,18 @@
  * csm_fold      one work-item per texel. Folds the maps of one block (in
  *               view-set order) into the texel's open run: the run keeps the
  *               intersection [lo, hi2] of the maps' [z1, z2) intervals (as
- *               keys, see csm_common.h) and [lo, hi3] of their
- *               [z1, z3 - Z3_MARGIN) intervals (LAYER_RULE 3; [z1, z2) where
- *               the ray does not re-enter the object or z3 - Z3_MARGIN <= z2).
- *               When the next map's interval does
- *               not meet the run, the run is emitted as (depth, i_end) and a
- *               new run starts. A map hit once is the point interval {z1}; a
- *               miss is {+inf} and meets only misses. The last block (last =
- *               1) also emits every open run with i_end = D - 1.
+ *               keys, see csm_common.h; [z1, z2 - MARGIN) where the surface
+ *               at z2 faces the light, {z1} when that is empty) and [lo, hi3]
+ *               of their [z1, z3 - MARGIN) intervals (LAYER_RULE 3, where the
+ *               ray exits at z2 and re-enters at z3 beyond z2 + MARGIN; else
+ *               the map's [lo, hi2]). A surface facing the light behind the
+ *               first one lies in its shadow and is asked with a self-bias:
+ *               MARGIN keeps the stored depth clear of that bias. When the
+ *               next map's interval does not meet the run, the run is
+ *               emitted as (depth, i_end) and a new run starts. A map hit
+ *               once is the point interval {z1}; a miss is {+inf} and meets
+ *               only misses. The last block (last = 1) also emits every open
+ *               run with i_end = D - 1.
  *               Emitted depth: middle of [lo, hi2] when not empty, else the
  *               middle of [lo, hi3].
  * csm_compact   one work-item per texel; copies the block's emitted segments
@@ -19,6 +23,8 @@
  *
  * Buffers
  *   depth  float (B, LAYERS, RES, RES)  block of depth maps, read (fold)
+ *   front  uchar (B, LAYERS, RES, RES)  1 where that layer faces the light
+ *          (pyshadow.raster, facing=True), read (fold)
  *   state  uint  (RES*RES, 4)  lo, hi2, hi3, started; read+written (fold)
  *   seg_z  depth_t (RES*RES, BLOCK+1)  scratch, written (fold), read (compact);
  *          a block emits at most one segment per map plus the final one
@@ -29,12 +35,12 @@
  * Macros
  *   RES, LAYERS (1..3, layers in the depth block), LAYER_RULE (2 or 3),
  *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint),
- *   Z3_MARGIN (LAYER_RULE 3: float depth margin in front of z3)
+ *   MARGIN (float, normalised depth: the margin above)
  */
 #include "csm_common.h"
 
-#if LAYER_RULE == 3 && !defined(Z3_MARGIN)
-#error "the host sets Z3_MARGIN (depth units) for LAYER_RULE 3"
+#ifndef MARGIN
+#error "the host sets MARGIN (depth units)"
 #endif
 
 inline uint run_value(uint lo, uint hi2, uint hi3)
@@ -59,7 +65,8 @@ inline depth_t key_to_stored(uint k)
 #endif
 }
 
-__kernel void csm_fold(__global const float *depth, const int n_maps, const int first_map,
+__kernel void csm_fold(__global const float *depth, __global const uchar *front,
+                       const int n_maps, const int first_map,
                        const int last, __global uint *state,
                        __global depth_t *seg_z, __global uint *seg_i, __global uint *count)
 {
@@ -90,17 +97,21 @@ __kernel void csm_fold(__global const float *depth, const int n_maps, const int 
         } else {
             mlo = key_at_or_above(z1);
             if (z2 < INFINITY) {
-                mhi2 = key_below(z2);
+                /* a second surface that faces the light is asked (it lies in
+                 * the first one's shadow, open meshes): stay MARGIN in front
+                 * of it; with no room the map stands alone with z1 */
+                mhi2 = key_below(front[at + plane] ? fmax(z2 - MARGIN, z1) : z2);
                 if (mhi2 < mlo || mhi2 == (uint)-1) mhi2 = mlo;   /* no key fits: stands alone */
             } else {
                 mhi2 = mlo;                      /* hit once: {z1} */
             }
 #if LAYER_RULE == 3
-            /* [z1, z3 - Z3_MARGIN) only where the ray re-enters the object
-             * (z3 exists; beyond the last exit everything must stay in
+            /* [z1, z3 - MARGIN) only where the ray exits at z2 and re-enters
+             * the object at z3 (beyond the last exit everything must stay in
              * shadow) and that reaches past z2 */
-            const float z3m = z3 - Z3_MARGIN;
-            mhi3 = (z2 < INFINITY && z3 < INFINITY && z3m > z2) ? max(key_below(z3m), mhi2) : mhi2;
+            const float z3m = z3 - MARGIN;
+            mhi3 = (z2 < INFINITY && !front[at + plane] && z3 < INFINITY && z3m > z2)
+                   ? max(key_below(z3m), mhi2) : mhi2;
 #else
             mhi3 = mhi2;
 #endif

@@ -48,6 +48,10 @@ inline float16 edge16(float16 ax, float16 ay, float16 bx, float16 by, float16 px
 /* edge_owns() for 16 lanes */
 #define OWNS16(AX, AY, BX, BY) ((((BY) - (AY)) > 0.0f) | ((((BY) - (AY)) == 0.0f) & (((BX) - (AX)) < 0.0f)))
 
+#ifndef FACING
+#define FACING 0
+#endif
+
 /* insert z into the sorted LAYERS-deep list of one texel */
 inline void insert_depth(__global float *px, const size_t plane, float z)
 {
@@ -57,6 +61,26 @@ inline void insert_depth(__global float *px, const size_t plane, float z)
     }
 }
 
+/* the same, carrying each depth's facing flag along in pf */
+inline void insert_depth_facing(__global float *px, __global uchar *pf, const size_t plane, float z,
+                                uchar f)
+{
+    for (int l = 0; l < LAYERS; ++l) {
+        const float cur = px[l * plane];
+        if (z < cur) {
+            const uchar cf = pf[l * plane];
+            px[l * plane] = z; pf[l * plane] = f;
+            z = cur; f = cf;
+        }
+    }
+}
+
+#if FACING
+#define INSERT(OFF, Z, F) insert_depth_facing(out + (OFF), fout + (OFF), plane, (Z), (uchar)(F))
+#else
+#define INSERT(OFF, Z, F) insert_depth(out + (OFF), plane, (Z))
+#endif
+
 #define PROJ(PX, PY, PZ, A) (((PX) * (A).x + (PY) * (A).y + (PZ) * (A).z + 1.0f) * half_res - 0.5f)
 
 __kernel void render_depth_layers(__global const float *tris,
@@ -64,7 +88,8 @@ __kernel void render_depth_layers(__global const float *tris,
                                   const int tpad,
                                   __global const float *bases,
                                   const int n_views,
-                                  __global float *depth)
+                                  __global float *depth,
+                                  __global uchar *front)
 {
     const int view = get_global_id(0);
     if (view >= n_views) return;
@@ -76,10 +101,13 @@ __kernel void render_depth_layers(__global const float *tris,
     const float last = (float)(RES - 1);
     const size_t plane = (size_t)RES * RES;
     __global float *out = depth + (size_t)view * LAYERS * plane;
+#if FACING
+    __global uchar *fout = front + (size_t)view * LAYERS * plane;
+#endif
 
     float sx0[16], sy0[16], sx1[16], sy1[16], sx2[16], sy2[16], sz0[16], sz1[16], sz2[16];
     float zhit[16];
-    int flag[16], cpos[16], rpos[16];
+    int flag[16], cpos[16], rpos[16], fpos[16];
 
     for (int base = 0; base < n_tris; base += 16) {
         const float16 ax = vload16(0, tris + 0 * (size_t)tpad + base);
@@ -127,6 +155,9 @@ __kernel void render_depth_layers(__global const float *tris,
         vstore16(select((int16)0, (int16)1, single) | select((int16)0, (int16)2, multi), 0, flag);
         vstore16(convert_int16(c0), 0, cpos);
         vstore16(convert_int16(r0), 0, rpos);
+#if FACING
+        vstore16(pos, 0, fpos);
+#endif
         const int any_multi = any(multi);
         if (any_multi) {
             vstore16(x0, 0, sx0); vstore16(y0, 0, sy0);
@@ -139,7 +170,7 @@ __kernel void render_depth_layers(__global const float *tris,
             const int f = flag[i];
             if (f == 0) continue;
             if (f == 1) {
-                insert_depth(out + (size_t)rpos[i] * RES + cpos[i], plane, zhit[i]);
+                INSERT((size_t)rpos[i] * RES + cpos[i], zhit[i], fpos[i] != 0);
                 continue;
             }
             const float2 p0 = (float2)(sx0[i], sy0[i]);
@@ -155,7 +186,7 @@ __kernel void render_depth_layers(__global const float *tris,
                 for (int col = cc0; col <= cc1; ++col) {
                     float3 w;
                     if (!tri_covers(p0, p1, p2, ar, (float2)((float)col, (float)r), &w)) continue;
-                    insert_depth(out + (size_t)r * RES + col, plane, w.x * z0 + w.y * z1 + w.z * z2);
+                    INSERT((size_t)r * RES + col, w.x * z0 + w.y * z1 + w.z * z2, ar > 0.0f);
                 }
             }
         }

@@ -205,10 +205,10 @@ def _code_digest() -> str:
     import pyshadow
     from pyshadow import _cl
 
-    from pyshadow.csm import Z3_MARGIN_TEXELS
+    from pyshadow.csm import FRONT_MARGIN_TEXELS
 
     h = hashlib.sha256(pyshadow.__version__.encode())
-    h.update(repr(Z3_MARGIN_TEXELS).encode())
+    h.update(repr(FRONT_MARGIN_TEXELS).encode())
     for name in ("csm.cl", "raster.cl"):
         try:
             h.update(_cl.kernel_source(name).encode())

@@ -7,9 +7,15 @@ For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
 Map ``i`` allows a set of stored depths that still gives the right shadow
 test along the texel's ray:
 
-* hit at least twice: ``[z1, z2)`` (with ``layers=3``: up to ``z3`` less a
-  margin of ``Z3_MARGIN_TEXELS`` texels where a third surface exists, see
-  :meth:`CoherentShadowMap.build`);
+* hit at least twice: ``[z1, z2)``; where the surface at ``z2`` faces the
+  light (a second sheet of an open mesh, in the first one's shadow) only up
+  to ``z2`` less a margin of ``FRONT_MARGIN_TEXELS`` texels, and just ``z1``
+  when that leaves nothing; with ``layers=3`` up to ``z3`` less the margin
+  where the ray leaves the object at ``z2`` and re-enters at ``z3``, see
+  :meth:`CoherentShadowMap.build`. The margin exists because such a surface
+  is asked with a self-bias (1.5 texels by default, see
+  :meth:`pyshadow.Scene.visible`): a stored depth within the bias of it
+  would light it;
 * hit once (a hole behind the first surface): only ``z1``;
 * missed: only ``+inf`` (a miss meets nothing but other misses).
 
@@ -48,18 +54,19 @@ from .mesh import bounding_sphere, load_mesh, mesh_hash
 from .raster import DepthRenderer, _check_resolution_layers
 from .views import ViewSet
 
-__all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "Z3_MARGIN_TEXELS",
-           "compress_reference", "z3_margin"]
+__all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "FRONT_MARGIN_TEXELS",
+           "compress_reference", "front_margin"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
 SEARCH_BLOCK = 16        # segments per block of the device search summary
 MISS16 = 65535           # 16-bit stored value of a miss (+inf)
 MAGIC = b"PYSHCSM\x00"
 FORMAT_VERSION = 1
-# layers=3: a run's depth stays this many texels (of depth, 1/R each) in front
-# of the re-entry surface z3, twice the visibility kernel's default self-bias,
-# so points on that surface stay in shadow under the bias (see build)
-Z3_MARGIN_TEXELS = 3.0
+# a run's depth stays this many texels (of depth, 1/R each) in front of a
+# surface behind the first one that faces the light (z2 of an open mesh, z3 of
+# layers=3): twice the visibility kernel's default self-bias, so points on that
+# surface stay in shadow under the bias (module docstring)
+FRONT_MARGIN_TEXELS = 3.0
 ALIGN = 64
 _LAYOUTS = ("zigzag", "hilbert")
 
@@ -71,7 +78,7 @@ class CSMFormatError(ValueError):
 def _defines(resolution, layers, rule, block, depth_bits, iend_dtype):
     return {
         "RES": int(resolution),
-        "Z3_MARGIN": float(z3_margin(resolution)).hex() + "f",   # exact float32, as a hex literal
+        "MARGIN": float(front_margin(resolution)).hex() + "f",   # exact float32, as a hex literal
         "LAYERS": int(layers),
         "LAYER_RULE": int(rule),
         "BLOCK": int(block),
@@ -80,9 +87,9 @@ def _defines(resolution, layers, rule, block, depth_bits, iend_dtype):
     }
 
 
-def z3_margin(resolution) -> np.float32:
-    """``layers=3`` margin in normalised depth: ``Z3_MARGIN_TEXELS / R`` as float32."""
-    return np.float32(Z3_MARGIN_TEXELS / int(resolution))
+def front_margin(resolution) -> np.float32:
+    """The margin in normalised depth: ``FRONT_MARGIN_TEXELS / R`` as float32."""
+    return np.float32(FRONT_MARGIN_TEXELS / int(resolution))
 
 
 def _keys_at_or_above(z, depth_bits):
@@ -102,7 +109,7 @@ def _keys_below(z, depth_bits):
     return k
 
 
-def compress_reference(layers, rule: int = 2, depth_bits: int = 16, z3_margin_depth=None):
+def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None):
     """NumPy version of the compression kernel: greedy runs per texel, in map order.
 
     Parameters
@@ -110,12 +117,14 @@ def compress_reference(layers, rule: int = 2, depth_bits: int = 16, z3_margin_de
     layers : ndarray, shape (D, L, R, R), float32
         Depth layers in view-set order (:func:`pyshadow.render_depth` with
         ``L >= rule``; ``+inf`` where a ray has fewer hits).
+    front : ndarray, shape (D, L, R, R), bool
+        Which layers face the light (``render_depth(..., facing=True)``).
     rule : {2, 3}
         Interval rule, as ``layers`` of :meth:`CoherentShadowMap.build`.
     depth_bits : {16, 32}
-    z3_margin_depth : float, optional
-        Rule 3's margin in front of ``z3`` (normalised depth); default
-        :func:`z3_margin` of ``R``, as the build uses.
+    margin_depth : float, optional
+        The margin in front of a surface facing the light (normalised
+        depth); default :func:`front_margin` of ``R``, as the build uses.
 
     Returns
     -------
@@ -126,9 +135,13 @@ def compress_reference(layers, rule: int = 2, depth_bits: int = 16, z3_margin_de
         bit for bit.
     """
     layers = np.asarray(layers, np.float32)
+    front = np.asarray(front, bool)
     D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
     if L < rule:
         raise ValueError(f"rule {rule} needs {rule} layers, got {L}")
+    if front.shape != layers.shape:
+        raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
+    margin = front_margin(R) if margin_depth is None else np.float32(margin_depth)
     miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
@@ -150,13 +163,15 @@ def compress_reference(layers, rule: int = 2, depth_bits: int = 16, z3_margin_de
         z1, z2 = layers[i, 0].ravel(), layers[i, 1].ravel()
         hit, two = np.isfinite(z1), np.isfinite(z2)
         mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
-        k2 = _keys_below(np.where(two, z2, 0), depth_bits)
-        mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key in [z1, z2): {z1}
+        front2 = front[i, 1].ravel()
+        z2b = np.where(front2, np.maximum(z2 - margin, z1), z2)      # float32, as the kernel
+        k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
+        mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
         mhi3 = mhi2
         if rule == 3:
             z3 = layers[i, 2].ravel()
-            z3m = z3 - (z3_margin(R) if z3_margin_depth is None else np.float32(z3_margin_depth))
-            re_enter = two & np.isfinite(z3) & (z3m > z2)
+            z3m = z3 - margin
+            re_enter = two & ~front2 & np.isfinite(z3) & (z3m > z2)
             mhi3 = np.where(re_enter, np.maximum(_keys_below(np.where(re_enter, z3m, 0), depth_bits), mhi2),
                             mhi2)
         if started:
@@ -205,7 +220,9 @@ class CoherentShadowMap:
         Texels per map side ``R``.
     depth_bits : {16, 32}
     layer_rule : {2, 3}
-        2: runs intersect ``[z1, z2)``; 3: ``[z1, z3 - margin)`` (closed meshes).
+        2: runs intersect ``[z1, z2)``; 3: up to ``z3`` (closed meshes); both
+        keep a margin in front of surfaces that face the light (module
+        docstring).
     centre : ndarray, shape (3,), float64
     radius : float
     mesh_hash : str
@@ -217,21 +234,21 @@ class CoherentShadowMap:
         the last of every list ``D - 1``.
     depth : ndarray, shape (S,), uint16 or float32
         Stored depth (see module docstring for the encoding).
-    z3_margin_texels : float
-        With ``layer_rule`` 3, how far (in texels of depth, ``1/R`` each) a
-        stored depth stays in front of the re-entry surface ``z3``; 0 for
-        rule 2 and for files written before the margin existed.
+    front_margin_texels : float
+        How far (in texels of depth, ``1/R`` each) a stored depth stays in
+        front of a surface behind the first one that faces the light; 0 for
+        files written before the margin existed.
     stats : dict
         See :attr:`stats`.
     """
 
     def __init__(self, *, views, resolution, depth_bits, layer_rule, centre, radius, mesh_hash,
-                 offsets, iend, depth, build_seconds=float("nan"), peak_bytes=0, z3_margin_texels=0.0):
+                 offsets, iend, depth, build_seconds=float("nan"), peak_bytes=0, front_margin_texels=0.0):
         self.views = views
         self.resolution = int(resolution)
         self.depth_bits = int(depth_bits)
         self.layer_rule = int(layer_rule)
-        self.z3_margin_texels = float(z3_margin_texels) if self.layer_rule == 3 else 0.0
+        self.front_margin_texels = float(front_margin_texels)
         self.centre = np.asarray(centre, dtype=np.float64)
         self.radius = float(radius)
         self.mesh_hash = str(mesh_hash)
@@ -265,11 +282,16 @@ class CoherentShadowMap:
             Which surfaces bound a map's interval of valid depths.
             ``2``: ``[z1, z2)`` -- every shadow query along a texel's ray is
             exact (up to the depth quantum and the map discretisation), for
-            points anywhere: on this object, on other objects, on the ground.
-            ``3``: ``[z1, z3 - m)`` with ``m = Z3_MARGIN_TEXELS / R`` (3
-            texels of depth) where the texel's ray re-enters the object (a
-            third surface exists) and ``z3 - m > z2``, ``[z1, z2)``
-            elsewhere; closed meshes only (the freedom of Ritschel et al.;
+            points anywhere: on this object, on other objects, on the ground
+            -- on a closed mesh. On an open one, a point in the air between
+            two sheets (inside an open box, say) may be reported lit; points
+            on the second sheet, where it faces the light, stay in shadow:
+            the interval there ends ``m`` (below) in front of it, or is just
+            ``z1``.
+            ``3``: ``[z1, z3 - m)`` with ``m = FRONT_MARGIN_TEXELS / R`` (3
+            texels of depth) where the texel's ray leaves the object at
+            ``z2`` and re-enters it at ``z3`` and ``z3 - m > z2``, ``[z1,
+            z2)`` elsewhere; closed meshes only (the freedom of Ritschel et al.;
             thesis 4.2.1, footnote 2). Fewer segments. Exact for points on
             this object's own surface whose normal faces the light, tested
             with a self-bias up to ``m`` (the back face at ``z2`` is never
@@ -329,7 +351,7 @@ class CoherentShadowMap:
         centre, radius = bounding_sphere(mesh)
         dtype_z = _depth_dtype(depth_bits)
         dtype_i = _iend_dtype(D)
-        per_map = rule * R * R * 4 + R * R * (dtype_z.itemsize + 4)
+        per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)
         if block is None:
             block = max(1, min(D, (96 << 20) // per_map))
         block = int(block)
@@ -337,20 +359,21 @@ class CoherentShadowMap:
             raise ValueError(f"block must be >= 1, got {block}")
         block = min(block, D)
 
-        renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius))
+        renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True)
         defs = _defines(R, rule, rule, block, depth_bits, dtype_i)
         k_fold = _cl.kernel("csm.cl", "csm_fold", defs)
         k_compact = _cl.kernel("csm.cl", "csm_compact", defs)
         q = _cl.queue()
         T = R * R
         depth_buf = _cl.empty(block * renderer.bytes_per_map)
+        front_buf = _cl.empty(block * renderer.facing_bytes_per_map)
         state = _cl.empty(T * 16)
         cl.enqueue_fill_buffer(q, state, np.uint32(0), 0, T * 16)
         slots = block + 1          # a block emits at most one segment per map, plus the last
         seg_z = _cl.empty(T * slots * dtype_z.itemsize)
         seg_i = _cl.empty(T * slots * 4)
         count_buf = _cl.empty(T * 4)
-        device_bytes = (block * renderer.bytes_per_map + T * 16 + T * slots * (dtype_z.itemsize + 4)
+        device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16 + T * slots * (dtype_z.itemsize + 4)
                         + T * 8 + 36 * renderer.n_faces)
         counts = np.empty(T, np.uint32)
         blocks = []
@@ -364,8 +387,8 @@ class CoherentShadowMap:
         try:
             for s in starts:
                 e = min(D, s + block)
-                renderer.render(views.bases[s:e], depth_buf)
-                k_fold(q, (T,), None, depth_buf, np.int32(e - s), np.int32(s), np.int32(e == D),
+                renderer.render(views.bases[s:e], depth_buf, front_buf)
+                k_fold(q, (T,), None, depth_buf, front_buf, np.int32(e - s), np.int32(s), np.int32(e == D),
                        state, seg_z, seg_i, count_buf)
                 cl.enqueue_copy(q, counts, count_buf)
                 total = int(counts.sum(dtype=np.int64))
@@ -410,7 +433,7 @@ class CoherentShadowMap:
         return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
                    centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
                    iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
-                   z3_margin_texels=Z3_MARGIN_TEXELS)
+                   front_margin_texels=FRONT_MARGIN_TEXELS)
 
     # ------------------------------------------------------------------
     # sizes and statistics
@@ -434,7 +457,7 @@ class CoherentShadowMap:
             (segments plus offset table, as stored), ``uncompressed_bytes``
             (``D * R^2 * depth_bits / 8``), ``ratio`` (uncompressed / bytes),
             ``build_seconds``, ``peak_bytes`` (device and host working set of
-            the build), ``depth_bits``, ``layer_rule``, ``z3_margin_texels``,
+            the build), ``depth_bits``, ``layer_rule``, ``front_margin_texels``,
             ``layout``.
         """
         nbytes = int(self.depth.nbytes + self.iend.nbytes + self.offsets.nbytes)
@@ -450,7 +473,7 @@ class CoherentShadowMap:
             "peak_bytes": self._peak_bytes,
             "depth_bits": self.depth_bits,
             "layer_rule": self.layer_rule,
-            "z3_margin_texels": self.z3_margin_texels,
+            "front_margin_texels": self.front_margin_texels,
             "layout": self.views.layout,
         }
 
@@ -610,7 +633,7 @@ class CoherentShadowMap:
             "radius": self.radius,
             "depth_bits": self.depth_bits,
             "layer_rule": self.layer_rule,
-            "z3_margin_texels": self.z3_margin_texels,
+            "front_margin_texels": self.front_margin_texels,
             "mesh_hash": self.mesh_hash,
             "segments": self.segments,
             "offsets_dtype": self.offsets.dtype.str,
@@ -769,10 +792,10 @@ class CoherentShadowMap:
             raise CSMFormatError(f"{path}: depth_bits {bits} is not 16 or 32")
         if rule not in (2, 3):
             raise CSMFormatError(f"{path}: layer_rule {rule} is not 2 or 3")
-        margin = head.get("z3_margin_texels", 0.0)       # absent in files from before the margin
+        margin = head.get("front_margin_texels", 0.0)       # absent in files from before the margin
         if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not (
                 np.isfinite(margin) and margin >= 0):
-            raise CSMFormatError(f"{path}: z3_margin_texels must be a finite number >= 0, got {margin!r}")
+            raise CSMFormatError(f"{path}: front_margin_texels must be a finite number >= 0, got {margin!r}")
         if layout not in _LAYOUTS:
             raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
         if odt not in ("<u4", "<u8"):
@@ -816,7 +839,7 @@ class CoherentShadowMap:
         return cls(views=views, resolution=R, depth_bits=bits, layer_rule=rule,
                    centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
                    offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
-                   build_seconds=head.get("build_seconds") or float("nan"), z3_margin_texels=margin)
+                   build_seconds=head.get("build_seconds") or float("nan"), front_margin_texels=margin)
 
     @staticmethod
     def _validate_arrays(path, data, R, D, S, bits):

@@ -100,12 +100,16 @@ class DepthRenderer:
     layers : {1, 2, 3}
     frame : (centre, radius), optional
         Normalised frame; default :func:`pyshadow.bounding_sphere` of the mesh.
+    facing : bool, optional
+        Also record, per layer, whether the surface faces the map's light
+        (see :meth:`render`).
     """
 
-    def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None):
+    def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None, facing: bool = False):
         _check_resolution_layers(resolution, layers)
         self.resolution = int(resolution)
         self.layers = int(layers)
+        self.facing = bool(facing)
         verts, faces = _prepare_mesh(mesh, frame)
         self.n_faces = len(faces)
         tpad = -(-len(faces) // 16) * 16
@@ -114,15 +118,28 @@ class DepthRenderer:
         self._tpad = tpad
         self._tris = _cl.to_device(soa)
         self._kernel = _cl.kernel(
-            "raster.cl", "render_depth_layers", {"RES": self.resolution, "LAYERS": self.layers}
+            "raster.cl", "render_depth_layers",
+            {"RES": self.resolution, "LAYERS": self.layers, "FACING": int(self.facing)},
         )
 
     @property
     def bytes_per_map(self) -> int:
         return 4 * self.layers * self.resolution**2
 
-    def render(self, bases: np.ndarray, out: cl.Buffer | None = None) -> cl.Buffer:
-        """Render maps with ``bases`` (B, 3, 3) into a device buffer (B, layers, R, R) float32."""
+    @property
+    def facing_bytes_per_map(self) -> int:
+        return self.layers * self.resolution**2
+
+    def render(self, bases: np.ndarray, out: cl.Buffer | None = None,
+               front: cl.Buffer | None = None) -> cl.Buffer:
+        """Render maps with ``bases`` (B, 3, 3) into a device buffer (B, layers, R, R) float32.
+
+        With ``facing=True``, ``front`` (a device buffer of at least B *
+        :attr:`facing_bytes_per_map` bytes) receives (B, layers, R, R) uint8:
+        1 where the layer's surface faces the light (its normal, from the
+        triangle's winding, has a positive component along the map's ``d``),
+        else 0 (also where there is no surface).
+        """
         bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
         n = len(bases)
         if n == 0:
@@ -134,16 +151,21 @@ class DepthRenderer:
             raise ValueError(f"output buffer holds {out.size} bytes, {nbytes} needed")
         q = _cl.queue()
         cl.enqueue_fill_buffer(q, out, np.float32(np.inf), 0, nbytes)
+        if self.facing:
+            fbytes = n * self.facing_bytes_per_map
+            if front is None or front.size < fbytes:
+                raise ValueError(f"facing=True needs a front buffer of {fbytes} bytes")
+            cl.enqueue_fill_buffer(q, front, np.uint8(0), 0, fbytes)
         bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
         self._kernel(
             q, (n,), None, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
-            bases_buf, np.int32(n), out,
+            bases_buf, np.int32(n), out, front if self.facing else out,
         )
         return out
 
 
 def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
-                 frame=None, block: int | None = None, progress: bool = False) -> np.ndarray:
+                 frame=None, block: int | None = None, progress: bool = False, facing: bool = False):
     """Layered depth maps of ``mesh`` for every view of ``views``.
 
     Parameters
@@ -162,6 +184,8 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
         Maps per kernel launch; default keeps a launch's output near 64 MiB.
     progress : bool, optional
         Show a progress bar over the blocks.
+    facing : bool, optional
+        Also return which surfaces face the light.
 
     Returns
     -------
@@ -169,6 +193,11 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
         Depth in [0, 1] of the ``layers`` nearest surfaces per texel, nearest
         first; ``+inf`` where the ray meets fewer surfaces. See the module
         docstring for the exact texel and depth convention.
+    front : ndarray, shape (D, layers, R, R), bool
+        Only with ``facing=True``: the surface of that layer faces the light
+        (the map's ``d``): its normal, by the triangle's winding
+        (counter-clockwise seen from the side it points to), has a positive
+        component along ``d``. False where there is no surface.
 
     Raises
     ------
@@ -184,7 +213,7 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
     (8, 2, 8, 8)
     """
     _check_args(views, resolution, layers)
-    renderer = DepthRenderer(mesh, resolution, layers, frame=frame)
+    renderer = DepthRenderer(mesh, resolution, layers, frame=frame, facing=facing)
     D = len(views)
     if block is None:
         block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
@@ -193,6 +222,8 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
         raise ValueError(f"block must be >= 1, got {block}")
     out = np.empty((D, renderer.layers, renderer.resolution, renderer.resolution), np.float32)
     buf = _cl.empty(min(block, D) * renderer.bytes_per_map)
+    fout = np.empty(out.shape, np.uint8) if facing else None
+    fbuf = _cl.empty(min(block, D) * renderer.facing_bytes_per_map) if facing else None
     starts = range(0, D, block)
     if progress:
         from tqdm.auto import tqdm
@@ -201,9 +232,11 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
     q = _cl.queue()
     for s in starts:
         e = min(D, s + block)
-        renderer.render(views.bases[s:e], buf)
+        renderer.render(views.bases[s:e], buf, fbuf)
         cl.enqueue_copy(q, out[s:e], buf)
-    return out
+        if facing:
+            cl.enqueue_copy(q, fout[s:e], fbuf)
+    return (out, fout.view(bool)) if facing else out
 
 
 # ---------------------------------------------------------------------------

@@ -75,7 +75,7 @@ class EmbreeScene:
 
 
 def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
-                 frame=None) -> np.ndarray:
+                 frame=None, facing: bool = False):
     """Depth layers of ``mesh`` by Embree rays through the texel centres.
 
     Same convention and output as :func:`pyshadow.render_depth`: rays start on
@@ -85,7 +85,10 @@ def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
 
     Returns
     -------
-    ndarray, shape (D, layers, R, R), float32
+    depth : ndarray, shape (D, layers, R, R), float32
+    front : ndarray, shape (D, layers, R, R), bool
+        Only with ``facing=True``: the hit triangle's winding normal has a
+        positive component along ``d_k``.
     """
     from .raster import texel_rays
 
@@ -93,9 +96,12 @@ def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
         mesh = load_mesh(mesh)
     centre, radius = frame if frame is not None else bounding_sphere(mesh)
     verts = (np.asarray(mesh.vertices, dtype=np.float64) - centre) / radius
-    scene = EmbreeScene(verts[np.asarray(mesh.faces)])
+    tri = verts[np.asarray(mesh.faces)]
+    scene = EmbreeScene(tri)
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     R = int(resolution)
     out = np.full((len(views), layers, R, R), np.inf, dtype=np.float32)
+    front = np.zeros(out.shape, bool)
     eps = float(ray_epsilon(2.0))
     for k, B in enumerate(views.bases):
         origins, direction = texel_rays(B, R)
@@ -112,8 +118,9 @@ def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
             alive = alive[hit]
             travelled[alive] += t[hit]
             out[k, layer].reshape(-1)[alive] = (travelled[alive] * 0.5).astype(np.float32)
+            front[k, layer].reshape(-1)[alive] = normals[prim[hit]] @ B[2] > 0
             travelled[alive] += eps
-    return out
+    return (out, front) if facing else out
 
 
 def gbuffer(items, camera) -> dict:

@@ -10,7 +10,7 @@ import pytest
 
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
-from pyshadow.csm import DEPTH_Q, Z3_MARGIN_TEXELS, compress_reference, z3_margin
+from pyshadow.csm import DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, front_margin
 
 from conftest import REPO, load
 
@@ -100,7 +100,7 @@ def test_csm_layer_rule_3_on_closed_mesh():
     csm2 = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
     assert csm3.layer_rule == 3 and csm2.layer_rule == 2
     assert csm3.segments < csm2.segments
-    assert csm3.z3_margin_texels == Z3_MARGIN_TEXELS and csm2.z3_margin_texels == 0.0
+    assert csm3.front_margin_texels == csm2.front_margin_texels == FRONT_MARGIN_TEXELS
     layers = pyshadow.render_depth(mesh, views, 32, 3)
     maps, rows, cols = all_pairs(csm3)
     z = csm3.depth_for(maps, rows, cols)
@@ -108,20 +108,44 @@ def test_csm_layer_rule_3_on_closed_mesh():
     hit = np.isfinite(z1)
     assert np.isposinf(z[~hit]).all()
     assert (z[hit] >= z1[hit]).all()
-    # the stored depth stays Z3_MARGIN_TEXELS texels in front of the re-entry
+    # the stored depth stays FRONT_MARGIN_TEXELS texels in front of the re-entry
     # surface (or inside [z1, z2), or within a quantum of z1 where nothing fits)
     has3 = np.isfinite(z3)
-    z3m = (layers[maps, 2, rows, cols] - z3_margin(32)).astype(np.float64)
+    z3m = (layers[maps, 2, rows, cols] - front_margin(32)).astype(np.float64)
     bound = np.where(z3m > z2, z3m, z2)
     ok = (z < bound) | (z <= z1 + Q)
     assert ok[has3].all()
     assert (z[has3] < z3[has3] - 2.9 / 32).any() and (z[has3] >= z2[has3]).any()
     # the margin is in effect: without it the runs are longer
-    off0, _, _ = compress_reference(layers, 3, 16, z3_margin_depth=0.0)
+    _, front = pyshadow.render_depth(mesh, views, 32, 3, facing=True)
+    off0, _, _ = compress_reference(layers, front, 3, 16, margin_depth=0.0)
     assert off0[-1] < csm3.segments
 
 
-@pytest.mark.parametrize("name, rule", [("stanford-bunny.obj", 2), ("fandisk.obj", 3), ("torus.STL", 3)])
+def test_csm_keeps_margin_in_front_of_second_sheets():
+    """Open mesh (teapot): where the second surface faces the light (it lies in the
+    first one's shadow), the stored depth stays FRONT_MARGIN_TEXELS texels in front of it,
+    or is z1 itself where that leaves no room."""
+    mesh = load("teapot.obj")
+    views = pyshadow.ViewSet.zigzag(8, 16)
+    R = 32
+    csm = CoherentShadowMap.build(mesh, views, R, progress=False)
+    assert csm.layer_rule == 2 and csm.front_margin_texels == FRONT_MARGIN_TEXELS
+    layers, front = pyshadow.render_depth(mesh, views, R, 2, facing=True)
+    maps, rows, cols = all_pairs(csm)
+    z = csm.depth_for(maps, rows, cols)
+    z1, z2 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1))
+    f2 = front[maps, 1, rows, cols] & np.isfinite(z2)
+    assert f2.sum() > 1000                              # the case is common on the teapot
+    room = (layers[maps, 1, rows, cols] - front_margin(R)).astype(np.float64)
+    ok = np.where(room > z1, z < room, (z >= z1) & (z <= z1 + Q))
+    assert ok[f2].all()
+    assert (room[f2] > z1[f2]).any() and (room[f2] <= z1[f2]).any()
+    check_exact(csm, layers)                            # still inside [z1, z2) everywhere
+
+
+@pytest.mark.parametrize("name, rule", [("stanford-bunny.obj", 2), ("teapot.obj", 2), ("fandisk.obj", 3),
+                                        ("torus.STL", 3)])
 @pytest.mark.parametrize("layout", ["zigzag", "hilbert"])
 @pytest.mark.parametrize("bits", [16, 32])
 def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
@@ -132,7 +156,8 @@ def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
     for R, block in ((32, None), (17, 5)):
         csm = CoherentShadowMap.build(mesh, views, R, depth_bits=bits, layers=rule, block=block,
                                       progress=False)
-        offsets, iend, depth = compress_reference(pyshadow.render_depth(mesh, views, R, rule), rule, bits)
+        offsets, iend, depth = compress_reference(*pyshadow.render_depth(mesh, views, R, rule, facing=True),
+                                                  rule, bits)
         np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)
         np.testing.assert_array_equal(csm.iend.astype(np.int64), iend)
         assert depth.dtype == csm.depth.dtype and depth.tobytes() == np.asarray(csm.depth).tobytes()
@@ -286,7 +311,7 @@ def test_csm_save_load_round_trip_is_bit_identical(tmp_path, mmap, bits, hemisph
     assert back.views.layout == "hilbert" and back.views.params == views.params
     np.testing.assert_array_equal(back.views.bases, csm.views.bases)
     assert back.depth_bits == bits and back.layer_rule == csm.layer_rule
-    assert back.z3_margin_texels == csm.z3_margin_texels
+    assert back.front_margin_texels == csm.front_margin_texels
     maps, rows, cols = all_pairs(csm)
     np.testing.assert_array_equal(back.depth_for(maps, rows, cols), csm.depth_for(maps, rows, cols))
     # a second save gives the same bytes
@@ -400,8 +425,8 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         ("maps", dict(edit_header=lambda h: h.update(maps=h["maps"] + 1)), "maps"),
         ("radius", dict(edit_header=lambda h: h.update(radius=-1.0)), "radius"),
         ("bits", dict(edit_header=lambda h: h.update(depth_bits=8)), "depth_bits"),
-        ("margin nan", dict(edit_header=lambda h: h.update(z3_margin_texels=float("nan"))), "z3_margin"),
-        ("margin type", dict(edit_header=lambda h: h.update(z3_margin_texels="x")), "z3_margin"),
+        ("margin nan", dict(edit_header=lambda h: h.update(front_margin_texels=float("nan"))), "front_margin"),
+        ("margin type", dict(edit_header=lambda h: h.update(front_margin_texels="x")), "front_margin"),
         ("offset past end", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, S + 10))), "offset"),
         ("offsets decrease", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, a[4]))), "empty or offsets decrease"),
         ("iend beyond D", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(0, 60000))), "beyond the last map"),
@@ -418,13 +443,13 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
 
 
 def test_csm_file_without_margin_field_loads(tmp_path):
-    """Files written before the layers=3 margin existed carry no z3_margin_texels: 0."""
+    """Files written before the margin existed carry no front_margin_texels: 0."""
     csm = CoherentShadowMap.build(load("fandisk.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
-    assert csm.layer_rule == 3 and csm.stats["z3_margin_texels"] == Z3_MARGIN_TEXELS
+    assert csm.layer_rule == 3 and csm.stats["front_margin_texels"] == FRONT_MARGIN_TEXELS
     old = _rewrite(csm.save(tmp_path / "f.csm"), tmp_path / "old.csm",
-                   edit_header=lambda h: h.pop("z3_margin_texels"))
+                   edit_header=lambda h: h.pop("front_margin_texels"))
     back = CoherentShadowMap.load(old)
-    assert back.layer_rule == 3 and back.z3_margin_texels == 0.0
+    assert back.layer_rule == 3 and back.front_margin_texels == 0.0
     assert back.depth.tobytes() == csm.depth.tobytes()
 
 

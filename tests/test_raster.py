@@ -44,12 +44,19 @@ def test_render_depth_agrees_with_embree(name, layout):
     m = load(name)
     views = pyshadow.ViewSet.zigzag(8, 8) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
     assert len(views) >= 64
-    ours = pyshadow.render_depth(m, views, 128, 2)
-    truth = reference.depth_layers(m, views, 128, 2)
+    ours, front = pyshadow.render_depth(m, views, 128, 2, facing=True)
+    truth, truth_front = reference.depth_layers(m, views, 128, 2, facing=True)
+    np.testing.assert_array_equal(pyshadow.render_depth(m, views, 128, 2), ours)   # facing changes nothing
     for layer, (cov, close, n) in enumerate(agreement(ours, truth), start=1):
         assert n > 1000, f"layer {layer}: too few texels hit to judge"
         assert cov >= 0.995, f"layer {layer}: coverage agrees on {cov:.4%}"
         assert close >= 0.995, f"layer {layer}: |dz| <= 1e-4 on {close:.4%}"
+    # the facing flags: the same surface (depths within 1e-4) faces the same way
+    both = np.isfinite(ours) & np.isfinite(truth)
+    same = both & (np.abs(np.where(both, ours, 0) - np.where(both, truth, 0)) <= 1e-4)
+    assert (front[same] == truth_front[same]).mean() >= 0.999
+    assert not front[~np.isfinite(ours)].any()
+    assert front[same].any() and (~front[same]).any()
 
 
 def test_render_depth_depth_range_and_convention():

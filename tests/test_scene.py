@@ -192,23 +192,30 @@ def test_instances_share_one_csm():
     assert scene._device_atlas()[0]["ntypes"] == 1
 
 
-def test_layers_3_keeps_self_shadowing_of_re_entry_surfaces(monkeypatch):
-    """layers=3 (the default for closed meshes) agrees with Embree as well as layers=2 on
-    the mesh's own surface: its margin in front of z3 outlasts the self-bias. Without the
-    margin a stored depth may sit within the bias of the re-entry surface and light it
-    (measured: 96.8 % against 98.5 % here)."""
+@pytest.mark.parametrize("name", ["featuretype.STL", "teapot.obj"])
+def test_front_margin_keeps_self_shadowing(name, monkeypatch):
+    """Surfaces behind the first one that face the light (a closed mesh's re-entry
+    surface z3 under layers=3; the second sheet z2 of an open mesh) are asked with a
+    self-bias: the CSM's margin in front of them keeps them in shadow. Measured on
+    the default builds (featuretype: layers=3, teapot: 2) against the same builds
+    without the margin: 98.5 against 96.8 % and 98.7 against 98.3 %. On the closed
+    mesh layers=3 then agrees with Embree as well as layers=2."""
     import pyshadow.csm as csm_module
 
-    mesh = load("featuretype.STL")
-    assert mesh.is_watertight
+    mesh = load(name)
     T = on_ground(mesh, unit_frame(mesh))
     views = pyshadow.ViewSet.zigzag(16, 32)
     rng = np.random.default_rng(11)
     agree = {}
     p = d = truth = None
-    for label, layers, margin in (("layers=2", 2, None), ("auto", "auto", None), ("no margin", 3, 0.0)):
+    runs = [("default", "auto", None), ("no margin", "auto", 0.0)]
+    if mesh.is_watertight:
+        runs.append(("layers=2", 2, None))
+    for label, layers, margin in runs:
         if margin is not None:
-            monkeypatch.setattr(csm_module, "Z3_MARGIN_TEXELS", margin)
+            monkeypatch.setattr(csm_module, "FRONT_MARGIN_TEXELS", margin)
+        else:
+            monkeypatch.undo()
         csm = pyshadow.CoherentShadowMap.build(mesh, views, 64, layers=layers, progress=False)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, T, mesh=mesh)
@@ -216,9 +223,10 @@ def test_layers_3_keeps_self_shadowing_of_re_entry_surfaces(monkeypatch):
             p, d = surface_queries(scene, 0, 4000, 8, rng)
             truth = reference.visible(scene, p, d)
         agree[label] = (scene.visible(p, d, surface_ids=0) == truth).mean()
-    assert agree["auto"] >= agree["layers=2"] - 0.001
-    assert agree["auto"] >= 0.98
-    assert agree["no margin"] < agree["auto"] - 0.01
+    assert agree["default"] >= 0.98
+    assert agree["no margin"] < agree["default"] - 0.003
+    if "layers=2" in agree:
+        assert agree["default"] >= agree["layers=2"] - 0.001
 
 
 @pytest.mark.parametrize("layers", [2, "auto"])

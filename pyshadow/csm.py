@@ -308,7 +308,7 @@ class CoherentShadowMap:
             half of the size saving (benchmarks/README.md). The stored
             depth is taken inside ``[z1, z2)`` of every map of the run
             whenever that is possible. (Leaving ``[z1, inf)`` to rays with no third surface
-            would compress further -- 38:1 instead of 27:1 for the filled
+            would compress further -- 38:1 instead of 26:1 for the filled
             bunny at 64x128 -- but then a body drops its shadows on everything
             behind it, the ground included: AO 0.60 instead of 0 under a box.)
             ``'auto'``: 3 for watertight meshes, else 2.

@@ -25,12 +25,17 @@
  *                            rows, tpad a multiple of 16; read
  *   bases  float  (D, 9)     rows u, v, d of each view of the launch; read
  *   depth  float  (D, LAYERS, RES, RES)   written; must hold +inf on entry
+ *   front  uchar  (D, LAYERS, RES, RES)   FACING only: 1 where that layer's
+ *                            triangle faces the light (positive screen-space
+ *                            area, i.e. winding normal along +d); written,
+ *                            must hold 0 on entry. Unused without FACING.
  * Scalars
  *   n_tris  triangles in use (<= tpad); tpad  row stride of tris
  *   n_views views in the launch (work-items beyond it return at once)
  * Macros
  *   RES     texels per side (1 .. 4096)
  *   LAYERS  depth layers kept (1 .. 3)
+ *   FACING  0 or 1 (default 0): also keep each layer's facing flag
  */
 #include "raster_common.h"
 

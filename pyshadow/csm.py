@@ -146,7 +146,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
     started = False
-    emitted = []                                    # (texels, i_end, lo, hi2, hi3) per map
+    emitted = []                                    # (texels, i_end, stored values) per emission
 
     def value(lo, hi2, hi3):
         hi = np.where(lo <= hi2, hi2, hi3)
@@ -304,8 +304,8 @@ class CoherentShadowMap:
             shadow. Without the margin a stored depth can sit within the
             self-bias of ``z3`` and light the re-entry surface: on homer,
             the fandisk and featuretype that cost 0.3-0.9 % of visibility
-            agreement with Embree, the margin wins it back and keeps about
-            half of the size saving (benchmarks/README.md). The stored
+            agreement with Embree; the margin wins it back and keeps half to
+            two thirds of the size saving (benchmarks/README.md). The stored
             depth is taken inside ``[z1, z2)`` of every map of the run
             whenever that is possible. (Leaving ``[z1, inf)`` to rays with no third surface
             would compress further -- 38:1 instead of 26:1 for the filled

@@ -283,18 +283,21 @@ def covered_samples(p0, p1, p2, lo, hi):
 
 
 def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: int = 2,
-                           *, frame=None) -> np.ndarray:
+                           *, frame=None, facing: bool = False):
     """NumPy version of :func:`render_depth` (same rules, float64; slow).
 
     For each view and each triangle the texel centres inside the triangle's
     bounding box are tested with the same canonical edge functions and
     top-left rule as the kernel; every covered texel collects the depth, and
-    the ``layers`` smallest depths per texel are kept.
+    the ``layers`` smallest depths per texel are kept. With ``facing`` also
+    the flags of :func:`render_depth`: a triangle faces the light when its
+    screen-space area (counter-clockwise positive) is positive.
     """
     _check_args(views, resolution, layers)
     verts, faces = _prepare_mesh(mesh, frame)
     R = int(resolution)
     out = np.full((len(views), layers, R, R), np.inf)
+    front = np.zeros(out.shape, bool)
     for k, B in enumerate(views.bases):
         scr = (verts @ B[:2].T + 1.0) * (0.5 * R) - 0.5  # (V, 2) screen coords
         z = (1.0 - verts @ B[2]) * 0.5
@@ -312,10 +315,13 @@ def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: i
                 continue
             rows, cols, w = cov
             zz = w[0] * z[f[0]] + w[1] * z[f[1]] + w[2] * z[f[2]]
+            faces_light = _edge(p0, p1, p2) > 0
             for r, c, d in zip(rows, cols, zz):
-                hits[r][c].append(d)
+                hits[r][c].append((d, faces_light))
         for r in range(R):
             for c in range(R):
-                h = sorted(hits[r][c])[:layers]
-                out[k, : len(h), r, c] = h
-    return out.astype(np.float32)
+                h = sorted(hits[r][c], key=lambda hit: hit[0])[:layers]
+                out[k, : len(h), r, c] = [d for d, _ in h]
+                front[k, : len(h), r, c] = [f for _, f in h]
+    out = out.astype(np.float32)
+    return (out, front) if facing else out

@@ -27,8 +27,8 @@ def test_render_depth_matches_numpy_reference():
     sheet = trimesh.Trimesh([[1.5, -1, -1], [1.5, 1, -1], [1.5, 1, 1], [1.5, -1, 1]], [[0, 1, 2], [0, 2, 3]])
     m = pyshadow.load_mesh(trimesh.util.concatenate([load("suzanne.ply"), sheet]))
     views = pyshadow.ViewSet.zigzag(3, 6)
-    ours = pyshadow.render_depth(m, views, 24, 3)
-    ref = render_depth_reference(m, views, 24, 3)
+    ours, front = pyshadow.render_depth(m, views, 24, 3, facing=True)
+    ref, ref_front = render_depth_reference(m, views, 24, 3, facing=True)
     assert ours.shape == ref.shape == (18, 3, 24, 24)
     assert ours.dtype == np.float32
     np.testing.assert_array_equal(np.isfinite(ours), np.isfinite(ref))
@@ -36,6 +36,10 @@ def test_render_depth_matches_numpy_reference():
     np.testing.assert_allclose(ours[hit], ref[hit], atol=1e-5)
     # the data is not trivial: misses, one-layer and multi-layer texels all occur
     assert (~hit[:, 0]).any() and hit[:, 2].any() and (hit[:, 0] & ~hit[:, 1]).any()
+    # facing flags, where the two depth orders agree (equal depths may swap)
+    order_same = hit & (np.abs(np.where(hit, ours, 0) - np.where(hit, ref, 0)) <= 1e-5)
+    np.testing.assert_array_equal(front[hit & order_same], ref_front[hit & order_same])
+    assert not front[~hit].any() and front[hit].any() and (~front[hit]).any()
 
 
 @pytest.mark.parametrize("name", ["stanford-bunny.obj", "fandisk.obj", "teapot.obj", "pyvista:airplane"])

@@ -31,11 +31,6 @@ from pyshadow import reference
 from _common import MESHES, emit, environment
 
 
-def place(mesh, scale=1.0, offset=(0.0, 0.0), rotation=None):
-    """Bounding sphere of radius ``scale`` over world ``(x, z) = offset``, standing on y = 0."""
-    return pyshadow.stand_on_ground(mesh, radius=scale, position=offset, rotation=rotation)
-
-
 def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
     inst = scene.instances[inst_id]
     local, face = trimesh.sample.sample_surface(inst.mesh, n_points, seed=seed)
@@ -66,7 +61,7 @@ def main(argv=None):
     t_start = time.perf_counter()
     bunny = pyshadow.load_mesh(MESHES / "stanford-bunny.obj")
     fandisk = pyshadow.load_mesh(MESHES / "fandisk.obj")
-    Tb = place(bunny)
+    Tb = pyshadow.stand_on_ground(bunny)
     n_pts = 5000 if args.quick else 20000
 
     # 1. agreement against D and R
@@ -93,7 +88,7 @@ def main(argv=None):
     two.add(csm_64x128, Tb, mesh=bunny)
     fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
                                                progress=False)
-    two.add(fan_csm, place(fandisk, 0.8, (1.7, 0.4), rot), mesh=fandisk)
+    two.add(fan_csm, pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4), rotation=rot), mesh=fandisk)
     two_scene = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3),
                  "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4),
                  "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True),
@@ -127,7 +122,7 @@ def main(argv=None):
             continue
         mesh = pyshadow.load_mesh(path)
         scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
-        scene.add(mesh, place(mesh))
+        scene.add(mesh, pyshadow.stand_on_ground(mesh))
         others[path.name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
                              "agreement_ao_rays": agreement(scene, 0, n_pts // 4, 16, 8),
                              "agreement_uniform_rays": agreement(scene, 0, n_pts // 4, 16, 9, uniform=True)}

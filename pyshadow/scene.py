@@ -326,7 +326,7 @@ class Scene:
         seg = blk = view = cell = tex = 0
         for c in types:
             R, D = c.resolution, c.maps
-            a = c.search_arrays(wide=c.pair_wide, padded=True)
+            a = c.search_arrays(wide=wide, padded=True)
             if len(a["pairs"]) + seg >= 2**32:
                 raise ValueError("the scene's CSMs hold 2^32 or more segments together")
             layout = _LAYOUT_CODE[c.views.layout]
@@ -346,17 +346,10 @@ class Scene:
             offs.append(a["offsets"][:-1].astype(np.int64) + seg)
             soffs.append(a["soff"][:-1].astype(np.int64) + blk)
             summ.append(a["summary"].astype(di))
-            if not wide:
-                pairs.append(a["pairs"])
-            else:
-                sg = a["segment"]
-                pr = np.empty((len(sg), 2), np.uint32)
-                pr[:, 0] = c.iend[sg]
-                if bits == 32:
-                    pr[:, 1] = c.stored_to_depth(c.depth[sg]).astype(np.float32).view(np.uint32)
-                else:
-                    pr[:, 1] = c.depth[sg]
-                pairs.append(pr)
+            pr = a["pairs"]
+            if bits == 32 and c.depth_bits == 16:     # a 32-bit atlas stores float depths
+                pr[:, 1] = c.stored_to_depth(c.depth[a["segment"]]).astype(np.float32).view(np.uint32)
+            pairs.append(pr)
             bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
             seg += len(a["pairs"])
             blk += len(a["summary"])

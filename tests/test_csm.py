@@ -101,7 +101,7 @@ def test_csm_layer_rule_3_on_closed_mesh():
     assert csm3.layer_rule == 3 and csm2.layer_rule == 2
     assert csm3.segments < csm2.segments
     assert csm3.front_margin_texels == csm2.front_margin_texels == FRONT_MARGIN_TEXELS
-    layers = pyshadow.render_depth(mesh, views, 32, 3)
+    layers, front = pyshadow.render_depth(mesh, views, 32, 3, facing=True)
     maps, rows, cols = all_pairs(csm3)
     z = csm3.depth_for(maps, rows, cols)
     z1, z2, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1, 2))
@@ -117,7 +117,6 @@ def test_csm_layer_rule_3_on_closed_mesh():
     assert ok[has3].all()
     assert (z[has3] < z3[has3] - 2.9 / 32).any() and (z[has3] >= z2[has3]).any()
     # the margin is in effect: without it the runs are longer
-    _, front = pyshadow.render_depth(mesh, views, 32, 3, facing=True)
     off0, _, _ = compress_reference(layers, front, 3, 16, margin_depth=0.0)
     assert off0[-1] < csm3.segments
 

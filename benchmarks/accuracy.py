@@ -14,7 +14,12 @@ Prints (and with --json returns):
    bunny vertices, for every sampling strategy (thesis 5.3.1, Fig. 5.7);
 5. the agreement of 1. for every other mesh of ../shared/meshes, each alone on
    the ground at 64x128 maps, 128^2, default settings (nothing was tuned on
-   them).
+   them);
+6. an error budget for the bunny: on identical rays, the 64x128 CSM against
+   one uncompressed map exactly along each ray's own direction (same
+   resolution, interval rule, margin, quantisation and default bias; runs one
+   map long). What that exact map gets wrong is the resolution's share, which
+   no number of maps and no compression can remove; the rest is the CSM's.
 
     python benchmarks/accuracy.py [--quick] [--json]
 """
@@ -28,6 +33,8 @@ import trimesh
 
 import pyshadow
 from pyshadow import reference
+from pyshadow.csm import DEPTH_Q, compress_reference
+from pyshadow.scene import DEFAULT_BIAS_TEXELS
 from _common import MESHES, emit, environment
 
 
@@ -53,6 +60,75 @@ def agreement(scene, inst_id, n_points, samples, seed, uniform=False):
     return float((scene.visible(P, D, surface_ids=ids) == reference.visible(scene, P, D)).mean())
 
 
+def fibonacci_sphere(n):
+    """``n`` nearly evenly spread unit vectors (y up)."""
+    k = np.arange(n) + 0.5
+    y = 1.0 - 2.0 * k / n
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    s = np.sqrt(1.0 - y * y)
+    return np.stack([s * np.cos(phi), y, s * np.sin(phi)], axis=1)
+
+
+def map_basis(d):
+    """Rows ``(u, v, d)`` of an orthonormal camera basis with ``u x v = d``."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    u = np.cross(a, d)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(d, u), d])
+
+
+def error_budget(scene, inst_id, n_dirs, n_points, seed):
+    """Agreement with Embree of the instance's CSM and of exact single maps, on identical rays.
+
+    Rays: ``n_dirs`` Fibonacci directions times ``n_points`` surface points,
+    the pairs with ``n . w > 0``. That is the joint distribution of uniform
+    hemisphere rays from uniform surface points; weighting each pair by
+    ``n . w`` gives the AO's cosine-weighted rays. The exact map of direction
+    ``w`` is rendered along ``w`` itself and compressed alone (its stored
+    depth is the one the CSM's rule would pick for a run of that one map), and
+    asked with the kernel's default bias for a direction on the map's axis.
+    The scene must hold that one caster (and may have a ground plane).
+
+    Returns ``{'csm': (uniform, cosine), 'exact_map': (uniform, cosine)}``.
+    """
+    inst = scene.instances[inst_id]
+    csm, mesh = inst.csm, inst.mesh
+    R = csm.resolution
+    local, face = trimesh.sample.sample_surface(mesh, n_points, seed=seed)
+    n_local = mesh.face_normals[face]
+    T = inst.transform
+    P = local @ T[:3, :3].T + T[:3, 3]
+    pn = (local - csm.centre) / csm.radius
+    quantum = (1.0 / DEPTH_Q if csm.depth_bits == 16 else 0.0) + 1e-7
+    bias = quantum + DEFAULT_BIAS_TEXELS / R
+    agree = {"csm": np.zeros(2), "exact_map": np.zeros(2)}
+    total = np.zeros(2)
+    for w in fibonacci_sphere(n_dirs):
+        wl = w @ inst.rotation                       # the direction in the mesh's frame
+        cos = n_local @ wl
+        m = cos > 0
+        if not m.any():
+            continue
+        B = map_basis(wl)
+        layers, front = pyshadow.render_depth(mesh, pyshadow.ViewSet(wl[None], B[None]), R, csm.layer_rule,
+                                              frame=(csm.centre, csm.radius), facing=True)
+        _, _, stored = compress_reference(layers, front, csm.layer_rule, csm.depth_bits)
+        z = csm.stored_to_depth(stored)              # one segment per texel, in texel order
+        q = pn[m]
+        depth = (1.0 - q @ B[2]) * 0.5
+        col = np.clip(((q @ B[0] + 1.0) * 0.5 * R).astype(np.int64), 0, R - 1)
+        row = np.clip(((q @ B[1] + 1.0) * 0.5 * R).astype(np.int64), 0, R - 1)
+        W = np.broadcast_to(w, (int(m.sum()), 3))
+        exact = ~(reference.ground_occludes(scene, P[m], W) | (depth > z[row * R + col] + bias))
+        truth = reference.visible(scene, P[m], W)
+        ours = scene.visible(P[m], W, surface_ids=np.full(int(m.sum()), inst_id))
+        weights = np.stack([np.ones(int(m.sum())), cos[m]])
+        total += weights.sum(axis=1)
+        agree["csm"] += weights[:, ours == truth].sum(axis=1)
+        agree["exact_map"] += weights[:, exact == truth].sum(axis=1)
+    return {k: tuple(float(x) for x in v / total) for k, v in agree.items()}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer configurations and rays")
@@ -69,6 +145,7 @@ def main(argv=None):
     resolutions = [64, 128] if args.quick else [32, 64, 128, 256]
     table = []
     csm_64x128 = None
+    budget_scenes = {}
     for grid in grids:
         for R in resolutions:
             csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(*grid), R, progress=False)
@@ -81,6 +158,8 @@ def main(argv=None):
             table.append(row)
             if grid == (64, 128) and R == 128:
                 csm_64x128 = csm
+            if grid == (64, 128) and R in (128, 256):
+                budget_scenes[R] = scene
 
     # 2. two bodies on the ground
     rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
@@ -126,8 +205,12 @@ def main(argv=None):
         others[path.name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
                              "agreement_ao_rays": agreement(scene, 0, n_pts // 4, 16, 8),
                              "agreement_uniform_rays": agreement(scene, 0, n_pts // 4, 16, 9, uniform=True)}
+    # 6. error budget: the CSM against an exact map along every ray
+    budget = {R: error_budget(sc, 0, 64 if args.quick else 256, n_pts // 5, 10) for R, sc in budget_scenes.items()}
+
     result = {"benchmark": "accuracy", **environment(), "agreement_table": table, "two_objects": two_scene,
               "vertex_ao": vertex, "strategies_36_samples": strategies, "other_meshes": others,
+              "error_budget": {str(R): b for R, b in budget.items()},
               "seconds": time.perf_counter() - t_start}
     if args.json:
         emit(result, True)
@@ -149,6 +232,12 @@ def main(argv=None):
     for name, r in others.items():
         print(f"   {name:18} {r['faces']:>6} {'yes' if r['watertight'] else 'no':>6} "
               f"{r['agreement_ao_rays']:>8.3%} {r['agreement_uniform_rays']:>8.3%}")
+    print("\n6. error budget, bunny on the ground, identical rays: the 64x128 CSM against one exact map "
+          "along each ray's direction")
+    print(f"   {'R':>5} {'CSM uniform':>12} {'exact uniform':>14} {'CSM cosine':>11} {'exact cosine':>13}")
+    for R, b in budget.items():
+        print(f"   {R:>5} {b['csm'][0]:>11.3%} {b['exact_map'][0]:>13.3%} {b['csm'][1]:>10.3%} "
+              f"{b['exact_map'][1]:>12.3%}")
     print(f"\n({result['seconds']:.0f} s)")
 
 

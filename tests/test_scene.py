@@ -455,6 +455,31 @@ def test_visible_kernel_matches_numpy_reference(layout, rng):
             == scene.visible(p, d, surface_ids=ids)).all()
 
 
+def test_mixed_16_and_32_bit_scene_matches_numpy_reference(rng):
+    """A 16-bit and a 32-bit CSM in one scene share a 32-bit atlas: the 16-bit
+    depths are converted, not reinterpreted (misread, the bunny's answers would
+    fall to chance)."""
+    from pyshadow.scene import visible_reference
+
+    bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
+    views = pyshadow.ViewSet.zigzag(16, 32)
+    scene = pyshadow.Scene(ground=0.0)
+    scene.add(pyshadow.CoherentShadowMap.build(bunny, views, 64, depth_bits=16, progress=False),
+              on_ground(bunny, unit_frame(bunny)), mesh=bunny)
+    scene.add(pyshadow.CoherentShadowMap.build(fan, views, 64, depth_bits=32, progress=False),
+              on_ground(fan, unit_frame(fan, 0.7, offset=(1.6, 0, 0.3))), mesh=fan)
+    assert scene._device_atlas()[0]["ntypes"] == 2
+    p0, d0 = surface_queries(scene, 0, 2000, 8, rng)
+    p1, d1 = surface_queries(scene, 1, 1000, 8, rng)
+    p, d = np.concatenate([p0, p1]), np.concatenate([d0, d1])
+    ids = np.r_[np.zeros(len(p0), int), np.ones(len(p1), int)]
+    ours = scene.visible(p, d, surface_ids=ids)
+    assert (ours == visible_reference(scene, p, d, surface_ids=ids)).mean() > 0.999
+    truth = reference.visible(scene, p, d)
+    assert (ours[: len(p0)] == truth[: len(p0)]).mean() > 0.97
+    assert (ours[len(p0):] == truth[len(p0):]).mean() > 0.97
+
+
 @pytest.mark.parametrize("dtype", [np.float64, np.float32, np.int64])
 def test_check_values_matches_the_exact_definition(dtype):
     """The one-pass checks of visible() against isfinite / any row by row, on

@@ -6,7 +6,12 @@ for the zigzag layout (the thesis's grid and order) and for the hilbert
 layout at equal or nearly equal map count. Ratio = D * R^2 * 2 bytes /
 (segments * 4 bytes + offset table).
 
-    python benchmarks/compression.py [--json] [--quick]
+The maps frame the mesh's minimal bounding sphere. The thesis does not state
+its orthographic frustum (its files carry it as an attribute); --frame-scale F
+frames a sphere F times wider, to show how much the ratio owes to framing:
+empty texels around the object cost one segment each.
+
+    python benchmarks/compression.py [--json] [--quick] [--frame-scale F]
 """
 from __future__ import annotations
 
@@ -32,8 +37,12 @@ def main(argv=None):
     ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--quick", action="store_true", help="only the 32x32 and 64x128 rows")
+    ap.add_argument("--frame-scale", type=float, default=1.0,
+                    help="frame a sphere this many times the minimal bounding sphere (default 1)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if not (args.frame_scale >= 1.0):
+        ap.error("--frame-scale must be >= 1 (a smaller sphere would cut the mesh)")
 
     holes = pyshadow.load_mesh(args.mesh)
     filled = pyshadow.load_mesh(args.mesh, fill_holes=True)
@@ -44,8 +53,9 @@ def main(argv=None):
     def build(mesh, views, layers="auto"):
         key = (id(mesh), views.layout, tuple(sorted(views.params.items())), layers)
         if key not in cache:
-            csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, layers=layers,
-                                                   progress=False)
+            centre, radius = pyshadow.bounding_sphere(mesh)
+            csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, layers=layers, progress=False,
+                                                   frame=(centre, radius * args.frame_scale))
             cache[key] = csm.stats
         return cache[key]
 
@@ -65,12 +75,15 @@ def main(argv=None):
                      "thesis_mb": THESIS_FILLED[0], "thesis_ratio": THESIS_FILLED[1],
                      "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
                      "layer_rule": z["layer_rule"]})
-    result = {"benchmark": "compression", **environment(), "resolution": args.resolution, "rows": rows}
+    result = {"benchmark": "compression", **environment(), "resolution": args.resolution,
+              "frame_scale": args.frame_scale, "rows": rows}
     if args.json:
         emit(result, True)
         return
     print(f"device: {result['device']}; {args.resolution}^2 texels, 16-bit depth, "
-          "ratio = D*R^2*2 B / (4 B per segment + offset table)")
+          "ratio = D*R^2*2 B / (4 B per segment + offset table); frame: "
+          + ("the minimal bounding sphere" if args.frame_scale == 1.0
+             else f"{args.frame_scale:g} x the minimal bounding sphere"))
     hdr = (f"{'mesh':15} {'maps':>7} {'rule':>4} | {'thesis MB':>9} {'ratio':>6} | "
            f"{'zigzag MB':>9} {'ratio':>6} {'build s':>7} | {'hilbert D':>9} {'MB':>6} {'ratio':>6} | winner")
     print(hdr)

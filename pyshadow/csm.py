@@ -194,6 +194,23 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     return offsets, iend[order], depth[order]
 
 
+def _check_frame(mesh, frame):
+    try:
+        centre, radius = frame
+        centre = np.asarray(centre, dtype=np.float64)
+        radius = float(radius)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"frame must be (centre, radius), got {frame!r}") from e
+    if centre.shape != (3,) or not np.isfinite(centre).all():
+        raise ValueError(f"frame: the centre must be 3 finite numbers, got {centre!r}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"frame: the radius must be finite and > 0, got {radius!r}")
+    far = float(np.linalg.norm(np.asarray(mesh.vertices, np.float64) - centre, axis=1).max())
+    if far > radius * (1 + 1e-6):
+        raise ValueError(f"frame: a vertex lies {far:.6g} from the centre, outside the radius {radius:.6g}")
+    return centre, radius
+
+
 def _depth_dtype(bits):
     return np.dtype(np.uint16) if bits == 16 else np.dtype(np.float32)
 
@@ -264,7 +281,8 @@ class CoherentShadowMap:
     # ------------------------------------------------------------------
     @classmethod
     def build(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
-              layers="auto", block: int | None = None, progress: bool = True) -> "CoherentShadowMap":
+              layers="auto", block: int | None = None, progress: bool = True,
+              frame=None) -> "CoherentShadowMap":
         """Render and compress the depth maps of ``mesh`` for ``views``.
 
         Parameters
@@ -318,6 +336,13 @@ class CoherentShadowMap:
             ``resolution``, not on ``len(views)``.
         progress : bool, optional
             Progress bar over the blocks (shown only on a terminal).
+        frame : (centre, radius), optional
+            The sphere the maps frame, in the mesh's units: centre shape (3,),
+            radius > 0; it must hold every vertex. Default: the minimal
+            bounding sphere (:func:`pyshadow.bounding_sphere`), which puts the
+            most texels on the object. A wider sphere leaves empty texels
+            around it, which cost one segment each: the ratio rises and the
+            detail per texel falls (benchmarks/compression.py --frame-scale).
 
         Returns
         -------
@@ -348,7 +373,7 @@ class CoherentShadowMap:
             raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
         R = int(resolution)
         D = len(views)
-        centre, radius = bounding_sphere(mesh)
+        centre, radius = bounding_sphere(mesh) if frame is None else _check_frame(mesh, frame)
         dtype_z = _depth_dtype(depth_bits)
         dtype_i = _iend_dtype(D)
         per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)

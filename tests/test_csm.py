@@ -284,7 +284,7 @@ def test_csm_build_rejects_bad_input():
         csm.depth_for(0, 16, 0)
 
 
-def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng):
+def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng, tmp_path):
     """A wider, off-centre frame: stored depths stay exact for its own maps, the
     file's centre and radius are the frame's, queries find the same shadows."""
     mesh = load("stanford-bunny.obj")
@@ -295,6 +295,10 @@ def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng):
     default = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
     np.testing.assert_array_equal(csm.centre, frame[0])
     assert csm.radius == frame[1]
+    csm.save(tmp_path / "framed.csm")
+    back = CoherentShadowMap.load(tmp_path / "framed.csm")
+    np.testing.assert_array_equal(back.centre, frame[0])
+    assert back.radius == frame[1]
     counts = check_exact(csm, pyshadow.render_depth(mesh, views, 32, 2, frame=frame))
     assert counts["two"] > 0 and counts["one"] > 0
     # empty texels around the object are cheap: a wider frame compresses further

@@ -9,13 +9,18 @@ layout at equal or nearly equal map count. Ratio = D * R^2 * 2 bytes /
 The maps frame the mesh's minimal bounding sphere. The thesis does not state
 its orthographic frustum (its files carry it as an attribute); --frame-scale F
 frames a sphere F times wider, to show how much the ratio owes to framing:
-empty texels around the object cost one segment each.
+empty texels around the object cost one segment each. --bases lookat gives the
+zigzag maps look-at camera bases with a y-up vector (the usual OpenGL camera)
+instead of pyshadow's parallel-transported ones, for comparison only (such a
+CSM is not saved: a file rebuilds its views from the layout).
 
-    python benchmarks/compression.py [--json] [--quick] [--frame-scale F]
+    python benchmarks/compression.py [--json] [--quick] [--frame-scale F] [--bases lookat]
 """
 from __future__ import annotations
 
 import argparse
+
+import numpy as np
 
 import pyshadow
 from _common import MESHES, emit, environment
@@ -32,6 +37,19 @@ def hilbert_for(maps):
     return min(options, key=lambda v: (abs(len(v) - maps), len(v)))
 
 
+def lookat_zigzag(theta, phi):
+    """The zigzag view set with look-at bases: u points east, ``(-sin p, 0, cos p)``
+    (defined on the poles too), ``v = d x u``."""
+    views = pyshadow.ViewSet.zigzag(theta, phi)
+    d = views.directions
+    az = np.arctan2(d[:, 2], d[:, 0])
+    pole = np.hypot(d[:, 0], d[:, 2]) < 1e-9       # row 0, on the pole: maps 0 .. phi-1, phi rising
+    az[pole] = np.flatnonzero(pole) * 2.0 * np.pi / phi
+    u = np.stack([-np.sin(az), np.zeros_like(az), np.cos(az)], axis=1)
+    bases = np.stack([u, np.cross(d, u), d], axis=1)
+    return pyshadow.ViewSet(d, bases, layout="zigzag", params=views.params)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
@@ -39,6 +57,8 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true", help="only the 32x32 and 64x128 rows")
     ap.add_argument("--frame-scale", type=float, default=1.0,
                     help="frame a sphere this many times the minimal bounding sphere (default 1)")
+    ap.add_argument("--bases", choices=("transport", "lookat"), default="transport",
+                    help="camera bases of the zigzag maps (default: pyshadow's parallel transport)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if not (args.frame_scale >= 1.0):
@@ -51,7 +71,7 @@ def main(argv=None):
     cache = {}
 
     def build(mesh, views, layers="auto"):
-        key = (id(mesh), views.layout, tuple(sorted(views.params.items())), layers)
+        key = (id(mesh), views.layout, tuple(sorted(views.params.items())), layers, views.bases.tobytes())
         if key not in cache:
             centre, radius = pyshadow.bounding_sphere(mesh)
             csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, layers=layers, progress=False,
@@ -59,8 +79,11 @@ def main(argv=None):
             cache[key] = csm.stats
         return cache[key]
 
+    def zigzag(t, p):
+        return lookat_zigzag(t, p) if args.bases == "lookat" else pyshadow.ViewSet.zigzag(t, p)
+
     for (t, p) in grids:
-        z = build(holes, pyshadow.ViewSet.zigzag(t, p))
+        z = build(holes, zigzag(t, p))
         hv = hilbert_for(t * p)
         h = build(holes, hv)
         rows.append({"mesh": "bunny (holes)", "grid": f"{t}x{p}", "maps": t * p,
@@ -68,7 +91,7 @@ def main(argv=None):
                      "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
                      "layer_rule": z["layer_rule"]})
     for rule in ("auto", 2):
-        z = build(filled, pyshadow.ViewSet.zigzag(64, 128), rule)
+        z = build(filled, zigzag(64, 128), rule)
         hv = hilbert_for(8192)
         h = build(filled, hv, rule)
         rows.append({"mesh": "bunny (filled)", "grid": "64x128", "maps": 8192,
@@ -76,14 +99,15 @@ def main(argv=None):
                      "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
                      "layer_rule": z["layer_rule"]})
     result = {"benchmark": "compression", **environment(), "resolution": args.resolution,
-              "frame_scale": args.frame_scale, "rows": rows}
+              "frame_scale": args.frame_scale, "bases": args.bases, "rows": rows}
     if args.json:
         emit(result, True)
         return
     print(f"device: {result['device']}; {args.resolution}^2 texels, 16-bit depth, "
           "ratio = D*R^2*2 B / (4 B per segment + offset table); frame: "
           + ("the minimal bounding sphere" if args.frame_scale == 1.0
-             else f"{args.frame_scale:g} x the minimal bounding sphere"))
+             else f"{args.frame_scale:g} x the minimal bounding sphere")
+          + ("; zigzag maps with look-at bases" if args.bases == "lookat" else ""))
     hdr = (f"{'mesh':15} {'maps':>7} {'rule':>4} | {'thesis MB':>9} {'ratio':>6} | "
            f"{'zigzag MB':>9} {'ratio':>6} {'build s':>7} | {'hilbert D':>9} {'MB':>6} {'ratio':>6} | winner")
     print(hdr)

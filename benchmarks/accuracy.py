@@ -33,8 +33,8 @@ import trimesh
 
 import pyshadow
 from pyshadow import reference
-from pyshadow.csm import DEPTH_Q, compress_reference
-from pyshadow.scene import DEFAULT_BIAS_TEXELS
+from pyshadow.csm import compress_reference
+from pyshadow.scene import visible_reference
 from _common import MESHES, emit, environment
 
 
@@ -85,22 +85,19 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     hemisphere rays from uniform surface points; weighting each pair by
     ``n . w`` gives the AO's cosine-weighted rays. The exact map of direction
     ``w`` is rendered along ``w`` itself and compressed alone (its stored
-    depth is the one the CSM's rule would pick for a run of that one map), and
-    asked with the kernel's default bias for a direction on the map's axis.
+    depth is the one the CSM's rule would pick for a run of that one map),
+    then asked by the NumPy reference of ``Scene.visible`` -- the same
+    projection, default bias and ground plane -- in a scene of its own.
     The scene must hold that one caster (and may have a ground plane).
 
     Returns ``{'csm': (uniform, cosine), 'exact_map': (uniform, cosine)}``.
     """
     inst = scene.instances[inst_id]
     csm, mesh = inst.csm, inst.mesh
-    R = csm.resolution
     local, face = trimesh.sample.sample_surface(mesh, n_points, seed=seed)
     n_local = mesh.face_normals[face]
     T = inst.transform
     P = local @ T[:3, :3].T + T[:3, 3]
-    pn = (local - csm.centre) / csm.radius
-    quantum = (1.0 / DEPTH_Q if csm.depth_bits == 16 else 0.0) + 1e-7
-    bias = quantum + DEFAULT_BIAS_TEXELS / R
     agree = {"csm": np.zeros(2), "exact_map": np.zeros(2)}
     total = np.zeros(2)
     for w in fibonacci_sphere(n_dirs):
@@ -109,20 +106,22 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         m = cos > 0
         if not m.any():
             continue
-        B = map_basis(wl)
-        layers, front = pyshadow.render_depth(mesh, pyshadow.ViewSet(wl[None], B[None]), R, csm.layer_rule,
+        one = pyshadow.ViewSet(wl[None], map_basis(wl)[None])
+        layers, front = pyshadow.render_depth(mesh, one, csm.resolution, csm.layer_rule,
                                               frame=(csm.centre, csm.radius), facing=True)
-        _, _, stored = compress_reference(layers, front, csm.layer_rule, csm.depth_bits)
-        z = csm.stored_to_depth(stored)              # one segment per texel, in texel order
-        q = pn[m]
-        depth = (1.0 - q @ B[2]) * 0.5
-        col = np.clip(((q @ B[0] + 1.0) * 0.5 * R).astype(np.int64), 0, R - 1)
-        row = np.clip(((q @ B[1] + 1.0) * 0.5 * R).astype(np.int64), 0, R - 1)
-        W = np.broadcast_to(w, (int(m.sum()), 3))
-        exact = ~(reference.ground_occludes(scene, P[m], W) | (depth > z[row * R + col] + bias))
+        offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, csm.depth_bits)
+        exact_map = pyshadow.CoherentShadowMap(
+            views=one, resolution=csm.resolution, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
+            centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=offsets, iend=iend,
+            depth=depth, front_margin_texels=csm.front_margin_texels)
+        alone = pyshadow.Scene(ground=scene.ground)
+        alone.add(exact_map, T, mesh=mesh)
+        k = int(m.sum())
+        W = np.broadcast_to(w, (k, 3))
         truth = reference.visible(scene, P[m], W)
-        ours = scene.visible(P[m], W, surface_ids=np.full(int(m.sum()), inst_id))
-        weights = np.stack([np.ones(int(m.sum())), cos[m]])
+        ours = scene.visible(P[m], W, surface_ids=np.full(k, inst_id))
+        exact = visible_reference(alone, P[m], W, surface_ids=np.zeros(k, int))
+        weights = np.stack([np.ones(k), cos[m]])
         total += weights.sum(axis=1)
         agree["csm"] += weights[:, ours == truth].sum(axis=1)
         agree["exact_map"] += weights[:, exact == truth].sum(axis=1)

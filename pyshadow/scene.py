@@ -218,8 +218,9 @@ class Scene:
             if not np.isfinite(ground):
                 raise ValueError(f"ground must be a finite height, got {ground}")
         self.ground = ground
-        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128),
-                                resolution=resolution, depth_bits=depth_bits, layers=layers)
+        # views=None: ViewSet.zigzag(64, 128), made when add() first builds a CSM
+        # (8192 camera bases take a second; a scene of prebuilt CSMs never needs them)
+        self.csm_options = dict(views=views, resolution=resolution, depth_bits=depth_bits, layers=layers)
         self.progress = progress
         self.instances: list[Instance] = []
         self._built: dict = {}           # id(mesh) -> CSM built by add()
@@ -275,6 +276,8 @@ class Scene:
                 csm = self._built.get(id(obj))
                 if csm is None:
                     o = self.csm_options
+                    if o["views"] is None:
+                        o["views"] = ViewSet.zigzag(64, 128)
                     csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
                                                   o["layers"], progress=self.progress)
                     self._built[id(obj)] = csm

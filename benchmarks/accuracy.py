@@ -20,6 +20,10 @@ Prints (and with --json returns):
    resolution, interval rule, margin, quantisation and default bias; runs one
    map long). What that exact map gets wrong is the resolution's share, which
    no number of maps and no compression can remove; the rest is the CSM's.
+   The same for a map whose intervals span the texel footprint (below);
+7. footprint intervals (``CoherentShadowMap.build(..., footprint=True)``) on
+   the rays of sections 1 and 5: agreement, ratio and build time of every
+   mesh at 64x128 maps @ 128^2 beside the default (centre-ray) intervals.
 
     python benchmarks/accuracy.py [--quick] [--json]
 """
@@ -90,7 +94,18 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     projection, default bias and ground plane -- in a scene of its own.
     The scene must hold that one caster (and may have a ground plane).
 
-    Returns ``{'csm': (uniform, cosine), 'exact_map': (uniform, cosine)}``.
+    ``exact_map_footprint`` is the same map built with footprint intervals
+    (the corner maps of ``CoherentShadowMap.build(..., footprint=True)``).
+
+    ``wrongly_lit``: the exact map's rays that Embree finds blocked but the
+    map lights, as a share of all rays, and the distance to their blocker
+    in texels (``2 r / R`` in world units) at the 10/25/50/75/90th
+    percentiles; ``grazing``: the share of its wrong answers from rays
+    within 6 degrees of the surface (``n . w < 0.1``).
+
+    Returns ``{'csm': (uniform, cosine), 'exact_map': (uniform, cosine),
+    'exact_map_footprint': (uniform, cosine), 'wrongly_lit': ...,
+    'blocker_texels': [...], 'grazing': ...}``.
     """
     inst = scene.instances[inst_id]
     csm, mesh = inst.csm, inst.mesh
@@ -98,7 +113,12 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     n_local = mesh.face_normals[face]
     T = inst.transform
     P = local @ T[:3, :3].T + T[:3, 3]
-    agree = {"csm": np.zeros(2), "exact_map": np.zeros(2)}
+    agree = {"csm": np.zeros(2), "exact_map": np.zeros(2), "exact_map_footprint": np.zeros(2)}
+    R = csm.resolution
+    texel = 2.0 * inst.scale * csm.radius / R
+    rays, anchor = reference.caster_scene(scene)
+    eps = reference.surface_epsilon(scene)
+    blocker, n_wrong, n_grazing, n_rays = [], 0, 0, 0
     total = np.zeros(2)
     for w in fibonacci_sphere(n_dirs):
         wl = w @ inst.rotation                       # the direction in the mesh's frame
@@ -109,23 +129,39 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         one = pyshadow.ViewSet(wl[None], map_basis(wl)[None])
         layers, front = pyshadow.render_depth(mesh, one, csm.resolution, csm.layer_rule,
                                               frame=(csm.centre, csm.radius), facing=True)
-        offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, csm.depth_bits)
-        exact_map = pyshadow.CoherentShadowMap(
-            views=one, resolution=csm.resolution, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
-            centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=offsets, iend=iend,
-            depth=depth, front_margin_texels=csm.front_margin_texels)
-        alone = pyshadow.Scene(ground=scene.ground)
-        alone.add(exact_map, T, mesh=mesh)
+        corners, cfront = pyshadow.render_depth(mesh, one, R + 1, csm.layer_rule, facing=True,
+                                                frame=(csm.centre, csm.radius * (R + 1) / R))
         k = int(m.sum())
         W = np.broadcast_to(w, (k, 3))
         truth = reference.visible(scene, P[m], W)
         ours = scene.visible(P[m], W, surface_ids=np.full(k, inst_id))
-        exact = visible_reference(alone, P[m], W, surface_ids=np.zeros(k, int))
         weights = np.stack([np.ones(k), cos[m]])
         total += weights.sum(axis=1)
         agree["csm"] += weights[:, ours == truth].sum(axis=1)
-        agree["exact_map"] += weights[:, exact == truth].sum(axis=1)
-    return {k: tuple(float(x) for x in v / total) for k, v in agree.items()}
+        for name, corner_maps in (("exact_map", {}), ("exact_map_footprint",
+                                                      {"corners": corners, "corner_front": cfront})):
+            offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, csm.depth_bits, **corner_maps)
+            exact_map = pyshadow.CoherentShadowMap(
+                views=one, resolution=R, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
+                centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=offsets, iend=iend,
+                depth=depth, front_margin_texels=csm.front_margin_texels, footprint=bool(corner_maps))
+            alone = pyshadow.Scene(ground=scene.ground)
+            alone.add(exact_map, T, mesh=mesh)
+            exact = visible_reference(alone, P[m], W, surface_ids=np.zeros(k, int))
+            agree[name] += weights[:, exact == truth].sum(axis=1)
+            if name == "exact_map":
+                lit = exact & ~truth
+                t, _, _ = rays.intersect(P[m][lit] - anchor + eps * W[lit], W[lit])
+                blocker.append(t / texel)
+                n_wrong += int((exact != truth).sum())
+                n_grazing += int(((exact != truth) & (cos[m] < 0.1)).sum())
+                n_rays += k
+    out = {k: tuple(float(x) for x in v / total) for k, v in agree.items()}
+    blocker = np.concatenate(blocker)
+    out["wrongly_lit"] = len(blocker) / n_rays
+    out["blocker_texels"] = [float(x) for x in np.quantile(blocker, [0.1, 0.25, 0.5, 0.75, 0.9])]
+    out["grazing"] = n_grazing / max(n_wrong, 1)
+    return out
 
 
 def main(argv=None):
@@ -193,23 +229,41 @@ def main(argv=None):
         strategies[strategy] = {"rmse": float(np.sqrt(np.mean((ao - conv) ** 2))),
                                 "rmse_embree_same_directions": float(np.sqrt(np.mean((ref36 - conv) ** 2)))}
 
-    # 5. the other meshes, default settings
-    others = {}
+    # 5. the other meshes, default settings; 7. each with footprint intervals on the same rays
+    others, footprint = {}, {}
+    views = pyshadow.ViewSet.zigzag(64, 128)
+    for fp in (False, True):
+        csm = pyshadow.CoherentShadowMap.build(bunny, views, 128, progress=False, footprint=fp)
+        scene = pyshadow.Scene(ground=0.0)
+        scene.add(csm, Tb, mesh=bunny)
+        footprint.setdefault("stanford-bunny.obj", {})[fp] = {
+            "ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],
+            "agreement_ao_rays": agreement(scene, 0, n_pts, 16, 1),
+            "agreement_uniform_rays": agreement(scene, 0, n_pts // 2, 16, 2, uniform=True)}
     for path in sorted(MESHES.iterdir()):
         if path.suffix.lower() not in (".obj", ".ply", ".stl") or path.name == "stanford-bunny.obj":
             continue
         mesh = pyshadow.load_mesh(path)
-        scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
-        scene.add(mesh, pyshadow.stand_on_ground(mesh))
-        others[path.name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
-                             "agreement_ao_rays": agreement(scene, 0, n_pts // 4, 16, 8),
-                             "agreement_uniform_rays": agreement(scene, 0, n_pts // 4, 16, 9, uniform=True)}
+        for fp in (False, True):
+            csm = pyshadow.CoherentShadowMap.build(mesh, views, 128, progress=False, footprint=fp)
+            scene = pyshadow.Scene(ground=0.0)
+            scene.add(csm, pyshadow.stand_on_ground(mesh), mesh=mesh)
+            row = {"ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],
+                   "agreement_ao_rays": agreement(scene, 0, n_pts // 4, 16, 8),
+                   "agreement_uniform_rays": agreement(scene, 0, n_pts // 4, 16, 9, uniform=True)}
+            footprint.setdefault(path.name, {})[fp] = row
+            if not fp:
+                others[path.name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
+                                     "agreement_ao_rays": row["agreement_ao_rays"],
+                                     "agreement_uniform_rays": row["agreement_uniform_rays"]}
     # 6. error budget: the CSM against an exact map along every ray
     budget = {R: error_budget(sc, 0, 64 if args.quick else 256, n_pts // 5, 10) for R, sc in budget_scenes.items()}
 
     result = {"benchmark": "accuracy", **environment(), "agreement_table": table, "two_objects": two_scene,
               "vertex_ao": vertex, "strategies_36_samples": strategies, "other_meshes": others,
               "error_budget": {str(R): b for R, b in budget.items()},
+              "footprint": {name: {"centre" if not fp else "footprint": v for fp, v in rows.items()}
+                            for name, rows in footprint.items()},
               "seconds": time.perf_counter() - t_start}
     if args.json:
         emit(result, True)
@@ -233,10 +287,23 @@ def main(argv=None):
               f"{r['agreement_ao_rays']:>8.3%} {r['agreement_uniform_rays']:>8.3%}")
     print("\n6. error budget, bunny on the ground, identical rays: the 64x128 CSM against one exact map "
           "along each ray's direction")
-    print(f"   {'R':>5} {'CSM uniform':>12} {'exact uniform':>14} {'CSM cosine':>11} {'exact cosine':>13}")
+    print(f"   {'R':>5} {'CSM uniform':>12} {'exact uniform':>14} {'footprint':>10} {'CSM cosine':>11} "
+          f"{'exact cosine':>13} {'footprint':>10}")
     for R, b in budget.items():
-        print(f"   {R:>5} {b['csm'][0]:>11.3%} {b['exact_map'][0]:>13.3%} {b['csm'][1]:>10.3%} "
-              f"{b['exact_map'][1]:>12.3%}")
+        print(f"   {R:>5} {b['csm'][0]:>11.3%} {b['exact_map'][0]:>13.3%} {b['exact_map_footprint'][0]:>9.3%} "
+              f"{b['csm'][1]:>10.3%} {b['exact_map'][1]:>12.3%} {b['exact_map_footprint'][1]:>9.3%}")
+    for R, b in budget.items():
+        print(f"   R={R}: the exact map lights {b['wrongly_lit']:.3%} of the rays Embree finds blocked, "
+              f"their blockers at {' / '.join(f'{x:.1f}' for x in b['blocker_texels'])} texels "
+              f"(10/25/50/75/90 %); {b['grazing']:.0%} of its wrong answers are rays within 6 deg of the surface")
+    print("\n7. footprint intervals (build(..., footprint=True)) against the default, 64x128 maps @128^2, "
+          "the rays of sections 1 and 5")
+    print(f"   {'mesh':18} {'ratio':>13} {'build s':>11} {'AO rays':>19} {'uniform rays':>19}")
+    for name, rows in footprint.items():
+        a, b = rows[False], rows[True]
+        print(f"   {name:18} {a['ratio']:>5.1f} -> {b['ratio']:>4.1f} {a['build_seconds']:>4.1f} -> "
+              f"{b['build_seconds']:>4.1f} {a['agreement_ao_rays']:>7.3%} -> {b['agreement_ao_rays']:>7.3%} "
+              f"{a['agreement_uniform_rays']:>7.3%} -> {b['agreement_uniform_rays']:>7.3%}")
     print(f"\n({result['seconds']:.0f} s)")
 
 

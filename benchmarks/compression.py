@@ -12,9 +12,11 @@ frames a sphere F times wider, to show how much the ratio owes to framing:
 empty texels around the object cost one segment each. --bases lookat gives the
 zigzag maps look-at camera bases with a y-up vector (the usual OpenGL camera)
 instead of pyshadow's parallel-transported ones, for comparison only (such a
-CSM is not saved: a file rebuilds its views from the layout).
+CSM is not saved: a file rebuilds its views from the layout). --footprint
+builds every CSM with footprint intervals (``build(..., footprint=True)``),
+to show what that accuracy option costs in size.
 
-    python benchmarks/compression.py [--json] [--quick] [--frame-scale F] [--bases lookat]
+    python benchmarks/compression.py [--json] [--quick] [--frame-scale F] [--bases lookat] [--footprint]
 """
 from __future__ import annotations
 
@@ -59,6 +61,8 @@ def main(argv=None):
                     help="frame a sphere this many times the minimal bounding sphere (default 1)")
     ap.add_argument("--bases", choices=("transport", "lookat"), default="transport",
                     help="camera bases of the zigzag maps (default: pyshadow's parallel transport)")
+    ap.add_argument("--footprint", action="store_true",
+                    help="footprint intervals (CoherentShadowMap.build(..., footprint=True))")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if not (args.frame_scale >= 1.0):
@@ -75,7 +79,8 @@ def main(argv=None):
         if key not in cache:
             centre, radius = pyshadow.bounding_sphere(mesh)
             csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, layers=layers, progress=False,
-                                                   frame=(centre, radius * args.frame_scale))
+                                                   frame=(centre, radius * args.frame_scale),
+                                                   footprint=args.footprint)
             cache[key] = csm.stats
         return cache[key]
 
@@ -99,7 +104,7 @@ def main(argv=None):
                      "zigzag": z, "hilbert_maps": len(hv), "hilbert": h,
                      "layer_rule": z["layer_rule"]})
     result = {"benchmark": "compression", **environment(), "resolution": args.resolution,
-              "frame_scale": args.frame_scale, "bases": args.bases, "rows": rows}
+              "frame_scale": args.frame_scale, "bases": args.bases, "footprint": args.footprint, "rows": rows}
     if args.json:
         emit(result, True)
         return
@@ -107,7 +112,8 @@ def main(argv=None):
           "ratio = D*R^2*2 B / (4 B per segment + offset table); frame: "
           + ("the minimal bounding sphere" if args.frame_scale == 1.0
              else f"{args.frame_scale:g} x the minimal bounding sphere")
-          + ("; zigzag maps with look-at bases" if args.bases == "lookat" else ""))
+          + ("; zigzag maps with look-at bases" if args.bases == "lookat" else "")
+          + ("; footprint intervals" if args.footprint else ""))
     hdr = (f"{'mesh':15} {'maps':>7} {'rule':>4} | {'thesis MB':>9} {'ratio':>6} | "
            f"{'zigzag MB':>9} {'ratio':>6} {'build s':>7} | {'hilbert D':>9} {'MB':>6} {'ratio':>6} | winner")
     print(hdr)

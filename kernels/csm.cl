@@ -18,6 +18,13 @@
  *               run with i_end = D - 1.
  *               Emitted depth: middle of [lo, hi2] when not empty, else the
  *               middle of [lo, hi3].
+ *               FOOTPRINT 1: where the centre ray meets two surfaces, the
+ *               map's [z1, z2') (z2' = z2, or z2 - MARGIN where it faces the
+ *               light) narrows to the texel's footprint: each corner's first
+ *               depth below z2' raises the lower end, each corner's second
+ *               depth (with its own margin rule) above that lower end lowers
+ *               the upper end. When no key is left the centre's interval
+ *               stands. The result lies inside the centre's interval.
  * csm_compact   one work-item per texel; copies the block's emitted segments
  *               from the per-texel scratch into one packed array.
  *
@@ -25,6 +32,10 @@
  *   depth  float (B, LAYERS, RES, RES)  block of depth maps, read (fold)
  *   front  uchar (B, LAYERS, RES, RES)  1 where that layer faces the light
  *          (pyshadow.raster, facing=True), read (fold)
+ *   cdepth float (B, LAYERS, RES+1, RES+1), cfront uchar (same)  FOOTPRINT
+ *          only: the same maps rendered at the texel corners (resolution
+ *          RES+1 over a frame RES+1/RES times as wide), depth in that frame;
+ *          cscale = (RES+1)/RES converts it: z = 0.5 - cscale (0.5 - z')
  *   state  uint  (RES*RES, 4)  lo, hi2, hi3, started; read+written (fold)
  *   seg_z  depth_t (RES*RES, BLOCK+1)  scratch, written (fold), read (compact);
  *          a block emits at most one segment per map plus the final one
@@ -35,12 +46,39 @@
  * Macros
  *   RES, LAYERS (1..3, layers in the depth block), LAYER_RULE (2 or 3),
  *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint),
- *   MARGIN (float, normalised depth: the margin above)
+ *   MARGIN (float, normalised depth: the margin above), FOOTPRINT (0 or 1)
  */
 #include "csm_common.h"
 
 #ifndef MARGIN
 #error "the host sets MARGIN (depth units)"
+#endif
+#ifndef FOOTPRINT
+#define FOOTPRINT 0
+#endif
+
+#if FOOTPRINT
+/* the map's interval over the texel's footprint (see FOOTPRINT above);
+ * hic: the centre's upper end z2'; *mlo, *mhi2 replaced when a key fits */
+inline void footprint_keys(__global const float *cdepth, __global const uchar *cfront,
+                           size_t at, float cscale, float z1, float hic, uint *mlo, uint *mhi2)
+{
+    const size_t cplane = (size_t)(RES + 1) * (RES + 1);
+    float lof = z1, hif = hic;
+    float c1[4], c2[4];
+    for (int k = 0; k < 4; ++k) {
+        const size_t a = at + (size_t)(k >> 1) * (RES + 1) + (size_t)(k & 1);
+        const float k1 = cdepth[a], k2 = cdepth[a + cplane];
+        c1[k] = (k1 < INFINITY) ? 0.5f - cscale * (0.5f - k1) : INFINITY;
+        c2[k] = (k2 < INFINITY) ? 0.5f - cscale * (0.5f - k2) : INFINITY;
+        if (c2[k] < INFINITY && cfront[a + cplane]) c2[k] = fmax(c2[k] - MARGIN, c1[k]);
+        if (c1[k] < hic) lof = fmax(lof, c1[k]);
+    }
+    for (int k = 0; k < 4; ++k)
+        if (c2[k] < INFINITY && c2[k] > lof) hif = fmin(hif, c2[k]);
+    const uint flo = key_at_or_above(lof), fhi = key_below(hif);
+    if (fhi != (uint)-1 && fhi >= flo) { *mlo = flo; *mhi2 = fhi; }
+}
 #endif
 
 inline uint run_value(uint lo, uint hi2, uint hi3)
@@ -66,6 +104,10 @@ inline depth_t key_to_stored(uint k)
 }
 
 __kernel void csm_fold(__global const float *depth, __global const uchar *front,
+#if FOOTPRINT
+                       __global const float *cdepth, __global const uchar *cfront,
+                       const float cscale,
+#endif
                        const int n_maps, const int first_map,
                        const int last, __global uint *state,
                        __global depth_t *seg_z, __global uint *seg_i, __global uint *count)
@@ -100,8 +142,14 @@ __kernel void csm_fold(__global const float *depth, __global const uchar *front,
                 /* a second surface that faces the light is asked (it lies in
                  * the first one's shadow, open meshes): stay MARGIN in front
                  * of it; with no room the map stands alone with z1 */
-                mhi2 = key_below(front[at + plane] ? fmax(z2 - MARGIN, z1) : z2);
+                const float hic = front[at + plane] ? fmax(z2 - MARGIN, z1) : z2;
+                mhi2 = key_below(hic);
                 if (mhi2 < mlo || mhi2 == (uint)-1) mhi2 = mlo;   /* no key fits: stands alone */
+#if FOOTPRINT
+                footprint_keys(cdepth, cfront,
+                               (size_t)b * LAYERS * (RES + 1) * (RES + 1) + (size_t)(t / RES) * (RES + 1) + t % RES,
+                               cscale, z1, hic, &mlo, &mhi2);
+#endif
             } else {
                 mhi2 = mlo;                      /* hit once: {z1} */
             }

@@ -196,7 +196,7 @@ class Scene:
     views : ViewSet, optional
         Map directions for CSMs built by :meth:`add` from meshes; default
         ``ViewSet.zigzag(64, 128)`` (the thesis's 8192 maps).
-    resolution, depth_bits, layers :
+    resolution, depth_bits, layers, footprint :
         Passed to :meth:`CoherentShadowMap.build` for meshes added as casters.
     progress : bool, optional
         Progress bars while building CSMs.
@@ -212,15 +212,19 @@ class Scene:
     """
 
     def __init__(self, ground: float | None = None, *, views: ViewSet | None = None,
-                 resolution: int = 128, depth_bits: int = 16, layers="auto", progress: bool = False):
+                 resolution: int = 128, depth_bits: int = 16, layers="auto", footprint: bool = False,
+                 progress: bool = False):
         if ground is not None:
             ground = float(ground)
             if not np.isfinite(ground):
                 raise ValueError(f"ground must be a finite height, got {ground}")
+        if not isinstance(footprint, (bool, np.bool_)):
+            raise TypeError(f"footprint must be True or False, got {footprint!r}")
         self.ground = ground
         # views=None: ViewSet.zigzag(64, 128), made when add() first builds a CSM
         # (8192 camera bases take a second; a scene of prebuilt CSMs never needs them)
-        self.csm_options = dict(views=views, resolution=resolution, depth_bits=depth_bits, layers=layers)
+        self.csm_options = dict(views=views, resolution=resolution, depth_bits=depth_bits, layers=layers,
+                                footprint=bool(footprint))
         self.progress = progress
         self.instances: list[Instance] = []
         self._built: dict = {}           # id(mesh) -> CSM built by add()
@@ -279,7 +283,7 @@ class Scene:
                     if o["views"] is None:
                         o["views"] = ViewSet.zigzag(64, 128)
                     csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
-                                                  o["layers"], progress=self.progress)
+                                                  o["layers"], progress=self.progress, footprint=o["footprint"])
                     self._built[id(obj)] = csm
             inst = Instance(T, bool(casts), csm=csm, mesh=obj)
         self.instances.append(inst)

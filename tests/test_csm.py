@@ -11,7 +11,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError, reference
-from pyshadow.csm import DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, front_margin
+from pyshadow.csm import DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_scale, front_margin
 
 from conftest import REPO, load
 
@@ -162,6 +162,102 @@ def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
         np.testing.assert_array_equal(csm.iend.astype(np.int64), iend)
         assert depth.dtype == csm.depth.dtype and depth.tobytes() == np.asarray(csm.depth).tobytes()
         assert csm.segments > R * R                     # runs were split somewhere
+
+
+def corner_layers(mesh, csm):
+    """The corner maps of a footprint build of ``csm``'s views, frame and rule."""
+    R = csm.resolution
+    return pyshadow.render_depth(mesh, csm.views, R + 1, csm.layer_rule, facing=True,
+                                 frame=(csm.centre, csm.radius * (R + 1) / R))
+
+
+@pytest.mark.parametrize("name", ["stanford-bunny.obj", "fandisk.obj"])
+@pytest.mark.parametrize("bits", [16, 32])
+def test_footprint_build_matches_numpy_reference_and_stays_exact(name, bits):
+    """footprint=True: the kernel's lists equal the NumPy compressor's given the corner
+    maps, bit for bit; every stored depth still obeys the centre rules (check_exact);
+    the intervals really are narrower (more segments) and lie inside the footprint's
+    where one fits."""
+    mesh = load(name)
+    views = pyshadow.ViewSet.zigzag(8, 16)
+    for R, block in ((32, None), (17, 5)):
+        csm = CoherentShadowMap.build(mesh, views, R, depth_bits=bits, block=block, progress=False,
+                                      footprint=True)
+        assert csm.footprint and csm.stats["footprint"]
+        layers, front = pyshadow.render_depth(mesh, views, R, csm.layer_rule, facing=True)
+        corners, cfront = corner_layers(mesh, csm)
+        offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, bits, corners=corners,
+                                                  corner_front=cfront)
+        np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)
+        np.testing.assert_array_equal(csm.iend.astype(np.int64), iend)
+        assert depth.tobytes() == np.asarray(csm.depth).tobytes()
+        if csm.layer_rule == 2:
+            check_exact(csm, layers)
+        else:                                       # the checks of test_csm_layer_rule_3_on_closed_mesh
+            maps, rows, cols = all_pairs(csm)
+            z = csm.depth_for(maps, rows, cols)
+            z1, z2, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1, 2))
+            z3m = (layers[maps, 2, rows, cols] - front_margin(R)).astype(np.float64)
+            hit = np.isfinite(z1)
+            assert np.isposinf(z[~hit]).all() and (z[hit] >= z1[hit]).all()
+            q = Q if bits == 16 else 0.0
+            assert ((z < np.where(z3m > z2, z3m, z2)) | (z <= z1 + q))[np.isfinite(z2)].all()
+        centre_only, _, _ = compress_reference(layers, front, csm.layer_rule, bits)
+        assert csm.segments > 1.05 * centre_only[-1]
+    # the rule itself (layers=2 maps, R = 32): where the footprint leaves a key, the
+    # stored depth is at or past every corner's first depth that lies before z2'
+    if csm.layer_rule == 2:
+        maps, rows, cols = all_pairs(csm)
+        z = csm.depth_for(maps, rows, cols)
+        z1, z2 = layers[maps, 0, rows, cols], layers[maps, 1, rows, cols]
+        hic = np.where(front[maps, 1, rows, cols], np.maximum(z2 - front_margin(R), z1), z2)
+        half, s = np.float32(0.5), footprint_scale(R)
+        c1 = np.stack([half - s * (half - corners[maps, 0, rows + a, cols + b]) for a in (0, 1) for b in (0, 1)])
+        below = np.isfinite(z2) & np.isfinite(c1) & (c1 < hic)
+        q = Q if bits == 16 else 0.0
+        raised = below & (c1 > z1)
+        assert raised.sum() > 1000
+        held = (z >= c1 - q) | ~raised
+        assert held.mean() > 0.97, held.mean()     # the rest: no key left, the centre's interval stands
+
+
+def test_footprint_raises_agreement_with_embree():
+    """Bunny on the ground, 16x32 maps @ 64^2, 24 000 uniform hemisphere rays: the
+    footprint intervals agree with Embree more often than the centre's (measured
+    97.52 -> 97.79 %), with fewer rays wrongly lit (1.72 -> 1.55 %)."""
+    mesh = load("stanford-bunny.obj")
+    T = pyshadow.stand_on_ground(mesh)
+    pts, face = trimesh.sample.sample_surface(mesh, 3000, seed=3)
+    rng = np.random.default_rng(3)
+    P = np.repeat(pts, 8, 0) @ T[:3, :3].T + T[:3, 3]
+    N = np.repeat(mesh.face_normals[face], 8, 0) @ T[:3, :3].T
+    d = rng.normal(size=P.shape)
+    d *= np.sign(np.einsum("ij,ij->i", d, N))[:, None]
+    agree, lit = [], []
+    for fp in (False, True):
+        csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), 64, progress=False, footprint=fp)
+        scene = pyshadow.Scene(ground=0.0)
+        scene.add(csm, T, mesh=mesh)
+        ours, truth = scene.visible(P, d, surface_ids=0), reference.visible(scene, P, d)
+        agree.append((ours == truth).mean())
+        lit.append((ours & ~truth).mean())
+    assert agree[1] > agree[0] + 0.0015, agree
+    assert lit[1] < lit[0] - 0.001, lit
+
+
+def test_footprint_arguments_are_checked_and_passed_on():
+    mesh = load("suzanne.ply")
+    with pytest.raises(TypeError, match="footprint"):
+        pyshadow.Scene(footprint=1)
+    scene = pyshadow.Scene(views=pyshadow.ViewSet.zigzag(2, 4), resolution=8, footprint=True)
+    assert scene.instances[scene.add(mesh)].csm.footprint is True
+    with pytest.raises(TypeError, match="footprint"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, progress=False, footprint="yes")
+    with pytest.raises(ValueError, match="4095"):
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 4096, progress=False, footprint=True)
+    layers, front = pyshadow.render_depth(mesh, pyshadow.ViewSet.zigzag(2, 4), 8, 2, facing=True)
+    with pytest.raises(ValueError, match="corners"):
+        compress_reference(layers, front, 2, 16, corners=layers, corner_front=front)
 
 
 def test_csm_layers_3_rejects_open_mesh():
@@ -357,6 +453,7 @@ def test_csm_save_load_round_trip_is_bit_identical(tmp_path, mmap, bits, hemisph
     np.testing.assert_array_equal(back.views.bases, csm.views.bases)
     assert back.depth_bits == bits and back.layer_rule == csm.layer_rule
     assert back.front_margin_texels == csm.front_margin_texels
+    assert back.footprint is False
     maps, rows, cols = all_pairs(csm)
     np.testing.assert_array_equal(back.depth_for(maps, rows, cols), csm.depth_for(maps, rows, cols))
     # a second save gives the same bytes
@@ -472,6 +569,7 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         ("bits", dict(edit_header=lambda h: h.update(depth_bits=8)), "depth_bits"),
         ("margin nan", dict(edit_header=lambda h: h.update(front_margin_texels=float("nan"))), "front_margin"),
         ("margin type", dict(edit_header=lambda h: h.update(front_margin_texels="x")), "front_margin"),
+        ("footprint type", dict(edit_header=lambda h: h.update(footprint=1)), "footprint"),
         ("offset past end", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, S + 10))), "offset"),
         ("offsets decrease", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, a[4]))), "empty or offsets decrease"),
         ("iend beyond D", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(0, 60000))), "beyond the last map"),
@@ -487,14 +585,22 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
             CoherentShadowMap.load(bad)
 
 
+def test_footprint_flag_survives_save_and_load(tmp_path):
+    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(4, 8), 16, progress=False,
+                                  footprint=True)
+    back = CoherentShadowMap.load(csm.save(tmp_path / "fp.csm"))
+    assert back.footprint is True and back.stats["footprint"] is True
+    assert back.depth.tobytes() == csm.depth.tobytes() and back.iend.tobytes() == csm.iend.tobytes()
+
+
 def test_csm_file_without_margin_field_loads(tmp_path):
     """Files written before the margin existed carry no front_margin_texels: 0."""
     csm = CoherentShadowMap.build(load("fandisk.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
     assert csm.layer_rule == 3 and csm.stats["front_margin_texels"] == FRONT_MARGIN_TEXELS
     old = _rewrite(csm.save(tmp_path / "f.csm"), tmp_path / "old.csm",
-                   edit_header=lambda h: h.pop("front_margin_texels"))
+                   edit_header=lambda h: [h.pop("front_margin_texels"), h.pop("footprint")])
     back = CoherentShadowMap.load(old)
-    assert back.layer_rule == 3 and back.front_margin_texels == 0.0
+    assert back.layer_rule == 3 and back.front_margin_texels == 0.0 and back.footprint is False
     assert back.depth.tobytes() == csm.depth.tobytes()
 
 

@@ -9,6 +9,7 @@
 #
 #   python examples/ao_mesh.py                       # interactive window
 #   python examples/ao_mesh.py spot.obj cow.obj --screenshot ao.png
+#   python examples/ao_mesh.py --footprint           # CSMs with footprint intervals
 from __future__ import annotations
 
 import argparse
@@ -17,7 +18,7 @@ import time
 import numpy as np
 
 
-def build_scene(meshes, theta, phi, resolution, ground_divisions):
+def build_scene(meshes, theta, phi, resolution, ground_divisions, footprint=False):
     """Scene with the meshes (radius 1, side by side along x) and a ground receiver grid.
 
     Returns the scene, the caster ids and the ground grid's id.
@@ -26,7 +27,7 @@ def build_scene(meshes, theta, phi, resolution, ground_divisions):
     from pyshadow import viz
 
     scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(theta, phi),
-                           resolution=resolution)
+                           resolution=resolution, footprint=footprint)
     spacing = 2.4
     xs = (np.arange(len(meshes)) - 0.5 * (len(meshes) - 1)) * spacing
     ids = [scene.add(m, viz.stand_on_ground(m, radius=1.0, position=(x, 0.0)))
@@ -62,6 +63,8 @@ def main(argv=None):
     parser.add_argument("--phi", type=int, default=64, help="zigzag columns of map directions")
     parser.add_argument("--resolution", type=int, default=64, help="CSM texels per side")
     parser.add_argument("--samples", type=int, default=64, help="AO samples per vertex")
+    parser.add_argument("--footprint", action="store_true",
+                        help="CSMs with footprint intervals (CoherentShadowMap.build(..., footprint=True))")
     parser.add_argument("--ground-divisions", type=int, default=64,
                         help="quads per side of the ground receiver grid")
     parser.add_argument("--window", type=int, nargs=2, default=(1500, 620), metavar=("W", "H"))
@@ -80,7 +83,7 @@ def main(argv=None):
 
     t0 = time.perf_counter()
     scene, ids, gid = build_scene(meshes, args.theta, args.phi, args.resolution,
-                                  args.ground_divisions)
+                                  args.ground_divisions, args.footprint)
     t_build = time.perf_counter() - t0
     ours, refs = {}, {}
     t_ours = t_ref = 0.0
@@ -94,7 +97,8 @@ def main(argv=None):
     alld = allo - allr
     stats = scene.instances[ids[0]].csm.stats
     print(f"meshes: {', '.join(names)}; {stats['maps']} maps of {stats['resolution']}^2, "
-          f"{args.samples} samples; CSMs built in {t_build:.2f} s")
+          f"{args.samples} samples{', footprint intervals' if args.footprint else ''}; "
+          f"CSMs built in {t_build:.2f} s")
     print(f"vertices {len(allo)}: mean AO pyshadow {allo.mean():.4f}, Embree {allr.mean():.4f}; "
           f"mean |diff| {np.abs(alld).mean():.4f}, max |diff| {np.abs(alld).max():.4f}")
     print(f"time: pyshadow {t_ours:.2f} s, Embree {t_ref:.2f} s")
@@ -107,7 +111,8 @@ def main(argv=None):
     radius = max(float(np.linalg.norm(c - centre)) + r for c, r in spheres)
     panels = [
         (ours, "gray", (0.0, 1.0),
-         f"pyshadow CSM ({stats['maps']} maps, {stats['resolution']}^2): mean AO {allo.mean():.3f}"),
+         f"pyshadow CSM ({stats['maps']} maps, {stats['resolution']}^2"
+         f"{', footprint' if stats['footprint'] else ''}): mean AO {allo.mean():.3f}"),
         (refs, "gray", (0.0, 1.0), f"Embree reference: mean AO {allr.mean():.3f}"),
         (diff, "RdBu_r", (-lim, lim), f"pyshadow - Embree: mean abs. difference {np.abs(alld).mean():.3f}"),
     ]

@@ -34,7 +34,7 @@
  *          (pyshadow.raster, facing=True), read (fold)
  *   cdepth float (B, LAYERS, RES+1, RES+1), cfront uchar (same)  FOOTPRINT
  *          only: the same maps rendered at the texel corners (resolution
- *          RES+1 over a frame RES+1/RES times as wide), depth in that frame;
+ *          RES+1 over a frame (RES+1)/RES times as wide), depth in that frame;
  *          cscale = (RES+1)/RES converts it: z = 0.5 - cscale (0.5 - z')
  *   state  uint  (RES*RES, 4)  lo, hi2, hi3, started; read+written (fold)
  *   seg_z  depth_t (RES*RES, BLOCK+1)  scratch, written (fold), read (compact);

@@ -37,7 +37,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import reference
-from pyshadow.csm import compress_reference
+from pyshadow.csm import compress_reference, footprint_corners
 from pyshadow.scene import visible_reference
 from _common import MESHES, emit, environment
 
@@ -129,8 +129,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         one = pyshadow.ViewSet(wl[None], map_basis(wl)[None])
         layers, front = pyshadow.render_depth(mesh, one, csm.resolution, csm.layer_rule,
                                               frame=(csm.centre, csm.radius), facing=True)
-        corners, cfront = pyshadow.render_depth(mesh, one, R + 1, csm.layer_rule, facing=True,
-                                                frame=(csm.centre, csm.radius * (R + 1) / R))
+        corners, cfront = footprint_corners(mesh, one, R, csm.layer_rule, (csm.centre, csm.radius))
         k = int(m.sum())
         W = np.broadcast_to(w, (k, 3))
         truth = reference.visible(scene, P[m], W)

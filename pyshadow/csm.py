@@ -55,7 +55,8 @@ from .raster import DepthRenderer, _check_resolution_layers
 from .views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "FRONT_MARGIN_TEXELS",
-           "compress_reference", "front_margin", "footprint_interval", "footprint_scale"]
+           "compress_reference", "front_margin", "corner_frame", "footprint_corners", "footprint_interval",
+           "footprint_scale"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
 SEARCH_BLOCK = 16        # segments per block of the device search summary
@@ -119,6 +120,30 @@ def footprint_scale(resolution) -> np.float32:
     return np.float32((int(resolution) + 1) / int(resolution))
 
 
+def corner_frame(frame, resolution):
+    """The frame of a footprint build's corner maps: ``frame`` widened ``(R + 1) / R`` times.
+
+    Maps of ``R + 1`` texels over it have their texel centres on the corners
+    of the ``R x R`` grid of ``frame = (centre, radius)``.
+    """
+    centre, radius = frame
+    R = int(resolution)
+    return centre, radius * (R + 1) / R
+
+
+def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame):
+    """The corner maps a footprint build folds in, for :func:`compress_reference`.
+
+    ``render_depth(mesh, views, R + 1, layers, frame=corner_frame(frame, R),
+    facing=True)``: depth (D, layers, R+1, R+1) float32 in the corner frame,
+    and the facing flags.
+    """
+    from .raster import render_depth
+
+    return render_depth(mesh, views, int(resolution) + 1, layers, frame=corner_frame(frame, resolution),
+                        facing=True)
+
+
 def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
     """NumPy version of ``footprint_keys`` (csm.cl) before the keys, float32.
 
@@ -176,8 +201,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         The margin in front of a surface facing the light (normalised
         depth); default :func:`front_margin` of ``R``, as the build uses.
     corners, corner_front : ndarray, shape (D, L, R+1, R+1), optional
-        The footprint build's corner maps (``render_depth`` at ``R + 1``
-        over the frame widened by :func:`footprint_scale`, ``facing=True``);
+        The footprint build's corner maps (:func:`footprint_corners`);
         given, each map's interval is narrowed as in
         ``CoherentShadowMap.build(..., footprint=True)``.
 
@@ -490,7 +514,7 @@ class CoherentShadowMap:
         corner_args = ()
         if footprint:
             scale = footprint_scale(R)
-            corners = DepthRenderer(mesh, R + 1, rule, frame=(centre, radius * (R + 1) / R), facing=True)
+            corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True)
             cdepth_buf = _cl.empty(block * corners.bytes_per_map)
             cfront_buf = _cl.empty(block * corners.facing_bytes_per_map)
             corner_args = (cdepth_buf, cfront_buf, scale)

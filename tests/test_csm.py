@@ -11,7 +11,8 @@ import trimesh
 
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError, reference
-from pyshadow.csm import DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_scale, front_margin
+from pyshadow.csm import (DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_corners, footprint_scale,
+                          front_margin)
 
 from conftest import REPO, load
 
@@ -164,13 +165,6 @@ def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
         assert csm.segments > R * R                     # runs were split somewhere
 
 
-def corner_layers(mesh, csm):
-    """The corner maps of a footprint build of ``csm``'s views, frame and rule."""
-    R = csm.resolution
-    return pyshadow.render_depth(mesh, csm.views, R + 1, csm.layer_rule, facing=True,
-                                 frame=(csm.centre, csm.radius * (R + 1) / R))
-
-
 @pytest.mark.parametrize("name", ["stanford-bunny.obj", "fandisk.obj"])
 @pytest.mark.parametrize("bits", [16, 32])
 def test_footprint_build_matches_numpy_reference_and_stays_exact(name, bits):
@@ -185,7 +179,7 @@ def test_footprint_build_matches_numpy_reference_and_stays_exact(name, bits):
                                       footprint=True)
         assert csm.footprint and csm.stats["footprint"]
         layers, front = pyshadow.render_depth(mesh, views, R, csm.layer_rule, facing=True)
-        corners, cfront = corner_layers(mesh, csm)
+        corners, cfront = footprint_corners(mesh, views, R, csm.layer_rule, (csm.centre, csm.radius))
         offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, bits, corners=corners,
                                                   corner_front=cfront)
         np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)

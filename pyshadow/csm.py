@@ -983,11 +983,16 @@ class CoherentShadowMap:
                       and params.get("hemispheres", True) is True)
             if not ok:
                 raise ValueError
-            views = ViewSet.from_params(layout, params)
         except (ValueError, KeyError, TypeError):
             raise CSMFormatError(f"{path}: invalid {layout} parameters {params!r}") from None
-        if len(views) != D:
-            raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {len(views)}")
+        # the layout's map count from its parameters, and the sizes against the
+        # file's, before anything as large as the header claims is built
+        if layout == "zigzag":
+            layout_maps = params["theta"] * params["phi"]
+        else:
+            layout_maps = 4 ** params["level"] * (2 if params.get("hemispheres") else 1)
+        if layout_maps != D:
+            raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {layout_maps}")
         if not D <= S or S > 2**40:
             raise CSMFormatError(f"{path}: {S} segments cannot cover {D} maps")
         if S < R * R:
@@ -996,6 +1001,7 @@ class CoherentShadowMap:
         if end + 32 != size:
             raise CSMFormatError(f"{path}: size {size} bytes does not match the header "
                                  f"({end + 32} expected)")
+        views = ViewSet.from_params(layout, params)
         data = {}
         for name, dt, n, off in arrays:
             if mmap:

@@ -136,27 +136,42 @@ def hilbert_d2xy(level: int, d) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _transport_bases(dirs: np.ndarray, u0: np.ndarray) -> np.ndarray:
-    """Bases along a path of directions by parallel transport from ``u0``."""
+    """Bases along a path of directions by parallel transport from ``u0``.
+
+    Step ``k`` rotates ``u`` by the smallest rotation taking ``d_{k-1}`` to
+    ``d_k`` (Rodrigues; the identity where the two coincide). The rotations
+    are composed by a parallel prefix product (``log2 D`` batched 3x3
+    products instead of a Python loop over the maps); each ``u_k`` is then
+    made exactly perpendicular to ``d_k`` and normalised.
+    """
+    dirs = np.asarray(dirs, dtype=np.float64)
     n = len(dirs)
-    bases = np.empty((n, 3, 3))
     u = u0 - np.dot(u0, dirs[0]) * dirs[0]
-    u /= np.linalg.norm(u)
-    for k in range(n):
-        d = dirs[k]
-        if k:
-            p = dirs[k - 1]
-            axis = np.cross(p, d)
-            s = np.linalg.norm(axis)
-            c = float(np.dot(p, d))
-            if s > 1e-15:
-                axis /= s
-                # Rodrigues rotation of u about axis by the angle between p and d
-                u = u * c + np.cross(axis, u) * s + axis * np.dot(axis, u) * (1.0 - c)
-            u = u - np.dot(u, d) * d
-            u /= np.linalg.norm(u)
-        v = np.cross(d, u)
-        bases[k, 0], bases[k, 1], bases[k, 2] = u, v, d
-    return bases
+    u = u / np.linalg.norm(u)
+    # steps[k] rotates d_{k-1} onto d_k (steps[0] = identity)
+    steps = np.broadcast_to(np.eye(3), (n, 3, 3)).copy()
+    if n > 1:
+        p, d = dirs[:-1], dirs[1:]
+        axis = np.cross(p, d)
+        s = np.linalg.norm(axis, axis=1)
+        c = np.einsum("ij,ij->i", p, d)
+        turn = s > 1e-15
+        a = axis[turn] / s[turn, None]
+        st, ct = s[turn, None, None], c[turn, None, None]
+        skew = np.zeros((len(a), 3, 3))
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -a[:, 2], a[:, 1], -a[:, 0]
+        skew -= skew.transpose(0, 2, 1)
+        steps[1:][turn] = ct * np.eye(3) + st * skew + (1.0 - ct) * a[:, :, None] * a[:, None, :]
+    # inclusive scan: prefix[k] = steps[k] @ steps[k-1] @ ... @ steps[0]
+    prefix = steps
+    shift = 1
+    while shift < n:
+        prefix[shift:] = prefix[shift:] @ prefix[:-shift]
+        shift *= 2
+    u = prefix @ u
+    u -= np.einsum("ij,ij->i", u, dirs)[:, None] * dirs
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return np.stack([u, np.cross(dirs, u), dirs], axis=1)
 
 
 class ViewSet:

@@ -559,6 +559,13 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         ("version", dict(edit_header=lambda h: h.update(version=2)), "pyshadow-csm version 1"),
         ("layout", dict(edit_header=lambda h: h.update(layout="spiral")), "unknown view layout"),
         ("maps", dict(edit_header=lambda h: h.update(maps=h["maps"] + 1)), "maps"),
+        # a layout of 2^32 maps, consistent with "maps": rejected from the sizes,
+        # before a view set that large is built (no hang, no memory error)
+        # (build_seconds is dropped to make room in the header)
+        ("huge layout", dict(edit_header=lambda h: (h.pop("build_seconds"), h.update(
+            layout_params={"theta": 65536, "phi": 65536}, maps=65536 ** 2))), "segments cannot cover"),
+        ("huge hilbert", dict(edit_header=lambda h: (h.pop("build_seconds"), h.update(
+            layout="hilbert", layout_params={"level": 10}, maps=4 ** 10))), "segments cannot cover"),
         ("radius", dict(edit_header=lambda h: h.update(radius=-1.0)), "radius"),
         ("bits", dict(edit_header=lambda h: h.update(depth_bits=8)), "depth_bits"),
         ("margin nan", dict(edit_header=lambda h: h.update(front_margin_texels=float("nan"))), "front_margin"),

@@ -455,10 +455,10 @@ class CoherentShadowMap:
             lies inside the centre's interval, so every guarantee above
             holds, and where the corners leave no depth the centre's
             interval stands. Narrower intervals mean more segments, and the
-            second rendering makes the build about 3x slower. Bunny, 64x128
+            second rendering makes the build about 2x slower. Bunny, 64x128
             @ 128^2: visibility agreement with Embree on uniform hemisphere
             rays 98.67 -> 98.84 %, on AO rays 99.52 -> 99.56 %, ratio 15.4 ->
-            13.0:1, build 8 -> 22-25 s; every bundled mesh gains 0.1-0.4
+            13.0:1, build 6.3 -> 12.3 s on 2 CPU cores; every bundled mesh gains 0.1-0.4
             points on uniform rays for 8-25 % of its ratio
             (benchmarks/accuracy.py, section 7). ``R <= 4095``.
 

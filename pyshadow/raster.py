@@ -157,8 +157,14 @@ class DepthRenderer:
                 raise ValueError(f"facing=True needs a front buffer of {fbytes} bytes")
             cl.enqueue_fill_buffer(q, front, np.uint8(0), 0, fbytes)
         bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
+        # one work-item walks every triangle for its view, and views differ in
+        # cost: on CPU devices groups of one let PoCL's threads share them out
+        # evenly (its own choice splits e.g. 234 views into two halves, one
+        # per core, and leaves a core idle at the end: 0.94 against 0.49 ms a
+        # map for the bunny at 128^2 on 2 cores)
+        local = (1,) if _cl.device().type & cl.device_type.CPU else None
         self._kernel(
-            q, (n,), None, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
+            q, (n,), local, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
             bases_buf, np.int32(n), out, front if self.facing else out,
         )
         return out

@@ -987,10 +987,7 @@ class CoherentShadowMap:
             raise CSMFormatError(f"{path}: invalid {layout} parameters {params!r}") from None
         # the layout's map count from its parameters, and the sizes against the
         # file's, before anything as large as the header claims is built
-        if layout == "zigzag":
-            layout_maps = params["theta"] * params["phi"]
-        else:
-            layout_maps = 4 ** params["level"] * (2 if params.get("hemispheres") else 1)
+        layout_maps = ViewSet.maps_for(layout, params)
         if layout_maps != D:
             raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {layout_maps}")
         if not D <= S or S > 2**40:

@@ -221,9 +221,8 @@ class Scene:
         if not isinstance(footprint, (bool, np.bool_)):
             raise TypeError(f"footprint must be True or False, got {footprint!r}")
         self.ground = ground
-        # views=None: ViewSet.zigzag(64, 128), made when add() first builds a CSM
-        # (8192 camera bases take a second; a scene of prebuilt CSMs never needs them)
-        self.csm_options = dict(views=views, resolution=resolution, depth_bits=depth_bits, layers=layers,
+        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128),
+                                resolution=resolution, depth_bits=depth_bits, layers=layers,
                                 footprint=bool(footprint))
         self.progress = progress
         self.instances: list[Instance] = []
@@ -280,8 +279,6 @@ class Scene:
                 csm = self._built.get(id(obj))
                 if csm is None:
                     o = self.csm_options
-                    if o["views"] is None:
-                        o["views"] = ViewSet.zigzag(64, 128)
                     csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
                                                   o["layers"], progress=self.progress, footprint=o["footprint"])
                     self._built[id(obj)] = csm

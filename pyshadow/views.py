@@ -269,6 +269,16 @@ class ViewSet:
             params["hemispheres"] = True
         return cls(d, bases, "hilbert", params)
 
+    @staticmethod
+    def maps_for(layout: str, params: dict) -> int:
+        """The map count of a zigzag or hilbert view set, from its parameters
+        alone (nothing is built: a file's header is checked with it first)."""
+        if layout == "zigzag":
+            return int(params["theta"]) * int(params["phi"])
+        if layout == "hilbert":
+            return 4 ** int(params["level"]) * (2 if params.get("hemispheres", False) else 1)
+        raise ValueError(f"unknown view-set layout {layout!r}")
+
     @classmethod
     def from_params(cls, layout: str, params: dict) -> "ViewSet":
         """Rebuild a zigzag or hilbert view set from its layout and parameters."""

@@ -121,8 +121,9 @@ def filtered_visible(scene, points, directions, maps=4, bias_texels=DEFAULT_BIAS
     texels around the point (bilinear weights, as :func:`pcf_lit`) each say
     shadowed or not with the default self-bias of ``Scene.visible`` (the
     angle term measured to that map's axis); the ray is shadowed when the
-    weights of the shadowing votes sum to more than one half. With
-    ``maps=1`` and one texel this is ``Scene.visible``'s rule. The scene's
+    weights of the shadowing votes sum to more than one half (with
+    ``maps=1``: the vote of :func:`pcf_lit` in the nearest map, where
+    ``Scene.visible`` asks the one texel holding the point). The scene's
     caster must be instance 0; the ground plane is analytic, as there.
     """
     inst = scene.instances[0]

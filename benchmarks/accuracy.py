@@ -86,45 +86,19 @@ def map_basis(d):
     return np.stack([u, np.cross(d, u), d])
 
 
-def pcf_lit(exact_map, local, bias_texels):
-    """Percentage-closer lookup in a one-map CSM: lit by the bilinear vote of four texels.
-
-    The point (mesh frame, shape (N, 3)) is compared with the stored depths of
-    the four texel centres around its projection, each with the self-bias
-    ``quantum + bias_texels / R``; it is shadowed when the bilinear weights of
-    the four texels that shadow it sum to more than one half. Border texels
-    are repeated at the map's edges.
-    """
-    R = exact_map.resolution
-    Z = exact_map.stored_to_depth(np.asarray(exact_map.depth)).astype(np.float64).reshape(R, R)
-    B = exact_map.views.bases[0]
-    pn = (local - exact_map.centre) / exact_map.radius
-    depth = (1.0 - pn @ B[2]) * 0.5
-    gx = (pn @ B[0] + 1.0) * 0.5 * R - 0.5
-    gy = (pn @ B[1] + 1.0) * 0.5 * R - 0.5
-    x0, y0 = np.floor(gx).astype(np.int64), np.floor(gy).astype(np.int64)
-    tx, ty = gx - x0, gy - y0
-    quantum = (1.0 / DEPTH_Q if exact_map.depth_bits == 16 else 0.0) + 1e-7
-    shadowed = np.zeros(len(local))
-    for dy, dx, weight in ((0, 0, (1 - ty) * (1 - tx)), (0, 1, (1 - ty) * tx), (1, 0, ty * (1 - tx)),
-                           (1, 1, ty * tx)):
-        z = Z[np.clip(y0 + dy, 0, R - 1), np.clip(x0 + dx, 0, R - 1)]
-        shadowed += weight * (depth > z + quantum + bias_texels / R)
-    return shadowed <= 0.5
-
-
 def filtered_visible(scene, points, directions, maps=4, bias_texels=DEFAULT_BIAS_TEXELS):
     """``Scene.visible`` of a one-caster scene with a filtered lookup, in NumPy.
 
     For each ray, the ``maps`` maps whose directions are nearest it (weights
     proportional to the inverse angle, normalised) and in each the four
-    texels around the point (bilinear weights, as :func:`pcf_lit`) each say
-    shadowed or not with the default self-bias of ``Scene.visible`` (the
-    angle term measured to that map's axis); the ray is shadowed when the
-    weights of the shadowing votes sum to more than one half (with
-    ``maps=1``: the vote of :func:`pcf_lit` in the nearest map, where
-    ``Scene.visible`` asks the one texel holding the point). The scene's
-    caster must be instance 0; the ground plane is analytic, as there.
+    texels around the point (bilinear weights of the texel centres; border
+    texels repeated at the map's edges) each say shadowed or not with the
+    self-bias of ``Scene.visible`` (``bias_texels`` plus the angle term
+    measured to that map's axis); the ray is shadowed when the weights of
+    the shadowing votes sum to more than one half. With ``maps=1`` this is
+    percentage-closer filtering of the nearest map, where ``Scene.visible``
+    asks the one texel holding the point. The scene's caster must be
+    instance 0; the ground plane is analytic, as there.
     """
     inst = scene.instances[0]
     csm = inst.csm
@@ -183,7 +157,8 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     ``exact_map_footprint`` is the same map built with footprint intervals
     (the corner maps of ``CoherentShadowMap.build(..., footprint=True)``).
     ``pcf`` and ``pcf_footprint``: the same two maps asked by a bilinear vote
-    of the four texels around the point (:func:`pcf_lit`) with self-biases
+    of the four texels around the point (:func:`filtered_visible` with
+    ``maps=1``) with self-biases
     of 0.5, 1 and 1.5 texels, a lookup that takes 4 searches per query
     instead of one.
 
@@ -207,7 +182,6 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     agree = {"csm": np.zeros(2), "exact_map": np.zeros(2), "exact_map_footprint": np.zeros(2)}
     pcf_biases = (0.5, 1.0, 1.5)
     pcf = {name: {b: np.zeros(2) for b in pcf_biases} for name in ("pcf", "pcf_footprint")}
-    ground_only = pyshadow.Scene(ground=scene.ground)
     R = csm.resolution
     texel = 2.0 * inst.scale * csm.radius / R
     rays, anchor = reference.caster_scene(scene)
@@ -242,9 +216,8 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
             alone.add(exact_map, T, mesh=mesh)
             exact = visible_reference(alone, P[m], W, surface_ids=np.zeros(k, int))
             agree[name] += weights[:, exact == truth].sum(axis=1)
-            ground_lit = visible_reference(ground_only, P[m], W)
             for b in pcf_biases:
-                filtered = pcf_lit(exact_map, local[m], b) & ground_lit
+                filtered = filtered_visible(alone, P[m], W, maps=1, bias_texels=b)
                 pcf["pcf" if name == "exact_map" else "pcf_footprint"][b] += weights[:, filtered == truth].sum(axis=1)
             if name == "exact_map":
                 lit = exact & ~truth

@@ -24,11 +24,11 @@ Prints (and with --json returns):
 7. footprint intervals (``CoherentShadowMap.build(..., footprint=True)``) on
    the rays of sections 1 and 5: agreement, ratio and build time of every
    mesh at 64x128 maps @ 128^2 beside the default (centre-ray) intervals.
-8. what a filtered lookup would buy: the bunny's 64x128 CSMs (both kinds of
-   intervals) on the rays of section 1, asked by a vote over the four maps
-   nearest each ray and the four texels around the point in each (16
-   searches per query instead of one), in NumPy (:func:`filtered_visible`;
-   the kernels answer with one search).
+8. what the filtered lookup buys: ``Scene.visible(..., filtered=True)`` (a
+   vote over the four maps of ``ViewSet.filter_window`` and the four texels
+   around the point in each, up to 16 searches per query instead of one) on
+   the rays of section 1 for the bunny's 64x128 CSMs (both kinds of
+   intervals) and on the rays of section 2 for the two-object scene.
 
     python benchmarks/accuracy.py [--quick] [--json]
 """
@@ -63,10 +63,17 @@ def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
     return np.repeat(p, samples, axis=0), d
 
 
-def agreement(scene, inst_id, n_points, samples, seed, uniform=False):
+def agreement(scene, inst_id, n_points, samples, seed, uniform=False, filtered=False):
+    """Share of rays from the instance's surface that ``Scene.visible`` answers
+    as Embree does; with ``filtered=True`` a pair (one-texel lookup, filtered
+    lookup) on the same rays."""
     P, D = surface_rays(scene, inst_id, n_points, samples, seed, uniform)
     ids = np.full(len(P), inst_id)
-    return float((scene.visible(P, D, surface_ids=ids) == reference.visible(scene, P, D)).mean())
+    truth = reference.visible(scene, P, D)
+    plain = float((scene.visible(P, D, surface_ids=ids) == truth).mean())
+    if not filtered:
+        return plain
+    return plain, float((scene.visible(P, D, surface_ids=ids, filtered=True) == truth).mean())
 
 
 def fibonacci_sphere(n):
@@ -86,19 +93,19 @@ def map_basis(d):
     return np.stack([u, np.cross(d, u), d])
 
 
-def filtered_visible(scene, points, directions, maps=4, bias_texels=DEFAULT_BIAS_TEXELS):
-    """``Scene.visible`` of a one-caster scene with a filtered lookup, in NumPy.
+def pcf_visible(scene, points, directions, bias_texels=DEFAULT_BIAS_TEXELS):
+    """``Scene.visible`` of a one-caster scene asked by a four-texel vote, in NumPy.
 
-    For each ray, the ``maps`` maps whose directions are nearest it (weights
-    proportional to the inverse angle, normalised) and in each the four
-    texels around the point (bilinear weights of the texel centres; border
-    texels repeated at the map's edges) each say shadowed or not with the
-    self-bias of ``Scene.visible`` (``bias_texels`` plus the angle term
-    measured to that map's axis); the ray is shadowed when the weights of
-    the shadowing votes sum to more than one half. With ``maps=1`` this is
-    percentage-closer filtering of the nearest map, where ``Scene.visible``
-    asks the one texel holding the point. The scene's caster must be
-    instance 0; the ground plane is analytic, as there.
+    For each ray, the map nearest it (``ViewSet.nearest``, any layout) and
+    the four texels around the point (bilinear weights of the texel centres;
+    border texels repeated at the map's edges), each saying shadowed or not
+    with the self-bias of ``Scene.visible`` (``bias_texels`` plus the angle
+    term); the ray is shadowed when the weights of the shadowing votes sum to
+    more than one half: percentage-closer filtering of the nearest map, where
+    ``Scene.visible`` asks the one texel holding the point (and
+    ``Scene.visible(..., filtered=True)`` four maps of a zigzag or hilbert
+    grid like this). The scene's caster must be instance 0; the ground plane
+    is analytic, as there.
     """
     inst = scene.instances[0]
     csm = inst.csm
@@ -112,31 +119,21 @@ def filtered_visible(scene, points, directions, maps=4, bias_texels=DEFAULT_BIAS
     keys = np.repeat(np.arange(R * R), np.diff(offsets)) * D + np.asarray(csm.iend, np.int64)
     stored = csm.stored_to_depth(np.asarray(csm.depth)).astype(np.float64)
     quantum = (1.0 / DEPTH_Q if csm.depth_bits == 16 else 0.0) + 1e-7
+    k = csm.views.nearest(wn)
+    B = csm.views.bases[k]
+    depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
+    fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
+    fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
+    inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
+    ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
+    bias = quantum + (bias_texels + DEFAULT_BIAS_TAN * np.sqrt(np.maximum(1 - ca * ca, 0)) / ca) / R
+    x0, y0 = np.floor(fx - 0.5).astype(np.int64), np.floor(fy - 0.5).astype(np.int64)
+    tx, ty = fx - 0.5 - x0, fy - 0.5 - y0
     shadowed = np.zeros(len(P))
-    for a in range(0, len(P), 16384):
-        sl = slice(a, a + 16384)
-        cos = wn[sl] @ csm.views.directions.T
-        near = np.argpartition(-cos, maps - 1, axis=1)[:, :maps]
-        angle = np.arccos(np.clip(np.take_along_axis(cos, near, 1), -1.0, 1.0))
-        map_weight = 1.0 / (angle + 1e-4)
-        map_weight /= map_weight.sum(axis=1, keepdims=True)
-        for j in range(maps):
-            k = near[:, j]
-            B = csm.views.bases[k]
-            p = pn[sl]
-            depth = (1.0 - np.einsum("ij,ij->i", p, B[:, 2])) * 0.5
-            fx = (np.einsum("ij,ij->i", p, B[:, 0]) + 1.0) * 0.5 * R
-            fy = (np.einsum("ij,ij->i", p, B[:, 1]) + 1.0) * 0.5 * R
-            inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
-            ca = np.clip(np.einsum("ij,ij->i", wn[sl], B[:, 2]), 1e-3, 1.0)
-            bias = quantum + (bias_texels + DEFAULT_BIAS_TAN * np.sqrt(np.maximum(1 - ca * ca, 0)) / ca) / R
-            x0, y0 = np.floor(fx - 0.5).astype(np.int64), np.floor(fy - 0.5).astype(np.int64)
-            tx, ty = fx - 0.5 - x0, fy - 0.5 - y0
-            for dy, dx, w in ((0, 0, (1 - ty) * (1 - tx)), (0, 1, (1 - ty) * tx), (1, 0, ty * (1 - tx)),
-                              (1, 1, ty * tx)):
-                tex = np.clip(y0 + dy, 0, R - 1) * R + np.clip(x0 + dx, 0, R - 1)
-                z = stored[np.minimum(np.searchsorted(keys, tex * D + k), len(keys) - 1)]
-                shadowed[sl] += map_weight[:, j] * w * (inside & (depth > z + bias))
+    for dy, dx, w in ((0, 0, (1 - ty) * (1 - tx)), (0, 1, (1 - ty) * tx), (1, 0, ty * (1 - tx)), (1, 1, ty * tx)):
+        tex = np.clip(y0 + dy, 0, R - 1) * R + np.clip(x0 + dx, 0, R - 1)
+        z = stored[np.minimum(np.searchsorted(keys, tex * D + k), len(keys) - 1)]
+        shadowed += w * (inside & (depth > z + bias))
     ground_only = pyshadow.Scene(ground=scene.ground)
     return (shadowed <= 0.5) & visible_reference(ground_only, P, W)
 
@@ -157,8 +154,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     ``exact_map_footprint`` is the same map built with footprint intervals
     (the corner maps of ``CoherentShadowMap.build(..., footprint=True)``).
     ``pcf`` and ``pcf_footprint``: the same two maps asked by a bilinear vote
-    of the four texels around the point (:func:`filtered_visible` with
-    ``maps=1``) with self-biases
+    of the four texels around the point (:func:`pcf_visible`) with self-biases
     of 0.5, 1 and 1.5 texels, a lookup that takes 4 searches per query
     instead of one.
 
@@ -217,7 +213,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
             exact = visible_reference(alone, P[m], W, surface_ids=np.zeros(k, int))
             agree[name] += weights[:, exact == truth].sum(axis=1)
             for b in pcf_biases:
-                filtered = filtered_visible(alone, P[m], W, maps=1, bias_texels=b)
+                filtered = pcf_visible(alone, P[m], W, bias_texels=b)
                 pcf["pcf" if name == "exact_map" else "pcf_footprint"][b] += weights[:, filtered == truth].sum(axis=1)
             if name == "exact_map":
                 lit = exact & ~truth
@@ -275,10 +271,12 @@ def main(argv=None):
     fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
                                                progress=False)
     two.add(fan_csm, pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4), rotation=rot), mesh=fandisk)
-    two_scene = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3),
-                 "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4),
-                 "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True),
-                 "fandisk_uniform_rays": agreement(two, 1, n_pts // 2, 16, 6, uniform=True)}
+    # (one-texel lookup, filtered lookup of section 8) on the same rays
+    two_both = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3, filtered=True),
+                "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4, filtered=True),
+                "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True, filtered=True),
+                "fandisk_uniform_rays": agreement(two, 1, n_pts // 2, 16, 6, uniform=True, filtered=True)}
+    two_scene = {k: v[0] for k, v in two_both.items()}
 
     # 3. per-vertex AO, 256 samples
     solo = pyshadow.Scene(ground=0.0)
@@ -308,16 +306,14 @@ def main(argv=None):
         csm = pyshadow.CoherentShadowMap.build(bunny, views, 128, progress=False, footprint=fp)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, Tb, mesh=bunny)
+        # 8. the same rays, also asked by the filtered lookup
+        ao_rays = agreement(scene, 0, n_pts, 16, 1, filtered=True)
+        uniform_rays = agreement(scene, 0, n_pts // 2, 16, 2, uniform=True, filtered=True)
         footprint.setdefault("stanford-bunny.obj", {})[fp] = {
             "ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],
-            "agreement_ao_rays": agreement(scene, 0, n_pts, 16, 1),
-            "agreement_uniform_rays": agreement(scene, 0, n_pts // 2, 16, 2, uniform=True)}
-        # 8. the same rays, asked by the filtered lookup
-        row = {}
-        for kind, (n, seed, uniform) in (("ao_rays", (n_pts, 1, False)), ("uniform_rays", (n_pts // 2, 2, True))):
-            P, Wd = surface_rays(scene, 0, n, 16, seed, uniform)
-            row[kind] = float((filtered_visible(scene, P, Wd) == reference.visible(scene, P, Wd)).mean())
-        filtered["footprint" if fp else "centre"] = row
+            "agreement_ao_rays": ao_rays[0], "agreement_uniform_rays": uniform_rays[0]}
+        filtered["footprint" if fp else "centre"] = {"ao_rays": ao_rays[1], "uniform_rays": uniform_rays[1]}
+    filtered["two_objects"] = {k: v[1] for k, v in two_both.items()}
     for path in sorted(MESHES.iterdir()):
         if path.suffix.lower() not in (".obj", ".ply", ".stl") or path.name == "stanford-bunny.obj":
             continue
@@ -387,12 +383,14 @@ def main(argv=None):
         print(f"   {name:18} {a['ratio']:>5.1f} -> {b['ratio']:>4.1f} {a['build_seconds']:>4.1f} -> "
               f"{b['build_seconds']:>4.1f} {a['agreement_ao_rays']:>7.3%} -> {b['agreement_ao_rays']:>7.3%} "
               f"{a['agreement_uniform_rays']:>7.3%} -> {b['agreement_uniform_rays']:>7.3%}")
-    print("\n8. filtered lookup (NumPy; 4 nearest maps x 4 texels, 16 searches a query), bunny 64x128 @128^2, "
-          "the rays of section 1")
-    for name, r in filtered.items():
-        base = footprint["stanford-bunny.obj"][name == "footprint"]
-        print(f"   {name:9} intervals: AO rays {base['agreement_ao_rays']:.3%} -> {r['ao_rays']:.3%}, "
-              f"uniform rays {base['agreement_uniform_rays']:.3%} -> {r['uniform_rays']:.3%}")
+    print("\n8. filtered lookup (Scene.visible(..., filtered=True): 4 maps x 4 texels, up to 16 searches a "
+          "query), 64x128 maps @128^2")
+    for name in ("centre", "footprint"):
+        r, base = filtered[name], footprint["stanford-bunny.obj"][name == "footprint"]
+        print(f"   bunny, {name:9} intervals, rays of section 1: AO rays {base['agreement_ao_rays']:.3%} -> "
+              f"{r['ao_rays']:.3%}, uniform rays {base['agreement_uniform_rays']:.3%} -> {r['uniform_rays']:.3%}")
+    print("   two-object scene, rays of section 2: " + ", ".join(
+        f"{k} {two_scene[k]:.3%} -> {v:.3%}" for k, v in filtered["two_objects"].items()))
     print(f"\n({result['seconds']:.0f} s)")
 
 

@@ -11,6 +11,8 @@ on all cores:
   inputs;
 * ``Scene.ambient_occlusion(points, normals, 36)`` (the same workload through
   the AO kernel, which makes the directions on the device);
+* ``Scene.visible(..., filtered=True)``, the filtered lookup (four maps x four
+  texels, 16 segment searches a query), and its agreement with Embree;
 * Embree occlusion rays on the identical (origin, direction) pairs, spread over
   a thread pool with one thread per core (embreex releases the GIL);
 * a second pose after ``set_transform`` (no rebuild; same time expected),
@@ -78,6 +80,8 @@ def main(argv=None):
     ao_s, _ = median_time(lambda: out.__setitem__("ao", scene.ambient_occlusion(p, n, args.samples,
                                                                                  surface_ids=0)),
                           args.repeats)
+    filt_s, _ = median_time(lambda: out.__setitem__("filtered", scene.visible(P, D, surface_ids=ids, filtered=True)),
+                            args.repeats)
 
     # the kernel alone, on device-resident inputs (anchor-relative float32)
     anchor = scene._anchor(P)
@@ -125,6 +129,7 @@ def main(argv=None):
     truth[ground] = False
     truth[todo] = ~emb["occ"]
     agreement = float((out["vis"] == truth).mean())
+    agreement_filtered = float((out["filtered"] == truth).mean())
 
     # a second pose: move the body, nothing is rebuilt. Both poses are timed in
     # alternation, each call right after its set_transform, so that they meet the
@@ -158,13 +163,17 @@ def main(argv=None):
         "kernel_Mq_per_s": N / kernel_s / 1e6,
         "ambient_occlusion_s": ao_s,
         "ambient_occlusion_Mq_per_s": N / ao_s / 1e6,
+        "filtered_s": filt_s,
+        "filtered_Mq_per_s": N / filt_s / 1e6,
         "embree_s": embree_s,
         "embree_Mrays_per_s": len(todo) / embree_s / 1e6,
         "embree_rays_traced": int(len(todo)),
         "ratio_visible_vs_embree": embree_s / vis_s,
         "ratio_ao_vs_embree": embree_s / ao_s,
         "ratio_kernel_vs_embree": embree_s / kernel_s,
+        "ratio_filtered_vs_embree": embree_s / filt_s,
         "visibility_agreement": agreement,
+        "visibility_agreement_filtered": agreement_filtered,
         "first_pose_alternating_s": pose1_s,
         "second_pose_visible_s": pose2_s,
         "profile": profile,
@@ -179,11 +188,14 @@ def main(argv=None):
     print(f"Scene.visible   {r['visible_Mq_per_s']:6.2f} M queries/s  (median {vis_s:.3f} s; kernel alone "
           f"{r['kernel_Mq_per_s']:.2f} M/s)")
     print(f"ambient_occl.   {r['ambient_occlusion_Mq_per_s']:6.2f} M queries/s  (median {ao_s:.3f} s)")
+    print(f"filtered        {r['filtered_Mq_per_s']:6.2f} M queries/s  (median {filt_s:.3f} s; "
+          "Scene.visible(..., filtered=True))")
     print(f"Embree          {r['embree_Mrays_per_s']:6.2f} M rays/s     (median {embree_s:.3f} s; "
           f"{len(todo)} rays not stopped by the ground)")
     print(f"ratio           visible {r['ratio_visible_vs_embree']:.2f}x, ambient_occlusion "
-          f"{r['ratio_ao_vs_embree']:.2f}x, kernel {r['ratio_kernel_vs_embree']:.2f}x Embree")
-    print(f"agreement       {agreement:.4%} of rays")
+          f"{r['ratio_ao_vs_embree']:.2f}x, kernel {r['ratio_kernel_vs_embree']:.2f}x, "
+          f"filtered {r['ratio_filtered_vs_embree']:.2f}x Embree")
+    print(f"agreement       {agreement:.4%} of rays (filtered: {agreement_filtered:.4%})")
     print(f"second pose     {pose2_s:.3f} s after set_transform, first pose {pose1_s:.3f} s "
           f"(medians, timed in alternation; ratio {pose2_s / pose1_s:.2f})")
     if profile:

@@ -26,6 +26,12 @@
  *     ground needs no protection from acne, and contact shadows stay sharp.
  *   Points outside map k's square or in front of the bounding sphere
  *   (depth <= 0) cannot be shadowed by that instance.
+ *   FILTERED: instead of one texel of map k, a vote -- the four maps of
+ *   views.ViewSet.filter_window (inverse-angle weights) times the four
+ *   texels around p' in each (bilinear weights of the texel centres), each
+ *   tap comparing as above with the bias to its own map's axis; the
+ *   instance shadows the ray when the weights of the shadowing taps exceed
+ *   one half. Up to 16 searches instead of one.
  *
  * Scene data ("atlas": every CSM type of the scene concatenated)
  *   types    int   (NTYPES, 16): R, D, layout (0 zigzag, 1 hilbert, 2 hilbert
@@ -61,6 +67,9 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   FILTERED             1: filtered lookups (instance16): the four maps of
+ *                        views.ViewSet.filter_window, four texels each
+ *   FILTER_ANGLE_EPS     float: views.FILTER_ANGLE_EPS (FILTERED only)
  *   BATCH                queries per work-item, a multiple of LANES
  *                        (scene.batch_size()): see batch_occluded()
  *   HAVE_FP64            the device has cl_khr_fp64 (anchor arithmetic in
@@ -100,8 +109,10 @@ inline int hilbert_cell(int split, int n, int i, int j, int h)
     return (i + h * n) * n + j;
 }
 
-inline int nearest_hilbert(__global const float *bases, int vbase, __global const int *cells,
-                           int cbase, int level, int split, float3 w)
+/* map indices of the 3 x 3 cells around the cell of unit direction w
+ * (views.ViewSet._hilbert_candidates), in the scan order of views.py */
+inline void hilbert_candidates(__global const int *cells, int cbase, int level, int split, float3 w,
+                               int *k9)
 {
     const int n = 1 << level;
     int h = 0;
@@ -122,17 +133,46 @@ inline int nearest_hilbert(__global const float *bases, int vbase, __global cons
     }
     const int ci = clamp((int)floor((u + 1.0f) * 0.5f * n), 0, n - 1);
     const int cj = clamp((int)floor((v + 1.0f) * 0.5f * n), 0, n - 1);
+    for (int di = -1; di <= 1; ++di)
+        for (int dj = -1; dj <= 1; ++dj)
+            k9[3 * (di + 1) + dj + 1] = cells[cbase + hilbert_cell(split, n, ci + di, cj + dj, h)];
+}
+
+inline int nearest_hilbert(__global const float *bases, int vbase, __global const int *cells,
+                           int cbase, int level, int split, float3 w)
+{
+    int k9[9];
+    hilbert_candidates(cells, cbase, level, split, w, k9);
     int best = 0;
     float bd = -2.0f;
-    for (int di = -1; di <= 1; ++di) {
-        for (int dj = -1; dj <= 1; ++dj) {
-            const int k = cells[cbase + hilbert_cell(split, n, ci + di, cj + dj, h)];
-            const float dd = dot(bases_row(bases, vbase + k, 2), w);
-            if (dd > bd) { bd = dd; best = k; }
-        }
+    for (int c = 0; c < 9; ++c) {
+        const float dd = dot(bases_row(bases, vbase + k9[c], 2), w);
+        if (dd > bd) { bd = dd; best = k9[c]; }
     }
     return best;
 }
+
+#if FILTERED
+/* the four of those cells nearest w, nearest first (ties: scan order), with
+ * their unnormalised weights (filter_weight) */
+inline void window_hilbert(__global const float *bases, int vbase, __global const int *cells,
+                           int cbase, int level, int split, float3 w, int *k4, float *w4)
+{
+    int k9[9];
+    hilbert_candidates(cells, cbase, level, split, w, k9);
+    float d4[4] = {-3.0f, -3.0f, -3.0f, -3.0f};
+    for (int c = 0; c < 9; ++c) {
+        const float dd = dot(bases_row(bases, vbase + k9[c], 2), w);
+        int pos = 4;
+        for (int p = 3; p >= 0; --p) if (dd > d4[p]) pos = p;
+        for (int p = 3; p > pos; --p) { d4[p] = d4[p - 1]; k4[p] = k4[p - 1]; }
+        if (pos < 4) { d4[pos] = dd; k4[pos] = k9[c]; }
+    }
+    for (int p = 0; p < 4; ++p)
+        w4[p] = 1.0f / (2.0f * asin(min(0.5f * distance(w, bases_row(bases, vbase + k4[p], 2)), 1.0f))
+                        + FILTER_ANGLE_EPS);
+}
+#endif
 #endif
 
 typedef struct {
@@ -214,17 +254,15 @@ inline fv atan2_pos16(fv y, fv x)
     return VSEL(r, 2.0f * PI_F - r, y < 0.0f);
 }
 
-/* map nearest to each lane's direction on a zigzag grid (views.py): the
- * 2 x 2 grid points around (theta, phi), compared by dot product. theta
- * and phi need only be near: an error far below the grid step can only move
- * the 2 x 2 window when the direction is next to a grid line, and then the
- * grid point on that line -- the nearest -- stays in the window. */
 /* cos and sin of a small angle d (|d| < 0.2: error below 1e-8) */
 inline fv cos_small(fv d) { const fv d2 = d * d; return 1.0f - d2 * (0.5f - d2 * (1.0f / 24.0f - d2 * (1.0f / 720.0f))); }
 inline fv sin_small(fv d) { const fv d2 = d * d; return d * (1.0f - d2 * (1.0f / 6.0f - d2 * (1.0f / 120.0f))); }
 
-inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float ssp,
-                            fv wx, fv wy, fv wz)
+/* the 2 x 2 grid points around each lane's (theta, phi) -- rows r0, r0 + 1
+ * (the last row repeated), columns c0, c0 + 1 -- as map indices k[4] and
+ * directions (cx, cy, cz)[4], in the order of views.ViewSet.filter_window */
+inline void zigzag_window16(int T, int P, float cst, float sst, float csp, float ssp,
+                            fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)
 {
     const fv th = acos16(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
     const fv ph = atan2_pos16(wz, wx);
@@ -251,21 +289,35 @@ inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float 
     iv c1 = c0 + 1;
     c1 = VSEL(c1, c1 - P, c1 >= P);
     const iv r1 = VMIN(r0 + 1, (iv)(T - 1));
+#define ZZ_CANDIDATE(I, R, C, CT, ST, CP, SP)                                        \
+    k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), ((R) & 1) != 0);                    \
+    cx[I] = (ST) * (CP); cy[I] = (CT); cz[I] = (ST) * (SP);
+    ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
+    ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
+    ZZ_CANDIDATE(2, r1, c0, ct1, st1, cp0, sp0)
+    ZZ_CANDIDATE(3, r1, c1, ct1, st1, cp1, sp1)
+#undef ZZ_CANDIDATE
+}
+
+/* map nearest to each lane's direction on a zigzag grid (views.py): of the
+ * window's four, the largest dot product (the first of equals). theta
+ * and phi need only be near: an error far below the grid step can only move
+ * the 2 x 2 window when the direction is next to a grid line, and then the
+ * grid point on that line -- the nearest -- stays in the window. */
+inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float ssp,
+                            fv wx, fv wy, fv wz)
+{
+    iv k[4];
+    fv cx[4], cy[4], cz[4];
+    zigzag_window16(T, P, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
-#define ZZ_CANDIDATE(R, C, CT, ST, CP, SP)                                           \
-    {                                                                                 \
-        const fv dd = wx * ((ST) * (CP)) + wy * (CT) + wz * ((ST) * (SP));            \
-        const iv k = (R) * P + VSEL((C), (iv)(P - 1) - (C), ((R) & 1) != 0);          \
-        const iv take = dd > best_d;                                                   \
-        best_d = VSEL(best_d, dd, take);                                               \
-        best = VSEL(best, k, take);                                                    \
+    for (int c = 0; c < 4; ++c) {
+        const fv dd = wx * cx[c] + wy * cy[c] + wz * cz[c];
+        const iv take = dd > best_d;
+        best_d = VSEL(best_d, dd, take);
+        best = VSEL(best, k[c], take);
     }
-    ZZ_CANDIDATE(r0, c0, ct0, st0, cp0, sp0)
-    ZZ_CANDIDATE(r0, c1, ct0, st0, cp1, sp1)
-    ZZ_CANDIDATE(r1, c0, ct1, st1, cp0, sp0)
-    ZZ_CANDIDATE(r1, c1, ct1, st1, cp1, sp1)
-#undef ZZ_CANDIDATE
     return best;
 }
 #endif
@@ -292,68 +344,14 @@ inline iv sphere16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
     return ~((oc2 > r2) & ((tca < 0.0f) | (oc2 - tca * tca > r2)));
 }
 
-/* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
-inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
-                     iv act)
+/* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
+ * every lane with va[l] != 0, +inf for the others. The search of csm_find()
+ * (csm_common.h) for every lane: first the list's block summary, then the
+ * block. */
+__attribute__((always_inline))
+inline void stored16(const scene_t *S, __global const int *T, const int *ka, const int *ta,
+                     const int *va, float *za)
 {
-    __global const float *I = S->inst + 32 * j;
-    __global const int *T = S->types + 16 * S->itype[j];
-    const int R = T[0], layout = T[2], vbase = T[6];
-    const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
-    const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
-    const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
-    fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
-    fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
-    fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
-    const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
-    vx *= inv; vy *= inv; vz *= inv;
-
-    iv k = (iv)(0);
-#if LAYOUT_ZIGZAG
-#if PROFILE_SKIP_NEAREST
-    if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
-#else
-    if (layout == 0) k = nearest_zigzag16(T[3], T[4], as_float(T[8]), as_float(T[9]),
-                                         as_float(T[10]), as_float(T[11]), vx, vy, vz);
-#endif
-#endif
-    LANE_ARRAY int ka[LANES], am[LANES];
-    LANE_STORE(act, am);
-#if LAYOUT_HILBERT
-    if (layout != 0) {
-        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
-        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
-        for (int l = 0; l < LANES; ++l)
-            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
-                                            (float3)(ax[l], ay[l], az[l])) : 0;
-    } else
-#endif
-    {
-        LANE_STORE(k, ka);
-    }
-    /* the bases of each lane's map */
-    LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
-    for (int l = 0; l < LANES; ++l) {
-        __global const float *B = S->bases + 9 * (vbase + ka[l]);
-        bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
-        bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
-        bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
-    }
-    const fv dx = LANE_LOAD(bd[0]), dy = LANE_LOAD(bd[1]), dz = LANE_LOAD(bd[2]);
-    const fv depth = (1.0f - (qx * dx + qy * dy + qz * dz)) * 0.5f;
-    const fv fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f)
-                  * (0.5f * (float)R);
-    const fv fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f)
-                  * (0.5f * (float)R);
-    const iv valid = act & (depth > 0.0f) & (fx >= 0.0f) & (fx < (float)R)
-                     & (fy >= 0.0f) & (fy < (float)R);
-    if (!any(valid)) return (iv)(0);
-    const iv tex = VMIN(convert_int16(fy), (iv)(R - 1)) * R + VMIN(convert_int16(fx), (iv)(R - 1));
-    LANE_ARRAY int ta[LANES], va[LANES];
-    LANE_STORE(tex, ta);
-    LANE_STORE(valid, va);
-    /* the search of csm_find() (csm_common.h) for every lane: first the
-     * list's block summary, then the block */
     __global const uint *off = S->offsets + T[5];
     __global const uint *sof = S->soff + T[5];
     LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
@@ -390,17 +388,203 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
         for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
         first[l] = S->pairs[b0 + c2];
     }
-    LANE_ARRAY float za[LANES];
     for (int l = 0; l < LANES; ++l)
         za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
-    /* depth tolerance against the point's own surface: a quantum, a share
-     * of a texel and the angle a between the query direction and the
-     * map's axis; against other casters only bias_other (the quantum) */
+}
+
+/* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
+ * type's first map): the map axis d, the point's depth (1 - q.d) / 2 and
+ * texel coordinates (fx, fy) in [0, R)^2 on the map; lanes (-1) where the
+ * point lies inside the map's square, behind the bounding sphere's front */
+__attribute__((always_inline))
+inline iv map_frame16(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
+                      fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy)
+{
+    LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
+    for (int l = 0; l < LANES; ++l) {
+        __global const float *B = bases + 9 * ka[l];
+        bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
+        bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
+        bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
+    }
+    *dx = LANE_LOAD(bd[0]); *dy = LANE_LOAD(bd[1]); *dz = LANE_LOAD(bd[2]);
+    *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
+    *fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f) * (0.5f * (float)R);
+    *fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f) * (0.5f * (float)R);
+    return (*depth > 0.0f) & (*fx >= 0.0f) & (*fx < (float)R) & (*fy >= 0.0f) & (*fy < (float)R);
+}
+
+/* depth tolerance of each lane for map axis (dx, dy, dz): against the
+ * point's own surface a quantum, a share of a texel and the angle a between
+ * the query direction and the map's axis; against other casters only
+ * bias_other (the quantum) */
+inline fv bias16(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
+{
     const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
     const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
     const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
-    const fv bias = VSEL((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+    return VSEL((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+}
+
+#if FILTERED
+/* sort four (weight w[i], item x[i]) lane vectors by weight, heaviest first,
+ * lane by lane (a sorting network) */
+inline void sort4_heaviest_first(fv *w, iv *x)
+{
+    const int pairs[5][2] = {{0, 1}, {2, 3}, {0, 2}, {1, 3}, {1, 2}};
+    for (int p = 0; p < 5; ++p) {
+        const int a = pairs[p][0], b = pairs[p][1];
+        const iv swap = w[b] > w[a];
+        const fv wa = VSEL(w[a], w[b], swap), wb = VSEL(w[b], w[a], swap);
+        const iv xa = VSEL(x[a], x[b], swap), xb = VSEL(x[b], x[a], swap);
+        w[a] = wa; w[b] = wb; x[a] = xa; x[b] = xb;
+    }
+}
+#endif
+
+/* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
+inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
+                     iv act)
+{
+    __global const float *I = S->inst + 32 * j;
+    __global const int *T = S->types + 16 * S->itype[j];
+    const int R = T[0], layout = T[2], vbase = T[6];
+    const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
+    const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
+    const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
+    fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
+    fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
+    fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
+    const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
+    vx *= inv; vy *= inv; vz *= inv;
+    LANE_ARRAY int am[LANES];
+    LANE_STORE(act, am);
+
+#if FILTERED
+    /* the four maps of ViewSet.filter_window, each asked by a bilinear vote
+     * of the four texels around the point (texel centres; border texels
+     * repeated); the instance shadows a lane when the weighted votes exceed
+     * one half (scene.visible_reference(filtered=True)) */
+    LANE_ARRAY int kw[4][LANES];
+    LANE_ARRAY float mw[4][LANES];
+#if LAYOUT_ZIGZAG
+    if (layout == 0) {
+        iv k[4];
+        fv cx[4], cy[4], cz[4];
+        zigzag_window16(T[3], T[4], as_float(T[8]), as_float(T[9]), as_float(T[10]), as_float(T[11]),
+                        vx, vy, vz, k, cx, cy, cz);
+        fv wsum = (fv)(0.0f), wt[4];
+        for (int m = 0; m < 4; ++m) {
+            const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];
+            const fv chord = sqrt(ex * ex + ey * ey + ez * ez);
+            wt[m] = 1.0f / (2.0f * asin(VMIN(0.5f * chord, (fv)(1.0f))) + FILTER_ANGLE_EPS);
+            wsum += wt[m];
+        }
+        /* heaviest map first (a sorting network of the four), so that the
+         * vote below is decided early */
+        sort4_heaviest_first(wt, k);
+        for (int m = 0; m < 4; ++m) {
+            LANE_STORE(k[m], kw[m]);
+            LANE_STORE(wt[m] / wsum, mw[m]);
+        }
+    }
+#endif
+#if LAYOUT_HILBERT
+    if (layout != 0) {
+        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
+        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
+        for (int l = 0; l < LANES; ++l) {
+            int k4[4] = {0, 0, 0, 0};
+            float w4[4] = {0.25f, 0.25f, 0.25f, 0.25f};
+            if (am[l])
+                window_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+                               (float3)(ax[l], ay[l], az[l]), k4, w4);
+            const float sum = w4[0] + w4[1] + w4[2] + w4[3];
+            for (int m = 0; m < 4; ++m) { kw[m][l] = k4[m]; mw[m][l] = w4[m] / sum; }
+        }
+    }
+#endif
+    /* maps heaviest first (hilbert windows are nearest first); a lane is
+     * decided, and asks no more, once its shadowing votes exceed one half
+     * or the weight still to come cannot take them there (a margin of 1e-5
+     * for the rounding of the running sums: nearer ties go to the end) */
+    fv vote = (fv)(0.0f), rest = (fv)(1.0f);
+    iv open = act;
+    for (int m = 0; m < 4 && any(open); ++m) {
+        fv dx, dy, dz, depth, fx, fy;
+        const iv inside = open & map_frame16(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
+                                             &dx, &dy, &dz, &depth, &fx, &fy);
+        const fv wm = LANE_LOAD(mw[m]);
+        if (!any(inside)) {
+            rest -= wm;
+            open &= vote + rest > 0.5f - 1e-5f;
+            continue;
+        }
+        const fv bias = bias16(S, R, j, own, vx, vy, vz, dx, dy, dz);
+        const fv gx = VSEL((fv)(0.0f), fx - 0.5f, inside), gy = VSEL((fv)(0.0f), fy - 0.5f, inside);
+        const fv x0f = floor(gx), y0f = floor(gy);
+        const fv tx = gx - x0f, ty = gy - y0f;
+        const iv x0 = convert_int16(x0f), y0 = convert_int16(y0f);
+        LANE_ARRAY int ta[LANES], va[LANES];
+        LANE_ARRAY float za[LANES];
+        iv tt[4];
+        fv tw[4];
+        for (int c = 0; c < 4; ++c) {
+            const int ddy = c >> 1, ddx = c & 1;
+            tt[c] = VMIN(VMAX(y0 + ddy, (iv)(0)), (iv)(R - 1)) * R + VMIN(VMAX(x0 + ddx, (iv)(0)), (iv)(R - 1));
+            tw[c] = wm * (ddy ? ty : 1.0f - ty) * (ddx ? tx : 1.0f - tx);
+        }
+        sort4_heaviest_first(tw, tt);       /* texels heaviest first, too */
+        for (int c = 0; c < 4; ++c) {
+            const iv tex = tt[c];
+            const fv w = tw[c];
+            const iv ask = open & inside;
+            LANE_STORE(tex, ta);
+            LANE_STORE(ask, va);
+            stored16(S, T, kw[m], ta, va, za);
+            vote += VSEL((fv)(0.0f), w, ask & (depth > LANE_LOAD(za) + bias));
+            rest -= w;
+            open &= (vote <= 0.5f) & (vote + rest > 0.5f - 1e-5f);
+            if (!any(open)) break;
+        }
+    }
+    return act & (vote > 0.5f);
+#else
+    iv k = (iv)(0);
+#if LAYOUT_ZIGZAG
+#if PROFILE_SKIP_NEAREST
+    if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
+#else
+    if (layout == 0) k = nearest_zigzag16(T[3], T[4], as_float(T[8]), as_float(T[9]),
+                                         as_float(T[10]), as_float(T[11]), vx, vy, vz);
+#endif
+#endif
+    LANE_ARRAY int ka[LANES];
+#if LAYOUT_HILBERT
+    if (layout != 0) {
+        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
+        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
+        for (int l = 0; l < LANES; ++l)
+            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+                                            (float3)(ax[l], ay[l], az[l])) : 0;
+    } else
+#endif
+    {
+        LANE_STORE(k, ka);
+    }
+    fv dx, dy, dz, depth, fx, fy;
+    const iv valid = act & map_frame16(S->bases + 9 * vbase, ka, R, qx, qy, qz,
+                                       &dx, &dy, &dz, &depth, &fx, &fy);
+    if (!any(valid)) return (iv)(0);
+    const iv tex = VMIN(convert_int16(fy), (iv)(R - 1)) * R + VMIN(convert_int16(fx), (iv)(R - 1));
+    LANE_ARRAY int ta[LANES], va[LANES];
+    LANE_ARRAY float za[LANES];
+    LANE_STORE(tex, ta);
+    LANE_STORE(valid, va);
+    stored16(S, T, ka, ta, va, za);
+    const fv bias = bias16(S, R, j, own, vx, vy, vz, dx, dy, dz);
     return valid & (depth > LANE_LOAD(za) + bias);
+#endif
 }
 
 /* ---------------------------------------------------------------------

@@ -35,6 +35,10 @@ from __future__ import annotations
 
 import numpy as np
 
+#: radians added to the angles of :meth:`ViewSet.filter_window` before they are
+#: inverted (a direction on a map's own axis takes nearly all the weight)
+FILTER_ANGLE_EPS = 1e-4
+
 __all__ = [
     "ViewSet",
     "polar_direction",
@@ -338,29 +342,62 @@ class ViewSet:
             idx = self._tree.query(d)[1]
         return np.asarray(idx, dtype=np.int32)
 
+    def filter_window(self, dirs) -> tuple[np.ndarray, np.ndarray]:
+        """The four maps a filtered lookup asks for each direction, and their weights.
+
+        Parameters
+        ----------
+        dirs : array_like, shape (N, 3)
+            Unit directions in the views' frame.
+
+        Returns
+        -------
+        maps : ndarray, shape (N, 4), int64
+            ``zigzag``: the 2 x 2 grid points around the direction's
+            ``(theta, phi)`` -- rows ``r0, r0 + 1`` (the last row repeated
+            below it), columns ``c0, c0 + 1`` (cyclic), in that order; the
+            candidates of :meth:`nearest`. ``hilbert``: the four of the 3 x 3
+            cells around the direction's cell whose directions are nearest
+            it, nearest first (ties: the earlier cell of the 3 x 3 scan). A
+            map may appear twice (the repeated row, folded cells).
+        weights : ndarray, shape (N, 4), float64
+            Inverse angles, ``1 / (a + 1e-4)`` with ``a = 2 asin(|w - d_k| / 2)``
+            in radians, normalised to sum to one.
+        """
+        d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+        if self.layout == "zigzag":
+            maps = self._zigzag_window(d)
+        elif self.layout == "hilbert":
+            cand = self._hilbert_candidates(d)
+            dot = np.einsum("ijk,ik->ij", self.directions[cand], d)
+            order = np.argsort(-dot, axis=1, kind="stable")[:, :4]
+            maps = np.take_along_axis(cand, order, axis=1)
+        else:
+            raise ValueError(f"filter_window: no map grid for the {self.layout!r} layout "
+                             "(zigzag and hilbert have one)")
+        chord = np.linalg.norm(d[:, None, :] - self.directions[maps], axis=2)
+        w = 1.0 / (2.0 * np.arcsin(np.minimum(0.5 * chord, 1.0)) + FILTER_ANGLE_EPS)
+        return maps, w / w.sum(axis=1, keepdims=True)
+
     def _zigzag_index(self, row, col):
         P = self.params["phi"]
         return row * P + np.where(row % 2 == 0, col, P - 1 - col)
 
-    def _nearest_zigzag(self, d):
+    def _zigzag_window(self, d):
+        """Map indices (N, 4) of the 2 x 2 grid points around each direction."""
         T, P = self.params["theta"], self.params["phi"]
         theta = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
         phi = np.arctan2(d[:, 2], d[:, 0])
         phi = np.where(phi < 0, phi + 2 * np.pi, phi)
         r0 = np.clip(np.floor(theta / (np.pi / T)).astype(np.int64), 0, T - 1)
         c0 = np.floor(phi / (2 * np.pi / P)).astype(np.int64) % P
-        best = np.full(len(d), -np.inf)
-        out = np.zeros(len(d), dtype=np.int64)
-        for dr in (0, 1):
-            r = np.minimum(r0 + dr, T - 1)
-            for dc in (0, 1):
-                c = (c0 + dc) % P
-                k = self._zigzag_index(r, c)
-                dot = np.einsum("ij,ij->i", self.directions[k], d)
-                take = dot > best
-                best = np.where(take, dot, best)
-                out = np.where(take, k, out)
-        return out
+        return np.stack([self._zigzag_index(np.minimum(r0 + dr, T - 1), (c0 + dc) % P)
+                         for dr in (0, 1) for dc in (0, 1)], axis=1)
+
+    def _nearest_zigzag(self, d):
+        cand = self._zigzag_window(d)
+        dot = np.einsum("ijk,ik->ij", self.directions[cand], d)
+        return cand[np.arange(len(d)), np.argmax(dot, axis=1)]   # first of equals, as the kernel
 
     def _hilbert_cells(self):
         if not hasattr(self, "_cell_to_index"):
@@ -376,25 +413,25 @@ class ViewSet:
             self._cell_to_index = table
         return self._cell_to_index
 
-    def _nearest_hilbert(self, d):
+    def _hilbert_candidates(self, d):
+        """Map indices (N, 9) of the 3 x 3 cells around each direction's cell."""
         n = 1 << self.params["level"]
         split = self.params.get("hemispheres", False)
         table = self._hilbert_cells()
         hemi, sq = _hilbert_square_coords(split, d)
         ci = np.clip(np.floor((sq[:, 0] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
         cj = np.clip(np.floor((sq[:, 1] + 1.0) * 0.5 * n).astype(np.int64), 0, n - 1)
-        best = np.full(len(d), -np.inf)
-        out = np.zeros(len(d), dtype=np.int64)
+        out = []
         for di in (-1, 0, 1):
             for dj in (-1, 0, 1):
                 i, j, h = _hilbert_neighbour(split, n, ci + di, cj + dj, hemi)
-                k = table[i + h * n, j]
-                dot = np.einsum("ij,ij->i", self.directions[k], d)
-                take = dot > best
-                best = np.where(take, dot, best)
-                out = np.where(take, k, out)
-        return out
+                out.append(table[i + h * n, j])
+        return np.stack(out, axis=1)
 
+    def _nearest_hilbert(self, d):
+        cand = self._hilbert_candidates(d)
+        dot = np.einsum("ijk,ik->ij", self.directions[cand], d)
+        return cand[np.arange(len(d)), np.argmax(dot, axis=1)]   # first of equals, as the kernel
 
 def _hilbert_cell_directions(level, split, x, y):
     """Directions of the centres of cells (x, y) of a hilbert layout."""

@@ -78,16 +78,18 @@ class Config:
     depth_bits: int        # 16 or 32
     samples: int           # AO samples per pixel
     filter: str | None = None     # None or a Scene.render filter
+    filtered_lookup: bool = False     # Scene.visible(..., filtered=True) and its AO
 
     @property
     def label(self) -> str:
         s = f"{self.maps[0]}x{self.maps[1]} r{self.resolution} {self.depth_bits}b s{self.samples}"
-        return s + (f" {self.filter}" if self.filter else "")
+        return s + (f" {self.filter}" if self.filter else "") + (" filtered-lookup" if self.filtered_lookup else "")
 
     def as_dict(self) -> dict:
         return {"maps": f"{self.maps[0]}x{self.maps[1]}", "layout": "zigzag",
                 "views": self.maps[0] * self.maps[1], "resolution": self.resolution,
-                "depth_bits": self.depth_bits, "samples": self.samples, "filter": self.filter}
+                "depth_bits": self.depth_bits, "samples": self.samples, "filter": self.filter,
+                "filtered_lookup": self.filtered_lookup}
 
 
 #: Settings of the two standard runs. ``reference_samples``: converged reference.
@@ -117,6 +119,8 @@ SWEEP_GRIDS = {
         {"maps": (16, 32), "resolution": 64, "samples": 4, "filter": "bilateral"},
         {"samples": 144, "filter": "bilateral"},
         {"resolution": 256, "samples": 144},
+        {"filtered_lookup": True},
+        {"samples": 144, "filtered_lookup": True},
     ],
     "quick": [
         {},
@@ -127,9 +131,10 @@ SWEEP_GRIDS = {
         {"filter": "bilateral"},
         {"samples": 16, "filter": "bilateral"},
         {"maps": (16, 32), "resolution": 64, "samples": 4, "filter": "bilateral"},
+        {"filtered_lookup": True},
     ],
     "tiny": [
-        {}, {"samples": 4}, {"filter": "bilateral"}, {"maps": (4, 8)}, {"depth_bits": 32},
+        {}, {"samples": 4}, {"filter": "bilateral"}, {"maps": (4, 8)}, {"depth_bits": 32}, {"filtered_lookup": True},
     ],
 }
 
@@ -704,7 +709,8 @@ def embree_pass(tracer: EmbreeTracer, gb: GBuffer, samples, strategy, seed, patt
             "rays": rays, "rays_pixels": rays_pixels, "rays_traced": rays_traced}
 
 
-def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embree_occluded):
+def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embree_occluded,
+                    filtered=False):
     """pyshadow's :meth:`Scene.visible` on the identical rays, compared with Embree's.
 
     Returns the fraction of rays on which both agree, and the fractions
@@ -719,7 +725,7 @@ def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embre
     disagree = np.empty(gb.n, np.int32)
     for s, e, d32 in _ray_chunks(gb, S, strategy, seed, patterns):
         vis = scene.visible(np.repeat(gb.points[s:e], S, axis=0), d32,
-                            surface_ids=np.repeat(gb.ids[s:e], S))
+                            surface_ids=np.repeat(gb.ids[s:e], S), filtered=filtered)
         ref = ~embree_occluded[s * S:e * S]
         agree += int(np.count_nonzero(vis == ref))
         fv += int(np.count_nonzero(vis & ~ref))
@@ -830,7 +836,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
     log(f"rendering {camera.width}x{camera.height}, {S} samples ({strat})")
 
     def render():
-        return scene.render(camera, S, strat, seed, pat, filter=cfg.filter)
+        return scene.render(camera, S, strat, seed, pat, filter=cfg.filter, filtered=cfg.filtered_lookup)
 
     out = render()                       # also the warm-up: kernel builds
     gb = GBuffer.from_render(out, camera)
@@ -840,7 +846,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
 
     def ao_call(sl=slice(None)):         # what Scene.render asks of the AO kernel
         return scene.ambient_occlusion(gb.points[sl], gb.normals[sl], S, strat, pat, seed, True,
-                                       indices=gb.sel[sl], surface_ids=gb.ids[sl])[0]
+                                       indices=gb.sel[sl], surface_ids=gb.ids[sl], filtered=cfg.filtered_lookup)[0]
 
     raw = ao_call()
     ao_img = out["ao"]
@@ -870,7 +876,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
             bar.close()
         ident["rays"] = None
         frame_time, ao_time, embree_time = (statistics.median(times[k]) for k in ("frame", "ao", "embree"))
-        vis = visibility_pass(scene, gb, S, strat, seed, pat, ident["occluded"])
+        vis = visibility_pass(scene, gb, S, strat, seed, pat, ident["occluded"], cfg.filtered_lookup)
         conv, conv_s, conv_src = converged_reference(cache, tracer, scene, gb, args.reference_samples,
                                                      strat, seed, pat, log)
     finally:
@@ -1018,7 +1024,8 @@ def format_table(r: dict) -> str:
     head = (f"pyshadow-bench ({r['mode']}): {r['scene']}\n"
             f"  {c['width']}x{c['height']}, {c['samples']} samples ({c['strategy']}), maps zigzag "
             f"{c['maps']} at {c['resolution']}^2, {c['depth_bits']}-bit depth"
-            + (f", filter {c['filter']}" if c["filter"] else ""))
+            + (f", filter {c['filter']}" if c["filter"] else "")
+            + (", filtered lookups" if c.get("filtered_lookup") else ""))
     return head + "\n" + "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)
 
 
@@ -1078,16 +1085,19 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
                 log(f"  {cfg.label}")
                 scene, camera, infos = factory(cfg)
                 csm = _csm_summary(infos)
-                out = scene.render(camera, cfg.samples, strat, seed, pat, filter=cfg.filter)
+                out = scene.render(camera, cfg.samples, strat, seed, pat, filter=cfg.filter,
+                                   filtered=cfg.filtered_lookup)
                 if not np.array_equal(out["object_id"], gb.object_id):
                     raise RuntimeError(f"{cfg.label}: the G-buffer differs from the base render")
                 raw = scene.ambient_occlusion(gb.points, gb.normals, cfg.samples, strat, pat, seed,
-                                              True, indices=gb.sel, surface_ids=gb.ids)[0]
+                                              True, indices=gb.sel, surface_ids=gb.ids,
+                                              filtered=cfg.filtered_lookup)[0]
                 if cfg.samples not in embree:
                     embree[cfg.samples] = embree_pass(tracer, gb, cfg.samples, strat, seed, pat,
                                                       desc=f"Embree {cfg.samples} spp")
                 ident = embree[cfg.samples]
-                vis = visibility_pass(scene, gb, cfg.samples, strat, seed, pat, ident["occluded"])
+                vis = visibility_pass(scene, gb, cfg.samples, strat, seed, pat, ident["occluded"],
+                                      cfg.filtered_lookup)
                 rmse_c, mae_c = _errors(out["ao"].reshape(-1)[gb.sel], conv)
                 rmse_i, _ = _errors(raw, ident["ao"])
                 entries.append({"cfg": cfg, "varies": varies, "scene": scene, "camera": camera,
@@ -1106,11 +1116,12 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
                 for ent in entries:
                     cfg, scene = ent["cfg"], ent["scene"]
                     t0 = time.perf_counter()
-                    scene.render(ent["camera"], cfg.samples, strat, seed, pat, filter=cfg.filter)
+                    scene.render(ent["camera"], cfg.samples, strat, seed, pat, filter=cfg.filter,
+                                 filtered=cfg.filtered_lookup)
                     ent["frame"].append(time.perf_counter() - t0)
                     t0 = time.perf_counter()
                     scene.ambient_occlusion(gb.points, gb.normals, cfg.samples, strat, pat, seed, True,
-                                            indices=gb.sel, surface_ids=gb.ids)
+                                            indices=gb.sel, surface_ids=gb.ids, filtered=cfg.filtered_lookup)
                     ent["ao"].append(time.perf_counter() - t0)
                     bar.update(1)
         finally:
@@ -1187,7 +1198,7 @@ def _answer_text(ans: dict) -> str:
 def _config_of(d: dict) -> Config:
     """The :class:`Config` of a ``Config.as_dict()`` record."""
     return Config(tuple(int(x) for x in d["maps"].split("x")), d["resolution"], d["depth_bits"],
-                  d["samples"], d["filter"])
+                  d["samples"], d["filter"], bool(d.get("filtered_lookup", False)))
 
 
 def sweep_markdown(sw: dict) -> str:
@@ -1399,6 +1410,8 @@ def build_parser() -> argparse.ArgumentParser:
                        metavar="N", help="samples per pixel of the converged Embree reference")
     knobs.add_argument("--filter", choices=("none", "bilateral", "separable", "box"), default="none",
                        help="AO filter of the single benchmark (default none)")
+    knobs.add_argument("--filtered-lookup", action="store_true",
+                       help="filtered CSM lookups: 4 maps x 4 texels a ray (Scene.visible(..., filtered=True))")
     knobs.add_argument("--strategy", choices=STRATEGIES, default="hammersley",
                        help="sampling strategy (default hammersley)")
     knobs.add_argument("--seed", type=_int_range(0, 2**31 - 1, "--seed"), default=0)
@@ -1474,8 +1487,8 @@ def main(argv=None) -> int:
         if getattr(args, k) is None:
             setattr(args, k, v)
     # 'custom' when a setting differs from the preset
-    args.mode = ("quick" if args.quick else "default") if not explicit and args.filter == "none" \
-        else "custom"
+    args.mode = ("quick" if args.quick else "default") \
+        if not explicit and args.filter == "none" and not args.filtered_lookup else "custom"
     if args.sweep:
         args.mode = "sweep"
         if args.sweep_grid is None:
@@ -1483,7 +1496,7 @@ def main(argv=None) -> int:
         if "repeats" not in explicit:
             args.repeats = 3
     cfg = Config(tuple(args.maps), args.resolution, args.depth_bits, args.samples,
-                 None if args.filter == "none" else args.filter)
+                 None if args.filter == "none" else args.filter, bool(args.filtered_lookup))
 
     if args.no_cache:
         cache_root = None

@@ -154,7 +154,8 @@ inline int nearest_hilbert(__global const float *bases, int vbase, __global cons
 
 #if FILTERED
 /* the four of those cells nearest w, nearest first (ties: scan order), with
- * their unnormalised weights (filter_weight) */
+ * their unnormalised weights 1 / (angle + FILTER_ANGLE_EPS)
+ * (views.ViewSet.filter_window) */
 inline void window_hilbert(__global const float *bases, int vbase, __global const int *cells,
                            int cbase, int level, int split, float3 w, int *k4, float *w4)
 {

@@ -323,13 +323,9 @@ class ViewSet:
             direction, the column of the direction's azimuth is taken). A
             ``custom`` set uses a k-d tree.
         """
-        d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
         if len(self) == 0:
             raise ValueError("nearest: the view set is empty")
-        norm = np.linalg.norm(d, axis=1)
-        if not (np.isfinite(d).all() and (norm > 0).all()):
-            raise ValueError("nearest: directions must be finite and non-zero")
-        d = d / norm[:, None]
+        d = _unit_rows(dirs, "nearest")
         if self.layout == "zigzag":
             idx = self._nearest_zigzag(d)
         elif self.layout == "hilbert":
@@ -348,7 +344,8 @@ class ViewSet:
         Parameters
         ----------
         dirs : array_like, shape (N, 3)
-            Unit directions in the views' frame.
+            Directions in the views' frame (normalised here; must be
+            finite and non-zero).
 
         Returns
         -------
@@ -361,10 +358,11 @@ class ViewSet:
             it, nearest first (ties: the earlier cell of the 3 x 3 scan). A
             map may appear twice (the repeated row, folded cells).
         weights : ndarray, shape (N, 4), float64
-            Inverse angles, ``1 / (a + 1e-4)`` with ``a = 2 asin(|w - d_k| / 2)``
-            in radians, normalised to sum to one.
+            Inverse angles, ``1 / (a + FILTER_ANGLE_EPS)`` with
+            ``a = 2 asin(|w - d_k| / 2)`` the angle in radians to map ``k``
+            (``FILTER_ANGLE_EPS`` = 1e-4), normalised to sum to one.
         """
-        d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+        d = _unit_rows(dirs, "filter_window")
         if self.layout == "zigzag":
             maps = self._zigzag_window(d)
         elif self.layout == "hilbert":
@@ -432,6 +430,17 @@ class ViewSet:
         cand = self._hilbert_candidates(d)
         dot = np.einsum("ijk,ik->ij", self.directions[cand], d)
         return cand[np.arange(len(d)), np.argmax(dot, axis=1)]   # first of equals, as the kernel
+
+
+def _unit_rows(dirs, caller: str) -> np.ndarray:
+    """Directions (N, 3) float64, normalised; ValueError naming ``caller`` for
+    non-finite or zero rows."""
+    d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    norm = np.linalg.norm(d, axis=1)
+    if not (np.isfinite(d).all() and (norm > 0).all()):
+        raise ValueError(f"{caller}: directions must be finite and non-zero")
+    return d / norm[:, None]
+
 
 def _hilbert_cell_directions(level, split, x, y):
     """Directions of the centres of cells (x, y) of a hilbert layout."""

@@ -242,8 +242,17 @@ def test_filter_window_maps_and_weights(make, rng):
     assert ((w * same).sum(axis=1) > 0.9).all()
 
 
-def test_filter_window_custom_layout_is_refused():
+def test_filter_window_refuses_custom_layouts_and_bad_directions():
     d = np.eye(3)
     views = pyshadow.ViewSet(d, np.stack([np.roll(np.eye(3), -i - 1, axis=0) for i in range(3)]))
     with pytest.raises(ValueError, match="no map grid"):
         views.filter_window(d)
+    zigzag = pyshadow.ViewSet.zigzag(8, 16)
+    for bad in ([[0.0, 0.0, 0.0]], [[np.nan, 1.0, 0.0]], [[np.inf, 0.0, 0.0]]):
+        with pytest.raises(ValueError, match="finite and non-zero"):
+            zigzag.filter_window(bad)
+    # any length: the window of 3 w is that of w
+    w = np.random.default_rng(0).normal(size=(100, 3))
+    a, b = zigzag.filter_window(w), zigzag.filter_window(3 * w)
+    assert (a[0] == b[0]).all()
+    np.testing.assert_allclose(a[1], b[1], rtol=1e-12)

@@ -43,7 +43,7 @@ import trimesh
 import pyshadow
 from pyshadow import reference
 from pyshadow.csm import DEPTH_Q, compress_reference, footprint_corners
-from pyshadow.scene import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, visible_reference
+from pyshadow.scene import DEFAULT_BIAS_TEXELS, shadow_vote, visible_reference
 from _common import MESHES, emit, environment
 
 
@@ -101,7 +101,8 @@ def pcf_visible(scene, points, directions, bias_texels=DEFAULT_BIAS_TEXELS):
     border texels repeated at the map's edges), each saying shadowed or not
     with the self-bias of ``Scene.visible`` (``bias_texels`` plus the angle
     term); the ray is shadowed when the weights of the shadowing votes sum to
-    more than one half: percentage-closer filtering of the nearest map, where
+    more than one half (:func:`pyshadow.scene.shadow_vote`, ``texels=4``):
+    percentage-closer filtering of the nearest map, where
     ``Scene.visible`` asks the one texel holding the point (and
     ``Scene.visible(..., filtered=True)`` four maps of a zigzag or hilbert
     grid like this). The scene's caster must be instance 0; the ground plane
@@ -109,31 +110,14 @@ def pcf_visible(scene, points, directions, bias_texels=DEFAULT_BIAS_TEXELS):
     """
     inst = scene.instances[0]
     csm = inst.csm
-    R, D = csm.resolution, csm.maps
     P = np.asarray(points, np.float64)
     W = np.asarray(directions, np.float64)
     W = W / np.linalg.norm(W, axis=1, keepdims=True)
     pn = ((P - inst.transform[:3, 3]) @ inst.rotation) / (inst.scale * csm.radius) - csm.centre / csm.radius
     wn = W @ inst.rotation
-    offsets = np.asarray(csm.offsets, np.int64)
-    keys = np.repeat(np.arange(R * R), np.diff(offsets)) * D + np.asarray(csm.iend, np.int64)
-    stored = csm.stored_to_depth(np.asarray(csm.depth)).astype(np.float64)
     quantum = (1.0 / DEPTH_Q if csm.depth_bits == 16 else 0.0) + 1e-7
-    k = csm.views.nearest(wn)
-    B = csm.views.bases[k]
-    depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
-    fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
-    fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
-    inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
-    ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
-    bias = quantum + (bias_texels + DEFAULT_BIAS_TAN * np.sqrt(np.maximum(1 - ca * ca, 0)) / ca) / R
-    x0, y0 = np.floor(fx - 0.5).astype(np.int64), np.floor(fy - 0.5).astype(np.int64)
-    tx, ty = fx - 0.5 - x0, fy - 0.5 - y0
-    shadowed = np.zeros(len(P))
-    for dy, dx, w in ((0, 0, (1 - ty) * (1 - tx)), (0, 1, (1 - ty) * tx), (1, 0, ty * (1 - tx)), (1, 1, ty * tx)):
-        tex = np.clip(y0 + dy, 0, R - 1) * R + np.clip(x0 + dx, 0, R - 1)
-        z = stored[np.minimum(np.searchsorted(keys, tex * D + k), len(keys) - 1)]
-        shadowed += w * (inside & (depth > z + bias))
+    shadowed = shadow_vote(csm, pn, wn, csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(P), 1)),
+                           quantum=quantum, texels=4, bias_texels=bias_texels)
     ground_only = pyshadow.Scene(ground=scene.ground)
     return (shadowed <= 0.5) & visible_reference(ground_only, P, W)
 

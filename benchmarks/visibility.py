@@ -12,7 +12,7 @@ on all cores:
 * ``Scene.ambient_occlusion(points, normals, 36)`` (the same workload through
   the AO kernel, which makes the directions on the device);
 * ``Scene.visible(..., filtered=True)``, the filtered lookup (four maps x four
-  texels, 16 segment searches a query), and its agreement with Embree;
+  texels, up to 16 segment searches a query), and its agreement with Embree;
 * Embree occlusion rays on the identical (origin, direction) pairs, spread over
   a thread pool with one thread per core (embreex releases the GIL);
 * a second pose after ``set_transform`` (no rebuild; same time expected),

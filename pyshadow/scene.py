@@ -29,7 +29,7 @@ from .sampling import check_sampling, direction_table, pattern_indices
 from .views import FILTER_ANGLE_EPS, ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
-           "FILTERED_BIAS_TEXELS", "visible_reference"]
+           "FILTERED_BIAS_TEXELS", "visible_reference", "shadow_vote"]
 
 GROUND_ID = -2           # object id of the ground plane in rendered images
 DEFAULT_BIAS_TEXELS = 1.5
@@ -817,10 +817,6 @@ def visible_reference(scene: Scene, points, directions, *, bias: float | None = 
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
     b_texels = FILTERED_BIAS_TEXELS if filtered else DEFAULT_BIAS_TEXELS
-    # texel offsets and their bilinear weights (tx, ty): one texel, or the four around the point
-    taps = ([(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
-             (1, 0, lambda tx, ty: (1 - tx) * ty), (1, 1, lambda tx, ty: tx * ty)]
-            if filtered else [(0, 0, lambda tx, ty: 1.0)])
     for slot, i in enumerate(scene.casters):
         inst = scene.instances[i]
         csm = inst.csm
@@ -836,40 +832,85 @@ def visible_reference(scene: Scene, points, directions, *, bias: float | None = 
         t = inst.transform[:3, 3]
         pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
         wn = w[act] @ Rm
-        R = csm.resolution
-        # global keys texel * D + i_end are sorted: one searchsorted finds every segment
-        off = np.asarray(csm.offsets, dtype=np.int64)
-        seg_texel = np.repeat(np.arange(R * R), np.diff(off))
-        keys = seg_texel * csm.maps + np.asarray(csm.iend, dtype=np.int64)
-        depths = np.asarray(csm.depth)
-        self_ = (own[act] == -1) | (own[act] == slot)
         if filtered:
             maps, map_w = csm.views.filter_window(wn)
         else:
             maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
-        vote = np.zeros(len(wn))
-        for m in range(maps.shape[1]):
-            k = maps[:, m]
-            B = csm.views.bases[k]
-            depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
-            fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
-            fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
-            inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
-            if bias is None:
-                ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
-                tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
-                b = np.where(self_, quantum + (b_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
-            else:
-                b = float(bias)
-            gx, gy = (fx - 0.5, fy - 0.5) if filtered else (fx, fy)
-            x0, y0 = np.floor(gx), np.floor(gy)
-            tx, ty = gx - x0, gy - y0
-            for dy, dx, weight in taps:
-                tex = (np.clip(y0.astype(np.int64) + dy, 0, R - 1) * R
-                       + np.clip(x0.astype(np.int64) + dx, 0, R - 1))
-                seg = np.searchsorted(keys, np.where(inside, tex, 0) * csm.maps + k)
-                z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
-                vote += map_w[:, m] * weight(tx, ty) * (inside & (depth > z + b))
+        vote = shadow_vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if filtered else 1,
+                           self_=(own[act] == -1) | (own[act] == slot), bias=bias, bias_texels=b_texels)
         idx = np.flatnonzero(act)
         occ[idx[vote > 0.5]] = True
     return ~occ
+
+
+def shadow_vote(csm: CoherentShadowMap, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
+                self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS) -> np.ndarray:
+    """Weighted shadowing vote of a CSM's taps for points and directions in its frame (NumPy).
+
+    The rule of the visibility kernel (``instance16``) for one caster, in
+    float64: each point is asked in the maps ``maps[:, m]`` with weights
+    ``map_weights[:, m]``, at the texel holding it (``texels=1``) or at the
+    four texels around it with bilinear weights of the texel centres, border
+    texels repeated (``texels=4``); a tap votes "shadowed" when the point's
+    depth exceeds the stored depth plus the bias.
+
+    Parameters
+    ----------
+    csm : CoherentShadowMap
+    pn, wn : ndarray, shape (N, 3)
+        Points in the CSM's normalised frame (its bounding sphere centred at
+        the origin with radius 1) and unit directions in its frame.
+    maps, map_weights : ndarray, shape (N, M)
+        Map indices (int) and their weights.
+    quantum : float
+        Depth quantum plus rounding slack, normalised depth units.
+    texels : {1, 4}
+    self_ : bool or ndarray of bool, shape (N,)
+        Where the point may lie on this caster, the self-bias
+        ``quantum + (bias_texels + DEFAULT_BIAS_TAN * tan a) / R`` applies
+        (``a`` the angle between direction and map axis); elsewhere ``quantum``.
+    bias : float, optional
+        One fixed bias for every tap instead.
+    bias_texels : float, optional
+
+    Returns
+    -------
+    ndarray, shape (N,), float64
+        The summed weights of the shadowing taps; the caster shadows a ray
+        where this exceeds one half.
+    """
+    R, D = csm.resolution, csm.maps
+    # global keys texel * D + i_end are sorted: one searchsorted finds every segment
+    keys = (np.repeat(np.arange(R * R), np.diff(np.asarray(csm.offsets, dtype=np.int64))) * D
+            + np.asarray(csm.iend, dtype=np.int64))
+    depths = np.asarray(csm.depth)
+    if texels == 4:      # texel offsets and their bilinear weights (tx, ty)
+        taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
+                (1, 0, lambda tx, ty: (1 - tx) * ty), (1, 1, lambda tx, ty: tx * ty)]
+    elif texels == 1:
+        taps = [(0, 0, lambda tx, ty: 1.0)]
+    else:
+        raise ValueError(f"texels must be 1 or 4, got {texels!r}")
+    vote = np.zeros(len(pn))
+    for m in range(maps.shape[1]):
+        k = maps[:, m]
+        B = csm.views.bases[k]
+        depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
+        fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
+        fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
+        inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
+        if bias is None:
+            ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
+            tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
+            b = np.where(self_, quantum + (bias_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
+        else:
+            b = float(bias)
+        gx, gy = (fx - 0.5, fy - 0.5) if texels == 4 else (fx, fy)
+        x0, y0 = np.floor(gx), np.floor(gy)
+        tx, ty = gx - x0, gy - y0
+        for dy, dx, weight in taps:
+            tex = np.clip(y0.astype(np.int64) + dy, 0, R - 1) * R + np.clip(x0.astype(np.int64) + dx, 0, R - 1)
+            seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
+            z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
+            vote += map_weights[:, m] * weight(tx, ty) * (inside & (depth > z + b))
+    return vote

@@ -1,18 +1,33 @@
-"""Data shipped inside pyshadow: the Stanford bunny and the default scene.
+"""Data shipped inside pyshadow: the Stanford bunny, the default scene and test meshes.
 
 The bunny (Stanford Computer Graphics Laboratory scan, 69,451 faces, with its
 holes) is stored as 16-bit fixed-point vertices over its bounding box (error
 at most 1.2e-6 of a 0.156 extent) and int32 faces in a compressed NumPy
-archive (no pickle). Nothing here touches the network or ``../shared``.
+archive (no pickle).
+
+:func:`mesh` loads the real test meshes of the test suite and the benchmarks
+(:data:`MESHES`: the Stanford bunny at full precision, the Utah teapot, Spot,
+fandisk, Homer, a cow, Suzanne and two CAD parts). Each is its original file,
+byte for byte, compressed with xz in ``meshes/``; ``meshes/README.md`` gives
+every file's source and licence. Nothing here touches the network or any
+folder outside the installed package.
 """
 from __future__ import annotations
 
+import io
+import lzma
+import os
 from importlib.resources import files
+from pathlib import Path
 
 import numpy as np
 import trimesh
 
-__all__ = ["bunny", "default_scene", "DEFAULT_PARTS"]
+__all__ = ["bunny", "default_scene", "DEFAULT_PARTS", "MESHES", "mesh", "mesh_bytes", "mesh_file"]
+
+#: File names of the bundled test meshes (original names; see :func:`mesh`).
+MESHES = ("cow.obj", "fandisk.obj", "featuretype.STL", "homer.obj", "spot.obj",
+          "stanford-bunny.obj", "suzanne.ply", "teapot.obj", "torus.STL")
 
 # name -> (what it is, whether it casts)
 DEFAULT_PARTS = {
@@ -33,6 +48,115 @@ def bunny() -> trimesh.Trimesh:
         v = q / 65535.0 * float(data["extent"]) + data["origin"]
         faces = data["faces"].astype(np.int64)
     return load_mesh(trimesh.Trimesh(v, faces, process=False))
+
+
+def _mesh_name(name) -> str:
+    """The entry of :data:`MESHES` that ``name`` means (file name or stem, any case)."""
+    if isinstance(name, str):
+        key = name.strip().lower()
+        for full in MESHES:
+            if key in (full.lower(), full.rsplit(".", 1)[0].lower()):
+                return full
+    raise ValueError(f"no bundled mesh {name!r}; available: {', '.join(MESHES)} "
+                     "(with or without the extension)")
+
+
+def mesh_bytes(name: str) -> bytes:
+    """The original file of a bundled test mesh, byte for byte (decompressed).
+
+    Parameters
+    ----------
+    name : str
+        An entry of :data:`MESHES`, with or without its extension, in any
+        case (``"fandisk"``, ``"fandisk.obj"``, ``"torus.stl"``).
+
+    Returns
+    -------
+    data : bytes
+        The file as it was received (OBJ text, binary STL or ASCII PLY).
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a bundled mesh; the message lists the available ones.
+    """
+    full = _mesh_name(name)
+    packed = files(__name__).joinpath("meshes").joinpath(full + ".xz").read_bytes()
+    return lzma.decompress(packed, format=lzma.FORMAT_XZ)
+
+
+def mesh(name: str, fill_holes: bool = False) -> trimesh.Trimesh:
+    """Load a bundled test mesh through :func:`pyshadow.load_mesh`.
+
+    The arrays are bit-identical to ``pyshadow.load_mesh(path_of_original)``:
+    the original file is decompressed in memory and parsed by trimesh with its
+    own format, then cleaned by :func:`pyshadow.load_mesh`.
+
+    Parameters
+    ----------
+    name : str
+        An entry of :data:`MESHES`, with or without its extension, in any
+        case: ``"stanford-bunny"``, ``"teapot.obj"``, ``"torus"``, ...
+    fill_holes : bool, optional
+        Passed to :func:`pyshadow.load_mesh` (close every boundary loop).
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        A new mesh on every call (float64 vertices, int64 faces).
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a bundled mesh; the message lists the available ones.
+
+    See Also
+    --------
+    bunny : the bunny of the default scene (16-bit quantised vertices, so not
+        bit-identical to ``mesh("stanford-bunny")``).
+
+    Examples
+    --------
+    >>> import pyshadow
+    >>> m = pyshadow.data.mesh("fandisk")
+    >>> m.faces.shape, bool(m.is_watertight)
+    ((5750, 3), True)
+    """
+    from ..mesh import load_mesh
+
+    full = _mesh_name(name)
+    raw = trimesh.load(io.BytesIO(mesh_bytes(full)), file_type=full.rsplit(".", 1)[1].lower(),
+                       process=False)
+    return load_mesh(raw, fill_holes=fill_holes)
+
+
+def mesh_file(name: str, folder) -> Path:
+    """Write the original file of a bundled test mesh into ``folder``.
+
+    For tools that want a path (``pyshadow-bench --mesh``, other programs).
+
+    Parameters
+    ----------
+    name : str
+        An entry of :data:`MESHES`, with or without its extension.
+    folder : str or os.PathLike
+        An existing folder; the file gets its original name (e.g.
+        ``spot.obj``) and replaces any file of that name there.
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written file; ``pyshadow.load_mesh(path)`` equals ``mesh(name)``.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is not a bundled mesh.
+    """
+    full = _mesh_name(name)
+    path = Path(os.fspath(folder)) / full
+    path.write_bytes(mesh_bytes(full))
+    return path
 
 
 def _stand(mesh, T):

@@ -1,4 +1,4 @@
-"""Helpers shared by the benchmark scripts: timing, device name, JSON output."""
+"""Helpers shared by the benchmark scripts: meshes, timing, device name, JSON output."""
 from __future__ import annotations
 
 import json
@@ -9,7 +9,25 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-MESHES = REPO.parent / "shared" / "meshes"
+MESH_HELP = ("a mesh bundled with pyshadow by name (pyshadow.data.MESHES, e.g. teapot.obj) "
+             "or a mesh file (default: %(default)s)")
+
+
+def load_mesh(spec, fill_holes: bool = False):
+    """A mesh by file path, or by the name of a mesh bundled with pyshadow.
+
+    An existing file wins; otherwise ``spec`` names an entry of
+    ``pyshadow.data.MESHES`` (``"stanford-bunny.obj"``, ``"fandisk"``, ...),
+    loaded bit-identically to its original file by ``pyshadow.data.mesh``.
+    """
+    import pyshadow
+
+    if not Path(spec).is_file():
+        try:
+            return pyshadow.data.mesh(str(spec), fill_holes=fill_holes)
+        except ValueError:
+            pass                    # not a bundled name: let load_mesh report the path
+    return pyshadow.load_mesh(spec, fill_holes=fill_holes)
 
 
 def median_time(fn, repeats: int = 3, warmup: int = 1):

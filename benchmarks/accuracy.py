@@ -12,9 +12,9 @@ Prints (and with --json returns):
    the identical directions (mean and 99th percentile of |dAO|);
 4. AO RMSE at 36 samples against a 4096-sample Embree reference over 2000
    bunny vertices, for every sampling strategy (thesis 5.3.1, Fig. 5.7);
-5. the agreement of 1. for every other mesh of ../shared/meshes, each alone on
-   the ground at 64x128 maps, 128^2, default settings (nothing was tuned on
-   them);
+5. the agreement of 1. for every other bundled test mesh (pyshadow.data.MESHES),
+   each alone on the ground at 64x128 maps, 128^2, default settings (nothing
+   was tuned on them);
 6. an error budget for the bunny: on identical rays, the 64x128 CSM against
    one uncompressed map exactly along each ray's own direction (same
    resolution, interval rule, margin, quantisation and default bias; runs one
@@ -44,7 +44,7 @@ import pyshadow
 from pyshadow import reference
 from pyshadow.csm import DEPTH_Q, compress_reference, footprint_corners
 from pyshadow.scene import DEFAULT_BIAS_TEXELS, shadow_vote, visible_reference
-from _common import MESHES, emit, environment
+from _common import emit, environment, load_mesh
 
 
 def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
@@ -222,8 +222,8 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     t_start = time.perf_counter()
-    bunny = pyshadow.load_mesh(MESHES / "stanford-bunny.obj")
-    fandisk = pyshadow.load_mesh(MESHES / "fandisk.obj")
+    bunny = load_mesh("stanford-bunny.obj")
+    fandisk = load_mesh("fandisk.obj")
     Tb = pyshadow.stand_on_ground(bunny)
     n_pts = 5000 if args.quick else 20000
 
@@ -298,10 +298,10 @@ def main(argv=None):
             "agreement_ao_rays": ao_rays[0], "agreement_uniform_rays": uniform_rays[0]}
         filtered["footprint" if fp else "centre"] = {"ao_rays": ao_rays[1], "uniform_rays": uniform_rays[1]}
     filtered["two_objects"] = {k: v[1] for k, v in two_both.items()}
-    for path in sorted(MESHES.iterdir()):
-        if path.suffix.lower() not in (".obj", ".ply", ".stl") or path.name == "stanford-bunny.obj":
+    for name in pyshadow.data.MESHES:
+        if name == "stanford-bunny.obj":
             continue
-        mesh = pyshadow.load_mesh(path)
+        mesh = load_mesh(name)
         for fp in (False, True):
             csm = pyshadow.CoherentShadowMap.build(mesh, views, 128, progress=False, footprint=fp)
             scene = pyshadow.Scene(ground=0.0)
@@ -309,11 +309,11 @@ def main(argv=None):
             row = {"ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],
                    "agreement_ao_rays": agreement(scene, 0, n_pts // 4, 16, 8),
                    "agreement_uniform_rays": agreement(scene, 0, n_pts // 4, 16, 9, uniform=True)}
-            footprint.setdefault(path.name, {})[fp] = row
+            footprint.setdefault(name, {})[fp] = row
             if not fp:
-                others[path.name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
-                                     "agreement_ao_rays": row["agreement_ao_rays"],
-                                     "agreement_uniform_rays": row["agreement_uniform_rays"]}
+                others[name] = {"faces": int(len(mesh.faces)), "watertight": bool(mesh.is_watertight),
+                                "agreement_ao_rays": row["agreement_ao_rays"],
+                                "agreement_uniform_rays": row["agreement_uniform_rays"]}
     # 6. error budget: the CSM against an exact map along every ray
     budget = {R: error_budget(sc, 0, 64 if args.quick else 256, n_pts // 5, 10) for R, sc in budget_scenes.items()}
 

@@ -34,7 +34,7 @@ import numpy as np
 import trimesh
 
 import pyshadow
-from _common import MESHES, emit, environment
+from _common import MESH_HELP, emit, environment, load_mesh
 
 # thesis 000, Table 5.1: (theta, phi) -> (compressed MB, ratio); bunny with holes. Its MB are
 # 2^20 bytes (8192 maps of 128^2 16-bit texels are its "256,0 MB"); ours are printed the same way.
@@ -70,7 +70,7 @@ FRAMES = ("box", "minimal")
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
+    ap.add_argument("--mesh", default="stanford-bunny.obj", help=MESH_HELP)
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--quick", action="store_true", help="only the 32x32 and 64x128 rows")
     ap.add_argument("--frame-scale", type=float, default=1.0,
@@ -84,8 +84,8 @@ def main(argv=None):
     if not (args.frame_scale >= 1.0):
         ap.error("--frame-scale must be >= 1 (a smaller sphere would cut the mesh)")
 
-    holes = pyshadow.load_mesh(args.mesh)
-    filled = pyshadow.load_mesh(args.mesh, fill_holes=True)
+    holes = load_mesh(args.mesh)
+    filled = load_mesh(args.mesh, fill_holes=True)
     if args.pole_axis != "y":
         # a quarter turn about -x takes +z to +y; about +z, +x to +y
         axis = [-1.0, 0.0, 0.0] if args.pole_axis == "z" else [0.0, 0.0, 1.0]

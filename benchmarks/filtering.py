@@ -23,7 +23,7 @@ from scipy import ndimage
 
 import pyshadow
 from pyshadow import filters, reference
-from _common import MESHES, emit, environment, median_time
+from _common import emit, environment, load_mesh, median_time
 
 
 def edge_mask(depth, width=2, jump=0.05):
@@ -51,7 +51,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
-    bunny = pyshadow.load_mesh(MESHES / "stanford-bunny.obj")
+    bunny = load_mesh("stanford-bunny.obj")
     T = pyshadow.stand_on_ground(bunny)
     scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
     scene.add(bunny, T)

@@ -14,12 +14,12 @@ import argparse
 import numpy as np
 
 import pyshadow
-from _common import MESHES, emit, environment, median_time
+from _common import MESH_HELP, emit, environment, load_mesh, median_time
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
+    ap.add_argument("--mesh", default="stanford-bunny.obj", help=MESH_HELP)
     ap.add_argument("--theta", type=int, default=64)
     ap.add_argument("--phi", type=int, default=128)
     ap.add_argument("--resolution", type=int, default=128)
@@ -28,7 +28,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
 
-    mesh = pyshadow.load_mesh(args.mesh)
+    mesh = load_mesh(args.mesh)
     views = pyshadow.ViewSet.zigzag(args.theta, args.phi)
     out = {}
 

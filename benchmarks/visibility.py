@@ -37,7 +37,7 @@ import trimesh
 import pyshadow
 from pyshadow import _cl, reference
 from pyshadow.scene import _grid, batch_size
-from _common import MESHES, emit, environment, median_time
+from _common import MESH_HELP, emit, environment, load_mesh, median_time
 
 
 def workload(scene, n_points, samples, seed=0):
@@ -52,7 +52,7 @@ def workload(scene, n_points, samples, seed=0):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--mesh", default=str(MESHES / "stanford-bunny.obj"))
+    ap.add_argument("--mesh", default="stanford-bunny.obj", help=MESH_HELP)
     ap.add_argument("--points", type=int, default=100_000)
     ap.add_argument("--samples", type=int, default=36)
     ap.add_argument("--theta", type=int, default=64)
@@ -64,7 +64,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
-    mesh = pyshadow.load_mesh(args.mesh)
+    mesh = load_mesh(args.mesh)
     t0 = time.perf_counter()
     scene = pyshadow.Scene(ground=float(mesh.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(args.theta, args.phi),
                            resolution=args.resolution)

@@ -1,7 +1,22 @@
-"""Shared fixtures: the test meshes of ../shared/meshes and small helpers."""
+"""Shared fixtures: the bundled test meshes, small helpers, and the stand-alone guard.
+
+The test meshes are the ones bundled in ``pyshadow/data/meshes`` (see
+:func:`pyshadow.data.mesh`); the suite needs nothing beside the repository.
+An audit hook (:func:`sys.addaudithook`) records every file this process
+opens or lists under the repository's parent folder but outside the
+repository (a sibling folder of the clone) and fails the test that did it;
+reads outside any test fail the session. See ``tests/test_standalone.py``.
+"""
 from __future__ import annotations
 
+import atexit
+import contextlib
 import os
+import shutil
+import site
+import sys
+import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -10,42 +25,192 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 
 
-def shared_dir() -> Path:
-    env = os.environ.get("PYSHADOW_SHARED")
-    return Path(env) if env else REPO.parent / "shared"
-
-
-MESH_DIR = shared_dir() / "meshes"
-
-
 def mesh_path(name: str) -> Path:
-    """Path of a test mesh; pyvista's bundled meshes are named 'pyvista:airplane'."""
+    """A file path of a test mesh, for code that wants a path (CLIs, load_mesh on a file).
+
+    A bundled mesh (``pyshadow.data.MESHES``) is written, as its original file,
+    into a temporary folder of this session; pyvista's bundled meshes are
+    named ``'pyvista:airplane'`` and come from the installed pyvista wheel.
+    """
     if name.startswith("pyvista:"):
         from pyvista import examples
 
         return Path(examples.__file__).parent / (name.split(":", 1)[1] + ".ply")
-    path = MESH_DIR / name
+    import pyshadow
+
+    global _extract_dir
+    if _extract_dir is None:
+        _extract_dir = tempfile.mkdtemp(prefix="pyshadow-test-meshes-")
+        atexit.register(shutil.rmtree, _extract_dir, True)
+    path = Path(_extract_dir) / name
     if not path.is_file():
-        raise FileNotFoundError(
-            f"test mesh {path} is missing: the tests need ../shared/meshes beside the "
-            "repository (or PYSHADOW_SHARED pointing at a folder holding meshes/)"
-        )
+        path = pyshadow.data.mesh_file(name, _extract_dir)
     return path
 
 
+_extract_dir: str | None = None
 _cache: dict = {}
 
 
 def load(name: str, fill_holes: bool = False):
-    """Load (and cache) a test mesh through pyshadow.load_mesh."""
+    """Load (and cache) a test mesh: a bundled one by name, or ``'pyvista:...'``."""
     import pyshadow
 
     key = (name, fill_holes)
     if key not in _cache:
-        _cache[key] = pyshadow.load_mesh(mesh_path(name), fill_holes=fill_holes)
+        if name.startswith("pyvista:"):
+            _cache[key] = pyshadow.load_mesh(mesh_path(name), fill_holes=fill_holes)
+        else:
+            _cache[key] = pyshadow.data.mesh(name, fill_holes=fill_holes)
     return _cache[key]
 
 
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+# ---------------------------------------------------------------------------
+# the suite stands alone: no file of a sibling folder of the clone
+# ---------------------------------------------------------------------------
+_AUDITED = frozenset({"open", "os.listdir", "os.scandir"})
+_REPO_REAL = os.path.realpath(REPO)
+_PARENT_REAL = os.path.dirname(_REPO_REAL)
+
+
+def _inside(path: str, folder: str) -> bool:
+    return path == folder or path.startswith(folder.rstrip(os.sep) + os.sep)
+
+
+def _exempt_folders() -> tuple[str, ...]:
+    """Folders beside the clone that the interpreter itself may read.
+
+    The virtual environment, the interpreter's prefixes and site-packages,
+    the temporary folder and ``PYSHADOW_AUDIT_ALLOW`` (``os.pathsep``
+    separated), each only when it lies beside the repository without
+    holding it (a folder holding the repository would exempt everything).
+    """
+    cands = [sys.prefix, sys.base_prefix, sys.exec_prefix, sys.base_exec_prefix,
+             tempfile.gettempdir(), *site.getsitepackages()]
+    with contextlib.suppress(Exception):
+        cands.append(site.getusersitepackages())
+    cands += [p for p in os.environ.get("PYSHADOW_AUDIT_ALLOW", "").split(os.pathsep) if p]
+    out = []
+    for c in cands:
+        r = os.path.realpath(c)
+        if _inside(r, _PARENT_REAL) and not _inside(_REPO_REAL, r) and not _inside(r, _REPO_REAL):
+            out.append(r)
+    return tuple(sorted(set(out)))
+
+
+_EXEMPT = _exempt_folders()
+_pending: list[tuple[str, str]] = []        # (resolved path, audit event) not yet reported
+_busy = threading.local()
+
+
+def outside_path(path) -> str | None:
+    """The resolved path if ``path`` lies beside the repository (in a sibling folder), else None.
+
+    Hidden siblings (``~/.cache`` when the clone sits in the home folder) and
+    the exempt folders of the interpreter do not count.
+    """
+    try:
+        p = os.fsdecode(path)
+    except TypeError:
+        return None
+    r = os.path.realpath(p)
+    if not _inside(r, _PARENT_REAL) or r == _PARENT_REAL or _inside(r, _REPO_REAL):
+        return None
+    first = os.path.relpath(r, _PARENT_REAL).split(os.sep, 1)[0]
+    if first.startswith(".") or any(_inside(r, e) for e in _EXEMPT):
+        return None
+    return r
+
+
+def _audit(event, args):
+    if event not in _AUDITED or getattr(_busy, "on", False):
+        return
+    path = args[0] if args else None
+    if path is None or isinstance(path, int):     # os.listdir() of the cwd, or a file descriptor
+        return
+    _busy.on = True
+    try:
+        r = outside_path(path)
+        if r is not None:
+            _pending.append((r, event))
+    except Exception:                              # never break the audited call
+        pass
+    finally:
+        _busy.on = False
+
+
+# a clone at the top of the file system has every folder beside it: no guard there
+if os.path.dirname(_PARENT_REAL) != _PARENT_REAL:
+    sys.addaudithook(_audit)   # for the life of the process (audit hooks cannot be removed)
+
+
+def _drain() -> list[tuple[str, str]]:
+    out = list(dict.fromkeys(_pending))
+    _pending.clear()
+    return out
+
+
+@contextlib.contextmanager
+def outside_reads():
+    """Collect (and take off the books) the outside reads made inside the block.
+
+    Yields a list that holds the ``(resolved path, audit event)`` pairs once
+    the block ends; they are then not reported as a failure of the test.
+    """
+    before = _drain()
+    seen: list[tuple[str, str]] = []
+    try:
+        yield seen
+    finally:
+        seen.extend(_drain())
+        _pending.extend(before)
+
+
+def _describe(reads) -> str:
+    return "; ".join(f"{p} ({ev})" for p, ev in reads)
+
+
+_outside_tests: list[str] = []
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    rep = outcome.get_result()
+    reads = _drain()
+    if not reads:
+        return
+    msg = (f"{item.nodeid} ({call.when}) read outside the repository {_REPO_REAL}: "
+           f"{_describe(reads)}. The test suite must stand alone: use pyshadow.data.mesh() "
+           "or files inside the repository.")
+    if rep.outcome == "failed":
+        rep.sections.append(("reads outside the repository", msg))
+    else:
+        rep.outcome = "failed"
+        rep.longrepr = msg
+
+
+def pytest_collection_finish(session):
+    reads = _drain()
+    if reads:
+        _outside_tests.append(f"during collection: {_describe(reads)}")
+
+
+def pytest_sessionfinish(session, exitstatus):
+    reads = _drain()
+    if reads:
+        _outside_tests.append(f"outside any test: {_describe(reads)}")
+    if _outside_tests and session.exitstatus == 0:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter):
+    if _outside_tests:
+        terminalreporter.section("reads outside the repository", red=True)
+        for line in _outside_tests:
+            terminalreporter.write_line(line)

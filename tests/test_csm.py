@@ -14,7 +14,7 @@ from pyshadow import CoherentShadowMap, CSMFormatError, reference
 from pyshadow.csm import (DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_corners, footprint_scale,
                           front_margin)
 
-from conftest import REPO, load
+from conftest import load
 
 Q = 1.0 / DEPTH_Q
 
@@ -626,11 +626,11 @@ def test_csm_load_rejects_nan_depth(tmp_path):
 @pytest.mark.slow
 def test_csm_build_memory_does_not_grow_with_maps(tmp_path):
     """Peak RSS of builds with 512 and 4096 maps differ by far less than the maps' size."""
-    code = textwrap.dedent(f"""
+    code = textwrap.dedent("""
         import resource, sys, warnings
         import pyshadow
         warnings.simplefilter("ignore")
-        m = pyshadow.load_mesh({str(REPO.parent / 'shared' / 'meshes' / 'suzanne.ply')!r})
+        m = pyshadow.data.mesh("suzanne.ply")
         theta = int(sys.argv[1])
         csm = pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(theta, 2 * theta), 128,
                                                block=64, progress=False)

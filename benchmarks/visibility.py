@@ -36,7 +36,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import _cl, reference
-from pyshadow.scene import _grid, batch_size
+from pyshadow._cl import launch
 from _common import MESH_HELP, emit, environment, load_mesh, median_time
 
 
@@ -99,7 +99,8 @@ def main(argv=None):
                        scene._defines(atlas, HAVE_FP64=int(fp64), POINTS_F64=0, DIRS_F64=0, **(extra or {})))
 
         def run():
-            k(q, *_grid(-(-N // batch_size())), *kargs, np.int32(N), dev_p, dev_w, *zero, own, buf)
+            shape = launch.shape()
+            k(q, *launch.grid(-(-N // shape.query_batch), shape.query_group), *kargs, np.int32(N), dev_p, dev_w, *zero, own, buf)
             q.finish()
         return median_time(run, args.repeats)[0]
 

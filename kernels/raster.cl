@@ -6,8 +6,9 @@
  * LAYERS nearest depths (depth peeling in one pass). No two work-items write
  * the same memory, so no atomics are needed.
  *
- * Triangles are read 16 at a time from a structure-of-arrays buffer and
- * projected with float16 arithmetic; only triangles whose screen bounding box
+ * Triangles are read LANES at a time (lanes.h) from a structure-of-arrays
+ * buffer and projected with lane-vector arithmetic; only triangles whose
+ * screen bounding box
  * holds a texel centre (about 40 % for a 70k-triangle mesh at 128^2) go on to
  * the scalar coverage test. The projected coordinates of a vertex are the
  * same in every triangle that uses it (same operations, FP contraction off),
@@ -22,7 +23,7 @@
  *
  * Buffers
  *   tris   float  (9, tpad)  corner coordinates a.x a.y a.z b.x ... c.z as
- *                            rows, tpad a multiple of 16; read
+ *                            rows, tpad a multiple of LANES; read
  *   bases  float  (D, 9)     rows u, v, d of each view of the launch; read
  *   depth  float  (D, LAYERS, RES, RES)   written; must hold +inf on entry
  *   front  uchar  (D, LAYERS, RES, RES)   FACING only: 1 where that layer's
@@ -36,22 +37,24 @@
  *   RES     texels per side (1 .. 4096)
  *   LAYERS  depth layers kept (1 .. 3)
  *   FACING  0 or 1 (default 0): also keep each layer's facing flag
+ *   LANES   triangles per lane vector (lanes.h)
  */
 #include "raster_common.h"
+#include "lanes.h"
 
-/* edge function of a->b at p for 16 lanes: the same operations, in the same
- * canonical endpoint order, as edge_fn() */
-#define EDGE16(AX, AY, BX, BY, PX, PY) edge16((AX), (AY), (BX), (BY), (PX), (PY))
-inline float16 edge16(float16 ax, float16 ay, float16 bx, float16 by, float16 px, float16 py)
+/* edge function of a->b at p for every lane: the same operations, in the
+ * same canonical endpoint order, as edge_fn() */
+inline fv edge_v(fv ax, fv ay, fv bx, fv by, fv px, fv py)
 {
-    const int16 sw = (bx < ax) | ((bx == ax) & (by < ay));
-    const float16 ox = select(ax, bx, sw), oy = select(ay, by, sw);
-    const float16 ex = select(bx - ax, ax - bx, sw), ey = select(by - ay, ay - by, sw);
-    const float16 e = ex * (py - oy) - ey * (px - ox);
+    const iv sw = MASK(bx < ax) | (MASK(bx == ax) & MASK(by < ay));
+    const fv ox = select(ax, bx, sw), oy = select(ay, by, sw);
+    const fv ex = select(bx - ax, ax - bx, sw), ey = select(by - ay, ay - by, sw);
+    const fv e = ex * (py - oy) - ey * (px - ox);
     return select(e, -e, sw);
 }
-/* edge_owns() for 16 lanes */
-#define OWNS16(AX, AY, BX, BY) ((((BY) - (AY)) > 0.0f) | ((((BY) - (AY)) == 0.0f) & (((BX) - (AX)) < 0.0f)))
+/* edge_owns() for every lane */
+#define OWNS_V(AX, AY, BX, BY) \
+    (MASK(((BY) - (AY)) > 0.0f) | (MASK(((BY) - (AY)) == 0.0f) & MASK(((BX) - (AX)) < 0.0f)))
 
 #ifndef FACING
 #define FACING 0
@@ -110,67 +113,68 @@ __kernel void render_depth_layers(__global const float *tris,
     __global uchar *fout = front + (size_t)view * LAYERS * plane;
 #endif
 
-    float sx0[16], sy0[16], sx1[16], sy1[16], sx2[16], sy2[16], sz0[16], sz1[16], sz2[16];
-    float zhit[16];
-    int flag[16], cpos[16], rpos[16], fpos[16];
+    float sx0[LANES], sy0[LANES], sx1[LANES], sy1[LANES], sx2[LANES], sy2[LANES];
+    float sz0[LANES], sz1[LANES], sz2[LANES];
+    float zhit[LANES];
+    int flag[LANES], cpos[LANES], rpos[LANES], fpos[LANES];
 
-    for (int base = 0; base < n_tris; base += 16) {
-        const float16 ax = vload16(0, tris + 0 * (size_t)tpad + base);
-        const float16 ay = vload16(0, tris + 1 * (size_t)tpad + base);
-        const float16 az = vload16(0, tris + 2 * (size_t)tpad + base);
-        const float16 bx = vload16(0, tris + 3 * (size_t)tpad + base);
-        const float16 by = vload16(0, tris + 4 * (size_t)tpad + base);
-        const float16 bz = vload16(0, tris + 5 * (size_t)tpad + base);
-        const float16 cx = vload16(0, tris + 6 * (size_t)tpad + base);
-        const float16 cy = vload16(0, tris + 7 * (size_t)tpad + base);
-        const float16 cz = vload16(0, tris + 8 * (size_t)tpad + base);
-        const float16 x0 = PROJ(ax, ay, az, U), y0 = PROJ(ax, ay, az, Vv);
-        const float16 x1 = PROJ(bx, by, bz, U), y1 = PROJ(bx, by, bz, Vv);
-        const float16 x2 = PROJ(cx, cy, cz, U), y2 = PROJ(cx, cy, cz, Vv);
-        const float16 c0 = fmax(ceil(fmin(x0, fmin(x1, x2))), 0.0f);
-        const float16 c1 = fmin(floor(fmax(x0, fmax(x1, x2))), last);
-        const float16 r0 = fmax(ceil(fmin(y0, fmin(y1, y2))), 0.0f);
-        const float16 r1 = fmin(floor(fmax(y0, fmax(y1, y2))), last);
-        const int16 live = (c0 <= c1) & (r0 <= r1);
-        if (!any(live)) continue;
+    for (int base = 0; base < n_tris; base += LANES) {
+        const fv ax = VLOAD(0, tris + 0 * (size_t)tpad + base);
+        const fv ay = VLOAD(0, tris + 1 * (size_t)tpad + base);
+        const fv az = VLOAD(0, tris + 2 * (size_t)tpad + base);
+        const fv bx = VLOAD(0, tris + 3 * (size_t)tpad + base);
+        const fv by = VLOAD(0, tris + 4 * (size_t)tpad + base);
+        const fv bz = VLOAD(0, tris + 5 * (size_t)tpad + base);
+        const fv cx = VLOAD(0, tris + 6 * (size_t)tpad + base);
+        const fv cy = VLOAD(0, tris + 7 * (size_t)tpad + base);
+        const fv cz = VLOAD(0, tris + 8 * (size_t)tpad + base);
+        const fv x0 = PROJ(ax, ay, az, U), y0 = PROJ(ax, ay, az, Vv);
+        const fv x1 = PROJ(bx, by, bz, U), y1 = PROJ(bx, by, bz, Vv);
+        const fv x2 = PROJ(cx, cy, cz, U), y2 = PROJ(cx, cy, cz, Vv);
+        const fv c0 = fmax(ceil(fmin(x0, fmin(x1, x2))), 0.0f);
+        const fv c1 = fmin(floor(fmax(x0, fmax(x1, x2))), last);
+        const fv r0 = fmax(ceil(fmin(y0, fmin(y1, y2))), 0.0f);
+        const fv r1 = fmin(floor(fmax(y0, fmax(y1, y2))), last);
+        const iv live = MASK(c0 <= c1) & MASK(r0 <= r1);
+        if (!VANY(live)) continue;
         /* Most live triangles hold one texel centre in their bounding box:
-         * test it for all 16 lanes at once with the scalar rule's exact
+         * test it for all lanes at once with the scalar rule's exact
          * operations (see tri_covers); lanes with bigger boxes go scalar. */
-        const int16 multi = live & ((c1 > c0) | (r1 > r0));
-        const float16 area = EDGE16(x0, y0, x1, y1, x2, y2);
-        float16 e0 = EDGE16(x1, y1, x2, y2, c0, r0);
-        float16 e1 = EDGE16(x2, y2, x0, y0, c0, r0);
-        float16 e2 = EDGE16(x0, y0, x1, y1, c0, r0);
-        const int16 pos = area > 0.0f;
+        const iv multi = live & (MASK(c1 > c0) | MASK(r1 > r0));
+        const fv area = edge_v(x0, y0, x1, y1, x2, y2);
+        fv e0 = edge_v(x1, y1, x2, y2, c0, r0);
+        fv e1 = edge_v(x2, y2, x0, y0, c0, r0);
+        fv e2 = edge_v(x0, y0, x1, y1, c0, r0);
+        const iv pos = MASK(area > 0.0f);
         e0 = select(-e0, e0, pos); e1 = select(-e1, e1, pos); e2 = select(-e2, e2, pos);
-        const int16 o0 = select(OWNS16(x2, y2, x1, y1), OWNS16(x1, y1, x2, y2), pos);
-        const int16 o1 = select(OWNS16(x0, y0, x2, y2), OWNS16(x2, y2, x0, y0), pos);
-        const int16 o2 = select(OWNS16(x1, y1, x0, y0), OWNS16(x0, y0, x1, y1), pos);
-        const float16 esum = e0 + e1 + e2;
-        const int16 in = (e0 >= 0.0f) & (e1 >= 0.0f) & (e2 >= 0.0f)
-                       & ((e0 > 0.0f) | o0) & ((e1 > 0.0f) | o1) & ((e2 > 0.0f) | o2)
-                       & (esum > 0.0f) & (area != 0.0f);
-        const float16 dz0 = (1.0f - (ax * Dd.x + ay * Dd.y + az * Dd.z)) * 0.5f;
-        const float16 dz1 = (1.0f - (bx * Dd.x + by * Dd.y + bz * Dd.z)) * 0.5f;
-        const float16 dz2 = (1.0f - (cx * Dd.x + cy * Dd.y + cz * Dd.z)) * 0.5f;
-        const float16 zc = (e0 / esum) * dz0 + (e1 / esum) * dz1 + (e2 / esum) * dz2;
-        const int16 single = live & in & ~multi;
-        if (!any(single | multi)) continue;
-        vstore16(zc, 0, zhit);
-        vstore16(select((int16)0, (int16)1, single) | select((int16)0, (int16)2, multi), 0, flag);
-        vstore16(convert_int16(c0), 0, cpos);
-        vstore16(convert_int16(r0), 0, rpos);
+        const iv o0 = select(OWNS_V(x2, y2, x1, y1), OWNS_V(x1, y1, x2, y2), pos);
+        const iv o1 = select(OWNS_V(x0, y0, x2, y2), OWNS_V(x2, y2, x0, y0), pos);
+        const iv o2 = select(OWNS_V(x1, y1, x0, y0), OWNS_V(x0, y0, x1, y1), pos);
+        const fv esum = e0 + e1 + e2;
+        const iv in = MASK(e0 >= 0.0f) & MASK(e1 >= 0.0f) & MASK(e2 >= 0.0f)
+                    & (MASK(e0 > 0.0f) | o0) & (MASK(e1 > 0.0f) | o1) & (MASK(e2 > 0.0f) | o2)
+                    & MASK(esum > 0.0f) & MASK(area != 0.0f);
+        const fv dz0 = (1.0f - (ax * Dd.x + ay * Dd.y + az * Dd.z)) * 0.5f;
+        const fv dz1 = (1.0f - (bx * Dd.x + by * Dd.y + bz * Dd.z)) * 0.5f;
+        const fv dz2 = (1.0f - (cx * Dd.x + cy * Dd.y + cz * Dd.z)) * 0.5f;
+        const fv zc = (e0 / esum) * dz0 + (e1 / esum) * dz1 + (e2 / esum) * dz2;
+        const iv single = live & in & ~multi;
+        if (!VANY(single | multi)) continue;
+        VSTORE(zc, 0, zhit);
+        VSTORE(select((iv)0, (iv)1, single) | select((iv)0, (iv)2, multi), 0, flag);
+        VSTORE(CONVERT(int, c0), 0, cpos);
+        VSTORE(CONVERT(int, r0), 0, rpos);
 #if FACING
-        vstore16(pos, 0, fpos);
+        VSTORE(pos, 0, fpos);
 #endif
-        const int any_multi = any(multi);
+        const int any_multi = VANY(multi);
         if (any_multi) {
-            vstore16(x0, 0, sx0); vstore16(y0, 0, sy0);
-            vstore16(x1, 0, sx1); vstore16(y1, 0, sy1);
-            vstore16(x2, 0, sx2); vstore16(y2, 0, sy2);
-            vstore16(dz0, 0, sz0); vstore16(dz1, 0, sz1); vstore16(dz2, 0, sz2);
+            VSTORE(x0, 0, sx0); VSTORE(y0, 0, sy0);
+            VSTORE(x1, 0, sx1); VSTORE(y1, 0, sy1);
+            VSTORE(x2, 0, sx2); VSTORE(y2, 0, sy2);
+            VSTORE(dz0, 0, sz0); VSTORE(dz1, 0, sz1); VSTORE(dz2, 0, sz2);
         }
-        const int lanes = min(16, n_tris - base);
+        const int lanes = min(LANES, n_tris - base);
         for (int i = 0; i < lanes; ++i) {
             const int f = flag[i];
             if (f == 0) continue;

@@ -34,11 +34,11 @@
  *   one half. Up to 16 searches instead of one.
  *
  * Scene data ("atlas": every CSM type of the scene concatenated)
- *   types    int   (NTYPES, 16): R, D, layout (0 zigzag, 1 hilbert, 2 hilbert
- *                  over two hemispheres), p1 (theta or level), p2 (phi),
- *                  offsets base, view base, cell-table base; zigzag only:
- *                  the float bits of cos and sin of pi / theta and of
- *                  2 pi / phi (the grid steps); 4 unused
+ *   types    csm_type_t (NTYPES): resolution, maps, layout (0 zigzag, 1
+ *                  hilbert, 2 hilbert over two hemispheres), p1 (theta or
+ *                  level), p2 (phi), texel, view and cell-table bases, the
+ *                  zigzag grid steps' cos and sin (scene_types.h, generated
+ *                  from pyshadow._cl.tables.CSM_TYPE)
  *   offsets, soff  uint (sum R^2, + 1); summary IEND_T; pairs pair_t: the
  *            search layout of csm_search.h with every list padded to whole
  *            blocks (CoherentShadowMap.search_arrays(padded=True)), every
@@ -46,8 +46,9 @@
  *            directly
  *   bases    float (sum D, 9)      rows u, v, d of every map
  *   cells    int   (sum cells)     hilbert cell -> map index
- *   inst     float (NINST, 32): A (3x3, rows) 0..8, c 9..11, Rw (3x3) 12..20,
- *                  world bounding sphere centre 21..23, radius 24
+ *   inst     instance_t (NINST): to_object A (3x3, rows), offset c,
+ *                  rotation Rw (3x3), world bounding sphere centre and
+ *                  radius (pyshadow._cl.tables.INSTANCE)
  *   itype    int   (NINST)         CSM type of each instance
  * All of it is validated on the host (CSM files on load), so the search and
  * the map/texel indices stay inside their arrays whatever the query.
@@ -70,6 +71,7 @@
  *   FILTERED             1: filtered lookups (instance16): the four maps of
  *                        views.ViewSet.filter_window, four texels each
  *   FILTER_ANGLE_EPS     float: views.FILTER_ANGLE_EPS (FILTERED only)
+ *   LANES                queries per lane vector (lanes.h)
  *   BATCH                queries per work-item, a multiple of LANES
  *                        (scene.batch_size()): see batch_occluded()
  *   HAVE_FP64            the device has cl_khr_fp64 (anchor arithmetic in
@@ -82,6 +84,7 @@
  */
 #include "csm_search.h"
 #include "sampling.h"
+#include "scene_types.h"
 
 #define PI_F 3.14159265358979f
 
@@ -177,14 +180,14 @@ inline void window_hilbert(__global const float *bases, int vbase, __global cons
 #endif
 
 typedef struct {
-    __global const int *types;
+    __global const csm_type_t *types;
     __global const uint *offsets;
     __global const uint *soff;
     __global const IEND_T *summary;
     __global const pair_t *pairs;
     __global const float *bases;
     __global const int *cells;
-    __global const float *inst;
+    __global const instance_t *inst;
     __global const int *itype;
     int ninst;
     float ground_y, ground_eps;
@@ -192,22 +195,16 @@ typedef struct {
 } scene_t;
 
 /* ---------------------------------------------------------------------
- * Queries are answered LANES (16) at a time: the arithmetic runs on float16
- * vectors (one lane per query), the table reads (map bases, list offsets,
- * the counting searches, stored depths) run lane by lane, each phase for all
- * lanes before the next, with the block summaries and the blocks prefetched
- * as soon as their addresses are known -- so the lanes' cache misses overlap
- * instead of queueing (memory latency is what limits these kernels on CPUs).
+ * Queries are answered LANES at a time (lanes.h; the host picks LANES per
+ * device): the arithmetic runs on lane vectors (one lane per query), the
+ * table reads (map bases, list offsets, the counting searches, stored
+ * depths) run lane by lane, each phase for all lanes before the next, with
+ * the block summaries and the blocks prefetched as soon as their addresses
+ * are known -- so the lanes' cache misses overlap instead of queueing
+ * (memory latency is what limits these kernels on CPUs). With LANES = 1
+ * each work-item answers its queries one by one (GPUs).
  * ------------------------------------------------------------------- */
-#define LANES 16
-typedef float16 fv;
-typedef int16 iv;
-/* select(), min() and max() on lane vectors as operators: PoCL calls its
- * vector builtins instead of inlining them. Not for NaN operands (there are
- * none: inputs are validated, directions normalised). */
-#define VSEL(a, b, c) ((c) ? (b) : (a))
-#define VMIN(a, b) (((b) < (a)) ? (b) : (a))
-#define VMAX(a, b) (((b) > (a)) ? (b) : (a))
+#include "lanes.h"
 /* CPU targets of clang (PoCL): builtins PoCL would call rather than inline
  * get inline forms below; other compilers use the standard builtins */
 #ifndef CPU_CLANG                /* the host may set it (tests: 0 on PoCL too) */
@@ -217,42 +214,43 @@ typedef int16 iv;
 #define CPU_CLANG 0
 #endif
 #endif
-/* private lane arrays: 64-byte aligned, moved as whole vectors (the type
- * follows the array, so one macro serves float, int and uint arrays) */
-#define LANE_ARRAY __attribute__((aligned(64)))
+/* private lane arrays: aligned to a whole lane vector, moved as whole
+ * vectors (the type follows the array, so one macro serves float, int and
+ * uint arrays) */
+#define LANE_ARRAY __attribute__((aligned(4 * LANES)))
 #if CPU_CLANG
-#define LANE_LOAD(a) (*(__typeof__(vload16(0, (a))) *)(a))
-#define LANE_STORE(v, a) (*(__typeof__(vload16(0, (a))) *)(a) = (v))
+#define LANE_LOAD(a) (*(__typeof__(VLOAD(0, (a))) *)(a))
+#define LANE_STORE(v, a) (*(__typeof__(VLOAD(0, (a))) *)(a) = (v))
 /* a cache-line prefetch that does not hold up the lane loop (PoCL's
  * prefetch() is a no-op; clang's builtin becomes the CPU's prefetch
  * instruction; memory is flat on CPUs) */
 #define PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))
 #else
-#define LANE_LOAD(a) vload16(0, (a))
-#define LANE_STORE(v, a) vstore16((v), 0, (a))
+#define LANE_LOAD(a) VLOAD(0, (a))
+#define LANE_STORE(v, a) VSTORE((v), 0, (a))
 #define PREFETCH(p) prefetch((p), 1)
 #endif
 
 #if LAYOUT_ZIGZAG
 /* acos to 5e-5 rad (Abramowitz & Stegun 4.4.45) */
-inline fv acos16(fv x)
+inline fv acos_v(fv x)
 {
     const fv a = fabs(x);
     const fv r = sqrt(1.0f - a) * (1.5707288f + a * (-0.2121144f + a * (0.0742610f - 0.0187293f * a)));
-    return VSEL(r, PI_F - r, x < 0.0f);
+    return VSEL(r, PI_F - r, MASK(x < 0.0f));
 }
 
 /* atan2 in [0, 2 pi) to 1e-5 rad (A&S 4.4.49 after octant reduction) */
-inline fv atan2_pos16(fv y, fv x)
+inline fv atan2_pos_v(fv y, fv x)
 {
     const fv ax = fabs(x), ay = fabs(y);
     const fv mx = VMAX(ax, ay);
-    const fv t = VMIN(ax, ay) / VSEL(mx, (fv)(1.0f), mx == 0.0f);
+    const fv t = VMIN(ax, ay) / VSEL(mx, (fv)(1.0f), MASK(mx == 0.0f));
     const fv t2 = t * t;
     fv r = t * (0.9998660f + t2 * (-0.3302995f + t2 * (0.1801410f + t2 * (-0.0851330f + t2 * 0.0208351f))));
-    r = VSEL(r, 0.5f * PI_F - r, ay > ax);
-    r = VSEL(r, PI_F - r, x < 0.0f);
-    return VSEL(r, 2.0f * PI_F - r, y < 0.0f);
+    r = VSEL(r, 0.5f * PI_F - r, MASK(ay > ax));
+    r = VSEL(r, PI_F - r, MASK(x < 0.0f));
+    return VSEL(r, 2.0f * PI_F - r, MASK(y < 0.0f));
 }
 
 /* cos and sin of a small angle d (|d| < 0.2: error below 1e-8) */
@@ -262,36 +260,36 @@ inline fv sin_small(fv d) { const fv d2 = d * d; return d * (1.0f - d2 * (1.0f /
 /* the 2 x 2 grid points around each lane's (theta, phi) -- rows r0, r0 + 1
  * (the last row repeated), columns c0, c0 + 1 -- as map indices k[4] and
  * directions (cx, cy, cz)[4], in the order of views.ViewSet.filter_window */
-inline void zigzag_window16(int T, int P, float cst, float sst, float csp, float ssp,
+inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)
 {
-    const fv th = acos16(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
-    const fv ph = atan2_pos16(wz, wx);
+    const fv th = acos_v(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
+    const fv ph = atan2_pos_v(wz, wx);
     const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
     /* th, ph >= 0: truncation is floor */
-    const iv r0 = VMIN(VMAX(convert_int16(th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
-    iv c0 = VMIN(VMAX(convert_int16(ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
-    c0 = VSEL(c0, c0 - P, c0 >= P);
+    const iv r0 = VMIN(VMAX(CONVERT(int, th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
+    iv c0 = VMIN(VMAX(CONVERT(int, ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
+    c0 = VSEL(c0, c0 - P, MASK(c0 >= P));
     /* the candidate grid directions by angle addition from the query's own
      * (cos, sin) of theta and phi: rotate back by the small offsets to the
      * grid lines, then forward by one grid step */
     const fv rho = sqrt(wx * wx + wz * wz);
-    const iv pole = rho == 0.0f;
+    const iv pole = MASK(rho == 0.0f);
     const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
     const fv cth = wy, sth = rho;
-    const fv drow = th - convert_float16(r0) * dth, dcol = ph - convert_float16(c0) * dph;
+    const fv drow = th - CONVERT(float, r0) * dth, dcol = ph - CONVERT(float, c0) * dph;
     const fv cd = cos_small(drow), sd = sin_small(drow);
     const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
     const fv ce = cos_small(dcol), se = sin_small(dcol);
     const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
-    const iv last = r0 + 1 > T - 1;
+    const iv last = MASK(r0 + 1 > T - 1);
     const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last), st1 = VSEL(st0 * cst + ct0 * sst, st0, last);
     const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
     iv c1 = c0 + 1;
-    c1 = VSEL(c1, c1 - P, c1 >= P);
+    c1 = VSEL(c1, c1 - P, MASK(c1 >= P));
     const iv r1 = VMIN(r0 + 1, (iv)(T - 1));
 #define ZZ_CANDIDATE(I, R, C, CT, ST, CP, SP)                                        \
-    k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), ((R) & 1) != 0);                    \
+    k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), MASK(((R) & 1) != 0));              \
     cx[I] = (ST) * (CP); cy[I] = (CT); cz[I] = (ST) * (SP);
     ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
     ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
@@ -305,17 +303,17 @@ inline void zigzag_window16(int T, int P, float cst, float sst, float csp, float
  * and phi need only be near: an error far below the grid step can only move
  * the 2 x 2 window when the direction is next to a grid line, and then the
  * grid point on that line -- the nearest -- stays in the window. */
-inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float ssp,
+inline iv nearest_zigzag_v(int T, int P, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz)
 {
     iv k[4];
     fv cx[4], cy[4], cz[4];
-    zigzag_window16(T, P, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
+    zigzag_window_v(T, P, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
     for (int c = 0; c < 4; ++c) {
         const fv dd = wx * cx[c] + wy * cy[c] + wz * cz[c];
-        const iv take = dd > best_d;
+        const iv take = MASK(dd > best_d);
         best_d = VSEL(best_d, dd, take);
         best = VSEL(best, k[c], take);
     }
@@ -326,23 +324,23 @@ inline iv nearest_zigzag16(int T, int P, float cst, float sst, float csp, float 
 #if GROUND
 /* lanes (-1) whose ray crosses the ground plane y = ground_y; within
  * ground_eps of the plane counts as on it (above) */
-inline iv ground16(const scene_t *S, fv py, fv wy)
+inline iv ground_v(const scene_t *S, fv py, fv wy)
 {
     const fv h = py - S->ground_y;
-    return ((h >= -S->ground_eps) & (wy < 0.0f)) | ((h < -S->ground_eps) & (wy > 0.0f));
+    return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f)) | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f));
 }
 #endif
 
 /* lanes (-1) whose ray p + t w, t >= 0, can come within instance j's
  * bounding sphere */
-inline iv sphere16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz)
+inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz)
 {
-    __global const float *I = S->inst + 32 * j;
-    const fv ox = I[21] - px, oy = I[22] - py, oz = I[23] - pz;
+    __global const instance_t *I = S->inst + j;
+    const fv ox = I->centre[0] - px, oy = I->centre[1] - py, oz = I->centre[2] - pz;
     const fv tca = ox * wx + oy * wy + oz * wz;
     const fv oc2 = ox * ox + oy * oy + oz * oz;
-    const float r2 = I[24] * I[24];
-    return ~((oc2 > r2) & ((tca < 0.0f) | (oc2 - tca * tca > r2)));
+    const float r2 = I->radius * I->radius;
+    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(oc2 - tca * tca > r2)));
 }
 
 /* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
@@ -350,11 +348,11 @@ inline iv sphere16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
  * (csm_common.h) for every lane: first the list's block summary, then the
  * block. */
 __attribute__((always_inline))
-inline void stored16(const scene_t *S, __global const int *T, const int *ka, const int *ta,
+inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *ka, const int *ta,
                      const int *va, float *za)
 {
-    __global const uint *off = S->offsets + T[5];
-    __global const uint *sof = S->soff + T[5];
+    __global const uint *off = S->offsets + T->texel_base;
+    __global const uint *sof = S->soff + T->texel_base;
     LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
     for (int l = 0; l < LANES; ++l) {
         const uint t = va[l] ? (uint)ta[l] : 0u;
@@ -398,7 +396,7 @@ inline void stored16(const scene_t *S, __global const int *T, const int *ka, con
  * texel coordinates (fx, fy) in [0, R)^2 on the map; lanes (-1) where the
  * point lies inside the map's square, behind the bounding sphere's front */
 __attribute__((always_inline))
-inline iv map_frame16(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
+inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
                       fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy)
 {
     LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
@@ -412,19 +410,20 @@ inline iv map_frame16(__global const float *bases, const int *ka, int R, fv qx, 
     *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
     *fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f) * (0.5f * (float)R);
     *fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f) * (0.5f * (float)R);
-    return (*depth > 0.0f) & (*fx >= 0.0f) & (*fx < (float)R) & (*fy >= 0.0f) & (*fy < (float)R);
+    return MASK(*depth > 0.0f) & MASK(*fx >= 0.0f) & MASK(*fx < (float)R) & MASK(*fy >= 0.0f)
+           & MASK(*fy < (float)R);
 }
 
 /* depth tolerance of each lane for map axis (dx, dy, dz): against the
  * point's own surface a quantum, a share of a texel and the angle a between
  * the query direction and the map's axis; against other casters only
  * bias_other (the quantum) */
-inline fv bias16(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
+inline fv bias_v(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
 {
     const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
     const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
     const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
-    return VSEL((fv)(S->bias_other), bias_self, (own == -1) | (own == j));
+    return VSEL((fv)(S->bias_other), bias_self, MASK(own == -1) | MASK(own == j));
 }
 
 #if FILTERED
@@ -435,7 +434,7 @@ inline void sort4_heaviest_first(fv *w, iv *x)
     const int pairs[5][2] = {{0, 1}, {2, 3}, {0, 2}, {1, 3}, {1, 2}};
     for (int p = 0; p < 5; ++p) {
         const int a = pairs[p][0], b = pairs[p][1];
-        const iv swap = w[b] > w[a];
+        const iv swap = MASK(w[b] > w[a]);
         const fv wa = VSEL(w[a], w[b], swap), wb = VSEL(w[b], w[a], swap);
         const iv xa = VSEL(x[a], x[b], swap), xb = VSEL(x[b], x[a], swap);
         w[a] = wa; w[b] = wb; x[a] = xa; x[b] = xb;
@@ -444,18 +443,19 @@ inline void sort4_heaviest_first(fv *w, iv *x)
 #endif
 
 /* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
-inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
+inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
                      iv act)
 {
-    __global const float *I = S->inst + 32 * j;
-    __global const int *T = S->types + 16 * S->itype[j];
-    const int R = T[0], layout = T[2], vbase = T[6];
-    const fv qx = I[0] * px + I[1] * py + I[2] * pz + I[9];
-    const fv qy = I[3] * px + I[4] * py + I[5] * pz + I[10];
-    const fv qz = I[6] * px + I[7] * py + I[8] * pz + I[11];
-    fv vx = I[12] * wx + I[13] * wy + I[14] * wz;
-    fv vy = I[15] * wx + I[16] * wy + I[17] * wz;
-    fv vz = I[18] * wx + I[19] * wy + I[20] * wz;
+    __global const instance_t *I = S->inst + j;
+    __global const csm_type_t *T = S->types + S->itype[j];
+    const int R = T->resolution, layout = T->layout, vbase = T->view_base;
+    __global const float *A = I->to_object, *Rw = I->rotation;
+    const fv qx = A[0] * px + A[1] * py + A[2] * pz + I->offset[0];
+    const fv qy = A[3] * px + A[4] * py + A[5] * pz + I->offset[1];
+    const fv qz = A[6] * px + A[7] * py + A[8] * pz + I->offset[2];
+    fv vx = Rw[0] * wx + Rw[1] * wy + Rw[2] * wz;
+    fv vy = Rw[3] * wx + Rw[4] * wy + Rw[5] * wz;
+    fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
     const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
     LANE_ARRAY int am[LANES];
@@ -472,8 +472,8 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     if (layout == 0) {
         iv k[4];
         fv cx[4], cy[4], cz[4];
-        zigzag_window16(T[3], T[4], as_float(T[8]), as_float(T[9]), as_float(T[10]), as_float(T[11]),
-                        vx, vy, vz, k, cx, cy, cz);
+        zigzag_window_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1], T->zigzag_steps[2],
+                        T->zigzag_steps[3], vx, vy, vz, k, cx, cy, cz);
         fv wsum = (fv)(0.0f), wt[4];
         for (int m = 0; m < 4; ++m) {
             const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];
@@ -498,7 +498,7 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
             int k4[4] = {0, 0, 0, 0};
             float w4[4] = {0.25f, 0.25f, 0.25f, 0.25f};
             if (am[l])
-                window_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+                window_hilbert(S->bases, vbase, S->cells, T->cell_base, T->p1, layout == 2,
                                (float3)(ax[l], ay[l], az[l]), k4, w4);
             const float sum = w4[0] + w4[1] + w4[2] + w4[3];
             for (int m = 0; m < 4; ++m) { kw[m][l] = k4[m]; mw[m][l] = w4[m] / sum; }
@@ -511,21 +511,21 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
      * for the rounding of the running sums: nearer ties go to the end) */
     fv vote = (fv)(0.0f), rest = (fv)(1.0f);
     iv open = act;
-    for (int m = 0; m < 4 && any(open); ++m) {
+    for (int m = 0; m < 4 && VANY(open); ++m) {
         fv dx, dy, dz, depth, fx, fy;
-        const iv inside = open & map_frame16(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
+        const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
                                              &dx, &dy, &dz, &depth, &fx, &fy);
         const fv wm = LANE_LOAD(mw[m]);
-        if (!any(inside)) {
+        if (!VANY(inside)) {
             rest -= wm;
-            open &= vote + rest > 0.5f - 1e-5f;
+            open &= MASK(vote + rest > 0.5f - 1e-5f);
             continue;
         }
-        const fv bias = bias16(S, R, j, own, vx, vy, vz, dx, dy, dz);
+        const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz);
         const fv gx = VSEL((fv)(0.0f), fx - 0.5f, inside), gy = VSEL((fv)(0.0f), fy - 0.5f, inside);
         const fv x0f = floor(gx), y0f = floor(gy);
         const fv tx = gx - x0f, ty = gy - y0f;
-        const iv x0 = convert_int16(x0f), y0 = convert_int16(y0f);
+        const iv x0 = CONVERT(int, x0f), y0 = CONVERT(int, y0f);
         LANE_ARRAY int ta[LANES], va[LANES];
         LANE_ARRAY float za[LANES];
         iv tt[4];
@@ -542,22 +542,22 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
             const iv ask = open & inside;
             LANE_STORE(tex, ta);
             LANE_STORE(ask, va);
-            stored16(S, T, kw[m], ta, va, za);
-            vote += VSEL((fv)(0.0f), w, ask & (depth > LANE_LOAD(za) + bias));
+            stored_v(S, T, kw[m], ta, va, za);
+            vote += VSEL((fv)(0.0f), w, ask & MASK(depth > LANE_LOAD(za) + bias));
             rest -= w;
-            open &= (vote <= 0.5f) & (vote + rest > 0.5f - 1e-5f);
-            if (!any(open)) break;
+            open &= MASK(vote <= 0.5f) & MASK(vote + rest > 0.5f - 1e-5f);
+            if (!VANY(open)) break;
         }
     }
-    return act & (vote > 0.5f);
+    return act & MASK(vote > 0.5f);
 #else
     iv k = (iv)(0);
 #if LAYOUT_ZIGZAG
 #if PROFILE_SKIP_NEAREST
-    if (layout == 0) k = clamp(convert_int16(fabs(vx) * (float)(T[1] - 1)), 0, T[1] - 1);
+    if (layout == 0) k = clamp(CONVERT(int, fabs(vx) * (float)(T->maps - 1)), 0, T->maps - 1);
 #else
-    if (layout == 0) k = nearest_zigzag16(T[3], T[4], as_float(T[8]), as_float(T[9]),
-                                         as_float(T[10]), as_float(T[11]), vx, vy, vz);
+    if (layout == 0) k = nearest_zigzag_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1],
+                                          T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz);
 #endif
 #endif
     LANE_ARRAY int ka[LANES];
@@ -566,7 +566,7 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
         LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
         LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
         for (int l = 0; l < LANES; ++l)
-            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T[7], T[3], layout == 2,
+            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T->cell_base, T->p1, layout == 2,
                                             (float3)(ax[l], ay[l], az[l])) : 0;
     } else
 #endif
@@ -574,17 +574,17 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
         LANE_STORE(k, ka);
     }
     fv dx, dy, dz, depth, fx, fy;
-    const iv valid = act & map_frame16(S->bases + 9 * vbase, ka, R, qx, qy, qz,
+    const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz,
                                        &dx, &dy, &dz, &depth, &fx, &fy);
-    if (!any(valid)) return (iv)(0);
-    const iv tex = VMIN(convert_int16(fy), (iv)(R - 1)) * R + VMIN(convert_int16(fx), (iv)(R - 1));
+    if (!VANY(valid)) return (iv)(0);
+    const iv tex = VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1));
     LANE_ARRAY int ta[LANES], va[LANES];
     LANE_ARRAY float za[LANES];
     LANE_STORE(tex, ta);
     LANE_STORE(valid, va);
-    stored16(S, T, ka, ta, va, za);
-    const fv bias = bias16(S, R, j, own, vx, vy, vz, dx, dy, dz);
-    return valid & (depth > LANE_LOAD(za) + bias);
+    stored_v(S, T, ka, ta, va, za);
+    const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz);
+    return valid & MASK(depth > LANE_LOAD(za) + bias);
 #endif
 }
 
@@ -599,22 +599,20 @@ inline iv instance16(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
 #ifndef BATCH
 #error "BATCH (queries per work-item, a multiple of LANES) must be defined by the host"
 #endif
-#define LANE_IDS ((iv)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15))
-
 inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own,
                            int *occ, const int nb)
 {
 #if GROUND
     for (int c = 0; c < nb; c += LANES)
-        LANE_STORE(LANE_LOAD(occ + c) | ground16(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
+        LANE_STORE(LANE_LOAD(occ + c) | ground_v(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
 #endif
     for (int j = 0; j < S->ninst; ++j) {
         LANE_ARRAY int idx[BATCH];
         int cnt = 0;
         for (int c = 0; c < nb; c += LANES) {
             const iv act = ~LANE_LOAD(occ + c)
-                           & sphere16(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
+                           & sphere_v(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
                                       LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c));
             LANE_ARRAY int am[LANES];
             LANE_STORE(act, am);
@@ -633,8 +631,8 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
                 a[3][l] = wx[i]; a[4][l] = wy[i]; a[5][l] = wz[i];
                 ow[l] = own[i];
             }
-            const iv act = (iv)(g) + LANE_IDS < cnt;
-            const iv r = instance16(S, j, LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
+            const iv act = MASK((iv)(g) + LANE_IDS < cnt);
+            const iv r = instance_v(S, j, LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
                                     LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]),
                                     LANE_LOAD(ow), act);
             LANE_ARRAY int ra[LANES];
@@ -645,11 +643,11 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
     }
 }
 
-#define SCENE_ARGS __global const int *types, __global const uint *offsets,           \
+#define SCENE_ARGS __global const csm_type_t *types, __global const uint *offsets,    \
                    __global const uint *soff, __global const IEND_T *summary,            \
                    __global const pair_t *pairs,                                         \
                    __global const float *bases, __global const int *cells,              \
-                   __global const float *inst, __global const int *itype,               \
+                   __global const instance_t *inst, __global const int *itype,          \
                    const int ninst, const float ground_y, const float ground_eps,        \
                    const float bias_abs,                                                 \
                    const float bias_texels, const float bias_tan, const float bias_other
@@ -673,40 +671,41 @@ typedef float anchor_t;
 typedef float wide_t;
 #endif
 #if POINTS_F64
-typedef double point_t;
-typedef double16 point16_t;
+#define POINT_SCALAR double
 #else
-typedef float point_t;
-typedef float16 point16_t;
+#define POINT_SCALAR float
 #endif
 #if DIRS_F64
-typedef double dir_t;
-typedef double16 dir16_t;
+#define DIR_SCALAR double
 #else
-typedef float dir_t;
-typedef float16 dir16_t;
+#define DIR_SCALAR float
 #endif
+typedef POINT_SCALAR point_t;
+typedef DIR_SCALAR dir_t;
+typedef VTYPE(POINT_SCALAR) pointv_t;
+typedef VTYPE(DIR_SCALAR) dirv_t;
 /* whole-vector loads and stores of rows that are only element-aligned:
- * vload16 / vstore16, or on clang CPU targets vector types of reduced
+ * vloadN / vstoreN, or on clang CPU targets vector types of reduced
  * alignment (measured 5 % of the kernel) */
 #if CPU_CLANG
-typedef point16_t point16u_t __attribute__((aligned(sizeof(point_t))));
-typedef dir16_t dir16u_t __attribute__((aligned(sizeof(dir_t))));
-typedef int16 int16u_t __attribute__((aligned(4)));
-typedef uchar16 uchar16u_t __attribute__((aligned(1)));
-typedef float16 float16u_t __attribute__((aligned(4)));
-#define LOADU16(T, p, i) (((__global const T *)(p))[i])
-#define STOREU16(T, p, v) (*(__global T *)(p) = (v))
+typedef pointv_t pointvu_t __attribute__((aligned(sizeof(point_t))));
+typedef dirv_t dirvu_t __attribute__((aligned(sizeof(dir_t))));
+typedef iv ivu_t __attribute__((aligned(4)));
+typedef VTYPE(uchar) ucharvu_t __attribute__((aligned(1)));
+typedef fv fvu_t __attribute__((aligned(4)));
+#define LOADU(T, p, i) (((__global const T *)(p))[i])
+#define STOREU(T, p, v) (*(__global T *)(p) = (v))
 #else
-#define LOADU16(T, p, i) vload16((i), (p))
-#define STOREU16(T, p, v) vstore16((v), 0, (p))
+#define LOADU(T, p, i) VLOAD((i), (p))
+#define STOREU(T, p, v) VSTORE((v), 0, (p))
 #endif
 #if HAVE_FP64
-#define TO_WIDE16(x) convert_double16(x)
+#define TO_WIDE(x) CONVERT(double, x)
 #else
-#define TO_WIDE16(x) (x)
+#define TO_WIDE(x) (x)
 #endif
-/* rows 0..15 of an (N, 3) array from its 48 values in a0, a1, a2 */
+/* rows 0..LANES-1 of an (N, 3) array from its 3 LANES values in a0, a1, a2 */
+#if LANES == 16
 #define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
     X = (T)(a0.s0, a0.s3, a0.s6, a0.s9, a0.sc, a0.sf, a1.s2, a1.s5, a1.s8, a1.sb, a1.se,  \
             a2.s1, a2.s4, a2.s7, a2.sa, a2.sd);                                            \
@@ -714,6 +713,19 @@ typedef float16 float16u_t __attribute__((aligned(4)));
             a2.s2, a2.s5, a2.s8, a2.sb, a2.se);                                            \
     Z = (T)(a0.s2, a0.s5, a0.s8, a0.sb, a0.se, a1.s1, a1.s4, a1.s7, a1.sa, a1.sd, a2.s0,  \
             a2.s3, a2.s6, a2.s9, a2.sc, a2.sf)
+#elif LANES == 8
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a0.s6, a1.s1, a1.s4, a1.s7, a2.s2, a2.s5);                       \
+    Y = (T)(a0.s1, a0.s4, a0.s7, a1.s2, a1.s5, a2.s0, a2.s3, a2.s6);                       \
+    Z = (T)(a0.s2, a0.s5, a1.s0, a1.s3, a1.s6, a2.s1, a2.s4, a2.s7)
+#elif LANES == 4
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a1.s2, a2.s1);                                                   \
+    Y = (T)(a0.s1, a1.s0, a1.s3, a2.s2);                                                   \
+    Z = (T)(a0.s2, a1.s1, a2.s0, a2.s3)
+#else
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z) X = (a0); Y = (a1); Z = (a2)
+#endif
 
 /* BATCH queries per work-item; lanes past n are answered as "visible" and
  * not written. */
@@ -737,24 +749,26 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
     }
     for (int c = 0; c < BATCH; c += LANES) {
         if (c + LANES <= m) {
-            /* 16 whole rows: three vector loads per array, deinterleaved */
+            /* LANES whole rows: three vector loads per array, deinterleaved */
             __global const point_t *pp = points + 3 * (base + c);
             __global const dir_t *dp = dirs + 3 * (base + c);
-            point16_t a0 = LOADU16(point16u_t, pp, 0), a1 = LOADU16(point16u_t, pp, 1),
-                      a2 = LOADU16(point16u_t, pp, 2), x, y, z;
-            DEINTERLEAVE3(point16_t, a0, a1, a2, x, y, z);
-            LANE_STORE(convert_float16(TO_WIDE16(x) - ax), px + c);
-            LANE_STORE(convert_float16(TO_WIDE16(y) - ay), py + c);
-            LANE_STORE(convert_float16(TO_WIDE16(z) - az), pz + c);
-            dir16_t b0 = LOADU16(dir16u_t, dp, 0), b1 = LOADU16(dir16u_t, dp, 1),
-                    b2 = LOADU16(dir16u_t, dp, 2), u, v, w;
-            DEINTERLEAVE3(dir16_t, b0, b1, b2, u, v, w);
-            const dir16_t sq = u * u + v * v + w * w;
-            if (all((sq > (dir_t)1e-30) & (sq < (dir_t)1e30))) {
-                LANE_STORE(convert_float16(u), wx + c);
-                LANE_STORE(convert_float16(v), wy + c);
-                LANE_STORE(convert_float16(w), wz + c);
-                LANE_STORE(LOADU16(int16u_t, owner + base + c, 0), ow + c);
+            pointv_t a0 = LOADU(pointvu_t, pp, 0), a1 = LOADU(pointvu_t, pp, 1),
+                     a2 = LOADU(pointvu_t, pp, 2), x, y, z;
+            DEINTERLEAVE3(pointv_t, a0, a1, a2, x, y, z);
+            LANE_STORE(CONVERT(float, TO_WIDE(x) - ax), px + c);
+            LANE_STORE(CONVERT(float, TO_WIDE(y) - ay), py + c);
+            LANE_STORE(CONVERT(float, TO_WIDE(z) - az), pz + c);
+            dirv_t b0 = LOADU(dirvu_t, dp, 0), b1 = LOADU(dirvu_t, dp, 1),
+                   b2 = LOADU(dirvu_t, dp, 2), u, v, w;
+            DEINTERLEAVE3(dirv_t, b0, b1, b2, u, v, w);
+            const dirv_t sq = u * u + v * v + w * w;
+            /* the mask narrowed to int lanes before all(): no call with a
+             * vector of doubles */
+            if (VALL(CONVERT(int, MASK(sq > (dir_t)1e-30) & MASK(sq < (dir_t)1e30)))) {
+                LANE_STORE(CONVERT(float, u), wx + c);
+                LANE_STORE(CONVERT(float, v), wy + c);
+                LANE_STORE(CONVERT(float, w), wz + c);
+                LANE_STORE(LOADU(ivu_t, owner + base + c, 0), ow + c);
                 LANE_STORE((iv)(0), occ + c);
                 continue;
             }
@@ -786,7 +800,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
     batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH);
     for (int c = 0; c < m; c += LANES) {
         if (c + LANES <= m) {                     /* -1 (occluded) -> 0, 0 -> 1 */
-            STOREU16(uchar16u_t, out + base + c, convert_uchar16(LANE_LOAD(occ + c) + 1));
+            STOREU(ucharvu_t, out + base + c, CONVERT(uchar, LANE_LOAD(occ + c) + 1));
         } else {
             for (int l = c; l < m; ++l) out[base + l] = occ[l] ? 0 : 1;
         }
@@ -822,15 +836,15 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         LANE_ARRAY int ow[AO_BATCH], occ[AO_BATCH];
         for (int c = 0; c < AO_BATCH; c += LANES) {
             const int s = min(s0 + c, SPAD - LANES);
-            const fv lx = LOADU16(float16u_t, pat + s, 0), ly = LOADU16(float16u_t, pat + SPAD + s, 0),
-                     lz = LOADU16(float16u_t, pat + 2 * SPAD + s, 0);
+            const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
+                     lz = LOADU(fvu_t, pat + 2 * SPAD + s, 0);
             /* cosine_direction() of sampling.h, per lane, same operations */
             LANE_STORE((lx * t.x + ly * nrm.x) + lz * b.x, wx + c);
             LANE_STORE((lx * t.y + ly * nrm.y) + lz * b.y, wy + c);
             LANE_STORE((lx * t.z + ly * nrm.z) + lz * b.z, wz + c);
             LANE_STORE((fv)(p.x), px + c); LANE_STORE((fv)(p.y), py + c); LANE_STORE((fv)(p.z), pz + c);
             LANE_STORE(own, ow + c);
-            LANE_STORE((iv)(s0 + c) + LANE_IDS >= SAMPLES, occ + c);   /* padding: decided */
+            LANE_STORE(MASK((iv)(s0 + c) + LANE_IDS >= SAMPLES), occ + c);   /* padding: decided */
         }
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH);
         for (int l = 0; l < min(AO_BATCH, SAMPLES - s0); ++l) {

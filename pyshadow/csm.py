@@ -728,11 +728,12 @@ class CoherentShadowMap:
                 "summary": summary, "pairs": pairs, "segment": segment}
 
     def device_buffers(self):
-        """(offsets, soff, summary, pairs) as device buffers, uploaded once and kept."""
-        if self._device is None:
+        """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept."""
+        ctx = _cl.context()
+        if self._device is None or self._device[0] is not ctx:
             a = self.search_arrays()
-            self._device = tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs"))
-        return self._device
+            self._device = (ctx, tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs")))
+        return self._device[1]
 
     def segment_index(self, map_index, rows, cols) -> np.ndarray:
         """Index of the segment holding (map, texel), by the kernels' search (csm_find)."""

@@ -19,6 +19,7 @@ import pyopencl as cl
 import trimesh
 
 from . import _cl
+from ._cl import launch
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
@@ -112,7 +113,8 @@ class DepthRenderer:
         self.facing = bool(facing)
         verts, faces = _prepare_mesh(mesh, frame)
         self.n_faces = len(faces)
-        tpad = -(-len(faces) // 16) * 16
+        pad = launch.TRIANGLE_PAD
+        tpad = -(-len(faces) // pad) * pad
         soa = np.zeros((9, tpad), dtype=np.float32)
         soa[:, : len(faces)] = verts.astype(np.float32)[faces].reshape(len(faces), 9).T
         self._tpad = tpad
@@ -157,14 +159,11 @@ class DepthRenderer:
                 raise ValueError(f"facing=True needs a front buffer of {fbytes} bytes")
             cl.enqueue_fill_buffer(q, front, np.uint8(0), 0, fbytes)
         bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
-        # one work-item walks every triangle for its view, and views differ in
-        # cost: on CPU devices groups of one let PoCL's threads share them out
-        # evenly (its own choice splits e.g. 234 views into two halves, one
-        # per core, and leaves a core idle at the end: 0.94 against 0.49 ms a
-        # map for the bunny at 128^2 on 2 cores)
-        local = (1,) if _cl.device().type & cl.device_type.CPU else None
+        group = launch.shape().raster_group      # why: pyshadow._cl.launch
+        local = None if group is None else (group,)
+        global_size = (n if group is None else -(-n // group) * group,)
         self._kernel(
-            q, (n,), local, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
+            q, global_size, local, self._tris, np.int32(self.n_faces), np.int32(self._tpad),
             bases_buf, np.int32(n), out, front if self.facing else out,
         )
         return out

@@ -22,6 +22,8 @@ import trimesh
 
 from . import _cl
 from . import csm as csm_module
+from ._cl import launch
+from ._cl.tables import CSM_TYPE, INSTANCE
 from .csm import DEPTH_Q, CoherentShadowMap
 from .gbuffer import check_transform
 from .mesh import bounding_sphere, load_mesh, mesh_hash
@@ -136,33 +138,14 @@ def _kernel_rows(a, name, n=None):
     return np.ascontiguousarray(a)
 
 
-LANES = 16          # queries per vector in kernels/visibility.cl
-BATCH_CPU = 128     # queries per work-item of the query kernels on CPUs (a multiple
-                    # of LANES): the more, the fuller the packed lane groups
-BATCH_OTHER = 16    # elsewhere (GPUs: small private arrays per work-item)
-QUERY_CHUNK = 1 << 22   # queries per launch of scene_visible (keeps int32 indices small)
-WORK_GROUP = 16     # work-items per group of the query kernels: small, since each
-                    # holds BATCH queries in private arrays (PoCL keeps a group's
-                    # private arrays together; thousands of them overflow its stack)
-
-
-def batch_size() -> int:
-    """Queries per work-item of the query kernels on the chosen device."""
-    return BATCH_CPU if _cl.device().type & cl.device_type.CPU else BATCH_OTHER
-
-
-def _grid(items):
-    """Global and local sizes covering ``items`` work-items in groups of WORK_GROUP."""
-    return (-(-items // WORK_GROUP) * WORK_GROUP,), (WORK_GROUP,)
-
-
 def _lane_table(table):
-    """(M, S, 3) local directions -> (M, 3, S padded to LANES) for the lane kernels.
+    """(M, S, 3) local directions -> (M, 3, S padded to the lane width) for the lane kernels.
 
     Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
     """
     M, S, _ = table.shape
-    spad = -(-S // LANES) * LANES
+    lanes = launch.shape().lanes
+    spad = -(-S // lanes) * lanes
     out = np.zeros((M, 3, spad), np.float32)
     out[:, 1, :] = 1.0
     out[:, :, :S] = table.transpose(0, 2, 1)
@@ -320,16 +303,17 @@ class Scene:
     def _device_atlas(self):
         """Concatenated CSM data of every caster type (rebuilt only when types change)."""
         types, index = self._types()
-        key = tuple(id(c) for c in types)
+        key = (id(_cl.context()), tuple(id(c) for c in types))
         if self._atlas is not None and self._atlas_key == key:
             return self._atlas, index
         bits = 16 if all(c.depth_bits == 16 for c in types) else 32
         wide_iend = any(c.iend.dtype != np.uint16 for c in types)
         wide = bits == 32 or wide_iend
         di = np.uint32 if wide_iend else np.uint16
-        trow, offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], [], []
+        trow = np.zeros(max(1, len(types)), CSM_TYPE)
+        offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], []
         seg = blk = view = cell = tex = 0
-        for c in types:
+        for ti, c in enumerate(types):
             R, D = c.resolution, c.maps
             a = c.search_arrays(wide=wide, padded=True)
             if len(a["pairs"]) + seg >= 2**32:
@@ -343,11 +327,10 @@ class Scene:
                 if p.get("hemispheres"):
                     layout = 2
                 cells.append(c.views._hilbert_cells().reshape(-1).astype(np.int32))
-            # zigzag grid steps' cos and sin (float32 bits): the kernel's angle addition
-            steps = (np.array([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
-                               np.sin(2 * np.pi / p2)], np.float32).view(np.int32)
-                     if c.views.layout == "zigzag" else np.zeros(4, np.int32))
-            trow.append([R, D, layout, p1, p2, tex, view, cell, *steps, 0, 0, 0, 0])
+            # zigzag grid steps' cos and sin: the kernel's angle addition
+            steps = ([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
+                      np.sin(2 * np.pi / p2)] if c.views.layout == "zigzag" else [0.0] * 4)
+            trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32))
             offs.append(a["offsets"][:-1].astype(np.int64) + seg)
             soffs.append(a["soff"][:-1].astype(np.int64) + blk)
             summ.append(a["summary"].astype(di))
@@ -377,7 +360,7 @@ class Scene:
             "layouts": {c.views.layout for c in types},
             "quantum": 1.0 / DEPTH_Q if bits == 16 else 0.0,
             "buffers": [
-                _cl.to_device(np.array(trow, np.int32).reshape(-1, 16) if trow else np.zeros((1, 16), np.int32)),
+                _cl.to_device(trow),
                 _cl.to_device(cat(offs, np.uint32, [0])),
                 _cl.to_device(cat(soffs, np.uint32, [0])),
                 _cl.to_device(cat(summ, di, [0])),
@@ -404,29 +387,25 @@ class Scene:
         return max(inst.world_sphere()[1] for inst in self.instances)
 
     def _instance_data(self, anchor, index):
-        rows, itype = [], []
-        for inst in self.instances:
-            if not inst.casts:
-                continue
+        """The casters' INSTANCE records (anchor-relative) and CSM type indices."""
+        casters = [inst for inst in self.instances if inst.casts]
+        rows = np.zeros(max(1, len(casters)), INSTANCE)
+        itype = np.zeros(max(1, len(casters)), np.int32)
+        for k, inst in enumerate(casters):
             s = inst.scale
             Rm = inst.rotation
             c, r = inst.csm.centre, inst.csm.radius
             t = inst.transform[:3, 3]
-            A = Rm.T / (s * r)
-            cvec = Rm.T @ (anchor - t) / (s * r) - c / r
             wc, wr = inst.world_sphere()
-            row = np.zeros(32)
-            row[0:9] = A.reshape(-1)
-            row[9:12] = cvec
-            row[12:21] = Rm.T.reshape(-1)
-            row[21:24] = wc - anchor
-            row[24] = wr * (1 + 1e-6)
-            rows.append(row)
-            itype.append(index[id(inst.csm)])
-        if not rows:
-            return _cl.to_device(np.zeros(32, np.float32)), _cl.to_device(np.zeros(1, np.int32)), 0
-        return (_cl.to_device(np.array(rows), np.float32), _cl.to_device(np.array(itype), np.int32),
-                len(rows))
+            rows[k] = (
+                (Rm.T / (s * r)).reshape(-1),               # to_object A
+                Rm.T @ (anchor - t) / (s * r) - c / r,      # offset c
+                Rm.T.reshape(-1),                           # rotation Rw
+                wc - anchor,                                # centre
+                wr * (1 + 1e-6),                            # radius
+            )
+            itype[k] = index[id(inst.csm)]
+        return _cl.to_device(rows), _cl.to_device(itype), len(casters)
 
     def _bias(self, bias, atlas, filtered=False):
         q = atlas["quantum"] + 1e-7
@@ -467,7 +446,7 @@ class Scene:
              "GROUND": int(self.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
-             "BATCH": batch_size(),
+             "BATCH": launch.shape().query_batch,
              "FILTERED": 0, "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f"}
         d.update(extra)
         return d
@@ -565,11 +544,12 @@ class Scene:
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
         q = _cl.queue()
         res = out.view(np.uint8)
-        batch = batch_size()
-        for s in range(0, n, QUERY_CHUNK):
-            e = min(n, s + QUERY_CHUNK)
+        shape = launch.shape()
+        batch = shape.query_batch
+        for s in range(0, n, shape.query_chunk):
+            e = min(n, s + shape.query_chunk)
             buf = _cl.host_buffer(res[s:e], writable=True)
-            k(q, *_grid(-(-(e - s) // batch)), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
+            k(q, *launch.grid(-(-(e - s) // batch), shape.query_group), *args, np.int32(e - s), _cl.host_buffer(p[s:e]),
               _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)
             _cl.sync_host_buffer(buf, res[s:e])
         return out
@@ -632,12 +612,13 @@ class Scene:
             table = _cl.to_device(_lane_table(direction_table(S, strategy, patterns, seed)))
             pidx = pattern_indices(idx, patterns, seed)
             q = _cl.queue()
-            chunk = max(1, (1 << 24) // S)
+            shape = launch.shape()
+            chunk = max(1, shape.ao_chunk_samples // S)
             for s in range(0, N, chunk):
                 e = min(N, s + chunk)
                 ao_buf = _cl.empty(4 * (e - s))
                 bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
-                k(q, *_grid(e - s), *args, np.int32(e - s),
+                k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
                   _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf)
                 cl.enqueue_copy(q, ao[s:e], ao_buf)

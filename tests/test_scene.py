@@ -5,6 +5,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import reference, sampling
+from pyshadow._cl import launch
 from pyshadow.scene import GROUND_ID
 
 from conftest import load
@@ -590,16 +591,17 @@ def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, r
     }
     for name, (pp, dd) in variants.items():
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
-    monkeypatch.setattr(pyshadow.scene, "QUERY_CHUNK", 1000)       # many launches, odd sizes
-    assert (bunny_scene.visible(p, d, surface_ids=ids) == base).all(), "chunked"
+    with launch.override(query_chunk=1000):                        # many launches, odd sizes
+        assert (bunny_scene.visible(p, d, surface_ids=ids) == base).all(), "chunked"
     monkeypatch.setattr(pyshadow.scene._cl, "has_fp64", lambda: False)
     for name, (pp, dd) in [("float-only device", (p, d)), ("float-only, huge", (p, d * 2.0**700))]:
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
 
 
-def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng, monkeypatch):
-    """The batch size other devices use (16) gives the CPU's answers (128):
-    packing the undecided rays of a batch changes nothing but speed."""
+def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng):
+    """A batch of one lane vector (as on GPUs at 16 lanes) gives the CPU's
+    answers (128 queries): packing the undecided rays of a batch changes
+    nothing but speed."""
     p, d = surface_queries(bunny_scene, 0, 1001, 16, rng)
     pts, nrm = bunny_scene.vertex_points(0)
     pts, nrm = pts[:3000], nrm[:3000]
@@ -608,10 +610,10 @@ def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng, monkeypatch)
     vis_f = bunny_scene.visible(p, d, surface_ids=ids, filtered=True)
     ao, bent = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
     assert 0.2 < vis.mean() < 0.9 and 0.2 < ao.mean() < 0.95 and (vis_f != vis).any()
-    monkeypatch.setattr(pyshadow.scene, "BATCH_CPU", 16)
-    assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
-    assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
-    ao16, bent16 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
+    with launch.override(query_batch=launch.shape().lanes):
+        assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
+        assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
+        ao16, bent16 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
     np.testing.assert_array_equal(ao16, ao)
     np.testing.assert_array_equal(bent16, bent)
 

@@ -15,6 +15,17 @@ Device choice
   :func:`pyshadow.device_info` under ``"available"``).
 
 When nothing matches, :class:`DeviceNotFoundError` names every device found.
+
+Lane width
+----------
+Kernels that work on lane vectors are built with ``-DLANES`` = 1, 4, 8 or 16
+(``kernels/lanes.h``). :func:`lanes` gives the width in use: ``PYSHADOW_LANES``
+if set, else the widest width the device passed in a probe run in child
+processes (:mod:`pyshadow._cl.lanes`; 1 on GPUs, one query per work-item),
+cached on disk per device and driver. A width that failed the probe is never
+used unless ``PYSHADOW_LANES`` asks for it; a device that fails them all
+raises :class:`DeviceNotSupportedError` naming it. Launch shapes (batches,
+work-groups, chunks) come from :func:`pyshadow._cl.launch.shape`.
 """
 from __future__ import annotations
 
@@ -23,14 +34,27 @@ import os
 import re
 import tempfile
 import threading
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 import pyopencl as cl
 
+from . import lanes as _lanes
+from .lanes import LANE_WIDTHS, DeviceNotSupportedError
+
 __all__ = [
     "DeviceNotFoundError",
+    "DeviceNotSupportedError",
     "KernelBuildError",
+    "LaneWidthWarning",
+    "LANE_WIDTHS",
+    "lanes",
+    "lane_choice",
+    "use_lanes",
+    "use_device",
+    "devices",
     "context",
     "queue",
     "device",
@@ -54,6 +78,10 @@ class DeviceNotFoundError(RuntimeError):
 
 class KernelBuildError(RuntimeError):
     """An OpenCL program failed to compile; the message holds the build log."""
+
+
+class LaneWidthWarning(UserWarning):
+    """The device failed the probe at its preferred lane width; a narrower one is used."""
 
 
 # --------------------------------------------------------------------------
@@ -89,11 +117,19 @@ _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$', re.M)
 
 
 def kernel_source(name: str) -> str:
-    """Text of kernel file ``name`` with its ``#include "x.h"`` lines inlined."""
+    """Text of kernel file ``name`` with its ``#include "x.h"`` lines inlined.
+
+    Headers generated from the host's table dtypes (``scene_types.h``, see
+    :mod:`pyshadow._cl.tables`) are served from memory.
+    """
+    from .tables import GENERATED_HEADERS
+
     root = kernel_dir()
     seen: set[str] = set()
 
     def expand(fname: str) -> str:
+        if fname in GENERATED_HEADERS:
+            return GENERATED_HEADERS[fname]
         path = root / fname
         if not path.is_file():
             raise FileNotFoundError(f"kernel source {fname!r} not found in {root}")
@@ -140,9 +176,11 @@ def _describe(found) -> str:
     )
 
 
-def _choose_device():
+def _choose_device(want: str | None = None):
     found = _all_devices()
-    want = os.environ.get("PYSHADOW_DEVICE", "").strip().lower()
+    if want is None:
+        want = os.environ.get("PYSHADOW_DEVICE", "")
+    want = want.strip().lower()
 
     def of_type(t):
         return [f for f in found if f[3].type & t]
@@ -183,19 +221,148 @@ def _choose_device():
     )
 
 
+def _open(choice) -> dict:
+    pi, di, plat, dev = choice
+    ctx = cl.Context([dev])
+    return dict(platform=plat, device=dev, context=ctx, queue=cl.CommandQueue(ctx), index=(pi, di))
+
+
 def _init():
     with _lock:
         if "queue" not in _state:
-            pi, di, plat, dev = _choose_device()
-            ctx = cl.Context([dev])
-            _state.update(
-                platform=plat,
-                device=dev,
-                context=ctx,
-                queue=cl.CommandQueue(ctx),
-                index=(pi, di),
-            )
+            _state.update(_open(_choose_device()))
         return _state
+
+
+def devices() -> list[str]:
+    """Every OpenCL device found, as 'P:D' strings usable in ``PYSHADOW_DEVICE``."""
+    return ["%d:%d" % (pi, di) for pi, di, _p, _d in _all_devices()]
+
+
+@contextmanager
+def use_device(spec: str):
+    """Run the enclosed code on device ``spec`` ('P:D', 'cpu' or 'gpu'), then go back.
+
+    Buffers made inside belong to that device's context; objects that keep
+    device buffers (CSMs, scenes) rebuild them for the context in use.
+    """
+    choice = _choose_device(spec)
+    with _lock:
+        saved = dict(_state)
+        _state.clear()
+        _state.update(_open(choice))
+    try:
+        yield
+    finally:
+        with _lock:
+            _state.clear()
+            _state.update(saved)
+
+
+# --------------------------------------------------------------------------
+# Lane width
+# --------------------------------------------------------------------------
+_lane_override: list[int] = []
+
+
+def lane_choice() -> dict:
+    """The lane width of the current device and why it was chosen.
+
+    Returns
+    -------
+    dict
+        ``lanes`` (int), ``reason`` (str), ``supported`` (list of widths
+        that passed the probe, widest first), ``verdicts`` ({width: why}),
+        ``source`` ('PYSHADOW_LANES', 'cache' or 'probe').
+
+    Raises
+    ------
+    ValueError
+        ``PYSHADOW_LANES`` is set to something other than 1, 4, 8 or 16.
+    DeviceNotSupportedError
+        The device failed the probe at every width.
+    """
+    st = _init()
+    override = _lanes.parse_override(os.environ.get("PYSHADOW_LANES"))
+    with _lock:
+        cached = st.get("lane_choice")
+        if cached is None:
+            cached = _probe_choice(st)
+            st["lane_choice"] = cached
+    choice = dict(cached)
+    if override is not None:
+        choice.update(lanes=override, source="PYSHADOW_LANES",
+                      reason=f"PYSHADOW_LANES={override} (the probe is not consulted)")
+    if _lane_override:
+        choice.update(lanes=_lane_override[-1], source="use_lanes",
+                      reason=f"use_lanes({_lane_override[-1]})")
+    return choice
+
+
+def _probe_choice(st) -> dict:
+    if _lanes.parse_override(os.environ.get("PYSHADOW_LANES")) is not None:
+        # overridden: no probe at all (a device known to crash it need not run it)
+        return {"lanes": None, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
+                "reason": ""}
+    dev, plat = st["device"], st["platform"]
+    found, source = _lanes.verdicts(*st["index"], plat, dev, _probe_job(dev))
+    ok = [w for w in LANE_WIDTHS if found[w]["ok"]]
+    name = dev.name.strip()
+    why = "; ".join(f"{w}: {v['why']}" for w, v in sorted(found.items(), reverse=True))
+    if not ok:
+        raise DeviceNotSupportedError(
+            f"OpenCL device {name!r} ({plat.name.strip()}, driver {dev.driver_version.strip()}) "
+            f"cannot run pyshadow's kernels at any lane width ({why}). Choose another device "
+            f"with PYSHADOW_DEVICE (available: {_describe(_all_devices())})")
+    gpu = bool(dev.type & cl.device_type.GPU)
+    preferred = 1 if gpu else LANE_WIDTHS[0]
+    width = 1 if (gpu and 1 in ok) else ok[0]
+    if width != preferred:
+        reason = (f"{preferred} lanes failed the probe ({found[preferred]['why']}); "
+                  f"{width} is the widest that passed")
+        if source == "probe":
+            warnings.warn(f"pyshadow: {preferred}-lane kernels fail on OpenCL device {name!r}: "
+                          f"{found[preferred]['why']}. Using {width} lanes instead "
+                          f"(verdict cached in {_lanes.cache_file()}).", LaneWidthWarning,
+                          stacklevel=4)
+    else:
+        reason = ("GPU: one query per work-item" if gpu
+                  else f"the widest width, {width}, passed the probe")
+    return {"lanes": width, "supported": ok, "source": source, "reason": f"{reason} ({source})",
+            "verdicts": {w: v["why"] for w, v in found.items()}}
+
+
+def _probe_job(dev) -> dict:
+    """What the probe builds at each width: its own small kernel (run and
+    checked) and the lane kernels in their widest variants (built only)."""
+    fp64 = int(bool(dev.double_fp_config) and "cl_khr_fp64" in dev.extensions)
+    scene = {"DEPTH_BITS": 16, "IEND_T": "ushort", "PAIR_WIDE": 0, "SEARCH_BLOCK": 16,
+             "NTYPES": 1, "GROUND": 1, "LAYOUT_ZIGZAG": 1, "LAYOUT_HILBERT": 1,
+             "FILTER_ANGLE_EPS": "1e-4f", "HAVE_FP64": fp64, "BATCH": 128}
+    builds = [("raster.cl", {"RES": 64, "LAYERS": 3, "FACING": 1}),
+              ("visibility.cl", {**scene, "FILTERED": 0, "POINTS_F64": fp64, "DIRS_F64": fp64,
+                                 "SAMPLES": 36, "BENT_NORMALS": 1}),
+              ("visibility.cl", {**scene, "FILTERED": 1, "POINTS_F64": 0, "DIRS_F64": 0})]
+    return {"probe": kernel_source("probe.cl"),
+            "builds": [{"label": f, "source": kernel_source(f), "options": list(_options(d))}
+                       for f, d in builds]}
+
+
+def lanes() -> int:
+    """Lanes per vector (1, 4, 8 or 16) the kernels are built with on this device."""
+    return lane_choice()["lanes"]
+
+
+@contextmanager
+def use_lanes(width: int):
+    """Build and run kernels at ``width`` lanes inside the block (tests, benchmarks)."""
+    if width not in LANE_WIDTHS:
+        raise ValueError(f"lane width must be one of {LANE_WIDTHS}, got {width!r}")
+    _lane_override.append(int(width))
+    try:
+        yield
+    finally:
+        _lane_override.pop()
 
 
 def context() -> cl.Context:
@@ -231,8 +398,11 @@ def device_info() -> dict:
         ``compute_units`` (int), ``opencl_version`` (str, the device's),
         ``opencl_c_version`` (str), ``global_mem_bytes`` (int),
         ``max_alloc_bytes`` (int), ``index`` ('P:D', usable in
-        ``PYSHADOW_DEVICE``) and ``available`` (list of 'P:D name (type)'
-        strings of every device found).
+        ``PYSHADOW_DEVICE``), ``available`` (list of 'P:D name (type)'
+        strings of every device found), ``lanes`` (int, lane width of the
+        kernels), ``lanes_reason`` (str, why that width), ``lanes_supported``
+        (list of int, widths that passed the probe) and ``launch`` (dict, the
+        launch shape of :func:`pyshadow._cl.launch.shape`).
 
     Examples
     --------
@@ -242,6 +412,9 @@ def device_info() -> dict:
     """
     st = _init()
     dev = st["device"]
+    choice = lane_choice()
+    from .launch import shape
+
     return {
         "platform": st["platform"].name.strip(),
         "name": dev.name.strip(),
@@ -256,6 +429,10 @@ def device_info() -> dict:
             f"{pi}:{di} {d.name.strip()} ({_type_name(d.type)})"
             for pi, di, _p, d in _all_devices()
         ],
+        "lanes": choice["lanes"],
+        "lanes_reason": choice["reason"],
+        "lanes_supported": choice["supported"],
+        "launch": shape().as_dict(),
     }
 
 
@@ -274,9 +451,20 @@ def _options(defines: dict | None) -> tuple[str, ...]:
     return tuple(opts)
 
 
+def _with_lanes(defines: dict | None) -> dict:
+    """``defines`` plus ``LANES`` (the device's lane width) unless it names one."""
+    d = dict(defines or {})
+    d.setdefault("LANES", lanes())
+    return d
+
+
 def program(source_file: str, defines: dict | None = None) -> cl.Program:
-    """Built program for ``source_file`` with ``-D`` ``defines`` (memoised)."""
+    """Built program for ``source_file`` with ``-D`` ``defines`` (memoised).
+
+    ``LANES`` is added from :func:`lanes` unless ``defines`` holds it.
+    """
     st = _init()
+    defines = _with_lanes(defines)
     opts = _options(defines)
     key = (id(st["context"]), source_file, opts)
     with _lock:
@@ -316,7 +504,8 @@ def kernel(source_file: str, name: str, defines: dict | None = None) -> cl.Kerne
     The same ``Kernel`` object is returned for the same arguments, so argument
     setting and pyopencl's per-kernel caches are reused.
     """
-    key = (source_file, name, _options(defines))
+    defines = _with_lanes(defines)
+    key = (id(context()), source_file, name, _options(defines))
     with _lock:
         k = _kernels.get(key)
         if k is None:

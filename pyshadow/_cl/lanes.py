@@ -1,0 +1,158 @@
+"""Lane width per device: probed in child processes, cached on disk.
+
+The kernels that work on lane vectors (``kernels/lanes.h``) are compiled for
+``LANES`` = 1, 4, 8 or 16. Which widths a device can run is not something its
+reported properties tell: the PoCL of the pip wheel (LLVM 14) on AMD Zen 4
+reports 16 float lanes, targets znver3 (no AVX-512) and picks an AVX-512
+builtin library, so 16-wide kernels crash, hang or come out wrong there. So
+each width is tried in a child process (``probe_child.py``: build, run,
+compare with NumPy) that can crash or hang without taking the caller along;
+the verdicts are cached per (platform version, device name, driver version,
+probe sources), so later runs pay nothing.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+__all__ = ["LANE_WIDTHS", "PROBE_TIMEOUT_S", "DeviceNotSupportedError", "parse_override",
+           "verdicts", "cache_file"]
+
+LANE_WIDTHS = (16, 8, 4, 1)
+# a child builds and runs a 20-line kernel (about 1 s on PoCL, most of it
+# starting Python and LLVM); 30 s leaves room for a loaded machine and still
+# ends a compiler that hangs (seen: more than 5 minutes) in good time
+PROBE_TIMEOUT_S = 30.0
+_CHILD = Path(__file__).with_name("probe_child.py")
+
+
+class DeviceNotSupportedError(RuntimeError):
+    """The device cannot run pyshadow's lane kernels at any width."""
+
+
+def parse_override(value: str | None) -> int | None:
+    """``PYSHADOW_LANES`` as an int, None when unset; ValueError when not 1, 4, 8 or 16."""
+    if value is None or not value.strip():
+        return None
+    try:
+        n = int(value.strip())
+    except ValueError:
+        n = None
+    if n not in LANE_WIDTHS:
+        raise ValueError(f"PYSHADOW_LANES={value!r} is not one of 1, 4, 8, 16 "
+                         "(lanes per vector in the kernels; unset it to probe the device)")
+    return n
+
+
+def cache_file() -> Path:
+    """``$PYSHADOW_CACHE/lanes.json``, else in ``platformdirs.user_cache_dir("pyshadow")``."""
+    env = os.environ.get("PYSHADOW_CACHE", "").strip()
+    if env:
+        return Path(env) / "lanes.json"
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("pyshadow")) / "lanes.json"
+
+
+def _key(platform, device, job: dict) -> str:
+    h = hashlib.sha256()
+    for part in (platform.version, device.name, device.driver_version, json.dumps(job),
+                 _CHILD.read_text(), str(LANE_WIDTHS)):
+        h.update(part.strip().encode() + b"\0")
+    return h.hexdigest()[:24]
+
+
+def _read_cache() -> dict:
+    try:
+        data = json.loads(cache_file().read_text())
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_cache(key: str, entry: dict) -> None:
+    from .._files import write_bytes_atomic
+
+    path = cache_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        data = _read_cache()
+        data[key] = entry
+        write_bytes_atomic(path, json.dumps(data, indent=1, sort_keys=True).encode())
+    except OSError:
+        pass            # a read-only cache only costs the probe again next time
+
+
+def run_probe(platform_index: int, device_index: int, job: dict,
+              widths=LANE_WIDTHS, timeout: float = PROBE_TIMEOUT_S,
+              command=None) -> dict[int, dict]:
+    """Try each width in a child process of its own, all at once.
+
+    ``job`` is what the child builds (see ``probe_child.py``);
+    ``command(width)`` (tests only) replaces the child's command line.
+    Returns ``{width: {"ok": bool, "why": str}}``.
+    """
+    with tempfile.TemporaryDirectory(prefix="pyshadow-probe-") as tmp:
+        src = Path(tmp) / "job.json"
+        src.write_text(json.dumps(job))
+        procs = {}
+        for w in widths:
+            cmd = command(w) if command else [sys.executable, str(_CHILD), str(platform_index),
+                                              str(device_index), str(w), str(src)]
+            procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                        stderr=subprocess.PIPE, text=True,
+                                        env={**os.environ, "PYOPENCL_COMPILER_OUTPUT": "0"})
+        return _collect(procs, timeout)
+
+
+def _collect(procs, timeout):
+    deadline = time.monotonic() + timeout
+    out = {}
+    for w, p in procs.items():
+        try:
+            stdout, stderr = p.communicate(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+            out[w] = {"ok": False, "why": f"no answer within {timeout:g} s (the compiler or "
+                                          "the kernel hung; the child was killed)"}
+            continue
+        if p.returncode < 0:
+            out[w] = {"ok": False, "why": f"the child process died of signal {-p.returncode}"
+                                          + _tail(stderr)}
+            continue
+        try:
+            v = json.loads(stdout.strip().splitlines()[-1])
+            out[w] = {"ok": bool(v["ok"]), "why": str(v["why"])}
+        except (ValueError, IndexError, KeyError, TypeError):
+            out[w] = {"ok": False, "why": f"the child process exited with status {p.returncode}"
+                                          + _tail(stderr)}
+    return out
+
+
+def _tail(text: str) -> str:
+    lines = [ln for ln in (text or "").strip().splitlines() if ln.strip()]
+    return f": {lines[-1][:200]}" if lines else ""
+
+
+def verdicts(platform_index, device_index, platform, device, job, *, refresh=False):
+    """Every width's verdict for a device, from the cache or a fresh probe.
+
+    Returns ``(verdicts, source)`` with ``source`` 'cache' or 'probe'.
+    """
+    key = _key(platform, device, job)
+    if not refresh:
+        entry = _read_cache().get(key)
+        if entry and set(entry.get("verdicts", {})) == {str(w) for w in LANE_WIDTHS}:
+            return {int(w): v for w, v in entry["verdicts"].items()}, "cache"
+    found = run_probe(platform_index, device_index, job)
+    _write_cache(key, {"device": device.name.strip(), "platform": platform.version.strip(),
+                       "driver": device.driver_version.strip(),
+                       "verdicts": {str(w): v for w, v in found.items()}})
+    return found, "probe"

@@ -1,0 +1,137 @@
+"""Launch shapes: lane width, batches, work-groups and chunks, per device kind.
+
+Every kernel launch of pyshadow takes its shape from :func:`shape`, so what
+depends on the device lives here and nowhere else. Each value says why it
+has its value; figures are from benchmarks/README.md.
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, replace
+
+import pyopencl as cl
+
+__all__ = ["LaunchShape", "shape", "grid", "override"]
+
+_overrides: list[dict] = []
+
+
+@dataclass(frozen=True)
+class LaunchShape:
+    """How kernels are launched on one device.
+
+    Attributes
+    ----------
+    kind : str
+        'CPU', 'GPU' or 'other'.
+    lanes : int
+        Lane width the lane kernels are built with (``-DLANES``).
+    query_batch : int
+        Queries per work-item of ``scene_visible`` and samples per
+        ``batch_occluded`` call of ``scene_ao`` (``-DBATCH``), a multiple of
+        ``lanes``.
+    query_group : int
+        Work-items per work-group of the query kernels.
+    query_chunk : int
+        Queries per launch of ``scene_visible``.
+    ao_chunk_samples : int
+        Points x samples per launch of ``scene_ao``.
+    raster_group : int or None
+        Work-items (views) per work-group of ``render_depth_layers``; None
+        lets the driver choose.
+    triangle_pad : int
+        The rasteriser's triangle rows are padded to a multiple of this.
+    """
+
+    kind: str
+    lanes: int
+    query_batch: int
+    query_group: int
+    query_chunk: int
+    ao_chunk_samples: int
+    raster_group: int | None
+    triangle_pad: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+# one launch of scene_visible answers at most this many queries: keeps the
+# kernel's int32 row indices (3 * row for (N, 3) arrays) far from overflow and
+# the host buffers of one launch below 100 MB
+QUERY_CHUNK = 1 << 22
+# points x samples per scene_ao launch: the same bound on its inputs
+AO_CHUNK_SAMPLES = 1 << 24
+# a multiple of every lane width (16), so the triangle table is the same
+# array whatever the width
+TRIANGLE_PAD = 16
+
+
+def shape() -> LaunchShape:
+    """The launch shape of the current device (see :mod:`pyshadow._cl`)."""
+    s = _device_shape()
+    for changes in _overrides:
+        s = replace(s, **changes)
+    if s.query_batch % s.lanes:
+        raise ValueError(f"query_batch {s.query_batch} is not a multiple of lanes {s.lanes}")
+    return s
+
+
+@contextmanager
+def override(**changes):
+    """Launch with some fields of the shape changed inside the block (tests,
+    benchmarks): ``with override(query_chunk=1000): ...``."""
+    _overrides.append(changes)
+    try:
+        yield
+    finally:
+        _overrides.remove(changes)
+
+
+def _device_shape() -> LaunchShape:
+    from . import device, lanes
+
+    dev = device()
+    width = lanes()
+    if dev.type & cl.device_type.CPU:
+        return LaunchShape(
+            kind="CPU",
+            lanes=width,
+            # 128 queries a work-item: the per-caster packing of
+            # batch_occluded fills its lane groups from 128 candidates (the
+            # fuller the groups, the fewer half-empty searches); a multiple
+            # of every width
+            query_batch=128,
+            # 16 work-items a group: each holds query_batch queries in private
+            # arrays, which PoCL keeps together per group on its stack
+            # (thousands of them overflow it)
+            query_group=16,
+            query_chunk=QUERY_CHUNK,
+            ao_chunk_samples=AO_CHUNK_SAMPLES,
+            # one view per group: views differ in cost, and groups of one let
+            # PoCL's threads share them out evenly (its own choice split 234
+            # views into one half per core and left a core idle: 0.94 against
+            # 0.49 ms a map for the bunny at 128^2 on 2 cores)
+            raster_group=1,
+            triangle_pad=TRIANGLE_PAD,
+        )
+    gpu = bool(dev.type & cl.device_type.GPU)
+    return LaunchShape(
+        kind="GPU" if gpu else "other",
+        lanes=width,
+        # one query per work-item at 1 lane (the GPU's own SIMT lanes do what
+        # the vectors do on a CPU); a whole vector otherwise
+        query_batch=width,
+        # a multiple of NVIDIA's 32-wide warps and AMD's 64-wide wavefronts,
+        # within what the device allows
+        query_group=max(1, min(128, int(dev.max_work_group_size))),
+        query_chunk=QUERY_CHUNK,
+        ao_chunk_samples=AO_CHUNK_SAMPLES,
+        raster_group=None,
+        triangle_pad=TRIANGLE_PAD,
+    )
+
+
+def grid(items: int, group: int):
+    """Global and local sizes covering ``items`` work-items in groups of ``group``."""
+    return (-(-int(items) // group) * group,), (group,)

@@ -214,3 +214,58 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.section("reads outside the repository", red=True)
         for line in _outside_tests:
             terminalreporter.write_line(line)
+
+
+# ---------------------------------------------------------------------------
+# every device, and every lane width of each
+# ---------------------------------------------------------------------------
+# test modules whose kernels work on lanes (kernels/lanes.h): each of their
+# tests runs at every width the device passed the probe at
+LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene"})
+
+
+def test_targets(lanes: bool):
+    """(device 'P:D', lane width or None) pairs the kernel tests run on.
+
+    Every OpenCL device found, unless ``PYSHADOW_DEVICE`` names one; per
+    device every width it supports when ``lanes``, unless ``PYSHADOW_LANES``
+    names one.
+    """
+    from pyshadow import _cl
+
+    if os.environ.get("PYSHADOW_DEVICE", "").strip():
+        devs = [_cl.device_info()["index"]]
+    else:
+        devs = _cl.devices()
+    out = []
+    for d in devs:
+        if not lanes:
+            out.append((d, None))
+            continue
+        with _cl.use_device(d):
+            choice = _cl.lane_choice()
+            widths = [choice["lanes"]] if choice["source"] == "PYSHADOW_LANES" else choice["supported"]
+        out += [(d, w) for w in widths]
+    return out
+
+
+def pytest_generate_tests(metafunc):
+    if "cl_target" in metafunc.fixturenames:
+        module = metafunc.module.__name__.rsplit(".", 1)[-1]
+        targets = test_targets(module in LANE_TEST_MODULES)
+        metafunc.parametrize("cl_target", targets, indirect=True,
+                             ids=[d if w is None else f"{d}-lanes{w}" for d, w in targets])
+
+
+@pytest.fixture(autouse=True)
+def cl_target(request):
+    """Run the test on one device (and lane width) of :func:`test_targets`."""
+    from pyshadow import _cl
+
+    device, width = request.param
+    with _cl.use_device(device):
+        if width is None:
+            yield request.param
+        else:
+            with _cl.use_lanes(width):
+                yield request.param

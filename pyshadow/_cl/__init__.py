@@ -21,7 +21,7 @@ Lane width
 Kernels that work on lane vectors are built with ``-DLANES`` = 1, 4, 8 or 16
 (``kernels/lanes.h``). :func:`lanes` gives the width in use: ``PYSHADOW_LANES``
 if set, else the widest width the device passed in a probe run in child
-processes (:mod:`pyshadow._cl.lanes`; 1 on GPUs, one query per work-item),
+processes (:mod:`pyshadow._cl.probe`; 1 on GPUs, one query per work-item),
 cached on disk per device and driver. A width that failed the probe is never
 used unless ``PYSHADOW_LANES`` asks for it; a device that fails them all
 raises :class:`DeviceNotSupportedError` naming it. Launch shapes (batches,
@@ -41,8 +41,8 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
-from . import lanes as _lanes
-from .lanes import LANE_WIDTHS, DeviceNotSupportedError
+from . import probe as _probe
+from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
 __all__ = [
     "DeviceNotFoundError",
@@ -104,7 +104,7 @@ def kernel_dir() -> Path:
             return path
     except ModuleNotFoundError:
         pass
-    path = Path(__file__).resolve().parent.parent / "kernels"
+    path = Path(__file__).resolve().parents[2] / "kernels"
     if (path / "raster.cl").is_file():
         return path
     raise FileNotFoundError(
@@ -234,6 +234,10 @@ def _init():
         return _state
 
 
+_opened: dict = {}     # (platform, device) -> state kept by use_device(), so each
+                      # device gets one context and its programs are built once
+
+
 def devices() -> list[str]:
     """Every OpenCL device found, as 'P:D' strings usable in ``PYSHADOW_DEVICE``."""
     return ["%d:%d" % (pi, di) for pi, di, _p, _d in _all_devices()]
@@ -249,8 +253,12 @@ def use_device(spec: str):
     choice = _choose_device(spec)
     with _lock:
         saved = dict(_state)
-        _state.clear()
-        _state.update(_open(choice))
+        if saved.get("index") != choice[:2]:
+            opened = _opened.get(choice[:2])
+            if opened is None:
+                opened = _opened[choice[:2]] = _open(choice)
+            _state.clear()
+            _state.update(opened)
     try:
         yield
     finally:
@@ -283,7 +291,7 @@ def lane_choice() -> dict:
         The device failed the probe at every width.
     """
     st = _init()
-    override = _lanes.parse_override(os.environ.get("PYSHADOW_LANES"))
+    override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
     with _lock:
         cached = st.get("lane_choice")
         if cached is None:
@@ -300,12 +308,12 @@ def lane_choice() -> dict:
 
 
 def _probe_choice(st) -> dict:
-    if _lanes.parse_override(os.environ.get("PYSHADOW_LANES")) is not None:
+    if _probe.parse_override(os.environ.get("PYSHADOW_LANES")) is not None:
         # overridden: no probe at all (a device known to crash it need not run it)
         return {"lanes": None, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
                 "reason": ""}
     dev, plat = st["device"], st["platform"]
-    found, source = _lanes.verdicts(*st["index"], plat, dev, _probe_job(dev))
+    found, source = _probe.verdicts(*st["index"], plat, dev, _probe_job(dev))
     ok = [w for w in LANE_WIDTHS if found[w]["ok"]]
     name = dev.name.strip()
     why = "; ".join(f"{w}: {v['why']}" for w, v in sorted(found.items(), reverse=True))
@@ -323,7 +331,7 @@ def _probe_choice(st) -> dict:
         if source == "probe":
             warnings.warn(f"pyshadow: {preferred}-lane kernels fail on OpenCL device {name!r}: "
                           f"{found[preferred]['why']}. Using {width} lanes instead "
-                          f"(verdict cached in {_lanes.cache_file()}).", LaneWidthWarning,
+                          f"(verdict cached in {_probe.cache_file()}).", LaneWidthWarning,
                           stacklevel=4)
     else:
         reason = ("GPU: one query per work-item" if gpu

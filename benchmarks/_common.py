@@ -51,6 +51,8 @@ def environment() -> dict:
         "platform": info["platform"],
         "device_type": info["type"],
         "compute_units": info["compute_units"],
+        "lanes": info["lanes"],
+        "lanes_reason": info["lanes_reason"],
         "python": sys.version.split()[0],
         "machine": platform.machine(),
         "pyshadow": pyshadow.__version__,

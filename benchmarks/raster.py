@@ -54,7 +54,7 @@ def main(argv=None):
     if args.json:
         emit(result, True)
     else:
-        print(f"device            {result['device']} ({result['platform']})")
+        print(f"device            {result['device']} ({result['platform']}, {result['lanes']} lanes)")
         print(f"mesh              {args.mesh} ({result['faces']} faces)")
         print(f"maps              {len(views)} x {args.layers} layers at {args.resolution}^2")
         print(f"time (median {args.repeats})  {med:.2f} s   runs: " + ", ".join(f"{t:.2f}" for t in times))

@@ -183,7 +183,8 @@ def main(argv=None):
         emit(result, True)
         return
     r = result
-    print(f"device          {r['device']} ({r['platform']}); Embree on {args.threads} threads")
+    print(f"device          {r['device']} ({r['platform']}, {r['lanes']} lanes); "
+          f"Embree on {args.threads} threads")
     print(f"workload        {N / 1e6:.2f} M rays ({args.points} points x {args.samples}), "
           f"CSM {args.theta}x{args.phi} @ {args.resolution}^2 (built in {build_s:.1f} s)")
     print(f"Scene.visible   {r['visible_Mq_per_s']:6.2f} M queries/s  (median {vis_s:.3f} s; kernel alone "

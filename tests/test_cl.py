@@ -135,6 +135,8 @@ def _fake_child(behaviour):
         "garbage": "print('not json'); raise SystemExit(3)",
         "wrong": "import json; print(json.dumps({'ok': False, 'why': 'wrong answers'}))",
         "ok": "import json; print(json.dumps({'ok': True, 'why': 'fine'}))",
+        "ok-then-abort": "import json, os; print(json.dumps({'ok': True, 'why': 'fine'}), "
+                         "flush=True); os.abort()",
     }
     return lambda w: [sys.executable, "-c", code[behaviour[w]]]
 
@@ -147,6 +149,9 @@ def test_probe_survives_children_that_crash_hang_or_fail():
     assert found[8]["ok"] is False and "no answer within 5 s" in found[8]["why"]
     assert found[4]["ok"] is False and "status 3" in found[4]["why"]
     assert found[1] == {"ok": True, "why": "fine"}
+    late = lanes_mod.run_probe(0, 0, {"probe": "", "builds": []}, widths=(16,), timeout=5.0,
+                               command=_fake_child({16: "ok-then-abort"}))
+    assert late[16]["ok"] is False and "then the child process died of signal" in late[16]["why"]
 
 
 def _choose(monkeypatch, verdicts, source="probe"):

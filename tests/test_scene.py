@@ -618,6 +618,28 @@ def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng):
     np.testing.assert_array_equal(bent16, bent)
 
 
+def test_gpu_launch_shape_agrees(bunny_scene, rng, monkeypatch):
+    """What a GPU runs -- one lane, one query per work-item, groups of 128,
+    the kernels' portable OpenCL forms -- gives this device's answers."""
+    p, d = surface_queries(bunny_scene, 0, 701, 16, rng)
+    pts, nrm = bunny_scene.vertex_points(0)
+    pts, nrm = pts[:2000], nrm[:2000]
+    ids = np.zeros(len(p), np.int32)
+    vis = bunny_scene.visible(p, d, surface_ids=ids)
+    vis_f = bunny_scene.visible(p, d, surface_ids=ids, filtered=True)
+    ao, bent = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
+    assert 0.2 < vis.mean() < 0.9 and (vis_f != vis).any()
+    defines = pyshadow.Scene._defines
+    monkeypatch.setattr(pyshadow.Scene, "_defines", lambda self, atlas, **kw: {
+        **defines(self, atlas, **kw), "CPU_CLANG": 0})
+    with pyshadow._cl.use_lanes(1), launch.override(lanes=1, query_batch=1, query_group=128):
+        assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
+        assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
+        ao1, bent1 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
+    np.testing.assert_array_equal(ao1, ao)
+    np.testing.assert_array_equal(bent1, bent)
+
+
 def test_query_kernels_portable_code_path_agrees(bunny_scene, rng, monkeypatch):
     """The kernels' standard-OpenCL forms (vload16, prefetch(), what GPUs
     compile) give the answers of their inline CPU forms."""

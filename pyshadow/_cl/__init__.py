@@ -459,20 +459,34 @@ def _options(defines: dict | None) -> tuple[str, ...]:
     return tuple(opts)
 
 
-def _with_lanes(defines: dict | None) -> dict:
-    """``defines`` plus ``LANES`` (the device's lane width) unless it names one."""
+_lane_files: dict = {}
+
+
+def _uses_lanes(source_file: str) -> bool:
+    """Whether ``source_file`` includes ``lanes.h`` (directly or through a header)."""
+    hit = _lane_files.get(source_file)
+    if hit is None:
+        hit = _lane_files[source_file] = "---- begin lanes.h ----" in kernel_source(source_file)
+    return hit
+
+
+def _with_lanes(source_file: str, defines: dict | None) -> dict:
+    """``defines`` plus ``LANES`` (the device's lane width) for the files that
+    work on lanes, unless ``defines`` names a width."""
     d = dict(defines or {})
-    d.setdefault("LANES", lanes())
+    if _uses_lanes(source_file):
+        d.setdefault("LANES", lanes())
     return d
 
 
 def program(source_file: str, defines: dict | None = None) -> cl.Program:
     """Built program for ``source_file`` with ``-D`` ``defines`` (memoised).
 
-    ``LANES`` is added from :func:`lanes` unless ``defines`` holds it.
+    Files that include ``lanes.h`` get ``LANES`` from :func:`lanes` unless
+    ``defines`` holds it.
     """
     st = _init()
-    defines = _with_lanes(defines)
+    defines = _with_lanes(source_file, defines)
     opts = _options(defines)
     key = (id(st["context"]), source_file, opts)
     with _lock:
@@ -512,7 +526,7 @@ def kernel(source_file: str, name: str, defines: dict | None = None) -> cl.Kerne
     The same ``Kernel`` object is returned for the same arguments, so argument
     setting and pyopencl's per-kernel caches are reused.
     """
-    defines = _with_lanes(defines)
+    defines = _with_lanes(source_file, defines)
     key = (id(context()), source_file, name, _options(defines))
     with _lock:
         k = _kernels.get(key)

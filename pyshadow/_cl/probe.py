@@ -123,16 +123,21 @@ def _collect(procs, timeout):
             out[w] = {"ok": False, "why": f"no answer within {timeout:g} s (the compiler or "
                                           "the kernel hung; the child was killed)"}
             continue
-        if p.returncode < 0:
-            out[w] = {"ok": False, "why": f"the child process died of signal {-p.returncode}"
-                                          + _tail(stderr)}
-            continue
         try:
             v = json.loads(stdout.strip().splitlines()[-1])
-            out[w] = {"ok": bool(v["ok"]), "why": str(v["why"])}
+            verdict = {"ok": bool(v["ok"]), "why": str(v["why"])}
         except (ValueError, IndexError, KeyError, TypeError):
-            out[w] = {"ok": False, "why": f"the child process exited with status {p.returncode}"
-                                          + _tail(stderr)}
+            verdict = None
+        died = (f"the child process died of signal {-p.returncode}" if p.returncode < 0
+                else f"the child process exited with status {p.returncode}")
+        if verdict is None:
+            out[w] = {"ok": False, "why": died + _tail(stderr)}
+        elif p.returncode != 0:
+            # a child that answered and then crashed (PoCL tearing down a
+            # broken LLVM state, say) fails the width all the same
+            out[w] = {"ok": False, "why": f"{verdict['why']}; then {died}{_tail(stderr)}"}
+        else:
+            out[w] = verdict
     return out
 
 

@@ -8,7 +8,8 @@ every per-object structure lives in the object's normalised frame (bounding
 sphere centre at the origin, radius 1).
 """
 from ._version import __version__
-from ._cl import DeviceNotFoundError, KernelBuildError, device_info
+from ._cl import (DeviceNotFoundError, DeviceNotSupportedError, KernelBuildError,
+                  LaneWidthWarning, device_info)
 from .mesh import MeshCleanupWarning, bounding_sphere, load_mesh, stand_on_ground
 from .views import ViewSet
 from .raster import render_depth
@@ -27,7 +28,9 @@ __all__ = [
     "CoherentShadowMap",
     "CSMFormatError",
     "DeviceNotFoundError",
+    "DeviceNotSupportedError",
     "KernelBuildError",
+    "LaneWidthWarning",
     "MeshCleanupWarning",
     "ViewSet",
     "bilateral",

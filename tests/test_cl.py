@@ -169,7 +169,7 @@ def test_failed_width_falls_back_narrower_with_a_warning_naming_the_device(monke
     if _cl.device().type & cl.device_type.GPU:
         assert _choose(monkeypatch, v)["lanes"] == 1
         return
-    with pytest.warns(_cl.LaneWidthWarning) as rec:
+    with pytest.warns(pyshadow.LaneWidthWarning) as rec:
         choice = _choose(monkeypatch, v)
     assert choice["lanes"] == 4 and choice["supported"] == [4, 1]
     msg = str(rec[0].message)
@@ -184,7 +184,7 @@ def test_failed_width_falls_back_narrower_with_a_warning_naming_the_device(monke
 
 def test_device_failing_every_width_is_a_clear_error(monkeypatch):
     v = {w: {"ok": False, "why": f"failed at {w}"} for w in _cl.LANE_WIDTHS}
-    with pytest.raises(_cl.DeviceNotSupportedError) as info:
+    with pytest.raises(pyshadow.DeviceNotSupportedError) as info:
         _choose(monkeypatch, v)
     msg = str(info.value)
     assert repr(_cl.device().name.strip()) in msg

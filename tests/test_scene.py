@@ -598,61 +598,60 @@ def test_visible_input_dtypes_scales_and_float_only_devices_agree(bunny_scene, r
         assert (bunny_scene.visible(pp, dd, surface_ids=ids) == base).all(), name
 
 
+class QueryAnswers:
+    """Fixed queries on the bunny and the answers of every query kernel path
+    (one-texel and filtered ``visible``, AO with bent normals)."""
+
+    def __init__(self, scene, rng, points=1001, vertices=3000):
+        self.scene = scene
+        self.p, self.d = surface_queries(scene, 0, points, 16, rng)
+        pts, nrm = scene.vertex_points(0)
+        self.pts, self.nrm = pts[:vertices], nrm[:vertices]
+        self.ids = np.zeros(len(self.p), np.int32)
+        self.want = self.answers()
+        vis, vis_f, ao, _ = self.want
+        assert 0.2 < vis.mean() < 0.9 and 0.2 < ao.mean() < 0.95 and (vis_f != vis).any()
+
+    def answers(self):
+        s = self.scene
+        ao, bent = s.ambient_occlusion(self.pts, self.nrm, 36, surface_ids=0, bent_normals=True)
+        return (s.visible(self.p, self.d, surface_ids=self.ids),
+                s.visible(self.p, self.d, surface_ids=self.ids, filtered=True), ao, bent)
+
+    def check(self):
+        """The answers now equal the first ones, exactly."""
+        for got, want, what in zip(self.answers(), self.want, ("visible", "filtered", "ao", "bent")):
+            assert got.dtype == want.dtype and np.array_equal(got, want), what
+
+
+def portable_kernels(monkeypatch):
+    """Build the query kernels in their standard-OpenCL forms (vloadN,
+    prefetch(): what GPUs compile) instead of their inline CPU forms."""
+    defines = pyshadow.Scene._defines
+    monkeypatch.setattr(pyshadow.Scene, "_defines", lambda self, atlas, **kw: {
+        **defines(self, atlas, **kw), "CPU_CLANG": 0})
+
+
 def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng):
     """A batch of one lane vector (as on GPUs at 16 lanes) gives the CPU's
     answers (128 queries): packing the undecided rays of a batch changes
     nothing but speed."""
-    p, d = surface_queries(bunny_scene, 0, 1001, 16, rng)
-    pts, nrm = bunny_scene.vertex_points(0)
-    pts, nrm = pts[:3000], nrm[:3000]
-    ids = np.zeros(len(p), np.int32)
-    vis = bunny_scene.visible(p, d, surface_ids=ids)
-    vis_f = bunny_scene.visible(p, d, surface_ids=ids, filtered=True)
-    ao, bent = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
-    assert 0.2 < vis.mean() < 0.9 and 0.2 < ao.mean() < 0.95 and (vis_f != vis).any()
+    q = QueryAnswers(bunny_scene, rng)
     with launch.override(query_batch=launch.shape().lanes):
-        assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
-        assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
-        ao16, bent16 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
-    np.testing.assert_array_equal(ao16, ao)
-    np.testing.assert_array_equal(bent16, bent)
+        q.check()
 
 
 def test_gpu_launch_shape_agrees(bunny_scene, rng, monkeypatch):
     """What a GPU runs -- one lane, one query per work-item, groups of 128,
     the kernels' portable OpenCL forms -- gives this device's answers."""
-    p, d = surface_queries(bunny_scene, 0, 701, 16, rng)
-    pts, nrm = bunny_scene.vertex_points(0)
-    pts, nrm = pts[:2000], nrm[:2000]
-    ids = np.zeros(len(p), np.int32)
-    vis = bunny_scene.visible(p, d, surface_ids=ids)
-    vis_f = bunny_scene.visible(p, d, surface_ids=ids, filtered=True)
-    ao, bent = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
-    assert 0.2 < vis.mean() < 0.9 and (vis_f != vis).any()
-    defines = pyshadow.Scene._defines
-    monkeypatch.setattr(pyshadow.Scene, "_defines", lambda self, atlas, **kw: {
-        **defines(self, atlas, **kw), "CPU_CLANG": 0})
+    q = QueryAnswers(bunny_scene, rng, points=701, vertices=2000)
+    portable_kernels(monkeypatch)
     with pyshadow._cl.use_lanes(1), launch.override(lanes=1, query_batch=1, query_group=128):
-        assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
-        assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
-        ao1, bent1 = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0, bent_normals=True)
-    np.testing.assert_array_equal(ao1, ao)
-    np.testing.assert_array_equal(bent1, bent)
+        q.check()
 
 
 def test_query_kernels_portable_code_path_agrees(bunny_scene, rng, monkeypatch):
-    """The kernels' standard-OpenCL forms (vload16, prefetch(), what GPUs
-    compile) give the answers of their inline CPU forms."""
-    p, d = surface_queries(bunny_scene, 0, 1001, 16, rng)
-    pts, nrm = bunny_scene.vertex_points(0)
-    pts, nrm = pts[:3000], nrm[:3000]
-    ids = np.zeros(len(p), np.int32)
-    vis = bunny_scene.visible(p, d, surface_ids=ids)
-    vis_f = bunny_scene.visible(p, d, surface_ids=ids, filtered=True)
-    ao = bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0)
-    defines = pyshadow.Scene._defines
-    monkeypatch.setattr(pyshadow.Scene, "_defines", lambda self, atlas, **kw: {
-        **defines(self, atlas, **kw), "CPU_CLANG": 0})
-    assert (bunny_scene.visible(p, d, surface_ids=ids) == vis).all()
-    assert (bunny_scene.visible(p, d, surface_ids=ids, filtered=True) == vis_f).all()
-    np.testing.assert_array_equal(bunny_scene.ambient_occlusion(pts, nrm, 36, surface_ids=0), ao)
+    """The kernels' standard-OpenCL forms give the answers of their inline CPU forms."""
+    q = QueryAnswers(bunny_scene, rng)
+    portable_kernels(monkeypatch)
+    q.check()

@@ -25,10 +25,12 @@ __all__ = ["LANE_WIDTHS", "PROBE_TIMEOUT_S", "DeviceNotSupportedError", "parse_o
            "verdicts", "cache_file"]
 
 LANE_WIDTHS = (16, 8, 4, 1)
-# a child builds and runs a 20-line kernel (about 1 s on PoCL, most of it
-# starting Python and LLVM); 30 s leaves room for a loaded machine and still
-# ends a compiler that hangs (seen: more than 5 minutes) in good time
-PROBE_TIMEOUT_S = 30.0
+# a child builds and runs the probe kernel and builds the lane kernels: all
+# four children together took 4 s on the 2-core development machine with
+# PoCL's compiler cache empty; 60 s leaves room for a slower or loaded machine
+# and still ends a compiler that hangs (seen: more than 5 minutes), once per
+# device and driver
+PROBE_TIMEOUT_S = 60.0
 _CHILD = Path(__file__).with_name("probe_child.py")
 
 

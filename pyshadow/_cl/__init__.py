@@ -292,15 +292,16 @@ def lane_choice() -> dict:
     """
     st = _init()
     override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
-    with _lock:
-        cached = st.get("lane_choice")
-        if cached is None:
-            cached = _probe_choice(st)
-            st["lane_choice"] = cached
-    choice = dict(cached)
     if override is not None:
-        choice.update(lanes=override, source="PYSHADOW_LANES",
-                      reason=f"PYSHADOW_LANES={override} (the probe is not consulted)")
+        # no probe at all: a device known to crash it need not run it
+        choice = {"lanes": override, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
+                  "reason": f"PYSHADOW_LANES={override} (the probe is not consulted)"}
+    else:
+        with _lock:
+            cached = st.get("lane_choice")
+            if cached is None:
+                cached = st["lane_choice"] = _probe_choice(st)
+        choice = dict(cached)
     if _lane_override:
         choice.update(lanes=_lane_override[-1], source="use_lanes",
                       reason=f"use_lanes({_lane_override[-1]})")
@@ -308,10 +309,7 @@ def lane_choice() -> dict:
 
 
 def _probe_choice(st) -> dict:
-    if _probe.parse_override(os.environ.get("PYSHADOW_LANES")) is not None:
-        # overridden: no probe at all (a device known to crash it need not run it)
-        return {"lanes": None, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
-                "reason": ""}
+    """Probe verdicts (cached or fresh) and the width they choose."""
     dev, plat = st["device"], st["platform"]
     found, source = _probe.verdicts(*st["index"], plat, dev, _probe_job(dev))
     ok = [w for w in LANE_WIDTHS if found[w]["ok"]]

@@ -6,7 +6,7 @@
  * LANES = 1 is one query per work-item, the natural shape for GPUs; 4, 8 and
  * 16 suit CPUs whose compilers map them onto SSE/AVX/AVX-512 registers.
  *
- *   fv, iv, uv          float, int, uint lanes
+ *   fv, iv              float and int lanes
  *   MASK(c)             a comparison as a lane mask: every bit set (-1) where
  *                       true, 0 where false -- what vector comparisons give;
  *                       a scalar comparison gives 1, so LANES = 1 negates it.
@@ -62,7 +62,6 @@
 #endif
 typedef VTYPE(float) fv;
 typedef VTYPE(int) iv;
-typedef VTYPE(uint) uv;
 
 #if LANES == 1
 #define MASK(c) (-(int)(c))

@@ -77,15 +77,16 @@ def main(argv=None):
     out = {}
     vis_s, vis_all = median_time(lambda: out.__setitem__("vis", scene.visible(P, D, surface_ids=ids)),
                                  args.repeats)
-    ao_s, _ = median_time(lambda: out.__setitem__("ao", scene.ambient_occlusion(p, n, args.samples,
-                                                                                 surface_ids=0)),
+    ao_s, _ = median_time(lambda: out.__setitem__("ao", scene.ambient_occlusion(
+        p, n, sampling=pyshadow.Sampling(args.samples), surface_ids=0)),
                           args.repeats)
-    filt_s, _ = median_time(lambda: out.__setitem__("filtered", scene.visible(P, D, surface_ids=ids, filtered=True)),
+    filt_s, _ = median_time(lambda: out.__setitem__("filtered", scene.visible(P, D, surface_ids=ids, lookup="vote")),
                             args.repeats)
 
     # the kernel alone, on device-resident inputs (anchor-relative float32)
-    anchor = scene._anchor(P)
-    atlas, kargs = scene._scene_args(anchor, None)
+    backend = pyshadow.visibility.CSMVisibility("nearest")
+    anchor = scene.anchor(P)
+    atlas, kargs = backend._scene_args(scene, anchor, None)
     dev_p = _cl.to_device(np.ascontiguousarray(P - anchor, dtype=np.float32))
     dev_w = _cl.to_device(np.ascontiguousarray(D, dtype=np.float32))
     own = _cl.to_device(np.zeros(N, np.int32))
@@ -96,7 +97,7 @@ def main(argv=None):
 
     def kernel_time(extra=None):
         k = _cl.kernel("visibility.cl", "scene_visible",
-                       scene._defines(atlas, HAVE_FP64=int(fp64), POINTS_F64=0, DIRS_F64=0, **(extra or {})))
+                       backend._defines(scene, atlas, HAVE_FP64=int(fp64), POINTS_F64=0, DIRS_F64=0, **(extra or {})))
 
         def run():
             shape = launch.shape()
@@ -113,9 +114,9 @@ def main(argv=None):
                    "without_both_s": kernel_time({"PROFILE_SKIP_NEAREST": 1, "PROFILE_SKIP_SEARCH": 1})}
 
     # Embree on the identical rays, one thread per core
-    rays, ranchor = reference.caster_scene(scene)
-    eps = reference.surface_epsilon(scene)
-    ground = reference.ground_occludes(scene, P - ranchor, D, ranchor)
+    rays, ranchor = embree.caster_scene(scene)
+    eps = embree.surface_epsilon(scene)
+    ground = embree.ground_occludes(scene, P - ranchor, D, ranchor)
     todo = np.flatnonzero(~ground)
     origins = (P[todo] - ranchor + eps * D[todo]).astype(np.float32)
     dirs = D[todo].astype(np.float32)

@@ -22,7 +22,19 @@
  *                       its default rounding
  *   VTYPE(T)            the lane vector of scalar type T (double16, uchar8)
  *   LANE_IDS            (0, 1, ..., LANES - 1)
- * Macros: LANES (1, 4, 8 or 16).
+ * Lane memory (private arrays of queries, moved a lane vector at a time):
+ *   LANE_ARRAY          alignment of a private array to a whole lane vector
+ *   LANE_LOAD(a), LANE_STORE(v, a)  the lane vector at a: a LANE_ARRAY, or
+ *                       one offset by a multiple of LANES (the vector type
+ *                       follows a's element type: float, int or uint)
+ *   PREFETCH(p)         start fetching p's cache line, without waiting
+ *   DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)  rows 0..LANES-1 of an (N, 3)
+ *                       array, loaded as three T vectors a0, a1, a2, into
+ *                       the columns X, Y, Z
+ *   CPU_CLANG           1 on CPU targets of clang (PoCL): LANE_LOAD, LANE_STORE
+ *                       and PREFETCH take inline forms there; the host may
+ *                       set it (0: the standard OpenCL forms, as on GPUs)
+ * Macros: LANES (1, 4, 8 or 16); CPU_CLANG (optional, see above).
  */
 #ifndef PYSHADOW_LANES_H
 #define PYSHADOW_LANES_H
@@ -80,5 +92,53 @@ typedef VTYPE(int) iv;
 #define VSEL(a, b, c) ((c) ? (b) : (a))
 #define VMIN(a, b) (((b) < (a)) ? (b) : (a))
 #define VMAX(a, b) (((b) > (a)) ? (b) : (a))
+
+/* CPU targets of clang (PoCL): builtins PoCL would call rather than inline
+ * get inline forms below; other compilers use the standard builtins */
+#ifndef CPU_CLANG                /* the host may set it (tests: 0 on PoCL too) */
+#if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
+#define CPU_CLANG 1
+#else
+#define CPU_CLANG 0
+#endif
+#endif
+/* private lane arrays: aligned to a whole lane vector, moved as whole
+ * vectors (the type follows the array, so one macro serves float, int and
+ * uint arrays) */
+#define LANE_ARRAY __attribute__((aligned(4 * LANES)))
+#if CPU_CLANG
+#define LANE_LOAD(a) (*(__typeof__(VLOAD(0, (a))) *)(a))
+#define LANE_STORE(v, a) (*(__typeof__(VLOAD(0, (a))) *)(a) = (v))
+/* a cache-line prefetch that does not hold up the lane loop (PoCL's
+ * prefetch() is a no-op; clang's builtin becomes the CPU's prefetch
+ * instruction; memory is flat on CPUs) */
+#define PREFETCH(p) __builtin_prefetch((const void *)(ulong)(p))
+#else
+#define LANE_LOAD(a) VLOAD(0, (a))
+#define LANE_STORE(v, a) VSTORE((v), 0, (a))
+#define PREFETCH(p) prefetch((p), 1)
+#endif
+/* rows 0..LANES-1 of an (N, 3) array from its 3 LANES values in a0, a1, a2 */
+#if LANES == 16
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a0.s6, a0.s9, a0.sc, a0.sf, a1.s2, a1.s5, a1.s8, a1.sb, a1.se,  \
+            a2.s1, a2.s4, a2.s7, a2.sa, a2.sd);                                            \
+    Y = (T)(a0.s1, a0.s4, a0.s7, a0.sa, a0.sd, a1.s0, a1.s3, a1.s6, a1.s9, a1.sc, a1.sf,  \
+            a2.s2, a2.s5, a2.s8, a2.sb, a2.se);                                            \
+    Z = (T)(a0.s2, a0.s5, a0.s8, a0.sb, a0.se, a1.s1, a1.s4, a1.s7, a1.sa, a1.sd, a2.s0,  \
+            a2.s3, a2.s6, a2.s9, a2.sc, a2.sf)
+#elif LANES == 8
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a0.s6, a1.s1, a1.s4, a1.s7, a2.s2, a2.s5);                       \
+    Y = (T)(a0.s1, a0.s4, a0.s7, a1.s2, a1.s5, a2.s0, a2.s3, a2.s6);                       \
+    Z = (T)(a0.s2, a0.s5, a1.s0, a1.s3, a1.s6, a2.s1, a2.s4, a2.s7)
+#elif LANES == 4
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z)                                               \
+    X = (T)(a0.s0, a0.s3, a1.s2, a2.s1);                                                   \
+    Y = (T)(a0.s1, a1.s0, a1.s3, a2.s2);                                                   \
+    Z = (T)(a0.s2, a1.s1, a2.s0, a2.s3)
+#else
+#define DEINTERLEAVE3(T, a0, a1, a2, X, Y, Z) X = (a0); Y = (a1); Z = (a2)
+#endif
 
 #endif

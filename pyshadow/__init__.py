@@ -6,7 +6,19 @@ polar angles ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)
 AO is the unoccluded, cosine-weighted fraction of the hemisphere in [0, 1];
 every per-object structure lives in the object's normalised frame (bounding
 sphere centre at the origin, radius 1).
+
+One module (or package) a job: :mod:`~pyshadow.mesh`, :mod:`~pyshadow.views`,
+:mod:`~pyshadow.raster`, :mod:`~pyshadow.csm`, :mod:`~pyshadow.scene`
+(placement), :mod:`~pyshadow.visibility` (queries, backends by name),
+:mod:`~pyshadow.sampling`, :mod:`~pyshadow.gbuffer`, :mod:`~pyshadow.render`
+(the render stage), :mod:`~pyshadow.filters`, :mod:`~pyshadow.io`,
+:mod:`~pyshadow.cache`, :mod:`~pyshadow.embree` (ground truth),
+:mod:`~pyshadow.viz` (pyvista), :mod:`~pyshadow.bench` (``pyshadow-bench``),
+:mod:`~pyshadow.data` (bundled meshes). ``import pyshadow`` reaches each of them
+(``embree``, ``viz`` and ``bench`` are imported on first use).
 """
+import importlib
+
 from ._version import __version__
 from ._cl import (DeviceNotFoundError, DeviceNotSupportedError, KernelBuildError,
                   LaneWidthWarning, device_info)
@@ -15,12 +27,25 @@ from .views import ViewSet
 from .raster import render_depth
 from .camera import Camera
 from .csm import CoherentShadowMap, CSMFormatError
-from .sampling import STRATEGIES, sample_directions
+from .sampling import STRATEGIES, Sampling, sample_directions
 from .scene import Scene
 from .filters import bilateral, edge_aware_box, upsample
 from .io import read_image, write_image
-from . import data
 from .gbuffer import render_gbuffer
+from .render import Frame
+from . import (cache, camera, csm, data, filters, gbuffer, io, mesh, raster, render, sampling, scene,
+               views, visibility)
+
+_LAZY = ("embree", "viz", "bench")
+
+
+def __getattr__(name):
+    """``pyshadow.embree``, ``pyshadow.viz`` and ``pyshadow.bench`` load on first use
+    (they import embreex, pyvista and the CLI's dependencies)."""
+    if name in _LAZY:
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "__version__",
@@ -29,12 +54,13 @@ __all__ = [
     "CSMFormatError",
     "DeviceNotFoundError",
     "DeviceNotSupportedError",
+    "Frame",
     "KernelBuildError",
     "LaneWidthWarning",
     "MeshCleanupWarning",
+    "Sampling",
     "ViewSet",
     "bilateral",
-    "data",
     "bounding_sphere",
     "device_info",
     "edge_aware_box",
@@ -48,4 +74,7 @@ __all__ = [
     "STRATEGIES",
     "upsample",
     "write_image",
+    # submodules
+    "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "mesh", "raster",
+    "render", "sampling", "scene", "viz", "views", "visibility",
 ]

@@ -14,41 +14,11 @@ import pyopencl as cl
 import trimesh
 
 from . import _cl
+from ._validate import check_transform
 from .camera import Camera
 from .mesh import load_mesh
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
-
-
-def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.ndarray:
-    """Validate a 4x4 affine transform; return it as float64.
-
-    With ``rigid=True`` only rotation, translation and uniform positive scale
-    are accepted (the transforms a CSM instance may have).
-    """
-    T = np.asarray(T, dtype=np.float64)
-    if T.shape != (4, 4):
-        raise ValueError(f"{name} must be a 4x4 matrix, got shape {T.shape}")
-    if not np.isfinite(T).all():
-        raise ValueError(f"{name} has non-finite entries")
-    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-12):
-        raise ValueError(f"{name} must be affine (last row 0 0 0 1), got {T[3].tolist()}")
-    A = T[:3, :3]
-    det = np.linalg.det(A)
-    if not abs(det) > 1e-300:
-        raise ValueError(f"{name} is singular")
-    if rigid:
-        s = np.cbrt(det)
-        if not s > 0:
-            raise ValueError(f"{name} mirrors (negative determinant); only rotations are rigid")
-        Q = A / s
-        err = np.abs(Q.T @ Q - np.eye(3)).max()
-        if err > 1e-6:
-            raise ValueError(
-                f"{name} is not rigid: after removing the uniform scale {s:.6g} the 3x3 part "
-                f"deviates from a rotation by {err:.3g} (shear or non-uniform scale)"
-            )
-    return T
 
 
 def _clip_near(tri: np.ndarray, near: float):

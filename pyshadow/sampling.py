@@ -22,17 +22,59 @@ Strategies
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from . import _cl
 
-__all__ = ["STRATEGIES", "sample_patterns", "pattern_indices", "sample_directions",
+__all__ = ["Sampling", "STRATEGIES", "sample_patterns", "pattern_indices", "sample_directions",
            "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
 
 STRATEGIES = ("random", "stratified", "latin_hypercube", "halton", "hammersley")
 _CODES = {s: i for i, s in enumerate(STRATEGIES)}
 MAX_SAMPLES = 4096
 MAX_PATTERNS = 65536
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """How the hemisphere of each point is sampled: one value wherever samples are drawn.
+
+    Parameters
+    ----------
+    samples : int, optional
+        Cosine-weighted directions per point, 1 .. 4096.
+    strategy : str, optional
+        One of :data:`STRATEGIES`: 'random', 'stratified',
+        'latin_hypercube', 'halton' or 'hammersley'.
+    patterns : int, optional
+        Precomputed patterns, 1 .. 65536; point ``i`` uses pattern
+        ``pattern_indices(indices[i], patterns, seed)``, so neighbouring
+        pixels see different directions.
+    seed : int, optional
+        Seed of the pattern assignment (and of the 'random' strategies).
+
+    Examples
+    --------
+    >>> Sampling(64, "halton").samples
+    64
+    """
+
+    samples: int = 36
+    strategy: str = "hammersley"
+    patterns: int = 256
+    seed: int = 0
+
+    def __post_init__(self):
+        check_sampling(self.samples, self.strategy, self.patterns)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)):
+            raise TypeError(f"seed must be an int, got {self.seed!r}")
+
+    def directions(self, normals, indices=None) -> np.ndarray:
+        """World directions (N, samples, 3) float32 about ``normals``: :func:`sample_directions`."""
+        return sample_directions(normals, self.samples, self.strategy, self.patterns, self.seed,
+                                 indices=indices)
 
 
 def check_sampling(samples, strategy, patterns):
@@ -160,11 +202,12 @@ def direction_table(samples: int, strategy: str = "hammersley", patterns: int = 
 
 
 def sample_directions_reference(normals, samples: int = 36, strategy: str = "hammersley",
-                                patterns: int = 256, seed: int = 0) -> np.ndarray:
+                                patterns: int = 256, seed: int = 0, *, indices=None) -> np.ndarray:
     """NumPy (float64) version of :func:`sample_directions`."""
     n = _check_normals(normals)
     local = local_directions(sample_patterns(samples, strategy, patterns, seed))
-    loc = local[pattern_indices(np.arange(len(n)), patterns, seed)]       # (N, S, 3)
+    idx = np.arange(len(n)) if indices is None else np.asarray(indices, dtype=np.int64)
+    loc = local[pattern_indices(idx, patterns, seed)]       # (N, S, 3)
     t, b = hemisphere_frame(n)
     return loc[..., 0:1] * t[:, None] + loc[..., 1:2] * n[:, None] + loc[..., 2:3] * b[:, None]
 

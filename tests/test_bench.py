@@ -1,5 +1,7 @@
-"""pyshadow-bench (pyshadow/bench.py): the CLI run as a subprocess at tiny settings,
-its cache, outputs and errors, and the helpers it measures with."""
+"""pyshadow-bench (pyshadow/bench/): the CLI run as a subprocess at tiny settings,
+its use of the cache, outputs and errors, and the helpers it measures with.
+
+The cache itself is tested in test_cache.py, the threaded Embree tracer in test_embree.py."""
 from __future__ import annotations
 
 import json
@@ -331,6 +333,20 @@ def test_bench_max_error_without_sweep_json(tmp_path):
 # ---------------------------------------------------------------------------
 # helpers, in process
 # ---------------------------------------------------------------------------
+def test_bench_reexports_and_module_entry_point():
+    """Names imported from pyshadow.bench before its split into modules are still there."""
+    import pyshadow.bench as bench
+    from pyshadow import cache, embree
+
+    assert bench.CSMCache is cache.CSMCache and bench.default_cache_dir is cache.default_cache_dir
+    assert bench.EmbreeTracer is embree.EmbreeTracer
+    for name in bench.__all__:
+        assert getattr(bench, name) is not None, name
+    p = subprocess.run([sys.executable, "-m", "pyshadow.bench", "--help"], capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 0 and p.stdout.startswith("usage: pyshadow-bench")
+
+
 def test_pareto_front_cases():
     from pyshadow.bench import pareto_front
 
@@ -357,23 +373,24 @@ def test_sweep_grids_vary_one_knob_then_combine():
     assert len({c for c, _ in rows}) == len(rows)
 
 
-def test_embree_tracer_matches_reference_ambient_occlusion():
-    """The threaded Embree rays are reference.ambient_occlusion's, bit for bit."""
+def test_embree_pass_matches_embree_ambient_occlusion():
+    """The bench's Embree pass on the G-buffer is embree.ambient_occlusion, bit for bit."""
     import pyshadow
-    from pyshadow import reference
-    from pyshadow.bench import EmbreeTracer, GBuffer, embree_pass
+    from pyshadow import embree
+    from pyshadow.bench import GBuffer, embree_pass
+    from pyshadow.embree import EmbreeTracer
     from pyshadow.data import default_scene
 
     scene, camera = default_scene(views=pyshadow.ViewSet.zigzag(4, 8), resolution=16, width=40,
                                   height=30)
-    gb = GBuffer.from_render(scene.render(camera, 4), camera)
+    gb = GBuffer.from_render(scene.render(camera, sampling=pyshadow.Sampling(4)), camera)
     tracer = EmbreeTracer(scene, 2)
     try:
         got = embree_pass(tracer, gb, 12, "halton", 3, 64)
     finally:
         tracer.close()
-    want = reference.ambient_occlusion(scene, gb.points, gb.normals, 12, "halton", 3, 64,
-                                       indices=gb.sel)
+    want = embree.ambient_occlusion(scene, gb.points, gb.normals, 12, "halton", 3, 64,
+                                    indices=gb.sel)
     np.testing.assert_array_equal(got["ao"], want)
     occ = got["occluded"]
     assert occ.shape == (gb.n * 12,) and 0.0 < occ.mean() < 1.0      # both outcomes present
@@ -400,7 +417,7 @@ def test_mesh_scene_frames_every_body():
         xs.append(c[0])
     assert xs[0] < xs[1] < xs[2]
     assert all(b - a >= 2.0 for a, b in zip(xs, xs[1:]))               # spheres do not overlap
-    ids = scene.render(camera, 1)["object_id"]
+    ids = scene.render(camera, sampling=pyshadow.Sampling(1))["object_id"]
     for i in range(3):
         assert (ids == i).sum() > 20, i                                  # every body is in view
     # no body is cut by the image border

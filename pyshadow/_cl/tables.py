@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["CSM_TYPE", "INSTANCE", "c_struct", "GENERATED_HEADERS"]
 
-# one record per CSM type of a scene's atlas (scene.Scene._device_atlas)
+# one record per CSM type of a scene's atlas (pyshadow.csm.device.scene_atlas)
 CSM_TYPE = np.dtype([
     ("resolution", "<i4"),      # R, texels per side
     ("maps", "<i4"),            # D, maps of the view set

@@ -1,0 +1,281 @@
+/* csm_lookup.h -- the CSM lookup of the scene kernels: is a query (point,
+ * direction) shadowed by one caster instance? (thesis 000, sections 5.3.2,
+ * 5.3.3; the rule in visibility.cl's opening comment)
+ *
+ *   stored_v()      the stored depth of (map, texel) for every lane: the
+ *                   counting search of csm_search.h over the padded lists
+ *   map_frame_v()   a point seen from a map: axis, depth, texel coordinates
+ *   bias_v()        the depth tolerance of a lane against a map
+ *   instance_v()    the lookup: the nearest map (views_zigzag.h,
+ *                   views_hilbert.h) and its texel, or with FILTERED the
+ *                   vote of four maps times four texels
+ *
+ * Queries are answered LANES at a time (lanes.h; the host picks LANES per
+ * device): the arithmetic runs on lane vectors (one lane per query), the
+ * table reads (map bases, list offsets, the counting searches, stored
+ * depths) run lane by lane, each phase for all lanes before the next, with
+ * the block summaries and the blocks prefetched as soon as their addresses
+ * are known -- so the lanes' cache misses overlap instead of queueing
+ * (memory latency is what limits these kernels on CPUs). With LANES = 1
+ * each work-item answers its queries one by one (GPUs).
+ *
+ * Expects: LANES (lanes.h); DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
+ * (csm_search.h); LAYOUT_ZIGZAG, LAYOUT_HILBERT, FILTERED, FILTER_ANGLE_EPS
+ * (FILTERED only); optional PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH
+ * (visibility.cl).
+ */
+#ifndef PYSHADOW_CSM_LOOKUP_H
+#define PYSHADOW_CSM_LOOKUP_H
+
+#include "csm_search.h"
+#include "lanes.h"
+#include "scene_tables.h"
+#include "views_hilbert.h"
+#include "views_zigzag.h"
+
+/* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
+ * every lane with va[l] != 0, +inf for the others. The search of csm_find()
+ * (csm_search.h) for every lane: first the list's block summary, then the
+ * block. */
+__attribute__((always_inline))
+inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *ka, const int *ta,
+                     const int *va, float *za)
+{
+    __global const uint *off = S->offsets + T->texel_base;
+    __global const uint *sof = S->soff + T->texel_base;
+    LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
+    for (int l = 0; l < LANES; ++l) {
+        const uint t = va[l] ? (uint)ta[l] : 0u;
+        base[l] = off[t];
+        lo[l] = sof[t];
+        hi[l] = va[l] ? sof[t + 1] - 1u : lo[l];
+        PREFETCH(S->summary + lo[l]);
+#if PROFILE_SKIP_SEARCH
+        hi[l] = lo[l];
+#endif
+    }
+    /* counting scans: the number of summary entries below the map is the
+     * block, the number of i_end below it in that block the segment --
+     * branch-free, sequential reads, no mispredicted jumps. The lists are
+     * padded to whole blocks (search_arrays(padded=True)) with copies of
+     * their last pair (i_end = D - 1, never below the map), so every block is
+     * SEARCH_BLOCK pairs at an aligned start. First every lane's block is
+     * found and its first pair read (the lanes' cache misses are in flight
+     * together), then the blocks are counted. */
+    LANE_ARRAY uint b0a[LANES];
+    LANE_ARRAY pair_t first[LANES];
+    for (int l = 0; l < LANES; ++l) {
+        const uint k = (uint)ka[l];
+        uint c = 0u;
+        for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
+        b0a[l] = base[l] + SEARCH_BLOCK * c;
+        PREFETCH(S->pairs + b0a[l]);
+    }
+    for (int l = 0; l < LANES; ++l) {
+        const uint k = (uint)ka[l], b0 = b0a[l];
+        uint c2 = 0u;
+        for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
+        first[l] = S->pairs[b0 + c2];
+    }
+    for (int l = 0; l < LANES; ++l)
+        za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
+}
+
+/* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
+ * type's first map): the map axis d, the point's depth (1 - q.d) / 2 and
+ * texel coordinates (fx, fy) in [0, R)^2 on the map; lanes (-1) where the
+ * point lies inside the map's square, behind the bounding sphere's front */
+__attribute__((always_inline))
+inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
+                      fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy)
+{
+    LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
+    for (int l = 0; l < LANES; ++l) {
+        __global const float *B = bases + 9 * ka[l];
+        bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
+        bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
+        bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
+    }
+    *dx = LANE_LOAD(bd[0]); *dy = LANE_LOAD(bd[1]); *dz = LANE_LOAD(bd[2]);
+    *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
+    *fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f) * (0.5f * (float)R);
+    *fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f) * (0.5f * (float)R);
+    return MASK(*depth > 0.0f) & MASK(*fx >= 0.0f) & MASK(*fx < (float)R) & MASK(*fy >= 0.0f)
+           & MASK(*fy < (float)R);
+}
+
+/* depth tolerance of each lane for map axis (dx, dy, dz): against the
+ * point's own surface a quantum, a share of a texel and the angle a between
+ * the query direction and the map's axis; against other casters only
+ * bias_other (the quantum) */
+inline fv bias_v(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
+{
+    const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
+    const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
+    const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+    return VSEL((fv)(S->bias_other), bias_self, MASK(own == -1) | MASK(own == j));
+}
+
+#if FILTERED
+/* sort four (weight w[i], item x[i]) lane vectors by weight, heaviest first,
+ * lane by lane (a sorting network) */
+inline void sort4_heaviest_first(fv *w, iv *x)
+{
+    const int pairs[5][2] = {{0, 1}, {2, 3}, {0, 2}, {1, 3}, {1, 2}};
+    for (int p = 0; p < 5; ++p) {
+        const int a = pairs[p][0], b = pairs[p][1];
+        const iv swap = MASK(w[b] > w[a]);
+        const fv wa = VSEL(w[a], w[b], swap), wb = VSEL(w[b], w[a], swap);
+        const iv xa = VSEL(x[a], x[b], swap), xb = VSEL(x[b], x[a], swap);
+        w[a] = wa; w[b] = wb; x[a] = xa; x[b] = xb;
+    }
+}
+#endif
+
+/* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
+inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
+                     iv act)
+{
+    __global const instance_t *I = S->inst + j;
+    __global const csm_type_t *T = S->types + S->itype[j];
+    const int R = T->resolution, layout = T->layout, vbase = T->view_base;
+    __global const float *A = I->to_object, *Rw = I->rotation;
+    const fv qx = A[0] * px + A[1] * py + A[2] * pz + I->offset[0];
+    const fv qy = A[3] * px + A[4] * py + A[5] * pz + I->offset[1];
+    const fv qz = A[6] * px + A[7] * py + A[8] * pz + I->offset[2];
+    fv vx = Rw[0] * wx + Rw[1] * wy + Rw[2] * wz;
+    fv vy = Rw[3] * wx + Rw[4] * wy + Rw[5] * wz;
+    fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
+    const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
+    vx *= inv; vy *= inv; vz *= inv;
+    LANE_ARRAY int am[LANES];
+    LANE_STORE(act, am);
+
+#if FILTERED
+    /* the four maps of ViewSet.filter_window, each asked by a bilinear vote
+     * of the four texels around the point (texel centres; border texels
+     * repeated); the instance shadows a lane when the weighted votes exceed
+     * one half (scene.visible_reference(filtered=True)) */
+    LANE_ARRAY int kw[4][LANES];
+    LANE_ARRAY float mw[4][LANES];
+#if LAYOUT_ZIGZAG
+    if (layout == 0) {
+        iv k[4];
+        fv cx[4], cy[4], cz[4];
+        zigzag_window_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1], T->zigzag_steps[2],
+                        T->zigzag_steps[3], vx, vy, vz, k, cx, cy, cz);
+        fv wsum = (fv)(0.0f), wt[4];
+        for (int m = 0; m < 4; ++m) {
+            const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];
+            const fv chord = sqrt(ex * ex + ey * ey + ez * ez);
+            wt[m] = 1.0f / (2.0f * asin(VMIN(0.5f * chord, (fv)(1.0f))) + FILTER_ANGLE_EPS);
+            wsum += wt[m];
+        }
+        /* heaviest map first (a sorting network of the four), so that the
+         * vote below is decided early */
+        sort4_heaviest_first(wt, k);
+        for (int m = 0; m < 4; ++m) {
+            LANE_STORE(k[m], kw[m]);
+            LANE_STORE(wt[m] / wsum, mw[m]);
+        }
+    }
+#endif
+#if LAYOUT_HILBERT
+    if (layout != 0) {
+        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
+        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
+        for (int l = 0; l < LANES; ++l) {
+            int k4[4] = {0, 0, 0, 0};
+            float w4[4] = {0.25f, 0.25f, 0.25f, 0.25f};
+            if (am[l])
+                window_hilbert(S->bases, vbase, S->cells, T->cell_base, T->p1, layout == 2,
+                               (float3)(ax[l], ay[l], az[l]), k4, w4);
+            const float sum = w4[0] + w4[1] + w4[2] + w4[3];
+            for (int m = 0; m < 4; ++m) { kw[m][l] = k4[m]; mw[m][l] = w4[m] / sum; }
+        }
+    }
+#endif
+    /* maps heaviest first (hilbert windows are nearest first); a lane is
+     * decided, and asks no more, once its shadowing votes exceed one half
+     * or the weight still to come cannot take them there (a margin of 1e-5
+     * for the rounding of the running sums: nearer ties go to the end) */
+    fv vote = (fv)(0.0f), rest = (fv)(1.0f);
+    iv open = act;
+    for (int m = 0; m < 4 && VANY(open); ++m) {
+        fv dx, dy, dz, depth, fx, fy;
+        const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
+                                             &dx, &dy, &dz, &depth, &fx, &fy);
+        const fv wm = LANE_LOAD(mw[m]);
+        if (!VANY(inside)) {
+            rest -= wm;
+            open &= MASK(vote + rest > 0.5f - 1e-5f);
+            continue;
+        }
+        const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz);
+        const fv gx = VSEL((fv)(0.0f), fx - 0.5f, inside), gy = VSEL((fv)(0.0f), fy - 0.5f, inside);
+        const fv x0f = floor(gx), y0f = floor(gy);
+        const fv tx = gx - x0f, ty = gy - y0f;
+        const iv x0 = CONVERT(int, x0f), y0 = CONVERT(int, y0f);
+        LANE_ARRAY int ta[LANES], va[LANES];
+        LANE_ARRAY float za[LANES];
+        iv tt[4];
+        fv tw[4];
+        for (int c = 0; c < 4; ++c) {
+            const int ddy = c >> 1, ddx = c & 1;
+            tt[c] = VMIN(VMAX(y0 + ddy, (iv)(0)), (iv)(R - 1)) * R + VMIN(VMAX(x0 + ddx, (iv)(0)), (iv)(R - 1));
+            tw[c] = wm * (ddy ? ty : 1.0f - ty) * (ddx ? tx : 1.0f - tx);
+        }
+        sort4_heaviest_first(tw, tt);       /* texels heaviest first, too */
+        for (int c = 0; c < 4; ++c) {
+            const iv tex = tt[c];
+            const fv w = tw[c];
+            const iv ask = open & inside;
+            LANE_STORE(tex, ta);
+            LANE_STORE(ask, va);
+            stored_v(S, T, kw[m], ta, va, za);
+            vote += VSEL((fv)(0.0f), w, ask & MASK(depth > LANE_LOAD(za) + bias));
+            rest -= w;
+            open &= MASK(vote <= 0.5f) & MASK(vote + rest > 0.5f - 1e-5f);
+            if (!VANY(open)) break;
+        }
+    }
+    return act & MASK(vote > 0.5f);
+#else
+    iv k = (iv)(0);
+#if LAYOUT_ZIGZAG
+#if PROFILE_SKIP_NEAREST
+    if (layout == 0) k = clamp(CONVERT(int, fabs(vx) * (float)(T->maps - 1)), 0, T->maps - 1);
+#else
+    if (layout == 0) k = nearest_zigzag_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1],
+                                          T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz);
+#endif
+#endif
+    LANE_ARRAY int ka[LANES];
+#if LAYOUT_HILBERT
+    if (layout != 0) {
+        LANE_ARRAY float ax[LANES], ay[LANES], az[LANES];
+        LANE_STORE(vx, ax); LANE_STORE(vy, ay); LANE_STORE(vz, az);
+        for (int l = 0; l < LANES; ++l)
+            ka[l] = am[l] ? nearest_hilbert(S->bases, vbase, S->cells, T->cell_base, T->p1, layout == 2,
+                                            (float3)(ax[l], ay[l], az[l])) : 0;
+    } else
+#endif
+    {
+        LANE_STORE(k, ka);
+    }
+    fv dx, dy, dz, depth, fx, fy;
+    const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz,
+                                       &dx, &dy, &dz, &depth, &fx, &fy);
+    if (!VANY(valid)) return (iv)(0);
+    const iv tex = VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1));
+    LANE_ARRAY int ta[LANES], va[LANES];
+    LANE_ARRAY float za[LANES];
+    LANE_STORE(tex, ta);
+    LANE_STORE(valid, va);
+    stored_v(S, T, ka, ta, va, za);
+    const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz);
+    return valid & MASK(depth > LANE_LOAD(za) + bias);
+#endif
+}
+
+#endif

@@ -1,0 +1,72 @@
+/* scene_tables.h -- a scene's device tables as one value, and the tests of
+ * a query that need no CSM.
+ *
+ *   scene_t               the buffers and scalars of the scene kernels (the
+ *                         "Scene data" of visibility.cl), passed to every
+ *                         function of a lookup
+ *   SCENE_ARGS, SCENE_INIT  the kernels' parameters for them, and the
+ *                         scene_t S made of those parameters (same order)
+ *   ground_v()            GROUND only: rays that cross the ground plane
+ *   sphere_v()            rays that can meet an instance's bounding sphere
+ * Expects: LANES (lanes.h), DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
+ * (csm_search.h: pair_t), GROUND.
+ */
+#ifndef PYSHADOW_SCENE_TABLES_H
+#define PYSHADOW_SCENE_TABLES_H
+
+#include "csm_search.h"
+#include "scene_types.h"
+#include "lanes.h"
+
+typedef struct {
+    __global const csm_type_t *types;
+    __global const uint *offsets;
+    __global const uint *soff;
+    __global const IEND_T *summary;
+    __global const pair_t *pairs;
+    __global const float *bases;
+    __global const int *cells;
+    __global const instance_t *inst;
+    __global const int *itype;
+    int ninst;
+    float ground_y, ground_eps;
+    float bias_abs, bias_texels, bias_tan, bias_other;
+} scene_t;
+
+#define SCENE_ARGS __global const csm_type_t *types, __global const uint *offsets,    \
+                   __global const uint *soff, __global const IEND_T *summary,            \
+                   __global const pair_t *pairs,                                         \
+                   __global const float *bases, __global const int *cells,              \
+                   __global const instance_t *inst, __global const int *itype,          \
+                   const int ninst, const float ground_y, const float ground_eps,        \
+                   const float bias_abs,                                                 \
+                   const float bias_texels, const float bias_tan, const float bias_other
+
+#define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
+                                inst, itype,                                            \
+                                ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
+                                bias_other}
+
+#if GROUND
+/* lanes (-1) whose ray crosses the ground plane y = ground_y; within
+ * ground_eps of the plane counts as on it (above) */
+inline iv ground_v(const scene_t *S, fv py, fv wy)
+{
+    const fv h = py - S->ground_y;
+    return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f)) | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f));
+}
+#endif
+
+/* lanes (-1) whose ray p + t w, t >= 0, can come within instance j's
+ * bounding sphere */
+inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz)
+{
+    __global const instance_t *I = S->inst + j;
+    const fv ox = I->centre[0] - px, oy = I->centre[1] - py, oz = I->centre[2] - pz;
+    const fv tca = ox * wx + oy * wy + oz * wz;
+    const fv oc2 = ox * ox + oy * oy + oz * oz;
+    const float r2 = I->radius * I->radius;
+    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(oc2 - tca * tca > r2)));
+}
+
+#endif

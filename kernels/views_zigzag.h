@@ -1,0 +1,86 @@
+/* views_zigzag.h -- the maps nearest a direction on a zigzag view set
+ * (layout 0: views.ViewSet.zigzag, T rows of theta by P columns of phi, odd
+ * rows reversed), O(1) and on lane vectors: the 2 x 2 grid points around the
+ * direction's (theta, phi) are the candidates.
+ *
+ *   zigzag_window_v()   the four candidates, as map indices and directions
+ *                       (also the window of FILTERED lookups)
+ *   nearest_zigzag_v()  the nearest of them (one-texel lookups)
+ * A CSM type gives T = p1, P = p2 and the cos and sin of one grid step in
+ * theta and in phi (csm_type_t.zigzag_steps, scene_types.h).
+ * Expects: LANES (lanes.h), LAYOUT_ZIGZAG (0: nothing is compiled; lane_math.h
+ * still is, unused).
+ */
+#ifndef PYSHADOW_VIEWS_ZIGZAG_H
+#define PYSHADOW_VIEWS_ZIGZAG_H
+
+#include "lanes.h"
+#include "views_common.h"
+#include "lane_math.h"
+
+#if LAYOUT_ZIGZAG
+/* the 2 x 2 grid points around each lane's (theta, phi) -- rows r0, r0 + 1
+ * (the last row repeated), columns c0, c0 + 1 -- as map indices k[4] and
+ * directions (cx, cy, cz)[4], in the order of views.ViewSet.filter_window */
+inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float ssp,
+                            fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)
+{
+    const fv th = acos_v(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
+    const fv ph = atan2_pos_v(wz, wx);
+    const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
+    /* th, ph >= 0: truncation is floor */
+    const iv r0 = VMIN(VMAX(CONVERT(int, th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
+    iv c0 = VMIN(VMAX(CONVERT(int, ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
+    c0 = VSEL(c0, c0 - P, MASK(c0 >= P));
+    /* the candidate grid directions by angle addition from the query's own
+     * (cos, sin) of theta and phi: rotate back by the small offsets to the
+     * grid lines, then forward by one grid step */
+    const fv rho = sqrt(wx * wx + wz * wz);
+    const iv pole = MASK(rho == 0.0f);
+    const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
+    const fv cth = wy, sth = rho;
+    const fv drow = th - CONVERT(float, r0) * dth, dcol = ph - CONVERT(float, c0) * dph;
+    const fv cd = cos_small(drow), sd = sin_small(drow);
+    const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
+    const fv ce = cos_small(dcol), se = sin_small(dcol);
+    const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
+    const iv last = MASK(r0 + 1 > T - 1);
+    const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last), st1 = VSEL(st0 * cst + ct0 * sst, st0, last);
+    const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
+    iv c1 = c0 + 1;
+    c1 = VSEL(c1, c1 - P, MASK(c1 >= P));
+    const iv r1 = VMIN(r0 + 1, (iv)(T - 1));
+#define ZZ_CANDIDATE(I, R, C, CT, ST, CP, SP)                                        \
+    k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), MASK(((R) & 1) != 0));              \
+    cx[I] = (ST) * (CP); cy[I] = (CT); cz[I] = (ST) * (SP);
+    ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
+    ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
+    ZZ_CANDIDATE(2, r1, c0, ct1, st1, cp0, sp0)
+    ZZ_CANDIDATE(3, r1, c1, ct1, st1, cp1, sp1)
+#undef ZZ_CANDIDATE
+}
+
+/* map nearest to each lane's direction on a zigzag grid (views.py): of the
+ * window's four, the largest dot product (the first of equals). theta
+ * and phi need only be near: an error far below the grid step can only move
+ * the 2 x 2 window when the direction is next to a grid line, and then the
+ * grid point on that line -- the nearest -- stays in the window. */
+inline iv nearest_zigzag_v(int T, int P, float cst, float sst, float csp, float ssp,
+                            fv wx, fv wy, fv wz)
+{
+    iv k[4];
+    fv cx[4], cy[4], cz[4];
+    zigzag_window_v(T, P, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
+    fv best_d = (fv)(-2.0f);
+    iv best = (iv)(0);
+    for (int c = 0; c < 4; ++c) {
+        const fv dd = wx * cx[c] + wy * cy[c] + wz * cz[c];
+        const iv take = MASK(dd > best_d);
+        best_d = VSEL(best_d, dd, take);
+        best = VSEL(best, k[c], take);
+    }
+    return best;
+}
+#endif
+
+#endif

@@ -1,0 +1,84 @@
+"""Old names and argument orders that keep working for one release, with a DeprecationWarning.
+
+Each old form warns once per process (the first call that uses it); the
+warning names the new form. ``reset()`` forgets what was warned (tests).
+"""
+from __future__ import annotations
+
+import warnings
+
+__all__ = ["deprecated", "reset", "legacy_sampling"]
+
+_warned: set[str] = set()
+
+
+def deprecated(old: str, new: str, stacklevel: int = 3) -> None:
+    """Warn once that ``old`` is deprecated in favour of ``new``."""
+    if old in _warned:
+        return
+    _warned.add(old)
+    warnings.warn(f"{old} is deprecated and goes in the next release; use {new}",
+                  DeprecationWarning, stacklevel=stacklevel)
+
+
+def reset() -> None:
+    """Forget which old forms have warned (so a test can see the warning again)."""
+    _warned.clear()
+
+
+_SAMPLING_FIELDS = ("samples", "strategy", "patterns", "seed")
+
+
+def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict, default):
+    """Resolve the sampling arguments of a call that may use the old forms.
+
+    Parameters
+    ----------
+    where : str
+        Name of the callable, for messages (``"Scene.ambient_occlusion"``).
+    args : tuple
+        Positional arguments after the data (the old forms took the sampling
+        arguments positionally, in the order ``order``).
+    order : tuple of str
+        The old positional order, e.g. ``("samples", "strategy", "patterns",
+        "seed", "bent_normals")``.
+    sampling : Sampling or None
+        The new keyword.
+    given : dict
+        Old keywords the caller passed (``None`` values mean "not passed").
+    default : Sampling
+        What ``sampling=None`` means for this callable.
+
+    Returns
+    -------
+    sampling : Sampling
+    extra : dict
+        Old non-sampling arguments passed (e.g. ``bent_normals``).
+    """
+    from .sampling import Sampling
+
+    if len(args) > len(order):
+        raise TypeError(f"{where} takes at most {len(order)} positional arguments after the data "
+                        f"({len(args)} given)")
+    old = dict(zip(order, args))
+    for k, v in given.items():
+        if v is None:
+            continue
+        if k in old:
+            raise TypeError(f"{where} got {k!r} both by position and by keyword")
+        old[k] = v
+    if not old:
+        return (default if sampling is None else sampling), {}
+    fields = [k for k in _SAMPLING_FIELDS if k in old]
+    if fields and sampling is not None:
+        raise TypeError(f"{where}: pass sampling=Sampling(...) or the old {', '.join(fields)}, not both")
+    how = "positional " if args else ""
+    deprecated(f"{where}'s {how}{', '.join(old)} argument{'s' if len(old) > 1 else ''}",
+               "sampling=pyshadow.Sampling(samples, strategy, patterns, seed)"
+               + (" and return_bent_normals=" if "bent_normals" in old else ""), stacklevel=4)
+    if fields:
+        base = default if sampling is None else sampling
+        sampling = Sampling(**{k: old.get(k, getattr(base, k)) for k in _SAMPLING_FIELDS})
+    elif sampling is None:
+        sampling = default
+    return sampling, {k: v for k, v in old.items() if k not in _SAMPLING_FIELDS}

@@ -1,0 +1,137 @@
+"""Validation shared by every entry point: arrays of points, directions, normals, transforms, indices.
+
+Each checker raises ``ValueError`` or ``TypeError`` with the argument's name
+and what is wrong; none copies a valid array it does not have to.
+"""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+
+__all__ = ["rows3", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
+           "check_transform", "check_indices"]
+
+
+def rows3(a, name, n=None, dtype=np.float64):
+    """Validate an (N, 3) numeric array of finite values; return it as ``dtype``."""
+    a = np.asarray(check_rows(a, name, n), dtype=dtype)
+    check_values(a, name)
+    return a
+
+
+def check_values(a, name, nonzero=False):
+    """Raise ValueError for rows of an (N, 3) array that are not finite (or,
+    with ``nonzero``, are zero vectors).
+
+    Cheap for valid input (query batches hold millions of rows): the sum of
+    all entries is finite unless an entry is not (or finite entries overflow
+    it: then the rows are checked exactly), and a zero row is three zero
+    entries in a row of the flat array, found among the (usually few) zero
+    entries. No BLAS call: its worker threads would keep spinning on the cores
+    the kernel is about to use.
+    """
+    if len(a) == 0:
+        return
+    if not np.issubdtype(a.dtype, np.integer):
+        with np.errstate(all="ignore"):
+            total = np.add.reduce(a, axis=None)
+        if not np.isfinite(total):
+            bad = int((~np.isfinite(a).all(axis=1)).sum())
+            if bad:
+                raise ValueError(f"{name}: {bad} rows are not finite")
+    if nonzero:
+        z = np.flatnonzero(a.reshape(-1) == 0)
+        if len(z) >= 3:
+            head = z[:-2]
+            zero = int(((z[2:] - head == 2) & (head % 3 == 0)).sum())
+            if zero:
+                raise ValueError(f"{name}: {zero} rows are zero vectors")
+
+
+_checker = None
+
+
+def check_both(p, p_name, w, w_name):
+    """check_values of points and of (non-zero) directions, side by side on
+    two threads for large batches (NumPy releases the GIL); the first error in
+    argument order is raised."""
+    global _checker
+    if len(p) < 100_000:
+        check_values(p, p_name)
+        check_values(w, w_name, nonzero=True)
+        return
+    if _checker is None:
+        _checker = ThreadPoolExecutor(1, thread_name_prefix="pyshadow-check")
+    future = _checker.submit(check_values, p, p_name)
+    try:
+        check_values(w, w_name, nonzero=True)
+    except ValueError:
+        future.result()                 # points first, as in the sequential order
+        raise
+    future.result()
+
+
+def kernel_rows(a, name, n=None):
+    """An (N, 3) array as the visibility kernel reads it: C-contiguous float32
+    or float64 (other dtypes are converted to float64; no copy otherwise)."""
+    a = check_rows(a, name, n)
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
+    return np.ascontiguousarray(a)
+
+
+def check_rows(a, name, n=None):
+    """Shape and dtype checks of an (N, 3) array, no copy (values are checked later)."""
+    a = np.asarray(a)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+    if n is not None and len(a) != n:
+        raise ValueError(f"{name} has {len(a)} rows but points has {n} (shapes must match)")
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be numeric, got {a.dtype}")
+    return a
+
+
+def nonzero(a, name):
+    check_values(a, name, nonzero=True)
+    return a
+
+
+def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.ndarray:
+    """Validate a 4x4 affine transform; return it as float64.
+
+    With ``rigid=True`` only rotation, translation and uniform positive scale
+    are accepted (the transforms a CSM instance may have).
+    """
+    T = np.asarray(T, dtype=np.float64)
+    if T.shape != (4, 4):
+        raise ValueError(f"{name} must be a 4x4 matrix, got shape {T.shape}")
+    if not np.isfinite(T).all():
+        raise ValueError(f"{name} has non-finite entries")
+    if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-12):
+        raise ValueError(f"{name} must be affine (last row 0 0 0 1), got {T[3].tolist()}")
+    A = T[:3, :3]
+    det = np.linalg.det(A)
+    if not abs(det) > 1e-300:
+        raise ValueError(f"{name} is singular")
+    if rigid:
+        s = np.cbrt(det)
+        if not s > 0:
+            raise ValueError(f"{name} mirrors (negative determinant); only rotations are rigid")
+        Q = A / s
+        err = np.abs(Q.T @ Q - np.eye(3)).max()
+        if err > 1e-6:
+            raise ValueError(
+                f"{name} is not rigid: after removing the uniform scale {s:.6g} the 3x3 part "
+                f"deviates from a rotation by {err:.3g} (shear or non-uniform scale)"
+            )
+    return T
+
+
+def check_indices(indices, n: int, name: str = "indices") -> np.ndarray:
+    """Sample-pattern indices of ``n`` points as int64 (default ``arange(n)``)."""
+    idx = np.arange(n) if indices is None else np.asarray(indices, dtype=np.int64)
+    if idx.shape != (n,):
+        raise ValueError(f"{name} must have shape ({n},), got {idx.shape}")
+    return idx

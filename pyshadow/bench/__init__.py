@@ -1,0 +1,69 @@
+"""pyshadow-bench: ambient occlusion on a bundled scene, timed and measured against Embree.
+
+The main job of pyshadow, end to end, on the bundled default scene (Stanford
+bunny and a torus on a ground plane, two walls) or on the user's own meshes:
+
+1. build the casters' Coherent Shadow Maps, or load them from the on-disk
+   cache (``platformdirs.user_cache_dir("pyshadow")``, ``$PYSHADOW_CACHE`` or
+   ``--cache-dir``; keyed by the mesh hash, every build parameter and the
+   compression code; a corrupt cache file is rebuilt);
+2. render AO (:meth:`pyshadow.Scene.render`, 36 cosine-weighted Hammersley
+   samples per pixel by default) and time it;
+3. trace the *identical* rays -- the same G-buffer points, the same sample
+   directions -- with Embree (embreex, one thread per core) and time them;
+   per-ray agreement of the two isolates the CSM's discretisation error
+   (DESIGN.md, "Measuring");
+4. trace a converged Embree reference (1024 samples per pixel by default,
+   cached like the CSMs) and measure the AO error against both references;
+5. print one table and write ``ao.png``, ``reference.png``,
+   ``difference.png``, ``ao.exr``, ``reference.exr``, ``converged.exr`` and
+   ``results.json`` into ``--out``.
+
+``--sweep`` runs the speed/accuracy trade study instead (maps, resolution,
+samples, filter, depth bits) and writes ``sweep.json``, ``sweep.md`` and
+``pareto.png``; ``--max-error E`` names the fastest configuration of a sweep
+whose AO RMSE (against the converged reference) is at most ``E``.
+
+Every figure of ``results.json`` is an object ``{"value": ..., "unit": ...,
+"label": ...}``; see ``benchmarks/README.md`` for the schema and the
+commands that reproduce every published figure.
+
+Usage::
+
+    pyshadow-bench                       # default scene, 640x480, 36 samples
+    pyshadow-bench --quick               # smaller settings
+    pyshadow-bench --sweep --max-error 0.02
+    pyshadow-bench --mesh a.obj --mesh b.ply --json
+    python -m pyshadow.bench ...         # the same
+
+Modules: :mod:`~pyshadow.bench.cli` (options, ``main``, output files),
+:mod:`~pyshadow.bench.config` (:class:`Config`, presets, sweep grids),
+:mod:`~pyshadow.bench.scenes` (the scenes and their CSMs),
+:mod:`~pyshadow.bench.measure` (G-buffer, Embree and pyshadow passes,
+errors, converged reference), :mod:`~pyshadow.bench.single` (the single
+benchmark), :mod:`~pyshadow.bench.sweep` (the sweep, Pareto front,
+``--max-error``), :mod:`~pyshadow.bench.report` (table, markdown, plots,
+difference image), :mod:`~pyshadow.bench.common` (progress, figure
+records). The CSM cache is :mod:`pyshadow.cache`; the threaded Embree
+tracer is :class:`pyshadow.embree.EmbreeTracer`.
+"""
+
+from ..cache import CSMCache, default_cache_dir
+from ..embree import EmbreeTracer
+from .cli import build_parser, main
+from .common import environment
+from .config import PRESETS, SWEEP_GRIDS, Config
+from .measure import (GBuffer, by_surface, converged_reference, embree_pass, time_rays,
+                      visibility_pass)
+from .report import difference_rgb, format_table, pareto_plot, sweep_markdown
+from .scenes import SceneFactory, mesh_scene
+from .single import SCHEMA, TIMED_SAMPLES, run_main
+from .sweep import SWEEP_SCHEMA, best_under, pareto_front, run_sweep, sweep_configs
+
+__all__ = ["main", "PRESETS", "SWEEP_GRIDS", "Config", "CSMCache", "EmbreeTracer", "mesh_scene",
+           "pareto_front",
+           # as importable from pyshadow.bench before its split into modules
+           "build_parser", "by_surface", "converged_reference", "default_cache_dir", "difference_rgb",
+           "embree_pass", "environment", "format_table", "GBuffer", "pareto_plot", "run_main",
+           "run_sweep", "SceneFactory", "SCHEMA", "SWEEP_SCHEMA", "best_under", "sweep_configs",
+           "sweep_markdown", "time_rays", "TIMED_SAMPLES", "visibility_pass"]

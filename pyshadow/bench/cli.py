@@ -1,0 +1,198 @@
+"""The ``pyshadow-bench`` command line: options, the run it chooses, the files and stdout it writes."""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from .._files import write_bytes_atomic
+from ..cache import CSMCache, default_cache_dir
+from .common import _PROGRESS, _Log
+from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
+                     _size)
+from .report import format_table, pareto_plot, sweep_markdown
+from .scenes import SceneFactory, _load_meshes
+from .single import run_main
+from .sweep import SWEEP_SCHEMA, _answer, _answer_text, run_sweep
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``pyshadow-bench``."""
+    from pyshadow import STRATEGIES
+
+    ap = argparse.ArgumentParser(
+        prog="pyshadow-bench",
+        description="Ambient occlusion from Coherent Shadow Maps on a bundled scene (or your "
+                    "meshes), timed and measured against the Embree ray tracer on the identical "
+                    "rays and against a converged Embree reference.",
+        epilog="Defaults: zigzag 64x128 maps of 128^2 texels, 16-bit depth, 640x480, 36 samples, "
+               "1024-sample reference (< 3 min on 2 CPU cores, most of it the first CSM build and "
+               "the reference). --quick: 32x64 maps, 320x240, 512-sample reference (< 1 min). "
+               "The sweep's full grid takes about 8 minutes cold on 2 CPU cores. "
+               "See benchmarks/README.md.")
+    mode = ap.add_argument_group("what to run")
+    mode.add_argument("--quick", action="store_true",
+                      help="smaller settings: 32x64 maps, 320x240, 512-sample reference")
+    mode.add_argument("--sweep", action="store_true",
+                      help="run the speed/accuracy trade study instead of the single benchmark; "
+                           "writes sweep.json, sweep.md, pareto.png")
+    mode.add_argument("--sweep-grid", choices=sorted(SWEEP_GRIDS), default=None,
+                      help="rows of the sweep (default: 'quick' with --quick, else 'full'; "
+                           "'tiny' is for tests)")
+    mode.add_argument("--max-error", type=_positive_float, metavar="E",
+                      help="print the fastest sweep configuration with AO RMSE <= E (vs the "
+                           "converged reference); with --sweep from the new sweep, else from "
+                           "OUT/sweep.json of an earlier sweep (no benchmark is run)")
+    mode.add_argument("--mesh", action="append", metavar="PATH",
+                      help="use this mesh instead of the default bodies (repeatable); each is "
+                           "scaled to bounding radius 1 and stood on the ground, side by side")
+    io = ap.add_argument_group("output")
+    io.add_argument("--out", default="pyshadow-bench-out", metavar="DIR",
+                    help="output directory (default ./pyshadow-bench-out)")
+    io.add_argument("--json", action="store_true",
+                    help="print results.json (sweep.json with --sweep) on stdout and nothing else; "
+                         "the table goes to stderr")
+    io.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
+    io.add_argument("--cache-dir", metavar="DIR",
+                    help="CSM and reference cache (default $PYSHADOW_CACHE, else "
+                         "the user cache directory of 'pyshadow')")
+    io.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    knobs = ap.add_argument_group("settings (override the preset; for tests and power users)")
+    knobs.add_argument("--maps", type=_maps, metavar="TxP", help="zigzag map grid theta x phi")
+    knobs.add_argument("--resolution", type=_int_range(2, 4096, "--resolution"), metavar="R",
+                       help="CSM texels per side")
+    knobs.add_argument("--depth-bits", type=int, choices=(16, 32), help="stored depth precision")
+    knobs.add_argument("--size", type=_size, metavar="WxH", help="image size")
+    knobs.add_argument("--samples", type=_int_range(1, 4096, "--samples"), metavar="N",
+                       help="AO samples per pixel")
+    knobs.add_argument("--reference-samples", type=_int_range(1, 65536, "--reference-samples"),
+                       metavar="N", help="samples per pixel of the converged Embree reference")
+    knobs.add_argument("--filter", choices=("none", "bilateral", "separable", "box"), default="none",
+                       help="AO filter of the single benchmark (default none)")
+    knobs.add_argument("--filtered-lookup", action="store_true",
+                       help="filtered CSM lookups: 4 maps x 4 texels a ray (Scene.visible(..., lookup='vote'))")
+    knobs.add_argument("--strategy", choices=STRATEGIES, default="hammersley",
+                       help="sampling strategy (default hammersley)")
+    knobs.add_argument("--seed", type=_int_range(0, 2**31 - 1, "--seed"), default=0)
+    knobs.add_argument("--patterns", type=_int_range(1, 65536, "--patterns"), default=256,
+                       help="precomputed sample patterns (default 256)")
+    knobs.add_argument("--repeats", type=_int_range(1, 100, "--repeats"), metavar="N",
+                       help="timed runs (median) after a warm-up")
+    knobs.add_argument("--threads", type=_int_range(1, 1024, "--threads"), default=os.cpu_count() or 1,
+                       metavar="N", help="Embree threads (default: all cores)")
+    return ap
+
+
+def _check_out(ap, out: Path):
+    """Create ``out`` and probe that it is writable; a parser error (exit 2) otherwise."""
+    if out.exists() and not out.is_dir():
+        ap.error(f"--out {out}: exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".pyshadow-bench-", suffix=".probe"):
+            pass
+    except OSError as e:
+        ap.error(f"--out {out}: cannot write there ({e.strerror or e})")
+
+
+def _emit(obj, path: Path | None, as_json: bool):
+    """Write ``obj`` as JSON to ``path`` (atomically; None: no file) and, with ``as_json``, to stdout."""
+    text = json.dumps(obj, indent=2, allow_nan=False)
+    if path is not None:
+        write_bytes_atomic(path, (text + "\n").encode())
+    if as_json:
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
+
+
+def main(argv=None) -> int:
+    """Run ``pyshadow-bench`` with the arguments ``argv`` (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success; argument errors exit with status 2 (``SystemExit``).
+    """
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    log = _Log(args.quiet)
+    out = Path(args.out).expanduser()
+    args.out = str(out)
+
+    # --max-error alone: answer from an earlier sweep
+    if args.max_error is not None and not args.sweep:
+        path = out / "sweep.json"
+        try:
+            sw = json.loads(path.read_text())
+            if sw.get("schema") != SWEEP_SCHEMA:
+                raise ValueError(f"not a pyshadow-bench sweep (schema {sw.get('schema')!r})")
+        except FileNotFoundError:
+            ap.error(f"--max-error without --sweep reads {path}, which does not exist; "
+                     "run with --sweep (or point --out at an earlier sweep)")
+        except (OSError, ValueError) as e:
+            ap.error(f"--max-error: cannot read {path} ({e})")
+        ans = _answer(sw, args.max_error)
+        if args.json:
+            _emit({"max_error": ans}, None, True)
+        else:
+            print(_answer_text(ans))
+        return 0
+
+    if args.sweep_grid is not None and not args.sweep:
+        ap.error("--sweep-grid needs --sweep")
+    meshes = None
+    if args.mesh:
+        try:
+            meshes = _load_meshes(args.mesh)
+        except ValueError as e:
+            ap.error(str(e))
+    _check_out(ap, out)
+
+    preset = PRESETS["quick" if args.quick else "default"]
+    explicit = [k for k in ("maps", "resolution", "depth_bits", "size", "samples",
+                            "reference_samples", "repeats") if getattr(args, k) is not None]
+    for k, v in preset.items():
+        if getattr(args, k) is None:
+            setattr(args, k, v)
+    # 'custom' when a setting differs from the preset
+    args.mode = ("quick" if args.quick else "default") \
+        if not explicit and args.filter == "none" and not args.filtered_lookup else "custom"
+    if args.sweep:
+        args.mode = "sweep"
+        if args.sweep_grid is None:
+            args.sweep_grid = "quick" if args.quick else "full"
+        if "repeats" not in explicit:
+            args.repeats = 3
+    cfg = Config(tuple(args.maps), args.resolution, args.depth_bits, args.samples,
+                 None if args.filter == "none" else args.filter, bool(args.filtered_lookup))
+
+    if args.no_cache:
+        cache_root = None
+    elif args.cache_dir:
+        cache_root = Path(args.cache_dir).expanduser()
+    else:
+        cache_root = default_cache_dir()
+    cache = CSMCache(cache_root, log)
+    progress = _PROGRESS["on"] = not args.quiet
+    factory = SceneFactory(meshes, tuple(args.size), cache, progress)
+    log(f"pyshadow-bench: {factory.description}; cache "
+        f"{cache_root if cache_root is not None else 'off'}; output {out}")
+
+    if args.sweep:
+        sw = run_sweep(args, cfg, factory, cache, log)
+        if args.max_error is not None:
+            sw["max_error"] = _answer(sw, args.max_error)
+        pareto_plot(sw, out / "pareto.png", args.max_error)
+        write_bytes_atomic(out / "sweep.md", sweep_markdown(sw).encode())
+        _emit(sw, out / "sweep.json", args.json)
+        print(sweep_markdown(sw), file=sys.stderr if args.json else sys.stdout)
+        return 0
+
+    result = run_main(args, cfg, factory, cache, log)
+    result["files"]["results.json"] = str(out / "results.json")
+    _emit(result, out / "results.json", args.json)
+    print(format_table(result), file=sys.stderr if args.json else sys.stdout)
+    return 0

@@ -1,0 +1,193 @@
+"""What a person reads: the result table, the sweep's markdown, the Pareto plot, the difference image."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .config import _config_of
+from .sweep import _answer_text
+
+
+def difference_rgb(diff, covered, vmax=None):
+    """Diverging colour image of ``diff`` (RdBu centred at 0, symmetric range), uint8 RGB.
+
+    Red: pyshadow darker (more occluded) than the reference; blue: lighter.
+    The range is ``vmax`` or the 99.5th percentile of ``|diff|`` over the
+    covered pixels (at least 0.01). Returns ``(rgb, vmax)``.
+    """
+    import matplotlib
+
+    d = np.asarray(diff, np.float64)
+    if vmax is None:
+        a = np.abs(d[covered])
+        vmax = max(0.01, float(np.percentile(a, 99.5)) if a.size else 0.0)
+    cmap = matplotlib.colormaps["RdBu"]
+    rgb = cmap(np.clip(0.5 + 0.5 * d / vmax, 0.0, 1.0), bytes=True)[..., :3]
+    return np.ascontiguousarray(rgb, dtype=np.uint8), vmax
+
+
+def format_table(r: dict) -> str:
+    """The table of a single benchmark's ``results.json`` record, as printed (no final newline)."""
+    f = {k: v["value"] for k, v in r["figures"].items()}
+    c, env = r["config"], r["environment"]
+
+    def num(x, fmt):
+        return "n/a" if x is None else format(x, fmt)
+
+    if r["csm"]["source"] == "cached":
+        build = "cached (loaded in %.2f s%s)" % (
+            f["csm_time"], "" if f["csm_build_time"] is None else f"; built in {f['csm_build_time']:.1f} s")
+    else:
+        build = f"{f['csm_time']:.1f} s ({r['csm']['source']})"
+    rs = c["reference_samples"]
+    conv_t = "cached" if r["converged_source"] == "cached" else f"{f['converged_time']:.1f} s"
+    rows = [
+        ("device", f"{env['device']} ({env['platform']}, {env['device_type']}, "
+                   f"{env['compute_units']} compute units)"),
+        ("CSM build", build),
+        ("CSM size, ratio", f"{f['csm_size']:.2f} MB, {f['csm_ratio']:.1f}:1"),
+        ("AO", f"{num(f['ao_throughput'], '.2f')} Msamples/s; frame {f['frame_time'] * 1e3:.0f} ms "
+               f"(AO {f['ao_time'] * 1e3:.0f} ms; {f['covered_pixels']} px)"),
+        (f"Embree, same rays ({env['embree_threads']} thr)",
+         f"{num(f['embree_ray_rate'], '.2f')} Mrays/s ({num(f['embree_throughput'], '.2f')} Msamples/s)"),
+        ("pyshadow / Embree", f"{num(f['speedup'], '.2f')}x"),
+        ("visibility agreement", f"{100 * f['visibility_agreement']:.3f} % "
+                                 f"({100 * f['false_visible']:.3f} % too open, "
+                                 f"{100 * f['false_occluded']:.3f} % too shadowed)"),
+        (f"AO vs Embree, same {c['samples']} dirs", f"RMSE {f['ao_rmse_identical']:.4f}  "
+                                                    f"MAE {f['ao_mae_identical']:.4f}"),
+        (f"AO vs Embree {rs} spp", f"RMSE {f['ao_rmse_converged']:.4f}  MAE {f['ao_mae_converged']:.4f}"
+                                   f"  (Embree {c['samples']} spp itself: RMSE "
+                                   f"{f['reference_noise_rmse']:.4f})"),
+        ("converged reference", conv_t),
+        ("total", f"{f['total_time']:.1f} s"),
+        ("by surface", "pixels, ray agreement, AO bias and RMSE (pyshadow - Embree)"),
+    ]
+    for srf in r.get("surfaces", []):
+        g = {k: v["value"] for k, v in srf.items() if isinstance(v, dict)}
+        rows.append((f"  {srf['surface']}", f"{g['pixels']:>7} px  agreement "
+                     f"{100 * g['visibility_agreement']:7.3f} %  bias {g['ao_bias_identical']:+.4f}  "
+                     f"RMSE {g['ao_rmse_identical']:.4f} (same dirs) {g['ao_rmse_converged']:.4f} "
+                     f"(converged)"))
+    w = max(len(k) for k, _ in rows)
+    head = (f"pyshadow-bench ({r['mode']}): {r['scene']}\n"
+            f"  {c['width']}x{c['height']}, {c['samples']} samples ({c['strategy']}), maps zigzag "
+            f"{c['maps']} at {c['resolution']}^2, {c['depth_bits']}-bit depth"
+            + (f", filter {c['filter']}" if c["filter"] else "")
+            + (", filtered lookups" if c.get("filtered_lookup") else ""))
+    return head + "\n" + "\n".join(f"  {k:<{w}}  {v}" for k, v in rows)
+
+
+def sweep_markdown(sw: dict) -> str:
+    """``sweep.md``: a sweep's setting, its rows as a markdown table, the ``--max-error`` answer."""
+    env = sw["environment"]
+    lines = [
+        f"# pyshadow-bench sweep ({sw['grid']} grid)", "",
+        f"- scene: {sw['scene']}; {sw['image']['width']}x{sw['image']['height']} pixels",
+        f"- device: {env['device']} ({env['platform']}); pyshadow {env['pyshadow']}",
+        f"- base: {_config_of(sw['base']).label}"
+        f"; strategy {sw['strategy']}; converged reference {sw['reference_samples']} spp (Embree)",
+        f"- runtime: {sw['runtime']['value']:.0f} s; frame and AO times are medians of "
+        f"{sw['repeats']} runs after a warm-up, taken in rounds interleaved over all rows", "",
+        "| configuration | varies | build s | CSM MB | ratio | frame ms | AO Msamples/s "
+        "| agreement % | RMSE | MAE | RMSE same rays | Pareto |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
+    ]
+    for r in sw["rows"]:
+        f = {k: v["value"] for k, v in r["figures"].items()}
+        b = "n/a" if f["build_time"] is None else f"{f['build_time']:.1f}"
+        lines.append(
+            f"| {r['label']} | {r['varies']} | {b} | {f['csm_bytes'] / 1e6:.2f} | {f['csm_ratio']:.1f} "
+            f"| {f['frame_time'] * 1e3:.0f} | {f['ao_throughput']:.2f} | "
+            f"{100 * f['visibility_agreement']:.3f} | {f['ao_rmse_converged']:.4f} | "
+            f"{f['ao_mae_converged']:.4f} | {f['ao_rmse_identical']:.4f} | "
+            f"{'**yes**' if r['pareto'] else ''} |")
+    lines += ["", "RMSE/MAE: AO against the converged reference over covered pixels (filtered "
+              "rows: the filtered image). RMSE same rays: unfiltered AO against Embree on the "
+              "identical rays (discretisation only). Build s: the original build time of the "
+              "CSMs (also for cached ones).", ""]
+    if sw.get("max_error"):
+        lines += [_answer_text(sw["max_error"]), ""]
+    return "\n".join(lines)
+
+
+def _place_labels(fig, ax, items):
+    """Annotate points without overlapping labels: try a few offsets per label.
+
+    ``items``: (text, x, y, style dict, required) in priority order; a label
+    that is not required is left out when no offset is free.
+    """
+    renderer = fig.canvas.get_renderer()
+    frame = ax.get_window_extent(renderer)
+    placed = []
+    offsets = [(6, 4), (6, -11), (-6, 4), (-6, -11), (6, 15), (6, -22), (-6, 15), (-6, -22),
+               (6, 26), (6, -33)]
+    for text, x, y, style, required in items:
+        # required labels may move further away; the others stay next to their point
+        for k, (dx, dy) in enumerate(offsets + [offsets[0]] if required else offsets[:4]):
+            ann = ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy),
+                              ha="left" if dx > 0 else "right", **style)
+            bb = ann.get_window_extent(renderer)
+            last = required and k == len(offsets)
+            inside = (bb.x0 >= frame.x0 and bb.x1 <= frame.x1 and bb.y0 >= frame.y0
+                      and bb.y1 <= frame.y1)
+            if last or (inside and not any(bb.overlaps(o) for o in placed)):
+                placed.append(bb)
+                break
+            ann.remove()
+
+
+def pareto_plot(sw: dict, path: Path, max_error: float | None = None):
+    """AO RMSE against frame time (log-log); the non-dominated configurations marked and labelled.
+
+    Every Pareto configuration is labelled; dominated ones are labelled where
+    there is room.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FormatStrFormatter, LogLocator
+
+    rows = sw["rows"]
+    t = np.array([r["figures"]["frame_time"]["value"] * 1e3 for r in rows])
+    e = np.array([r["figures"]["ao_rmse_converged"]["value"] for r in rows], float)
+    on = np.array([r["pareto"] for r in rows])
+    fig, ax = plt.subplots(figsize=(10, 6.5), dpi=110)
+    ax.scatter(t[~on], e[~on], c="0.6", s=28, label="dominated")
+    order = np.argsort(t[on])
+    ax.step(t[on][order], e[on][order], where="post", c="C3", lw=1, alpha=0.6)
+    ax.scatter(t[on], e[on], c="C3", s=46, marker="D", label="Pareto front", zorder=3)
+    if max_error is not None:
+        ax.axhline(max_error, c="C0", ls="--", lw=1, label=f"RMSE = {max_error:g}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    for axis in (ax.xaxis, ax.yaxis):          # after set_*scale, which resets them
+        axis.set_major_formatter(FormatStrFormatter("%g"))
+        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+        axis.set_minor_formatter(FormatStrFormatter("%g"))
+    ax.tick_params(which="minor", labelsize=7)
+    ax.margins(x=0.12, y=0.08)
+    ax.set_xlabel("frame time (ms, Scene.render, median)")
+    ax.set_ylabel("AO RMSE vs converged Embree reference")
+    ax.set_title(f"pyshadow speed/accuracy: {sw['scene']}\n"
+                 f"{sw['image']['width']}x{sw['image']['height']}, {sw['environment']['device']}",
+                 fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    fig.canvas.draw()
+    front = sorted(np.flatnonzero(on), key=lambda i: t[i])
+    rest = sorted(np.flatnonzero(~on), key=lambda i: t[i])
+    _place_labels(fig, ax, [(rows[i]["label"], t[i], e[i], {"fontsize": 7.5, "color": "C3"}, True)
+                            for i in front]
+                  + [(rows[i]["label"], t[i], e[i], {"fontsize": 6.5, "color": "0.45"}, False)
+                     for i in rest])
+    from pyshadow._files import atomic_path
+
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp)
+    finally:
+        plt.close(fig)

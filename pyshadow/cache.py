@@ -1,0 +1,313 @@
+"""An on-disk cache of Coherent Shadow Maps, keyed by everything a CSM depends on.
+
+Building a CSM is the slow step of pyshadow; its result depends only on the
+mesh, the build parameters and the code that builds it. :class:`CSMCache`
+stores each built CSM under a key that hashes all of these, so a CSM is
+built once per mesh and setting and loaded afterwards::
+
+    from pyshadow.cache import CSMCache, default_cache_dir
+
+    cache = CSMCache(default_cache_dir())
+    csm, info = cache.csm("bunny", mesh, pyshadow.ViewSet.zigzag(64, 128), 128, 16)
+    info["source"]          # 'built' the first time, 'cached' afterwards
+
+The same directory also holds float32 arrays under keys of the caller's
+choosing (:meth:`CSMCache.array`, :meth:`CSMCache.put_array`); the
+``pyshadow-bench`` command keeps its converged Embree references there.
+
+Every file is written atomically (a temporary file in the same folder,
+flushed, then renamed over the target), so a crash or a concurrent writer
+never leaves a partial file under a final name, and a damaged file is
+detected by its checksum and replaced.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ._files import write_bytes_atomic
+
+__all__ = ["CSMCache", "default_cache_dir"]
+
+
+def default_cache_dir() -> Path:
+    """The default cache directory.
+
+    Returns
+    -------
+    pathlib.Path
+        ``$PYSHADOW_CACHE`` (``~`` expanded) when that variable is set and
+        not blank, else ``platformdirs.user_cache_dir("pyshadow")`` (e.g.
+        ``~/.cache/pyshadow`` on Linux). The directory is not created here.
+    """
+    env = os.environ.get("PYSHADOW_CACHE", "").strip()
+    if env:
+        return Path(env).expanduser()
+    import platformdirs
+
+    return Path(platformdirs.user_cache_dir("pyshadow"))
+
+
+def _code_digest() -> str:
+    """Hash of the code a CSM depends on.
+
+    Returns
+    -------
+    str
+        SHA-256 hex digest of pyshadow's version, the CSM builder's front
+        margin (``pyshadow.csm.FRONT_MARGIN_TEXELS``) and the source of the
+        build kernels ``csm.cl`` and ``raster.cl`` (a kernel that cannot be
+        read contributes its name only).
+    """
+    from . import _cl
+    from ._version import __version__
+    from .csm import FRONT_MARGIN_TEXELS
+
+    h = hashlib.sha256(__version__.encode())
+    h.update(repr(FRONT_MARGIN_TEXELS).encode())
+    for name in ("csm.cl", "raster.cl"):
+        try:
+            h.update(_cl.kernel_source(name).encode())
+        except (OSError, FileNotFoundError):
+            h.update(b"?" + name.encode())
+    return h.hexdigest()
+
+
+def _quiet(msg: str) -> None:
+    """The default ``log``: discard the message."""
+
+
+class CSMCache:
+    """CSMs (and float32 arrays) on disk, keyed by everything they depend on.
+
+    What is cached, and where (below ``root``):
+
+    - ``csm/<mesh hash[:12]>-<key[:24]>.csm``: a CSM, written with
+      :meth:`pyshadow.CoherentShadowMap.save` (atomic, checksummed), and a
+      sidecar ``.json`` beside it with the full key, the CSM's name and the
+      seconds of its original build;
+    - ``reference/<key[:40]>.npz``: a float32 array (:meth:`put_array`),
+      stored with the SHA-256 of its bytes.
+
+    The key of a CSM (:meth:`csm_key`) hashes the mesh hash
+    (:func:`pyshadow.mesh.mesh_hash`), the view set (layout, parameters and
+    number of maps), resolution, depth bits, layer rule, the CSM file
+    format version and :func:`_code_digest` (pyshadow's version and the
+    source of the build kernels): a change of any of them makes a new entry,
+    never a stale hit.
+
+    Every file is written atomically (temporary file, flush, rename). A file
+    that fails to load (checksum, truncation, format) or holds a CSM that
+    does not match its key is removed and rebuilt; a cache directory that
+    cannot be created or written only disables caching (one warning through
+    ``log``), it never fails a call.
+
+    Parameters
+    ----------
+    root : str or path-like or None
+        Cache directory (created on first use); ``None`` disables the cache:
+        every :meth:`csm` call builds, :meth:`array` returns None and
+        :meth:`put_array` does nothing.
+    log : callable, optional
+        ``log(message: str)`` receives progress notes ("building the CSM
+        of ...") and warnings (unusable files, unwritable directories);
+        default: discard them.
+    """
+
+    def __init__(self, root, log=None):
+        self.root = Path(root) if root is not None else None
+        self.log = log if log is not None else _quiet
+        self._code = None
+        self._warned = False
+
+    @property
+    def enabled(self) -> bool:
+        """True when a cache directory is set (it may still turn out unwritable)."""
+        return self.root is not None
+
+    def _dir(self, sub: str) -> Path | None:
+        if self.root is None:
+            return None
+        d = self.root / sub
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            if not self._warned:
+                self.log(f"warning: cache directory {d} cannot be created ({e}); not caching")
+                self._warned = True
+            return None
+        return d
+
+    def csm_key(self, mesh_hash: str, views, resolution: int, depth_bits: int, layers) -> str:
+        """The cache key of a CSM.
+
+        Parameters
+        ----------
+        mesh_hash : str
+            :func:`pyshadow.mesh.mesh_hash` of the mesh.
+        views : pyshadow.ViewSet
+        resolution : int
+            Texels per map side.
+        depth_bits : int
+            16 or 32.
+        layers : int or str
+            The layer rule given to :meth:`pyshadow.CoherentShadowMap.build`.
+
+        Returns
+        -------
+        str
+            SHA-256 hex digest (64 characters) of these parameters, the CSM
+            file format version and :func:`_code_digest`.
+        """
+        from .csm import FORMAT_VERSION
+
+        if self._code is None:
+            self._code = _code_digest()
+        spec = {"mesh": mesh_hash, "layout": views.layout,
+                "params": {k: views.params[k] for k in sorted(views.params)}, "maps": len(views),
+                "resolution": int(resolution), "depth_bits": int(depth_bits), "layers": str(layers),
+                "format": FORMAT_VERSION, "code": self._code}
+        return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
+
+    def csm(self, name: str, mesh, views, resolution: int, depth_bits: int, layers="auto",
+            progress: bool = False):
+        """The CSM of ``mesh`` for these parameters: from the cache, or built (and stored).
+
+        Parameters
+        ----------
+        name : str
+            A name for messages and the sidecar file (not part of the key).
+        mesh : trimesh.Trimesh
+        views, resolution, depth_bits, layers :
+            As :meth:`pyshadow.CoherentShadowMap.build`.
+        progress : bool
+            Show the builder's progress bar.
+
+        Returns
+        -------
+        csm : CoherentShadowMap
+            Loaded fully into memory (no memory map) or freshly built.
+        info : dict
+            ``name``; ``source``: 'cached', 'built', or 'rebuilt' after an
+            unusable cache file; ``seconds``: time spent in this call;
+            ``build_seconds``: time of the original build (None when a
+            cached CSM's sidecar is missing or stale); ``file``: the CSM's
+            path as str (None when not cached); ``stats``: ``csm.stats``.
+        """
+        from . import CoherentShadowMap
+        from .mesh import mesh_hash as _mesh_hash
+
+        mh = _mesh_hash(mesh)
+        key = self.csm_key(mh, views, resolution, depth_bits, layers)
+        d = self._dir("csm")
+        path = d / f"{mh[:12]}-{key[:24]}.csm" if d is not None else None
+        side = path.with_suffix(".json") if path is not None else None
+        source = "built"
+        t0 = time.perf_counter()
+        if path is not None and path.exists():
+            try:
+                csm = CoherentShadowMap.load(path, mmap=False)
+                bad = [f for f, want in (("mesh_hash", mh), ("maps", len(views)),
+                                         ("resolution", int(resolution)),
+                                         ("depth_bits", int(depth_bits)))
+                       if getattr(csm, f) != want]
+                if csm.views.layout != views.layout or csm.views.params != views.params:
+                    bad.append("views")
+                if bad:
+                    raise ValueError(f"holds different {', '.join(bad)}")
+            except (ValueError, OSError) as e:       # CSMFormatError is a ValueError
+                self.log(f"cache: {path} is unusable ({e}); rebuilding it")
+                source = "rebuilt"
+                for p in (path, side):
+                    try:
+                        p.unlink()
+                    except OSError:
+                        pass
+            else:
+                build = None
+                try:
+                    meta = json.loads(side.read_text())
+                    if meta.get("key") == key:
+                        build = float(meta["build_seconds"])
+                except (OSError, ValueError, KeyError, TypeError):
+                    pass
+                return csm, {"name": name, "source": "cached", "seconds": time.perf_counter() - t0,
+                             "build_seconds": build, "file": str(path), "stats": csm.stats}
+        self.log(f"building the CSM of {name}: {len(views)} maps of {resolution}^2 texels, "
+                 f"{depth_bits}-bit depth")
+        csm = CoherentShadowMap.build(mesh, views, resolution, depth_bits, layers, progress=progress)
+        seconds = time.perf_counter() - t0
+        if path is not None:
+            try:
+                csm.save(path)
+                write_bytes_atomic(side, json.dumps({"key": key, "build_seconds": seconds, "name": name},
+                                                    indent=1).encode())
+            except OSError as e:
+                self.log(f"warning: cannot write the cache file {path} ({e})")
+                path = None
+        return csm, {"name": name, "source": source, "seconds": seconds, "build_seconds": seconds,
+                     "file": str(path) if path is not None else None, "stats": csm.stats}
+
+    def array(self, key: str):
+        """A cached float32 array.
+
+        Parameters
+        ----------
+        key : str
+            The caller's key (a hex digest of everything the array depends
+            on); its first 40 characters name the file.
+
+        Returns
+        -------
+        ndarray, float32, or None
+            The array as stored by :meth:`put_array` (any shape); None when
+            absent, or when the file is damaged (zip, format or checksum
+            error): such a file is removed.
+        """
+        d = self._dir("reference")
+        if d is None:
+            return None
+        path = d / f"{key[:40]}.npz"
+        if not path.exists():
+            return None
+        try:
+            # numpy leaves its own file open when the zip is damaged: open and close it here
+            with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:
+                a = np.array(z["data"], dtype=np.float32)
+                digest = bytes(z["sha256"])
+            if hashlib.sha256(a.tobytes()).digest() != digest:
+                raise ValueError("checksum mismatch")
+            return a
+        except Exception as e:                  # zip/CRC/format errors of a damaged file
+            self.log(f"cache: {path} is unusable ({e}); recomputing it")
+            try:
+                path.unlink()
+            except OSError:
+                pass
+            return None
+
+    def put_array(self, key: str, a) -> None:
+        """Store ``a`` (converted to contiguous float32) under ``key``.
+
+        The file ``reference/<key[:40]>.npz`` (compressed, with the SHA-256
+        of the array's bytes) is written atomically and replaces an earlier
+        one; a write error is logged, not raised.
+        """
+        d = self._dir("reference")
+        if d is None:
+            return
+        a = np.ascontiguousarray(a, dtype=np.float32)
+        path = d / f"{key[:40]}.npz"
+        buf = io.BytesIO()
+        np.savez_compressed(buf, data=a, sha256=np.frombuffer(hashlib.sha256(a.tobytes()).digest(),
+                                                              np.uint8))
+        try:
+            write_bytes_atomic(path, buf.getvalue())
+        except OSError as e:
+            self.log(f"warning: cannot write the cache file {path} ({e})")

@@ -1,0 +1,54 @@
+"""Coherent Shadow Maps: the data, its streaming builder, device layout, file format and NumPy mirrors.
+
+Stage "compress" of the pipeline (DESIGN.md "CSM compression"; thesis 000,
+sections 4.2.1, 5.2.1-5.2.3; Ritschel et al. 2007).
+
+For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
+Map ``i`` allows a set of stored depths that still gives the right shadow
+test along the texel's ray:
+
+* hit at least twice: ``[z1, z2)``; where the surface at ``z2`` faces the
+  light (a second sheet of an open mesh, in the first one's shadow) only up
+  to ``z2`` less a margin of ``FRONT_MARGIN_TEXELS`` texels, and just ``z1``
+  when that leaves nothing; with ``layers=3`` up to ``z3`` less the margin
+  where the ray leaves the object at ``z2`` and re-enters at ``z3``, see
+  :meth:`CoherentShadowMap.build`. The margin exists because such a surface
+  is asked with a self-bias (1.5 texels by default, see
+  :meth:`pyshadow.Scene.visible`): a stored depth within the bias of it
+  would light it;
+* hit once (a hole behind the first surface): only ``z1``;
+* missed: only ``+inf`` (a miss meets nothing but other misses).
+
+A run of consecutive maps whose sets still intersect is stored as one segment
+``(z, i_end)`` with ``z`` inside the intersection and ``i_end`` the run's last
+map; greedy extension gives the fewest segments for the order. Per texel the
+segments are sorted by ``i_end``; ``offsets[t] .. offsets[t+1]`` is texel
+``t``'s list. The build streams: a block of maps is rendered, folded into the
+per-texel run state on the device and dropped, so memory does not grow with
+the number of maps.
+
+Depth storage: 16 bit fixed point ``k / 65534`` (``k = 65535`` is a miss) or
+32 bit float (``+inf`` a miss). Quantised values obey the same rule: each
+map's set becomes a set of integer keys (``[ceil(z1*Q), ceil(z2*Q) - 1]``)
+and runs intersect those exactly, so a stored 16-bit depth always lies inside
+the interval of every map of its run -- except where a single map's
+``[z1, z2)`` holds no quantum at all (surfaces closer than 1/65534); such a
+map stands alone with the smallest quantum at or above ``z1``.
+
+The package, one module a job: :mod:`.core` (:class:`CoherentShadowMap`, the
+arrays and their decoding), :mod:`.build` (the streaming builder),
+:mod:`.device` (search arrays and the scene atlas of the kernels),
+:mod:`.fileformat` (``.csm`` save, load, validation), :mod:`.reference`
+(NumPy mirrors of the kernels).
+"""
+from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, CoherentShadowMap, CSMFormatError,
+                   front_margin)
+from .build import corner_frame, footprint_corners, footprint_scale
+from .fileformat import FORMAT_VERSION, MAGIC
+from .reference import compress_reference, footprint_interval, shadow_vote
+from . import build, core, device, fileformat, reference
+
+__all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
+           "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "corner_frame",
+           "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
+           "build", "core", "device", "fileformat", "reference"]

@@ -1,0 +1,222 @@
+"""The streaming CSM builder: render a block of maps, fold it into per-texel runs, drop it.
+
+See :mod:`pyshadow.csm` for the intervals each map allows and the encoding;
+:func:`build_csm` is :meth:`CoherentShadowMap.build`.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pyopencl as cl
+import trimesh
+
+from .. import _cl
+from ..mesh import bounding_sphere, load_mesh, mesh_hash
+from ..raster import DepthRenderer, _check_resolution_layers
+from ..views import ViewSet
+from .core import (FRONT_MARGIN_TEXELS, _LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
+                   front_margin)
+
+__all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
+
+
+def _defines(resolution, layers, rule, block, depth_bits, iend_dtype):
+    return {
+        "RES": int(resolution),
+        "MARGIN": float(front_margin(resolution)).hex() + "f",   # exact float32, as a hex literal
+        "LAYERS": int(layers),
+        "LAYER_RULE": int(rule),
+        "BLOCK": int(block),
+        "DEPTH_BITS": int(depth_bits),
+        "IEND_T": "ushort" if np.dtype(iend_dtype) == np.uint16 else "uint",
+    }
+
+
+
+def footprint_scale(resolution) -> np.float32:
+    """``(R + 1) / R`` as float32: corner depth ``z'`` -> ``0.5 - s (0.5 - z')``.
+
+    The corner maps of a footprint build are rendered at ``R + 1`` texels
+    over a frame ``(R + 1) / R`` times as wide (same centre): their texel
+    centres are the corners of the ``R x R`` grid.
+    """
+    return np.float32((int(resolution) + 1) / int(resolution))
+
+
+def corner_frame(frame, resolution):
+    """The frame of a footprint build's corner maps: ``frame`` widened ``(R + 1) / R`` times.
+
+    Maps of ``R + 1`` texels over it have their texel centres on the corners
+    of the ``R x R`` grid of ``frame = (centre, radius)``.
+    """
+    centre, radius = frame
+    R = int(resolution)
+    return centre, radius * (R + 1) / R
+
+
+def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame):
+    """The corner maps a footprint build folds in, for :func:`compress_reference`.
+
+    ``render_depth(mesh, views, R + 1, layers, frame=corner_frame(frame, R),
+    facing=True)``: depth (D, layers, R+1, R+1) float32 in the corner frame,
+    and the facing flags.
+    """
+    from ..raster import render_depth
+
+    return render_depth(mesh, views, int(resolution) + 1, layers, frame=corner_frame(frame, resolution),
+                        facing=True)
+
+
+def _check_frame(mesh, frame):
+    try:
+        centre, radius = frame
+        centre = np.asarray(centre, dtype=np.float64)
+        radius = float(radius)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"frame must be (centre, radius), got {frame!r}") from e
+    if centre.shape != (3,) or not np.isfinite(centre).all():
+        raise ValueError(f"frame: the centre must be 3 finite numbers, got {centre!r}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"frame: the radius must be finite and > 0, got {radius!r}")
+    far = float(np.linalg.norm(np.asarray(mesh.vertices, np.float64) - centre, axis=1).max())
+    if far > radius * (1 + 1e-6):
+        raise ValueError(f"frame: a vertex lies {far:.6g} from the centre, outside the radius {radius:.6g}")
+    return centre, radius
+
+
+
+def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
+              layers="auto", block: int | None = None, progress: bool = True,
+              frame=None, footprint: bool = False):
+    """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
+    t0 = time.perf_counter()
+    if not isinstance(views, ViewSet):
+        raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
+    if views.layout not in _LAYOUTS:
+        raise ValueError(f"a CSM needs a 'zigzag' or 'hilbert' view set, got {views.layout!r}")
+    if len(views) == 0:
+        raise ValueError("the view set is empty")
+    if len(views) >= 2**32 - 1:
+        raise ValueError("too many maps")
+    if depth_bits not in (16, 32) or isinstance(depth_bits, bool):
+        raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+    _check_resolution_layers(resolution, 2)
+    if not isinstance(mesh, trimesh.Trimesh):
+        mesh = load_mesh(mesh)
+    if layers == "auto":
+        rule = 3 if mesh.is_watertight else 2
+    elif layers in (2, 3) and not isinstance(layers, bool):
+        rule = int(layers)
+        if rule == 3 and not mesh.is_watertight:
+            raise ValueError("layers=3 ([z1, z3) intervals) needs a watertight mesh; "
+                             "this one has boundary edges (use layers=2 or fill_holes=True)")
+    else:
+        raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
+    R = int(resolution)
+    D = len(views)
+    if not isinstance(footprint, (bool, np.bool_)):
+        raise TypeError(f"footprint must be True or False, got {footprint!r}")
+    footprint = bool(footprint)
+    if footprint and R >= 4096:
+        raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
+    centre, radius = bounding_sphere(mesh) if frame is None else _check_frame(mesh, frame)
+    dtype_z = _depth_dtype(depth_bits)
+    dtype_i = _iend_dtype(D)
+    per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)
+    if footprint:
+        per_map += rule * (R + 1) ** 2 * 5
+    if block is None:
+        block = max(1, min(D, (96 << 20) // per_map))
+    block = int(block)
+    if block < 1:
+        raise ValueError(f"block must be >= 1, got {block}")
+    block = min(block, D)
+
+    renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True)
+    defs = _defines(R, rule, rule, block, depth_bits, dtype_i)
+    corner_args = ()
+    if footprint:
+        scale = footprint_scale(R)
+        corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True)
+        cdepth_buf = _cl.empty(block * corners.bytes_per_map)
+        cfront_buf = _cl.empty(block * corners.facing_bytes_per_map)
+        corner_args = (cdepth_buf, cfront_buf, scale)
+        defs["FOOTPRINT"] = 1
+    k_fold = _cl.kernel("csm.cl", "csm_fold", defs)
+    k_compact = _cl.kernel("csm.cl", "csm_compact", defs)
+    q = _cl.queue()
+    T = R * R
+    depth_buf = _cl.empty(block * renderer.bytes_per_map)
+    front_buf = _cl.empty(block * renderer.facing_bytes_per_map)
+    state = _cl.empty(T * 16)
+    cl.enqueue_fill_buffer(q, state, np.uint32(0), 0, T * 16)
+    slots = block + 1          # a block emits at most one segment per map, plus the last
+    seg_z = _cl.empty(T * slots * dtype_z.itemsize)
+    seg_i = _cl.empty(T * slots * 4)
+    count_buf = _cl.empty(T * 4)
+    device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16 + T * slots * (dtype_z.itemsize + 4)
+                    + T * 8 + 36 * renderer.n_faces)
+    if footprint:
+        device_bytes += block * (corners.bytes_per_map + corners.facing_bytes_per_map) + 36 * corners.n_faces
+    counts = np.empty(T, np.uint32)
+    blocks = []
+    host_bytes = 0
+    starts = range(0, D, block)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=D, desc="CSM build", unit="map", disable=None, leave=False)
+    try:
+        for s in starts:
+            e = min(D, s + block)
+            renderer.render(views.bases[s:e], depth_buf, front_buf)
+            if footprint:
+                corners.render(views.bases[s:e], cdepth_buf, cfront_buf)
+            k_fold(q, (T,), None, depth_buf, front_buf, *corner_args, np.int32(e - s), np.int32(s),
+                   np.int32(e == D), state, seg_z, seg_i, count_buf)
+            cl.enqueue_copy(q, counts, count_buf)
+            total = int(counts.sum(dtype=np.int64))
+            start = np.zeros(T, np.uint32)
+            np.cumsum(counts[:-1], out=start[1:])
+            zb = np.empty(total, dtype_z)
+            ib = np.empty(total, dtype_i)
+            if total:
+                out_z = _cl.empty(total * dtype_z.itemsize)
+                out_i = _cl.empty(total * dtype_i.itemsize)
+                k_compact(q, (T,), None, seg_z, seg_i, count_buf, _cl.to_device(start),
+                          out_z, out_i)
+                cl.enqueue_copy(q, zb, out_z)
+                cl.enqueue_copy(q, ib, out_i)
+            blocks.append((counts.copy(), zb, ib))
+            host_bytes += zb.nbytes + ib.nbytes + counts.nbytes
+            if bar is not None:
+                bar.update(e - s)
+    finally:
+        if bar is not None:
+            bar.close()
+    # assemble the per-texel lists (blocks arrive in map order)
+    per_texel = np.zeros(T, np.int64)
+    for c, _, _ in blocks:
+        per_texel += c
+    S = int(per_texel.sum())
+    offsets = np.zeros(T + 1, _offsets_dtype(S))
+    np.cumsum(per_texel, out=offsets[1:])
+    zs = np.empty(S, dtype_z)
+    ie = np.empty(S, dtype_i)
+    cursor = offsets[:-1].astype(np.int64)
+    for c, zb, ib in blocks:
+        if len(zb) == 0:
+            continue
+        texel = np.repeat(np.arange(T), c)
+        first = np.cumsum(c, dtype=np.int64) - c
+        pos = cursor[texel] + (np.arange(len(zb)) - first[texel])
+        zs[pos] = zb
+        ie[pos] = ib
+        cursor += c
+    peak = device_bytes + host_bytes + zs.nbytes + ie.nbytes + offsets.nbytes
+    return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
+               centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
+               iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
+               front_margin_texels=FRONT_MARGIN_TEXELS, footprint=footprint)

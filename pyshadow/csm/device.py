@@ -1,0 +1,189 @@
+"""The device layout of a CSM: block summaries and paired segment lists for the search kernels.
+
+``kernels/csm_search.h`` searches these arrays; :func:`scene_atlas` packs the
+CSMs of every caster type of a scene into one set of tables
+(``kernels/scene_types.h``).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pyopencl as cl
+
+from .. import _cl
+from .._cl.tables import CSM_TYPE
+from .core import DEPTH_Q, SEARCH_BLOCK
+
+__all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas"]
+
+_LAYOUT_CODE = {"zigzag": 0, "hilbert": 1}
+
+
+def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
+    """The device layout the search kernels read (kernels/csm_search.h) for ``csm``.
+
+    Parameters
+    ----------
+    wide : bool, optional
+        Pair layout (default :attr:`pair_wide`).
+    padded : bool, optional
+        Pad every list with copies of its last pair to a whole number of
+        ``SEARCH_BLOCK`` (16) pairs, so that each block is one aligned
+        run of 16 pairs (one cache line when pairs are 4 bytes): the
+        layout of the scene kernels (kernels/visibility.cl). The copies
+        have i_end = D - 1, so counting the i_end below a map index over
+        a whole block gives the same answer.
+
+    Returns
+    -------
+    dict
+        ``offsets`` uint32 (R*R+1); ``soff`` uint32 (R*R+1), each texel's
+        range in ``summary``; ``summary`` (iend dtype), the last i_end of
+        every block of ``SEARCH_BLOCK`` segments of a list; ``pairs``
+        each segment's i_end and stored depth side by side: uint32
+        ``depth << 16 | iend`` or, when ``wide``, uint32 (S, 2)
+        ``(iend, depth bits)``; ``segment`` int64, the index into
+        :attr:`iend` / :attr:`depth` of every pair.
+    """
+    wide = csm.pair_wide if wide is None else bool(wide)
+    if csm.offsets.dtype != np.uint32:
+        raise ValueError("CSMs with 2^32 or more segments are not supported on the device")
+    off = np.asarray(csm.offsets, dtype=np.int64)
+    iend = np.asarray(csm.iend)
+    lens = np.diff(off)
+    nblocks = -(-lens // SEARCH_BLOCK)
+    soff = np.zeros(len(off), np.int64)
+    np.cumsum(nblocks, out=soff[1:])
+    texel = np.repeat(np.arange(len(lens)), nblocks)
+    j = np.arange(int(soff[-1])) - soff[:-1][texel]
+    last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
+    summary = iend[last]
+    if padded:
+        starts = SEARCH_BLOCK * soff            # every list starts on a block boundary
+        owner = np.repeat(np.arange(len(lens)), SEARCH_BLOCK * nblocks)
+        within = np.arange(int(starts[-1])) - starts[:-1][owner]
+        segment = off[:-1][owner] + np.minimum(within, lens[owner] - 1)
+        off = starts
+    else:
+        segment = np.arange(len(iend), dtype=np.int64)
+    if wide:
+        pairs = np.empty((len(segment), 2), np.uint32)
+        pairs[:, 0] = iend[segment]
+        depth = np.asarray(csm.depth)[segment]
+        pairs[:, 1] = depth.view(np.uint32) if csm.depth_bits == 32 else depth
+    else:
+        pairs = ((np.asarray(csm.depth, np.uint32) << 16) | np.asarray(iend, np.uint32))[segment]
+    return {"offsets": off.astype(np.uint32), "soff": soff.astype(np.uint32),
+            "summary": summary, "pairs": pairs, "segment": segment}
+
+
+def device_buffers(csm):
+    """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept."""
+    ctx = _cl.context()
+    if csm._device is None or csm._device[0] is not ctx:
+        a = csm.search_arrays()
+        csm._device = (ctx, tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs")))
+    return csm._device[1]
+
+def segment_index(csm, map_index, rows, cols) -> np.ndarray:
+    """:meth:`CoherentShadowMap.segment_index`: the kernels' search (``csm_find``) on the device."""
+    m, r, c = np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols))
+    shape = m.shape
+    m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (m, r, c))
+    R, D = csm.resolution, csm.maps
+    if len(m) and (m.min() < 0 or m.max() >= D):
+        raise ValueError(f"map index outside 0..{D - 1}")
+    if len(r) and (min(r.min(), c.min()) < 0 or max(r.max(), c.max()) >= R):
+        raise ValueError(f"row/column outside 0..{R - 1}")
+    out = np.empty(len(m), np.uint32)
+    if len(m):
+        k = _cl.kernel("csm_query.cl", "csm_lookup", csm.defines)
+        buf = _cl.empty(out.nbytes)
+        k(_cl.queue(), (len(m),), None, *csm.device_buffers(), np.int32(len(m)),
+          _cl.to_device(m, np.int32), _cl.to_device(r * R + c, np.int32), buf)
+        cl.enqueue_copy(_cl.queue(), out, buf)
+    return out.reshape(shape)
+
+
+def scene_atlas(types) -> dict:
+    """The CSMs of a scene's caster types packed into one set of device tables.
+
+    Parameters
+    ----------
+    types : list of CoherentShadowMap
+        The distinct CSMs of the casters, in type-index order.
+
+    Returns
+    -------
+    dict
+        ``bits`` (16 unless a CSM stores 32-bit depth: then every type's
+        pairs hold float32 depth), ``iend_t``, ``pair_wide``, ``ntypes``,
+        ``layouts`` (set of layout names), ``quantum`` (normalised depth of
+        one 16-bit step, 0 for 32-bit) and ``buffers``: the device buffers
+        of the ``CSM_TYPE`` rows (``kernels/scene_types.h``), texel offsets,
+        block-summary offsets, summaries, pairs, view bases and Hilbert
+        cells, each type's tables following the previous type's.
+    """
+    bits = 16 if all(c.depth_bits == 16 for c in types) else 32
+    wide_iend = any(c.iend.dtype != np.uint16 for c in types)
+    wide = bits == 32 or wide_iend
+    di = np.uint32 if wide_iend else np.uint16
+    trow = np.zeros(max(1, len(types)), CSM_TYPE)
+    offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], []
+    seg = blk = view = cell = tex = 0
+    for ti, c in enumerate(types):
+        R, D = c.resolution, c.maps
+        a = c.search_arrays(wide=wide, padded=True)
+        if len(a["pairs"]) + seg >= 2**32:
+            raise ValueError("the scene's CSMs hold 2^32 or more segments together")
+        layout = _LAYOUT_CODE[c.views.layout]
+        p = c.views.params
+        if c.views.layout == "zigzag":
+            p1, p2 = p["theta"], p["phi"]
+        else:
+            p1, p2 = p["level"], 0
+            if p.get("hemispheres"):
+                layout = 2
+            cells.append(c.views._hilbert_cells().reshape(-1).astype(np.int32))
+        # zigzag grid steps' cos and sin: the kernel's angle addition
+        steps = ([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
+                  np.sin(2 * np.pi / p2)] if c.views.layout == "zigzag" else [0.0] * 4)
+        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32))
+        offs.append(a["offsets"][:-1].astype(np.int64) + seg)
+        soffs.append(a["soff"][:-1].astype(np.int64) + blk)
+        summ.append(a["summary"].astype(di))
+        pr = a["pairs"]
+        if bits == 32 and c.depth_bits == 16:     # a 32-bit atlas stores float depths
+            pr[:, 1] = c.stored_to_depth(c.depth[a["segment"]]).astype(np.float32).view(np.uint32)
+        pairs.append(pr)
+        bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
+        seg += len(a["pairs"])
+        blk += len(a["summary"])
+        view += D
+        tex += R * R
+        cell += len(cells[-1]) if c.views.layout == "hilbert" else 0
+    # every type's tables end where the next type's begin; the last entries
+    # close the final type (offsets[tex_base + R*R], soff[...] as the search needs)
+    offs.append(np.array([seg], dtype=np.int64))
+    soffs.append(np.array([blk], dtype=np.int64))
+
+    def cat(parts, dtype, empty):
+        return np.concatenate(parts).astype(dtype) if parts else np.asarray(empty, dtype)
+
+    atlas = {
+        "bits": bits,
+        "iend_t": "uint" if wide_iend else "ushort",
+        "pair_wide": int(wide),
+        "ntypes": len(types),
+        "layouts": {c.views.layout for c in types},
+        "quantum": 1.0 / DEPTH_Q if bits == 16 else 0.0,
+        "buffers": [
+            _cl.to_device(trow),
+            _cl.to_device(cat(offs, np.uint32, [0])),
+            _cl.to_device(cat(soffs, np.uint32, [0])),
+            _cl.to_device(cat(summ, di, [0])),
+            _cl.to_device(cat(pairs, np.uint32, [0, 0] if wide else [0])),
+            _cl.to_device(cat(bases, np.float32, np.zeros(9))),
+            _cl.to_device(cat(cells, np.int32, [0])),
+        ],
+    }
+    return atlas

@@ -1,0 +1,261 @@
+"""The ``.csm`` file format, version 1: save, load and validation.
+
+Files are versioned, checksummed (SHA-256 of every byte before the digest)
+and written atomically; never pickled.
+
+File layout (little-endian, version 1):
+
+========  =====================================================
+bytes     content
+========  =====================================================
+0-7       magic ``b"PYSHCSM\\0"``
+8-11      uint32 format version (1)
+12-15     uint32 length H of the JSON header
+16-       JSON header (UTF-8): resolution, maps, layout and
+          layout_params, centre, radius, depth_bits, layer_rule,
+          mesh_hash, segments, offsets_dtype, writer; optional
+          front_margin_texels (default 0), footprint (default
+          false), build_seconds
+aligned   arrays at 64-byte boundaries after the header, in order:
+          offsets (R*R+1, uint32 or uint64), iend (S, uint16 when
+          D <= 65536 else uint32), depth (S, uint16 or float32)
+last 32   SHA-256 of every byte before it
+========  =====================================================
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._files import atomic_path
+from .._version import __version__
+from ..views import ViewSet
+from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype
+
+__all__ = ["MAGIC", "FORMAT_VERSION", "save", "load"]
+
+MAGIC = b"PYSHCSM\x00"
+FORMAT_VERSION = 1
+ALIGN = 64
+
+
+def header(csm) -> dict:
+    return {
+        "format": "pyshadow-csm",
+        "version": FORMAT_VERSION,
+        "writer": f"pyshadow {__version__}",
+        "resolution": csm.resolution,
+        "maps": csm.maps,
+        "layout": csm.views.layout,
+        "layout_params": csm.views.params,
+        "centre": [float(x) for x in csm.centre],
+        "radius": csm.radius,
+        "depth_bits": csm.depth_bits,
+        "layer_rule": csm.layer_rule,
+        "front_margin_texels": csm.front_margin_texels,
+        "footprint": csm.footprint,
+        "mesh_hash": csm.mesh_hash,
+        "segments": csm.segments,
+        "offsets_dtype": csm.offsets.dtype.str,
+        "build_seconds": csm._build_seconds if np.isfinite(csm._build_seconds) else None,
+    }
+
+
+def array_layout(start: int, resolution: int, maps: int, segments: int, depth_bits: int,
+                  offsets_dtype) -> list:
+    """(name, dtype, count, byte offset) of each array, 64-byte aligned from ``start``."""
+    specs = [
+        ("offsets", np.dtype(offsets_dtype), resolution * resolution + 1),
+        ("iend", _iend_dtype(maps), segments),
+        ("depth", _depth_dtype(depth_bits), segments),
+    ]
+    out, pos = [], start
+    for name, dt, n in specs:
+        pos = -(-pos // ALIGN) * ALIGN
+        out.append((name, dt.newbyteorder("<"), n, pos))
+        pos += dt.itemsize * n
+    return out, pos
+
+
+def save(csm, path) -> Path:
+    """:meth:`CoherentShadowMap.save` (which documents the layout)."""
+    path = Path(path)
+    head = json.dumps(header(csm), sort_keys=True).encode()
+    start = 16 + len(head)
+    layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments,
+                                     csm.depth_bits, csm.offsets.dtype)
+    arrays = {"offsets": csm.offsets, "iend": csm.iend, "depth": csm.depth}
+    h = hashlib.sha256()
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        def put(b):
+            h.update(b)
+            f.write(b)
+
+        put(MAGIC + np.uint32(FORMAT_VERSION).tobytes() + np.uint32(len(head)).tobytes() + head)
+        pos = start
+        for name, dt, n, off in layout:
+            put(b"\x00" * (off - pos))
+            data = np.ascontiguousarray(arrays[name], dtype=dt)
+            assert data.size == n
+            put(memoryview(data).cast("B"))
+            pos = off + data.nbytes
+        f.write(h.digest())
+        f.flush()
+        os.fsync(f.fileno())
+    return path
+
+
+def load(cls, path, mmap: bool = True):
+    """:meth:`CoherentShadowMap.load` (which documents it) for the class ``cls``."""
+    path = Path(path)
+    size = path.stat().st_size
+    if size < 16 + 32:
+        raise CSMFormatError(f"{path}: {size} bytes is too short for a CSM file")
+    with open(path, "rb") as f:
+        pre = f.read(16)
+        if pre[:8] != MAGIC:
+            raise CSMFormatError(f"{path}: not a pyshadow CSM file (magic {pre[:8]!r})")
+        version = int(np.frombuffer(pre[8:12], "<u4")[0])
+        if version != FORMAT_VERSION:
+            raise CSMFormatError(f"{path}: format version {version} is not supported "
+                                 f"(this pyshadow reads version {FORMAT_VERSION})")
+        hlen = int(np.frombuffer(pre[12:16], "<u4")[0])
+        if 16 + hlen + 32 > size:
+            raise CSMFormatError(f"{path}: header length {hlen} runs past the end of the file")
+        # checksum over everything but the trailing digest
+        h = hashlib.sha256(pre)
+        remaining = size - 32 - 16
+        while remaining > 0:
+            chunk = f.read(min(remaining, 1 << 24))
+            if not chunk:
+                raise CSMFormatError(f"{path}: truncated")
+            h.update(chunk)
+            remaining -= len(chunk)
+        digest = f.read(32)
+    if digest != h.digest():
+        raise CSMFormatError(f"{path}: checksum mismatch (corrupted or truncated file)")
+    with open(path, "rb") as f:
+        f.seek(16)
+        head_bytes = f.read(hlen)
+    try:
+        head = json.loads(head_bytes.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CSMFormatError(f"{path}: unreadable header ({exc})") from None
+    return _from_header(cls, path, head, 16 + hlen, size, mmap)
+
+
+def _from_header(cls, path, head, start, size, mmap):
+    def need(key, kind):
+        if not isinstance(head, dict) or key not in head:
+            raise CSMFormatError(f"{path}: header lacks {key!r}")
+        val = head[key]
+        if kind is int and (isinstance(val, bool) or not isinstance(val, int)):
+            raise CSMFormatError(f"{path}: header {key!r} must be an integer, got {val!r}")
+        if kind is not int and not isinstance(val, kind):
+            raise CSMFormatError(f"{path}: header {key!r} has the wrong type")
+        return val
+
+    if head.get("format") != "pyshadow-csm" or head.get("version") != FORMAT_VERSION:
+        raise CSMFormatError(f"{path}: header is not a pyshadow-csm version {FORMAT_VERSION}")
+    R = need("resolution", int)
+    D = need("maps", int)
+    S = need("segments", int)
+    bits = need("depth_bits", int)
+    rule = need("layer_rule", int)
+    layout = need("layout", str)
+    params = need("layout_params", dict)
+    centre = need("centre", list)
+    radius = need("radius", (int, float))
+    mh = need("mesh_hash", str)
+    odt = need("offsets_dtype", str)
+    if not 1 <= R <= 4096:
+        raise CSMFormatError(f"{path}: resolution {R} outside 1..4096")
+    if bits not in (16, 32):
+        raise CSMFormatError(f"{path}: depth_bits {bits} is not 16 or 32")
+    if rule not in (2, 3):
+        raise CSMFormatError(f"{path}: layer_rule {rule} is not 2 or 3")
+    margin = head.get("front_margin_texels", 0.0)       # absent in files from before the margin
+    if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not (
+            np.isfinite(margin) and margin >= 0):
+        raise CSMFormatError(f"{path}: front_margin_texels must be a finite number >= 0, got {margin!r}")
+    footprint = head.get("footprint", False)             # absent in files from before the option
+    if not isinstance(footprint, bool):
+        raise CSMFormatError(f"{path}: footprint must be true or false, got {footprint!r}")
+    if layout not in _LAYOUTS:
+        raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
+    if odt not in ("<u4", "<u8"):
+        raise CSMFormatError(f"{path}: offsets dtype {odt!r} not supported")
+    if len(centre) != 3 or not all(isinstance(x, (int, float)) and np.isfinite(x) for x in centre):
+        raise CSMFormatError(f"{path}: centre must be 3 finite numbers")
+    if not (np.isfinite(radius) and radius > 0):
+        raise CSMFormatError(f"{path}: radius must be finite and positive, got {radius}")
+    try:
+        if layout == "zigzag":
+            ok = set(params) == {"theta", "phi"} and all(
+                isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in params)
+        else:
+            ok = (set(params) in ({"level"}, {"level", "hemispheres"})
+                  and isinstance(params["level"], int) and 0 <= params["level"] <= 10
+                  and params.get("hemispheres", True) is True)
+        if not ok:
+            raise ValueError
+    except (ValueError, KeyError, TypeError):
+        raise CSMFormatError(f"{path}: invalid {layout} parameters {params!r}") from None
+    # the layout's map count from its parameters, and the sizes against the
+    # file's, before anything as large as the header claims is built
+    layout_maps = ViewSet.maps_for(layout, params)
+    if layout_maps != D:
+        raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {layout_maps}")
+    if not D <= S or S > 2**40:
+        raise CSMFormatError(f"{path}: {S} segments cannot cover {D} maps")
+    if S < R * R:
+        raise CSMFormatError(f"{path}: {S} segments for {R * R} texels (every texel needs one)")
+    arrays, end = array_layout(start, R, D, S, bits, odt)
+    if end + 32 != size:
+        raise CSMFormatError(f"{path}: size {size} bytes does not match the header "
+                             f"({end + 32} expected)")
+    views = ViewSet.from_params(layout, params)
+    data = {}
+    for name, dt, n, off in arrays:
+        if mmap:
+            data[name] = np.memmap(path, dtype=dt, mode="r", offset=off, shape=(n,))
+        else:
+            with open(path, "rb") as f:
+                f.seek(off)
+                data[name] = np.frombuffer(f.read(dt.itemsize * n), dtype=dt).copy()
+    _validate_arrays(path, data, R, D, S, bits)
+    return cls(views=views, resolution=R, depth_bits=bits, layer_rule=rule,
+               centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
+               offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
+               build_seconds=head.get("build_seconds") or float("nan"), front_margin_texels=margin,
+               footprint=footprint)
+
+
+def _validate_arrays(path, data, R, D, S, bits):
+    off = np.asarray(data["offsets"]).astype(np.int64)
+    if off[0] != 0 or off[-1] != S:
+        raise CSMFormatError(f"{path}: offset table does not span 0..{S}")
+    lengths = np.diff(off)
+    if (lengths < 1).any():
+        t = int(np.argmax(lengths < 1))
+        raise CSMFormatError(f"{path}: segment list of texel {t} is empty or offsets decrease")
+    iend = np.asarray(data["iend"]).astype(np.int64)
+    if (iend >= D).any():
+        raise CSMFormatError(f"{path}: an i_end is beyond the last map {D - 1}")
+    if (iend[off[1:] - 1] != D - 1).any():
+        t = int(np.argmax(iend[off[1:] - 1] != D - 1))
+        raise CSMFormatError(f"{path}: segment list of texel {t} does not end at map {D - 1}")
+    inc = np.diff(iend) > 0
+    inc[off[1:-1] - 1] = True          # list boundaries may go down
+    if not inc.all():
+        raise CSMFormatError(f"{path}: i_end values of a segment list are not strictly increasing")
+    if bits == 32:
+        z = np.asarray(data["depth"])
+        bad = ~(np.isposinf(z) | (np.isfinite(z) & (z >= 0) & (z <= 2)))
+        if bad.any():
+            raise CSMFormatError(f"{path}: stored depth {z[np.argmax(bad)]!r} is neither finite "
+                                 "in [0, 2] nor the miss value +inf")

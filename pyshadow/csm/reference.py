@@ -1,0 +1,260 @@
+"""NumPy mirrors of the CSM kernels: compression, footprint intervals, the segment search, the vote.
+
+Small and float64 (or float32 where the kernel's roundings matter); the
+kernels are tested against these bit for bit where the text says so.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .build import footprint_scale
+from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin
+
+__all__ = ["compress_reference", "footprint_interval", "segment_index_reference", "shadow_vote"]
+
+
+def _keys_at_or_above(z, depth_bits):
+    """Smallest depth key >= z (z >= 0, float32), as csm_common.h; int64."""
+    z = np.asarray(z, np.float32)
+    if depth_bits == 16:
+        # float64 holds z * Q exactly (24 + 16 bits): its ceiling is the exact one
+        return np.minimum(np.ceil(np.minimum(z, 1).astype(np.float64) * DEPTH_Q), DEPTH_Q).astype(np.int64)
+    return np.maximum(z, np.float32(0)).view(np.uint32).astype(np.int64)
+
+
+def _keys_below(z, depth_bits):
+    """Largest depth key < z, -1 when there is none (the kernel's (uint)-1)."""
+    k = _keys_at_or_above(z, depth_bits) - 1
+    if depth_bits == 16:
+        k = np.where(np.asarray(z, np.float32) > 1, DEPTH_Q, k)
+    return k
+
+
+def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
+    """NumPy version of ``footprint_keys`` (csm.cl) before the keys, float32.
+
+    Parameters
+    ----------
+    z1, hic : ndarray, shape (T,), float32
+        The centre's first depth and upper end ``z2'`` (finite).
+    c1, c2 : ndarray, shape (T, 4), float32
+        First and second depth at the texel's corners, corner-grid entries
+        ``(row, col), (row, col+1), (row+1, col), (row+1, col+1)``, in the
+        corner frame; ``+inf`` for none.
+    c2_front : ndarray, shape (T, 4), bool
+        The second corner surface faces the light.
+    margin : float
+        :func:`front_margin` (normalised depth): a second corner surface
+        that faces the light bounds the interval this far in front of it.
+    scale : float
+        :func:`footprint_scale` of ``R``.
+
+    Returns
+    -------
+    lo, hi : ndarray, shape (T,), float32
+        The footprint interval ``[lo, hi)``: ``lo`` is the largest of ``z1``
+        and the corners' first depths below ``hic``; ``hi`` the smallest of
+        ``hic`` and the corners' second depths above ``lo``. So ``z1 <= lo
+        <= hi <= hic``; where no depth key lies in ``[lo, hi)`` the build
+        keeps the centre's interval.
+    """
+    f = np.float32
+    half = f(0.5)
+    with np.errstate(invalid="ignore"):
+        d1 = np.where(np.isfinite(c1), half - f(scale) * (half - c1), np.inf).astype(f)
+        d2 = np.where(np.isfinite(c2), half - f(scale) * (half - c2), np.inf).astype(f)
+        d2 = np.where(np.isfinite(d2) & c2_front, np.maximum(d2 - f(margin), d1), d2).astype(f)
+    lo = np.maximum(z1, np.where(d1 < hic[:, None], d1, -np.inf).max(axis=1)).astype(f)
+    hi = np.minimum(hic, np.where(np.isfinite(d2) & (d2 > lo[:, None]), d2, np.inf).min(axis=1)).astype(f)
+    return lo, hi
+
+
+def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None,
+                       corners=None, corner_front=None):
+    """NumPy version of the compression kernel: greedy runs per texel, in map order.
+
+    Parameters
+    ----------
+    layers : ndarray, shape (D, L, R, R), float32
+        Depth layers in view-set order (:func:`pyshadow.render_depth` with
+        ``L >= rule``; ``+inf`` where a ray has fewer hits).
+    front : ndarray, shape (D, L, R, R), bool
+        Which layers face the light (``render_depth(..., facing=True)``).
+    rule : {2, 3}
+        Interval rule, as ``layers`` of :meth:`CoherentShadowMap.build`.
+    depth_bits : {16, 32}
+    margin_depth : float, optional
+        The margin in front of a surface facing the light (normalised
+        depth); default :func:`front_margin` of ``R``, as the build uses.
+    corners, corner_front : ndarray, shape (D, L, R+1, R+1), optional
+        The footprint build's corner maps (:func:`footprint_corners`);
+        given, each map's interval is narrowed as in
+        ``CoherentShadowMap.build(..., footprint=True)``.
+
+    Returns
+    -------
+    offsets : ndarray, shape (R*R + 1,), int64
+    iend : ndarray, shape (S,), int64
+    depth : ndarray, shape (S,), uint16 or float32
+        The arrays of :meth:`CoherentShadowMap.build` for the same maps,
+        bit for bit.
+    """
+    layers = np.asarray(layers, np.float32)
+    front = np.asarray(front, bool)
+    D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
+    if corners is not None:
+        corners = np.asarray(corners, np.float32)
+        corner_front = np.asarray(corner_front, bool)
+        if corners.shape[:2] != (D, L) or corners.shape[2:] != (R + 1, R + 1) or corner_front.shape != corners.shape:
+            raise ValueError(f"corners must have shape {(D, L, R + 1, R + 1)}, got {corners.shape}")
+    if L < rule:
+        raise ValueError(f"rule {rule} needs {rule} layers, got {L}")
+    if front.shape != layers.shape:
+        raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
+    margin = front_margin(R) if margin_depth is None else np.float32(margin_depth)
+    miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
+    T = R * R
+    lo = hi2 = hi3 = np.zeros(T, np.int64)
+    started = False
+    emitted = []                                    # (texels, i_end, stored values) per emission
+
+    def value(lo, hi2, hi3):
+        hi = np.where(lo <= hi2, hi2, hi3)
+        if depth_bits == 16:
+            return ((lo + hi) >> 1).astype(np.uint16)
+        a = lo.astype(np.uint32).view(np.float32)
+        b = hi.astype(np.uint32).view(np.float32)
+        with np.errstate(invalid="ignore"):
+            m = (a + (b - a) * np.float32(0.5)).view(np.uint32).astype(np.int64)
+        m = np.where(lo == miss_key, lo, np.clip(m, lo, hi))
+        return m.astype(np.uint32).view(np.float32)
+
+    for i in range(D):
+        z1, z2 = layers[i, 0].ravel(), layers[i, 1].ravel()
+        hit, two = np.isfinite(z1), np.isfinite(z2)
+        mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
+        front2 = front[i, 1].ravel()
+        z2b = np.where(front2, np.maximum(z2 - margin, z1), z2)      # float32, as the kernel
+        k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
+        mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
+        if corners is not None:
+            c1, c2, cf = (np.stack([a[i, layer, r:r + R, c:c + R].ravel() for r in (0, 1) for c in (0, 1)], 1)
+                          for a, layer in ((corners, 0), (corners, 1), (corner_front, 1)))
+            use = hit & two
+            flo, fhi = footprint_interval(np.where(use, z1, 0), np.where(use, z2b, 1), c1, c2, cf, margin,
+                                          footprint_scale(R))
+            klo = _keys_at_or_above(flo, depth_bits)
+            khi = _keys_below(fhi, depth_bits)
+            use &= khi >= klo
+            mlo = np.where(use, klo, mlo)
+            mhi2 = np.where(use, khi, mhi2)
+        mhi3 = mhi2
+        if rule == 3:
+            z3 = layers[i, 2].ravel()
+            z3m = z3 - margin
+            re_enter = two & ~front2 & np.isfinite(z3) & (z3m > z2)
+            mhi3 = np.where(re_enter, np.maximum(_keys_below(np.where(re_enter, z3m, 0), depth_bits), mhi2),
+                            mhi2)
+        if started:
+            nlo, nhi3 = np.maximum(lo, mlo), np.minimum(hi3, mhi3)
+            join = nlo <= nhi3
+            out = np.flatnonzero(~join)
+            emitted.append((out, i - 1, value(lo[out], hi2[out], hi3[out])))
+            lo = np.where(join, nlo, mlo)
+            hi2 = np.where(join, np.minimum(hi2, mhi2), mhi2)
+            hi3 = np.where(join, nhi3, mhi3)
+        else:
+            lo, hi2, hi3, started = mlo, mhi2, mhi3, True
+    emitted.append((np.arange(T), D - 1, value(lo, hi2, hi3)))
+    texel = np.concatenate([e[0] for e in emitted])
+    iend = np.concatenate([np.full(len(e[0]), e[1], np.int64) for e in emitted])
+    depth = np.concatenate([e[2] for e in emitted])
+    order = np.lexsort((iend, texel))
+    offsets = np.zeros(T + 1, np.int64)
+    np.cumsum(np.bincount(texel, minlength=T), out=offsets[1:])
+    return offsets, iend[order], depth[order]
+
+
+def segment_index_reference(csm, map_index, rows, cols) -> np.ndarray:
+    """NumPy version of :meth:`segment_index` (searchsorted per texel)."""
+    m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1)
+               for a in np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols)))
+    t = r * csm.resolution + c
+    out = np.empty(len(m), np.int64)
+    for i, (tt, mm) in enumerate(zip(t, m)):
+        a, b = int(csm.offsets[tt]), int(csm.offsets[tt + 1])
+        out[i] = a + np.searchsorted(csm.iend[a:b], mm, side="left")
+    return out
+
+
+def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
+                self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS) -> np.ndarray:
+    """Weighted shadowing vote of a CSM's taps for points and directions in its frame (NumPy).
+
+    The rule of the visibility kernel (``instance16``) for one caster, in
+    float64: each point is asked in the maps ``maps[:, m]`` with weights
+    ``map_weights[:, m]``, at the texel holding it (``texels=1``) or at the
+    four texels around it with bilinear weights of the texel centres, border
+    texels repeated (``texels=4``); a tap votes "shadowed" when the point's
+    depth exceeds the stored depth plus the bias.
+
+    Parameters
+    ----------
+    csm : CoherentShadowMap
+    pn, wn : ndarray, shape (N, 3)
+        Points in the CSM's normalised frame (its bounding sphere centred at
+        the origin with radius 1) and unit directions in its frame.
+    maps, map_weights : ndarray, shape (N, M)
+        Map indices (int) and their weights.
+    quantum : float
+        Depth quantum plus rounding slack, normalised depth units.
+    texels : {1, 4}
+    self_ : bool or ndarray of bool, shape (N,)
+        Where the point may lie on this caster, the self-bias
+        ``quantum + (bias_texels + DEFAULT_BIAS_TAN * tan a) / R`` applies
+        (``a`` the angle between direction and map axis); elsewhere ``quantum``.
+    bias : float, optional
+        One fixed bias for every tap instead.
+    bias_texels : float, optional
+
+    Returns
+    -------
+    ndarray, shape (N,), float64
+        The summed weights of the shadowing taps; the caster shadows a ray
+        where this exceeds one half.
+    """
+    R, D = csm.resolution, csm.maps
+    # global keys texel * D + i_end are sorted: one searchsorted finds every segment
+    keys = (np.repeat(np.arange(R * R), np.diff(np.asarray(csm.offsets, dtype=np.int64))) * D
+            + np.asarray(csm.iend, dtype=np.int64))
+    depths = np.asarray(csm.depth)
+    if texels == 4:      # texel offsets and their bilinear weights (tx, ty)
+        taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
+                (1, 0, lambda tx, ty: (1 - tx) * ty), (1, 1, lambda tx, ty: tx * ty)]
+    elif texels == 1:
+        taps = [(0, 0, lambda tx, ty: 1.0)]
+    else:
+        raise ValueError(f"texels must be 1 or 4, got {texels!r}")
+    vote = np.zeros(len(pn))
+    for m in range(maps.shape[1]):
+        k = maps[:, m]
+        B = csm.views.bases[k]
+        depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
+        fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
+        fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
+        inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
+        if bias is None:
+            ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
+            tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
+            b = np.where(self_, quantum + (bias_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
+        else:
+            b = float(bias)
+        gx, gy = (fx - 0.5, fy - 0.5) if texels == 4 else (fx, fy)
+        x0, y0 = np.floor(gx), np.floor(gy)
+        tx, ty = gx - x0, gy - y0
+        for dy, dx, weight in taps:
+            tex = np.clip(y0.astype(np.int64) + dy, 0, R - 1) * R + np.clip(x0.astype(np.int64) + dx, 0, R - 1)
+            seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
+            z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
+            vote += map_weights[:, m] * weight(tx, ty) * (inside & (depth > z + b))
+    return vote

@@ -1,0 +1,447 @@
+"""Ground truth from Embree (through embreex): the same quantities by ray tracing.
+
+Everything pyshadow computes from rasterised or compressed visibility is
+measured against these functions. Ray origins that continue from a hit are
+moved along the ray by a scale-aware epsilon (a multiple of the float32
+spacing at the size of the coordinates), never by a fixed constant.
+"""
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import trimesh
+
+from .mesh import bounding_sphere, load_mesh
+from .views import ViewSet
+
+__all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuffer", "ground_occludes",
+           "ray_epsilon", "visible", "ambient_occlusion", "render", "surface_epsilon"]
+
+
+def ray_epsilon(scale) -> np.ndarray:
+    """Offset along a ray that safely leaves a surface at coordinates of size ``scale``.
+
+    64 float32 ulps of ``max(scale, 1e-30)``: large enough to step over the
+    intersection error of a float32 ray tracer, small against any feature.
+    """
+    scale = np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), 1e-30)
+    return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
+
+
+class EmbreeScene:
+    """An embreex scene of triangle soups with float64 helpers.
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (T, 3, 3)
+        World-space triangle corners (converted to float32 for Embree).
+    """
+
+    def __init__(self, triangles):
+        from embreex import rtcore_scene as rtcs
+        from embreex.mesh_construction import TriangleMesh
+
+        tri = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
+        self.n_triangles = len(tri)
+        self._scene = rtcs.EmbreeScene()
+        if len(tri):
+            TriangleMesh(self._scene, tri)
+
+    def intersect(self, origins, directions, tfar=None):
+        """Closest hits: (t float64 (N,) with inf for misses, primID int (N,), Ng (N,3))."""
+        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
+        if len(o) == 0 or self.n_triangles == 0:
+            n = len(o)
+            return np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros((n, 3))
+        kw = {}
+        if tfar is not None:
+            kw["dists"] = np.ascontiguousarray(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)
+        res = self._scene.run(o, d, output=1, **kw)
+        prim = np.asarray(res["primID"], dtype=np.int64)
+        t = np.where(prim >= 0, np.asarray(res["tfar"], dtype=np.float64), np.inf)
+        return t, prim, np.asarray(res["Ng"], dtype=np.float64)
+
+    def occluded(self, origins, directions, tfar=None) -> np.ndarray:
+        """Any hit along each ray within ``tfar`` (default: unbounded); bool (N,)."""
+        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
+        if len(o) == 0 or self.n_triangles == 0:
+            return np.zeros(len(o), dtype=bool)
+        kw = {}
+        if tfar is not None:
+            kw["dists"] = np.ascontiguousarray(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)
+        res = self._scene.run(o, d, query="OCCLUDED", **kw)
+        return np.asarray(res) >= 0
+
+
+def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
+                 frame=None, facing: bool = False):
+    """Depth layers of ``mesh`` by Embree rays through the texel centres.
+
+    Same convention and output as :func:`pyshadow.render_depth`: rays start on
+    the plane through ``d_k`` and run along ``-d_k``; depth is ``t/2``.
+    Layer ``l+1`` is found by restarting the ray just behind the hit of
+    layer ``l``.
+
+    Returns
+    -------
+    depth : ndarray, shape (D, layers, R, R), float32
+    front : ndarray, shape (D, layers, R, R), bool
+        Only with ``facing=True``: the hit triangle's winding normal has a
+        positive component along ``d_k``.
+    """
+    from .raster import texel_rays
+
+    if not isinstance(mesh, trimesh.Trimesh):
+        mesh = load_mesh(mesh)
+    centre, radius = frame if frame is not None else bounding_sphere(mesh)
+    verts = (np.asarray(mesh.vertices, dtype=np.float64) - centre) / radius
+    tri = verts[np.asarray(mesh.faces)]
+    scene = EmbreeScene(tri)
+    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    R = int(resolution)
+    out = np.full((len(views), layers, R, R), np.inf, dtype=np.float32)
+    front = np.zeros(out.shape, bool)
+    eps = float(ray_epsilon(2.0))
+    for k, B in enumerate(views.bases):
+        origins, direction = texel_rays(B, R)
+        o = origins.reshape(-1, 3)
+        dirs = np.broadcast_to(direction, o.shape)
+        travelled = np.zeros(len(o))
+        alive = np.arange(len(o))
+        for layer in range(layers):
+            if len(alive) == 0:
+                break
+            start = o[alive] + (travelled[alive])[:, None] * dirs[alive]
+            t, prim, _ = scene.intersect(start, dirs[alive])
+            hit = np.isfinite(t)
+            alive = alive[hit]
+            travelled[alive] += t[hit]
+            out[k, layer].reshape(-1)[alive] = (travelled[alive] * 0.5).astype(np.float32)
+            front[k, layer].reshape(-1)[alive] = normals[prim[hit]] @ B[2] > 0
+            travelled[alive] += eps
+    return (out, front) if facing else out
+
+
+def gbuffer(items, camera) -> dict:
+    """Primary-ray G-buffer by Embree: the same dict as :func:`pyshadow.render_gbuffer`.
+
+    Rays start at the camera's eye; triangles are moved into eye-relative
+    coordinates first (float64), so Embree's float32 stays precise for scenes
+    far from the world origin.
+    """
+    from .gbuffer import check_transform
+
+    tris, obj, face = [], [], []
+    for oid, (mesh, T) in enumerate(items):
+        if not isinstance(mesh, trimesh.Trimesh):
+            mesh = load_mesh(mesh)
+        T = check_transform(T, name=f"transform of item {oid}")
+        w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
+        tris.append((w - camera.eye)[np.asarray(mesh.faces)])
+        obj.append(np.full(len(mesh.faces), oid, np.int32))
+        face.append(np.arange(len(mesh.faces)))
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 3))
+    obj = np.concatenate(obj) if obj else np.zeros(0, np.int32)
+    face = np.concatenate(face) if face else np.zeros(0, np.int64)
+    scene = EmbreeScene(tris)
+    dirs = camera.ray_directions().reshape(-1, 3)
+    t, prim, _ng = scene.intersect(np.zeros_like(dirs), dirs)
+    hit = prim >= 0
+    p = np.where(hit, prim, 0)
+    tri = tris[p]
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    n = np.where((np.einsum("ij,ij->i", n, dirs) > 0)[:, None], -n, n)
+    H, W = camera.height, camera.width
+    pos = camera.eye + np.where(hit, t, 0.0)[:, None] * dirs
+    pos[~hit] = np.nan
+    n[~hit] = 0.0
+    return {
+        "position": pos.reshape(H, W, 3).astype(np.float32),
+        "normal": n.reshape(H, W, 3).astype(np.float32),
+        "object_id": np.where(hit, obj[p], -1).reshape(H, W).astype(np.int32),
+        "face": np.where(hit, face[p], -1).reshape(H, W).astype(np.int32),
+        "depth": np.where(hit, t, np.inf).reshape(H, W).astype(np.float32),
+    }
+
+
+# ---------------------------------------------------------------------------
+# scenes: visibility and ambient occlusion by ray tracing
+# ---------------------------------------------------------------------------
+def caster_scene(scene) -> tuple[EmbreeScene, np.ndarray]:
+    """Embree scene of every caster of a :class:`pyshadow.Scene`, for rays of one's own.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+        Every instance added with ``casts=True`` must carry its mesh.
+
+    Returns
+    -------
+    rays : EmbreeScene
+        The casters' triangles in world space minus ``anchor`` (float32 in
+        Embree, so coordinates stay small wherever the scene is).
+    anchor : ndarray, shape (3,), float64
+        World point subtracted from the triangles: rays must be given
+        relative to it.
+    """
+    anchor = scene.anchor()
+    tris = []
+    for i, inst in enumerate(scene.instances):
+        if not inst.casts:
+            continue
+        if inst.mesh is None:
+            raise ValueError(f"instance {i} was added as a CSM without its mesh: the reference "
+                             "ray tracer needs the geometry (pass mesh= to Scene.add)")
+        T = inst.transform
+        w = np.asarray(inst.mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3] - anchor
+        tris.append(w[np.asarray(inst.mesh.faces)])
+    return EmbreeScene(np.concatenate(tris) if tris else np.zeros((0, 3, 3))), anchor
+
+
+def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
+    """The scene's ground plane, decided analytically as the visibility kernel does.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : ndarray, shape (N, 3), float64
+        Ray origins: world space, or relative to ``anchor`` when it is given.
+    directions : ndarray, shape (N, 3)
+        Ray directions (any length).
+    anchor : ndarray, shape (3,), optional
+        The anchor of :func:`caster_scene`.
+
+    Returns
+    -------
+    ndarray, shape (N,), bool
+        True where the plane y = ``scene.ground`` blocks the ray: a point on or
+        above it (within 1e-5 of the scene's largest radius) looking down, or
+        a point below it looking up. All False without a ground plane.
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    directions = np.asarray(directions).reshape(-1, 3)
+    if scene.ground is None:
+        return np.zeros(len(points), bool)
+    level = scene.ground - (0.0 if anchor is None else anchor[1])
+    h = points[:, 1] - level
+    eps = 1e-5 * scene.scale()
+    return ((h >= -eps) & (directions[:, 1] < 0)) | ((h < -eps) & (directions[:, 1] > 0))
+
+
+def surface_epsilon(scene) -> float:
+    """Offset that lifts a ray origin off a surface: 2e-5 of the scene's largest radius,
+    and at least 64 float32 ulps of the coordinates (``ray_epsilon``)."""
+    return float(max(2e-5 * scene.scale(), ray_epsilon(scene.scale())))
+
+
+def visible(scene, points, directions) -> np.ndarray:
+    """Ground-truth :meth:`pyshadow.Scene.visible`: Embree occlusion rays.
+
+    Each ray starts at the point moved by :func:`surface_epsilon` along its
+    direction (so a point on a surface does not hit that surface) and runs
+    to infinity; the ground plane is tested analytically as in the kernel.
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    rays, anchor = caster_scene(scene)
+    rel = p - anchor
+    occ = ground_occludes(scene, rel, w, anchor)
+    todo = np.flatnonzero(~occ)
+    if len(todo):
+        occ[todo] = rays.occluded(rel[todo] + surface_epsilon(scene) * w[todo], w[todo])
+    return ~occ
+
+
+def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_normals: bool = False,
+                      indices=None, samples=None, strategy=None, seed=None, patterns=None, bent_normals=None):
+    """Ground-truth :meth:`pyshadow.Scene.ambient_occlusion` on the identical directions.
+
+    The directions are :func:`pyshadow.sample_directions`' for ``sampling``
+    (default ``Sampling()``) and ``indices`` (the ones the kernel traces);
+    ray origins are lifted off the surface along the normal by
+    :func:`surface_epsilon`. Returns ``(N,)`` float32 AO (and ``(N, 3)``
+    float32 bent normals with ``return_bent_normals=True``). The old
+    positional ``samples, strategy, seed, patterns, bent_normals`` still work,
+    with a DeprecationWarning.
+    """
+    from ._compat import legacy_sampling
+    from .sampling import Sampling
+
+    sampling, extra = legacy_sampling("embree.ambient_occlusion", args,
+                                      ("samples", "strategy", "seed", "patterns", "bent_normals"), sampling,
+                                      dict(samples=samples, strategy=strategy, seed=seed, patterns=patterns,
+                                           bent_normals=bent_normals), Sampling())
+    bent_normals = bool(extra.get("bent_normals", return_bent_normals))
+    samples, strategy, seed, patterns = sampling.samples, sampling.strategy, sampling.seed, sampling.patterns
+    from .sampling import sample_directions
+
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    dirs = sample_directions(n, samples, strategy, patterns, seed, indices=indices).astype(np.float64)
+    rays, anchor = caster_scene(scene)
+    N, S = dirs.shape[:2]
+    flat = dirs.reshape(-1, 3)
+    # the ground is tested at the point itself, as the kernel does
+    occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
+    origins = np.repeat(p - anchor + surface_epsilon(scene) * n, S, axis=0)
+    todo = np.flatnonzero(~occ)
+    chunk = 1 << 21
+    for s in range(0, len(todo), chunk):
+        sel = todo[s:s + chunk]
+        occ[sel] = rays.occluded(origins[sel], flat[sel])
+    vis = ~occ.reshape(N, S)
+    ao = vis.mean(axis=1).astype(np.float32)
+    if not bent_normals:
+        return ao
+    b = (dirs * vis[..., None]).sum(axis=1)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
+    return ao, b.astype(np.float32)
+
+
+class EmbreeTracer:
+    """Embree occlusion rays against a scene's casters, traced by a pool of threads.
+
+    The rays are those of :func:`ambient_occlusion`, bit for bit: :meth:`prepare`
+    lifts each origin off its surface along the normal by
+    :func:`surface_epsilon`, expresses it relative to the casters' anchor
+    (:func:`caster_scene`) and rounds origins and directions to float32 as
+    :meth:`EmbreeScene.occluded` does; the ground plane is decided
+    analytically at the point itself (:func:`ground_occludes`) and never
+    traced. Given the directions of :func:`pyshadow.sample_directions`, the
+    AO of ``~occluded`` averaged over each point's samples therefore equals
+    :func:`ambient_occlusion`'s exactly, for any number of threads.
+
+    embreex releases the GIL while it traces, so :meth:`occluded` keeps
+    ``threads`` cores busy: it splits a batch of rays into contiguous chunks
+    (about four chunks per thread, each at least 4096 rays) traced
+    concurrently.
+
+    The constructor builds the Embree scene and traces one ray, so that
+    Embree's BVH is committed before any timed call. Call :meth:`close` (or
+    use the tracer as a context manager) to stop the threads.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+        Every caster must carry its mesh (``Scene.add(..., mesh=...)``);
+        later changes to the scene are not seen.
+    threads : int
+        Worker threads, >= 1 (e.g. ``os.cpu_count()``).
+
+    Attributes
+    ----------
+    rays : EmbreeScene
+        The casters' triangles relative to ``anchor``.
+    anchor : ndarray, shape (3,), float64
+        World point subtracted from every ray origin.
+    eps : float
+        :func:`surface_epsilon` of the scene, world units.
+    threads : int
+    """
+
+    def __init__(self, scene, threads: int):
+        self.scene = scene
+        self.rays, self.anchor = caster_scene(scene)
+        self.eps = surface_epsilon(scene)
+        self.threads = int(threads)
+        self.pool = ThreadPoolExecutor(self.threads)
+        # first call commits Embree's BVH: keep it out of every timing
+        self.rays.occluded(np.zeros((1, 3), np.float32), np.array([[0.0, 1.0, 0.0]], np.float32))
+
+    def close(self):
+        """Shut the thread pool down (waits for running calls)."""
+        self.pool.shutdown()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def occluded(self, o32, d32) -> np.ndarray:
+        """Embree occlusion of rays, split over the thread pool.
+
+        Parameters
+        ----------
+        o32, d32 : ndarray, shape (n, 3), float32
+            Ray origins relative to :attr:`anchor` and directions, as
+            :meth:`prepare` returns them. Rays run from the origin to
+            infinity.
+
+        Returns
+        -------
+        ndarray, shape (n,), bool
+            True where a caster triangle blocks the ray.
+        """
+        n = len(o32)
+        out = np.empty(n, bool)
+        if n == 0:
+            return out
+        step = max(4096, -(-n // (4 * self.threads)))
+
+        def work(s):
+            out[s:s + step] = self.rays.occluded(o32[s:s + step], d32[s:s + step])
+
+        list(self.pool.map(work, range(0, n, step)))
+        return out
+
+    def prepare(self, points, normals, dirs32, samples: int):
+        """The rays of ``samples`` directions per point, as :func:`ambient_occlusion` builds them.
+
+        Parameters
+        ----------
+        points : ndarray, shape (n, 3), float64
+            World points on surfaces.
+        normals : ndarray, shape (n, 3), float64
+            Their unit normals (world frame).
+        dirs32 : ndarray, shape (n * samples, 3), float32
+            Unit directions, point-major (the ``samples`` directions of
+            point 0 first), e.g. :func:`pyshadow.sample_directions` reshaped.
+        samples : int
+            Directions per point.
+
+        Returns
+        -------
+        ground : ndarray, shape (n * samples,), bool
+            Rays the ground plane occludes (decided analytically, not
+            traced); the caller fills in the others from :meth:`occluded`.
+        todo : ndarray of int64, shape (m,)
+            Indices (into ``ground``) of the rays to trace.
+        origins, dirs : ndarray, shape (m, 3), float32
+            Those rays, ready for :meth:`occluded`.
+        """
+        S = int(samples)
+        rel = points - self.anchor
+        ground = ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
+        origins = np.repeat((rel + self.eps * normals).astype(np.float32), S, axis=0)
+        todo = np.flatnonzero(~ground)
+        return ground, todo, origins[todo], dirs32[todo]
+
+
+def render(scene, camera, *args, sampling=None, ground_size=None, samples=None, strategy=None, seed=None,
+           patterns=None):
+    """Ground-truth :meth:`pyshadow.Scene.render`: Embree primary rays, then Embree AO
+    rays along the identical directions (pixel ``r*W + c`` uses the same pattern).
+
+    :func:`pyshadow.render.render` with ``visibility="embree"`` on the
+    G-buffer of :func:`gbuffer`; returns a :class:`pyshadow.render.Frame`.
+    The old positional ``samples, strategy, seed, patterns`` still work, with a
+    DeprecationWarning.
+    """
+    from ._compat import legacy_sampling
+    from .render import render as render_frame
+    from .sampling import Sampling
+
+    sampling, _ = legacy_sampling("embree.render", args, ("samples", "strategy", "seed", "patterns"), sampling,
+                                  dict(samples=samples, strategy=strategy, seed=seed, patterns=patterns),
+                                  Sampling())
+    items, _ = scene.draw_items(ground_size)
+    return render_frame(scene, camera, visibility="embree", sampling=sampling, ground_size=ground_size,
+                        gbuffer=gbuffer(items, camera))

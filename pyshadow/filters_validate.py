@@ -1,0 +1,264 @@
+"""Argument checks and limits shared by :mod:`pyshadow.filters` and its NumPy mirrors.
+
+Internal to the filters: :mod:`pyshadow.filters` (the device wrappers) and
+:mod:`pyshadow.filters_reference` (the ``*_reference`` functions) validate
+their arguments through the same functions here, so that both accept and
+reject exactly the same inputs with the same messages. The public limits
+(``MAX_RADIUS``, ...) and :func:`low_res_shape` are re-exported by
+:mod:`pyshadow.filters`; the array conventions (shapes, dtypes, units, the
+depth and normal frames) are stated once in its module docstring.
+
+Every checker returns float32 C-contiguous copies of the arrays it was given
+and the parameters as Python ``int``/``float``; an invalid argument raises
+``ValueError`` (``TypeError`` for a wrong type) that quotes the value.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "MAX_RADIUS",
+    "MAX_UPSAMPLE_RADIUS",
+    "UPSAMPLE_SCALES",
+    "UPSAMPLE_MIN_WEIGHT",
+    "low_res_shape",
+    "check_flag",
+    "bilateral_inputs",
+    "box_inputs",
+    "upsample_inputs",
+]
+
+#: Largest window radius of :func:`pyshadow.filters.bilateral` (a 65 x 65 window).
+MAX_RADIUS = 32
+#: Largest number of low-res taps per side of :func:`pyshadow.filters.upsample`.
+MAX_UPSAMPLE_RADIUS = 8
+#: Resolution ratios :func:`pyshadow.filters.upsample` supports.
+UPSAMPLE_SCALES = (2, 4)
+#: Total weight below which :func:`pyshadow.filters.upsample` falls back to the closest-depth tap.
+UPSAMPLE_MIN_WEIGHT = 1e-6
+
+_NORMAL_TOL = 1e-2
+_MIN_DEPTH = float(np.finfo(np.float32).tiny)
+
+
+def _float_array(name: str, a, ndim: int) -> np.ndarray:
+    a = np.asarray(a)
+    if not np.issubdtype(a.dtype, np.floating):
+        raise TypeError(f"{name} must be a float array, got dtype {a.dtype}")
+    if a.ndim != ndim:
+        raise ValueError(f"{name} must have {ndim} dimensions (expected {ndim} vs got {a.ndim}, "
+                         f"shape {a.shape})")
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def _check_guide(depth, normal) -> tuple[np.ndarray, np.ndarray]:
+    """Validate the G-buffer guide; return float32 C-contiguous copies."""
+    depth = _float_array("depth", depth, 2)
+    normal = _float_array("normal", normal, 3)
+    H, W = depth.shape
+    if H < 1 or W < 1:
+        raise ValueError(f"depth is empty (shape {depth.shape})")
+    if H * W * 3 >= 2**31:
+        raise ValueError(f"image of {H}x{W} pixels is too large (int32 indexing)")
+    if normal.shape != (H, W, 3):
+        raise ValueError(f"normal must have shape (H, W, 3) = {(H, W, 3)} to match depth "
+                         f"(expected {(H, W, 3)} vs got {normal.shape})")
+    if np.isnan(depth).any():
+        raise ValueError(f"depth holds {int(np.isnan(depth).sum())} NaN value(s); "
+                         "use +inf for background")
+    bad = ~(depth >= _MIN_DEPTH)      # subnormal depths could flush to 0 on the device
+    if bad.any():
+        raise ValueError(f"depth must be > 0 (at least {_MIN_DEPTH:.3g}) or +inf (background), "
+                         f"got {int(bad.sum())} value(s) below that or -inf, "
+                         f"e.g. {float(depth[bad][0])!r}")
+    surf = np.isfinite(depth)
+    n = normal[surf]
+    if not np.isfinite(n).all():
+        raise ValueError("normal holds non-finite values at pixels with finite depth")
+    if len(n):
+        err = np.abs(np.linalg.norm(n.astype(np.float64), axis=1) - 1.0)
+        if err.max() > _NORMAL_TOL:
+            raise ValueError(f"normal must be unit length where depth is finite: "
+                             f"{int((err > _NORMAL_TOL).sum())} normal(s) are off by more than "
+                             f"{_NORMAL_TOL} (worst length error {err.max():.3g})")
+    return depth, normal
+
+
+def _check_values(name: str, img: np.ndarray, surf: np.ndarray):
+    """``img`` must be finite wherever ``surf`` is True."""
+    bad = surf & ~np.isfinite(img)
+    if bad.any():
+        y, x = np.argwhere(bad)[0]
+        raise ValueError(f"{name} holds {int(bad.sum())} NaN/inf value(s) at pixels with finite "
+                         f"depth, first at (row {y}, col {x}): {float(img[y, x])!r}")
+
+
+def _check_ao(ao, depth: np.ndarray) -> np.ndarray:
+    ao = _float_array("ao", ao, 2)
+    if ao.shape != depth.shape:
+        raise ValueError(f"ao and depth must have the same shape "
+                         f"(expected {depth.shape} vs got {ao.shape})")
+    _check_values("ao", ao, np.isfinite(depth))
+    return ao
+
+
+def _int_in(name: str, v, lo: int, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, numbers.Integral):
+        raise TypeError(f"{name} must be an int, got {v!r}")
+    if not lo <= int(v) <= hi:
+        raise ValueError(f"{name} must be in {lo}..{hi}, got {int(v)}")
+    return int(v)
+
+
+def _positive(name: str, v) -> float:
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {v!r}")
+    v = float(v)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be finite and > 0, got {v!r}")
+    return v
+
+
+def _bilateral_params(radius, sigma_spatial, sigma_depth, sigma_normal):
+    ss = _positive("sigma_spatial", sigma_spatial)
+    sz = _positive("sigma_depth", sigma_depth)
+    sn = _positive("sigma_normal", sigma_normal)
+    if radius is None:
+        radius = min(MAX_RADIUS, math.ceil(2.0 * ss))
+    radius = _int_in("radius", radius, 0, MAX_RADIUS)
+    return radius, ss, sz, sn
+
+
+def check_flag(name: str, v) -> bool:
+    if not isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {v!r}")
+    return bool(v)
+
+
+def _box_params(size, depth_threshold, normal_threshold):
+    size = _int_in("size", size, 1, 2 * MAX_RADIUS + 1)
+    if size % 2 == 0:
+        raise ValueError(f"size must be odd (a window centred on the pixel), got {size}")
+    dt = _positive("depth_threshold", depth_threshold)
+    if isinstance(normal_threshold, bool) or not isinstance(normal_threshold, numbers.Real):
+        raise TypeError(f"normal_threshold must be a number, got {normal_threshold!r}")
+    nt = float(normal_threshold)
+    if not -1.0 <= nt < 1.0:
+        raise ValueError(f"normal_threshold must be in [-1, 1) (a cosine), got {nt!r}")
+    return size, dt, nt
+
+
+def low_res_shape(shape, scale: int) -> tuple[int, int]:
+    """Shape ``(ceil(H/scale), ceil(W/scale))`` of the AO image :func:`upsample` expects."""
+    H, W = shape
+    return (-(-int(H) // scale), -(-int(W) // scale))
+
+
+def _upsample_params(ao_low, depth, scale, radius, sigma_spatial, sigma_depth, sigma_normal,
+                     fill):
+    ao_low = _float_array("ao_low", ao_low, 2)
+    H, W = depth.shape
+    if scale is None:
+        fits = [s for s in UPSAMPLE_SCALES if low_res_shape((H, W), s) == ao_low.shape]
+        if not fits:
+            raise ValueError(
+                f"ao_low of shape {ao_low.shape} is not a 1/2 or 1/4 resolution image of "
+                f"{(H, W)} (expected {low_res_shape((H, W), 2)} or {low_res_shape((H, W), 4)} "
+                f"vs got {ao_low.shape})")
+        if len(fits) > 1:
+            raise ValueError(f"the scale of ao_low {ao_low.shape} for a {(H, W)} image is "
+                             f"ambiguous (2 or 4); pass scale")
+        scale = fits[0]
+    if isinstance(scale, bool) or not isinstance(scale, numbers.Integral) \
+            or int(scale) not in UPSAMPLE_SCALES:
+        raise ValueError(f"scale must be one of {UPSAMPLE_SCALES}, got {scale!r}")
+    scale = int(scale)
+    want = low_res_shape((H, W), scale)
+    if ao_low.shape != want:
+        raise ValueError(f"ao_low must have shape (ceil(H/{scale}), ceil(W/{scale})) for a "
+                         f"{(H, W)} image (expected {want} vs got {ao_low.shape})")
+    radius = _int_in("radius", radius, 1, MAX_UPSAMPLE_RADIUS)
+    ss = _positive("sigma_spatial", 0.5 * scale if sigma_spatial is None else sigma_spatial)
+    sz = _positive("sigma_depth", sigma_depth)
+    sn = _positive("sigma_normal", sigma_normal)
+    if isinstance(fill, bool) or not isinstance(fill, numbers.Real) or not math.isfinite(fill):
+        raise ValueError(f"fill must be a finite number, got {fill!r}")
+    _check_values("ao_low", ao_low, np.isfinite(depth[::scale, ::scale]))
+    return ao_low, scale, radius, ss, sz, sn, float(fill)
+
+
+# --------------------------------------------------------------------------
+# One check per filter, shared by the wrapper and its reference
+# --------------------------------------------------------------------------
+def bilateral_inputs(ao, depth, normal, radius, sigma_spatial, sigma_depth, sigma_normal):
+    """Validate the arguments of :func:`pyshadow.filters.bilateral`.
+
+    Parameters
+    ----------
+    ao, depth, normal, radius, sigma_spatial, sigma_depth, sigma_normal
+        As :func:`pyshadow.filters.bilateral` takes them.
+
+    Returns
+    -------
+    ao : ndarray, shape (H, W), float32
+    depth : ndarray, shape (H, W), float32
+        World units along each pixel's ray, ``+inf`` on background.
+    normal : ndarray, shape (H, W, 3), float32
+        Unit world-space normals.
+    radius : int
+        Window radius in pixels, 0 .. ``MAX_RADIUS`` (the default rule applied).
+    ss, sz, sn : float
+        ``sigma_spatial`` (pixels), ``sigma_depth`` (relative depth) and
+        ``sigma_normal`` (``1 - n_p . n_q``), each finite and > 0.
+    """
+    depth, normal = _check_guide(depth, normal)
+    ao = _check_ao(ao, depth)
+    radius, ss, sz, sn = _bilateral_params(radius, sigma_spatial, sigma_depth, sigma_normal)
+    return ao, depth, normal, radius, ss, sz, sn
+
+
+def box_inputs(ao, depth, normal, size, depth_threshold, normal_threshold):
+    """Validate the arguments of :func:`pyshadow.filters.edge_aware_box`.
+
+    Returns
+    -------
+    ao, depth, normal : ndarray, float32
+        Shapes (H, W), (H, W), (H, W, 3), as :func:`bilateral_inputs`.
+    size : int
+        Odd window side in pixels, 1 .. ``2 MAX_RADIUS + 1``.
+    dt : float
+        Relative depth threshold, > 0.
+    nt : float
+        Cosine threshold, in [-1, 1).
+    """
+    depth, normal = _check_guide(depth, normal)
+    ao = _check_ao(ao, depth)
+    size, dt, nt = _box_params(size, depth_threshold, normal_threshold)
+    return ao, depth, normal, size, dt, nt
+
+
+def upsample_inputs(ao_low, depth, normal, scale, radius, sigma_spatial, sigma_depth,
+                    sigma_normal, fill):
+    """Validate the arguments of :func:`pyshadow.filters.upsample`.
+
+    Returns
+    -------
+    ao_low : ndarray, shape (ceil(H/scale), ceil(W/scale)), float32
+    depth : ndarray, shape (H, W), float32
+    normal : ndarray, shape (H, W, 3), float32
+    scale : int
+        2 or 4 (inferred from the shapes where ``scale`` is None).
+    radius : int
+        Low-res taps per side, 1 .. ``MAX_UPSAMPLE_RADIUS``.
+    ss, sz, sn : float
+        ``sigma_spatial`` in full-res pixels (``scale / 2`` where None),
+        ``sigma_depth``, ``sigma_normal``.
+    fill : float
+    """
+    depth, normal = _check_guide(depth, normal)
+    ao_low, scale, radius, ss, sz, sn, fill = _upsample_params(
+        ao_low, depth, scale, radius, sigma_spatial, sigma_depth, sigma_normal, fill)
+    return ao_low, depth, normal, scale, radius, ss, sz, sn, fill

@@ -1,0 +1,228 @@
+"""The render stage: a scene and a camera in, a :class:`Frame` of per-pixel buffers out.
+
+Stage "render" of the pipeline (DESIGN.md). The G-buffer is rasterised
+(:func:`pyshadow.render_gbuffer`; or any G-buffer of the same form, e.g.
+Embree's), the covered pixels become surface points (:func:`surface_points`,
+the one place that does so), their AO and bent normals come from a
+visibility backend (:mod:`pyshadow.visibility`), and an edge-aware filter
+may denoise the AO image (:mod:`pyshadow.filters`).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from .sampling import Sampling
+
+__all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels", "DENOISERS"]
+
+#: Names accepted by ``denoise=``: the filters of :mod:`pyshadow.filters`.
+DENOISERS = ("bilateral", "separable", "box")
+
+
+@dataclass(eq=False)
+class Frame(Mapping):
+    """Per-pixel buffers of one rendered image; also readable as a mapping (``frame["ao"]``).
+
+    Attributes
+    ----------
+    ao : ndarray, shape (H, W), float32
+        Ambient occlusion in [0, 1], 1 on the background.
+    bent_normal : ndarray, shape (H, W, 3), float32
+        World-frame bent normals, 0 on the background.
+    depth : ndarray, shape (H, W), float32
+        Distance along the eye ray (world units), ``inf`` on the background.
+    normal : ndarray, shape (H, W, 3), float32
+        World normals facing the camera.
+    object_id : ndarray, shape (H, W), int32
+        Instance id; ``pyshadow.scene.GROUND_ID`` (-2) for the ground, -1
+        for the background.
+    position : ndarray, shape (H, W, 3), float32
+        World positions (NaN on the background).
+    radiance : ndarray, shape (H, W, 3), float32, or None
+        Linear radiance, where a lighting stage fills it; None otherwise
+        (then not among the mapping's keys).
+    """
+
+    ao: np.ndarray
+    bent_normal: np.ndarray
+    depth: np.ndarray
+    normal: np.ndarray
+    object_id: np.ndarray
+    position: np.ndarray
+    radiance: np.ndarray | None = None
+
+    def _keys(self):
+        return [f.name for f in fields(self) if getattr(self, f.name) is not None]
+
+    def __getitem__(self, key):
+        if key not in self._keys():
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self):
+        return iter(self._keys())
+
+    def __len__(self) -> int:
+        return len(self._keys())
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(H, W)."""
+        return self.ao.shape
+
+
+@dataclass(eq=False)
+class SurfacePoints:
+    """The covered pixels of a G-buffer as surface points.
+
+    Attributes
+    ----------
+    gbuffer : dict
+        The G-buffer (:func:`pyshadow.render_gbuffer`'s form).
+    object_id : ndarray, shape (H, W), int32
+        Instance id per pixel (the G-buffer's item index mapped through the
+        drawn items), ``GROUND_ID`` (-2) for the ground, -1 background.
+    index : ndarray, shape (K,), int64
+        Flat pixel index ``r * W + c`` of each point (its sample-pattern index).
+    points : ndarray, shape (K, 3), float64
+        World positions ``eye + depth * ray direction``.
+    normals : ndarray, shape (K, 3), float32
+        World normals facing the camera.
+    surface_ids : ndarray, shape (K,), int32
+        Instance id of each point's surface.
+    """
+
+    gbuffer: dict
+    object_id: np.ndarray
+    index: np.ndarray
+    points: np.ndarray
+    normals: np.ndarray
+    surface_ids: np.ndarray
+
+
+def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffer=None) -> SurfacePoints:
+    """The pixels of ``camera`` that see a surface of ``scene``, as world points and normals.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    camera : pyshadow.Camera
+    ground_size : float, optional
+        Side of the drawn ground quad (:meth:`pyshadow.Scene.ground_quad`).
+    ao_scale : {1, 2, 4}, optional
+        Keep only every ``ao_scale``-th pixel in each direction (from
+        ``(0, 0)``): the points of a reduced-resolution AO pass.
+    gbuffer : dict, optional
+        A G-buffer of ``scene.draw_items(ground_size)`` seen by ``camera``;
+        default :func:`pyshadow.render_gbuffer` of them.
+    """
+    from .gbuffer import render_gbuffer
+
+    items, ids = scene.draw_items(ground_size)
+    g = render_gbuffer(items, camera) if gbuffer is None else gbuffer
+    hit = g["object_id"] >= 0
+    obj = np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
+    return covered_pixels(camera, g, obj, ao_scale=ao_scale)
+
+
+def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfacePoints:
+    """The pixels whose ``object_id`` is not -1 (background), as :class:`SurfacePoints`.
+
+    Parameters
+    ----------
+    camera : pyshadow.Camera
+    gbuffer : dict or Frame
+        Holds ``depth`` (H, W) and ``normal`` (H, W, 3) as seen by ``camera``.
+    object_id : ndarray, shape (H, W), int32
+        Instance ids (``GROUND_ID`` for the ground), -1 for the background.
+    ao_scale : {1, 2, 4}, optional
+        As in :func:`surface_points`.
+    """
+    H, W = camera.height, camera.width
+    hit = object_id != -1
+    if ao_scale == 1:
+        sel = np.flatnonzero(hit.reshape(-1))
+    else:
+        sub = np.zeros((H, W), bool)
+        sub[::ao_scale, ::ao_scale] = True
+        sel = np.flatnonzero((hit & sub).reshape(-1))
+    dirs = camera.ray_directions().reshape(-1, 3)
+    pos = camera.eye + gbuffer["depth"].reshape(-1)[sel, None].astype(np.float64) * dirs[sel]
+    return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel, points=pos,
+                         normals=gbuffer["normal"].reshape(-1, 3)[sel], surface_ids=object_id.reshape(-1)[sel])
+
+
+def _check_render_options(denoise, ao_scale, sampling):
+    if denoise is not None and denoise not in DENOISERS:
+        raise ValueError(f"denoise must be None, 'bilateral', 'separable' or 'box', got {denoise!r}")
+    if ao_scale not in (1, 2, 4) or isinstance(ao_scale, bool):
+        raise ValueError(f"ao_scale must be 1, 2 or 4, got {ao_scale!r}")
+    if sampling is None:
+        return Sampling()
+    if not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    return sampling
+
+
+def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_scale: int = 1,
+           ground_size=None, bias=None, gbuffer=None) -> Frame:
+    """Render AO, bent normals and the G-buffer of ``scene`` from ``camera``.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    camera : pyshadow.Camera
+    visibility : str or VisibilityBackend, optional
+        Who answers the AO rays (:mod:`pyshadow.visibility`): ``"csm"``,
+        ``"csm-vote"``, ``"numpy"``, ``"embree"`` or a registered name.
+    sampling : pyshadow.Sampling, optional
+        Default ``Sampling()``; pixel ``(r, c)`` uses pattern index ``r * W + c``.
+    denoise : {None, 'bilateral', 'separable', 'box'}, optional
+        Edge-aware filtering of the AO image (:mod:`pyshadow.filters`).
+    ao_scale : {1, 2, 4}, optional
+        Compute AO at 1/ao_scale resolution and upsample it with the
+        full-resolution G-buffer (joint bilateral upsampling).
+    ground_size : float, optional
+        Side of the drawn ground quad (:meth:`pyshadow.Scene.ground_quad`).
+    bias : float, optional
+        As in :func:`pyshadow.visibility.visible`.
+    gbuffer : dict, optional
+        A G-buffer to use instead of rasterising one (e.g.
+        :func:`pyshadow.embree.gbuffer`).
+
+    Returns
+    -------
+    Frame
+    """
+    from . import visibility as vis
+
+    sampling = _check_render_options(denoise, ao_scale, sampling)
+    sp = surface_points(scene, camera, ground_size=ground_size, ao_scale=ao_scale, gbuffer=gbuffer)
+    g = sp.gbuffer
+    H, W = camera.height, camera.width
+    ao = np.ones((H, W), np.float32)
+    bent = np.zeros((H, W, 3), np.float32)
+    if len(sp.index):
+        a, b = vis.ambient_occlusion(scene, sp.points, sp.normals, backend=visibility, sampling=sampling,
+                                     return_bent_normals=True, bias=bias, indices=sp.index,
+                                     surface_ids=sp.surface_ids)
+        ao.reshape(-1)[sp.index] = a
+        bent.reshape(-1, 3)[sp.index] = b
+    frame = Frame(ao=ao, bent_normal=bent, depth=g["depth"], normal=g["normal"], object_id=sp.object_id,
+                  position=g["position"])
+    if ao_scale != 1 or denoise is not None:
+        from . import filters
+
+        if ao_scale != 1:
+            low = ao[::ao_scale, ::ao_scale]
+            frame.ao = filters.upsample(low, g["depth"], g["normal"], scale=ao_scale)
+        if denoise == "bilateral":
+            frame.ao = filters.bilateral(frame.ao, g["depth"], g["normal"])
+        elif denoise == "separable":
+            frame.ao = filters.bilateral(frame.ao, g["depth"], g["normal"], separable=True)
+        elif denoise == "box":
+            frame.ao = filters.edge_aware_box(frame.ao, g["depth"], g["normal"])
+    return frame

@@ -1,0 +1,97 @@
+"""Visibility queries, one protocol with backends registered by name.
+
+``visible(scene, points, directions, ...)`` and ``ambient_occlusion(scene,
+points, normals, ...)`` are answered by the backend named in ``backend=``:
+
+=============  ==============================================================
+``"csm"``      the visibility kernel, one texel of each caster's nearest map
+``"csm-vote"`` the kernel's vote over four maps times four texels
+``"numpy"``    the float64 NumPy mirror of ``"csm"`` (``"numpy-vote"``:
+               of ``"csm-vote"``), for small inputs and tests
+``"embree"``   Embree ray tracing against the casters' meshes: ground truth
+=============  ==============================================================
+
+Later methods register themselves with :func:`register` and answer through
+the same calls (and through :func:`pyshadow.render.render`). The protocol is
+in :mod:`pyshadow.visibility.base`.
+"""
+from __future__ import annotations
+
+from .base import VisibilityBackend, backends, get_backend, register
+from .csm import CSMVisibility
+from .mirror import NumPyVisibility, ambient_occlusion_reference, visible_reference
+from .raytraced import EmbreeVisibility
+
+__all__ = ["visible", "ambient_occlusion", "VisibilityBackend", "register", "get_backend", "backends",
+           "CSMVisibility", "NumPyVisibility", "EmbreeVisibility", "visible_reference",
+           "ambient_occlusion_reference"]
+
+
+def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=None):
+    """Does each ray reach the sky?
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : array_like, shape (N, 3)
+        World positions. float64 or float32 C-contiguous arrays are read in
+        place by the kernel backends (no copy); other dtypes are converted to
+        float64 first.
+    directions : array_like, shape (N, 3)
+        World directions, normalised here (any non-zero length).
+    backend : str or VisibilityBackend, optional
+        A registered name (:func:`backends`) or a backend object.
+    bias : float, optional
+        Depth tolerance in normalised depth units (1 = the diameter of a
+        CSM's bounding sphere) against every caster; default: a self-bias
+        against the caster a point lies on, the depth quantum against the
+        others (:mod:`pyshadow.visibility.csm`).
+    surface_ids : int or array_like of int, optional
+        Instance id of the surface each point lies on; ``-1`` (default)
+        unknown, ``pyshadow.scene.GROUND_ID`` (-2) the ground plane.
+
+    Returns
+    -------
+    ndarray, shape (N,), bool
+        True where the ray reaches the sky.
+    """
+    return get_backend(backend).visible(scene, points, directions, bias=bias, surface_ids=surface_ids)
+
+
+def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, return_bent_normals=False,
+                      bias=None, indices=None, surface_ids=None):
+    """Ambient occlusion of surface points (1 = open).
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points, normals : array_like, shape (N, 3)
+        World positions and surface normals (normalised here; zero normals
+        are an error).
+    backend : str or VisibilityBackend, optional
+    sampling : pyshadow.Sampling, optional
+        Default ``Sampling()`` (36 Hammersley directions, 256 patterns).
+    return_bent_normals : bool, optional
+        Also return the normalised sum of the unoccluded directions (the
+        normal itself where every direction is occluded).
+    bias, surface_ids : optional
+        As in :func:`visible`.
+    indices : array_like of int, shape (N,), optional
+        Sample-pattern index of each point; default ``arange(N)``.
+
+    Returns
+    -------
+    ao : ndarray, shape (N,), float32
+        Unoccluded cosine-weighted fraction in [0, 1].
+    bent : ndarray, shape (N, 3), float32
+        Only with ``return_bent_normals=True``.
+    """
+    from ..sampling import Sampling
+
+    if sampling is None:
+        sampling = Sampling()
+    elif not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    return get_backend(backend).ambient_occlusion(scene, points, normals, sampling=sampling,
+                                                  return_bent_normals=bool(return_bent_normals), bias=bias,
+                                                  indices=indices, surface_ids=surface_ids)

@@ -1,0 +1,81 @@
+"""The visibility protocol and the registry of its backends.
+
+A backend answers two questions about a :class:`pyshadow.Scene`:
+
+``visible(scene, points, directions, *, bias=None, surface_ids=None)``
+    ``(N,)`` bool: does each ray from a world point along a world direction
+    reach the sky (no caster, no ground plane in the way)?
+``ambient_occlusion(scene, points, normals, *, sampling, return_bent_normals=False, bias=None, indices=None, surface_ids=None)``
+    ``(N,)`` float32 in [0, 1] (1 = open), the unoccluded fraction of
+    cosine-weighted directions about each normal, drawn as
+    :class:`pyshadow.Sampling` says (and ``(N, 3)`` float32 bent normals).
+
+Backends are registered by name (:func:`register`); :func:`get_backend`
+returns one, :func:`backends` lists them. Built in: ``"csm"`` (the
+one-texel CSM lookup kernel), ``"csm-vote"`` (the vote over four maps times
+four texels), ``"numpy"`` (the float64 mirror of the CSM lookup, small
+inputs) and ``"embree"`` (ray tracing: the ground truth).
+"""
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["VisibilityBackend", "register", "get_backend", "backends"]
+
+
+@runtime_checkable
+class VisibilityBackend(Protocol):
+    """What a visibility backend provides (see the module docstring for the contract)."""
+
+    name: str
+
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None) -> np.ndarray:
+        ...
+
+    def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False,
+                          bias=None, indices=None, surface_ids=None):
+        ...
+
+
+_REGISTRY: dict = {}
+
+
+def register(name: str, backend, *, replace: bool = False) -> None:
+    """Make ``backend`` answer visibility queries under ``name``.
+
+    Parameters
+    ----------
+    name : str
+    backend : VisibilityBackend
+        An object with ``visible`` and ``ambient_occlusion`` as in the
+        module docstring.
+    replace : bool, optional
+        Allow replacing a registered backend of the same name.
+    """
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"a backend name must be a non-empty string, got {name!r}")
+    if not isinstance(backend, VisibilityBackend):
+        raise TypeError(f"{backend!r} lacks visible/ambient_occlusion: not a visibility backend")
+    if name in _REGISTRY and not replace:
+        raise ValueError(f"a visibility backend named {name!r} is registered already (replace=True)")
+    _REGISTRY[name] = backend
+
+
+def get_backend(name):
+    """The backend registered as ``name`` (a backend object passes through)."""
+    if isinstance(name, str):
+        try:
+            return _REGISTRY[name]
+        except KeyError:
+            raise ValueError(f"unknown visibility backend {name!r}; registered: "
+                             f"{', '.join(sorted(_REGISTRY))}") from None
+    if isinstance(name, VisibilityBackend):
+        return name
+    raise TypeError(f"visibility backend must be a name or a backend object, got {name!r}")
+
+
+def backends() -> list[str]:
+    """Names of the registered backends."""
+    return sorted(_REGISTRY)

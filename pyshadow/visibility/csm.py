@@ -1,0 +1,226 @@
+"""The CSM backends: the visibility kernels (``kernels/visibility.cl``) over a scene's casters.
+
+Stage "visibility kernel" of the pipeline (DESIGN.md "Visibility query",
+"Sampling"; thesis 000, 5.3, 5.3.1-5.3.3). ``"csm"`` asks one texel of each
+caster's nearest map; ``"csm-vote"`` asks the four maps of
+:meth:`pyshadow.ViewSet.filter_window` times the four texels around the
+point and lets the weighted vote decide. The kernels are specialised to the
+scene through compile-time macros (number of CSM types, ground plane or
+not, layouts present, sample count, bent normals or not, lookup) and cached
+per configuration by :mod:`pyshadow._cl`. The scene's CSMs are packed into
+one device atlas, rebuilt only when the set of caster types changes; moving
+an instance rewrites one small table.
+
+Bias (normalised depth, 1 = the diameter of a CSM's bounding sphere): by
+default, against the caster a point lies on (``surface_ids``), ``quantum +
+(b0 + b1 tan a) / R`` with ``a`` the angle between the direction and the
+map's axis, ``R`` the CSM resolution, ``b0 = DEFAULT_BIAS_TEXELS`` (1.5;
+``VOTE_BIAS_TEXELS`` = 1 for the vote) and ``b1 = DEFAULT_BIAS_TAN`` (0.5);
+against every other caster only the depth quantum (1/65534 for 16-bit
+depth). A given ``bias`` applies to every caster instead.
+"""
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+import pyopencl as cl
+
+from .. import _cl
+from .._cl import launch
+from .._cl.tables import INSTANCE
+from .._validate import check_both, check_indices, kernel_rows, nonzero, rows3
+from ..csm import SEARCH_BLOCK
+from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
+from ..csm.device import scene_atlas
+from ..sampling import direction_table, pattern_indices
+from ..views import FILTER_ANGLE_EPS
+from .base import register
+
+__all__ = ["CSMVisibility", "lane_table"]
+
+
+def lane_table(table):
+    """(M, S, 3) local directions -> (M, 3, S padded to the lane width) for the lane kernels.
+
+    Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
+    """
+    M, S, _ = table.shape
+    lanes = launch.shape().lanes
+    spad = -(-S // lanes) * lanes
+    out = np.zeros((M, 3, spad), np.float32)
+    out[:, 1, :] = 1.0
+    out[:, :, :S] = table.transpose(0, 2, 1)
+    return out
+
+
+# scene -> (key, atlas): the packed CSMs of its caster types on the current context
+_ATLAS = weakref.WeakKeyDictionary()
+
+
+def _device_atlas(scene):
+    """Concatenated CSM data of every caster type of ``scene`` (rebuilt only when types change)."""
+    types, index = scene.caster_types()
+    key = (id(_cl.context()), tuple(id(c) for c in types))
+    held = _ATLAS.get(scene)
+    if held is not None and held[0] == key:
+        return held[1], index
+    atlas = scene_atlas(types)
+    _ATLAS[scene] = (key, atlas)
+    return atlas, index
+
+
+def _instance_data(scene, anchor, index):
+    """The casters' INSTANCE records (anchor-relative) and CSM type indices."""
+    casters = [inst for inst in scene.instances if inst.casts]
+    rows = np.zeros(max(1, len(casters)), INSTANCE)
+    itype = np.zeros(max(1, len(casters)), np.int32)
+    for k, inst in enumerate(casters):
+        s = inst.scale
+        Rm = inst.rotation
+        c, r = inst.csm.centre, inst.csm.radius
+        t = inst.transform[:3, 3]
+        wc, wr = inst.world_sphere()
+        rows[k] = (
+            (Rm.T / (s * r)).reshape(-1),               # to_object A
+            Rm.T @ (anchor - t) / (s * r) - c / r,      # offset c
+            Rm.T.reshape(-1),                           # rotation Rw
+            wc - anchor,                                # centre
+            wr * (1 + 1e-6),                            # radius
+        )
+        itype[k] = index[id(inst.csm)]
+    return _cl.to_device(rows), _cl.to_device(itype), len(casters)
+
+
+class CSMVisibility:
+    """Visibility from the scene's Coherent Shadow Maps, by the OpenCL kernels.
+
+    Parameters
+    ----------
+    lookup : {'nearest', 'vote'}
+        One texel of the nearest map, or the weighted vote of four maps times
+        four texels (up to 16 segment searches a query; a query stops asking
+        once its vote is decided).
+    """
+
+    def __init__(self, lookup: str = "nearest"):
+        if lookup not in ("nearest", "vote"):
+            raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+        self.lookup = lookup
+        self.name = "csm" if lookup == "nearest" else "csm-vote"
+
+    def __repr__(self) -> str:
+        return f"<CSMVisibility {self.name!r}>"
+
+    @property
+    def _vote(self) -> bool:
+        return self.lookup == "vote"
+
+    def _bias(self, bias, atlas):
+        q = atlas["quantum"] + 1e-7
+        if bias is None:
+            return q, VOTE_BIAS_TEXELS if self._vote else DEFAULT_BIAS_TEXELS, DEFAULT_BIAS_TAN, q
+        bias = float(bias)
+        if not np.isfinite(bias):
+            raise ValueError(f"bias must be finite, got {bias}")
+        return bias, 0.0, 0.0, bias
+
+    def _defines(self, scene, atlas, **extra):
+        d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
+             "SEARCH_BLOCK": SEARCH_BLOCK,
+             "NTYPES": atlas["ntypes"],
+             "GROUND": int(scene.ground is not None),
+             "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
+             "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
+             "BATCH": launch.shape().query_batch,
+             "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f"}
+        d.update(extra)
+        return d
+
+    def _scene_args(self, scene, anchor, bias):
+        atlas, index = _device_atlas(scene)
+        inst, itype, ninst = _instance_data(scene, anchor, index)
+        b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
+        gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
+        g_eps = 1e-5 * scene.scale()
+        args = [*atlas["buffers"], inst, itype, np.int32(ninst), np.float32(gy), np.float32(g_eps),
+                np.float32(b_abs), np.float32(b_tex), np.float32(b_tan),
+                np.float32(b_other)]
+        return atlas, args
+
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None) -> np.ndarray:
+        """:meth:`pyshadow.Scene.visible` by the kernel (float32 or float64 rows read in place)."""
+        p = kernel_rows(points, "points")
+        w = kernel_rows(directions, "directions", len(p))
+        check_both(p, "points", w, "directions")
+        n = len(p)
+        own = scene.caster_slots(surface_ids, n)
+        out = np.empty(n, np.bool_)
+        if n == 0:
+            return out
+        anchor = scene.anchor(p)
+        fp64 = _cl.has_fp64()
+        if not fp64:
+            # float-only device: the host does what the kernel does in double
+            # elsewhere, with the same roundings: points relative to the
+            # anchor, rounded once to float32; float64 directions scaled by a
+            # power of two (exact) so their largest component lies in
+            # [0.5, 1) before they are rounded to float32
+            p = (p - anchor).astype(np.float32)
+            if w.dtype == np.float64:
+                w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
+        atlas, args = self._scene_args(scene, anchor, bias)
+        k = _cl.kernel("visibility.cl", "scene_visible",
+                       self._defines(scene, atlas, HAVE_FP64=int(fp64), POINTS_F64=int(p.dtype == np.float64),
+                                     DIRS_F64=int(w.dtype == np.float64)))
+        # what the kernel subtracts from the points (the host already did on float-only devices)
+        a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
+        q = _cl.queue()
+        res = out.view(np.uint8)
+        shape = launch.shape()
+        batch = shape.query_batch
+        for s in range(0, n, shape.query_chunk):
+            e = min(n, s + shape.query_chunk)
+            buf = _cl.host_buffer(res[s:e], writable=True)
+            k(q, *launch.grid(-(-(e - s) // batch), shape.query_group), *args, np.int32(e - s),
+              _cl.host_buffer(p[s:e]), _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)
+            _cl.sync_host_buffer(buf, res[s:e])
+        return out
+
+    def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False,
+                          bias=None, indices=None, surface_ids=None):
+        """:meth:`pyshadow.Scene.ambient_occlusion` by the kernel."""
+        p = rows3(points, "points")
+        n = nonzero(rows3(normals, "normals", len(p)), "normals")
+        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        N, S = len(p), int(sampling.samples)
+        idx = check_indices(indices, N)
+        own = scene.caster_slots(surface_ids, N)
+        ao = np.empty(N, np.float32)
+        bent = np.empty((N, 3), np.float32)
+        if N:
+            anchor = scene.anchor(p)
+            atlas, args = self._scene_args(scene, anchor, bias)
+            k = _cl.kernel("visibility.cl", "scene_ao",
+                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bool(return_bent_normals))))
+            table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
+                                                             sampling.seed)))
+            pidx = pattern_indices(idx, sampling.patterns, sampling.seed)
+            q = _cl.queue()
+            shape = launch.shape()
+            chunk = max(1, shape.ao_chunk_samples // S)
+            for s in range(0, N, chunk):
+                e = min(N, s + chunk)
+                ao_buf = _cl.empty(4 * (e - s))
+                bent_buf = _cl.empty(12 * (e - s) if return_bent_normals else 4)
+                k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
+                  _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
+                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf)
+                cl.enqueue_copy(q, ao[s:e], ao_buf)
+                if return_bent_normals:
+                    cl.enqueue_copy(q, bent[s:e], bent_buf)
+        return (ao, bent) if return_bent_normals else ao
+
+
+register("csm", CSMVisibility("nearest"))
+register("csm-vote", CSMVisibility("vote"))

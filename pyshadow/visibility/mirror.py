@@ -1,0 +1,128 @@
+"""The ``"numpy"`` backend: the float64 NumPy mirror of the CSM lookup (small inputs).
+
+:func:`visible_reference` applies the visibility kernel's rules in float64
+(bounding-sphere cull, nearest map or the vote, texel, ``searchsorted`` on
+the segment lists, bias, ground plane); AO traces the directions of
+:func:`pyshadow.sampling.sample_directions_reference` through it. Its answers
+differ from the kernel's only where float32 rounding decides (a direction
+almost exactly between two maps, a vote of almost exactly one half).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._validate import check_indices, nonzero, rows3
+from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS
+from ..csm.reference import shadow_vote
+from ..sampling import sample_directions_reference
+from .base import register
+
+__all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference"]
+
+
+def visible_reference(scene, points, directions, *, bias: float | None = None,
+                      surface_ids=None, lookup: str = "nearest") -> np.ndarray:
+    """NumPy version of :meth:`Scene.visible` (the same rules in float64).
+
+    For each caster: bounding-sphere cull, the point and direction in the
+    instance's normalised frame, the nearest map (:meth:`ViewSet.nearest`),
+    the texel, the stored depth of that (map, texel) found with
+    ``searchsorted`` on the segment lists, and the comparison with the bias;
+    then the analytic ground plane. With ``lookup="vote"``, the weighted vote of
+    the four maps of :meth:`ViewSet.filter_window` times the four texels
+    around the point. Differences to the kernel come only from float32
+    rounding (e.g. a direction almost exactly between two maps, a vote of
+    almost exactly one half).
+    """
+    if lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    filtered = lookup == "vote"
+    p = rows3(points, "points")
+    w = nonzero(rows3(directions, "directions", len(p)), "directions")
+    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    own = scene.caster_slots(surface_ids, len(p))
+    occ = np.zeros(len(p), bool)
+    if scene.ground is not None:
+        h = p[:, 1] - scene.ground
+        eps = 1e-5 * scene.scale()
+        occ |= ((h >= -eps) & (w[:, 1] < 0)) | ((h < -eps) & (w[:, 1] > 0))
+    types, _ = scene.caster_types()
+    bits = 16 if all(c.depth_bits == 16 for c in types) else 32
+    quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
+    b_texels = VOTE_BIAS_TEXELS if filtered else DEFAULT_BIAS_TEXELS
+    for slot, i in enumerate(scene.casters):
+        inst = scene.instances[i]
+        csm = inst.csm
+        wc, wr = inst.world_sphere()
+        oc = wc - p
+        tca = np.einsum("ij,ij->i", oc, w)
+        oc2 = np.einsum("ij,ij->i", oc, oc)
+        r2 = (wr * (1 + 1e-6)) ** 2
+        act = ~occ & ~((oc2 > r2) & ((tca < 0) | (oc2 - tca * tca > r2)))
+        if not act.any():
+            continue
+        Rm, s = inst.rotation, inst.scale
+        t = inst.transform[:3, 3]
+        pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
+        wn = w[act] @ Rm
+        if filtered:
+            maps, map_w = csm.views.filter_window(wn)
+        else:
+            maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
+        vote = shadow_vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if filtered else 1,
+                           self_=(own[act] == -1) | (own[act] == slot), bias=bias, bias_texels=b_texels)
+        idx = np.flatnonzero(act)
+        occ[idx[vote > 0.5]] = True
+    return ~occ
+
+
+def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
+                                indices=None, surface_ids=None, lookup: str = "nearest"):
+    """NumPy version of :meth:`Scene.ambient_occlusion`: :func:`visible_reference` on every sample.
+
+    AO is the fraction of the sample directions that reach the sky; the bent
+    normal is the normalised sum of those directions (the normal where none
+    does), float64 until the float32 result.
+    """
+    p = rows3(points, "points")
+    n = nonzero(rows3(normals, "normals", len(p)), "normals")
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    idx = check_indices(indices, len(p))
+    S = sampling.samples
+    dirs = sample_directions_reference(n, S, sampling.strategy, sampling.patterns, sampling.seed,
+                                       indices=idx)
+    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
+    vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
+                            surface_ids=ids, lookup=lookup).reshape(len(p), S)
+    ao = vis.mean(axis=1).astype(np.float32)
+    if not return_bent_normals:
+        return ao
+    b = (dirs * vis[..., None]).sum(axis=1)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
+    return ao, b.astype(np.float32)
+
+
+class NumPyVisibility:
+    """The float64 NumPy mirror of the CSM backends, as a backend (``lookup`` as theirs)."""
+
+    def __init__(self, lookup: str = "nearest"):
+        self.lookup = lookup
+        self.name = "numpy" if lookup == "nearest" else "numpy-vote"
+
+    def __repr__(self) -> str:
+        return f"<NumPyVisibility {self.name!r}>"
+
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None):
+        return visible_reference(scene, points, directions, bias=bias, surface_ids=surface_ids,
+                                 lookup=self.lookup)
+
+    def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
+                          indices=None, surface_ids=None):
+        return ambient_occlusion_reference(scene, points, normals, sampling=sampling,
+                                           return_bent_normals=return_bent_normals, bias=bias,
+                                           indices=indices, surface_ids=surface_ids, lookup=self.lookup)
+
+
+register("numpy", NumPyVisibility("nearest"))
+register("numpy-vote", NumPyVisibility("vote"))

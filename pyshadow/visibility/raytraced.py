@@ -1,0 +1,38 @@
+"""The ``"embree"`` backend: ray tracing against the casters' meshes (the ground truth).
+
+Answers through :mod:`pyshadow.embree` on the identical rays: a ray starts at
+the point lifted off its surface by :func:`pyshadow.embree.surface_epsilon`
+and runs to infinity; the ground plane is tested analytically as the
+kernels do. ``bias`` does not apply (there is no depth to compare) and
+``surface_ids`` is not needed (the lift keeps a ray off its own surface).
+Every caster needs its mesh (``Scene.add(csm, mesh=...)``).
+"""
+from __future__ import annotations
+
+from .base import register
+
+__all__ = ["EmbreeVisibility"]
+
+
+class EmbreeVisibility:
+    """Exact visibility by Embree occlusion rays (embreex)."""
+
+    name = "embree"
+
+    def __repr__(self) -> str:
+        return "<EmbreeVisibility 'embree'>"
+
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None):
+        from .. import embree
+
+        return embree.visible(scene, points, directions)
+
+    def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
+                          indices=None, surface_ids=None):
+        from .. import embree
+
+        return embree.ambient_occlusion(scene, points, normals, sampling=sampling,
+                                        return_bent_normals=return_bent_normals, indices=indices)
+
+
+register("embree", EmbreeVisibility())

@@ -1,0 +1,100 @@
+"""pyshadow.embree: the threaded tracer against the module's own ambient occlusion, and the
+deprecated name pyshadow.reference."""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+import pyshadow
+from pyshadow import embree
+from pyshadow.embree import EmbreeTracer
+
+SAMPLES, STRATEGY, SEED, PATTERNS = 12, "halton", 3, 64
+
+
+@pytest.fixture(scope="module")
+def covered():
+    """(scene, points, normals, pixel indices) of the pixels Embree's primary rays cover."""
+    from pyshadow.data import default_scene
+
+    scene, camera = default_scene(views=pyshadow.ViewSet.zigzag(4, 8), resolution=16, width=40,
+                                  height=30)
+    g = embree.gbuffer(scene.draw_items()[0], camera)
+    sel = np.flatnonzero(g["object_id"].reshape(-1) != -1)
+    dirs = camera.ray_directions().reshape(-1, 3)[sel]
+    points = camera.eye + g["depth"].reshape(-1)[sel, None].astype(np.float64) * dirs
+    normals = np.asarray(g["normal"], np.float64).reshape(-1, 3)[sel]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    assert len(sel) > 1000
+    return scene, points, normals, sel
+
+
+def _trace(tracer, points, normals, sel):
+    """Every ray's occlusion, and how many rays went to Embree."""
+    d = pyshadow.sample_directions(normals, SAMPLES, STRATEGY, PATTERNS, SEED, indices=sel)
+    d32 = np.ascontiguousarray(d.reshape(-1, 3), dtype=np.float32)
+    occ, todo, o32, dd = tracer.prepare(points, normals, d32, SAMPLES)
+    assert occ.shape == (len(points) * SAMPLES,) and occ.dtype == bool
+    assert o32.dtype == dd.dtype == np.float32 and o32.shape == dd.shape == (len(todo), 3)
+    assert not occ[todo].any()                          # only rays the ground leaves open are traced
+    hit = tracer.occluded(o32, dd)
+    assert hit.shape == (len(todo),) and hit.dtype == bool
+    occ[todo] = hit
+    return occ, hit
+
+
+def test_embree_tracer_matches_ambient_occlusion(covered):
+    """The threaded rays are ambient_occlusion's, bit for bit."""
+    scene, points, normals, sel = covered
+    with EmbreeTracer(scene, 2) as tracer:
+        assert tracer.threads == 2
+        assert tracer.eps == embree.surface_epsilon(scene)
+        occ, hit = _trace(tracer, points, normals, sel)
+    ao = (~occ.reshape(len(points), SAMPLES)).mean(axis=1).astype(np.float32)
+    want = embree.ambient_occlusion(scene, points, normals, SAMPLES, STRATEGY, SEED, PATTERNS,
+                                    indices=sel)
+    np.testing.assert_array_equal(ao, want)
+    # non-trivial: Embree finds hits and misses, the ground decides some rays on its own
+    assert 0.0 < hit.mean() < 1.0
+    assert 0 < len(hit) < len(occ)
+    assert np.any(want == 1.0) and np.any(want < 0.7)
+
+
+def test_embree_tracer_answers_do_not_depend_on_threads(covered):
+    scene, points, normals, sel = covered
+    answers = []
+    for threads in (1, 3):
+        with EmbreeTracer(scene, threads) as tracer:
+            occ, hit = _trace(tracer, points, normals, sel)
+        assert len(hit) > 2 * 4096            # at least three chunks of 4096 rays: all 3 threads work
+        answers.append(occ)
+    np.testing.assert_array_equal(answers[0], answers[1])
+
+
+def test_embree_tracer_no_rays(covered):
+    scene = covered[0]
+    tracer = EmbreeTracer(scene, 1)
+    try:
+        out = tracer.occluded(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
+        assert out.shape == (0,) and out.dtype == bool
+    finally:
+        tracer.close()
+    with pytest.raises(RuntimeError):                     # the pool is shut down
+        tracer.pool.submit(int)
+
+
+def test_embree_tracer_is_public():
+    assert "EmbreeTracer" in embree.__all__
+    assert EmbreeTracer.__module__ == "pyshadow.embree"
+
+
+def test_reference_is_a_deprecated_alias_of_embree(monkeypatch):
+    monkeypatch.delitem(sys.modules, "pyshadow.reference", raising=False)
+    monkeypatch.delattr(pyshadow, "reference", raising=False)
+    with pytest.warns(DeprecationWarning, match=r"pyshadow\.embree"):
+        import pyshadow.reference as reference
+    assert reference.visible is embree.visible
+    assert reference.ambient_occlusion is embree.ambient_occlusion
+    assert set(reference.__all__) == set(embree.__all__)

@@ -9,7 +9,8 @@ of every public query and every build:
 - ``Scene.visible`` with both lookups, on rays from the bodies' surfaces
   (AO rays and uniform ones) and from random points;
 - ``Scene.ambient_occlusion`` with bent normals, and ``Scene.vertex_ao``;
-- ``Scene.render`` with both lookups, with a denoiser and at half-res AO.
+- ``Scene.render`` with both lookups, with a denoiser and at half-res AO;
+- the Embree ground truth: ``visible``, ``ambient_occlusion``, ``render``.
 
 Run it on the old code with ``--save before.npz`` and on the new code with
 ``--compare before.npz``: it prints one line per array and exits 1 unless
@@ -92,6 +93,10 @@ def _queries(tag, scene, out, camera=None):
         out[k + "/ao"], out[k + "/bent"] = ao, bent
     out[f"{tag}/ao_random_unknown"] = scene.ambient_occlusion(p, n, 16, "random", 64, 3)
     out[f"{tag}/vertex_ao"] = scene.vertex_ao(ids[0], 16)
+    from pyshadow import reference as embree          # the old name of pyshadow.embree works in both
+    a, b = embree.ambient_occlusion(scene, p[:300], n[:300], 16, "halton", 5, 64, True)
+    out[f"{tag}/embree/ao"], out[f"{tag}/embree/bent"] = a, b
+    out[f"{tag}/embree/visible"] = embree.visible(scene, P[:2000], U[:2000])
     if camera is not None:
         for filtered in (False, True):
             r = scene.render(camera, 16, filtered=filtered)
@@ -101,6 +106,9 @@ def _queries(tag, scene, out, camera=None):
         out[f"{tag}/render/denoised"] = np.asarray(r["ao"])
         r = scene.render(camera, 9, filter="box")
         out[f"{tag}/render/box"] = np.asarray(r["ao"])
+        r = embree.render(scene, camera, 9, "hammersley", 3, 64)
+        for key in ("ao", "bent_normal", "depth", "normal", "object_id", "position"):
+            out[f"{tag}/embree/render/{key}"] = np.asarray(r[key])
 
 
 def record(meshes=None, quick=False) -> dict:

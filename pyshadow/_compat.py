@@ -29,7 +29,7 @@ def reset() -> None:
 _SAMPLING_FIELDS = ("samples", "strategy", "patterns", "seed")
 
 
-def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict, default):
+def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict, default, stacklevel: int = 4):
     """Resolve the sampling arguments of a call that may use the old forms.
 
     Parameters
@@ -45,9 +45,13 @@ def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict
     sampling : Sampling or None
         The new keyword.
     given : dict
-        Old keywords the caller passed (``None`` values mean "not passed").
+        Old keywords the caller passed (``None`` values mean "not passed");
+        a key outside ``order`` is a TypeError, as for any unknown keyword.
     default : Sampling
         What ``sampling=None`` means for this callable.
+    stacklevel : int, optional
+        Of the warning, counted from :func:`deprecated`: 4 points at the
+        caller of the function that calls this one.
 
     Returns
     -------
@@ -61,6 +65,9 @@ def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict
         raise TypeError(f"{where} takes at most {len(order)} positional arguments after the data "
                         f"({len(args)} given)")
     old = dict(zip(order, args))
+    unknown = sorted(set(given) - set(order))
+    if unknown:
+        raise TypeError(f"{where} got an unexpected keyword argument {unknown[0]!r}")
     for k, v in given.items():
         if v is None:
             continue
@@ -75,7 +82,7 @@ def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict
     how = "positional " if args else ""
     deprecated(f"{where}'s {how}{', '.join(old)} argument{'s' if len(old) > 1 else ''}",
                "sampling=pyshadow.Sampling(samples, strategy, patterns, seed)"
-               + (" and return_bent_normals=" if "bent_normals" in old else ""), stacklevel=4)
+               + (" and return_bent_normals=" if "bent_normals" in old else ""), stacklevel=stacklevel)
     if fields:
         base = default if sampling is None else sampling
         sampling = Sampling(**{k: old.get(k, getattr(base, k)) for k in _SAMPLING_FIELDS})

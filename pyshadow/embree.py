@@ -258,7 +258,7 @@ def visible(scene, points, directions) -> np.ndarray:
 
 
 def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_normals: bool = False,
-                      indices=None, samples=None, strategy=None, seed=None, patterns=None, bent_normals=None):
+                      indices=None, **old):
     """Ground-truth :meth:`pyshadow.Scene.ambient_occlusion` on the identical directions.
 
     The directions are :func:`pyshadow.sample_directions`' for ``sampling``
@@ -270,15 +270,13 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     with a DeprecationWarning.
     """
     from ._compat import legacy_sampling
-    from .sampling import Sampling
+    from .sampling import Sampling, ao_from_samples, sample_directions
 
     sampling, extra = legacy_sampling("embree.ambient_occlusion", args,
                                       ("samples", "strategy", "seed", "patterns", "bent_normals"), sampling,
-                                      dict(samples=samples, strategy=strategy, seed=seed, patterns=patterns,
-                                           bent_normals=bent_normals), Sampling())
+                                      old, Sampling())
     bent_normals = bool(extra.get("bent_normals", return_bent_normals))
     samples, strategy, seed, patterns = sampling.samples, sampling.strategy, sampling.seed, sampling.patterns
-    from .sampling import sample_directions
 
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
@@ -296,13 +294,7 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
         sel = todo[s:s + chunk]
         occ[sel] = rays.occluded(origins[sel], flat[sel])
     vis = ~occ.reshape(N, S)
-    ao = vis.mean(axis=1).astype(np.float32)
-    if not bent_normals:
-        return ao
-    b = (dirs * vis[..., None]).sum(axis=1)
-    length = np.linalg.norm(b, axis=1, keepdims=True)
-    b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
-    return ao, b.astype(np.float32)
+    return ao_from_samples(dirs, vis, n, bent_normals)
 
 
 class EmbreeTracer:
@@ -425,8 +417,7 @@ class EmbreeTracer:
         return ground, todo, origins[todo], dirs32[todo]
 
 
-def render(scene, camera, *args, sampling=None, ground_size=None, samples=None, strategy=None, seed=None,
-           patterns=None):
+def render(scene, camera, *args, sampling=None, ground_size=None, **old):
     """Ground-truth :meth:`pyshadow.Scene.render`: Embree primary rays, then Embree AO
     rays along the identical directions (pixel ``r*W + c`` uses the same pattern).
 
@@ -440,8 +431,7 @@ def render(scene, camera, *args, sampling=None, ground_size=None, samples=None, 
     from .sampling import Sampling
 
     sampling, _ = legacy_sampling("embree.render", args, ("samples", "strategy", "seed", "patterns"), sampling,
-                                  dict(samples=samples, strategy=strategy, seed=seed, patterns=patterns),
-                                  Sampling())
+                                  old, Sampling())
     items, _ = scene.draw_items(ground_size)
     return render_frame(scene, camera, visibility="embree", sampling=sampling, ground_size=ground_size,
                         gbuffer=gbuffer(items, camera))

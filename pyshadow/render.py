@@ -16,7 +16,8 @@ import numpy as np
 
 from .sampling import Sampling
 
-__all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels", "DENOISERS"]
+__all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels", "draw_items", "ground_quad",
+           "DENOISERS"]
 
 #: Names accepted by ``denoise=``: the filters of :mod:`pyshadow.filters`.
 DENOISERS = ("bilateral", "separable", "box")
@@ -101,6 +102,57 @@ class SurfacePoints:
     points: np.ndarray
     normals: np.ndarray
     surface_ids: np.ndarray
+
+
+def ground_quad(scene, size: float | None = None):
+    """A finite square of the scene's ground plane for drawing, centred under the scene.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+        Must have a ground plane.
+    size : float, optional
+        Side length (world units); default 8 times the diameter of the
+        region the instances occupy (at least 8 times the largest radius).
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Two triangles at ``y = scene.ground``, facing up.
+    """
+    import trimesh
+
+    if scene.ground is None:
+        raise ValueError("the scene has no ground plane")
+    anchor = scene.anchor()
+    if size is None:
+        reach = max([np.linalg.norm(c - anchor) + r for c, r in
+                     (inst.world_sphere() for inst in scene.instances)] or [1.0])
+        size = 16.0 * reach
+    h = 0.5 * float(size)
+    cx, cz = anchor[0], anchor[2]
+    v = np.array([[cx - h, scene.ground, cz - h], [cx + h, scene.ground, cz - h],
+                  [cx + h, scene.ground, cz + h], [cx - h, scene.ground, cz + h]])
+    return trimesh.Trimesh(v, [[0, 2, 1], [0, 3, 2]], process=False)
+
+
+def draw_items(scene, ground_size: float | None = None):
+    """What a camera sees of ``scene``: ``[(mesh, transform)]`` and the object id of each, (M,) int32.
+
+    Every instance that has a mesh (its instance id), then the ground quad
+    (:func:`ground_quad`, id ``GROUND_ID``) if the scene has a ground plane.
+    """
+    from .scene import GROUND_ID
+
+    items, ids = [], []
+    for i, inst in enumerate(scene.instances):
+        if inst.mesh is not None:
+            items.append((inst.mesh, inst.transform))
+            ids.append(i)
+    if scene.ground is not None:
+        items.append((ground_quad(scene, ground_size), np.eye(4)))
+        ids.append(GROUND_ID)
+    return items, np.array(ids, dtype=np.int32)
 
 
 def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffer=None) -> SurfacePoints:

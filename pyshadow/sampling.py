@@ -28,7 +28,7 @@ import numpy as np
 
 from . import _cl
 
-__all__ = ["Sampling", "STRATEGIES", "sample_patterns", "pattern_indices", "sample_directions",
+__all__ = ["Sampling", "STRATEGIES", "ao_from_samples", "sample_patterns", "pattern_indices", "sample_directions",
            "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
 
 STRATEGIES = ("random", "stratified", "latin_hypercube", "halton", "hammersley")
@@ -258,3 +258,34 @@ def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
       _cl.to_device(table), np.int32(N), buf)
     cl.enqueue_copy(_cl.queue(), out, buf)
     return out
+
+
+def ao_from_samples(directions, visible, normals, return_bent_normals: bool = False):
+    """AO (and bent normals) from per-sample visibility, as the AO kernels define them.
+
+    Parameters
+    ----------
+    directions : ndarray, shape (N, S, 3)
+        The cosine-weighted sample directions of each point.
+    visible : ndarray, shape (N, S), bool
+        Which of them reach the sky.
+    normals : ndarray, shape (N, 3)
+        Unit normals: the bent normal where no direction reaches the sky.
+    return_bent_normals : bool, optional
+
+    Returns
+    -------
+    ao : ndarray, shape (N,), float32
+        The fraction of visible samples.
+    bent : ndarray, shape (N, 3), float32
+        The normalised sum of the visible directions (only with
+        ``return_bent_normals=True``).
+    """
+    ao = visible.mean(axis=1).astype(np.float32)
+    if not return_bent_normals:
+        return ao
+    b = (directions * visible[..., None]).sum(axis=1)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    b = np.where(length > 0, b / np.maximum(length, 1e-300), normals)
+    return ao, b.astype(np.float32)
+

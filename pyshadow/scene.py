@@ -35,10 +35,18 @@ _AO_ORDER = ("samples", "strategy", "patterns", "seed", "bent_normals")
 _RENDER_ORDER = ("samples", "strategy", "seed", "patterns")
 
 
-def _backend(where, lookup, backend, filtered):
+def _query_options(where, args, old, sampling, return_bent_normals, lookup, backend, default, order=_AO_ORDER):
+    """(sampling, return_bent_normals, backend name) of a Scene query, old forms included."""
+    filtered = old.pop("filtered", None)
+    sampling, extra = legacy_sampling(where, args, order, sampling, old, default, stacklevel=5)
+    bent = bool(extra.get("bent_normals", return_bent_normals))
+    return sampling, bent, _backend(where, lookup, backend, filtered, stacklevel=5)
+
+
+def _backend(where, lookup, backend, filtered, stacklevel=4):
     """The visibility backend a Scene query asks: from ``lookup`` unless ``backend`` names one."""
     if filtered is not None:
-        deprecated(f"{where}(filtered=...)", 'lookup="vote" (or "nearest")', stacklevel=4)
+        deprecated(f"{where}(filtered=...)", 'lookup="vote" (or "nearest")', stacklevel=stacklevel)
         if lookup != "nearest":
             raise TypeError(f"{where}: pass lookup= or the old filtered=, not both")
         lookup = "vote" if filtered else "nearest"
@@ -103,7 +111,7 @@ class Scene:
     >>> scene = Scene(ground=0.0, views=ViewSet.zigzag(8, 16), resolution=32)
     >>> box = trimesh.creation.box((1, 1, 1))
     >>> i = scene.add(box, trimesh.transformations.translation_matrix([0, 0.5, 0]))
-    >>> float(scene.ambient_occlusion([[3.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], samples=64)[0]) > 0.8
+    >>> float(scene.ambient_occlusion([[3.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], sampling=Sampling(64))[0]) > 0.8
     True
     """
 
@@ -154,29 +162,7 @@ class Scene:
         """
         T = check_transform(np.eye(4) if transform is None else transform, rigid=True,
                             name="transform")
-        if isinstance(obj, CoherentShadowMap):
-            if not casts:
-                raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")
-            if mesh is not None:
-                if not isinstance(mesh, trimesh.Trimesh):
-                    mesh = load_mesh(mesh)
-                if mesh_hash(mesh) != obj.mesh_hash:
-                    raise ValueError("mesh does not match the CSM (different mesh hash)")
-            inst = Instance(T, True, csm=obj, mesh=mesh)
-        else:
-            if mesh is not None:
-                raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
-            if not isinstance(obj, trimesh.Trimesh):
-                obj = load_mesh(obj)
-            csm = None
-            if casts:
-                csm = self._built.get(id(obj))
-                if csm is None:
-                    o = self.csm_options
-                    csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
-                                                  o["layers"], progress=self.progress, footprint=o["footprint"])
-                    self._built[id(obj)] = csm
-            inst = Instance(T, bool(casts), csm=csm, mesh=obj)
+        inst = _new_instance(self, obj, T, casts, mesh)
         self.instances.append(inst)
         return len(self.instances) - 1
 
@@ -214,26 +200,7 @@ class Scene:
         ``surface_ids`` are instance ids (or -1 unknown, ``GROUND_ID``); a
         caster's slot is its position in :attr:`casters`.
         """
-        if surface_ids is None:
-            return np.full(n, -1, np.int32)
-        ids = np.asarray(surface_ids)
-        if not np.issubdtype(ids.dtype, np.integer):
-            raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
-        if (ids.dtype == np.int32 and ids.shape == (n,) and ids.flags.c_contiguous and n
-                and self.casters == list(range(len(self.instances)))
-                and ids.min() >= GROUND_ID and ids.max() < len(self.instances)):
-            return ids          # every instance casts: ids are the slots (-1, -2 included)
-        ids = np.broadcast_to(ids, (n,)).astype(np.int64)
-        ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(self.instances)))
-        if not ok.all():
-            raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); "
-                             f"got {int(ids[~ok][0])}")
-        slot = np.full(len(self.instances) + 2, -2, np.int32)     # receivers: -2
-        for k, i in enumerate(self.casters):
-            slot[i] = k
-        slot[-1] = -1                                            # index -1: unknown
-        slot[-2] = -2                                            # index -2: ground
-        return slot[ids]
+        return _caster_slots(self, surface_ids, n)
 
     def anchor(self, points=None) -> np.ndarray:
         """A world point near the scene, (3,) float64; device coordinates are relative to it.
@@ -260,36 +227,24 @@ class Scene:
                 surface_ids=None, backend=None, filtered=None) -> np.ndarray:
         """Is each ray unoccluded by the scene's casters and ground plane?
 
+        :func:`pyshadow.visibility.visible` on this scene (which documents
+        ``points``, ``directions``, ``bias`` and ``surface_ids``).
+
         Parameters
         ----------
-        points : array_like, shape (N, 3)
-            World positions (a point on a caster's surface is not occluded
-            by that surface itself: see ``bias``). float64 or float32
-            C-contiguous arrays are read in place by the kernel (no copy);
-            other dtypes are converted to float64 first.
-        directions : array_like, shape (N, 3)
-            World directions, float64 or float32 as for ``points``;
-            normalised here, so any non-zero length works.
+        points, directions : array_like, shape (N, 3)
+            World positions and directions (normalised here).
         lookup : {'nearest', 'vote'}, optional
             The CSM lookup: one texel of each caster's nearest map (backend
-            ``"csm"``), or the weighted vote of the four maps of
-            :meth:`ViewSet.filter_window` times the four texels around the
-            point (``"csm-vote"``: more agreement with ray casting, up to 16
-            segment searches a query; benchmarks/README.md).
-        bias : float, optional
-            Depth tolerance in normalised depth units (1 = the diameter of a
-            CSM's bounding sphere), against every caster. Default: a
-            self-bias against the caster a point lies on (see
-            ``surface_ids``), the depth quantum against the others
-            (:mod:`pyshadow.visibility.csm`).
-        surface_ids : int or array_like of int, optional
-            Instance id of the surface each point lies on; ``-1`` (default)
-            means unknown (the self-bias then applies against every caster),
-            ``GROUND_ID`` (-2) the ground plane. Points on receivers and the
-            ground need no self-bias, so contact shadows stay sharp.
+            ``"csm"``), or the weighted vote of four maps times four texels
+            (``"csm-vote"``).
+        bias, surface_ids : optional
+            Depth tolerance against every caster (default: a self-bias
+            against the caster a point lies on); instance id of each point's
+            surface (-1 unknown, ``GROUND_ID`` the ground).
         backend : str or VisibilityBackend, optional
-            Another visibility backend (:func:`pyshadow.visibility.backends`),
-            e.g. ``"embree"`` or ``"numpy"``, instead of the CSM kernel.
+            Another backend (:func:`pyshadow.visibility.backends`) instead of
+            the CSM kernel, e.g. ``"embree"`` or ``"numpy"``.
         filtered : bool, optional
             Deprecated: ``lookup="vote"``.
 
@@ -305,33 +260,25 @@ class Scene:
 
     def ambient_occlusion(self, points, normals, *args, sampling: Sampling | None = None,
                           return_bent_normals: bool = False, lookup: str = "nearest",
-                          bias: float | None = None, indices=None, surface_ids=None, backend=None,
-                          samples=None, strategy=None, patterns=None, seed=None, bent_normals=None,
-                          filtered=None):
-        """Ambient occlusion of surface points (DESIGN.md convention: 1 = open).
+                          bias: float | None = None, indices=None, surface_ids=None, backend=None, **old):
+        """Ambient occlusion of surface points (1 = open): :func:`pyshadow.visibility.ambient_occlusion`.
 
         Parameters
         ----------
-        points : array_like, shape (N, 3)
-            World positions.
-        normals : array_like, shape (N, 3)
-            Surface normals (normalised here; zero normals are an error).
+        points, normals : array_like, shape (N, 3)
+            World positions and surface normals (normalised here; zero
+            normals are an error).
         sampling : Sampling, optional
-            Directions per point, strategy, patterns and seed; default
-            ``Sampling()`` (36 Hammersley directions, 256 patterns). Point
-            ``i`` uses pattern ``pattern_indices(indices[i], patterns, seed)``.
+            Default ``Sampling()`` (36 Hammersley directions, 256 patterns).
         return_bent_normals : bool, optional
-            Also return the normalised sum of the unoccluded directions (the
-            normal itself where every direction is occluded).
+            Also return the normalised sum of the unoccluded directions.
         lookup, bias, surface_ids, backend : optional
             As in :meth:`visible`.
         indices : array_like of int, optional
             Sample-pattern index of each point; default ``arange(N)``.
-            :func:`pyshadow.sample_directions` returns the directions used
-            for ``indices = arange(N)``.
-        samples, strategy, patterns, seed, bent_normals, filtered :
-            Deprecated (also positionally, in that order): ``sampling=``,
-            ``return_bent_normals=``, ``lookup=``.
+        **old
+            Deprecated: ``samples, strategy, patterns, seed, bent_normals``
+            (also positionally, in that order) and ``filtered``.
 
         Returns
         -------
@@ -342,11 +289,8 @@ class Scene:
         """
         from . import visibility
 
-        sampling, extra = legacy_sampling("Scene.ambient_occlusion", args, _AO_ORDER, sampling,
-                                          dict(samples=samples, strategy=strategy, patterns=patterns, seed=seed,
-                                               bent_normals=bent_normals), Sampling())
-        bent = bool(extra.get("bent_normals", return_bent_normals))
-        name = _backend("Scene.ambient_occlusion", lookup, backend, filtered)
+        sampling, bent, name = _query_options("Scene.ambient_occlusion", args, old, sampling, return_bent_normals,
+                                              lookup, backend, Sampling())
         return visibility.ambient_occlusion(self, points, normals, backend=name, sampling=sampling,
                                             return_bent_normals=bent, bias=bias, indices=indices,
                                             surface_ids=surface_ids)
@@ -368,8 +312,7 @@ class Scene:
 
     def vertex_ao(self, instance_id: int, *args, sampling: Sampling | None = None,
                   return_bent_normals: bool = False, lookup: str = "nearest", bias: float | None = None,
-                  backend=None, samples=None, strategy=None, patterns=None, seed=None, bent_normals=None,
-                  filtered=None):
+                  backend=None, **old):
         """Per-vertex AO of an instance's mesh (for display), as :meth:`ambient_occlusion`.
 
         Points are the mesh's vertices in world space, normals its
@@ -377,11 +320,8 @@ class Scene:
         ``Sampling(64)``. Returns ``(V,)`` float32 (and ``(V, 3)`` bent
         normals with ``return_bent_normals=True``).
         """
-        sampling, extra = legacy_sampling("Scene.vertex_ao", args, _AO_ORDER, sampling,
-                                          dict(samples=samples, strategy=strategy, patterns=patterns, seed=seed,
-                                               bent_normals=bent_normals), Sampling(64))
-        bent = bool(extra.get("bent_normals", return_bent_normals))
-        name = _backend("Scene.vertex_ao", lookup, backend, filtered)
+        sampling, bent, name = _query_options("Scene.vertex_ao", args, old, sampling, return_bent_normals,
+                                              lookup, backend, Sampling(64))
         pts, nrm = self.vertex_points(instance_id)
         ok = np.linalg.norm(nrm, axis=1) > 0
         if not ok.all():       # isolated vertices: give them any normal
@@ -391,40 +331,20 @@ class Scene:
                                       surface_ids=int(instance_id), backend=name)
 
     def ground_quad(self, size: float | None = None) -> trimesh.Trimesh:
-        """A finite square of the ground plane for drawing, centred under the scene.
+        """A finite square of the ground plane for drawing: :func:`pyshadow.render.ground_quad`."""
+        from .render import ground_quad
 
-        ``size`` is the side length; default 8 times the diameter of the
-        region the instances occupy (at least 8 times the largest radius).
-        """
-        if self.ground is None:
-            raise ValueError("the scene has no ground plane")
-        anchor = self.anchor()
-        if size is None:
-            reach = max([np.linalg.norm(c - anchor) + r for c, r in
-                         (inst.world_sphere() for inst in self.instances)] or [1.0])
-            size = 16.0 * reach
-        h = 0.5 * float(size)
-        cx, cz = anchor[0], anchor[2]
-        v = np.array([[cx - h, self.ground, cz - h], [cx + h, self.ground, cz - h],
-                      [cx + h, self.ground, cz + h], [cx - h, self.ground, cz + h]])
-        return trimesh.Trimesh(v, [[0, 2, 1], [0, 3, 2]], process=False)
+        return ground_quad(self, size)
 
     def draw_items(self, ground_size: float | None = None):
-        """(mesh, transform) items to draw and the object id of each."""
-        items, ids = [], []
-        for i, inst in enumerate(self.instances):
-            if inst.mesh is not None:
-                items.append((inst.mesh, inst.transform))
-                ids.append(i)
-        if self.ground is not None:
-            items.append((self.ground_quad(ground_size), np.eye(4)))
-            ids.append(GROUND_ID)
-        return items, np.array(ids, dtype=np.int32)
+        """(mesh, transform) items to draw and the object id of each: :func:`pyshadow.render.draw_items`."""
+        from .render import draw_items
+
+        return draw_items(self, ground_size)
 
     def render(self, camera, *args, sampling: Sampling | None = None, lookup: str = "nearest",
                denoise: str | None = None, ao_scale: int = 1, ground_size: float | None = None,
-               bias: float | None = None, backend=None, samples=None, strategy=None, seed=None,
-               patterns=None, filter=None, filtered=None):
+               bias: float | None = None, backend=None, **old):
         """Render AO and the G-buffer of the scene from ``camera``: :func:`pyshadow.render.render`.
 
         Parameters
@@ -437,34 +357,81 @@ class Scene:
         denoise : {None, 'bilateral', 'separable', 'box'}, optional
             Edge-aware filtering of the AO image (:mod:`pyshadow.filters`).
         ao_scale : {1, 2, 4}, optional
-            Compute AO at 1/ao_scale resolution and upsample it with the
-            full-resolution G-buffer (joint bilateral upsampling).
+            AO at 1/ao_scale resolution, upsampled with the G-buffer.
         ground_size : float, optional
             Side of the drawn ground quad (:meth:`ground_quad`).
-        samples, strategy, seed, patterns, filter, filtered :
-            Deprecated (the first four also positionally, in that order):
-            ``sampling=``, ``denoise=``, ``lookup=``.
+        **old
+            Deprecated: ``samples, strategy, seed, patterns`` (also
+            positionally, in that order), ``filter`` and ``filtered``.
 
         Returns
         -------
         pyshadow.render.Frame
-            ``ao``, ``bent_normal``, ``depth``, ``normal``, ``object_id``
-            (``GROUND_ID`` for the ground, -1 for the background) and
-            ``position``; also readable as a mapping (``frame["ao"]``).
+            Also readable as a mapping (``frame["ao"]``).
         """
         from . import render as render_stage
 
-        sampling, _ = legacy_sampling("Scene.render", args, _RENDER_ORDER, sampling,
-                                      dict(samples=samples, strategy=strategy, seed=seed, patterns=patterns),
-                                      Sampling())
-        if filter is not None:
+        if "filter" in old:
             deprecated("Scene.render(filter=...)", "denoise=", stacklevel=3)
             if denoise is not None:
                 raise TypeError("Scene.render: pass denoise= or the old filter=, not both")
-            denoise = filter
-        name = _backend("Scene.render", lookup, backend, filtered)
+            denoise = old.pop("filter")
+        sampling, _, name = _query_options("Scene.render", args, old, sampling, False, lookup, backend,
+                                           Sampling(), _RENDER_ORDER)
         return render_stage.render(self, camera, visibility=name, sampling=sampling, denoise=denoise,
                                    ao_scale=ao_scale, ground_size=ground_size, bias=bias)
+
+
+def _new_instance(scene, obj, T, casts, mesh) -> Instance:
+    """The :class:`Instance` that :meth:`Scene.add` places (building a caster's CSM once per mesh)."""
+    if isinstance(obj, CoherentShadowMap):
+        if not casts:
+            raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")
+        if mesh is not None:
+            if not isinstance(mesh, trimesh.Trimesh):
+                mesh = load_mesh(mesh)
+            if mesh_hash(mesh) != obj.mesh_hash:
+                raise ValueError("mesh does not match the CSM (different mesh hash)")
+        inst = Instance(T, True, csm=obj, mesh=mesh)
+    else:
+        if mesh is not None:
+            raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
+        if not isinstance(obj, trimesh.Trimesh):
+            obj = load_mesh(obj)
+        csm = None
+        if casts:
+            csm = scene._built.get(id(obj))
+            if csm is None:
+                o = scene.csm_options
+                csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
+                                              o["layers"], progress=scene.progress, footprint=o["footprint"])
+                scene._built[id(obj)] = csm
+        inst = Instance(T, bool(casts), csm=csm, mesh=obj)
+    return inst
+
+
+def _caster_slots(scene, surface_ids, n):
+    """:meth:`Scene.caster_slots`."""
+    if surface_ids is None:
+        return np.full(n, -1, np.int32)
+    ids = np.asarray(surface_ids)
+    if not np.issubdtype(ids.dtype, np.integer):
+        raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
+    if (ids.dtype == np.int32 and ids.shape == (n,) and ids.flags.c_contiguous and n
+            and scene.casters == list(range(len(scene.instances)))
+            and ids.min() >= GROUND_ID and ids.max() < len(scene.instances)):
+        return ids          # every instance casts: ids are the slots (-1, -2 included)
+    ids = np.broadcast_to(ids, (n,)).astype(np.int64)
+    ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(scene.instances)))
+    if not ok.all():
+        raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); "
+                         f"got {int(ids[~ok][0])}")
+    slot = np.full(len(scene.instances) + 2, -2, np.int32)     # receivers: -2
+    for k, i in enumerate(scene.casters):
+        slot[i] = k
+    slot[-1] = -1                                            # index -1: unknown
+    slot[-2] = -2                                            # index -2: ground
+    return slot[ids]
 
 
 _MOVED = {"visible_reference": ("pyshadow.visibility.mirror", "visible_reference"),

@@ -34,21 +34,28 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
     ----------
     scene : pyshadow.Scene
     points : array_like, shape (N, 3)
-        World positions. float64 or float32 C-contiguous arrays are read in
-        place by the kernel backends (no copy); other dtypes are converted to
-        float64 first.
+        World positions (a point on a caster's surface is not occluded by
+        that surface itself: see ``bias``). float64 or float32 C-contiguous
+        arrays are read in place by the kernel backends (no copy); other
+        dtypes are converted to float64 first.
     directions : array_like, shape (N, 3)
-        World directions, normalised here (any non-zero length).
+        World directions, float64 or float32 as for ``points``; normalised
+        here, so any non-zero length works (lengths far outside float32's
+        range are first scaled by an exact power of two).
     backend : str or VisibilityBackend, optional
         A registered name (:func:`backends`) or a backend object.
     bias : float, optional
         Depth tolerance in normalised depth units (1 = the diameter of a
-        CSM's bounding sphere) against every caster; default: a self-bias
-        against the caster a point lies on, the depth quantum against the
-        others (:mod:`pyshadow.visibility.csm`).
+        CSM's bounding sphere) against every caster. Default: a self-bias
+        against the caster a point lies on (see ``surface_ids``), the depth
+        quantum against the others (:mod:`pyshadow.visibility.csm` gives
+        the rule).
     surface_ids : int or array_like of int, optional
         Instance id of the surface each point lies on; ``-1`` (default)
-        unknown, ``pyshadow.scene.GROUND_ID`` (-2) the ground plane.
+        means unknown (the self-bias then applies against every caster),
+        ``pyshadow.scene.GROUND_ID`` (-2) the ground plane. Points on
+        receivers and the ground need no self-bias, so contact shadows stay
+        sharp.
 
     Returns
     -------

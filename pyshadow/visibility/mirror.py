@@ -14,7 +14,7 @@ import numpy as np
 from .._validate import check_indices, nonzero, rows3
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS
 from ..csm.reference import shadow_vote
-from ..sampling import sample_directions_reference
+from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
 
 __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference"]
@@ -94,13 +94,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
                             surface_ids=ids, lookup=lookup).reshape(len(p), S)
-    ao = vis.mean(axis=1).astype(np.float32)
-    if not return_bent_normals:
-        return ao
-    b = (dirs * vis[..., None]).sum(axis=1)
-    length = np.linalg.norm(b, axis=1, keepdims=True)
-    b = np.where(length > 0, b / np.maximum(length, 1e-300), n)
-    return ao, b.astype(np.float32)
+    return ao_from_samples(dirs, vis, n, return_bent_normals)
 
 
 class NumPyVisibility:

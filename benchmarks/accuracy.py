@@ -24,7 +24,7 @@ Prints (and with --json returns):
 7. footprint intervals (``CoherentShadowMap.build(..., footprint=True)``) on
    the rays of sections 1 and 5: agreement, ratio and build time of every
    mesh at 64x128 maps @ 128^2 beside the default (centre-ray) intervals.
-8. what the filtered lookup buys: ``Scene.visible(..., filtered=True)`` (a
+8. what the vote lookup buys: ``Scene.visible(..., lookup="vote")`` (a
    vote over the four maps of ``ViewSet.filter_window`` and the four texels
    around the point in each, up to 16 searches per query instead of one) on
    the rays of section 1 for the bunny's 64x128 CSMs (both kinds of
@@ -41,9 +41,11 @@ import numpy as np
 import trimesh
 
 import pyshadow
-from pyshadow import reference
+from pyshadow import Sampling, embree
 from pyshadow.csm import DEPTH_Q, compress_reference, footprint_corners
-from pyshadow.scene import DEFAULT_BIAS_TEXELS, shadow_vote, visible_reference
+from pyshadow.csm.core import DEFAULT_BIAS_TEXELS
+from pyshadow.csm.reference import shadow_vote
+from pyshadow.visibility import visible_reference
 from _common import emit, environment, load_mesh
 
 
@@ -63,17 +65,17 @@ def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
     return np.repeat(p, samples, axis=0), d
 
 
-def agreement(scene, inst_id, n_points, samples, seed, uniform=False, filtered=False):
+def agreement(scene, inst_id, n_points, samples, seed, uniform=False, vote=False):
     """Share of rays from the instance's surface that ``Scene.visible`` answers
-    as Embree does; with ``filtered=True`` a pair (one-texel lookup, filtered
-    lookup) on the same rays."""
+    as Embree does; with ``vote=True`` a pair (one-texel lookup, vote lookup
+    ``lookup="vote"``) on the same rays."""
     P, D = surface_rays(scene, inst_id, n_points, samples, seed, uniform)
     ids = np.full(len(P), inst_id)
-    truth = reference.visible(scene, P, D)
+    truth = embree.visible(scene, P, D)
     plain = float((scene.visible(P, D, surface_ids=ids) == truth).mean())
-    if not filtered:
+    if not vote:
         return plain
-    return plain, float((scene.visible(P, D, surface_ids=ids, filtered=True) == truth).mean())
+    return plain, float((scene.visible(P, D, surface_ids=ids, lookup="vote") == truth).mean())
 
 
 def fibonacci_sphere(n):
@@ -101,10 +103,10 @@ def pcf_visible(scene, points, directions, bias_texels=DEFAULT_BIAS_TEXELS):
     border texels repeated at the map's edges), each saying shadowed or not
     with the self-bias of ``Scene.visible`` (``bias_texels`` plus the angle
     term); the ray is shadowed when the weights of the shadowing votes sum to
-    more than one half (:func:`pyshadow.scene.shadow_vote`, ``texels=4``):
+    more than one half (:func:`pyshadow.csm.reference.shadow_vote`, ``texels=4``):
     percentage-closer filtering of the nearest map, where
     ``Scene.visible`` asks the one texel holding the point (and
-    ``Scene.visible(..., filtered=True)`` four maps of a zigzag or hilbert
+    ``Scene.visible(..., lookup="vote")`` four maps of a zigzag or hilbert
     grid like this). The scene's caster must be instance 0; the ground plane
     is analytic, as there.
     """
@@ -164,8 +166,8 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     pcf = {name: {b: np.zeros(2) for b in pcf_biases} for name in ("pcf", "pcf_footprint")}
     R = csm.resolution
     texel = 2.0 * inst.scale * csm.radius / R
-    rays, anchor = reference.caster_scene(scene)
-    eps = reference.surface_epsilon(scene)
+    rays, anchor = embree.caster_scene(scene)
+    eps = embree.surface_epsilon(scene)
     blocker, n_wrong, n_grazing, n_rays = [], 0, 0, 0
     total = np.zeros(2)
     for w in fibonacci_sphere(n_dirs):
@@ -180,7 +182,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         corners, cfront = footprint_corners(mesh, one, R, csm.layer_rule, (csm.centre, csm.radius))
         k = int(m.sum())
         W = np.broadcast_to(w, (k, 3))
-        truth = reference.visible(scene, P[m], W)
+        truth = embree.visible(scene, P[m], W)
         ours = scene.visible(P[m], W, surface_ids=np.full(k, inst_id))
         weights = np.stack([np.ones(k), cos[m]])
         total += weights.sum(axis=1)
@@ -255,19 +257,19 @@ def main(argv=None):
     fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
                                                progress=False)
     two.add(fan_csm, pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4), rotation=rot), mesh=fandisk)
-    # (one-texel lookup, filtered lookup of section 8) on the same rays
-    two_both = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3, filtered=True),
-                "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4, filtered=True),
-                "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True, filtered=True),
-                "fandisk_uniform_rays": agreement(two, 1, n_pts // 2, 16, 6, uniform=True, filtered=True)}
+    # (one-texel lookup, vote lookup of section 8) on the same rays
+    two_both = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3, vote=True),
+                "fandisk_ao_rays": agreement(two, 1, n_pts // 2, 16, 4, vote=True),
+                "bunny_uniform_rays": agreement(two, 0, n_pts // 2, 16, 5, uniform=True, vote=True),
+                "fandisk_uniform_rays": agreement(two, 1, n_pts // 2, 16, 6, uniform=True, vote=True)}
     two_scene = {k: v[0] for k, v in two_both.items()}
 
     # 3. per-vertex AO, 256 samples
     solo = pyshadow.Scene(ground=0.0)
     solo.add(csm_64x128, Tb, mesh=bunny)
     pts, nrm = solo.vertex_points(0)
-    ours = solo.vertex_ao(0, samples=256)
-    truth = reference.ambient_occlusion(solo, pts, nrm, 256)
+    ours = solo.vertex_ao(0, sampling=Sampling(256))
+    truth = embree.ambient_occlusion(solo, pts, nrm, sampling=Sampling(256))
     err = np.abs(ours - truth)
     vertex = {"vertices": int(len(pts)), "samples": 256, "mean_abs": float(err.mean()),
               "p99_abs": float(np.quantile(err, 0.99)), "max_abs": float(err.max()),
@@ -275,11 +277,12 @@ def main(argv=None):
 
     # 4. strategies at 36 samples against a 4096-sample reference
     sel = np.random.default_rng(7).choice(len(pts), 2000, replace=False)
-    conv = reference.ambient_occlusion(solo, pts[sel], nrm[sel], 4096, "hammersley", seed=99, patterns=16)
+    conv = embree.ambient_occlusion(solo, pts[sel], nrm[sel], sampling=Sampling(4096, "hammersley", 16, 99))
     strategies = {}
     for strategy in pyshadow.STRATEGIES:
-        ao = solo.ambient_occlusion(pts[sel], nrm[sel], 36, strategy, seed=3, surface_ids=0)
-        ref36 = reference.ambient_occlusion(solo, pts[sel], nrm[sel], 36, strategy, seed=3)
+        s36 = Sampling(36, strategy, seed=3)
+        ao = solo.ambient_occlusion(pts[sel], nrm[sel], sampling=s36, surface_ids=0)
+        ref36 = embree.ambient_occlusion(solo, pts[sel], nrm[sel], sampling=s36)
         strategies[strategy] = {"rmse": float(np.sqrt(np.mean((ao - conv) ** 2))),
                                 "rmse_embree_same_directions": float(np.sqrt(np.mean((ref36 - conv) ** 2)))}
 
@@ -290,9 +293,9 @@ def main(argv=None):
         csm = pyshadow.CoherentShadowMap.build(bunny, views, 128, progress=False, footprint=fp)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, Tb, mesh=bunny)
-        # 8. the same rays, also asked by the filtered lookup
-        ao_rays = agreement(scene, 0, n_pts, 16, 1, filtered=True)
-        uniform_rays = agreement(scene, 0, n_pts // 2, 16, 2, uniform=True, filtered=True)
+        # 8. the same rays, also asked by the vote lookup
+        ao_rays = agreement(scene, 0, n_pts, 16, 1, vote=True)
+        uniform_rays = agreement(scene, 0, n_pts // 2, 16, 2, uniform=True, vote=True)
         footprint.setdefault("stanford-bunny.obj", {})[fp] = {
             "ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],
             "agreement_ao_rays": ao_rays[0], "agreement_uniform_rays": uniform_rays[0]}
@@ -367,7 +370,7 @@ def main(argv=None):
         print(f"   {name:18} {a['ratio']:>5.1f} -> {b['ratio']:>4.1f} {a['build_seconds']:>4.1f} -> "
               f"{b['build_seconds']:>4.1f} {a['agreement_ao_rays']:>7.3%} -> {b['agreement_ao_rays']:>7.3%} "
               f"{a['agreement_uniform_rays']:>7.3%} -> {b['agreement_uniform_rays']:>7.3%}")
-    print("\n8. filtered lookup (Scene.visible(..., filtered=True): 4 maps x 4 texels, up to 16 searches a "
+    print("\n8. vote lookup (Scene.visible(..., lookup=\"vote\"): 4 maps x 4 texels, up to 16 searches a "
           "query), 64x128 maps @128^2")
     for name in ("centre", "footprint"):
         r, base = filtered[name], footprint["stanford-bunny.obj"][name == "footprint"]

@@ -22,7 +22,7 @@ import numpy as np
 from scipy import ndimage
 
 import pyshadow
-from pyshadow import filters, reference
+from pyshadow import Sampling, embree, filters
 from _common import emit, environment, load_mesh, median_time
 
 
@@ -56,12 +56,12 @@ def main(argv=None):
     scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
     scene.add(bunny, T)
     cam = pyshadow.Camera([1.6, 1.5, 3.2], [0.0, 0.55, 0.0], width=args.width, height=args.height)
-    g = scene.render(cam, samples=1)
-    depth, normal = g["depth"], g["normal"]
+    g = scene.render(cam, sampling=Sampling(1))
+    depth, normal = g.depth, g.normal
     surf = np.isfinite(depth)
     edges = edge_mask(depth)
     t0 = time.perf_counter()
-    conv = reference.render(scene, cam, samples=args.reference_samples, seed=12345)["ao"]
+    conv = embree.render(scene, cam, sampling=Sampling(args.reference_samples, seed=12345)).ao
     ref_s = time.perf_counter() - t0
 
     def rmse(img, mask=surf):
@@ -69,7 +69,7 @@ def main(argv=None):
 
     rows = []
     for samples in (16, 36):
-        ao = scene.render(cam, samples=samples)["ao"]
+        ao = scene.render(cam, sampling=Sampling(samples)).ao
         variants = {
             "none": (lambda a: a),
             "bilateral": (lambda a: filters.bilateral(a, depth, normal)),
@@ -83,12 +83,12 @@ def main(argv=None):
                          "Mpixel_per_s": (depth.size / sec / 1e6) if sec else None})
 
     # AO at lower resolution, upsampled with the full-resolution G-buffer
-    full_s, _ = median_time(lambda: scene.render(cam, samples=36), max(1, args.repeats // 2))
-    full = scene.render(cam, samples=36)["ao"]
+    full_s, _ = median_time(lambda: scene.render(cam, sampling=Sampling(36)), max(1, args.repeats // 2))
+    full = scene.render(cam, sampling=Sampling(36)).ao
     up = []
     for s in (2, 4):
-        sec, _ = median_time(lambda: scene.render(cam, samples=36, ao_scale=s), max(1, args.repeats // 2))
-        img = scene.render(cam, samples=36, ao_scale=s)["ao"]
+        sec, _ = median_time(lambda: scene.render(cam, sampling=Sampling(36), ao_scale=s), max(1, args.repeats // 2))
+        img = scene.render(cam, sampling=Sampling(36), ao_scale=s).ao
         up.append({"ao_scale": s, "render_s": sec, "full_render_s": full_s, "rmse": rmse(img),
                    "edge_rmse": rmse(img, edges), "full_rmse": rmse(full), "full_edge_rmse": rmse(full, edges)})
     result = {"benchmark": "filtering", **environment(), "width": args.width, "height": args.height,

@@ -192,7 +192,7 @@ def main(argv=None):
           f"{r['kernel_Mq_per_s']:.2f} M/s)")
     print(f"ambient_occl.   {r['ambient_occlusion_Mq_per_s']:6.2f} M queries/s  (median {ao_s:.3f} s)")
     print(f"filtered        {r['filtered_Mq_per_s']:6.2f} M queries/s  (median {filt_s:.3f} s; "
-          "Scene.visible(..., filtered=True))")
+          "Scene.visible(..., lookup='vote'))")
     print(f"Embree          {r['embree_Mrays_per_s']:6.2f} M rays/s     (median {embree_s:.3f} s; "
           f"{len(todo)} rays not stopped by the ground)")
     print(f"ratio           visible {r['ratio_visible_vs_embree']:.2f}x, ambient_occlusion "

@@ -32,7 +32,7 @@ def main(argv=None):
 
     import pyshadow
     import pyshadow.data
-    from pyshadow import reference, viz
+    from pyshadow import embree, viz
 
     try:
         t0 = time.perf_counter()
@@ -40,16 +40,17 @@ def main(argv=None):
             views=pyshadow.ViewSet.zigzag(args.theta, args.phi), resolution=args.resolution,
             width=args.width, height=args.height)
         t_build = time.perf_counter() - t0
+        sampling = pyshadow.Sampling(args.samples)
         t0 = time.perf_counter()
-        raw = scene.render(camera, args.samples)
+        raw = scene.render(camera, sampling=sampling)
         t_raw = time.perf_counter() - t0
     except ValueError as exc:
         parser.error(str(exc))
     t0 = time.perf_counter()
-    filt = scene.render(camera, args.samples, filter="bilateral")
+    filt = scene.render(camera, sampling=sampling, denoise="bilateral")
     t_filt = time.perf_counter() - t0
     t0 = time.perf_counter()
-    ref = reference.render(scene, camera, args.samples)
+    ref = embree.render(scene, camera, sampling=sampling)
     t_ref = time.perf_counter() - t0
 
     empty = raw["object_id"] == -1

@@ -38,9 +38,9 @@ def build_scene(meshes, theta, phi, resolution, ground_divisions, footprint=Fals
     return scene, ids, gid
 
 
-def vertex_ao_both(scene, instance_id, samples):
+def vertex_ao_both(scene, instance_id, sampling):
     """Per-vertex AO from pyshadow and from Embree on the same directions; (V,) float32 each."""
-    from pyshadow import reference
+    from pyshadow import embree
 
     pts, nrm = scene.vertex_points(instance_id)
     bad = np.linalg.norm(nrm, axis=1) == 0      # isolated vertices: vertex_ao uses +y
@@ -48,9 +48,9 @@ def vertex_ao_both(scene, instance_id, samples):
         nrm = nrm.copy()
         nrm[bad] = [0.0, 1.0, 0.0]
     t0 = time.perf_counter()
-    ao = scene.vertex_ao(instance_id, samples=samples)
+    ao = scene.vertex_ao(instance_id, sampling=sampling)
     t1 = time.perf_counter()
-    ref = reference.ambient_occlusion(scene, pts, nrm, samples)
+    ref = embree.ambient_occlusion(scene, pts, nrm, sampling=sampling)
     t2 = time.perf_counter()
     return ao, ref, t1 - t0, t2 - t1
 
@@ -77,6 +77,7 @@ def main(argv=None):
 
     try:
         meshes = [pyshadow.load_mesh(p) for p in args.meshes] or [pyshadow.data.bunny()]
+        sampling = pyshadow.Sampling(args.samples)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(str(exc))
     names = [str(p) for p in args.meshes] or ["bunny"]
@@ -88,7 +89,7 @@ def main(argv=None):
     ours, refs = {}, {}
     t_ours = t_ref = 0.0
     for i in ids + [gid]:
-        ours[i], refs[i], a, b = vertex_ao_both(scene, i, args.samples)
+        ours[i], refs[i], a, b = vertex_ao_both(scene, i, sampling)
         t_ours += a
         t_ref += b
     diff = {i: ours[i] - refs[i] for i in ours}

@@ -103,13 +103,13 @@ def scripted_transforms(bodies, frame, frames):
     return out
 
 
-def recompute(scene, ids, transforms, samples):
+def recompute(scene, ids, transforms, sampling):
     """Move the bodies and recompute the AO of every instance (bodies and ground grid).
 
     Returns {instance id: (V,) float32 AO}."""
     for i, T in zip(ids, transforms):
         scene.set_transform(i, T)
-    return {i: scene.vertex_ao(i, samples=samples) for i in range(len(scene.instances))}
+    return {i: scene.vertex_ao(i, sampling=sampling) for i in range(len(scene.instances))}
 
 
 def main(argv=None):
@@ -139,6 +139,7 @@ def main(argv=None):
     from pyshadow import viz
 
     try:
+        sampling = pyshadow.Sampling(args.samples)
         if args.meshes:
             bodies = mesh_bodies([pyshadow.load_mesh(p) for p in args.meshes], args.meshes)
         else:
@@ -156,7 +157,7 @@ def main(argv=None):
     print(f"{len(bodies)} bodies ({', '.join(b.name for b in bodies)}) + ground grid, "
           f"{verts} vertices; CSMs ({args.theta}x{args.phi} maps of {args.resolution}^2) "
           f"built in {t_build:.2f} s")
-    ao = recompute(scene, ids, start, args.samples)       # warm-up: kernel builds, device data
+    ao = recompute(scene, ids, start, sampling)       # warm-up: kernel builds, device data
 
     plotter = viz.make_plotter((2, 1), args.window, off_screen=args.screenshot is not None,
                                row_weights=[1.0, 0.1])
@@ -188,7 +189,7 @@ def main(argv=None):
                 widget.GetRepresentation().SetValue(state[key])
             transforms = [body_transform(bodies[0], *orbit_pose(state["angle"], state["turn"]))]
             t = time.perf_counter()
-            values = recompute(scene, ids[:1], transforms, args.samples)
+            values = recompute(scene, ids[:1], transforms, sampling)
             ms = 1e3 * (time.perf_counter() - t)
             show(values, transforms, f"{bodies[0].name} at {state['angle']:.0f} deg, turned "
                                      f"{state['turn']:.0f} deg: AO in {ms:.0f} ms")
@@ -215,7 +216,7 @@ def main(argv=None):
     times = []
     for f, transforms in enumerate(plan):
         t = time.perf_counter()
-        values = recompute(scene, ids, transforms, args.samples)
+        values = recompute(scene, ids, transforms, sampling)
         times.append(time.perf_counter() - t)
         show(values, transforms, f"frame {f + 1}/{frames}: AO of {verts} vertices, "
                                  f"{args.samples} samples, in {1e3 * times[-1]:.0f} ms")

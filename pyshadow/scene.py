@@ -434,8 +434,16 @@ def _caster_slots(scene, surface_ids, n):
     return slot[ids]
 
 
-_MOVED = {"visible_reference": ("pyshadow.visibility.mirror", "visible_reference"),
-          "shadow_vote": ("pyshadow.csm.reference", "shadow_vote")}
+def _old_visible_reference(scene, points, directions, *, bias=None, surface_ids=None, filtered=False):
+    """``pyshadow.scene.visible_reference`` as it was: ``filtered=`` for ``lookup="vote"``."""
+    from .visibility.mirror import visible_reference
+
+    return visible_reference(scene, points, directions, bias=bias, surface_ids=surface_ids,
+                             lookup="vote" if filtered else "nearest")
+
+
+_MOVED = {"visible_reference": ("pyshadow.visibility.mirror", "visible_reference", _old_visible_reference),
+          "shadow_vote": ("pyshadow.csm.reference", "shadow_vote", None)}
 
 
 def __getattr__(name):
@@ -443,7 +451,7 @@ def __getattr__(name):
     if name in _MOVED:
         import importlib
 
-        module, attr = _MOVED[name]
+        module, attr, old = _MOVED[name]
         deprecated(f"pyshadow.scene.{name}", f"{module}.{attr}")
-        return getattr(importlib.import_module(module), attr)
+        return old if old is not None else getattr(importlib.import_module(module), attr)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -28,8 +28,9 @@ is defined on the zigzag grid's pole row, where ``(0, 1, 0) x d`` vanishes.
 Consecutive bases then differ exactly as much as their directions, no pole is
 special, and the maps of the zigzag pole row (one direction) are identical.
 Compared with the up-vector basis at every map, whose image turns by
-``dphi * cos(theta)`` between neighbours along a row, this cuts the 64x128
-bunny CSM from 5.30 M to 4.32 M segments (12.6:1 to 15.5:1).
+``dphi * cos(theta)`` between neighbours along a row, this cuts the number
+of segments of a CSM (measured in benchmarks/README.md, the compression
+table).
 """
 from __future__ import annotations
 

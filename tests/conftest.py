@@ -1,7 +1,13 @@
-"""Shared fixtures: the bundled test meshes, small helpers, and the stand-alone guard.
+"""Shared fixtures: the bundled test meshes, small helpers, scenes, and the stand-alone guard.
 
 The test meshes are the ones bundled in ``pyshadow/data/meshes`` (see
 :func:`pyshadow.data.mesh`); the suite needs nothing beside the repository.
+Scene helpers shared by the query tests (``test_scene``, ``test_visibility``,
+``test_render``, ``test_sampling``, ``test_compat``): ``from conftest import
+unit_frame, on_ground, surface_queries``, and the fixtures ``bunny_scene``,
+``two_object_scene`` (module scope: built once per test module),
+``small_scene`` and ``no_launch``.
+
 An audit hook (:func:`sys.addaudithook`) records every file this process
 opens or lists under the repository's parent folder but outside the
 repository (a sibling folder of the clone) and fails the test that did it;
@@ -68,6 +74,102 @@ def load(name: str, fill_holes: bool = False):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+# ---------------------------------------------------------------------------
+# scenes shared by test_scene, test_visibility, test_render, test_sampling, test_compat
+# ---------------------------------------------------------------------------
+def unit_frame(mesh, scale=1.0, offset=(0.0, 0.0, 0.0), rotation=None):
+    """Transform that puts ``mesh``'s bounding sphere at ``offset`` with radius ``scale``."""
+    import pyshadow
+
+    c, r = pyshadow.bounding_sphere(mesh)
+    T = np.eye(4)
+    if rotation is not None:
+        T[:3, :3] = rotation
+    T[:3, :3] *= scale / r
+    T[:3, 3] = np.asarray(offset, dtype=float) - T[:3, :3] @ c
+    return T
+
+
+def on_ground(mesh, T):
+    """Shift transform ``T`` up or down so the mesh's lowest vertex touches y = 0."""
+    T = T.copy()
+    T[1, 3] -= (mesh.vertices @ T[:3, :3].T + T[:3, 3])[:, 1].min()
+    return T
+
+
+def surface_queries(scene, instance_id, n_points, samples, rng, uniform=False):
+    """Points sampled uniformly on an instance's faces, with directions in the
+    hemispheres of their face normals (cosine-weighted AO directions, or uniform)."""
+    import trimesh
+
+    import pyshadow
+
+    inst = scene.instances[instance_id]
+    T = inst.transform
+    seed = int(rng.integers(1 << 30))
+    local, face = trimesh.sample.sample_surface(inst.mesh, n_points, seed=seed)
+    p = local @ T[:3, :3].T + T[:3, 3]
+    n = inst.mesh.face_normals[face] @ inst.rotation.T
+    if uniform:
+        d = rng.normal(size=(n_points * samples, 3))
+        n_rep = np.repeat(n, samples, axis=0)
+        d = np.where(np.einsum("ij,ij->i", d, n_rep)[:, None] < 0, -d, d)
+    else:
+        d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3)
+    return np.repeat(p, samples, axis=0), d.astype(np.float64)
+
+
+@pytest.fixture(scope="module")
+def bunny_scene():
+    """The bunny on its ground plane, CSM of 64x128 maps at 128^2 (built once per module)."""
+    import pyshadow
+
+    bunny = load("stanford-bunny.obj")
+    scene = pyshadow.Scene(ground=float(bunny.bounds[0, 1]), views=pyshadow.ViewSet.zigzag(64, 128),
+                           resolution=128)
+    scene.add(bunny)
+    return scene
+
+
+@pytest.fixture(scope="module")
+def two_object_scene(bunny_scene):
+    """The bunny (bunny_scene's CSM) and a turned fandisk standing on the ground y = 0."""
+    import trimesh
+
+    import pyshadow
+
+    bunny = load("stanford-bunny.obj")
+    fan = load("fandisk.obj")
+    bunny_csm = bunny_scene.instances[0].csm
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(64, 128), resolution=128)
+    scene.add(bunny_csm, on_ground(bunny, unit_frame(bunny)), mesh=bunny)
+    rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
+    scene.add(fan, on_ground(fan, unit_frame(fan, scale=0.8, rotation=rot, offset=(1.7, 0.0, 0.4))))
+    return scene
+
+
+@pytest.fixture
+def small_scene():
+    """A unit box on the ground, CSM of 4x8 maps at 16^2: quick to build and to ask."""
+    import trimesh
+
+    import pyshadow
+
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+    scene.add(trimesh.creation.box((1.0, 1.0, 1.0)))
+    return scene
+
+
+@pytest.fixture
+def no_launch(monkeypatch):
+    """Fail the test if any OpenCL kernel is built or launched (input checks come first)."""
+    from pyshadow import _cl
+
+    def boom(*a, **k):
+        raise AssertionError("a kernel was launched")
+    monkeypatch.setattr(_cl, "kernel", boom)
 
 
 # ---------------------------------------------------------------------------
@@ -221,7 +323,7 @@ def pytest_terminal_summary(terminalreporter):
 # ---------------------------------------------------------------------------
 # test modules whose kernels work on lanes (kernels/lanes.h): each of their
 # tests runs at every width the device passed the probe at
-LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene"})
+LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene", "test_visibility", "test_render"})
 
 
 def test_targets(lanes: bool):

@@ -10,7 +10,8 @@ import pytest
 import trimesh
 
 import pyshadow
-from pyshadow import CoherentShadowMap, CSMFormatError, reference
+from pyshadow import CoherentShadowMap, CSMFormatError, embree
+from pyshadow.csm import fileformat
 from pyshadow.csm import (DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_corners, footprint_scale,
                           front_margin)
 
@@ -232,7 +233,7 @@ def test_footprint_raises_agreement_with_embree():
         csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), 64, progress=False, footprint=fp)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, T, mesh=mesh)
-        ours, truth = scene.visible(P, d, surface_ids=0), reference.visible(scene, P, d)
+        ours, truth = scene.visible(P, d, surface_ids=0), embree.visible(scene, P, d)
         agree.append((ours == truth).mean())
         lit.append((ours & ~truth).mean())
     assert agree[1] > agree[0] + 0.0015, agree
@@ -400,7 +401,7 @@ def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng, tmp_path):
     for m in (csm, default):
         scene = pyshadow.Scene()
         scene.add(m, mesh=mesh)
-        agree.append((scene.visible(pts, d, surface_ids=0) == reference.visible(scene, pts, d)).mean())
+        agree.append((scene.visible(pts, d, surface_ids=0) == embree.visible(scene, pts, d)).mean())
     # coarser texels on the object (1.3x) cost a little agreement, never much
     assert agree[1] - 0.02 < agree[0] <= agree[1] + 0.005, agree
 
@@ -542,7 +543,7 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
     S = small_csm.segments
 
     def arrays(head, start):
-        layout, _ = CoherentShadowMap._array_layout(start, 32, head["maps"], head["segments"],
+        layout, _ = fileformat.array_layout(start, 32, head["maps"], head["segments"],
                                                     head["depth_bits"], head["offsets_dtype"])
         return {name: (dt, n, off - start) for name, dt, n, off in layout}
 
@@ -611,7 +612,7 @@ def test_csm_load_rejects_nan_depth(tmp_path):
     good = csm.save(tmp_path / "g.csm")
 
     def edit(head, body, start):
-        layout, _ = CoherentShadowMap._array_layout(start, 16, head["maps"], head["segments"], 32,
+        layout, _ = fileformat.array_layout(start, 16, head["maps"], head["segments"], 32,
                                                     head["offsets_dtype"])
         _, dt, n, off = layout[2]
         a = np.frombuffer(bytes(body[off - start:off - start + 4 * n]), "<f4").copy()

@@ -4,7 +4,7 @@ import pytest
 import trimesh
 
 import pyshadow
-from pyshadow import reference
+from pyshadow import embree
 from pyshadow.gbuffer import check_transform, render_gbuffer_reference
 
 from conftest import load
@@ -37,7 +37,7 @@ def two_objects_on_ground(offset=0.0, scale=1.0):
 def test_gbuffer_positions_agree_with_embree(offset, scale):
     items, cam = two_objects_on_ground(offset, scale)
     g = pyshadow.render_gbuffer(items, cam)
-    e = reference.gbuffer(items, cam)
+    e = embree.gbuffer(items, cam)
     covered = e["object_id"] >= 0
     assert covered.mean() > 0.5 and (~covered).any()
     assert set(np.unique(e["object_id"])) == {-1, 0, 1, 2}
@@ -84,7 +84,7 @@ def test_gbuffer_camera_inside_geometry_clips_near_plane():
                             [[0, 2, 1], [0, 3, 2]])
     cam = pyshadow.Camera([0, 0.5, 0], [0, 0, -5], width=80, height=60)
     g = pyshadow.render_gbuffer([(floor, np.eye(4))], cam)
-    e = reference.gbuffer([(floor, np.eye(4))], cam)
+    e = embree.gbuffer([(floor, np.eye(4))], cam)
     np.testing.assert_array_equal(g["object_id"], e["object_id"])
     hit = e["object_id"] == 0
     np.testing.assert_allclose(g["position"][hit], e["position"][hit], atol=1e-3)

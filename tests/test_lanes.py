@@ -3,7 +3,7 @@
 For each bundled mesh, at each width the device passed the probe at (with
 ``PYSHADOW_LANES`` set the probe is not run, and this test skips): layered
 depth maps, CSM segment lists (zigzag 16-bit and hilbert 32-bit), and
-visibility (one-texel and filtered lookups) and AO with bent normals in a
+visibility (one-texel and vote lookups) and AO with bent normals in a
 scene of both CSMs on a ground plane. Small sizes: the kernels' lane code is
 the same at any size.
 """
@@ -45,12 +45,12 @@ def answers(mesh):
     d = pyshadow.sample_directions(nrm[pick], 8, seed=3).reshape(-1, 3).astype(np.float64)
     for tag, ids in (("own", 0), ("unknown", None)):
         out[f"visible.{tag}"] = scene.visible(p, d, surface_ids=ids)
-        out[f"visible.{tag}.filtered"] = scene.visible(p, d, surface_ids=ids, filtered=True)
+        out[f"visible.{tag}.vote"] = scene.visible(p, d, surface_ids=ids, lookup="vote")
     out["visible.float32"] = scene.visible(p.astype(np.float32), d.astype(np.float32), surface_ids=0)
-    for f in (False, True):
-        ao, bent = scene.ambient_occlusion(pts[pick], nrm[pick], 36, surface_ids=0,
-                                           bent_normals=True, filtered=f)
-        out[f"ao.filtered={f}"], out[f"bent.filtered={f}"] = ao, bent
+    for lookup in ("nearest", "vote"):
+        ao, bent = scene.ambient_occlusion(pts[pick], nrm[pick], sampling=pyshadow.Sampling(36), surface_ids=0,
+                                           return_bent_normals=True, lookup=lookup)
+        out[f"ao.{lookup}"], out[f"bent.{lookup}"] = ao, bent
     return out
 
 
@@ -67,9 +67,9 @@ def test_answers_are_bit_identical_across_lane_widths(name):
             per[w] = answers(mesh)
     ref = per[ws[0]]
     # the answers are not trivial: both shadowed and lit rays, open and closed points
-    for k in ("visible.own", "visible.own.filtered", "visible.unknown"):
+    for k in ("visible.own", "visible.own.vote", "visible.unknown"):
         assert 0.02 < ref[k].mean() < 0.98, (k, ref[k].mean())
-    assert 0.05 < ref["ao.filtered=False"].mean() < 0.98
+    assert 0.05 < ref["ao.nearest"].mean() < 0.98
     assert np.isfinite(ref["depth"]).any() and np.isinf(ref["depth"]).any()
     for w in ws[1:]:
         for k, a in ref.items():

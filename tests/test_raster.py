@@ -4,7 +4,7 @@ import pytest
 import trimesh
 
 import pyshadow
-from pyshadow import raster, reference
+from pyshadow import embree, raster
 from pyshadow.raster import render_depth_reference
 
 from conftest import load
@@ -49,7 +49,7 @@ def test_render_depth_agrees_with_embree(name, layout):
     views = pyshadow.ViewSet.zigzag(8, 8) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
     assert len(views) >= 64
     ours, front = pyshadow.render_depth(m, views, 128, 2, facing=True)
-    truth, truth_front = reference.depth_layers(m, views, 128, 2, facing=True)
+    truth, truth_front = embree.depth_layers(m, views, 128, 2, facing=True)
     np.testing.assert_array_equal(pyshadow.render_depth(m, views, 128, 2), ours)   # facing changes nothing
     for layer, (cov, close, n) in enumerate(agreement(ours, truth), start=1):
         assert n > 1000, f"layer {layer}: too few texels hit to judge"

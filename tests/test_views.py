@@ -199,7 +199,7 @@ def test_slices_are_view_sets():
 
 @pytest.mark.parametrize("make", LAYOUTS)
 def test_filter_window_maps_and_weights(make, rng):
-    """filter_window: the maps a filtered lookup asks. The nearest map is among
+    """filter_window: the maps the vote lookup (lookup="vote") asks. The nearest map is among
     them, the weights are the normalised inverse angles, and a direction on a
     map's own axis gives (nearly) all the weight to that axis."""
     views = make()

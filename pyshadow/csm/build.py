@@ -15,7 +15,8 @@ from .. import _cl
 from ..mesh import bounding_sphere, load_mesh, mesh_hash
 from ..raster import DepthRenderer, _check_resolution_layers
 from ..views import ViewSet
-from .core import (FRONT_MARGIN_TEXELS, _LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
+from . import core
+from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin)
 
 __all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
@@ -219,4 +220,4 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
                centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
-               front_margin_texels=FRONT_MARGIN_TEXELS, footprint=footprint)
+               front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint)

@@ -35,7 +35,7 @@ import numpy as np
 import trimesh
 
 import pyshadow
-from pyshadow import _cl, reference
+from pyshadow import _cl, embree
 from pyshadow._cl import launch
 from _common import MESH_HELP, emit, environment, load_mesh, median_time
 

@@ -71,6 +71,16 @@ def load(name: str, fill_holes: bool = False):
     return _cache[key]
 
 
+@pytest.fixture(autouse=True)
+def deprecations_warn_every_test():
+    """Each old form warns once per process; forget before every test, so that a test
+    using one fails (warnings are errors) whatever ran before it."""
+    from pyshadow import _compat
+
+    _compat.reset()
+    yield
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

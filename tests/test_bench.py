@@ -389,8 +389,8 @@ def test_embree_pass_matches_embree_ambient_occlusion():
         got = embree_pass(tracer, gb, 12, "halton", 3, 64)
     finally:
         tracer.close()
-    want = embree.ambient_occlusion(scene, gb.points, gb.normals, 12, "halton", 3, 64,
-                                    indices=gb.sel)
+    want = embree.ambient_occlusion(scene, gb.points, gb.normals, indices=gb.sel,
+                                    sampling=pyshadow.Sampling(12, "halton", patterns=64, seed=3))
     np.testing.assert_array_equal(got["ao"], want)
     occ = got["occluded"]
     assert occ.shape == (gb.n * 12,) and 0.0 < occ.mean() < 1.0      # both outcomes present

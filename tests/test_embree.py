@@ -53,8 +53,8 @@ def test_embree_tracer_matches_ambient_occlusion(covered):
         assert tracer.eps == embree.surface_epsilon(scene)
         occ, hit = _trace(tracer, points, normals, sel)
     ao = (~occ.reshape(len(points), SAMPLES)).mean(axis=1).astype(np.float32)
-    want = embree.ambient_occlusion(scene, points, normals, SAMPLES, STRATEGY, SEED, PATTERNS,
-                                    indices=sel)
+    want = embree.ambient_occlusion(scene, points, normals, indices=sel,
+                                    sampling=pyshadow.Sampling(SAMPLES, STRATEGY, PATTERNS, SEED))
     np.testing.assert_array_equal(ao, want)
     # non-trivial: Embree finds hits and misses, the ground decides some rays on its own
     assert 0.0 < hit.mean() < 1.0

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import trimesh
 
-from ._compat import deprecated, legacy_sampling
+from ._compat import deprecated, keyword_only, legacy_sampling
 from ._validate import check_transform
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -28,7 +28,6 @@ __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIA
            "VOTE_BIAS_TEXELS", "LOOKUPS"]
 
 GROUND_ID = -2           # object id of the ground plane in rendered images
-FILTERED_BIAS_TEXELS = VOTE_BIAS_TEXELS      # the old name of VOTE_BIAS_TEXELS
 #: CSM lookups: ``"nearest"`` (backend ``"csm"``) and ``"vote"`` (``"csm-vote"``).
 LOOKUPS = ("nearest", "vote")
 _AO_ORDER = ("samples", "strategy", "patterns", "seed", "bent_normals")
@@ -135,7 +134,8 @@ class Scene:
     # ------------------------------------------------------------------
     # building the scene
     # ------------------------------------------------------------------
-    def add(self, obj, transform=None, casts: bool = True, *, mesh=None) -> int:
+    @keyword_only("Scene.add", old=1)
+    def add(self, obj, transform=None, *, casts: bool = True, mesh=None) -> int:
         """Place an object; returns its instance id.
 
         Parameters
@@ -443,7 +443,8 @@ def _old_visible_reference(scene, points, directions, *, bias=None, surface_ids=
 
 
 _MOVED = {"visible_reference": ("pyshadow.visibility.mirror", "visible_reference", _old_visible_reference),
-          "shadow_vote": ("pyshadow.csm.reference", "shadow_vote", None)}
+          "shadow_vote": ("pyshadow.csm.reference", "shadow_vote", None),
+          "FILTERED_BIAS_TEXELS": ("pyshadow.csm.core", "VOTE_BIAS_TEXELS", None)}
 
 
 def __getattr__(name):

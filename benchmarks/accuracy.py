@@ -61,7 +61,8 @@ def surface_rays(scene, inst_id, n_points, samples, seed, uniform):
         nr = np.repeat(n, samples, axis=0)
         d = np.where(np.einsum("ij,ij->i", d, nr)[:, None] < 0, -d, d)
     else:
-        d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3).astype(np.float64)
+        d = pyshadow.sample_directions(n, sampling=Sampling(samples, seed=seed))
+        d = d.reshape(-1, 3).astype(np.float64)
     return np.repeat(p, samples, axis=0), d
 
 
@@ -177,7 +178,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         if not m.any():
             continue
         one = pyshadow.ViewSet(wl[None], map_basis(wl)[None])
-        layers, front = pyshadow.render_depth(mesh, one, csm.resolution, csm.layer_rule,
+        layers, front = pyshadow.render_depth(mesh, one, resolution=csm.resolution, layers=csm.layer_rule,
                                               frame=(csm.centre, csm.radius), facing=True)
         corners, cfront = footprint_corners(mesh, one, R, csm.layer_rule, (csm.centre, csm.radius))
         k = int(m.sum())
@@ -237,7 +238,8 @@ def main(argv=None):
     budget_scenes = {}
     for grid in grids:
         for R in resolutions:
-            csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(*grid), R, progress=False)
+            csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(*grid), resolution=R,
+                                                   progress=False)
             scene = pyshadow.Scene(ground=0.0)
             scene.add(csm, Tb, mesh=bunny)
             row = {"maps": grid[0] * grid[1], "grid": f"{grid[0]}x{grid[1]}", "resolution": R,
@@ -254,8 +256,8 @@ def main(argv=None):
     rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
     two = pyshadow.Scene(ground=0.0)
     two.add(csm_64x128, Tb, mesh=bunny)
-    fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), 128, layers=2,
-                                               progress=False)
+    fan_csm = pyshadow.CoherentShadowMap.build(fandisk, pyshadow.ViewSet.zigzag(64, 128), resolution=128,
+                                               layers=2, progress=False)
     two.add(fan_csm, pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4), rotation=rot), mesh=fandisk)
     # (one-texel lookup, vote lookup of section 8) on the same rays
     two_both = {"bunny_ao_rays": agreement(two, 0, n_pts, 16, 3, vote=True),
@@ -290,7 +292,7 @@ def main(argv=None):
     others, footprint, filtered = {}, {}, {}
     views = pyshadow.ViewSet.zigzag(64, 128)
     for fp in (False, True):
-        csm = pyshadow.CoherentShadowMap.build(bunny, views, 128, progress=False, footprint=fp)
+        csm = pyshadow.CoherentShadowMap.build(bunny, views, resolution=128, progress=False, footprint=fp)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, Tb, mesh=bunny)
         # 8. the same rays, also asked by the vote lookup
@@ -306,7 +308,7 @@ def main(argv=None):
             continue
         mesh = load_mesh(name)
         for fp in (False, True):
-            csm = pyshadow.CoherentShadowMap.build(mesh, views, 128, progress=False, footprint=fp)
+            csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=128, progress=False, footprint=fp)
             scene = pyshadow.Scene(ground=0.0)
             scene.add(csm, pyshadow.stand_on_ground(mesh), mesh=mesh)
             row = {"ratio": csm.stats["ratio"], "build_seconds": csm.stats["build_seconds"],

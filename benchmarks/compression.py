@@ -111,8 +111,8 @@ def main(argv=None):
         key = (id(mesh), views.layout, tuple(sorted(views.params.items())), views.bases.tobytes(), frame, layers)
         if key not in built:
             built[key] = pyshadow.CoherentShadowMap.build(
-                mesh, views, args.resolution, layers=layers, progress=False, frame=sphere(mesh, frame),
-                footprint=args.footprint).stats
+                mesh, views, resolution=args.resolution, layers=layers, progress=False,
+                frame=sphere(mesh, frame), footprint=args.footprint).stats
         return built[key]
 
     def row(mesh, t, p, layers="auto"):

@@ -56,8 +56,8 @@ def main(argv=None):
         "bilateral_9x9": lambda: F.bilateral(ao, depth, normal),
         "bilateral_separable_9": lambda: F.bilateral(ao, depth, normal, separable=True),
         "edge_aware_box_7x7": lambda: F.edge_aware_box(ao, depth, normal),
-        "upsample_x2_4x4": lambda: F.upsample(low2, depth, normal, 2),
-        "upsample_x4_4x4": lambda: F.upsample(low4, depth, normal, 4),
+        "upsample_x2_4x4": lambda: F.upsample(low2, depth, normal, scale=2),
+        "upsample_x4_4x4": lambda: F.upsample(low4, depth, normal, scale=4),
     }
     mpix = args.width * args.height / 1e6
     rows = {}

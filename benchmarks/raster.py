@@ -33,7 +33,7 @@ def main(argv=None):
     out = {}
 
     def run():
-        out["depth"] = pyshadow.render_depth(mesh, views, args.resolution, args.layers)
+        out["depth"] = pyshadow.render_depth(mesh, views, resolution=args.resolution, layers=args.layers)
 
     med, times = median_time(run, repeats=args.repeats, warmup=1)
     d = out["depth"]

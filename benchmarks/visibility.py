@@ -46,7 +46,7 @@ def workload(scene, n_points, samples, seed=0):
     T = inst.transform
     p = local @ T[:3, :3].T + T[:3, 3]
     n = inst.mesh.face_normals[face] @ inst.rotation.T
-    d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3)
+    d = pyshadow.sample_directions(n, sampling=pyshadow.Sampling(samples, seed=seed)).reshape(-1, 3)
     return p, n, np.repeat(p, samples, axis=0), d
 
 

@@ -49,8 +49,8 @@ def main(argv=None):
         else:
             views = pyshadow.ViewSet.zigzag(args.theta, args.phi)
             layout = f"zigzag {args.theta}x{args.phi}"
-        csm = pyshadow.CoherentShadowMap.build(mesh, views, args.resolution, args.depth_bits,
-                                               progress=False)
+        csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=args.resolution,
+                                               depth_bits=args.depth_bits, progress=False)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(str(exc))
     name = args.mesh or "bunny"

@@ -64,7 +64,7 @@ def main(argv=None):
 
     idx = pick_maps(zigzag, args.maps)
     chosen = pyshadow.ViewSet(zigzag.directions[idx], zigzag.bases[idx])
-    depth = pyshadow.render_depth(mesh, chosen, args.resolution, layers=2)   # (n, 2, R, R)
+    depth = pyshadow.render_depth(mesh, chosen, resolution=args.resolution, layers=2)   # (n, 2, R, R)
     theta, phi = polar_angles(chosen.directions)
     for k, i in enumerate(idx):
         hit1 = np.isfinite(depth[k, 0]).mean()

@@ -5,9 +5,11 @@ warning names the new form. ``reset()`` forgets what was warned (tests).
 """
 from __future__ import annotations
 
+import functools
+import inspect
 import warnings
 
-__all__ = ["deprecated", "reset", "legacy_sampling"]
+__all__ = ["deprecated", "reset", "legacy_sampling", "keyword_only"]
 
 _warned: set[str] = set()
 
@@ -24,6 +26,61 @@ def deprecated(old: str, new: str, stacklevel: int = 3) -> None:
 def reset() -> None:
     """Forget which old forms have warned (so a test can see the warning again)."""
     _warned.clear()
+
+
+def keyword_only(where: str, old: int | None = None):
+    """Decorate ``f(data..., *, option=default, ...)`` so that the old positional options still work.
+
+    A call with more positional arguments than ``f`` has positional
+    parameters (the data, ``self`` or ``cls`` included) passes the extra ones
+    as the keyword-only parameters, in their declared order, and warns once
+    (``"{where}'s positional resolution, layers arguments is deprecated ...;
+    use keywords (resolution=, layers=)"``, pointing at the caller's line).
+    Other calls cost one length check.
+
+    Parameters
+    ----------
+    where : str
+        Name of the callable, for messages (``"CoherentShadowMap.build"``).
+    old : int, optional
+        How many of the keyword-only parameters (the first ones) the old
+        signature took by position; default all of them.
+
+    Raises
+    ------
+    TypeError
+        When called: more positional arguments than the old signature took,
+        or an option given both by position and by keyword. When decorating:
+        ``f`` has ``*args`` or no keyword-only parameter.
+    """
+    def wrap(f):
+        params = inspect.signature(f).parameters.values()
+        n_data = sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
+        names = tuple(p.name for p in params if p.kind is p.KEYWORD_ONLY)[:old]
+        if any(p.kind is p.VAR_POSITIONAL for p in params) or not names:
+            raise TypeError(f"keyword_only({where!r}): {f.__qualname__} needs keyword-only options "
+                            "and no *args")
+
+        @functools.wraps(f)
+        def call(*args, **kwargs):
+            if len(args) <= n_data:
+                return f(*args, **kwargs)
+            extra = args[n_data:]
+            if len(extra) > len(names):
+                raise TypeError(f"{where} takes at most {len(names)} options by position (deprecated) "
+                                f"after the data ({len(extra)} given)")
+            moved = names[:len(extra)]
+            for k in moved:
+                if k in kwargs:
+                    raise TypeError(f"{where} got {k!r} both by position and by keyword")
+            deprecated(f"{where}'s positional {', '.join(moved)} argument{'s' if len(moved) > 1 else ''}",
+                       f"keywords ({', '.join(k + '=' for k in moved)})", stacklevel=3)
+            kwargs.update(zip(moved, extra))
+            return f(*args[:n_data], **kwargs)
+
+        return call
+
+    return wrap
 
 
 _SAMPLING_FIELDS = ("samples", "strategy", "patterns", "seed")

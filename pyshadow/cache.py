@@ -241,7 +241,8 @@ class CSMCache:
                              "build_seconds": build, "file": str(path), "stats": csm.stats}
         self.log(f"building the CSM of {name}: {len(views)} maps of {resolution}^2 texels, "
                  f"{depth_bits}-bit depth")
-        csm = CoherentShadowMap.build(mesh, views, resolution, depth_bits, layers, progress=progress)
+        csm = CoherentShadowMap.build(mesh, views, resolution=resolution, depth_bits=depth_bits,
+                                      layers=layers, progress=progress)
         seconds = time.perf_counter() - t0
         if path is not None:
             try:

@@ -12,6 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import trimesh
 
+from ._compat import keyword_only
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
@@ -76,7 +77,8 @@ class EmbreeScene:
         return np.asarray(res) >= 0
 
 
-def depth_layers(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
+@keyword_only("pyshadow.embree.depth_layers", old=2)
+def depth_layers(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2,
                  frame=None, facing: bool = False):
     """Depth layers of ``mesh`` by Embree rays through the texel centres.
 
@@ -276,12 +278,11 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
                                       ("samples", "strategy", "seed", "patterns", "bent_normals"), sampling,
                                       old, Sampling())
     bent_normals = bool(extra.get("bent_normals", return_bent_normals))
-    samples, strategy, seed, patterns = sampling.samples, sampling.strategy, sampling.seed, sampling.patterns
 
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
-    dirs = sample_directions(n, samples, strategy, patterns, seed, indices=indices).astype(np.float64)
+    dirs = sample_directions(n, sampling=sampling, indices=indices).astype(np.float64)
     rays, anchor = caster_scene(scene)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)

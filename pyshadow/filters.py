@@ -43,6 +43,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import _cl
+from ._compat import keyword_only
 from .filters_reference import (
     bilateral_reference,
     edge_aware_box_reference,
@@ -119,8 +120,9 @@ def _run_passes(names, defines: dict, image: np.ndarray, depth: np.ndarray, norm
 # --------------------------------------------------------------------------
 # Bilateral filter
 # --------------------------------------------------------------------------
-def bilateral(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
-              sigma_normal=0.2, *, separable=False) -> np.ndarray:
+@keyword_only("pyshadow.bilateral", old=4)
+def bilateral(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
+              sigma_normal=0.2, separable=False) -> np.ndarray:
     """Joint bilateral filter of an AO image guided by depth and normal.
 
     ``out_p = 1/W_p sum_q G(|p - q|, sigma_spatial) G(|z_q - z_p| / z_p, sigma_depth)
@@ -205,7 +207,8 @@ def bilateral(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma_depth=0.0
 # --------------------------------------------------------------------------
 # Edge-aware box filter (seed 002, section 4.5)
 # --------------------------------------------------------------------------
-def edge_aware_box(ao, depth, normal, size=7, depth_threshold=0.02,
+@keyword_only("pyshadow.edge_aware_box")
+def edge_aware_box(ao, depth, normal, *, size=7, depth_threshold=0.02,
                    normal_threshold=0.9) -> np.ndarray:
     """Edge-aware box filter: the mean over the neighbours on the same surface.
 
@@ -266,8 +269,9 @@ def edge_aware_box(ao, depth, normal, size=7, depth_threshold=0.02,
 # --------------------------------------------------------------------------
 # Joint bilateral upsampling
 # --------------------------------------------------------------------------
-def upsample(ao_low, depth, normal, scale=None, radius=2, sigma_spatial=None, sigma_depth=0.02,
-             sigma_normal=0.2, *, fill=1.0) -> np.ndarray:
+@keyword_only("pyshadow.upsample", old=5)
+def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None, sigma_depth=0.02,
+             sigma_normal=0.2, fill=1.0) -> np.ndarray:
     """Joint bilateral upsampling of a low-resolution AO image (Kopf et al. 2007).
 
     Sampling convention: low-res pixel ``(i, j)`` holds the AO of full-res

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._compat import keyword_only
 from .filters_validate import (
     UPSAMPLE_MIN_WEIGHT,
     bilateral_inputs,
@@ -64,8 +65,9 @@ def _filter_offsets(ao, depth, normal, offsets, weight_fn):
     return out.astype(np.float32)
 
 
-def bilateral_reference(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
-                        sigma_normal=0.2, *, separable=False) -> np.ndarray:
+@keyword_only("pyshadow.filters.bilateral_reference", old=4)
+def bilateral_reference(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
+                        sigma_normal=0.2, separable=False) -> np.ndarray:
     """NumPy version of :func:`bilateral` (same rules, float64 arithmetic).
 
     Sums over every window offset ``(dy, dx) != (0, 0)`` with whole-image
@@ -73,8 +75,8 @@ def bilateral_reference(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma
     ``separable=True`` calls :func:`separable_reference`.
     """
     if check_flag("separable", separable):
-        return separable_reference(ao, depth, normal, radius, sigma_spatial, sigma_depth,
-                                   sigma_normal)
+        return separable_reference(ao, depth, normal, radius=radius, sigma_spatial=sigma_spatial,
+                                   sigma_depth=sigma_depth, sigma_normal=sigma_normal)
     ao, depth, normal, r, ss, sz, sn = bilateral_inputs(ao, depth, normal, radius, sigma_spatial,
                                                         sigma_depth, sigma_normal)
     offsets = [(dy, dx) for dy in range(-r, r + 1) for dx in range(-r, r + 1) if (dy, dx) != (0, 0)]
@@ -83,7 +85,8 @@ def bilateral_reference(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma
         lambda dy, dx, zp, zq, np_, nq: _weights(dy * dy + dx * dx, zp, zq, np_, nq, ss, sz, sn))
 
 
-def separable_reference(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
+@keyword_only("pyshadow.filters.separable_reference")
+def separable_reference(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
                         sigma_normal=0.2) -> np.ndarray:
     """NumPy version of ``bilateral(..., separable=True)``: rows, then columns.
 
@@ -100,7 +103,8 @@ def separable_reference(ao, depth, normal, radius=None, sigma_spatial=2.0, sigma
     return _filter_offsets(rows, depth, normal, [(k, 0) for k in ks], weight)
 
 
-def edge_aware_box_reference(ao, depth, normal, size=7, depth_threshold=0.02,
+@keyword_only("pyshadow.filters.edge_aware_box_reference")
+def edge_aware_box_reference(ao, depth, normal, *, size=7, depth_threshold=0.02,
                              normal_threshold=0.9) -> np.ndarray:
     """NumPy version of :func:`edge_aware_box` (same rules, float64 arithmetic)."""
     ao, depth, normal, size, dt, nt = box_inputs(ao, depth, normal, size, depth_threshold,
@@ -116,8 +120,9 @@ def edge_aware_box_reference(ao, depth, normal, size=7, depth_threshold=0.02,
     return _filter_offsets(ao, depth, normal, offsets, counted)
 
 
-def upsample_reference(ao_low, depth, normal, scale=None, radius=2, sigma_spatial=None,
-                       sigma_depth=0.02, sigma_normal=0.2, *, fill=1.0) -> np.ndarray:
+@keyword_only("pyshadow.filters.upsample_reference", old=5)
+def upsample_reference(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None,
+                       sigma_depth=0.02, sigma_normal=0.2, fill=1.0) -> np.ndarray:
     """NumPy version of :func:`upsample`: a loop over pixels and their taps.
 
     Weights in float64; the fallback's depth distance ``|z_q - z_p|`` is

@@ -20,6 +20,7 @@ import trimesh
 
 from . import _cl
 from ._cl import launch
+from ._compat import keyword_only
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
@@ -169,7 +170,8 @@ class DepthRenderer:
         return out
 
 
-def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *,
+@keyword_only("pyshadow.render_depth", old=2)
+def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2,
                  frame=None, block: int | None = None, progress: bool = False, facing: bool = False):
     """Layered depth maps of ``mesh`` for every view of ``views``.
 
@@ -213,7 +215,7 @@ def render_depth(mesh, views: ViewSet, resolution: int = 128, layers: int = 2, *
     Examples
     --------
     >>> import trimesh
-    >>> d = render_depth(trimesh.creation.icosphere(), ViewSet.zigzag(2, 4), 8)
+    >>> d = render_depth(trimesh.creation.icosphere(), ViewSet.zigzag(2, 4), resolution=8)
     >>> d.shape
     (8, 2, 8, 8)
     """
@@ -287,8 +289,9 @@ def covered_samples(p0, p1, p2, lo, hi):
     return rows[inside], cols[inside], e[:, inside] / e[:, inside].sum(axis=0)
 
 
-def render_depth_reference(mesh, views: ViewSet, resolution: int = 32, layers: int = 2,
-                           *, frame=None, facing: bool = False):
+@keyword_only("pyshadow.raster.render_depth_reference", old=2)
+def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers: int = 2,
+                           frame=None, facing: bool = False):
     """NumPy version of :func:`render_depth` (same rules, float64; slow).
 
     For each view and each triangle the texel centres inside the triangle's

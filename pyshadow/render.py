@@ -174,10 +174,28 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
     from .gbuffer import render_gbuffer
 
     items, ids = scene.draw_items(ground_size)
-    g = render_gbuffer(items, camera) if gbuffer is None else gbuffer
+    g = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
     hit = g["object_id"] >= 0
     obj = np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
     return covered_pixels(camera, g, obj, ao_scale=ao_scale)
+
+
+def _check_gbuffer(g, camera, n_items: int) -> dict:
+    """A G-buffer given to :func:`surface_points`: the camera's shape, item indices in range."""
+    H, W = camera.height, camera.width
+    want = {"object_id": (H, W), "depth": (H, W), "normal": (H, W, 3)}
+    for key, shape in want.items():
+        if key not in g:
+            raise ValueError(f"gbuffer lacks {key!r} (it needs {', '.join(want)})")
+        if np.shape(g[key]) != shape:
+            raise ValueError(f"gbuffer[{key!r}] has shape {np.shape(g[key])}; the camera needs {shape}")
+    oid = np.asarray(g["object_id"])
+    if not np.issubdtype(oid.dtype, np.integer):
+        raise TypeError(f"gbuffer['object_id'] must be integers, got {oid.dtype}")
+    if oid.size and (oid.min() < -1 or oid.max() >= n_items):
+        raise ValueError(f"gbuffer['object_id'] holds {int(oid.min())}..{int(oid.max())}; the scene draws "
+                         f"{n_items} items (ids 0..{n_items - 1}, -1 for the background)")
+    return g
 
 
 def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfacePoints:

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _cl
+from ._compat import legacy_sampling
 
 __all__ = ["Sampling", "STRATEGIES", "ao_from_samples", "sample_patterns", "pattern_indices", "sample_directions",
            "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
@@ -73,8 +74,7 @@ class Sampling:
 
     def directions(self, normals, indices=None) -> np.ndarray:
         """World directions (N, samples, 3) float32 about ``normals``: :func:`sample_directions`."""
-        return sample_directions(normals, self.samples, self.strategy, self.patterns, self.seed,
-                                 indices=indices)
+        return sample_directions(normals, sampling=self, indices=indices)
 
 
 def check_sampling(samples, strategy, patterns):
@@ -201,9 +201,19 @@ def direction_table(samples: int, strategy: str = "hammersley", patterns: int = 
     return local_directions(sample_patterns(samples, strategy, patterns, seed)).astype(np.float32)
 
 
-def sample_directions_reference(normals, samples: int = 36, strategy: str = "hammersley",
-                                patterns: int = 256, seed: int = 0, *, indices=None) -> np.ndarray:
+_ORDER = ("samples", "strategy", "patterns", "seed")
+
+
+def _sampling(where, args, sampling, old):
+    """The ``Sampling`` of a call that may use the old positional or keyword sampling arguments."""
+    return legacy_sampling(where, args, _ORDER, sampling, old, Sampling(), stacklevel=5)[0]
+
+
+def sample_directions_reference(normals, *args, sampling: Sampling | None = None, indices=None,
+                                **old) -> np.ndarray:
     """NumPy (float64) version of :func:`sample_directions`."""
+    sampling = _sampling("pyshadow.sampling.sample_directions_reference", args, sampling, old)
+    samples, strategy, patterns, seed = sampling.samples, sampling.strategy, sampling.patterns, sampling.seed
     n = _check_normals(normals)
     local = local_directions(sample_patterns(samples, strategy, patterns, seed))
     idx = np.arange(len(n)) if indices is None else np.asarray(indices, dtype=np.int64)
@@ -212,34 +222,33 @@ def sample_directions_reference(normals, samples: int = 36, strategy: str = "ham
     return loc[..., 0:1] * t[:, None] + loc[..., 1:2] * n[:, None] + loc[..., 2:3] * b[:, None]
 
 
-def sample_directions(normals, samples: int = 36, strategy: str = "hammersley",
-                      patterns: int = 256, seed: int = 0, *, indices=None) -> np.ndarray:
+def sample_directions(normals, *args, sampling: Sampling | None = None, indices=None, **old) -> np.ndarray:
     """The exact directions the AO kernels trace for each normal.
 
     Parameters
     ----------
     normals : array_like, shape (N, 3)
         Surface normals (world frame; normalised here, must be non-zero).
-        Query point ``i`` uses pattern ``pattern_indices(i, patterns, seed)``.
-    samples : int
-        Directions per point, 1 .. 4096.
-    strategy : str
-        One of :data:`STRATEGIES`.
-    patterns : int
-        Number of precomputed patterns ``M`` (thesis: 256).
-    seed : int
+        Query point ``i`` uses pattern ``pattern_indices(i, sampling.patterns,
+        sampling.seed)``.
+    sampling : Sampling, optional
+        Directions per point, strategy, number of patterns ``M`` and seed;
+        default ``Sampling()`` (36 Hammersley directions, 256 patterns). The
+        old positional or keyword ``samples, strategy, patterns, seed`` still
+        work, with a DeprecationWarning.
     indices : array_like of int, shape (N,), optional
         Pattern index of each point (as ``Scene.ambient_occlusion``'s
         ``indices``, e.g. pixel numbers); default ``arange(N)``.
 
     Returns
     -------
-    ndarray, shape (N, samples, 3), float32
+    ndarray, shape (N, sampling.samples, 3), float32
         Unit directions in the upper hemisphere of each normal, computed by
         the same OpenCL function the AO kernel calls, so a ray tracer given
         these directions traces exactly the rays pyshadow tests.
     """
-    check_sampling(samples, strategy, patterns)
+    sampling = _sampling("pyshadow.sample_directions", args, sampling, old)
+    samples, strategy, patterns, seed = sampling.samples, sampling.strategy, sampling.patterns, sampling.seed
     n = _check_normals(normals)
     N, S = len(n), int(samples)
     out = np.empty((N, S, 3), np.float32)

@@ -403,8 +403,9 @@ def _new_instance(scene, obj, T, casts, mesh) -> Instance:
             csm = scene._built.get(id(obj))
             if csm is None:
                 o = scene.csm_options
-                csm = CoherentShadowMap.build(obj, o["views"], o["resolution"], o["depth_bits"],
-                                              o["layers"], progress=scene.progress, footprint=o["footprint"])
+                csm = CoherentShadowMap.build(obj, o["views"], resolution=o["resolution"],
+                                              depth_bits=o["depth_bits"], layers=o["layers"],
+                                              progress=scene.progress, footprint=o["footprint"])
                 scene._built[id(obj)] = csm
         inst = Instance(T, bool(casts), csm=csm, mesh=obj)
     return inst

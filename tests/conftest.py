@@ -127,7 +127,7 @@ def surface_queries(scene, instance_id, n_points, samples, rng, uniform=False):
         n_rep = np.repeat(n, samples, axis=0)
         d = np.where(np.einsum("ij,ij->i", d, n_rep)[:, None] < 0, -d, d)
     else:
-        d = pyshadow.sample_directions(n, samples, seed=seed).reshape(-1, 3)
+        d = pyshadow.sample_directions(n, sampling=pyshadow.Sampling(samples, seed=seed)).reshape(-1, 3)
     return np.repeat(p, samples, axis=0), d.astype(np.float64)
 
 

@@ -61,8 +61,8 @@ def check_exact(csm, layers, maps=None, rows=None, cols=None):
 def test_csm_exact_for_shadow_tests_exhaustive(name, layout, bits):
     mesh = load(name)
     views = pyshadow.ViewSet.zigzag(8, 16) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
-    csm = CoherentShadowMap.build(mesh, views, 32, depth_bits=bits, layers=2, progress=False)
-    layers = pyshadow.render_depth(mesh, views, 32, 2)
+    csm = CoherentShadowMap.build(mesh, views, resolution=32, depth_bits=bits, layers=2, progress=False)
+    layers = pyshadow.render_depth(mesh, views, resolution=32, layers=2)
     counts = check_exact(csm, layers)
     # the check saw every case that matters
     assert counts["miss"] > 0 and counts["two"] > 0
@@ -75,7 +75,7 @@ def test_csm_exact_on_random_pairs_of_the_thesis_build(rng):
     """10^5 random (map, texel) pairs of the 64x128 @ 128^2 Stanford bunny."""
     mesh = load("stanford-bunny.obj")
     views = pyshadow.ViewSet.zigzag(64, 128)
-    csm = CoherentShadowMap.build(mesh, views, 128, progress=False)
+    csm = CoherentShadowMap.build(mesh, views, resolution=128, progress=False)
     n = 100_000
     maps = rng.integers(0, len(views), n)
     rows = rng.integers(0, 128, n)
@@ -90,7 +90,7 @@ def test_csm_exact_on_random_pairs_of_the_thesis_build(rng):
     for s in range(0, len(uniq), 512):
         sel = uniq[s:s + 512]
         sub = pyshadow.ViewSet(views.directions[sel], views.bases[sel])
-        layers[sel] = pyshadow.render_depth(mesh, sub, 128, 2)
+        layers[sel] = pyshadow.render_depth(mesh, sub, resolution=128, layers=2)
     counts = check_exact(csm, layers, maps, rows, cols)
     assert counts["miss"] > 1000 and counts["two"] > 1000 and counts["one"] > 10
     assert csm.iend.dtype == np.uint16 and csm.depth.dtype == np.uint16
@@ -99,12 +99,12 @@ def test_csm_exact_on_random_pairs_of_the_thesis_build(rng):
 def test_csm_layer_rule_3_on_closed_mesh():
     mesh = load("fandisk.obj")
     views = pyshadow.ViewSet.hilbert(3)
-    csm3 = CoherentShadowMap.build(mesh, views, 32, progress=False)          # 'auto'
-    csm2 = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
+    csm3 = CoherentShadowMap.build(mesh, views, resolution=32, progress=False)          # 'auto'
+    csm2 = CoherentShadowMap.build(mesh, views, resolution=32, layers=2, progress=False)
     assert csm3.layer_rule == 3 and csm2.layer_rule == 2
     assert csm3.segments < csm2.segments
     assert csm3.front_margin_texels == csm2.front_margin_texels == FRONT_MARGIN_TEXELS
-    layers, front = pyshadow.render_depth(mesh, views, 32, 3, facing=True)
+    layers, front = pyshadow.render_depth(mesh, views, resolution=32, layers=3, facing=True)
     maps, rows, cols = all_pairs(csm3)
     z = csm3.depth_for(maps, rows, cols)
     z1, z2, z3 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1, 2))
@@ -131,9 +131,9 @@ def test_csm_keeps_margin_in_front_of_second_sheets():
     mesh = load("teapot.obj")
     views = pyshadow.ViewSet.zigzag(8, 16)
     R = 32
-    csm = CoherentShadowMap.build(mesh, views, R, progress=False)
+    csm = CoherentShadowMap.build(mesh, views, resolution=R, progress=False)
     assert csm.layer_rule == 2 and csm.front_margin_texels == FRONT_MARGIN_TEXELS
-    layers, front = pyshadow.render_depth(mesh, views, R, 2, facing=True)
+    layers, front = pyshadow.render_depth(mesh, views, resolution=R, layers=2, facing=True)
     maps, rows, cols = all_pairs(csm)
     z = csm.depth_for(maps, rows, cols)
     z1, z2 = (layers[maps, i, rows, cols].astype(np.float64) for i in (0, 1))
@@ -156,9 +156,10 @@ def test_compression_kernel_matches_numpy_reference(name, rule, layout, bits):
     mesh = load(name)
     views = pyshadow.ViewSet.zigzag(8, 16) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
     for R, block in ((32, None), (17, 5)):
-        csm = CoherentShadowMap.build(mesh, views, R, depth_bits=bits, layers=rule, block=block,
+        csm = CoherentShadowMap.build(mesh, views, resolution=R, depth_bits=bits, layers=rule, block=block,
                                       progress=False)
-        offsets, iend, depth = compress_reference(*pyshadow.render_depth(mesh, views, R, rule, facing=True),
+        offsets, iend, depth = compress_reference(*pyshadow.render_depth(mesh, views, resolution=R,
+                                                                         layers=rule, facing=True),
                                                   rule, bits)
         np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)
         np.testing.assert_array_equal(csm.iend.astype(np.int64), iend)
@@ -176,10 +177,10 @@ def test_footprint_build_matches_numpy_reference_and_stays_exact(name, bits):
     mesh = load(name)
     views = pyshadow.ViewSet.zigzag(8, 16) if name == "stanford-bunny.obj" else pyshadow.ViewSet.hilbert(3)
     for R, block in ((32, None), (17, 5)):
-        csm = CoherentShadowMap.build(mesh, views, R, depth_bits=bits, block=block, progress=False,
+        csm = CoherentShadowMap.build(mesh, views, resolution=R, depth_bits=bits, block=block, progress=False,
                                       footprint=True)
         assert csm.footprint and csm.stats["footprint"]
-        layers, front = pyshadow.render_depth(mesh, views, R, csm.layer_rule, facing=True)
+        layers, front = pyshadow.render_depth(mesh, views, resolution=R, layers=csm.layer_rule, facing=True)
         corners, cfront = footprint_corners(mesh, views, R, csm.layer_rule, (csm.centre, csm.radius))
         offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, bits, corners=corners,
                                                   corner_front=cfront)
@@ -230,7 +231,8 @@ def test_footprint_raises_agreement_with_embree():
     d *= np.sign(np.einsum("ij,ij->i", d, N))[:, None]
     agree, lit = [], []
     for fp in (False, True):
-        csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), 64, progress=False, footprint=fp)
+        csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False,
+                                      footprint=fp)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, T, mesh=mesh)
         ours, truth = scene.visible(P, d, surface_ids=0), embree.visible(scene, P, d)
@@ -247,23 +249,26 @@ def test_footprint_arguments_are_checked_and_passed_on():
     scene = pyshadow.Scene(views=pyshadow.ViewSet.zigzag(2, 4), resolution=8, footprint=True)
     assert scene.instances[scene.add(mesh)].csm.footprint is True
     with pytest.raises(TypeError, match="footprint"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, progress=False, footprint="yes")
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=16, progress=False,
+                                footprint="yes")
     with pytest.raises(ValueError, match="4095"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 4096, progress=False, footprint=True)
-    layers, front = pyshadow.render_depth(mesh, pyshadow.ViewSet.zigzag(2, 4), 8, 2, facing=True)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=4096, progress=False,
+                                footprint=True)
+    layers, front = pyshadow.render_depth(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=8, layers=2,
+                                          facing=True)
     with pytest.raises(ValueError, match="corners"):
         compress_reference(layers, front, 2, 16, corners=layers, corner_front=front)
 
 
 def test_csm_layers_3_rejects_open_mesh():
     with pytest.raises(ValueError, match="watertight"):
-        CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, layers=3,
+        CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(2, 4), resolution=16, layers=3,
                                 progress=False)
 
 
 def test_csm_search_matches_numpy_reference(rng):
     mesh = load("teapot.obj")
-    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(8, 16), 32, progress=False)
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(8, 16), resolution=32, progress=False)
     maps = rng.integers(0, csm.maps, 5000)
     rows = rng.integers(0, 32, 5000)
     cols = rng.integers(0, 32, 5000)
@@ -279,7 +284,8 @@ def test_padded_search_layout_finds_the_same_segments(rng, wide):
     unpadded search, and the padding copies the list's last pair."""
     from pyshadow.csm import SEARCH_BLOCK
 
-    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(8, 16), 32, progress=False)
+    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(8, 16), resolution=32,
+                                  progress=False)
     a = csm.search_arrays(wide=wide, padded=True)
     plain = csm.search_arrays(wide=wide)
     off, soff, summary, pairs, seg = (a[k] for k in ("offsets", "soff", "summary", "pairs", "segment"))
@@ -302,9 +308,9 @@ def test_padded_search_layout_finds_the_same_segments(rng, wide):
 def test_csm_blocks_do_not_change_the_result():
     mesh = load("suzanne.ply")
     views = pyshadow.ViewSet.zigzag(6, 12)
-    a = CoherentShadowMap.build(mesh, views, 32, progress=False)
-    b = CoherentShadowMap.build(mesh, views, 32, block=5, progress=False)
-    c = CoherentShadowMap.build(mesh, views, 32, block=1, progress=False)
+    a = CoherentShadowMap.build(mesh, views, resolution=32, progress=False)
+    b = CoherentShadowMap.build(mesh, views, resolution=32, block=5, progress=False)
+    c = CoherentShadowMap.build(mesh, views, resolution=32, block=1, progress=False)
     for x in (b, c):
         np.testing.assert_array_equal(a.offsets, x.offsets)
         np.testing.assert_array_equal(a.iend, x.iend)
@@ -313,7 +319,7 @@ def test_csm_blocks_do_not_change_the_result():
 
 def test_csm_stats_and_counts():
     mesh = load("suzanne.ply")
-    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.hilbert(3), 32, progress=False)
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.hilbert(3), resolution=32, progress=False)
     s = csm.stats
     assert s["maps"] == 64 and s["resolution"] == 32 and s["segments"] == csm.segments
     assert s["uncompressed_bytes"] == 64 * 32 * 32 * 2
@@ -334,12 +340,13 @@ def test_csm_i_end_beyond_16_bits():
     """256 x 512 = 131072 maps: i_end must be stored in 32 bits."""
     mesh = load("suzanne.ply")
     views = pyshadow.ViewSet.zigzag(256, 512)
-    csm = CoherentShadowMap.build(mesh, views, 8, progress=False)
+    csm = CoherentShadowMap.build(mesh, views, resolution=8, progress=False)
     assert csm.iend.dtype == np.uint32
     assert int(csm.iend.max()) == len(views) - 1 > 65535
     rng = np.random.default_rng(1)
     maps = np.sort(rng.integers(65536, len(views), 300))
-    layers = pyshadow.render_depth(mesh, pyshadow.ViewSet(views.directions[maps], views.bases[maps]), 8, 2)
+    layers = pyshadow.render_depth(mesh, pyshadow.ViewSet(views.directions[maps], views.bases[maps]),
+                                   resolution=8, layers=2)
     full = np.full((len(views), 2, 8, 8), np.inf, np.float32)
     full[maps] = layers
     m = np.repeat(maps, 64)
@@ -353,22 +360,23 @@ def test_csm_i_end_beyond_16_bits():
 def test_csm_resolution_extremes(resolution):
     mesh = load("suzanne.ply")
     views = pyshadow.ViewSet.zigzag(2, 4)
-    csm = CoherentShadowMap.build(mesh, views, resolution, progress=False)
-    layers = pyshadow.render_depth(mesh, views, resolution, 2)
+    csm = CoherentShadowMap.build(mesh, views, resolution=resolution, progress=False)
+    layers = pyshadow.render_depth(mesh, views, resolution=resolution, layers=2)
     check_exact(csm, layers)
 
 
 def test_csm_build_rejects_bad_input():
     mesh = load("suzanne.ply")
     with pytest.raises(ValueError, match="zigzag"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4)[0:4], 16, progress=False)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4)[0:4], resolution=16, progress=False)
     with pytest.raises(ValueError, match="depth_bits"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, depth_bits=8, progress=False)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=16, depth_bits=8,
+                                progress=False)
     with pytest.raises(ValueError, match="resolution"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 0, progress=False)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=0, progress=False)
     with pytest.raises(ValueError, match="layers"):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, layers=1, progress=False)
-    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=16, layers=1, progress=False)
+    csm = CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=16, progress=False)
     with pytest.raises(ValueError, match="map index"):
         csm.depth_for(8, 0, 0)
     with pytest.raises(ValueError, match="row/column"):
@@ -382,15 +390,15 @@ def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng, tmp_path):
     views = pyshadow.ViewSet.zigzag(8, 16)
     c, r = pyshadow.bounding_sphere(mesh)
     frame = (c + np.array([0.1, -0.05, 0.02]) * r, 1.3 * r)
-    csm = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False, frame=frame)
-    default = CoherentShadowMap.build(mesh, views, 32, layers=2, progress=False)
+    csm = CoherentShadowMap.build(mesh, views, resolution=32, layers=2, progress=False, frame=frame)
+    default = CoherentShadowMap.build(mesh, views, resolution=32, layers=2, progress=False)
     np.testing.assert_array_equal(csm.centre, frame[0])
     assert csm.radius == frame[1]
     csm.save(tmp_path / "framed.csm")
     back = CoherentShadowMap.load(tmp_path / "framed.csm")
     np.testing.assert_array_equal(back.centre, frame[0])
     assert back.radius == frame[1]
-    counts = check_exact(csm, pyshadow.render_depth(mesh, views, 32, 2, frame=frame))
+    counts = check_exact(csm, pyshadow.render_depth(mesh, views, resolution=32, layers=2, frame=frame))
     assert counts["two"] > 0 and counts["one"] > 0
     # empty texels around the object are cheap: a wider frame compresses further
     assert csm.stats["ratio"] > 1.2 * default.stats["ratio"]
@@ -417,7 +425,8 @@ def test_csm_custom_frame_is_exact_and_queried_in_its_own_frame(rng, tmp_path):
 def test_csm_build_rejects_bad_frames(frame, match):
     mesh = load("suzanne.ply")
     with pytest.raises(ValueError, match=match):
-        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), 16, progress=False, frame=frame)
+        CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=16, progress=False,
+                                frame=frame)
 
 
 # ---------------------------------------------------------------------------
@@ -425,7 +434,7 @@ def test_csm_build_rejects_bad_frames(frame, match):
 # ---------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def small_csm():
-    return CoherentShadowMap.build(load("stanford-bunny.obj"), pyshadow.ViewSet.zigzag(8, 16), 32,
+    return CoherentShadowMap.build(load("stanford-bunny.obj"), pyshadow.ViewSet.zigzag(8, 16), resolution=32,
                                    progress=False)
 
 
@@ -434,7 +443,7 @@ def small_csm():
 @pytest.mark.parametrize("hemispheres", [False, True])
 def test_csm_save_load_round_trip_is_bit_identical(tmp_path, mmap, bits, hemispheres):
     views = pyshadow.ViewSet.hilbert(3, hemispheres)
-    csm = CoherentShadowMap.build(load("teapot.obj"), views, 32, depth_bits=bits, progress=False)
+    csm = CoherentShadowMap.build(load("teapot.obj"), views, resolution=32, depth_bits=bits, progress=False)
     path = csm.save(tmp_path / "teapot.csm")
     back = CoherentShadowMap.load(path, mmap=mmap)
     for name in ("offsets", "iend", "depth"):
@@ -588,8 +597,8 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
 
 
 def test_footprint_flag_survives_save_and_load(tmp_path):
-    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(4, 8), 16, progress=False,
-                                  footprint=True)
+    csm = CoherentShadowMap.build(load("teapot.obj"), pyshadow.ViewSet.zigzag(4, 8), resolution=16,
+                                  progress=False, footprint=True)
     back = CoherentShadowMap.load(csm.save(tmp_path / "fp.csm"))
     assert back.footprint is True and back.stats["footprint"] is True
     assert back.depth.tobytes() == csm.depth.tobytes() and back.iend.tobytes() == csm.iend.tobytes()
@@ -597,7 +606,8 @@ def test_footprint_flag_survives_save_and_load(tmp_path):
 
 def test_csm_file_without_margin_field_loads(tmp_path):
     """Files written before the margin existed carry no front_margin_texels: 0."""
-    csm = CoherentShadowMap.build(load("fandisk.obj"), pyshadow.ViewSet.zigzag(2, 4), 16, progress=False)
+    csm = CoherentShadowMap.build(load("fandisk.obj"), pyshadow.ViewSet.zigzag(2, 4), resolution=16,
+                                  progress=False)
     assert csm.layer_rule == 3 and csm.stats["front_margin_texels"] == FRONT_MARGIN_TEXELS
     old = _rewrite(csm.save(tmp_path / "f.csm"), tmp_path / "old.csm",
                    edit_header=lambda h: [h.pop("front_margin_texels"), h.pop("footprint")])
@@ -607,8 +617,8 @@ def test_csm_file_without_margin_field_loads(tmp_path):
 
 
 def test_csm_load_rejects_nan_depth(tmp_path):
-    csm = CoherentShadowMap.build(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 4), 16, depth_bits=32,
-                                  progress=False)
+    csm = CoherentShadowMap.build(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 4), resolution=16,
+                                  depth_bits=32, progress=False)
     good = csm.save(tmp_path / "g.csm")
 
     def edit(head, body, start):
@@ -633,7 +643,7 @@ def test_csm_build_memory_does_not_grow_with_maps(tmp_path):
         warnings.simplefilter("ignore")
         m = pyshadow.data.mesh("suzanne.ply")
         theta = int(sys.argv[1])
-        csm = pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(theta, 2 * theta), 128,
+        csm = pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(theta, 2 * theta), resolution=128,
                                                block=64, progress=False)
         print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024, csm.stats["bytes"])
     """)

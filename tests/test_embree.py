@@ -33,7 +33,8 @@ def covered():
 
 def _trace(tracer, points, normals, sel):
     """Every ray's occlusion, and how many rays went to Embree."""
-    d = pyshadow.sample_directions(normals, SAMPLES, STRATEGY, PATTERNS, SEED, indices=sel)
+    d = pyshadow.sample_directions(normals, sampling=pyshadow.Sampling(SAMPLES, STRATEGY, PATTERNS, SEED),
+                                   indices=sel)
     d32 = np.ascontiguousarray(d.reshape(-1, 3), dtype=np.float32)
     occ, todo, o32, dd = tracer.prepare(points, normals, d32, SAMPLES)
     assert occ.shape == (len(points) * SAMPLES,) and occ.dtype == bool

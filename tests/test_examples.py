@@ -277,9 +277,9 @@ def test_viz_imports_without_pyvista():
 def test_segment_heatmap_masks_exactly_the_never_hit_texels():
     mesh = trimesh.creation.box((1.0, 0.4, 0.7))
     views = pyshadow.ViewSet.zigzag(4, 8)
-    csm = pyshadow.CoherentShadowMap.build(mesh, views, 16, progress=False)
+    csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=16, progress=False)
     heat = viz.segment_heatmap(csm)
-    depth = pyshadow.render_depth(mesh, views, 16, layers=1)
+    depth = pyshadow.render_depth(mesh, views, resolution=16, layers=1)
     never_hit = ~np.isfinite(depth[:, 0]).any(axis=0)
     assert never_hit.any() and (~never_hit).any()          # both kinds of texel occur
     assert np.array_equal(np.isnan(heat), never_hit)

@@ -82,7 +82,9 @@ def gbuf():
     assert bg.sum() > 60 and np.isnan(ao[bg]).all()     # background, AO NaN there
     orient = np.unique(np.round(normal[~bg], 2), axis=0)
     assert len(orient) > 20                             # many normal orientations
-    assert np.nanstd(ao - bilateral_reference(ao, depth, normal, 3, 1e9, 1e9, 1e9)) > 0.05  # noisy
+    box = bilateral_reference(ao, depth, normal, radius=3, sigma_spatial=1e9, sigma_depth=1e9,
+                              sigma_normal=1e9)
+    assert np.nanstd(ao - box) > 0.05  # noisy
     return ao, depth, normal
 
 
@@ -93,8 +95,9 @@ def gbuf():
                                                 (6, 4.0, 0.01, 0.1)])
 def test_bilateral_matches_reference(gbuf, radius, ss, sz, sn):
     ao, depth, normal = gbuf
-    ours = bilateral(ao, depth, normal, radius, ss, sz, sn)
-    ref = bilateral_reference(ao, depth, normal, radius, ss, sz, sn)
+    ours = bilateral(ao, depth, normal, radius=radius, sigma_spatial=ss, sigma_depth=sz, sigma_normal=sn)
+    ref = bilateral_reference(ao, depth, normal, radius=radius, sigma_spatial=ss, sigma_depth=sz,
+                              sigma_normal=sn)
     assert ours.dtype == np.float32 and ours.shape == (H, W)
     surf = np.isfinite(depth)
     assert np.abs(ours[surf] - ref[surf]).max() <= 1e-5
@@ -104,19 +107,19 @@ def test_bilateral_matches_reference(gbuf, radius, ss, sz, sn):
 @pytest.mark.parametrize("radius, ss", [(None, 2.0), (5, 3.0)])
 def test_bilateral_separable_matches_reference(gbuf, radius, ss):
     ao, depth, normal = gbuf
-    ours = bilateral(ao, depth, normal, radius, ss, separable=True)
-    ref = separable_reference(ao, depth, normal, radius, ss)
+    ours = bilateral(ao, depth, normal, radius=radius, sigma_spatial=ss, separable=True)
+    ref = separable_reference(ao, depth, normal, radius=radius, sigma_spatial=ss)
     surf = np.isfinite(depth)
     assert np.abs(ours[surf] - ref[surf]).max() <= 1e-5
-    full = bilateral_reference(ao, depth, normal, radius, ss)
+    full = bilateral_reference(ao, depth, normal, radius=radius, sigma_spatial=ss)
     assert np.abs(ref[surf] - full[surf]).max() > 1e-3  # an approximation, not the 2-D filter
 
 
 @pytest.mark.parametrize("size, dt, nt", [(7, 0.02, 0.9), (3, 0.05, 0.5), (11, 0.01, 0.99)])
 def test_edge_aware_box_matches_reference(gbuf, size, dt, nt):
     ao, depth, normal = gbuf
-    ours = edge_aware_box(ao, depth, normal, size, dt, nt)
-    ref = edge_aware_box_reference(ao, depth, normal, size, dt, nt)
+    ours = edge_aware_box(ao, depth, normal, size=size, depth_threshold=dt, normal_threshold=nt)
+    ref = edge_aware_box_reference(ao, depth, normal, size=size, depth_threshold=dt, normal_threshold=nt)
     surf = np.isfinite(depth)
     assert np.abs(ours[surf] - ref[surf]).max() <= 1e-5
     assert np.abs(ours[surf] - ao[surf]).max() > 0.05
@@ -151,7 +154,7 @@ def test_upsample_infers_scale(gbuf):
     ao, depth, normal = gbuf
     for s in (2, 4):
         low = ao[::s, ::s].copy()
-        np.testing.assert_array_equal(upsample(low, depth, normal), upsample(low, depth, normal, s))
+        np.testing.assert_array_equal(upsample(low, depth, normal), upsample(low, depth, normal, scale=s))
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (1, 9), (9, 1), (3, 2)])
@@ -165,7 +168,7 @@ def test_filters_tiny_images_match_references(shape):
              (edge_aware_box(ao, depth, normal), edge_aware_box_reference(ao, depth, normal))]
     for s in (2, 4):
         low = ao[::s, ::s].copy()
-        pairs.append((upsample(low, depth, normal, s), upsample_reference(low, depth, normal, s)))
+        pairs.append((upsample(low, depth, normal, scale=s), upsample_reference(low, depth, normal, scale=s)))
     for ours, ref in pairs:
         assert ours.shape == shape
         np.testing.assert_allclose(ours, ref, rtol=0, atol=1e-5)
@@ -189,7 +192,8 @@ def distinct_depth_gbuffer(seed=11):
 def test_bilateral_tiny_sigma_depth_is_identity(separable):
     ao, depth, normal = distinct_depth_gbuffer()
     assert len(np.unique(depth)) == H * W
-    out = bilateral(ao, depth, normal, 3, 2.0, 1e-12, 0.2, separable=separable)
+    out = bilateral(ao, depth, normal, radius=3, sigma_spatial=2.0, sigma_depth=1e-12, sigma_normal=0.2,
+                    separable=separable)
     np.testing.assert_array_equal(out, ao)
 
 
@@ -208,7 +212,7 @@ def box_mean(ao, depth, r):
 
 def test_bilateral_huge_sigmas_give_box_mean(gbuf):
     ao, depth, normal = gbuf
-    out = bilateral(ao, depth, normal, 3, 1e9, 1e9, 1e9)
+    out = bilateral(ao, depth, normal, radius=3, sigma_spatial=1e9, sigma_depth=1e9, sigma_normal=1e9)
     expect = box_mean(ao, depth, 3)
     surf = np.isfinite(depth)
     np.testing.assert_allclose(out[surf], expect[surf], rtol=0, atol=1e-5)
@@ -216,7 +220,8 @@ def test_bilateral_huge_sigmas_give_box_mean(gbuf):
 
 def test_bilateral_separable_huge_sigmas_give_box_mean():
     ao, depth, normal = distinct_depth_gbuffer()        # no background: rectangles stay whole
-    out = bilateral(ao, depth, normal, 4, 1e9, 1e9, 1e9, separable=True)
+    out = bilateral(ao, depth, normal, radius=4, sigma_spatial=1e9, sigma_depth=1e9, sigma_normal=1e9,
+                    separable=True)
     np.testing.assert_allclose(out, box_mean(ao, depth, 4), rtol=0, atol=1e-5)
 
 
@@ -227,8 +232,8 @@ def test_bilateral_radius_zero_returns_input(gbuf):
 
 def test_bilateral_default_radius_follows_sigma(gbuf):
     ao, depth, normal = gbuf
-    np.testing.assert_array_equal(bilateral(ao, depth, normal, None, 1.2),
-                                  bilateral(ao, depth, normal, 3, 1.2))
+    np.testing.assert_array_equal(bilateral(ao, depth, normal, radius=None, sigma_spatial=1.2),
+                                  bilateral(ao, depth, normal, radius=3, sigma_spatial=1.2))
 
 
 def test_bilateral_is_scale_free(gbuf):
@@ -292,10 +297,10 @@ def step_gbuffer(edge_col=21, near=4.0, far=9.0):
 
 def test_edge_aware_box_does_not_blur_across_depth_step():
     ao, depth, normal, left = step_gbuffer()
-    out = edge_aware_box(ao, depth, normal, 7)
+    out = edge_aware_box(ao, depth, normal, size=7)
     np.testing.assert_allclose(out, ao, rtol=0, atol=1e-6)
     # with the depth test disabled the same filter does blur the step
-    blurred = edge_aware_box(ao, depth, normal, 7, depth_threshold=10.0)
+    blurred = edge_aware_box(ao, depth, normal, size=7, depth_threshold=10.0)
     assert np.abs(blurred - ao).max() > 0.2
 
 
@@ -310,7 +315,7 @@ def test_bilateral_does_not_blur_across_depth_step():
 def test_edge_aware_box_does_not_blur_across_crease():
     ao, depth, normal, left = step_gbuffer(near=6.0, far=6.0)   # same depth, normals apart
     normal[left] = unit([0.6, 0.0, 0.8])
-    out = edge_aware_box(ao, depth, normal, 7)
+    out = edge_aware_box(ao, depth, normal, size=7)
     np.testing.assert_allclose(out, ao, rtol=0, atol=1e-6)
 
 
@@ -353,10 +358,10 @@ def test_upsample_reproduces_smooth_field(scale):
 def test_upsample_does_not_bleed_across_depth_edge():
     ao, depth, normal, left = step_gbuffer(edge_col=21)  # not on the sample grid of 2 or 4
     for s in (2, 4):
-        out = upsample(ao[::s, ::s].copy(), depth, normal, s)
+        out = upsample(ao[::s, ::s].copy(), depth, normal, scale=s)
         np.testing.assert_allclose(out, ao, rtol=0, atol=1e-6)
     # without the depth term the pixels beside the edge do mix
-    mixed = upsample(ao[::4, ::4].copy(), depth, normal, 4, sigma_depth=1e9)
+    mixed = upsample(ao[::4, ::4].copy(), depth, normal, scale=4, sigma_depth=1e9)
     assert np.abs(mixed - ao).max() > 0.1
 
 
@@ -372,9 +377,9 @@ def test_upsample_thin_object_uses_closest_depth_tap():
     depth[post] = 3.0
     normal[post] = unit([1.0, 0.0, 1.0])
     low = np.broadcast_to(np.arange((W + 1) // 2) / 100.0, (H // 2, (W + 1) // 2))
-    out = upsample(low.astype(np.float32), depth, normal, 2)
+    out = upsample(low.astype(np.float32), depth, normal, scale=2)
     np.testing.assert_array_equal(out[post], np.float32(0.01))
-    ref = upsample_reference(low.astype(np.float32), depth, normal, 2)
+    ref = upsample_reference(low.astype(np.float32), depth, normal, scale=2)
     np.testing.assert_array_equal(ref[post], np.float32(0.01))
 
 
@@ -384,7 +389,7 @@ def test_upsample_pixel_without_surface_taps_gets_fill():
     depth[3, 5] = 2.0
     normal[3, 5] = [0.0, 1.0, 0.0]
     low = np.full((4, 4), np.nan, np.float32)
-    out = upsample(low, depth, normal, 2, fill=0.75)
+    out = upsample(low, depth, normal, scale=2, fill=0.75)
     assert (out == np.float32(0.75)).all()
 
 

@@ -42,7 +42,8 @@ def answers(mesh):
     pts, nrm = scene.vertex_points(0)
     pick = rng.choice(len(pts), min(len(pts), 600), replace=False)
     p = np.repeat(pts[pick], 8, axis=0)
-    d = pyshadow.sample_directions(nrm[pick], 8, seed=3).reshape(-1, 3).astype(np.float64)
+    d = pyshadow.sample_directions(nrm[pick], sampling=pyshadow.Sampling(8, seed=3))
+    d = d.reshape(-1, 3).astype(np.float64)
     for tag, ids in (("own", 0), ("unknown", None)):
         out[f"visible.{tag}"] = scene.visible(p, d, surface_ids=ids)
         out[f"visible.{tag}.vote"] = scene.visible(p, d, surface_ids=ids, lookup="vote")

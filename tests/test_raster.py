@@ -27,8 +27,8 @@ def test_render_depth_matches_numpy_reference():
     sheet = trimesh.Trimesh([[1.5, -1, -1], [1.5, 1, -1], [1.5, 1, 1], [1.5, -1, 1]], [[0, 1, 2], [0, 2, 3]])
     m = pyshadow.load_mesh(trimesh.util.concatenate([load("suzanne.ply"), sheet]))
     views = pyshadow.ViewSet.zigzag(3, 6)
-    ours, front = pyshadow.render_depth(m, views, 24, 3, facing=True)
-    ref, ref_front = render_depth_reference(m, views, 24, 3, facing=True)
+    ours, front = pyshadow.render_depth(m, views, resolution=24, layers=3, facing=True)
+    ref, ref_front = render_depth_reference(m, views, resolution=24, layers=3, facing=True)
     assert ours.shape == ref.shape == (18, 3, 24, 24)
     assert ours.dtype == np.float32
     np.testing.assert_array_equal(np.isfinite(ours), np.isfinite(ref))
@@ -48,9 +48,10 @@ def test_render_depth_agrees_with_embree(name, layout):
     m = load(name)
     views = pyshadow.ViewSet.zigzag(8, 8) if layout == "zigzag" else pyshadow.ViewSet.hilbert(3)
     assert len(views) >= 64
-    ours, front = pyshadow.render_depth(m, views, 128, 2, facing=True)
-    truth, truth_front = embree.depth_layers(m, views, 128, 2, facing=True)
-    np.testing.assert_array_equal(pyshadow.render_depth(m, views, 128, 2), ours)   # facing changes nothing
+    ours, front = pyshadow.render_depth(m, views, resolution=128, layers=2, facing=True)
+    truth, truth_front = embree.depth_layers(m, views, resolution=128, layers=2, facing=True)
+    # facing changes nothing
+    np.testing.assert_array_equal(pyshadow.render_depth(m, views, resolution=128, layers=2), ours)
     for layer, (cov, close, n) in enumerate(agreement(ours, truth), start=1):
         assert n > 1000, f"layer {layer}: too few texels hit to judge"
         assert cov >= 0.995, f"layer {layer}: coverage agrees on {cov:.4%}"
@@ -68,7 +69,7 @@ def test_render_depth_depth_range_and_convention():
     sphere = pyshadow.load_mesh(trimesh.creation.icosphere(subdivisions=6))
     views = pyshadow.ViewSet.hilbert(1)
     R = 64
-    d = pyshadow.render_depth(sphere, views, R, 2)
+    d = pyshadow.render_depth(sphere, views, resolution=R, layers=2)
     s = 2 * (np.arange(R) + 0.5) / R - 1
     y, x = np.meshgrid(s, s, indexing="ij")
     rho2 = x * x + y * y
@@ -90,7 +91,7 @@ def test_render_depth_row_and_column_orientation():
     tri = trimesh.Trimesh(np.array([centre + 0.25 * u, centre - 0.25 * v, centre + 0.25 * v]),
                           [[0, 1, 2]], process=False)
     R = 32
-    d = pyshadow.render_depth(tri, views[0:1], R, 1, frame=(np.zeros(3), 1.0))
+    d = pyshadow.render_depth(tri, views[0:1], resolution=R, layers=1, frame=(np.zeros(3), 1.0))
     rows, cols = np.nonzero(np.isfinite(d[0, 0]))
     assert len(rows) > 2
     # x = 2(c+0.5)/R - 1 = 0.5 -> c = 0.75R - 0.5;  y = -0.5 -> r = 0.25R - 0.5
@@ -104,7 +105,7 @@ def test_render_depth_watertight_on_closed_mesh(name):
     """Every ray entering a closed mesh leaves it: no cracks, no double counts."""
     m = load(name)
     assert m.is_watertight
-    d = pyshadow.render_depth(m, pyshadow.ViewSet.hilbert(3), 128, 3)
+    d = pyshadow.render_depth(m, pyshadow.ViewSet.hilbert(3), resolution=128, layers=3)
     l1, l2 = np.isfinite(d[:, 0]), np.isfinite(d[:, 1])
     assert l1.sum() > 10000
     np.testing.assert_array_equal(l1, l2)
@@ -116,8 +117,8 @@ def test_render_depth_invariant_to_scale_and_position(scale, offset):
     m = load("fandisk.obj")
     moved = trimesh.Trimesh(m.vertices * scale + offset, m.faces, process=False)
     views = pyshadow.ViewSet.zigzag(4, 8)
-    a = pyshadow.render_depth(m, views, 64, 2)
-    b = pyshadow.render_depth(moved, views, 64, 2)
+    a = pyshadow.render_depth(m, views, resolution=64, layers=2)
+    b = pyshadow.render_depth(moved, views, resolution=64, layers=2)
     cov = (np.isfinite(a) == np.isfinite(b)).mean()
     assert cov > 0.999
     both = np.isfinite(a) & np.isfinite(b)
@@ -127,8 +128,8 @@ def test_render_depth_invariant_to_scale_and_position(scale, offset):
 def test_render_depth_blocks_give_the_same_maps():
     m = load("suzanne.ply")
     views = pyshadow.ViewSet.zigzag(4, 8)
-    a = pyshadow.render_depth(m, views, 32, 2)
-    b = pyshadow.render_depth(m, views, 32, 2, block=5)
+    a = pyshadow.render_depth(m, views, resolution=32, layers=2)
+    b = pyshadow.render_depth(m, views, resolution=32, layers=2, block=5)
     np.testing.assert_array_equal(a, b)
 
 
@@ -144,28 +145,28 @@ def no_launch(monkeypatch):
 @pytest.mark.parametrize("resolution", [0, -1, 4097, 10**6])
 def test_render_depth_rejects_resolution(no_launch, resolution):
     with pytest.raises(ValueError, match="resolution must be in 1..4096"):
-        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution)
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution=resolution)
 
 
 @pytest.mark.parametrize("resolution", [2.5, "64", None])
 def test_render_depth_rejects_non_integer_resolution(no_launch, resolution):
     with pytest.raises(TypeError, match="resolution must be an int"):
-        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution)
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution=resolution)
 
 
 @pytest.mark.parametrize("layers", [0, 4, -1, 2.5, "2", True])
 def test_render_depth_rejects_layers(no_launch, layers):
     with pytest.raises(ValueError, match=r"layers must be 1, 2 or 3"):
-        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), 16, layers)
+        pyshadow.render_depth(load("suzanne.ply"), pyshadow.ViewSet.zigzag(2, 2), resolution=16, layers=layers)
 
 
 def test_render_depth_rejects_empty_view_set(no_launch):
     empty = pyshadow.ViewSet.zigzag(2, 2)[0:0]
     assert len(empty) == 0
     with pytest.raises(ValueError, match="view set is empty"):
-        pyshadow.render_depth(load("suzanne.ply"), empty, 16)
+        pyshadow.render_depth(load("suzanne.ply"), empty, resolution=16)
 
 
 def test_render_depth_rejects_non_view_set(no_launch):
     with pytest.raises(TypeError, match="ViewSet"):
-        pyshadow.render_depth(load("suzanne.ply"), np.eye(3), 16)
+        pyshadow.render_depth(load("suzanne.ply"), np.eye(3), resolution=16)

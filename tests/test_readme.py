@@ -36,9 +36,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     # the backends example continues the first one
     code = re.findall(r"```python\n(.*?)```", README, re.S)[1]
     exec(compile(code, "README.md", "exec"), ns)
-    # the vote lookup against Embree on the same rays (along the vertex normals; measured 99.65 %;
-    # 99.7 % on AO
-    # rays of the bunny (benchmarks/README.md); vertices at creases and in cavities lose some
+    # the vote lookup against Embree on the same rays, along the vertex normals: measured 99.65 %
+    # (99.7 % on the bunny's AO rays, benchmarks/README.md; vertices at creases lose some)
     assert (ns["lit"] == ns["truth"]).mean() > 0.98
     # the Embree render of the moved scene against the CSM render of it, same directions:
     # the bench scene measures an AO RMSE of 0.011 between the two (benchmarks/README.md)

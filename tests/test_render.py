@@ -156,3 +156,20 @@ def test_render_stage_rejects_bad_options(small_scene, no_launch):
 def test_render_unknown_visibility_names_the_backends(small_scene):
     with pytest.raises(ValueError, match="unknown visibility backend 'raytrace'; registered: .*csm-vote.*embree"):
         render_stage.render(small_scene, small_camera(), visibility="raytrace")
+
+
+@pytest.mark.parametrize("change, exc, match", [
+    (lambda g: g.pop("normal"), ValueError, r"gbuffer lacks 'normal'"),
+    (lambda g: g.__setitem__("depth", g["depth"][:-1]), ValueError, r"gbuffer\['depth'\] has shape \(31, 48\); the camera needs \(32, 48\)"),
+    (lambda g: g.__setitem__("object_id", g["object_id"].astype(np.float32)), TypeError, "must be integers"),
+    (lambda g: g.__setitem__("object_id", np.full_like(g["object_id"], 2)), ValueError,
+     r"holds 2\.\.2; the scene draws 2 items"),
+])
+def test_render_refuses_a_gbuffer_that_does_not_fit(small_scene, no_launch, change, exc, match):
+    """A G-buffer handed to the render stage is checked against the camera and the scene's
+    items before anything indexes with it."""
+    cam = small_camera()
+    g = {k: np.array(v) for k, v in embree.gbuffer(small_scene.draw_items(30.0)[0], cam).items()}
+    change(g)
+    with pytest.raises(exc, match=match):
+        render_stage.render(small_scene, cam, gbuffer=g, ground_size=30.0)

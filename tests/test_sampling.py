@@ -13,8 +13,8 @@ def test_sample_directions_match_numpy_reference():
     n = np.random.default_rng(1).normal(size=(3000, 3))
     n[:4] = [[0, 0, 1], [0, 0, -1], [1e-9, 0, -1], [0, 1, 0]]
     for strategy in pyshadow.STRATEGIES:
-        d = pyshadow.sample_directions(n, 36, strategy, 64, seed=5)
-        r = sampling.sample_directions_reference(n, 36, strategy, 64, seed=5)
+        d = pyshadow.sample_directions(n, sampling=Sampling(36, strategy, 64, seed=5))
+        r = sampling.sample_directions_reference(n, sampling=Sampling(36, strategy, 64, seed=5))
         assert d.shape == (3000, 36, 3) and d.dtype == np.float32
         np.testing.assert_allclose(d, r, atol=1e-6)
         unit_n = n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -83,8 +83,8 @@ def test_sampling_directions_are_sample_directions():
     s = Sampling(12, "latin_hypercube", 32, 9)
     idx = np.arange(500) * 7 + 3
     np.testing.assert_array_equal(s.directions(n, indices=idx),
-                                  pyshadow.sample_directions(n, 12, "latin_hypercube", 32, 9, indices=idx))
-    np.testing.assert_array_equal(s.directions(n), pyshadow.sample_directions(n, 12, "latin_hypercube", 32, 9))
+                                  pyshadow.sample_directions(n, sampling=s, indices=idx))
+    np.testing.assert_array_equal(s.directions(n), pyshadow.sample_directions(n, sampling=s))
 
 
 @pytest.mark.parametrize("kwargs, exc, match", [
@@ -116,11 +116,10 @@ def test_sampling_rejects_bad_values_naming_them(kwargs, exc, match):
     (dict(patterns=0), ValueError, "patterns must be an int in 1..65536, got 0"),
 ])
 def test_sample_functions_reject_bad_values(kwargs, exc, match):
+    """The building blocks check as Sampling does (sample_directions takes a Sampling)."""
     args = dict(samples=8, strategy="hammersley", patterns=4)
     args.update(kwargs)
     with pytest.raises(exc, match=match):
         sampling.sample_patterns(**args)
     with pytest.raises(exc, match=match):
-        pyshadow.sample_directions([[0.0, 1.0, 0.0]], **args)
-    with pytest.raises(exc, match=match):
-        sampling.sample_directions_reference([[0.0, 1.0, 0.0]], **args)
+        sampling.direction_table(**args)

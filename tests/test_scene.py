@@ -40,8 +40,10 @@ def test_set_transform_moves_without_rebuilding(monkeypatch):
 def test_scene_with_several_csm_types_is_order_independent(rng):
     """Every CSM type of a scene is found at its own place in the concatenated data."""
     fan, monkey = load("fandisk.obj"), load("suzanne.ply")
-    csm_f = pyshadow.CoherentShadowMap.build(fan, pyshadow.ViewSet.zigzag(16, 32), 64, progress=False)
-    csm_m = pyshadow.CoherentShadowMap.build(monkey, pyshadow.ViewSet.hilbert(4, True), 32, progress=False)
+    csm_f = pyshadow.CoherentShadowMap.build(fan, pyshadow.ViewSet.zigzag(16, 32), resolution=64,
+                                             progress=False)
+    csm_m = pyshadow.CoherentShadowMap.build(monkey, pyshadow.ViewSet.hilbert(4, True), resolution=32,
+                                             progress=False)
     results = []
     for order in (0, 1):
         scene = pyshadow.Scene()

@@ -70,7 +70,7 @@ def test_ambient_occlusion_is_visible_over_sample_directions(bunny_scene, lookup
     pts, nrm = bunny_scene.vertex_points(0)
     pts, nrm = pts[:2000], nrm[:2000]
     ao = bunny_scene.ambient_occlusion(pts, nrm, sampling=Sampling(36), surface_ids=0, lookup=lookup)
-    d = pyshadow.sample_directions(nrm, 36).reshape(-1, 3)
+    d = pyshadow.sample_directions(nrm, sampling=Sampling(36)).reshape(-1, 3)
     vis = bunny_scene.visible(np.repeat(pts, 36, axis=0), d, surface_ids=0, lookup=lookup)
     mean = vis.reshape(-1, 36).mean(axis=1)
     assert 0.3 < ao.mean() < 0.95
@@ -128,7 +128,7 @@ def test_front_margin_keeps_self_shadowing(name, monkeypatch):
             monkeypatch.setattr(csm_core, "FRONT_MARGIN_TEXELS", margin)
         else:
             monkeypatch.undo()
-        csm = pyshadow.CoherentShadowMap.build(mesh, views, 64, layers=layers, progress=False)
+        csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=64, layers=layers, progress=False)
         scene = pyshadow.Scene(ground=0.0)
         scene.add(csm, T, mesh=mesh)
         if p is None:
@@ -177,7 +177,8 @@ def test_open_plane_receiver_has_ao_one():
 @pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e3, 1e5)])
 def test_visibility_at_extreme_scales_and_positions(scale, offset, rng):
     bunny = load("stanford-bunny.obj")
-    csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(32, 64), 64, progress=False)
+    csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(32, 64), resolution=64,
+                                           progress=False)
     T = unit_frame(bunny, scale=scale, offset=(offset, offset, -offset))
     v = bunny.vertices @ T[:3, :3].T + T[:3, 3]
     scene = pyshadow.Scene(ground=float(v[:, 1].min()))
@@ -286,9 +287,9 @@ def test_mixed_16_and_32_bit_scene_matches_numpy_reference(rng):
     bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
     views = pyshadow.ViewSet.zigzag(16, 32)
     scene = pyshadow.Scene(ground=0.0)
-    scene.add(pyshadow.CoherentShadowMap.build(bunny, views, 64, depth_bits=16, progress=False),
+    scene.add(pyshadow.CoherentShadowMap.build(bunny, views, resolution=64, depth_bits=16, progress=False),
               on_ground(bunny, unit_frame(bunny)), mesh=bunny)
-    scene.add(pyshadow.CoherentShadowMap.build(fan, views, 64, depth_bits=32, progress=False),
+    scene.add(pyshadow.CoherentShadowMap.build(fan, views, resolution=64, depth_bits=32, progress=False),
               on_ground(fan, unit_frame(fan, 0.7, offset=(1.6, 0, 0.3))), mesh=fan)
     assert _device_atlas(scene)[0]["ntypes"] == 2
     p0, d0 = surface_queries(scene, 0, 2000, 8, rng)

@@ -74,12 +74,13 @@ class GBuffer:
 
 def _ray_chunks(gb: GBuffer, samples, strategy, seed, patterns, max_rays=1 << 22):
     """Yield (start, end, dirs float32 (n*S, 3)): the kernels' sample directions of pixel runs."""
-    from pyshadow.sampling import sample_directions
+    from pyshadow.sampling import Sampling, sample_directions
 
     step = max(1, max_rays // samples)
     for s in range(0, gb.n, step):
         e = min(gb.n, s + step)
-        d = sample_directions(gb.normals[s:e], samples, strategy, patterns, seed, indices=gb.sel[s:e])
+        d = sample_directions(gb.normals[s:e], sampling=Sampling(samples, strategy, patterns, seed),
+                              indices=gb.sel[s:e])
         yield s, e, np.ascontiguousarray(d.reshape(-1, 3), dtype=np.float32)
 
 

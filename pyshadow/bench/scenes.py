@@ -49,7 +49,8 @@ def mesh_scene(meshes, *, views, resolution: int = 128, depth_bits: int = 16, la
         lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
         csm = csm_for(name, mesh) if csm_for is not None else None
         if csm is None:
-            csm = CoherentShadowMap.build(mesh, views, resolution, depth_bits, layers, progress=False)
+            csm = CoherentShadowMap.build(mesh, views, resolution=resolution, depth_bits=depth_bits,
+                                          layers=layers, progress=False)
         scene.add(csm, T, mesh=mesh)
     target = 0.5 * (lo + hi)
     radius = 0.5 * float(np.linalg.norm(hi - lo))

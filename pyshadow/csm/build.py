@@ -65,8 +65,8 @@ def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame)
     """
     from ..raster import render_depth
 
-    return render_depth(mesh, views, int(resolution) + 1, layers, frame=corner_frame(frame, resolution),
-                        facing=True)
+    return render_depth(mesh, views, resolution=int(resolution) + 1, layers=layers,
+                        frame=corner_frame(frame, resolution), facing=True)
 
 
 def _check_frame(mesh, frame):

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._compat import keyword_only
 from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
@@ -108,9 +109,7 @@ class CoherentShadowMap:
         self.centre = np.asarray(centre, dtype=np.float64)
         self.radius = float(radius)
         self.mesh_hash = str(mesh_hash)
-        self.offsets = offsets
-        self.iend = iend
-        self.depth = depth
+        self.offsets, self.iend, self.depth = offsets, iend, depth
         self._build_seconds = float(build_seconds)
         self._peak_bytes = int(peak_bytes)
         self._device = None
@@ -119,7 +118,8 @@ class CoherentShadowMap:
     # build
     # ------------------------------------------------------------------
     @classmethod
-    def build(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
+    @keyword_only("CoherentShadowMap.build")
+    def build(cls, mesh, views: ViewSet, *, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
               frame=None, footprint: bool = False) -> "CoherentShadowMap":
         """Render and compress the depth maps of ``mesh`` for ``views``.

@@ -229,8 +229,8 @@ def default_scene(*, views=None, resolution: int = 128, depth_bits: int = 16, la
         if casts:
             csm = csm_for(name, mesh) if csm_for is not None else None
             if csm is None:
-                csm = CoherentShadowMap.build(mesh, views, resolution, depth_bits, layers,
-                                              progress=progress)
+                csm = CoherentShadowMap.build(mesh, views, resolution=resolution, depth_bits=depth_bits,
+                                              layers=layers, progress=progress)
             scene.add(csm, T, mesh=mesh)
         else:
             scene.add(mesh, T, casts=False)

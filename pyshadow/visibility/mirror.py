@@ -89,8 +89,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
     idx = check_indices(indices, len(p))
     S = sampling.samples
-    dirs = sample_directions_reference(n, S, sampling.strategy, sampling.patterns, sampling.seed,
-                                       indices=idx)
+    dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
                             surface_ids=ids, lookup=lookup).reshape(len(p), S)

@@ -71,6 +71,12 @@ def load(name: str, fill_holes: bool = False):
     return _cache[key]
 
 
+def all_pairs(csm):
+    """Every (map, row, col) of a CSM as three (D, R, R) index arrays."""
+    D, R = csm.maps, csm.resolution
+    return np.meshgrid(np.arange(D), np.arange(R), np.arange(R), indexing="ij")
+
+
 @pytest.fixture(autouse=True)
 def deprecations_warn_every_test():
     """Each old form warns once per process; forget before every test, so that a test
@@ -333,7 +339,8 @@ def pytest_terminal_summary(terminalreporter):
 # ---------------------------------------------------------------------------
 # test modules whose kernels work on lanes (kernels/lanes.h): each of their
 # tests runs at every width the device passed the probe at
-LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene", "test_visibility", "test_render"})
+LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene", "test_visibility",
+                               "test_visibility_backends", "test_render"})
 
 
 def test_targets(lanes: bool):

@@ -1,0 +1,166 @@
+"""Numerical stability at the extremes: one row per extreme, measured against Embree.
+
+Each row builds what it needs, asks pyshadow and Embree the identical rays,
+and prints its figure, the bound it is held to and pass/fail (``--json``
+too). The rows so far (issue "Numerical stability at the extremes"; more
+follow):
+
+- ``grazing``: rays 0.5-3 and 3-6 degrees above the flat top face of a thin
+  plate (3 mm on a 1 m part), from points on that face: the fraction the CSM
+  reports shadowed, where Embree sees the sky on every one of them (the
+  plate cannot shadow its own top face). Both lookups.
+- ``translation``: the bundled scene moved 1e5 and 1e7 from the origin:
+  visibility agreement with Embree on AO rays, and AO, against the scene at
+  the origin (bounds: 0.1 points of agreement, 0.005 mean absolute AO).
+- ``scale``: the bundled scene scaled by 1e-3 and 1e4: agreement against the
+  scene at scale 1 (bound: 0.1 points).
+
+    python benchmarks/extremes.py [--rows grazing,translation,scale] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+import trimesh
+
+from _common import emit, environment
+
+#: the bound a false-shadow fraction is held to: the visibility disagreement of
+#: the CSM on AO rays of the bunny (0.5 %, benchmarks/README.md)
+FALSE_SHADOW_BOUND = 0.005
+AGREEMENT_POINTS = 0.1          # translation and scale invariance (issue's bound)
+AO_MEAN_ABS = 0.005
+
+
+def _row(name, figure, bound, ok, **extra):
+    return {"row": name, "figure": figure, "bound": bound, "pass": bool(ok), **extra}
+
+
+def grazing_rows(resolution: int, views, n: int = 20000, seed: int = 3) -> list[dict]:
+    """Points on the top face of a 1 m x 1 m x 3 mm plate, rays at low elevation above it."""
+    import pyshadow
+    from pyshadow import embree, visibility
+
+    plate = trimesh.creation.box((1.0, 0.003, 1.0))
+    csm = pyshadow.CoherentShadowMap.build(plate, views, resolution=resolution, progress=False)
+    scene = pyshadow.Scene()                      # no ground: only the plate can shadow
+    scene.add(csm, mesh=plate)
+    rng = np.random.default_rng(seed)
+    top = 0.0015
+    rows = []
+    for lo, hi in ((0.5, 3.0), (3.0, 6.0)):
+        p = np.column_stack([rng.uniform(-0.45, 0.45, n), np.full(n, top), rng.uniform(-0.45, 0.45, n)])
+        elev = np.radians(rng.uniform(lo, hi, n))
+        az = rng.uniform(0.0, 2.0 * np.pi, n)
+        d = np.column_stack([np.cos(elev) * np.cos(az), np.sin(elev), np.cos(elev) * np.sin(az)])
+        truth = embree.visible(scene, p, d)
+        for backend in ("csm", "csm-vote"):
+            vis = visibility.visible(scene, p, d, backend=backend, surface_ids=0)
+            false_shadow = float(np.mean(truth & ~vis))
+            rows.append(_row(f"grazing {lo:g}-{hi:g} deg, {backend}", false_shadow, FALSE_SHADOW_BOUND,
+                             false_shadow <= FALSE_SHADOW_BOUND, unit="fraction of rays wrongly shadowed",
+                             embree_open=float(truth.mean())))
+    return rows
+
+
+def _moved_scene(scene, camera, shift, scale):
+    """The same scene with every transform, the ground and the camera scaled, then shifted."""
+    import pyshadow
+
+    S = np.diag([scale, scale, scale, 1.0])
+    S[:3, 3] = shift
+    out = pyshadow.Scene(ground=scene.ground * scale + shift[1])
+    for inst in scene.instances:
+        T = S @ inst.transform
+        if inst.casts:
+            out.add(inst.csm, T, mesh=inst.mesh)
+        else:
+            out.add(inst.mesh, T, casts=False)
+    cam = pyshadow.Camera(camera.eye * scale + shift, camera.target * scale + shift, fov_y=camera.fov_y,
+                          width=camera.width, height=camera.height)
+    return out, cam
+
+
+def _ao_rays(scene, camera, samples: int = 16):
+    """Surface points of the camera's covered pixels and their AO rays (identical in every frame)."""
+    import pyshadow
+    from pyshadow.render import surface_points
+
+    sp = surface_points(scene, camera)
+    n = np.asarray(sp.normals, np.float64)
+    d = pyshadow.sample_directions(n, sampling=pyshadow.Sampling(samples), indices=sp.index)
+    return sp, np.repeat(sp.points, samples, axis=0), d.reshape(-1, 3).astype(np.float64), samples
+
+
+def invariance_rows(kind: str, views, resolution: int) -> list[dict]:
+    """Agreement with Embree of the bundled scene moved (or scaled), against it at the origin."""
+    import pyshadow
+    from pyshadow import embree
+    from pyshadow.data import default_scene
+
+    base, camera = default_scene(views=views, resolution=resolution, width=160, height=120)
+    cases = ((1e5, 1.0), (1e7, 1.0)) if kind == "translation" else ((0.0, 1e-3), (0.0, 1e4))
+    results = {}
+    for offset, scale in ((0.0, 1.0),) + cases:
+        shift = np.array([offset, 0.5 * offset, -offset])
+        scene, cam = _moved_scene(base, camera, shift, scale)
+        sp, P, D, S = _ao_rays(scene, cam)
+        vis = scene.visible(P, D, surface_ids=np.repeat(sp.surface_ids, S))
+        truth = embree.visible(scene, P, D)
+        ao = scene.ambient_occlusion(sp.points, sp.normals, indices=sp.index, surface_ids=sp.surface_ids,
+                                     sampling=pyshadow.Sampling(S))
+        results[(offset, scale)] = {"agreement": float((vis == truth).mean()), "ao": ao, "pixels": sp.index}
+    ref = results[(0.0, 1.0)]
+    rows = []
+    for key in cases:
+        r = results[key]
+        same_pixels = np.array_equal(r["pixels"], ref["pixels"])
+        d_agree = 100.0 * abs(r["agreement"] - ref["agreement"])
+        label = f"offset {key[0]:g}" if kind == "translation" else f"scale {key[1]:g}"
+        rows.append(_row(f"{label}: agreement", d_agree, AGREEMENT_POINTS, d_agree <= AGREEMENT_POINTS,
+                         unit="points of agreement from the scene at the origin",
+                         agreement=r["agreement"], agreement_origin=ref["agreement"]))
+        if kind == "translation":
+            mad = float(np.abs(r["ao"] - ref["ao"]).mean()) if same_pixels else float("inf")
+            rows.append(_row(f"{label}: AO", mad, AO_MEAN_ABS, mad <= AO_MEAN_ABS,
+                             unit="mean absolute AO difference from the scene at the origin",
+                             same_pixels=same_pixels))
+    return rows
+
+
+ROWS = {"grazing": lambda a: grazing_rows(a.resolution, a.views),
+        "translation": lambda a: invariance_rows("translation", a.views, a.resolution),
+        "scale": lambda a: invariance_rows("scale", a.views, a.resolution)}
+
+
+def main(argv=None) -> int:
+    import pyshadow
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--rows", default=",".join(ROWS), help=f"comma-separated, of {', '.join(ROWS)}")
+    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI (default %(default)s)")
+    ap.add_argument("--resolution", type=int, default=128)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    names = [r for r in args.rows.split(",") if r]
+    unknown = [r for r in names if r not in ROWS]
+    if unknown:
+        ap.error(f"unknown rows {unknown}; choose from {', '.join(ROWS)}")
+    t, p = (int(x) for x in args.maps.lower().split("x"))
+    args.views = pyshadow.ViewSet.zigzag(t, p)
+    rows = [row for name in names for row in ROWS[name](args)]
+    result = {"benchmark": "extremes", **environment(), "maps": args.maps, "resolution": args.resolution,
+              "rows": rows}
+    if args.json:
+        emit(result, True)
+        return 0
+    print(f"{'row':46s} {'figure':>10s} {'bound':>8s}  pass")
+    for r in rows:
+        print(f"{r['row']:46s} {r['figure']:10.4g} {r['bound']:8.4g}  {'yes' if r['pass'] else 'NO'}")
+    return 0 if all(r["pass"] for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -35,11 +35,18 @@ AO_MEAN_ABS = 0.005
 
 
 def _row(name, figure, bound, ok, **extra):
-    return {"row": name, "figure": figure, "bound": bound, "pass": bool(ok), **extra}
+    """One row of the table; ``bound`` and ``ok`` None for an informational row."""
+    return {"row": name, "figure": figure, "bound": bound, "pass": None if ok is None else bool(ok), **extra}
 
 
 def grazing_rows(resolution: int, views, n: int = 20000, seed: int = 3) -> list[dict]:
-    """Points on the top face of a 1 m x 1 m x 3 mm plate, rays at low elevation above it."""
+    """Points on the top face of a 1 m x 1 m x 3 mm plate, rays at low elevation above it.
+
+    With the face's normal (``normals=``, what AO always passes) the surface
+    rule applies and the row is held to the bound; without it the figure is
+    the documented limit of a lookup that does not know the surface
+    (informational: bound None).
+    """
     import pyshadow
     from pyshadow import embree, visibility
 
@@ -50,18 +57,53 @@ def grazing_rows(resolution: int, views, n: int = 20000, seed: int = 3) -> list[
     rng = np.random.default_rng(seed)
     top = 0.0015
     rows = []
-    for lo, hi in ((0.5, 3.0), (3.0, 6.0)):
+    for lo, hi in ((0.01, 0.01), (0.01, 0.5), (0.5, 3.0), (3.0, 6.0)):
         p = np.column_stack([rng.uniform(-0.45, 0.45, n), np.full(n, top), rng.uniform(-0.45, 0.45, n)])
         elev = np.radians(rng.uniform(lo, hi, n))
         az = rng.uniform(0.0, 2.0 * np.pi, n)
         d = np.column_stack([np.cos(elev) * np.cos(az), np.sin(elev), np.cos(elev) * np.sin(az)])
+        normals = np.tile([0.0, 1.0, 0.0], (n, 1))
         truth = embree.visible(scene, p, d)
+        band = f"{lo:g} deg" if lo == hi else f"{lo:g}-{hi:g} deg"
         for backend in ("csm", "csm-vote"):
-            vis = visibility.visible(scene, p, d, backend=backend, surface_ids=0)
-            false_shadow = float(np.mean(truth & ~vis))
-            rows.append(_row(f"grazing {lo:g}-{hi:g} deg, {backend}", false_shadow, FALSE_SHADOW_BOUND,
-                             false_shadow <= FALSE_SHADOW_BOUND, unit="fraction of rays wrongly shadowed",
-                             embree_open=float(truth.mean())))
+            for given in (True, False):
+                vis = visibility.visible(scene, p, d, backend=backend, surface_ids=0,
+                                         normals=normals if given else None)
+                false_shadow = float(np.mean(truth & ~vis))
+                label = f"grazing {band}, {backend}" + ("" if given else ", no normals")
+                bound = FALSE_SHADOW_BOUND if given else None
+                rows.append(_row(label, false_shadow, bound, false_shadow <= FALSE_SHADOW_BOUND if given else None,
+                                 unit="fraction of rays wrongly shadowed", embree_open=float(truth.mean())))
+    return rows
+
+
+def sun_sphere_rows(resolution: int, views, n: int = 100000, lights: int = 3, seed: int = 2) -> list[dict]:
+    """A tessellated sphere under a directional light: points with n.l > 0.05 shadowed by the sphere itself."""
+    import pyshadow
+    from pyshadow import embree, visibility
+
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=1.0)
+    csm = pyshadow.CoherentShadowMap.build(sphere, views, resolution=resolution, progress=False)
+    scene = pyshadow.Scene()
+    scene.add(csm, mesh=sphere)
+    pts, face = trimesh.sample.sample_surface(sphere, n, seed=seed)
+    normals = sphere.face_normals[face]
+    rng = np.random.default_rng(seed)
+    rows = []
+    for backend in ("csm", "csm-vote"):
+        bad = lit = 0
+        for _ in range(lights):
+            sun = rng.normal(size=3)
+            sun /= np.linalg.norm(sun)
+            ndl = normals @ sun
+            sel = ndl > 0.05
+            d = np.tile(sun, (int(sel.sum()), 1))
+            truth = embree.visible(scene, pts[sel], d)
+            vis = visibility.visible(scene, pts[sel], d, backend=backend, surface_ids=0, normals=normals[sel])
+            bad += int((truth & ~vis).sum())
+            lit += int(truth.sum())
+        rows.append(_row(f"sphere under the sun, n.l > 0.05, {backend}", bad, 0, bad == 0,
+                         unit="points shadowed by the sphere itself", points=lit))
     return rows
 
 
@@ -131,6 +173,7 @@ def invariance_rows(kind: str, views, resolution: int) -> list[dict]:
 
 
 ROWS = {"grazing": lambda a: grazing_rows(a.resolution, a.views),
+        "sun-sphere": lambda a: sun_sphere_rows(a.resolution, a.views),
         "translation": lambda a: invariance_rows("translation", a.views, a.resolution),
         "scale": lambda a: invariance_rows("scale", a.views, a.resolution)}
 
@@ -156,10 +199,12 @@ def main(argv=None) -> int:
     if args.json:
         emit(result, True)
         return 0
-    print(f"{'row':46s} {'figure':>10s} {'bound':>8s}  pass")
+    print(f"{'row':56s} {'figure':>10s} {'bound':>8s}  pass")
     for r in rows:
-        print(f"{r['row']:46s} {r['figure']:10.4g} {r['bound']:8.4g}  {'yes' if r['pass'] else 'NO'}")
-    return 0 if all(r["pass"] for r in rows) else 1
+        bound = "-" if r["bound"] is None else f"{r['bound']:8.4g}"
+        verdict = "info" if r["pass"] is None else ("yes" if r["pass"] else "NO")
+        print(f"{r['row']:56s} {r['figure']:10.4g} {bound:>8s}  {verdict}")
+    return 0 if all(r["pass"] is not False for r in rows) else 1
 
 
 if __name__ == "__main__":

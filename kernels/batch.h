@@ -2,7 +2,9 @@
  * whole scene -- the ground plane, then per caster instance the bounding
  * sphere and the CSM lookup (csm_lookup.h) of the queries still open.
  * Expects: LANES (lanes.h), BATCH (queries per work-item, a multiple of
- * LANES), GROUND, and what csm_lookup.h expects.
+ * LANES), GROUND, SURFACE_NORMALS (0/1: each query's surface normal in
+ * nx, ny, nz, for the surface rule of csm_lookup.h), and what csm_lookup.h
+ * expects.
  */
 #ifndef PYSHADOW_BATCH_H
 #define PYSHADOW_BATCH_H
@@ -24,7 +26,11 @@
 #endif
 inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own,
-                           int *occ, const int nb)
+                           int *occ, const int nb
+#if SURFACE_NORMALS
+                           , const float *nx, const float *ny, const float *nz
+#endif
+                           )
 {
 #if GROUND
     for (int c = 0; c < nb; c += LANES)
@@ -45,7 +51,7 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
             }
         }
         for (int g = 0; g < cnt; g += LANES) {
-            LANE_ARRAY float a[6][LANES];
+            LANE_ARRAY float a[6 + 3 * SURFACE_NORMALS][LANES];
             LANE_ARRAY int ow[LANES], gi[LANES];
             for (int l = 0; l < LANES; ++l) {
                 const int i = idx[min(g + l, cnt - 1)];
@@ -53,11 +59,18 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
                 a[0][l] = px[i]; a[1][l] = py[i]; a[2][l] = pz[i];
                 a[3][l] = wx[i]; a[4][l] = wy[i]; a[5][l] = wz[i];
                 ow[l] = own[i];
+#if SURFACE_NORMALS
+                a[6][l] = nx[i]; a[7][l] = ny[i]; a[8][l] = nz[i];
+#endif
             }
             const iv act = MASK((iv)(g) + LANE_IDS < cnt);
             const iv r = instance_v(S, j, LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
                                     LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]),
-                                    LANE_LOAD(ow), act);
+                                    LANE_LOAD(ow), act
+#if SURFACE_NORMALS
+                                    , LANE_LOAD(a[6]), LANE_LOAD(a[7]), LANE_LOAD(a[8])
+#endif
+                                    );
             LANE_ARRAY int ra[LANES];
             LANE_STORE(r, ra);
             for (int l = 0; l < min(LANES, cnt - g); ++l)

@@ -6,6 +6,7 @@
  *                   counting search of csm_search.h over the padded lists
  *   map_frame_v()   a point seen from a map: axis, depth, texel coordinates
  *   bias_v()        the depth tolerance of a lane against a map
+ *   surface_rule_v() rays leaving their own body's surface (SURFACE_NORMALS)
  *   instance_v()    the lookup: the nearest map (views_zigzag.h,
  *                   views_hilbert.h) and its texel, or with FILTERED the
  *                   vote of four maps times four texels
@@ -21,7 +22,8 @@
  *
  * Expects: LANES (lanes.h); DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
  * (csm_search.h); LAYOUT_ZIGZAG, LAYOUT_HILBERT, FILTERED, FILTER_ANGLE_EPS
- * (FILTERED only); optional PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH
+ * (FILTERED only); SURFACE_NORMALS (0/1) and SURFACE_LIFT_TEXELS (float,
+ * SURFACE_NORMALS only: the surface rule); optional PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH
  * (visibility.cl).
  */
 #ifndef PYSHADOW_CSM_LOOKUP_H
@@ -32,6 +34,15 @@
 #include "scene_tables.h"
 #include "views_hilbert.h"
 #include "views_zigzag.h"
+
+#ifndef SURFACE_NORMALS
+#error "SURFACE_NORMALS (0/1: queries carry their surface normal) must be defined by the host"
+#endif
+#if SURFACE_NORMALS
+#define NORMAL_LIFT_PARAMS , iv up, fv ox, fv oy, fv oz, float btex
+#else
+#define NORMAL_LIFT_PARAMS
+#endif
 
 /* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
  * every lane with va[l] != 0, +inf for the others. The search of csm_find()
@@ -84,10 +95,18 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
 /* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
  * type's first map): the map axis d, the point's depth (1 - q.d) / 2 and
  * texel coordinates (fx, fy) in [0, R)^2 on the map; lanes (-1) where the
- * point lies inside the map's square, behind the bounding sphere's front */
+ * point lies inside the map's square, behind the bounding sphere's front.
+ * With SURFACE_NORMALS, the lanes of `up` (a ray leaving this body's own
+ * surface, unit normal (ox, oy, oz) in the object frame) are first lifted
+ * off the surface along the normal by
+ *     max(0, SURFACE_LIFT_TEXELS (|m.u| + |m.v|) - btex (m.d))  texels
+ * (u, v, d the map's rows): the least lift after which the texel centres
+ * within SURFACE_LIFT_TEXELS of the point on each map axis pass above the
+ * tangent plane by more than the depth bias btex covers -- none for a map
+ * that looks at the surface steeply, up to about 0.7 texel for a grazing one. */
 __attribute__((always_inline))
 inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
-                      fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy)
+                      fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy NORMAL_LIFT_PARAMS)
 {
     LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
     for (int l = 0; l < LANES; ++l) {
@@ -97,9 +116,22 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
         bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
     }
     *dx = LANE_LOAD(bd[0]); *dy = LANE_LOAD(bd[1]); *dz = LANE_LOAD(bd[2]);
+    const fv ux = LANE_LOAD(bu[0]), uy = LANE_LOAD(bu[1]), uz = LANE_LOAD(bu[2]);
+    const fv vx = LANE_LOAD(bv[0]), vy = LANE_LOAD(bv[1]), vz = LANE_LOAD(bv[2]);
+#if SURFACE_NORMALS
+    {
+        const fv sd = ox * *dx + oy * *dy + oz * *dz;
+        const fv lt = fabs(ox * ux + oy * uy + oz * uz) + fabs(ox * vx + oy * vy + oz * vz);
+        const fv h = VMAX((fv)(SURFACE_LIFT_TEXELS) * lt - btex * sd, (fv)(0.0f)) * (2.0f / (float)R);
+        const iv lift = up & MASK(sd > 0.0f);
+        qx = VSEL(qx, qx + h * ox, lift);
+        qy = VSEL(qy, qy + h * oy, lift);
+        qz = VSEL(qz, qz + h * oz, lift);
+    }
+#endif
     *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
-    *fx = (qx * LANE_LOAD(bu[0]) + qy * LANE_LOAD(bu[1]) + qz * LANE_LOAD(bu[2]) + 1.0f) * (0.5f * (float)R);
-    *fy = (qx * LANE_LOAD(bv[0]) + qy * LANE_LOAD(bv[1]) + qz * LANE_LOAD(bv[2]) + 1.0f) * (0.5f * (float)R);
+    *fx = (qx * ux + qy * uy + qz * uz + 1.0f) * (0.5f * (float)R);
+    *fy = (qx * vx + qy * vy + qz * vz + 1.0f) * (0.5f * (float)R);
     return MASK(*depth > 0.0f) & MASK(*fx >= 0.0f) & MASK(*fx < (float)R) & MASK(*fy >= 0.0f)
            & MASK(*fy < (float)R);
 }
@@ -132,9 +164,50 @@ inline void sort4_heaviest_first(fv *w, iv *x)
 }
 #endif
 
-/* lanes (-1) of act occluded by caster instance j (the CSM lookup) */
+#if SURFACE_NORMALS
+/* The surface rule (SURFACE_NORMALS): for the lanes whose point lies on
+ * instance j (own == j, or -1: unknown) with a known unit normal (world
+ * (mx, my, mz); (ox, oy, oz) in the object frame) and a direction v above
+ * its tangent plane (s = v.m > 0) -- the lanes `up`:
+ *   - the lookup direction is raised to the elevation I->horizon (sine)
+ *     where the ray is lower: every map the lookup may then pick (the
+ *     nearest, or the four of the vote's window) lies above the tangent
+ *     plane. A map below the plane looks at the surface from behind, and
+ *     the body would shadow every grazing ray over it;
+ *   - map_frame_v() lifts the point off its surface where the map is
+ *     grazing (NORMAL_LIFT_ARGS).
+ * Other lanes are unchanged. */
+inline iv surface_rule_v(__global const instance_t *I, int j, iv own, fv mx, fv my, fv mz,
+                         fv *ox, fv *oy, fv *oz, fv *vx, fv *vy, fv *vz)
+{
+    __global const float *Rw = I->rotation;
+    *ox = Rw[0] * mx + Rw[1] * my + Rw[2] * mz;
+    *oy = Rw[3] * mx + Rw[4] * my + Rw[5] * mz;
+    *oz = Rw[6] * mx + Rw[7] * my + Rw[8] * mz;
+    const fv s = *vx * *ox + *vy * *oy + *vz * *oz;
+    const iv up = (MASK(own == -1) | MASK(own == j)) & MASK(s > 0.0f);
+    const float hs = I->horizon;
+    /* raise: the tangential part scaled to cos(horizon), the normal part sin(horizon) */
+    const iv low = up & MASK(s < hs);
+    const fv tx = *vx - s * *ox, ty = *vy - s * *oy, tz = *vz - s * *oz;
+    const fv tl = sqrt(tx * tx + ty * ty + tz * tz);
+    const fv k = VSEL((fv)(0.0f), sqrt(1.0f - hs * hs) / VMAX(tl, (fv)(1e-30f)), low);
+    *vx = VSEL(*vx, k * tx + hs * *ox, low);
+    *vy = VSEL(*vy, k * ty + hs * *oy, low);
+    *vz = VSEL(*vz, k * tz + hs * *oz, low);
+    return up;
+}
+#define NORMAL_PARAMS , fv mx, fv my, fv mz
+#define NORMAL_LIFT_ARGS , up, ox, oy, oz, S->bias_texels
+#else
+#define NORMAL_PARAMS
+#define NORMAL_LIFT_ARGS
+#endif
+
+/* lanes (-1) of act occluded by caster instance j (the CSM lookup); with
+ * SURFACE_NORMALS each lane's unit surface normal (mx, my, mz), world frame */
 inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
-                     iv act)
+                     iv act NORMAL_PARAMS)
 {
     __global const instance_t *I = S->inst + j;
     __global const csm_type_t *T = S->types + S->itype[j];
@@ -148,6 +221,10 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
     const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
+#if SURFACE_NORMALS
+    fv ox, oy, oz;
+    const iv up = surface_rule_v(I, j, own, mx, my, mz, &ox, &oy, &oz, &vx, &vy, &vz);
+#endif
     LANE_ARRAY int am[LANES];
     LANE_STORE(act, am);
 
@@ -204,7 +281,7 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     for (int m = 0; m < 4 && VANY(open); ++m) {
         fv dx, dy, dz, depth, fx, fy;
         const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
-                                             &dx, &dy, &dz, &depth, &fx, &fy);
+                                             &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
         const fv wm = LANE_LOAD(mw[m]);
         if (!VANY(inside)) {
             rest -= wm;
@@ -265,7 +342,7 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     }
     fv dx, dy, dz, depth, fx, fy;
     const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz,
-                                       &dx, &dy, &dz, &depth, &fx, &fy);
+                                       &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
     if (!VANY(valid)) return (iv)(0);
     const iv tex = VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1));
     LANE_ARRAY int ta[LANES], va[LANES];

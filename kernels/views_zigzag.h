@@ -30,8 +30,10 @@ inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float
     const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
     /* th, ph >= 0: truncation is floor */
     const iv r0 = VMIN(VMAX(CONVERT(int, th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
-    iv c0 = VMIN(VMAX(CONVERT(int, ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
-    c0 = VSEL(c0, c0 - P, MASK(c0 >= P));
+    /* cu: the column below ph before wrapping (ph may round up to 2 pi just
+     * below the seam: cu = P), the offset dcol is measured from it */
+    const iv cu = VMIN(VMAX(CONVERT(int, ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
+    const iv c0 = VSEL(cu, cu - P, MASK(cu >= P));
     /* the candidate grid directions by angle addition from the query's own
      * (cos, sin) of theta and phi: rotate back by the small offsets to the
      * grid lines, then forward by one grid step */
@@ -39,10 +41,16 @@ inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float
     const iv pole = MASK(rho == 0.0f);
     const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
     const fv cth = wy, sth = rho;
-    const fv drow = th - CONVERT(float, r0) * dth, dcol = ph - CONVERT(float, c0) * dph;
-    const fv cd = cos_small(drow), sd = sin_small(drow);
+    const fv drow = th - CONVERT(float, r0) * dth, dcol = ph - CONVERT(float, cu) * dph;
+    /* the offsets are below one grid step: the short series where a step is
+     * below 0.2 rad (1e-8), the library's cos and sin on coarser grids */
+    fv cd, sd, ce, se;
+    if (dth < 0.2f && dph < 0.2f) {
+        cd = cos_small(drow); sd = sin_small(drow); ce = cos_small(dcol); se = sin_small(dcol);
+    } else {
+        cd = cos(drow); sd = sin(drow); ce = cos(dcol); se = sin(dcol);
+    }
     const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
-    const fv ce = cos_small(dcol), se = sin_small(dcol);
     const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
     const iv last = MASK(r0 + 1 > T - 1);
     const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last), st1 = VSEL(st0 * cst + ct0 * sst, st0, last);

@@ -24,6 +24,13 @@
  *     else only
  *     bias_other (the depth quantum): a point on another body or the
  *     ground needs no protection from acne, and contact shadows stay sharp.
+ *     With SURFACE_NORMALS (scene_ao always; scene_visible when the host
+ *     passes normals), a ray leaving the surface of instance j itself
+ *     (w'.m' > 0, m' its normal in the frame) follows the surface rule of
+ *     csm_lookup.h: its lookup direction is raised to the view set's
+ *     covering angle above the tangent plane where it is lower, and the
+ *     point is lifted off the surface where the map sees it obliquely
+ *     (pyshadow.csm.surface_rule gives the reasons).
  *   Points outside map k's square or in front of the bounding sphere
  *   (depth <= 0) cannot be shadowed by that instance.
  *   FILTERED: instead of one texel of map k, a vote -- the four maps of
@@ -68,6 +75,10 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   SURFACE_NORMALS      1: every query carries its surface's unit normal
+ *                        (scene_visible: normals float (N, 3); scene_ao:
+ *                        the point's normal) for the surface rule
+ *   SURFACE_LIFT_TEXELS  float: the surface rule's lift (csm_lookup.h)
  *   FILTERED             1: filtered lookups (instance16): the four maps of
  *                        views.ViewSet.filter_window, four texels each
  *   FILTER_ANGLE_EPS     float: views.FILTER_ANGLE_EPS (FILTERED only)
@@ -152,7 +163,11 @@ typedef fv fvu_t __attribute__((aligned(4)));
  * not written. */
 __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *points,
                             __global const dir_t *dirs, const anchor_t ax, const anchor_t ay,
-                            const anchor_t az, __global const int *owner, __global uchar *out)
+                            const anchor_t az, __global const int *owner,
+#if SURFACE_NORMALS
+                            __global const float *normals,
+#endif
+                            __global uchar *out)
 {
     const int base = get_global_id(0) * BATCH;
     if (base >= n) return;
@@ -218,7 +233,16 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
         const fv inv = 1.0f / sqrt(x * x + y * y + z * z);
         LANE_STORE(x * inv, wx + c); LANE_STORE(y * inv, wy + c); LANE_STORE(z * inv, wz + c);
     }
+#if SURFACE_NORMALS
+    LANE_ARRAY float nx[BATCH], ny[BATCH], nz[BATCH];
+    for (int l = 0; l < BATCH; ++l) {              /* unit normals, validated on the host */
+        const int i = base + min(l, m - 1);
+        nx[l] = normals[3 * i]; ny[l] = normals[3 * i + 1]; nz[l] = normals[3 * i + 2];
+    }
+    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH, nx, ny, nz);
+#else
     batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH);
+#endif
     for (int c = 0; c < m; c += LANES) {
         if (c + LANES <= m) {                     /* -1 (occluded) -> 0, 0 -> 1 */
             STOREU(ucharvu_t, out + base + c, CONVERT(uchar, LANE_LOAD(occ + c) + 1));
@@ -255,6 +279,10 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         LANE_ARRAY float px[AO_BATCH], py[AO_BATCH], pz[AO_BATCH], wx[AO_BATCH], wy[AO_BATCH],
                          wz[AO_BATCH];
         LANE_ARRAY int ow[AO_BATCH], occ[AO_BATCH];
+#if SURFACE_NORMALS
+        LANE_ARRAY float nx[AO_BATCH], ny[AO_BATCH], nz[AO_BATCH];
+        for (int l = 0; l < AO_BATCH; ++l) { nx[l] = nrm.x; ny[l] = nrm.y; nz[l] = nrm.z; }
+#endif
         for (int c = 0; c < AO_BATCH; c += LANES) {
             const int s = min(s0 + c, SPAD - LANES);
             const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
@@ -267,7 +295,11 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
             LANE_STORE(own, ow + c);
             LANE_STORE(MASK((iv)(s0 + c) + LANE_IDS >= SAMPLES), occ + c);   /* padding: decided */
         }
+#if SURFACE_NORMALS
+        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH, nx, ny, nz);
+#else
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH);
+#endif
         for (int l = 0; l < min(AO_BATCH, SAMPLES - s0); ++l) {
             if (occ[l]) continue;
             ++open;

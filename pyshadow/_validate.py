@@ -135,3 +135,9 @@ def check_indices(indices, n: int, name: str = "indices") -> np.ndarray:
     if idx.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {idx.shape}")
     return idx
+
+
+def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
+    """(n, 3) finite, non-zero normals, normalised to unit length (float64)."""
+    m = nonzero(rows3(normals, name, n), name)
+    return m / np.linalg.norm(m, axis=1, keepdims=True)

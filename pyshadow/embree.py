@@ -234,10 +234,26 @@ def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
     return ((h >= -eps) & (directions[:, 1] < 0)) | ((h < -eps) & (directions[:, 1] > 0))
 
 
-def surface_epsilon(scene) -> float:
-    """Offset that lifts a ray origin off a surface: 2e-5 of the scene's largest radius,
-    and at least 64 float32 ulps of the coordinates (``ray_epsilon``)."""
-    return float(max(2e-5 * scene.scale(), ray_epsilon(scene.scale())))
+def surface_epsilon(scene, points=None):
+    """Offset that lifts a ray origin off a surface, world units.
+
+    2e-5 of the scene's largest radius, and at least 64 float32 ulps
+    (:func:`ray_epsilon`) of the coordinates Embree sees: relative to the
+    casters' anchor (:func:`caster_scene`), those of each point when
+    ``points`` (world, (N, 3)) are given -- a float (N,) array then -- else
+    of the farthest caster, a float. Far from the anchor a float32 ray
+    tracer's intersection error grows with the coordinates, not with the
+    bodies' size: with many bodies spread over a large scene a fixed
+    offset let rays restart behind their own surface.
+    """
+    floor = 2e-5 * scene.scale()
+    anchor = scene.anchor()
+    if points is None:
+        extent = max([np.linalg.norm(inst.world_sphere()[0] - anchor) + inst.world_sphere()[1]
+                      for inst in scene.instances if inst.casts] or [scene.scale()])
+        return float(max(floor, ray_epsilon(extent)))
+    rel = np.abs(np.asarray(points, dtype=np.float64).reshape(-1, 3) - anchor).max(axis=1)
+    return np.maximum(floor, ray_epsilon(np.maximum(rel, scene.scale())))
 
 
 def visible(scene, points, directions) -> np.ndarray:
@@ -255,7 +271,8 @@ def visible(scene, points, directions) -> np.ndarray:
     occ = ground_occludes(scene, rel, w, anchor)
     todo = np.flatnonzero(~occ)
     if len(todo):
-        occ[todo] = rays.occluded(rel[todo] + surface_epsilon(scene) * w[todo], w[todo])
+        eps = surface_epsilon(scene, p[todo])
+        occ[todo] = rays.occluded(rel[todo] + eps[:, None] * w[todo], w[todo])
     return ~occ
 
 
@@ -288,7 +305,7 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     flat = dirs.reshape(-1, 3)
     # the ground is tested at the point itself, as the kernel does
     occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
-    origins = np.repeat(p - anchor + surface_epsilon(scene) * n, S, axis=0)
+    origins = np.repeat(p - anchor + surface_epsilon(scene, p)[:, None] * n, S, axis=0)
     todo = np.flatnonzero(~occ)
     chunk = 1 << 21
     for s in range(0, len(todo), chunk):

@@ -224,11 +224,13 @@ class Scene:
     # queries: thin wrappers over pyshadow.visibility and pyshadow.render
     # ------------------------------------------------------------------
     def visible(self, points, directions, *, lookup: str = "nearest", bias: float | None = None,
-                surface_ids=None, backend=None, filtered=None) -> np.ndarray:
+                surface_ids=None, backend=None, filtered=None, normals=None) -> np.ndarray:
         """Is each ray unoccluded by the scene's casters and ground plane?
 
         :func:`pyshadow.visibility.visible` on this scene (which documents
-        ``points``, ``directions``, ``bias`` and ``surface_ids``).
+        ``points``, ``directions``, ``bias``, ``surface_ids`` and
+        ``normals``: with the normal of each point's surface, grazing rays
+        over a flat face are not shadowed by the face itself).
 
         Parameters
         ----------
@@ -256,7 +258,8 @@ class Scene:
         from . import visibility
 
         name = _backend("Scene.visible", lookup, backend, filtered)
-        return visibility.visible(self, points, directions, backend=name, bias=bias, surface_ids=surface_ids)
+        return visibility.visible(self, points, directions, backend=name, bias=bias, surface_ids=surface_ids,
+                                  normals=normals)
 
     def ambient_occlusion(self, points, normals, *args, sampling: Sampling | None = None,
                           return_bent_normals: bool = False, lookup: str = "nearest",

@@ -65,12 +65,13 @@ def test_vote_visible_uniform_directions_reach_99_percent(bunny_scene, two_objec
 def test_ambient_occlusion_is_visible_over_sample_directions(bunny_scene, lookup):
     """scene_ao makes the directions of sample_directions on the device and asks
     them as scene_visible does: the AO of a point is the mean of visible() over
-    its directions."""
+    its directions, with the points' normals (the surface rule, which AO always applies)."""
     pts, nrm = bunny_scene.vertex_points(0)
     pts, nrm = pts[:2000], nrm[:2000]
     ao = bunny_scene.ambient_occlusion(pts, nrm, sampling=Sampling(36), surface_ids=0, lookup=lookup)
     d = pyshadow.sample_directions(nrm, sampling=Sampling(36)).reshape(-1, 3)
-    vis = bunny_scene.visible(np.repeat(pts, 36, axis=0), d, surface_ids=0, lookup=lookup)
+    vis = bunny_scene.visible(np.repeat(pts, 36, axis=0), d, surface_ids=0, lookup=lookup,
+                              normals=np.repeat(nrm, 36, axis=0))
     mean = vis.reshape(-1, 36).mean(axis=1)
     assert 0.3 < ao.mean() < 0.95
     np.testing.assert_allclose(ao, mean, atol=1e-6)

@@ -34,6 +34,7 @@ INSTANCE = np.dtype([
     ("rotation", "<f4", (9,)),    # Rw, 3x3 rows: world direction -> object frame
     ("centre", "<f4", (3,)),      # world bounding sphere centre
     ("radius", "<f4"),            # world bounding sphere radius (slightly enlarged)
+    ("horizon", "<f4"),           # the surface rule's lowest lookup elevation (sine)
 ])
 
 _C_TYPES = {np.dtype("<i4"): "int", np.dtype("<u4"): "uint", np.dtype("<f4"): "float"}

@@ -9,6 +9,7 @@ import numpy as np
 
 from .build import footprint_scale
 from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin
+from .surface_rule import SURFACE_LIFT_TEXELS
 
 __all__ = ["compress_reference", "footprint_interval", "segment_index_reference", "shadow_vote"]
 
@@ -187,8 +188,18 @@ def segment_index_reference(csm, map_index, rows, cols) -> np.ndarray:
     return out
 
 
+def _lift(normals, rows, B, R, bias, bias_texels):
+    """The surface rule's lift of each row in the maps with bases ``B`` (normalised units)."""
+    b = 0.0 if bias is not None else bias_texels
+    sd = np.einsum("ij,ij->i", normals, B[:, 2])
+    lt = np.abs(np.einsum("ij,ij->i", normals, B[:, 0])) + np.abs(np.einsum("ij,ij->i", normals, B[:, 1]))
+    h = np.maximum(SURFACE_LIFT_TEXELS * lt - b * sd, 0.0) * (2.0 / R)
+    return np.where(rows & (sd > 0), h, 0.0)
+
+
 def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
-                self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS) -> np.ndarray:
+                self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS,
+                normals=None, lift=None) -> np.ndarray:
     """Weighted shadowing vote of a CSM's taps for points and directions in its frame (NumPy).
 
     The rule of the visibility kernel (``instance16``) for one caster, in
@@ -216,6 +227,10 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     bias : float, optional
         One fixed bias for every tap instead.
     bias_texels : float, optional
+    normals : ndarray, shape (N, 3), optional
+        Unit surface normals in the CSM's frame, for the surface rule's lift
+        (:mod:`pyshadow.csm.surface_rule`) of the rows where ``lift`` is True.
+    lift : ndarray of bool, shape (N,), optional
 
     Returns
     -------
@@ -239,9 +254,10 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     for m in range(maps.shape[1]):
         k = maps[:, m]
         B = csm.views.bases[k]
-        depth = (1.0 - np.einsum("ij,ij->i", pn, B[:, 2])) * 0.5
-        fx = (np.einsum("ij,ij->i", pn, B[:, 0]) + 1.0) * 0.5 * R
-        fy = (np.einsum("ij,ij->i", pn, B[:, 1]) + 1.0) * 0.5 * R
+        q = pn if normals is None else pn + _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
+        depth = (1.0 - np.einsum("ij,ij->i", q, B[:, 2])) * 0.5
+        fx = (np.einsum("ij,ij->i", q, B[:, 0]) + 1.0) * 0.5 * R
+        fy = (np.einsum("ij,ij->i", q, B[:, 1]) + 1.0) * 0.5 * R
         inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
         if bias is None:
             ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)

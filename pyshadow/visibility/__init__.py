@@ -27,7 +27,7 @@ __all__ = ["visible", "ambient_occlusion", "VisibilityBackend", "register", "get
            "ambient_occlusion_reference"]
 
 
-def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=None):
+def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=None, normals=None):
     """Does each ray reach the sky?
 
     Parameters
@@ -56,13 +56,21 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         ``pyshadow.scene.GROUND_ID`` (-2) the ground plane. Points on
         receivers and the ground need no self-bias, so contact shadows stay
         sharp.
+    normals : array_like, shape (N, 3), optional
+        World normal of the surface each point lies on (normalised here;
+        zero or non-finite rows are an error). With them, a ray leaving a
+        caster's own surface is answered by the surface rule
+        (:mod:`pyshadow.csm.surface_rule`): grazing rays over a flat face
+        are not shadowed by the face itself. ``ambient_occlusion`` always
+        applies it. Backends that need no normals (``"embree"``) ignore them.
 
     Returns
     -------
     ndarray, shape (N,), bool
         True where the ray reaches the sky.
     """
-    return get_backend(backend).visible(scene, points, directions, bias=bias, surface_ids=surface_ids)
+    extra = {} if normals is None else {"normals": normals}
+    return get_backend(backend).visible(scene, points, directions, bias=bias, surface_ids=surface_ids, **extra)
 
 
 def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, return_bent_normals=False,

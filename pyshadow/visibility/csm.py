@@ -18,6 +18,11 @@ map's axis, ``R`` the CSM resolution, ``b0 = DEFAULT_BIAS_TEXELS`` (1.5;
 ``VOTE_BIAS_TEXELS`` = 1 for the vote) and ``b1 = DEFAULT_BIAS_TAN`` (0.5);
 against every other caster only the depth quantum (1/65534 for 16-bit
 depth). A given ``bias`` applies to every caster instead.
+
+Rays that leave a caster's own surface at a known normal (AO always;
+``visible(..., normals=...)``) follow the surface rule of
+:mod:`pyshadow.csm.surface_rule`: grazing rays over a flat face are not
+shadowed by that face.
 """
 from __future__ import annotations
 
@@ -29,10 +34,11 @@ import pyopencl as cl
 from .. import _cl
 from .._cl import launch
 from .._cl.tables import INSTANCE
-from .._validate import check_both, check_indices, kernel_rows, nonzero, rows3
+from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
+from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import direction_table, pattern_indices
 from ..views import FILTER_ANGLE_EPS
 from .base import register
@@ -70,7 +76,7 @@ def _device_atlas(scene):
     return atlas, index
 
 
-def _instance_data(scene, anchor, index):
+def _instance_data(scene, anchor, index, lookup="nearest"):
     """The casters' INSTANCE records (anchor-relative) and CSM type indices."""
     casters = [inst for inst in scene.instances if inst.casts]
     rows = np.zeros(max(1, len(casters)), INSTANCE)
@@ -87,6 +93,7 @@ def _instance_data(scene, anchor, index):
             Rm.T.reshape(-1),                           # rotation Rw
             wc - anchor,                                # centre
             wr * (1 + 1e-6),                            # radius
+            surface_horizon(inst.csm, lookup),          # horizon (sine)
         )
         itype[k] = index[id(inst.csm)]
     return _cl.to_device(rows), _cl.to_device(itype), len(casters)
@@ -133,13 +140,14 @@ class CSMVisibility:
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
              "BATCH": launch.shape().query_batch,
-             "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f"}
+             "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
+             "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f"}
         d.update(extra)
         return d
 
     def _scene_args(self, scene, anchor, bias):
         atlas, index = _device_atlas(scene)
-        inst, itype, ninst = _instance_data(scene, anchor, index)
+        inst, itype, ninst = _instance_data(scene, anchor, index, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
@@ -148,13 +156,14 @@ class CSMVisibility:
                 np.float32(b_other)]
         return atlas, args
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None) -> np.ndarray:
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None) -> np.ndarray:
         """:meth:`pyshadow.Scene.visible` by the kernel (float32 or float64 rows read in place)."""
         p = kernel_rows(points, "points")
         w = kernel_rows(directions, "directions", len(p))
         check_both(p, "points", w, "directions")
         n = len(p)
         own = scene.caster_slots(surface_ids, n)
+        m = None if normals is None else unit_normals(normals, n).astype(np.float32)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
@@ -172,7 +181,7 @@ class CSMVisibility:
         atlas, args = self._scene_args(scene, anchor, bias)
         k = _cl.kernel("visibility.cl", "scene_visible",
                        self._defines(scene, atlas, HAVE_FP64=int(fp64), POINTS_F64=int(p.dtype == np.float64),
-                                     DIRS_F64=int(w.dtype == np.float64)))
+                                     DIRS_F64=int(w.dtype == np.float64), SURFACE_NORMALS=int(m is not None)))
         # what the kernel subtracts from the points (the host already did on float-only devices)
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
         q = _cl.queue()
@@ -183,7 +192,8 @@ class CSMVisibility:
             e = min(n, s + shape.query_chunk)
             buf = _cl.host_buffer(res[s:e], writable=True)
             k(q, *launch.grid(-(-(e - s) // batch), shape.query_group), *args, np.int32(e - s),
-              _cl.host_buffer(p[s:e]), _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]), buf)
+              _cl.host_buffer(p[s:e]), _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]),
+              *([] if m is None else [_cl.host_buffer(m[s:e])]), buf)
             _cl.sync_host_buffer(buf, res[s:e])
         return out
 
@@ -191,8 +201,7 @@ class CSMVisibility:
                           bias=None, indices=None, surface_ids=None):
         """:meth:`pyshadow.Scene.ambient_occlusion` by the kernel."""
         p = rows3(points, "points")
-        n = nonzero(rows3(normals, "normals", len(p)), "normals")
-        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        n = unit_normals(normals, len(p))
         N, S = len(p), int(sampling.samples)
         idx = check_indices(indices, N)
         own = scene.caster_slots(surface_ids, N)
@@ -202,7 +211,8 @@ class CSMVisibility:
             anchor = scene.anchor(p)
             atlas, args = self._scene_args(scene, anchor, bias)
             k = _cl.kernel("visibility.cl", "scene_ao",
-                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bool(return_bent_normals))))
+                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bool(return_bent_normals)),
+                                         SURFACE_NORMALS=1))
             table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)

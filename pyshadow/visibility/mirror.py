@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_indices, nonzero, rows3
+from .._validate import check_indices, nonzero, rows3, unit_normals
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS
 from ..csm.reference import shadow_vote
+from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
 
@@ -21,7 +22,7 @@ __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference"
 
 
 def visible_reference(scene, points, directions, *, bias: float | None = None,
-                      surface_ids=None, lookup: str = "nearest") -> np.ndarray:
+                      surface_ids=None, lookup: str = "nearest", normals=None) -> np.ndarray:
     """NumPy version of :meth:`Scene.visible` (the same rules in float64).
 
     For each caster: bounding-sphere cull, the point and direction in the
@@ -32,7 +33,9 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     the four maps of :meth:`ViewSet.filter_window` times the four texels
     around the point. Differences to the kernel come only from float32
     rounding (e.g. a direction almost exactly between two maps, a vote of
-    almost exactly one half).
+    almost exactly one half). With ``normals``, the surface rule of
+    :mod:`pyshadow.csm.surface_rule` for the rays leaving a caster's own
+    surface.
     """
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
@@ -41,6 +44,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     w = nonzero(rows3(directions, "directions", len(p)), "directions")
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
     own = scene.caster_slots(surface_ids, len(p))
+    m = None if normals is None else unit_normals(normals, len(p))
     occ = np.zeros(len(p), bool)
     if scene.ground is not None:
         h = p[:, 1] - scene.ground
@@ -65,15 +69,35 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
         t = inst.transform[:3, 3]
         pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
         wn = w[act] @ Rm
+        mine = (own[act] == -1) | (own[act] == slot)
+        mn, up = None, None
+        if m is not None:
+            mn = m[act] @ Rm
+            wn, up = _raise_directions(csm, lookup, wn, mn, mine)
         if filtered:
             maps, map_w = csm.views.filter_window(wn)
         else:
             maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
         vote = shadow_vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if filtered else 1,
-                           self_=(own[act] == -1) | (own[act] == slot), bias=bias, bias_texels=b_texels)
+                           self_=mine, bias=bias, bias_texels=b_texels, normals=mn, lift=up)
         idx = np.flatnonzero(act)
         occ[idx[vote > 0.5]] = True
     return ~occ
+
+
+def _raise_directions(csm, lookup, wn, mn, mine):
+    """The surface rule's raised lookup directions (kernels/csm_lookup.h, surface_rule_v), float64.
+
+    Returns the directions and the rows the rule applies to (``up``).
+    """
+    hs = surface_horizon(csm, lookup)
+    s = np.einsum("ij,ij->i", wn, mn)
+    up = mine & (s > 0)
+    low = up & (s < hs)
+    t = wn - s[:, None] * mn
+    tl = np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-30)
+    raised = t * (np.sqrt(1.0 - hs * hs) / tl) + hs * mn
+    return np.where(low[:, None], raised, wn), up
 
 
 def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
@@ -92,7 +116,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
-                            surface_ids=ids, lookup=lookup).reshape(len(p), S)
+                            surface_ids=ids, lookup=lookup, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
     return ao_from_samples(dirs, vis, n, return_bent_normals)
 
 
@@ -106,9 +130,9 @@ class NumPyVisibility:
     def __repr__(self) -> str:
         return f"<NumPyVisibility {self.name!r}>"
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None):
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None):
         return visible_reference(scene, points, directions, bias=bias, surface_ids=surface_ids,
-                                 lookup=self.lookup)
+                                 lookup=self.lookup, normals=normals)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
                           indices=None, surface_ids=None):

@@ -22,7 +22,7 @@ class EmbreeVisibility:
     def __repr__(self) -> str:
         return "<EmbreeVisibility 'embree'>"
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None):
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None):
         from .. import embree
 
         return embree.visible(scene, points, directions)

@@ -1,4 +1,4 @@
-"""Numerical stability at the extremes: the geometry and mesh rows, measured against Embree.
+"""Numerical stability at the extremes: the geometry rows, measured against Embree.
 
 Imported by ``benchmarks/extremes.py`` (:data:`ROWS`); runs on its own too.
 Every row builds its CSMs, asks pyshadow (``"csm"``) and Embree identical
@@ -9,16 +9,18 @@ scene by its transforms, 1e5 and 1e7 from the origin, camera too),
 ``thin-plate`` (3 mm on 1 m; grazing rays are extremes.py's), ``small-large``
 (4 cm beside 4 m), ``contact`` (touching, resting, interpenetrating),
 ``ground-contact`` (on the ground, 1e-6 above), ``on-surface`` (points on
-faces, edges, vertices), ``mesh`` (open, single triangle, degenerate,
-duplicate, non-manifold, inverted and inconsistent winding, coplanar overlap;
-built raw and after ``load_mesh``), ``invariants`` (AO in [0, 1], closed
-box, open plane, rigid motion, determinism).
+faces, edges, vertices), ``invariants`` (AO in [0, 1], closed box, open
+plane, rigid motion, determinism); the broken meshes are
+``extremes_meshes.py``'s.
 
 Bounds: a disagreement with Embree on AO rays is held to 0.5 %, the CSM's on
 the bunny (99.52 % agreement at 64x128 maps of 128^2, benchmarks/README.md);
 size and position to 0.1 points of agreement and 0.005 mean absolute AO of
-the rendered image (the issue's bounds). Rows marked "(documented)" report a
-behaviour outside the CSM's contract (bound nan).
+the rendered image (the issue's bounds); a special case with an ordinary
+counterpart on the same construction (a mesh defect against the clean box,
+an edge or vertex against a face) to the counterpart's figure plus 0.1
+point. Rows marked "(documented)" report a behaviour outside the CSM's
+contract and baselines are informational (bound None).
 
     python benchmarks/extremes_geometry.py [--rows size,mesh,...] [--maps 64x128] [--resolution 128] [--json]
 """
@@ -26,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import warnings
 
 import numpy as np
 import trimesh
@@ -39,10 +40,16 @@ DISAGREE_BOUND = 0.005
 AGREEMENT_POINTS = 0.1          # size and position invariance: points of agreement (issue's bound)
 AO_MEAN_ABS = 0.005             # ... and mean absolute AO of a rendered image
 SAMPLES = 16                    # AO rays per point
+#: a special case against its ordinary counterpart on the same construction
+#: (a defect against the clean mesh, an edge against a face): 0.1 point,
+#: about three binomial standard deviations of a 0.5 % rate on the 32,000 to
+#: 64,000 rays of a row
+SAME_POINTS = 0.001
 
 
 def _row(name, figure, bound, ok, **extra):
-    return {"row": name, "figure": figure, "bound": bound, "pass": bool(ok), **extra}
+    """One row; ``bound`` and ``ok`` None for an informational row (a baseline, or documented behaviour)."""
+    return {"row": name, "figure": figure, "bound": bound, "pass": None if ok is None else bool(ok), **extra}
 
 
 # --- shared helpers ---
@@ -92,7 +99,9 @@ def agreement(scene, points, normals, surface_ids, samples=SAMPLES, backend="csm
     """
     P, D = ao_rays(points, normals, samples, seed)
     sid = np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(points),)), samples).astype(np.int32)
-    vis = scene.visible(P, D, surface_ids=sid, backend=None if backend == "csm" else backend)
+    # with the points' normals, as the AO kernel asks them (the surface rule)
+    N = np.repeat(np.asarray(normals, np.float64), samples, axis=0)
+    vis = scene.visible(P, D, surface_ids=sid, backend=None if backend == "csm" else backend, normals=N)
     truth = embree.visible(scene, P, D)
     return {"disagree": float(np.mean(vis != truth)), "false_shadow": float(np.mean(truth & ~vis)),
             "false_light": float(np.mean(vis & ~truth)), "rays": int(len(P)), "vis": vis, "truth": truth}
@@ -163,7 +172,8 @@ def size_rows(views, resolution) -> list[dict]:
         scene, frame = _render_pair(parts, _pair_views(s, off), 0.0, views, resolution)
         res[s] = (_pair_agreement(scene, s, off), frame)
     ref_a, ref_f = res[1.0]
-    rows = [_agree_row("size 1: agreement", ref_a)]
+    rows = [_row("size 1: agreement (the baseline of the size rows)", ref_a["disagree"], None, None,
+                 unit="fraction of AO rays disagreeing with Embree")]
     for s in (1e-3, 1e4):
         a, f = res[s]
         d = 100.0 * abs(a["disagree"] - ref_a["disagree"])
@@ -295,7 +305,7 @@ def contact_rows(views, resolution, n=3000, seed=13) -> list[dict]:
             vis_in = res["vis"].reshape(len(P), SAMPLES)[inside]
             truth_in = res["truth"].reshape(len(P), SAMPLES)[inside]
             lit = float(vis_in.mean())
-            rows.append(_row(f"{label}: surface inside the other (documented)", lit, float("nan"), True,
+            rows.append(_row(f"{label}: surface inside the other (documented)", lit, None, None,
                              unit="fraction of AO rays reported open (Embree: %.4f)" % float(truth_in.mean()),
                              points=int(inside.sum())))
     return rows
@@ -348,107 +358,16 @@ def on_surface_rows(views, resolution, n=3000, seed=15) -> list[dict]:
     scene = scene_of([(bunny_w, None), (box, None)], views, resolution, ground=0.0)
     for i, (name, m) in enumerate((("bunny", bunny_w), ("box", box))):
         p, nn = surface_samples(m, None, n, seed)
-        rows.append(_agree_row(f"{name}: points on faces", agreement(scene, p, nn, i)))
+        faces = agreement(scene, p, nn, i)
+        rows.append(_agree_row(f"{name}: points on faces", faces))
+        # a point exactly on an edge or a vertex may be no worse than one inside a face
+        bound = faces["disagree"] + SAME_POINTS
         p, nn = edge_points(m, n, seed)
-        rows.append(_agree_row(f"{name}: points on edges", agreement(scene, p, nn, i)))
+        rows.append(_agree_row(f"{name}: points on edges", agreement(scene, p, nn, i), bound=bound))
         v = np.asarray(m.vertices)
         vn = np.asarray(m.vertex_normals)
         sel = np.random.default_rng(seed).choice(len(v), min(n, len(v)), replace=False)
-        rows.append(_agree_row(f"{name}: points on vertices", agreement(scene, v[sel], vn[sel], i)))
-    return rows
-
-
-# --- broken meshes ---
-def _box_raw():
-    return _box_at((1, 1, 1), (0, 0.5, 0))
-
-
-def broken_meshes():
-    """``{name: (raw mesh, outward face normals of the raw faces or None)}`` of the mesh rows."""
-    out = {}
-    box = _box_raw()
-    f, v = np.asarray(box.faces), np.asarray(box.vertices)
-    up = box.face_normals[:, 1] > 0.5
-    out["open box (no top)"] = (trimesh.Trimesh(v, f[~up], process=False), None)
-    tri = trimesh.Trimesh([[-0.5, 0.6, -0.5], [0.6, 0.8, -0.4], [-0.3, 0.7, 0.6]], [[0, 2, 1]], process=False)
-    out["single triangle"] = (tri, None)
-    # zero-area faces: a repeated index and three collinear vertices on an edge
-    v2 = np.vstack([v, 0.5 * (v[f[0, 0]] + v[f[0, 1]])])
-    degen = np.vstack([f, [[f[0, 0], f[0, 0], f[0, 1]], [f[0, 0], len(v), f[0, 1]]]])
-    out["degenerate triangles"] = (trimesh.Trimesh(v2, degen, process=False), None)
-    out["duplicate triangles"] = (trimesh.Trimesh(v, np.vstack([f, f[:4], f[4:6, ::-1]]), process=False), None)
-    # a fin: a quad sharing the box's top edge at z = +0.5 (that edge has three faces)
-    top = v[:, 1] > 0.9
-    e = np.flatnonzero(top & (v[:, 2] > 0.4))
-    a, b = e[np.argsort(v[e, 0])]
-    fin_v = np.vstack([v, v[[a, b]] + [0.0, 0.5, 0.5]])
-    fin_f = np.vstack([f, [[a, b, len(v) + 1], [a, len(v) + 1, len(v)]]])
-    out["non-manifold edge (fin)"] = (trimesh.Trimesh(fin_v, fin_f, process=False), None)
-    out["inverted winding"] = (trimesh.Trimesh(v, f[:, ::-1], process=False), box.face_normals)
-    mixed = f.copy()
-    mixed[::2] = mixed[::2, ::-1]
-    out["inconsistent winding"] = (trimesh.Trimesh(v, mixed, process=False), box.face_normals)
-    # a second quad over part of the top face, in its plane
-    q = np.array([[-0.3, 1.0, -0.3], [0.45, 1.0, -0.3], [0.45, 1.0, 0.45], [-0.3, 1.0, 0.45]])
-    ov = np.vstack([v, q])
-    of = np.vstack([f, np.array([[0, 2, 1], [0, 3, 2]]) + len(v)])
-    out["coplanar overlapping faces"] = (trimesh.Trimesh(ov, of, process=False), None)
-    return out
-
-
-def mesh_case(name, raw, normals, views, resolution, n=2000, seed=16, load=False):
-    """Build (raw, or after load_mesh), then agreement on the mesh's two sides and the ground."""
-    info = {"mesh": name, "load": load}
-    mesh = raw
-    if load:
-        with warnings.catch_warnings(record=True) as w:
-            warnings.simplefilter("always")
-            try:
-                mesh = pyshadow.load_mesh(raw)
-            except Exception as exc:       # a refusal is an answer too
-                info["error"] = f"{type(exc).__name__}: {exc}"
-                return info
-        info["warnings"] = [str(x.message) for x in w]
-    try:
-        csm = _build(mesh, views, resolution)
-    except Exception as exc:
-        info["error"] = f"{type(exc).__name__}: {exc}"
-        return info
-    info["layer_rule"] = csm.layer_rule
-    scene = pyshadow.Scene(ground=0.0)
-    scene.add(csm, mesh=mesh)
-    fn = mesh.face_normals if normals is None or len(mesh.faces) != len(raw.faces) else normals
-    local, face = trimesh.sample.sample_surface(mesh, n, seed=seed)
-    nn = fn[face]
-    # an open sheet is seen from both sides: sample both
-    if name in ("single triangle", "open box (no top)"):
-        flip = np.random.default_rng(seed).random(n) < 0.5
-        nn = np.where(flip[:, None], -nn, nn)
-    g, gn = ground_grid(np.zeros(3), 1.2, n, seed=seed)
-    P = np.concatenate([local, g])
-    N = np.concatenate([nn, gn])
-    S = np.concatenate([np.zeros(n, int), np.full(n, -2)])
-    a = agreement(scene, P, N, S)
-    info.update({k: a[k] for k in ("disagree", "false_shadow", "false_light", "rays")})
-    return info
-
-
-def mesh_rows(views, resolution) -> list[dict]:
-    rows = []
-    for name, (raw, normals) in broken_meshes().items():
-        for load in (False, True):
-            info = mesh_case(name, raw, normals, views, resolution, load=load)
-            how = "load_mesh" if load else "raw"
-            label = f"{name} ({how})"
-            if "error" in info:
-                rows.append(_row(label, float("nan"), DISAGREE_BOUND, False, unit="refused", error=info["error"]))
-                continue
-            extra = {"layer_rule": info["layer_rule"]}
-            if info.get("warnings"):
-                extra["warnings"] = info["warnings"]
-            rows.append(_row(label, info["disagree"], DISAGREE_BOUND, info["disagree"] <= DISAGREE_BOUND,
-                             unit="fraction of AO rays disagreeing with Embree", false_shadow=info["false_shadow"],
-                             false_light=info["false_light"], rays=info["rays"], **extra))
+        rows.append(_agree_row(f"{name}: points on vertices", agreement(scene, v[sel], vn[sel], i), bound=bound))
     return rows
 
 
@@ -495,7 +414,7 @@ def invariant_rows(views, resolution, n=2000, seed=17) -> list[dict]:
         # documented: a point strictly inside a solid lies inside the interval [z1, z2) the CSM may store
         # any depth of (the middle of the run's interval): it is not a point the CSM answers for
         rows.append(_row(f"closed box, {lookup}: mean AO of points inside it (documented)", float(a2.mean()),
-                         float("nan"), True, unit="mean AO (undefined inside a solid; Embree: 0)",
+                         None, None, unit="mean AO (undefined inside a solid; Embree: 0)",
                          max=float(a2.max())))
     # open plane: the ground far from everything, and the top of the quad caster
     far = np.column_stack([rng.uniform(200, 300, n), np.zeros(n), rng.uniform(200, 300, n)])
@@ -545,7 +464,7 @@ def invariant_rows(views, resolution, n=2000, seed=17) -> list[dict]:
 
 _GROUPS = (("size", size_rows), ("position", position_rows), ("thin-plate", thin_plate_rows),
            ("small-large", small_large_rows), ("contact", contact_rows), ("ground-contact", ground_contact_rows),
-           ("on-surface", on_surface_rows), ("mesh", mesh_rows), ("invariants", invariant_rows))
+           ("on-surface", on_surface_rows), ("invariants", invariant_rows))
 #: row group -> callable(args) -> list of rows (args: ``.views``, ``.resolution``)
 ROWS = {name: (lambda f: lambda a: f(a.views, a.resolution))(f) for name, f in _GROUPS}
 
@@ -573,7 +492,9 @@ def main(argv=None) -> int:
             group = [_row(f"{name}: crashed", float("nan"), float("nan"), False, error=f"{type(exc).__name__}: {exc}")]
         rows += group
         for r in group if not args.json else ():
-            print(f"{r['row']:58s} {r['figure']:10.4g} {r['bound']:8.4g}  {'yes' if r['pass'] else 'NO'}", flush=True)
+            bound = "-" if r["bound"] is None or r["bound"] != r["bound"] else f"{r['bound']:8.4g}"
+            verdict = "info" if r["pass"] is None else ("yes" if r["pass"] else "NO")
+            print(f"{r['row']:58s} {r['figure']:10.4g} {bound:>8s}  {verdict}", flush=True)
             if "error" in r:
                 print(f"    {r['error'][:300]}", flush=True)
     if args.json:
@@ -582,7 +503,7 @@ def main(argv=None) -> int:
         from _common import environment
         print(json.dumps({"benchmark": "extremes_geometry", **environment(), "maps": args.maps,
                           "resolution": args.resolution, "rows": rows}, indent=2, default=str))
-    return 0 if all(r["pass"] for r in rows) else 1
+    return 0 if all(r["pass"] is not False for r in rows) else 1
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -4,8 +4,8 @@
  * csm_fold      one work-item per texel. Folds the maps of one block (in
  *               view-set order) into the texel's open run: the run keeps the
  *               intersection [lo, hi2] of the maps' [z1, z2) intervals (as
- *               keys, see csm_common.h; [z1, z2 - MARGIN) where the surface
- *               at z2 faces the light, {z1} when that is empty) and [lo, hi3]
+ *               keys, see csm_common.h; [z1, z2 - m2) with m2 below, {z1}
+ *               when that is empty) and [lo, hi3]
  *               of their [z1, z3 - MARGIN) intervals (LAYER_RULE 3, where the
  *               ray exits at z2 and re-enters at z3 beyond z2 + MARGIN; else
  *               the map's [lo, hi2]). A surface facing the light behind the
@@ -18,13 +18,28 @@
  *               run with i_end = D - 1.
  *               Emitted depth: middle of [lo, hi2] when not empty, else the
  *               middle of [lo, hi3].
+ *               m2, the margin in front of the second surface z2: its slope
+ *               term (how much nearer than z2 the surface comes within the
+ *               texel: half the larger step nearer to a neighbour texel's
+ *               second surface on each axis, exact for a plane; at most
+ *               MARGIN, and MARGIN where an axis has no such neighbour)
+ *               plus SLACK (two quanta: more than the query's bias for
+ *               points off the object), plus MARGIN where the surface is
+ *               asked with a self-bias: it faces the light by its winding,
+ *               or TWO_SIDED (sheets asked from both sides). So points on z2
+ *               anywhere in the texel (the ground under a closed body, a
+ *               body touching its back, a self-biased point on a second
+ *               sheet) stay in shadow wherever z2 comes at most MARGIN
+ *               nearer within the texel (a horizontal face: maps more than
+ *               13.3 degrees above it).
  *               FOOTPRINT 1: where the centre ray meets two surfaces, the
- *               map's [z1, z2') (z2' = z2, or z2 - MARGIN where it faces the
- *               light) narrows to the texel's footprint: each corner's first
- *               depth below z2' raises the lower end, each corner's second
- *               depth (with its own margin rule) above that lower end lowers
- *               the upper end. When no key is left the centre's interval
- *               stands. The result lies inside the centre's interval.
+ *               map's [z1, z2') (z2' = max(z2 - m2, z1)) narrows to the
+ *               texel's footprint: each corner's first depth below z2'
+ *               raises the lower end, each corner's second depth (less
+ *               MARGIN where it faces the light or TWO_SIDED) above that
+ *               lower end lowers the upper end. When no key is left the
+ *               centre's interval stands. The result lies inside the
+ *               centre's interval.
  * csm_compact   one work-item per texel; copies the block's emitted segments
  *               from the per-texel scratch into one packed array.
  *
@@ -46,16 +61,41 @@
  * Macros
  *   RES, LAYERS (1..3, layers in the depth block), LAYER_RULE (2 or 3),
  *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint),
- *   MARGIN (float, normalised depth: the margin above), FOOTPRINT (0 or 1)
+ *   MARGIN (float, normalised depth: the margin above), SLACK (float,
+ *   normalised depth), TWO_SIDED (0 or 1: every second surface is asked),
+ *   FOOTPRINT (0 or 1)
  */
 #include "csm_common.h"
 
 #ifndef MARGIN
 #error "the host sets MARGIN (depth units)"
 #endif
+#ifndef SLACK
+#error "the host sets SLACK (depth units)"
+#endif
+#ifndef TWO_SIDED
+#define TWO_SIDED 0
+#endif
 #ifndef FOOTPRINT
 #define FOOTPRINT 0
 #endif
+
+/* how much nearer than z2 the second surface comes within texel t of the map
+ * whose second layer starts at depth2, at most MARGIN: half a texel times its
+ * slope towards the light on each axis, the slope being the larger step
+ * nearer, max(z2 - zn, 0), to a neighbour zn that has a second surface
+ * (MARGIN where an axis has no such neighbour) */
+inline float second_slope(__global const float *depth2, int t, float z2)
+{
+    const int r = t / RES, c = t % RES;
+    float gx = -1.0f, gy = -1.0f, zn;
+    if (c > 0 && (zn = depth2[t - 1]) < INFINITY) gx = fmax(gx, fmax(z2 - zn, 0.0f));
+    if (c < RES - 1 && (zn = depth2[t + 1]) < INFINITY) gx = fmax(gx, fmax(z2 - zn, 0.0f));
+    if (r > 0 && (zn = depth2[t - RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
+    if (r < RES - 1 && (zn = depth2[t + RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
+    if (gx < 0.0f || gy < 0.0f) return MARGIN;
+    return fmin(0.5f * (gx + gy), MARGIN);
+}
 
 #if FOOTPRINT
 /* the map's interval over the texel's footprint (see FOOTPRINT above);
@@ -71,7 +111,7 @@ inline void footprint_keys(__global const float *cdepth, __global const uchar *c
         const float k1 = cdepth[a], k2 = cdepth[a + cplane];
         c1[k] = (k1 < INFINITY) ? 0.5f - cscale * (0.5f - k1) : INFINITY;
         c2[k] = (k2 < INFINITY) ? 0.5f - cscale * (0.5f - k2) : INFINITY;
-        if (c2[k] < INFINITY && cfront[a + cplane]) c2[k] = fmax(c2[k] - MARGIN, c1[k]);
+        if (c2[k] < INFINITY && (TWO_SIDED || cfront[a + cplane])) c2[k] = fmax(c2[k] - MARGIN, c1[k]);
         if (c1[k] < hic) lof = fmax(lof, c1[k]);
     }
     for (int k = 0; k < 4; ++k)
@@ -139,10 +179,13 @@ __kernel void csm_fold(__global const float *depth, __global const uchar *front,
         } else {
             mlo = key_at_or_above(z1);
             if (z2 < INFINITY) {
-                /* a second surface that faces the light is asked (it lies in
-                 * the first one's shadow, open meshes): stay MARGIN in front
-                 * of it; with no room the map stands alone with z1 */
-                const float hic = front[at + plane] ? fmax(z2 - MARGIN, z1) : z2;
+                /* stay m2 in front of the second surface (header): points
+                 * on it anywhere in the texel stay in shadow, with the
+                 * self-bias where it is asked (it faces the light, or
+                 * TWO_SIDED); with no room the map stands alone with z1 */
+                float m2 = second_slope(depth + (size_t)b * LAYERS * plane + plane, t, z2) + SLACK;
+                if (TWO_SIDED || front[at + plane]) m2 = m2 + MARGIN;
+                const float hic = fmax(z2 - m2, z1);
                 mhi2 = key_below(hic);
                 if (mhi2 < mlo || mhi2 == (uint)-1) mhi2 = mlo;   /* no key fits: stands alone */
 #if FOOTPRINT

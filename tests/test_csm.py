@@ -11,6 +11,7 @@ import pyshadow
 from pyshadow import CoherentShadowMap, embree
 from pyshadow.csm import (DEPTH_Q, FRONT_MARGIN_TEXELS, compress_reference, footprint_corners, footprint_scale,
                           front_margin)
+from pyshadow.csm.reference import second_bound
 
 from conftest import all_pairs, load
 
@@ -198,7 +199,9 @@ def test_footprint_build_matches_numpy_reference_and_stays_exact(name, bits):
         maps, rows, cols = all_pairs(csm)
         z = csm.depth_for(maps, rows, cols)
         z1, z2 = layers[maps, 0, rows, cols], layers[maps, 1, rows, cols]
-        hic = np.where(front[maps, 1, rows, cols], np.maximum(z2 - front_margin(R), z1), z2)
+        # z2' of the centre: the slope term, plus the margin where z2 faces the light
+        hic = np.stack([second_bound(layers[i, 0], layers[i, 1], front[i, 1], front_margin(R))
+                        for i in range(len(layers))])[maps, rows, cols]
         half, s = np.float32(0.5), footprint_scale(R)
         c1 = np.stack([half - s * (half - corners[maps, 0, rows + a, cols + b]) for a in (0, 1) for b in (0, 1)])
         below = np.isfinite(z2) & np.isfinite(c1) & (c1 < hic)

@@ -17,6 +17,7 @@ from conftest import REPO
 
 sys.path.insert(0, str(REPO / "benchmarks"))
 import extremes_geometry as eg  # noqa: E402
+import extremes_meshes as em  # noqa: E402
 
 import pyshadow  # noqa: E402
 from pyshadow import embree  # noqa: E402
@@ -172,13 +173,13 @@ def test_points_exactly_on_a_box(views, where):
 # ---------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def broken():
-    return eg.broken_meshes()
+    return em.broken_meshes()
 
 
-@pytest.mark.parametrize("name", list(eg.broken_meshes()))
+@pytest.mark.parametrize("name", list(em.broken_meshes()))
 def test_broken_mesh_builds_and_agrees_with_embree(views, broken, name):
     raw, normals = broken[name]
-    info = eg.mesh_case(name, raw, normals, views, RES, n=400)
+    info = em.mesh_case(name, raw, normals, views, RES, n=400)
     assert "error" not in info, info.get("error")
     bound = 0.06 if name == "open box (no top)" else SMALL_BOUND
     assert info["disagree"] <= bound
@@ -194,7 +195,7 @@ def test_load_mesh_removes_degenerate_and_duplicate_faces(broken):
 
 
 def test_inverted_winding_gives_the_same_csm_answers(views, broken):
-    box = eg._box_raw()
+    box = em._box_raw()
     inv = broken["inverted winding"][0]
     s1 = eg.scene_of([(box, None)], views, RES)
     s2 = eg.scene_of([(inv, None)], views, RES)

@@ -184,8 +184,10 @@ def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embre
     ao = np.empty(gb.n, np.float32)
     disagree = np.empty(gb.n, np.int32)
     for s, e, d32 in _ray_chunks(gb, S, strategy, seed, patterns):
+        # with the pixels' normals: the rays as the AO kernel asks them (the surface rule)
         vis = scene.visible(np.repeat(gb.points[s:e], S, axis=0), d32,
-                            surface_ids=np.repeat(gb.ids[s:e], S), lookup=lookup)
+                            surface_ids=np.repeat(gb.ids[s:e], S), lookup=lookup,
+                            normals=np.repeat(gb.normals[s:e], S, axis=0))
         ref = ~embree_occluded[s * S:e * S]
         agree += int(np.count_nonzero(vis == ref))
         fv += int(np.count_nonzero(vis & ~ref))

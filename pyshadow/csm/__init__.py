@@ -7,10 +7,20 @@ For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
 Map ``i`` allows a set of stored depths that still gives the right shadow
 test along the texel's ray:
 
-* hit at least twice: ``[z1, z2)``; where the surface at ``z2`` faces the
-  light (a second sheet of an open mesh, in the first one's shadow) only up
-  to ``z2`` less a margin of ``FRONT_MARGIN_TEXELS`` texels, and just ``z1``
-  when that leaves nothing; with ``layers=3`` up to ``z3`` less the margin
+* hit at least twice: ``[z1, z2)`` less a slope term before ``z2``: how much
+  nearer than ``z2`` its surface comes within the texel (half the larger
+  step nearer to a neighbour texel's ``z2`` on each axis, at most
+  ``FRONT_MARGIN_TEXELS`` texels) plus ``SLOPE_SLACK_QUANTA`` quanta, so
+  that points on that surface anywhere in the texel (the ground under a
+  closed body, a body touching its back) stay in shadow wherever it comes
+  at most ``FRONT_MARGIN_TEXELS`` texels nearer over half a texel (a flat
+  ``z2``: maps more than atan(sqrt(2)/6) = 13.3 degrees above it; lower
+  ones may light it); where the surface at ``z2`` faces the light (a second
+  sheet of an open mesh, in the first one's shadow; every ``z2`` with
+  ``two_sided=True``, for open sheets seen from both sides such as an open
+  box's inner floor: 1.4-1.7x the bytes on the bundled open meshes) a margin of
+  ``FRONT_MARGIN_TEXELS`` texels more; just ``z1`` when that leaves
+  nothing; with ``layers=3`` up to ``z3`` less the margin
   where the ray leaves the object at ``z2`` and re-enters at ``z3``, see
   :meth:`CoherentShadowMap.build`. The margin exists because such a surface
   is asked with a self-bias (1.5 texels by default, see
@@ -41,14 +51,15 @@ arrays and their decoding), :mod:`.build` (the streaming builder),
 :mod:`.fileformat` (``.csm`` save, load, validation), :mod:`.reference`
 (NumPy mirrors of the kernels).
 """
-from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, CoherentShadowMap, CSMFormatError,
-                   front_margin)
+from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, SLOPE_SLACK_QUANTA, CoherentShadowMap,
+                   CSMFormatError, front_margin, slope_slack)
 from .build import corner_frame, footprint_corners, footprint_scale
 from .fileformat import FORMAT_VERSION, MAGIC
-from .reference import compress_reference, footprint_interval, shadow_vote
+from .reference import compress_reference, footprint_interval, second_bound, second_slope, shadow_vote
 from . import build, core, device, fileformat, reference
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
-           "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "corner_frame",
+           "SLOPE_SLACK_QUANTA", "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "slope_slack",
+           "second_bound", "second_slope", "corner_frame",
            "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
            "build", "core", "device", "fileformat", "reference"]

@@ -17,15 +17,17 @@ from ..raster import DepthRenderer, _check_resolution_layers
 from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
-                   front_margin)
+                   front_margin, slope_slack)
 
 __all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
 
 
-def _defines(resolution, layers, rule, block, depth_bits, iend_dtype):
+def _defines(resolution, layers, rule, block, depth_bits, iend_dtype, two_sided=False):
     return {
         "RES": int(resolution),
         "MARGIN": float(front_margin(resolution)).hex() + "f",   # exact float32, as a hex literal
+        "SLACK": float(slope_slack()).hex() + "f",
+        "TWO_SIDED": int(bool(two_sided)),
         "LAYERS": int(layers),
         "LAYER_RULE": int(rule),
         "BLOCK": int(block),
@@ -89,7 +91,7 @@ def _check_frame(mesh, frame):
 
 def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False):
+              frame=None, footprint: bool = False, two_sided: bool = False):
     """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
     t0 = time.perf_counter()
     if not isinstance(views, ViewSet):
@@ -119,6 +121,10 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if not isinstance(footprint, (bool, np.bool_)):
         raise TypeError(f"footprint must be True or False, got {footprint!r}")
     footprint = bool(footprint)
+    if not isinstance(two_sided, (bool, np.bool_)):
+        raise TypeError(f"two_sided must be True or False, got {two_sided!r}")
+    if two_sided and rule == 3:
+        raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
     centre, radius = bounding_sphere(mesh) if frame is None else _check_frame(mesh, frame)
@@ -135,7 +141,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     block = min(block, D)
 
     renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True)
-    defs = _defines(R, rule, rule, block, depth_bits, dtype_i)
+    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, two_sided)
     corner_args = ()
     if footprint:
         scale = footprint_scale(R)

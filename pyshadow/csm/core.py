@@ -16,16 +16,21 @@ from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
            "FRONT_MARGIN_TEXELS", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN", "VOTE_BIAS_TEXELS",
-           "front_margin"]
+           "front_margin", "SLOPE_SLACK_QUANTA", "slope_slack"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
 SEARCH_BLOCK = 16        # segments per block of the device search summary
 MISS16 = 65535           # 16-bit stored value of a miss (+inf)
 # a run's depth stays this many texels (of depth, 1/R each) in front of a
-# surface behind the first one that faces the light (z2 of an open mesh, z3 of
-# layers=3): twice the visibility kernel's default self-bias, so points on that
+# surface behind the first one that is asked with a self-bias (z2 where it
+# faces the light or the mesh is open, z3 of layers=3), on top of z2's slope
+# term: twice the visibility kernel's default self-bias, so points on that
 # surface stay in shadow under the bias (module docstring)
 FRONT_MARGIN_TEXELS = 3.0
+# ... and every z2 keeps its slope term plus this many 16-bit depth quanta:
+# more than the bias of a point off the object (one quantum plus 1e-7), so
+# points on z2 (the ground under a closed body) stay in shadow
+SLOPE_SLACK_QUANTA = 2
 _LAYOUTS = ("zigzag", "hilbert")
 # the self-bias of a lookup from a point on the caster itself: quantum +
 # (texels + DEFAULT_BIAS_TAN * tan a) / R, a the angle between the direction
@@ -42,6 +47,11 @@ class CSMFormatError(ValueError):
 def front_margin(resolution) -> np.float32:
     """The margin in normalised depth: ``FRONT_MARGIN_TEXELS / R`` as float32."""
     return np.float32(FRONT_MARGIN_TEXELS / int(resolution))
+
+
+def slope_slack() -> np.float32:
+    """The slack after z2's slope term in normalised depth: ``SLOPE_SLACK_QUANTA / DEPTH_Q`` as float32."""
+    return np.float32(SLOPE_SLACK_QUANTA / DEPTH_Q)
 
 
 
@@ -121,7 +131,7 @@ class CoherentShadowMap:
     @keyword_only("CoherentShadowMap.build")
     def build(cls, mesh, views: ViewSet, *, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False) -> "CoherentShadowMap":
+              frame=None, footprint: bool = False, two_sided: bool = False) -> "CoherentShadowMap":
         """Render and compress the depth maps of ``mesh`` for ``views``.
 
         Parameters
@@ -142,9 +152,9 @@ class CoherentShadowMap:
             points anywhere: on this object, on other objects, on the ground
             -- on a closed mesh. On an open one, a point in the air between
             two sheets (inside an open box, say) may be reported lit; points
-            on the second sheet, where it faces the light, stay in shadow:
-            the interval there ends ``m`` (below) in front of it, or is just
-            ``z1``.
+            on the second sheet where it faces the light (every ``z2`` with
+            ``two_sided``) stay in shadow: the interval ends ``m`` (below) more
+            before it, or is ``z1``. All end z2's slope term before it (:mod:`pyshadow.csm`).
             ``3``: ``[z1, z3 - m)`` with ``m = FRONT_MARGIN_TEXELS / R`` (3
             texels of depth) where the texel's ray leaves the object at
             ``z2`` and re-enters it at ``z3`` and ``z3 - m > z2``, ``[z1,
@@ -191,14 +201,15 @@ class CoherentShadowMap:
             interval stands. Narrower intervals mean more segments, and the
             second rendering doubles the rasterisation (measured in
             benchmarks/README.md, ``accuracy.py`` section 7). ``R <= 4095``.
+        two_sided : bool, optional
+            ``m`` before every ``z2``: open sheets seen from both sides (an open box). ``layers=2`` only.
 
         Returns
         -------
         CoherentShadowMap
         """
         from .build import build_csm
-
-        return build_csm(cls, mesh, views, resolution, depth_bits, layers, block, progress, frame, footprint)
+        return build_csm(cls, mesh, views, resolution, depth_bits, layers, block, progress, frame, footprint, two_sided)
 
     # ------------------------------------------------------------------
     # sizes and statistics

@@ -8,10 +8,11 @@ from __future__ import annotations
 import numpy as np
 
 from .build import footprint_scale
-from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin
+from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin, slope_slack
 from .surface_rule import SURFACE_LIFT_TEXELS
 
-__all__ = ["compress_reference", "footprint_interval", "segment_index_reference", "shadow_vote"]
+__all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",
+           "shadow_vote"]
 
 
 def _keys_at_or_above(z, depth_bits):
@@ -31,6 +32,73 @@ def _keys_below(z, depth_bits):
     return k
 
 
+def second_slope(z2, margin):
+    """NumPy version of ``second_slope`` (csm.cl): how much nearer than z2 its surface comes in each texel.
+
+    Parameters
+    ----------
+    z2 : ndarray, shape (R, R), float32
+        One map's second depth layer (``+inf`` where a ray has no second hit).
+    margin : float
+        :func:`front_margin` (normalised depth): the cap.
+
+    Returns
+    -------
+    ndarray, shape (R, R), float32
+        ``min(0.5 (gx + gy), margin)``: ``gx`` the larger ``max(z2 -
+        z2(neighbour), 0)`` over the texel's left and right neighbours that
+        have a second surface, ``gy`` the same over the rows above and
+        below; ``margin`` where an axis has no such neighbour. For a plane
+        ``0.5 (gx + gy)`` is exactly its depth change from the texel's
+        centre to its nearest corner. Meaningless where ``z2`` is ``+inf``.
+    """
+    f = np.float32
+    z2 = np.asarray(z2, f)
+    pad = np.pad(z2, 1, constant_values=np.inf)
+
+    def axis(a, b):
+        with np.errstate(invalid="ignore"):
+            da = np.where(np.isfinite(a), np.maximum(z2 - a, f(0)), f(-1))
+            db = np.where(np.isfinite(b), np.maximum(z2 - b, f(0)), f(-1))
+        return np.maximum(da, db).astype(f)
+
+    gx = axis(pad[1:-1, :-2], pad[1:-1, 2:])
+    gy = axis(pad[:-2, 1:-1], pad[2:, 1:-1])
+    with np.errstate(invalid="ignore"):
+        s = np.minimum((f(0.5) * (gx + gy)).astype(f), f(margin))
+    return np.where((gx < 0) | (gy < 0), f(margin), s).astype(f)
+
+
+def second_bound(z1, z2, asked, margin, slack=None):
+    """The upper end ``z2'`` of one map's interval where its ray meets two surfaces, float32 (csm.cl).
+
+    Parameters
+    ----------
+    z1, z2 : ndarray, shape (R, R), float32
+        The map's first and second depth layers.
+    asked : bool or ndarray of bool, shape (R, R)
+        Where the second surface is asked with a self-bias: it faces the
+        light, or the mesh is open.
+    margin : float
+        :func:`front_margin` (normalised depth): the slope term's cap, and
+        added where ``asked``.
+    slack : float, optional
+        :func:`slope_slack` by default.
+
+    Returns
+    -------
+    ndarray, shape (R, R), float32
+        ``max(z2 - m2, z1)`` with ``m2 = second_slope(z2, margin) + slack
+        (+ margin where asked)``; meaningful where ``z2`` is finite.
+    """
+    f = np.float32
+    z1, z2 = np.asarray(z1, f), np.asarray(z2, f)
+    m2 = (second_slope(z2, margin) + f(slope_slack() if slack is None else slack)).astype(f)
+    m2 = np.where(asked, (m2 + f(margin)).astype(f), m2).astype(f)
+    with np.errstate(invalid="ignore"):
+        return np.maximum((z2 - m2).astype(f), z1).astype(f)
+
+
 def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
     """NumPy version of ``footprint_keys`` (csm.cl) before the keys, float32.
 
@@ -43,7 +111,8 @@ def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
         ``(row, col), (row, col+1), (row+1, col), (row+1, col+1)``, in the
         corner frame; ``+inf`` for none.
     c2_front : ndarray, shape (T, 4), bool
-        The second corner surface faces the light.
+        The second corner surface is asked with a self-bias: it faces the
+        light, or the mesh is open.
     margin : float
         :func:`front_margin` (normalised depth): a second corner surface
         that faces the light bounds the interval this far in front of it.
@@ -71,7 +140,7 @@ def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
 
 
 def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None,
-                       corners=None, corner_front=None):
+                       corners=None, corner_front=None, two_sided: bool = False):
     """NumPy version of the compression kernel: greedy runs per texel, in map order.
 
     Parameters
@@ -85,12 +154,16 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         Interval rule, as ``layers`` of :meth:`CoherentShadowMap.build`.
     depth_bits : {16, 32}
     margin_depth : float, optional
-        The margin in front of a surface facing the light (normalised
-        depth); default :func:`front_margin` of ``R``, as the build uses.
+        The margin in front of a surface asked with a self-bias (normalised
+        depth), on top of z2's slope term (:func:`second_bound`); default
+        :func:`front_margin` of ``R``, as the build uses.
     corners, corner_front : ndarray, shape (D, L, R+1, R+1), optional
         The footprint build's corner maps (:func:`footprint_corners`);
         given, each map's interval is narrowed as in
         ``CoherentShadowMap.build(..., footprint=True)``.
+    two_sided : bool, optional
+        Every second surface is asked, as ``CoherentShadowMap.build(...,
+        two_sided=True)``.
 
     Returns
     -------
@@ -113,6 +186,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     if front.shape != layers.shape:
         raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
     margin = front_margin(R) if margin_depth is None else np.float32(margin_depth)
+    two_sided = bool(two_sided)
     miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
@@ -135,14 +209,14 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         hit, two = np.isfinite(z1), np.isfinite(z2)
         mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
         front2 = front[i, 1].ravel()
-        z2b = np.where(front2, np.maximum(z2 - margin, z1), z2)      # float32, as the kernel
+        z2b = second_bound(layers[i, 0], layers[i, 1], front[i, 1] | two_sided, margin).ravel()
         k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
         mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
         if corners is not None:
             c1, c2, cf = (np.stack([a[i, layer, r:r + R, c:c + R].ravel() for r in (0, 1) for c in (0, 1)], 1)
                           for a, layer in ((corners, 0), (corners, 1), (corner_front, 1)))
             use = hit & two
-            flo, fhi = footprint_interval(np.where(use, z1, 0), np.where(use, z2b, 1), c1, c2, cf, margin,
+            flo, fhi = footprint_interval(np.where(use, z1, 0), np.where(use, z2b, 1), c1, c2, cf | two_sided, margin,
                                           footprint_scale(R))
             klo = _keys_at_or_above(flo, depth_bits)
             khi = _keys_below(fhi, depth_bits)

@@ -33,7 +33,7 @@ from .filters import bilateral, edge_aware_box, upsample
 from .io import read_image, write_image
 from .gbuffer import render_gbuffer
 from .render import Frame
-from . import (cache, camera, csm, data, filters, gbuffer, io, mesh, raster, render, sampling, scene,
+from . import (cache, camera, csm, data, filters, gbuffer, io, lighting, mesh, raster, render, sampling, scene,
                views, visibility)
 
 _LAZY = ("embree", "viz", "bench")
@@ -75,6 +75,6 @@ __all__ = [
     "upsample",
     "write_image",
     # submodules
-    "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "mesh", "raster",
+    "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "lighting", "mesh", "raster",
     "render", "sampling", "scene", "viz", "views", "visibility",
 ]

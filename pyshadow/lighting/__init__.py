@@ -1,0 +1,31 @@
+"""Lighting: environment maps, spherical harmonics, skies without files, the sun.
+
+Frame (as everywhere in pyshadow): right-handed, y up, directions
+``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)`` pointing
+from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
+
+- :class:`EnvironmentMap` (:mod:`~pyshadow.lighting.envmap`): lat-long
+  (equirectangular) maps and cube maps read from any HDR file OpenImageIO
+  reads (lat-long, horizontal or vertical cube cross) or from arrays; exact
+  per-texel solid angles; ``sh()`` -> (9, 3) coefficients; irradiance by
+  Ramamoorthi and Hanrahan's 9-coefficient formula.
+- :mod:`~pyshadow.lighting.sh`: the real SH basis of order 3 and its mapping
+  to ``scipy.special`` (signs and axes).
+- :mod:`~pyshadow.lighting.cube`: face frames and cross layouts.
+- :func:`clear_sky` (Preetham et al. 1999), :func:`overcast_sky` (CIE),
+  :func:`sun_position` (:mod:`~pyshadow.lighting.sky`): luminance-scaled RGB in
+  cd/m^2.
+- :func:`extract_sun` (:mod:`~pyshadow.lighting.sun`): a :class:`SunLight`
+  plus the sky without it, exactly energy-conserving.
+"""
+from . import cube, sh
+from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles
+from .sh import irradiance_sh, sh_basis
+from .sky import (SUN_ANGULAR_RADIUS, add_sun_disc, clear_sky, disc_solid_angle, overcast_sky,
+                  sun_irradiance, sun_position)
+from .sun import SunLight, extract_sun
+
+__all__ = ["EnvironmentMap", "SunLight", "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky",
+           "cube", "disc_solid_angle", "extract_sun", "irradiance_sh", "latlong_directions",
+           "latlong_solid_angles", "overcast_sky", "sh", "sh_basis", "sun_irradiance",
+           "sun_position"]

@@ -1,0 +1,79 @@
+"""Input checks of the lighting package: each names the argument and the limit."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["radiance_array", "unit_direction", "unit_rows", "positive", "in_range"]
+
+
+def radiance_array(a, name: str, mask=None) -> np.ndarray:
+    """An (H, W, 3) array of finite, non-negative radiance as float64 (a copy).
+
+    ``mask`` (H, W) bool, if given, selects the texels that belong to the map;
+    the others are not checked and are set to 0.
+    """
+    arr = np.asarray(a)
+    if arr.ndim != 3 or arr.shape[2] != 3:
+        raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) (got shape {arr.shape})")
+    if arr.shape[0] < 1 or arr.shape[1] < 1:
+        raise ValueError(f"{name}: the image is empty (shape {arr.shape})")
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise TypeError(f"{name}: expected a float array (got dtype {arr.dtype})")
+    out = np.array(arr, dtype=np.float64)
+    if mask is not None:
+        out[~mask] = 0.0
+    bad = [(np.isnan(out), "NaN"), (np.isinf(out), "infinite"), (out < 0, "negative")]
+    for hit, what in bad:
+        n = int(hit.any(axis=2).sum())
+        if n:
+            i, j = np.argwhere(hit.any(axis=2))[0]
+            raise ValueError(f"{name}: {n} texel(s) are {what}, first at row {i}, column {j} "
+                             f"(value {tuple(arr[i, j].tolist())}); radiance must be finite and >= 0")
+    return out
+
+
+def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
+    """A unit 3-vector as float64; zero, non-finite or non-unit vectors raise ValueError."""
+    v = np.asarray(d, dtype=np.float64)
+    if v.shape != (3,):
+        raise ValueError(f"{name}: expected a 3-vector (got shape {v.shape})")
+    if not np.isfinite(v).all():
+        raise ValueError(f"{name}: not finite (got {v.tolist()})")
+    n = float(np.linalg.norm(v))
+    if n == 0.0:
+        raise ValueError(f"{name}: zero vector; expected a unit vector")
+    if abs(n - 1.0) > tol:
+        raise ValueError(f"{name}: not a unit vector (length {n:.9g}, allowed 1 +- {tol:g})")
+    return v / n
+
+
+def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
+    """An (N, 3) (or (3,)) array of unit vectors as float64 (N, 3)."""
+    v = np.asarray(a, dtype=np.float64)
+    v2 = v.reshape(1, 3) if v.shape == (3,) else v
+    if v2.ndim != 2 or v2.shape[1] != 3:
+        raise ValueError(f"{name}: expected shape (N, 3) or (3,) (got shape {v.shape})")
+    if not np.isfinite(v2).all():
+        raise ValueError(f"{name}: {int((~np.isfinite(v2)).any(axis=1).sum())} rows are not finite")
+    dev = np.abs(np.linalg.norm(v2, axis=1) - 1.0)
+    if len(dev) and dev.max() > tol:
+        k = int(np.argmax(dev))
+        raise ValueError(f"{name}: {int((dev > tol).sum())} rows are not unit vectors (row {k} has "
+                         f"length {np.linalg.norm(v2[k]):.9g}, allowed 1 +- {tol:g})")
+    return v2
+
+
+def positive(x, name: str) -> float:
+    v = float(x)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{name}: must be a finite number > 0 (got {x!r})")
+    return v
+
+
+def in_range(x, name: str, lo: float, hi: float) -> float:
+    v = float(x)
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise ValueError(f"{name}: must lie in [{lo:g}, {hi:g}] (got {x!r})")
+    return v

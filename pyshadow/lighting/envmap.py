@@ -1,0 +1,288 @@
+"""Environment maps: distant radiance on the sphere, as a lat-long image or a cube.
+
+Layouts
+-------
+``"latlong"`` (equirectangular), shape (H, W, 3) with W = 2 H
+    Row i covers polar angles theta in [pi i / H, pi (i + 1) / H] (row 0 at
+    the zenith +y), column j covers azimuths phi in [2 pi j / W,
+    2 pi (j + 1) / W), with ``d = (sin theta cos phi, cos theta,
+    sin theta sin phi)``: column 0 starts at +x, a quarter of the way across
+    is +z, half way -x, three quarters -z. Texel solid angle
+    ``(cos theta_i - cos theta_{i+1}) 2 pi / W`` (exact).
+``"cube"``, faces of shape (6, N, N, 3)
+    Read from and written to a horizontal (4 N x 3 N) or vertical
+    (3 N x 4 N) cross; face frames and the crosses are drawn in
+    :mod:`pyshadow.lighting.cube`. Texel solid angles are exact.
+
+Radiance is linear, per RGB channel, in whatever unit the file or array
+holds (the sky models of :mod:`pyshadow.lighting.sky` give luminance-scaled
+linear Rec. 709 RGB in cd/m^2); irradiance is that unit times sr (lux for
+cd/m^2). Directions point *from* the scene *towards* the sky.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from . import cube
+from ._checks import radiance_array, unit_rows
+from .sh import SH_COUNT, irradiance_sh, latlong_basis_integrals, sh_basis
+
+__all__ = ["EnvironmentMap", "LAYOUTS", "latlong_directions", "latlong_solid_angles"]
+
+#: Layouts :class:`EnvironmentMap` accepts for an (H, W, 3) image.
+LAYOUTS = ("auto", "latlong", "horizontal-cross", "vertical-cross")
+
+
+def latlong_directions(height: int, width: int) -> np.ndarray:
+    """Unit direction of every lat-long texel centre, shape (H, W, 3), float64, y up."""
+    th = (np.arange(height) + 0.5) * (math.pi / height)
+    ph = (np.arange(width) + 0.5) * (2.0 * math.pi / width)
+    st = np.sin(th)[:, None]
+    return np.stack([st * np.cos(ph)[None, :], np.broadcast_to(np.cos(th)[:, None], (height, width)),
+                     st * np.sin(ph)[None, :]], axis=-1)
+
+
+def latlong_solid_angles(height: int, width: int) -> np.ndarray:
+    """Exact solid angle of every lat-long texel, shape (H, W), float64 (sr; sums to 4 pi)."""
+    u = np.cos(np.linspace(0.0, math.pi, height + 1))
+    u[0], u[-1] = 1.0, -1.0
+    return np.repeat(((u[:-1] - u[1:]) * (2.0 * math.pi / width))[:, None], width, axis=1)
+
+
+def _guess_layout(h: int, w: int, name: str) -> str:
+    if w == 2 * h:
+        return "latlong"
+    if 3 * w == 4 * h and h % 3 == 0:
+        return "horizontal-cross"
+    if 4 * w == 3 * h and w % 3 == 0:
+        return "vertical-cross"
+    raise ValueError(f"{name}: cannot tell the layout of a {w} x {h} (W x H) image: a lat-long map "
+                     f"has W = 2 H, a horizontal cross W : H = 4 : 3, a vertical cross 3 : 4")
+
+
+def _cross_mask(h: int, w: int, layout: str) -> np.ndarray:
+    rows, cols = cube.CROSS_CELLS_SHAPE[layout]
+    n = h // rows
+    mask = np.zeros((h, w), bool)
+    for i, j, _ in cube.CROSS_CELLS[layout].values():
+        mask[i * n:(i + 1) * n, j * n:(j + 1) * n] = True
+    return mask
+
+
+class EnvironmentMap:
+    """Distant radiance around the scene, as a lat-long map or a cube map.
+
+    Parameters
+    ----------
+    radiance : array_like, shape (H, W, 3), or (6, N, N, 3) for cube faces
+        Linear RGB radiance, finite and >= 0 (see the module docstring for
+        units and the frame). Copied to float64.
+    layout : {"auto", "latlong", "horizontal-cross", "vertical-cross"}
+        How an (H, W, 3) image maps to directions. ``"auto"`` picks by the
+        aspect ratio: W = 2 H lat-long, 4 : 3 horizontal cross, 3 : 4
+        vertical cross. Ignored for (6, N, N, 3) faces.
+    name : str
+        What error messages call the input (a file name, an argument name).
+
+    Attributes
+    ----------
+    layout : str
+        ``"latlong"`` or ``"cube"``.
+    radiance : ndarray, float64
+        (H, W, 3) for lat-long, (6, N, N, 3) for a cube (faces +X, -X, +Y,
+        -Y, +Z, -Z).
+
+    Raises
+    ------
+    ValueError
+        Wrong shape or channel count, an aspect ratio that fits no layout,
+        NaN, infinite or negative texels (the message names the first one).
+    """
+
+    def __init__(self, radiance, layout: str = "auto", *, name: str = "radiance"):
+        if layout not in LAYOUTS:
+            raise ValueError(f"layout: expected one of {', '.join(LAYOUTS)} (got {layout!r})")
+        a = np.asarray(radiance)
+        if a.ndim == 4:
+            if a.shape[0] != 6 or a.shape[1] != a.shape[2] or a.shape[3] != 3 or a.shape[1] < 1:
+                raise ValueError(f"{name}: cube faces must have shape (6, N, N, 3) (got shape {a.shape})")
+            faces = radiance_array(a.reshape(6 * a.shape[1], a.shape[2], 3), name)
+            self.layout, self.radiance = "cube", faces.reshape(a.shape)
+            return
+        if a.ndim != 3 or a.shape[-1] != 3:
+            raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) or cube faces "
+                             f"(6, N, N, 3) (got shape {a.shape})")
+        h, w = a.shape[:2]
+        kind = _guess_layout(h, w, name) if layout == "auto" else layout
+        if kind == "latlong":
+            if w != 2 * h:
+                raise ValueError(f"{name}: a lat-long map has W = 2 H (got W = {w}, H = {h})")
+            self.layout, self.radiance = "latlong", radiance_array(a, name)
+            return
+        rows, cols = cube.CROSS_CELLS_SHAPE[kind]
+        if h % rows or w % cols or h // rows != w // cols or h == 0:
+            raise ValueError(f"{name}: a {kind} is {cols} N wide and {rows} N tall "
+                             f"(got W = {w}, H = {h})")
+        checked = radiance_array(a, name, mask=_cross_mask(h, w, kind))
+        self.layout, self.radiance = "cube", cube.faces_from_cross(checked, kind)
+
+    # -- construction -----------------------------------------------------------------------
+    @classmethod
+    def from_file(cls, path, layout: str = "auto") -> "EnvironmentMap":
+        """Read an HDR image with OpenImageIO (EXR, Radiance HDR, float TIFF, ...).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file; nothing is written anywhere.
+        layout : str
+            As for the constructor. RGBA files lose their alpha channel; one-
+            or two-channel files are refused.
+
+        Raises
+        ------
+        FileNotFoundError
+            No file at ``path``.
+        ValueError
+            OpenImageIO cannot read it, or its contents fail the constructor's
+            checks (the message names the file).
+        """
+        from ..io import read_image
+        p = Path(os.fspath(path))
+        img = read_image(p)
+        if img.ndim == 2 or img.shape[2] not in (3, 4):
+            ch = 1 if img.ndim == 2 else img.shape[2]
+            raise ValueError(f"{p}: an environment map needs RGB or RGBA channels (got {ch})")
+        return cls(img[:, :, :3], layout, name=str(p))
+
+    def with_radiance(self, radiance) -> "EnvironmentMap":
+        """A map of the same layout with other radiance (same shape as :attr:`radiance`)."""
+        r = np.asarray(radiance)
+        if r.shape != self.radiance.shape:
+            raise ValueError(f"radiance: expected shape {self.radiance.shape} (got {r.shape})")
+        return EnvironmentMap(r, "latlong" if self.layout == "latlong" else "auto")
+
+    # -- geometry ---------------------------------------------------------------------------
+    @property
+    def grid_shape(self) -> tuple:
+        """Texel grid: (H, W) or (6, N, N)."""
+        return self.radiance.shape[:-1]
+
+    @property
+    def pitch(self) -> float:
+        """Largest angular size of a texel in rad: pi / H, or 2 atan(1 / N) for a cube."""
+        if self.layout == "latlong":
+            return math.pi / self.radiance.shape[0]
+        return 2.0 * math.atan(1.0 / self.radiance.shape[1])
+
+    def directions(self) -> np.ndarray:
+        """Unit direction of every texel centre, shape ``grid_shape + (3,)``, float64."""
+        if self.layout == "latlong":
+            return latlong_directions(*self.grid_shape)
+        return cube.face_directions(self.grid_shape[1])
+
+    def solid_angles(self) -> np.ndarray:
+        """Exact solid angle of every texel in sr, shape ``grid_shape``, float64."""
+        if self.layout == "latlong":
+            return latlong_solid_angles(*self.grid_shape)
+        return cube.face_solid_angles(self.grid_shape[1])
+
+    def texel_index(self, directions) -> np.ndarray:
+        """Flat index (into ``grid_shape``) of the texel holding each unit direction.
+
+        Parameters
+        ----------
+        directions : array_like, shape (M, 3), float
+            Unit vectors, y up.
+
+        Returns
+        -------
+        index : ndarray, shape (M,), int64
+        """
+        d = unit_rows(directions, "directions")
+        if self.layout == "latlong":
+            h, w = self.grid_shape
+            th = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
+            ph = np.mod(np.arctan2(d[:, 2], d[:, 0]), 2.0 * math.pi)
+            i = np.clip(np.floor(th * (h / math.pi)), 0, h - 1).astype(np.int64)
+            j = np.floor(ph * (w / (2.0 * math.pi))).astype(np.int64) % w
+            return i * w + j
+        n = self.grid_shape[1]
+        f, i, j = cube.cube_lookup(d, n)
+        return (f * n + i) * n + j
+
+    def lookup(self, directions) -> np.ndarray:
+        """Radiance of the texel holding each unit direction (nearest texel), (M, 3) float64."""
+        return self.radiance.reshape(-1, 3)[self.texel_index(directions)]
+
+    # -- integrals --------------------------------------------------------------------------
+    def sh(self, order: int = 3) -> np.ndarray:
+        """Spherical-harmonic coefficients of the radiance.
+
+        Each texel is taken as constant over its extent, and the basis is
+        integrated exactly over it (closed form for lat-long, 4 x 4 Gauss
+        points for cube faces), so a constant map has no band 1 or 2 at all.
+
+        Parameters
+        ----------
+        order : int
+            Number of bands; only 3 (l = 0, 1, 2: 9 coefficients) exists.
+
+        Returns
+        -------
+        L : ndarray, shape (9, 3), float64
+            ``L[k, c] = integral L_c(d) Y_k(d) dOmega``, basis and index k as
+            in :mod:`pyshadow.lighting.sh`.
+        """
+        if order != 3:
+            raise ValueError(f"order: only order 3 (9 coefficients) is implemented (got {order!r})")
+        if self.layout == "latlong":
+            T, P = latlong_basis_integrals(*self.grid_shape)
+            return np.einsum("ik,jk,ijc->kc", T, P, self.radiance, optimize=True)
+        out = np.zeros((SH_COUNT, 3))
+        for f, rows, B in cube.cube_basis_integrals(self.grid_shape[1], sh_basis):
+            out += B.reshape(-1, SH_COUNT).T @ self.radiance[f, rows].reshape(-1, 3)
+        return out
+
+    def irradiance(self, normals) -> np.ndarray:
+        """Irradiance at unit normals from the 9-coefficient SH (Ramamoorthi-Hanrahan).
+
+        Parameters
+        ----------
+        normals : array_like, shape (N, 3) or (3,), float
+            Unit normals, y up (length 1 +- 1e-6).
+
+        Returns
+        -------
+        E : ndarray, shape (N, 3), float64
+            Irradiance in radiance units times sr; see
+            :func:`pyshadow.lighting.sh.irradiance_sh`.
+        """
+        return irradiance_sh(self.sh(), unit_rows(normals, "normals"))
+
+    def integral(self) -> np.ndarray:
+        """``sum_i L_i Omega_i`` per channel: the radiance integrated over the sphere, (3,)."""
+        return self.radiance.reshape(-1, 3).T @ self.solid_angles().reshape(-1)
+
+    def to_image(self, layout: str | None = None) -> np.ndarray:
+        """The map as an (H, W, 3) float64 image: lat-long as is, a cube as a cross.
+
+        ``layout`` is ``"horizontal-cross"`` (default for cubes) or
+        ``"vertical-cross"``; unused cells are 0.
+        """
+        if self.layout == "latlong":
+            if layout not in (None, "latlong"):
+                raise ValueError(f"layout: a lat-long map is written as 'latlong' (got {layout!r})")
+            return self.radiance.copy()
+        layout = layout or "horizontal-cross"
+        if layout not in cube.CROSS_CELLS:
+            raise ValueError(f"layout: a cube is written as 'horizontal-cross' or 'vertical-cross' "
+                             f"(got {layout!r})")
+        return cube.cross_from_faces(self.radiance, layout)
+
+    def __repr__(self) -> str:
+        return f"EnvironmentMap(layout={self.layout!r}, grid_shape={self.grid_shape})"

@@ -1,0 +1,122 @@
+"""Sun extraction: direction, energy, exact split, resolved discs, overcast skies, bad input."""
+import math
+
+import numpy as np
+import pytest
+
+from pyshadow.lighting import (SUN_ANGULAR_RADIUS, EnvironmentMap, add_sun_disc, clear_sky, cube,
+                               disc_solid_angle, extract_sun, overcast_sky, sun_irradiance,
+                               sun_position)
+from pyshadow.lighting.sky import LUMINANCE_WEIGHTS
+
+
+def unit(v):
+    v = np.asarray(v, dtype=np.float64)
+    return v / np.linalg.norm(v)
+
+
+def base_sky(env, seed):
+    """A smooth, coloured, non-constant sky: floor plus two broad lobes (up to ~4x the floor)."""
+    rng = np.random.default_rng(seed)
+    d = env.directions()
+    out = np.ones(d.shape) * rng.uniform(0.5, 1.5, 3)
+    for _ in range(2):
+        w = unit(rng.normal(size=3))
+        out += rng.uniform(0.5, 3.0, 3) * np.exp(rng.uniform(1, 3) * (d @ w - 1.0))[..., None]
+    return env.with_radiance(out)
+
+
+def check_exact_split(env, sun, sky):
+    """sky + sun == original texel by texel and in energy (one rounding each)."""
+    total = sky.radiance + sun.texel_radiance(env.grid_shape)
+    assert np.abs(total - env.radiance).max() <= 1e-12 * env.radiance.max()
+    np.testing.assert_allclose(sky.integral() + sun.irradiance, env.integral(), rtol=1e-9)
+    assert (sky.radiance >= 0).all() and (sun.excess >= 0).all()
+
+
+GRIDS = {"latlong": lambda: EnvironmentMap(np.ones((64, 128, 3))),
+         "cube": lambda: EnvironmentMap(np.ones((6, 32, 32, 3)))}
+SUNS = [unit([0.3, 0.8, -0.5]), unit([1e-3, 1.0, 2e-3]), unit([1.0, 0.05, -1e-4]),
+        unit([-0.2, -0.6, 0.77]), unit([0.577, 0.577, 0.577])]        # zenith, seam, below, corner
+
+
+@pytest.mark.parametrize("layout", GRIDS)
+@pytest.mark.parametrize("radius", [SUN_ANGULAR_RADIUS, math.radians(6.0)], ids=["real", "6deg"])
+def test_extraction_on_synthetic_skies_with_a_known_disc(layout, radius):
+    errs_dir, errs_e = [], []
+    for seed, s in enumerate(SUNS):
+        env0 = base_sky(GRIDS[layout](), seed)
+        L = np.array([1.0, 0.9, 0.7]) * 4000.0 * (SUN_ANGULAR_RADIUS / radius) ** 2
+        env = add_sun_disc(env0, s, L, radius)
+        truth = L * disc_solid_angle(radius)
+        sun, sky = extract_sun(env)
+        check_exact_split(env, sun, sky)
+        errs_dir.append(math.acos(min(1.0, sun.direction @ s)) / env.pitch)
+        errs_e.append(np.abs(sun.irradiance / truth - 1).max())
+        if radius > env.pitch:                    # a resolved disc: its radius is measured
+            assert sun.angular_radius == pytest.approx(radius, rel=0.15)
+        else:                                     # sub-texel: the given radius comes back
+            assert sun.angular_radius == SUN_ANGULAR_RADIUS
+    # direction within one texel pitch; energy within 2 % (the issue's bounds)
+    assert max(errs_dir) <= 1.0, errs_dir
+    assert max(errs_e) <= 0.02, errs_e
+
+
+def test_extraction_recovers_the_clear_sky_sun():
+    s = sun_position(47.0, 200, 16.5)
+    env = clear_sky(s, 3.0, height=128)
+    sun, sky = extract_sun(env)
+    check_exact_split(env, sun, sky)
+    assert math.acos(min(1.0, sun.direction @ s)) <= env.pitch
+    np.testing.assert_allclose(sun.irradiance, sun_irradiance(s, 3.0), rtol=0.02)
+    # what is left has no sun: its brightest texel is a small fraction of the disc's radiance
+    assert sky.radiance.max() < 1e-3 * env.radiance.max()
+
+
+@pytest.mark.parametrize("height", [32, 64, 128])
+def test_overcast_sky_yields_a_negligible_sun(height):
+    env = overcast_sky(10_000.0, height=height)
+    sun, sky = extract_sun(env)
+    check_exact_split(env, sun, sky)
+    e_sky = LUMINANCE_WEIGHTS @ sky.irradiance([0, 1, 0])[0]
+    assert LUMINANCE_WEIGHTS @ sun.irradiance < 0.01 * e_sky
+
+
+def test_thesis_equation_3_2_would_lose_most_of_the_energy():
+    # the literal rule mean(T_1..n - T_n+1) * pi r^2 (n texels by area) against the exact split
+    env0 = EnvironmentMap(np.ones((64, 128, 3)))
+    s = unit([0.3, 0.8, -0.5])
+    env = add_sun_disc(env0, s, np.full(3, 1e5))
+    lum = env.radiance.reshape(-1, 3) @ LUMINANCE_WEIGHTS
+    om = env.solid_angles().reshape(-1)
+    a = math.pi * (4 * SUN_ANGULAR_RADIUS) ** 2           # area enlarged by 4 in radius
+    n = max(1, int(round(a / om[np.argmax(lum)])))
+    order = np.argsort(lum)[::-1]
+    literal = (lum[order[:n]] - lum[order[n]]).mean() * a
+    exact = extract_sun(env)[0].irradiance @ LUMINANCE_WEIGHTS
+    assert exact == pytest.approx(1e5 * disc_solid_angle(SUN_ANGULAR_RADIUS), rel=1e-3)
+    assert abs(literal / exact - 1) > 0.5
+
+
+def test_extract_sun_refuses_bad_input():
+    env = EnvironmentMap(np.ones((8, 16, 3)))
+    with pytest.raises(TypeError, match="env: expected an EnvironmentMap"):
+        extract_sun(np.ones((8, 16, 3)))
+    for kw, match in [(dict(radius=0.0), "radius"), (dict(radius=np.nan), "radius"),
+                      (dict(enlarge=0.5), "enlarge"), (dict(threshold=0.9), "threshold"),
+                      (dict(max_radius=3.0), "max_radius")]:
+        with pytest.raises(ValueError, match=match):
+            extract_sun(env, **kw)
+    with pytest.raises(ValueError, match="direction: not a unit vector"):
+        add_sun_disc(env, [0, 0.5, 0], np.ones(3))
+    with pytest.raises(ValueError, match="direction: zero vector"):
+        add_sun_disc(env, [0, 0, 0], np.ones(3))
+    with pytest.raises(ValueError, match="radiance: expected 3 finite values >= 0"):
+        add_sun_disc(env, [0, 1, 0], [1, -1, 0])
+
+
+def test_black_sky_gives_no_sun():
+    env = EnvironmentMap(cube.cross_from_faces(np.zeros((6, 8, 8, 3)), "vertical-cross"))
+    sun, sky = extract_sun(env)
+    assert (sun.irradiance == 0).all() and len(sun.texels) == 0 and (sky.radiance == 0).all()
+    assert np.linalg.norm(sun.direction) == pytest.approx(1.0)

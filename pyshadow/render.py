@@ -238,7 +238,7 @@ def _check_render_options(denoise, ao_scale, sampling):
 
 
 def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_scale: int = 1,
-           ground_size=None, bias=None, gbuffer=None) -> Frame:
+           ground_size=None, bias=None, gbuffer=None, lighting=None) -> Frame:
     """Render AO, bent normals and the G-buffer of ``scene`` from ``camera``.
 
     Parameters
@@ -262,6 +262,13 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     gbuffer : dict, optional
         A G-buffer to use instead of rasterising one (e.g.
         :func:`pyshadow.embree.gbuffer`).
+    lighting : pyshadow.lighting.Lighting, optional
+        Fill ``Frame.radiance`` (H, W, 3) float32, linear, 0 on the
+        background: the sky term from the frame's (filtered, upsampled) AO
+        and its bent normals, the sun term from one ``visible`` query per
+        covered pixel on the same ``visibility`` backend
+        (:mod:`pyshadow.lighting.shade`). Every other buffer is the same
+        as without it.
 
     Returns
     -------
@@ -270,6 +277,11 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     from . import visibility as vis
 
     sampling = _check_render_options(denoise, ao_scale, sampling)
+    if lighting is not None:
+        from .lighting.shade import Lighting
+
+        if not isinstance(lighting, Lighting):
+            raise TypeError(f"lighting must be a pyshadow.lighting.Lighting, got {lighting!r}")
     sp = surface_points(scene, camera, ground_size=ground_size, ao_scale=ao_scale, gbuffer=gbuffer)
     g = sp.gbuffer
     H, W = camera.height, camera.width
@@ -295,4 +307,36 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
             frame.ao = filters.bilateral(frame.ao, g["depth"], g["normal"], separable=True)
         elif denoise == "box":
             frame.ao = filters.edge_aware_box(frame.ao, g["depth"], g["normal"])
+    if lighting is not None:
+        frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale)
     return frame
+
+
+def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale) -> np.ndarray:
+    """``Frame.radiance`` of :func:`render` (see its ``lighting``)."""
+    from .lighting.shade import sky_radiance, sun_radiance
+
+    H, W = camera.height, camera.width
+    out = np.zeros((H * W, 3), np.float32)
+    full = sp if ao_scale == 1 else covered_pixels(camera, sp.gbuffer, sp.object_id)
+    if not len(full.index):
+        return out.reshape(H, W, 3)
+    nrm = np.asarray(full.normals, np.float64)
+    nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    bent = frame.bent_normal
+    if ao_scale != 1:                     # bent normals exist on the AO pass's pixels only: upsample them
+        from . import filters
+
+        g = sp.gbuffer
+        bent = np.stack([filters.upsample(frame.bent_normal[::ao_scale, ::ao_scale, c], g["depth"], g["normal"],
+                                          scale=ao_scale, fill=0.0) for c in range(3)], axis=2)
+    b = np.asarray(bent.reshape(-1, 3)[full.index], np.float64)
+    if ao_scale != 1:
+        length = np.linalg.norm(b, axis=1, keepdims=True)
+        b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
+    albedo = lighting.albedo_of(full.surface_ids, len(full.index))
+    sky = sky_radiance(lighting, frame.ao.reshape(-1)[full.index], b, albedo)
+    sun, _ = sun_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
+                          surface_ids=full.surface_ids, indices=full.index)
+    out[full.index] = sky + sun
+    return out.reshape(H, W, 3)

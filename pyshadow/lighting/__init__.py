@@ -17,6 +17,12 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
   cd/m^2.
 - :func:`extract_sun` (:mod:`~pyshadow.lighting.sun`): a :class:`SunLight`
   plus the sky without it, exactly energy-conserving.
+- :class:`Lighting`, :func:`shade` (:mod:`~pyshadow.lighting.shade`): a sky
+  as SH, a sun with its shadow, albedos -> linear RGB radiance of surface
+  points through any visibility backend ("bent" mode); what
+  ``pyshadow.render.render(..., lighting=)`` puts in ``Frame.radiance``.
+- :func:`tonemap`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
+  8-bit display values (sRGB or thesis 001's exponential curve), EXR output.
 """
 from . import cube, sh
 from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles
@@ -24,8 +30,11 @@ from .sh import irradiance_sh, sh_basis
 from .sky import (SUN_ANGULAR_RADIUS, add_sun_disc, clear_sky, disc_solid_angle, overcast_sky,
                   sun_irradiance, sun_position)
 from .sun import SunLight, extract_sun
+from .shade import DirectionalLight, Lighting, ShadedPoints, shade, shade_terms
+from .tonemap import tonemap, write_radiance
 
-__all__ = ["EnvironmentMap", "SunLight", "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky",
-           "cube", "disc_solid_angle", "extract_sun", "irradiance_sh", "latlong_directions",
-           "latlong_solid_angles", "overcast_sky", "sh", "sh_basis", "sun_irradiance",
-           "sun_position"]
+__all__ = ["DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
+           "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky", "cube", "disc_solid_angle",
+           "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
+           "overcast_sky", "sh", "sh_basis", "shade", "shade_terms", "sun_irradiance",
+           "sun_position", "tonemap", "write_radiance"]

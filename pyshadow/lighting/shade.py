@@ -1,0 +1,421 @@
+"""Shading: surface points and a :class:`Lighting` in, linear RGB radiance out (issue 19, "bent").
+
+Composed from the visibility protocol (:mod:`pyshadow.visibility`); no kernel
+of its own. The same code runs on every backend (``"csm"``, ``"csm-vote"``,
+``"numpy"``, ``"numpy-vote"``, ``"embree"``), so the NumPy reference of the
+composition is this module with ``backend="numpy"``.
+
+Convention (Lambertian, ../shared/LIGHTING.md): outgoing radiance
+``L_o = albedo / pi * E`` with ``E`` the irradiance in the lighting's
+radiance units times sr (lux for cd/m^2 skies). Two terms:
+
+sky ("bent", thesis 000 section 5.3.4)
+    ``albedo / pi * max(E_sky(b), 0) * AO`` with ``E_sky`` the
+    9-coefficient irradiance of the sky's SH coefficients
+    (:func:`pyshadow.lighting.irradiance_sh`, clamped at 0 where the order-3
+    truncation rings) at the bent normal ``b``, and ``AO`` and ``b`` from
+    :func:`pyshadow.visibility.ambient_occlusion`.
+sun (a directional light with its shadow)
+    ``albedo / pi * E_sun / K * sum_k max(n . l_k, 0) V(p, l_k)`` with
+    ``V`` from :func:`pyshadow.visibility.visible` asked with the surface
+    normal (the surface rule: grazing light does not self-shadow a face).
+    ``K = 1`` (``l_1`` the sun's direction) unless the sun has an angular
+    radius > 0 and ``Lighting(sun_samples=K)`` asks for more: then ``l_k``
+    are K directions spread uniformly in solid angle over the sun's disc
+    (a Fibonacci spiral on the cap, turned about the axis per point by the
+    point's pattern index and the seed: deterministic), and the shadow is
+    soft. A penumbra narrower than a CSM's map spacing or texel is not
+    resolved (../shared/LIGHTING.md): the real sun (0.27 deg) comes out hard.
+
+The sky given to :class:`Lighting` should not hold the sun when a sun is
+given too (use the sky returned by :func:`pyshadow.lighting.extract_sun`, or
+:meth:`Lighting.clear_sky`), else the sun is counted twice.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import in_range, unit_direction
+from .envmap import EnvironmentMap
+from .sh import SH_COUNT, irradiance_sh
+
+__all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
+           "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO", "DEFAULT_GROUND_ALBEDO"]
+
+#: Shading modes; only "bent" is implemented ("transfer" and "sampled" are issue 19's later parts).
+MODES = ("bent",)
+_LATER = ("transfer", "sampled")
+#: Albedo of instances without one of their own.
+DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
+#: Albedo of the ground plane.
+DEFAULT_GROUND_ALBEDO = (0.5, 0.5, 0.5)
+#: Largest sun angular radius accepted (rad).
+MAX_SUN_RADIUS = math.pi / 4
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _albedo(a, name: str) -> np.ndarray:
+    v = np.asarray(a, dtype=np.float64) if not isinstance(a, (str, bytes)) else None
+    if v is None or v.shape not in ((3,), ()):
+        raise ValueError(f"{name}: expected an RGB albedo of shape (3,) or a scalar (got {a!r})")
+    v = np.broadcast_to(v, (3,)).copy()
+    if not np.isfinite(v).all():
+        raise ValueError(f"{name}: not finite (got {v.tolist()})")
+    if (v < 0).any() or (v > 1).any():
+        raise ValueError(f"{name}: albedo must lie in [0, 1] per channel (got {v.tolist()})")
+    return v
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """A directional light: the sun.
+
+    Attributes
+    ----------
+    direction : ndarray, shape (3,), float64
+        Unit vector from the scene towards the light, y up.
+    irradiance : ndarray, shape (3,), float64
+        RGB irradiance on a surface facing the light (>= 0, finite), in the
+        sky's radiance units times sr.
+    angular_radius : float
+        Radius of the light's disc in rad, in [0, pi/4].
+    """
+
+    direction: np.ndarray
+    irradiance: np.ndarray
+    angular_radius: float = 0.0
+
+    def __post_init__(self):
+        d = unit_direction(self.direction, "sun direction")
+        e = np.asarray(self.irradiance, dtype=np.float64)
+        if e.shape != (3,):
+            raise ValueError(f"sun irradiance: expected an RGB 3-vector (got shape {e.shape})")
+        if not np.isfinite(e).all() or (e < 0).any():
+            raise ValueError(f"sun irradiance: must be finite and >= 0 (got {e.tolist()})")
+        r = in_range(self.angular_radius, "sun angular_radius", 0.0, MAX_SUN_RADIUS)
+        object.__setattr__(self, "direction", d)
+        object.__setattr__(self, "irradiance", e.copy())
+        object.__setattr__(self, "angular_radius", r)
+
+    @classmethod
+    def of(cls, light) -> "DirectionalLight":
+        """A DirectionalLight from anything with ``direction``, ``irradiance`` and ``angular_radius``
+        (e.g. :class:`pyshadow.lighting.SunLight`)."""
+        if isinstance(light, cls):
+            return light
+        try:
+            return cls(light.direction, light.irradiance, light.angular_radius)
+        except AttributeError:
+            raise TypeError(f"sun: expected a DirectionalLight or SunLight "
+                            f"(got {type(light).__name__})") from None
+
+
+class Lighting:
+    """What lights a scene: a sky as SH coefficients, an optional sun, the surfaces' albedos.
+
+    Parameters
+    ----------
+    sky : EnvironmentMap or array_like of shape (9, 3), optional
+        The sky (without the sun, if ``sun`` is given): an environment map
+        (projected with :meth:`EnvironmentMap.sh`) or its order-3 SH
+        coefficients, linear RGB. Default: no sky (zeros).
+    sun : DirectionalLight or SunLight, optional
+        The directional light; its shadow comes from the visibility backend.
+    albedo : float or array_like (3,), optional
+        RGB albedo in [0, 1] of every instance without one in ``albedos``.
+    albedos : mapping {instance id: albedo}, optional
+        Per-instance RGB albedo.
+    ground_albedo : float or array_like (3,), optional
+        RGB albedo of the ground plane (``pyshadow.scene.GROUND_ID``).
+    mode : {"bent"}, optional
+        How the sky is shaded (module docstring).
+    sun_samples : int, optional
+        Directions K over the sun's disc (1 .. 1024) for a soft shadow; used
+        only when the sun's angular radius is > 0.
+    seed : int, optional
+        Seed of the per-point turn of the sun's directions.
+
+    Raises
+    ------
+    ValueError
+        Non-finite SH coefficients or a wrong shape, an albedo outside
+        [0, 1] or non-finite, a zero or non-unit sun direction, negative or
+        non-finite sun irradiance, an unknown mode.
+    NotImplementedError
+        ``mode="transfer"`` or ``"sampled"`` (not built yet).
+    """
+
+    def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
+                 ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0):
+        if sky is None:
+            coef = np.zeros((SH_COUNT, 3))
+        elif isinstance(sky, EnvironmentMap):
+            coef = sky.sh()
+        else:
+            coef = np.array(sky, dtype=np.float64)
+            if coef.shape != (SH_COUNT, 3):
+                raise ValueError(f"sky: expected an EnvironmentMap or SH coefficients of shape (9, 3) "
+                                 f"(got shape {coef.shape})")
+            if not np.isfinite(coef).all():
+                raise ValueError("sky: SH coefficients must be finite")
+        if mode in _LATER:
+            raise NotImplementedError(f"mode {mode!r} is not implemented yet; use 'bent'")
+        if mode not in MODES:
+            raise ValueError(f"mode: expected one of {', '.join(MODES)} (got {mode!r})")
+        if isinstance(sun_samples, bool) or not isinstance(sun_samples, (int, np.integer)) \
+                or not 1 <= sun_samples <= 1024:
+            raise ValueError(f"sun_samples: expected an int in 1 .. 1024 (got {sun_samples!r})")
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+            raise ValueError(f"seed: expected an int (got {seed!r})")
+        per = {}
+        if albedos is not None:
+            if not isinstance(albedos, Mapping):
+                raise ValueError(f"albedos: expected a mapping {{instance id: RGB}} "
+                                 f"(got {type(albedos).__name__})")
+            for k, v in albedos.items():
+                if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+                    raise ValueError(f"albedos: keys must be instance ids >= 0 (got {k!r})")
+                per[int(k)] = _albedo(v, f"albedos[{k}]")
+        self.sh = coef
+        self.sun = None if sun is None else DirectionalLight.of(sun)
+        self.albedo = _albedo(albedo, "albedo")
+        self.albedos = per
+        self.ground_albedo = _albedo(ground_albedo, "ground_albedo")
+        self.mode = mode
+        self.sun_samples = int(sun_samples)
+        self.seed = int(seed)
+
+    @classmethod
+    def from_environment(cls, env: EnvironmentMap, *, extract: bool = True, **kwargs) -> "Lighting":
+        """Lighting from an environment map: with ``extract``, its sun becomes a directional light
+        (:func:`pyshadow.lighting.extract_sun`) and the rest the SH sky; else all of it is SH sky."""
+        if not isinstance(env, EnvironmentMap):
+            raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
+        if not extract:
+            return cls(env, **kwargs)
+        from .sun import extract_sun
+
+        sun, sky = extract_sun(env)
+        return cls(sky, sun=sun, **kwargs)
+
+    @classmethod
+    def clear_sky(cls, sun_direction, turbidity: float = 3.0, *, height: int = 64, **kwargs) -> "Lighting":
+        """The Preetham clear sky (:func:`pyshadow.lighting.clear_sky` without its disc) as SH, and
+        its sun (:func:`pyshadow.lighting.sun_irradiance`, the real angular radius) as the light."""
+        from .sky import SUN_ANGULAR_RADIUS, clear_sky, sun_irradiance
+
+        sky = clear_sky(sun_direction, turbidity, height=height, sun=False)
+        sun = DirectionalLight(sun_direction, sun_irradiance(sun_direction, turbidity), SUN_ANGULAR_RADIUS)
+        return cls(sky, sun=sun, **kwargs)
+
+    def albedo_of(self, surface_ids, n: int | None = None) -> np.ndarray:
+        """RGB albedo of each point's surface, (N, 3) float64.
+
+        ``surface_ids``: instance ids, ``GROUND_ID`` (-2) for the ground,
+        -1 (unknown) for the default ``albedo``; a scalar applies to all ``n``.
+        """
+        from ..scene import GROUND_ID
+
+        ids = np.asarray(-1 if surface_ids is None else surface_ids)
+        if ids.ndim == 0:
+            if n is None:
+                raise ValueError("surface_ids: a scalar needs the number of points")
+            ids = np.full(n, ids)
+        if ids.ndim != 1 or (n is not None and len(ids) != n) or not np.issubdtype(ids.dtype, np.integer):
+            raise ValueError(f"surface_ids: expected ({'N' if n is None else n},) ints (got shape {ids.shape}, "
+                             f"dtype {ids.dtype})")
+        out = np.tile(self.albedo, (len(ids), 1))
+        out[ids == GROUND_ID] = self.ground_albedo
+        for k, v in self.albedos.items():
+            out[ids == k] = v
+        return out
+
+    def __repr__(self) -> str:
+        sun = "none" if self.sun is None else (f"dir={np.round(self.sun.direction, 4).tolist()}, "
+                                              f"E={np.round(self.sun.irradiance, 4).tolist()}, "
+                                              f"r={self.sun.angular_radius:.4g}")
+        return (f"Lighting(mode={self.mode!r}, sky L00={np.round(self.sh[0], 4).tolist()}, sun {sun}, "
+                f"albedo={self.albedo.tolist()}, {len(self.albedos)} per-instance, "
+                f"ground={self.ground_albedo.tolist()}, sun_samples={self.sun_samples})")
+
+
+@dataclass(eq=False)
+class ShadedPoints:
+    """The terms of :func:`shade_terms`, one row per point.
+
+    Attributes
+    ----------
+    radiance : (N, 3) float32
+        ``sky + sun``, linear.
+    sky, sun : (N, 3) float32
+        The two terms of the module docstring.
+    ao : (N,) float32
+    bent_normal : (N, 3) float32
+    sun_visibility : (N,) float32
+        Fraction of the K sun directions that reach the sky (1 without a sun).
+    """
+
+    radiance: np.ndarray
+    sky: np.ndarray
+    sun: np.ndarray
+    ao: np.ndarray
+    bent_normal: np.ndarray
+    sun_visibility: np.ndarray
+
+
+def _check_lighting(lighting):
+    if not isinstance(lighting, Lighting):
+        raise TypeError(f"lighting: expected a pyshadow.lighting.Lighting (got {type(lighting).__name__})")
+    return lighting
+
+
+def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
+    """The "bent" sky term ``albedo / pi * max(E_sky(bent), 0) * AO``, (N, 3) float64.
+
+    Pure NumPy: ``ao`` (N,), ``bent_normals`` (N, 3) unit (zero rows give
+    the sky's band-0 irradiance, as a direction-free fallback), ``albedo`` (N, 3).
+    """
+    _check_lighting(lighting)
+    a = np.asarray(ao, dtype=np.float64)
+    b = np.asarray(bent_normals, dtype=np.float64)
+    alb = np.asarray(albedo, dtype=np.float64)
+    n = len(a)
+    if a.shape != (n,) or b.shape != (n, 3) or alb.shape != (n, 3):
+        raise ValueError(f"sky_radiance: ao (N,), bent_normals (N, 3) and albedo (N, 3) must agree "
+                         f"(got {a.shape}, {b.shape}, {alb.shape})")
+    if n == 0:
+        return np.zeros((0, 3))
+    e = np.maximum(irradiance_sh(lighting.sh, b), 0.0)
+    return alb / math.pi * e * a[:, None]
+
+
+def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> np.ndarray:
+    """K directions over the light's disc for each point, (N, K, 3) float64, unit.
+
+    Uniform in solid angle: ``cos a_j = 1 - (j + 1/2) / K (1 - cos r)``,
+    azimuth ``2 pi (j g + t_i)`` with ``g`` the golden ratio's fraction and
+    ``t_i = frac(u + i g)`` for the point's pattern index ``i`` and ``u``
+    drawn from ``seed``. ``K = 1`` or ``r = 0``: the light's direction itself.
+    """
+    idx = np.asarray(indices, dtype=np.int64)
+    n = len(idx)
+    d = light.direction
+    if k == 1 or light.angular_radius == 0.0:
+        return np.broadcast_to(d, (n, 1, 3)).copy()
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(d, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    j = np.arange(k)
+    cos_a = 1.0 - (j + 0.5) / k * (1.0 - math.cos(light.angular_radius))
+    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a ** 2))
+    u = float(np.random.default_rng(seed).random())
+    turn = np.mod(u + (idx % (1 << 20)) * _GOLDEN, 1.0)
+    phi = 2.0 * math.pi * (j[None, :] * _GOLDEN + turn[:, None])
+    out = (cos_a[None, :, None] * d + (sin_a * np.cos(phi))[..., None] * e1
+           + (sin_a * np.sin(phi))[..., None] * e2)
+    return out / np.linalg.norm(out, axis=2, keepdims=True)
+
+
+def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", surface_ids=None,
+                 indices=None, bias=None):
+    """The sun term and the visible fraction of its directions: ((N, 3) float64, (N,) float64).
+
+    ``points`` (N, 3), ``normals`` (N, 3) unit, ``albedo`` (N, 3); zero
+    radiance and visibility 1 without a sun. One :func:`pyshadow.visibility.visible`
+    call of N K rays, asked with the normals.
+    """
+    from .. import visibility as vis
+
+    _check_lighting(lighting)
+    p = np.asarray(points, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    n = len(p)
+    sun = lighting.sun
+    if sun is None or n == 0:
+        return np.zeros((n, 3)), np.ones(n)
+    idx = np.arange(n) if indices is None else np.asarray(indices, dtype=np.int64)
+    dirs = sun_directions(sun, lighting.sun_samples, idx, lighting.seed)          # (N, K, 3)
+    k = dirs.shape[1]
+    cos = np.maximum(np.einsum("nkj,nj->nk", dirs, nrm), 0.0)
+    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,)), k)
+    lit = vis.visible(scene, np.repeat(p, k, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
+                      surface_ids=ids, normals=np.repeat(nrm, k, axis=0)).reshape(n, k)
+    e = sun.irradiance[None, :] * (cos * lit).mean(axis=1)[:, None]
+    return np.asarray(albedo, dtype=np.float64) / math.pi * e, lit.mean(axis=1)
+
+
+def _check_points(scene, points, normals, surface_ids, indices):
+    from .._validate import check_indices, rows3, unit_normals
+
+    p = rows3(points, "points")
+    nrm = unit_normals(normals, len(p))
+    idx = check_indices(indices, len(p))
+    if surface_ids is not None:
+        ids = np.asarray(surface_ids)
+        if not np.issubdtype(ids.dtype, np.integer) or ids.shape not in ((), (len(p),)):
+            raise ValueError(f"surface_ids: expected an int or ({len(p)},) ints (got shape {ids.shape}, "
+                             f"dtype {ids.dtype})")
+        flat = np.atleast_1d(ids)
+        bad = flat[(flat < -2) | (flat >= len(scene.instances))]
+        if np.size(bad):
+            raise ValueError(f"surface_ids: {np.ravel(bad)[0]} is neither an instance id of the scene "
+                             f"(0 .. {len(scene.instances) - 1}), -1 nor GROUND_ID (-2)")
+    return p, nrm, idx
+
+
+def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sampling=None, surface_ids=None,
+                indices=None, bias=None) -> ShadedPoints:
+    """Shade surface points: the sky term, the sun term and what they came from.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points, normals : array_like, shape (N, 3)
+        World positions and surface normals (normalised here; zero or
+        non-finite rows are an error).
+    lighting : Lighting
+    backend : str or VisibilityBackend, optional
+        Who answers AO and the sun's shadow rays (:mod:`pyshadow.visibility`).
+    sampling : pyshadow.Sampling, optional
+        AO sampling (default ``Sampling()``).
+    surface_ids : int or array_like of int, optional
+        Instance id of each point's surface (``GROUND_ID`` for the ground,
+        -1 unknown): picks the albedo and the self-bias.
+    indices : array_like of int, shape (N,), optional
+        Sample-pattern index of each point (AO patterns and the sun's turn);
+        default ``arange(N)``.
+    bias : float, optional
+        As in :func:`pyshadow.visibility.visible`.
+
+    Returns
+    -------
+    ShadedPoints
+    """
+    from .. import visibility as vis
+
+    _check_lighting(lighting)
+    p, nrm, idx = _check_points(scene, points, normals, surface_ids, indices)
+    albedo = lighting.albedo_of(surface_ids, len(p))
+    n = len(p)
+    if n == 0:
+        z3, z1 = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
+        return ShadedPoints(z3, z3, z3, z1, z3, z1)
+    ao, bent = vis.ambient_occlusion(scene, p, nrm, backend=backend, sampling=sampling, return_bent_normals=True,
+                                     bias=bias, indices=idx, surface_ids=surface_ids)
+    sky = sky_radiance(lighting, ao, bent, albedo)
+    sun, frac = sun_radiance(scene, p, nrm, lighting, albedo, backend=backend, surface_ids=surface_ids,
+                             indices=idx, bias=bias)
+    f32 = np.float32
+    return ShadedPoints(radiance=(sky + sun).astype(f32), sky=sky.astype(f32), sun=sun.astype(f32),
+                        ao=np.asarray(ao, f32), bent_normal=np.asarray(bent, f32),
+                        sun_visibility=frac.astype(f32))
+
+
+def shade(scene, points, normals, lighting: Lighting, **kwargs) -> np.ndarray:
+    """Linear RGB radiance leaving each surface point, (N, 3) float32 (:func:`shade_terms`'s ``radiance``)."""
+    return shade_terms(scene, points, normals, lighting, **kwargs).radiance

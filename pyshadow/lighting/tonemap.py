@@ -1,0 +1,86 @@
+"""Display and storage of linear radiance: tone mapping to 8 bits, EXR output.
+
+``tonemap`` maps linear radiance ``L`` (any unit) to 8-bit display values:
+
+``curve="srgb"`` (default)
+    ``v = OETF(clip(exposure * L, 0, 1))`` with the sRGB transfer function
+    (IEC 61966-2-1, :func:`pyshadow.io.linear_to_srgb`): values above
+    ``1 / exposure`` clip to white.
+``curve="exponential"`` (thesis 001, eq. 4.9-4.10)
+    ``v = (1 - exp(-exposure * L)) ** (1 / gamma)``: never clips; ``gamma``
+    is the display gamma applied after it (default 2.2; 1 leaves
+    ``1 - e^(-s L)`` as is).
+
+Then ``round(255 v)`` (half up) as uint8. Negative radiance (none comes out
+of :mod:`~pyshadow.lighting.shade`) maps to 0, NaN is an error.
+"""
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..io import linear_to_srgb, write_image
+
+__all__ = ["tonemap", "write_radiance", "CURVES"]
+
+#: Names accepted by ``tonemap(curve=)``.
+CURVES = ("srgb", "exponential")
+
+
+def _radiance(radiance, name: str = "radiance") -> np.ndarray:
+    a = np.asarray(radiance)
+    if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError(f"{name}: expected shape (H, W, 3) (got shape {a.shape})")
+    if not np.issubdtype(a.dtype, np.floating):
+        raise TypeError(f"{name}: expected a float array (got dtype {a.dtype})")
+    if np.isnan(a).any():
+        raise ValueError(f"{name}: {int(np.isnan(a).any(axis=2).sum())} pixel(s) hold NaN")
+    return a
+
+
+def tonemap(radiance, exposure: float = 1.0, curve: str = "srgb", *, gamma: float = 2.2) -> np.ndarray:
+    """Linear radiance (H, W, 3) -> display values (H, W, 3) uint8 (module docstring).
+
+    Parameters
+    ----------
+    radiance : ndarray, shape (H, W, 3), float
+        Linear RGB (e.g. ``Frame.radiance``); +inf maps to white.
+    exposure : float
+        Scale ``s > 0`` applied to the radiance first.
+    curve : {"srgb", "exponential"}
+    gamma : float
+        Display gamma of the exponential curve (ignored by "srgb").
+    """
+    a = _radiance(radiance)
+    s = float(exposure)
+    if not (math.isfinite(s) and s > 0):
+        raise ValueError(f"exposure: must be a finite number > 0 (got {exposure!r})")
+    if curve not in CURVES:
+        raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")
+    x = np.maximum(a.astype(np.float64) * s, 0.0)
+    if curve == "srgb":
+        v = linear_to_srgb(x)
+    else:
+        g = float(gamma)
+        if not (math.isfinite(g) and g > 0):
+            raise ValueError(f"gamma: must be a finite number > 0 (got {gamma!r})")
+        v = np.power(-np.expm1(-x), 1.0 / g)
+    return np.floor(np.clip(v, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
+
+
+def write_radiance(path, radiance) -> None:
+    """Write linear radiance (H, W, 3) as a float32 EXR, atomically (:func:`pyshadow.io.write_image`).
+
+    ``path`` must end in ``.exr``; NaN or negative values are refused (an
+    EXR of radiance holds finite or +inf values >= 0).
+    """
+    p = Path(os.fspath(path))
+    if p.suffix.lower() != ".exr":
+        raise ValueError(f"path: radiance is written as EXR; {str(p)!r} does not end in .exr")
+    a = _radiance(radiance)
+    if (a < 0).any():
+        raise ValueError(f"radiance: {int((a < 0).any(axis=2).sum())} pixel(s) are negative")
+    write_image(p, a.astype(np.float32, copy=False))

@@ -1,4 +1,4 @@
-"""Shading: surface points and a :class:`Lighting` in, linear RGB radiance out (issue 19, "bent").
+"""Shading: surface points and a :class:`Lighting` in, linear RGB radiance out (issue 19, "bent", "sampled").
 
 Composed from the visibility protocol (:mod:`pyshadow.visibility`); no kernel
 of its own. The same code runs on every backend (``"csm"``, ``"csm-vote"``,
@@ -7,14 +7,28 @@ composition is this module with ``backend="numpy"``.
 
 Convention (Lambertian, ../shared/LIGHTING.md): outgoing radiance
 ``L_o = albedo / pi * E`` with ``E`` the irradiance in the lighting's
-radiance units times sr (lux for cd/m^2 skies). Two terms:
+radiance units times sr (lux for cd/m^2 skies). Two terms; the sky's comes
+in one of the modes of ``Lighting(mode=)``:
 
-sky ("bent", thesis 000 section 5.3.4)
+sky, mode "bent" (thesis 000 section 5.3.4)
     ``albedo / pi * max(E_sky(b), 0) * AO`` with ``E_sky`` the
     9-coefficient irradiance of the sky's SH coefficients
     (:func:`pyshadow.lighting.irradiance_sh`, clamped at 0 where the order-3
     truncation rings) at the bent normal ``b``, and ``AO`` and ``b`` from
     :func:`pyshadow.visibility.ambient_occlusion`.
+sky, mode "sampled" (the accurate mode, thesis 000 section 7)
+    ``albedo * (1/S) sum_s L_env(w_s) V(p, w_s)`` over the S
+    cosine-weighted directions ``w_s`` that AO traces
+    (:func:`pyshadow.sample_directions` for the ``sampling`` and the point's
+    pattern index), ``V`` from :func:`pyshadow.visibility.visible` asked
+    with the surface normal, ``L_env`` the sky's environment map at the
+    nearest texel (:meth:`EnvironmentMap.lookup` of the direction
+    normalised in float64). With the pdf ``cos / pi`` of the directions
+    this is the unbiased estimator of ``albedo / pi * integral L_env V cos
+    dOmega``, i.e. of ``albedo / pi * E`` with the sky's shadowed
+    irradiance ``E``. Needs the map (a Lighting made from SH coefficients
+    alone refuses the mode). The AO and bent normal reported with it are
+    those of the same samples (:func:`pyshadow.sampling.ao_from_samples`).
 sun (a directional light with its shadow)
     ``albedo / pi * E_sun / K * sum_k max(n . l_k, 0) V(p, l_k)`` with
     ``V`` from :func:`pyshadow.visibility.visible` asked with the surface
@@ -44,11 +58,14 @@ from .envmap import EnvironmentMap
 from .sh import SH_COUNT, irradiance_sh
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
-           "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO", "DEFAULT_GROUND_ALBEDO"]
+           "sampled_sky_radiance", "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO",
+           "DEFAULT_GROUND_ALBEDO"]
 
-#: Shading modes; only "bent" is implemented ("transfer" and "sampled" are issue 19's later parts).
-MODES = ("bent",)
-_LATER = ("transfer", "sampled")
+#: Shading modes implemented ("transfer" is issue 19's later part).
+MODES = ("bent", "sampled")
+_LATER = ("transfer",)
+#: Rays per visibility call of the "sampled" sky (points are taken in chunks of this many rays).
+SAMPLED_CHUNK_RAYS = 1 << 20
 #: Albedo of instances without one of their own.
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 #: Albedo of the ground plane.
@@ -121,8 +138,9 @@ class Lighting:
     ----------
     sky : EnvironmentMap or array_like of shape (9, 3), optional
         The sky (without the sun, if ``sun`` is given): an environment map
-        (projected with :meth:`EnvironmentMap.sh`) or its order-3 SH
-        coefficients, linear RGB. Default: no sky (zeros).
+        (projected with :meth:`EnvironmentMap.sh`, and kept as :attr:`env`
+        for the "sampled" mode) or its order-3 SH coefficients, linear RGB.
+        Default: no sky (zeros).
     sun : DirectionalLight or SunLight, optional
         The directional light; its shadow comes from the visibility backend.
     albedo : float or array_like (3,), optional
@@ -131,8 +149,9 @@ class Lighting:
         Per-instance RGB albedo.
     ground_albedo : float or array_like (3,), optional
         RGB albedo of the ground plane (``pyshadow.scene.GROUND_ID``).
-    mode : {"bent"}, optional
-        How the sky is shaded (module docstring).
+    mode : {"bent", "sampled"}, optional
+        How the sky is shaded (module docstring). "sampled" needs ``sky``
+        as an :class:`EnvironmentMap` (or no sky at all).
     sun_samples : int, optional
         Directions K over the sun's disc (1 .. 1024) for a soft shadow; used
         only when the sun's angular radius is > 0.
@@ -144,16 +163,25 @@ class Lighting:
     ValueError
         Non-finite SH coefficients or a wrong shape, an albedo outside
         [0, 1] or non-finite, a zero or non-unit sun direction, negative or
-        non-finite sun irradiance, an unknown mode.
+        non-finite sun irradiance, an unknown mode, ``mode="sampled"`` with
+        a sky given as SH coefficients only.
     NotImplementedError
-        ``mode="transfer"`` or ``"sampled"`` (not built yet).
+        ``mode="transfer"`` (not built yet).
+
+    Attributes
+    ----------
+    sh : ndarray (9, 3)
+        The sky's SH coefficients.
+    env : EnvironmentMap or None
+        The sky's map, when the sky was given as one.
     """
 
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
                  ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0):
+        env = sky if isinstance(sky, EnvironmentMap) else None
         if sky is None:
             coef = np.zeros((SH_COUNT, 3))
-        elif isinstance(sky, EnvironmentMap):
+        elif env is not None:
             coef = sky.sh()
         else:
             coef = np.array(sky, dtype=np.float64)
@@ -166,6 +194,9 @@ class Lighting:
             raise NotImplementedError(f"mode {mode!r} is not implemented yet; use 'bent'")
         if mode not in MODES:
             raise ValueError(f"mode: expected one of {', '.join(MODES)} (got {mode!r})")
+        if mode == "sampled" and sky is not None and env is None:
+            raise ValueError("mode 'sampled' needs the sky as an EnvironmentMap (it looks up the map's radiance "
+                             "per sample direction); this sky was given as SH coefficients only")
         if isinstance(sun_samples, bool) or not isinstance(sun_samples, (int, np.integer)) \
                 or not 1 <= sun_samples <= 1024:
             raise ValueError(f"sun_samples: expected an int in 1 .. 1024 (got {sun_samples!r})")
@@ -181,6 +212,7 @@ class Lighting:
                     raise ValueError(f"albedos: keys must be instance ids >= 0 (got {k!r})")
                 per[int(k)] = _albedo(v, f"albedos[{k}]")
         self.sh = coef
+        self.env = env
         self.sun = None if sun is None else DirectionalLight.of(sun)
         self.albedo = _albedo(albedo, "albedo")
         self.albedos = per
@@ -254,7 +286,11 @@ class ShadedPoints:
     sky, sun : (N, 3) float32
         The two terms of the module docstring.
     ao : (N,) float32
+        "bent": :func:`pyshadow.visibility.ambient_occlusion`'s; "sampled": the
+        visible fraction of the sky estimator's own directions (the same
+        directions, asked through ``visible``).
     bent_normal : (N, 3) float32
+        Normalised sum of the visible directions, as ``ao``.
     sun_visibility : (N,) float32
         Fraction of the K sun directions that reach the sky (1 without a sun).
     """
@@ -278,8 +314,13 @@ def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
 
     Pure NumPy: ``ao`` (N,), ``bent_normals`` (N, 3) unit (zero rows give
     the sky's band-0 irradiance, as a direction-free fallback), ``albedo`` (N, 3).
+    A Lighting in mode "sampled" is refused (its sky term is
+    :func:`sampled_sky_radiance`'s), so that no caller shades it as "bent" unawares.
     """
     _check_lighting(lighting)
+    if lighting.mode != "bent":
+        raise ValueError(f"sky_radiance is the 'bent' sky term; this Lighting is in mode {lighting.mode!r}: "
+                         f"shade it with pyshadow.lighting.shade / shade_terms (sampled_sky_radiance)")
     a = np.asarray(ao, dtype=np.float64)
     b = np.asarray(bent_normals, dtype=np.float64)
     alb = np.asarray(albedo, dtype=np.float64)
@@ -291,6 +332,75 @@ def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
         return np.zeros((0, 3))
     e = np.maximum(irradiance_sh(lighting.sh, b), 0.0)
     return alb / math.pi * e * a[:, None]
+
+
+def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", sampling=None,
+                         surface_ids=None, indices=None, bias=None):
+    """The "sampled" sky term, with the AO and bent normals of its samples.
+
+    ``albedo * mean_s L_env(w_s) V(p, w_s)`` over the cosine-weighted
+    directions ``w_s = pyshadow.sample_directions(normals, sampling=sampling,
+    indices=indices)`` (those AO traces), ``V`` from
+    :func:`pyshadow.visibility.visible` asked with the normals and
+    ``surface_ids`` (module docstring). Points are taken in chunks of
+    :data:`SAMPLED_CHUNK_RAYS` rays; the result does not depend on the chunking.
+
+    Parameters
+    ----------
+    points, normals : ndarray (N, 3)
+        World positions and unit normals (checked by the caller; see
+        :func:`shade_terms`).
+    lighting : Lighting
+        Its :attr:`Lighting.env` is the sky (no map and zero SH: the term is 0).
+    albedo : ndarray (N, 3)
+    backend, sampling, surface_ids, indices, bias :
+        As in :func:`shade_terms`.
+
+    Returns
+    -------
+    sky : ndarray (N, 3), float64
+    ao : ndarray (N,), float32
+        Fraction of the directions that reach the sky.
+    bent : ndarray (N, 3), float32
+        Normalised sum of those directions (the normal where none does).
+    """
+    from .. import visibility as vis
+    from ..sampling import Sampling, ao_from_samples, sample_directions
+
+    _check_lighting(lighting)
+    if sampling is None:
+        sampling = Sampling()
+    elif not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    env = lighting.env
+    if env is None and np.any(lighting.sh != 0):
+        raise ValueError("the 'sampled' sky needs the sky's EnvironmentMap; this Lighting holds SH "
+                         "coefficients only")
+    p = np.asarray(points, dtype=np.float64)
+    nrm = np.asarray(normals, dtype=np.float64)
+    alb = np.asarray(albedo, dtype=np.float64)
+    n, k = len(p), sampling.samples
+    idx = np.arange(n) if indices is None else np.asarray(indices, dtype=np.int64)
+    ids = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
+    sky = np.zeros((n, 3))
+    ao = np.zeros(n, np.float32)
+    bent = np.zeros((n, 3), np.float32)
+    step = max(1, SAMPLED_CHUNK_RAYS // k)
+    for a in range(0, n, step):
+        b = min(n, a + step)
+        m = b - a
+        dirs = sample_directions(nrm[a:b], sampling=sampling, indices=idx[a:b])         # (m, S, 3) float32
+        flat = dirs.reshape(-1, 3)
+        lit = vis.visible(scene, np.repeat(p[a:b], k, axis=0), flat, backend=backend, bias=bias,
+                          surface_ids=None if ids is None else np.repeat(ids[a:b], k),
+                          normals=np.repeat(nrm[a:b], k, axis=0)).reshape(m, k)
+        if env is not None:
+            w = flat.astype(np.float64)
+            w /= np.linalg.norm(w, axis=1, keepdims=True)
+            rad = env.lookup(w).reshape(m, k, 3)
+            sky[a:b] = alb[a:b] * (rad * lit[..., None]).mean(axis=1)
+        ao[a:b], bent[a:b] = ao_from_samples(dirs, lit, nrm[a:b].astype(np.float32), return_bent_normals=True)
+    return sky, ao, bent
 
 
 def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> np.ndarray:
@@ -382,7 +492,8 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     backend : str or VisibilityBackend, optional
         Who answers AO and the sun's shadow rays (:mod:`pyshadow.visibility`).
     sampling : pyshadow.Sampling, optional
-        AO sampling (default ``Sampling()``).
+        AO sampling (default ``Sampling()``); in mode "sampled" also the
+        directions of the sky's estimator.
     surface_ids : int or array_like of int, optional
         Instance id of each point's surface (``GROUND_ID`` for the ground,
         -1 unknown): picks the albedo and the self-bias.
@@ -405,9 +516,13 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     if n == 0:
         z3, z1 = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
         return ShadedPoints(z3, z3, z3, z1, z3, z1)
-    ao, bent = vis.ambient_occlusion(scene, p, nrm, backend=backend, sampling=sampling, return_bent_normals=True,
-                                     bias=bias, indices=idx, surface_ids=surface_ids)
-    sky = sky_radiance(lighting, ao, bent, albedo)
+    if lighting.mode == "sampled":
+        sky, ao, bent = sampled_sky_radiance(scene, p, nrm, lighting, albedo, backend=backend, sampling=sampling,
+                                             surface_ids=surface_ids, indices=idx, bias=bias)
+    else:
+        ao, bent = vis.ambient_occlusion(scene, p, nrm, backend=backend, sampling=sampling,
+                                         return_bent_normals=True, bias=bias, indices=idx, surface_ids=surface_ids)
+        sky = sky_radiance(lighting, ao, bent, albedo)
     sun, frac = sun_radiance(scene, p, nrm, lighting, albedo, backend=backend, surface_ids=surface_ids,
                              indices=idx, bias=bias)
     f32 = np.float32

@@ -25,7 +25,8 @@ REPO = Path(__file__).resolve().parents[1]
 EXAMPLES = REPO / "examples"
 TINY_MAPS = ["--theta", "8", "--phi", "16", "--resolution", "32"]
 WINDOW = ["--window", "400", "300"]
-SCRIPTS = ["ao_mesh.py", "depth_maps.py", "csm_heatmap.py", "moving_bodies.py", "ao_image.py"]
+SCRIPTS = ["ao_mesh.py", "depth_maps.py", "csm_heatmap.py", "moving_bodies.py", "ao_image.py",
+           "lit_scene.py"]
 
 # Content thresholds for a screenshot (8-bit sRGB, background viz.BACKGROUND).
 # A window holding nothing but a title and a full-width colour bar -- what a
@@ -210,6 +211,22 @@ def test_ao_image_screenshot(tmp_path):
     top = 2.0 / 2.14
     assert_content(png, [(0.08, top / 2, 0.0, 0.5), (0.08, top / 2, 0.5, 1.0),
                          (top / 2 + 0.08, top, 0.0, 0.5), (top / 2 + 0.08, top, 0.5, 1.0)])
+
+
+@pytest.mark.slow
+def test_lit_scene_frames(tmp_path):
+    png = tmp_path / "lit.png"
+    out = run_ok("lit_scene.py", "--width", "80", "--height", "60", "--samples", "8", *TINY_MAPS,
+                 "--frames", "3", "--save-frames", *WINDOW, "--screenshot", png)
+    assert number(r"lit frames per second: ([0-9.]+)", out) > 0.0
+    assert number(r"sun at ([0-9.]+) deg elevation", out) > 10.0
+    frames = [tmp_path / f"lit_{k:04d}.png" for k in range(3)]
+    assert all(f.is_file() for f in frames)
+    first, last = read_png(frames[0]), read_png(frames[-1])
+    assert first.shape == (60, 80, 3)
+    assert float(first.std()) > 10.0                      # lit and shadowed surfaces, not one grey
+    assert np.abs(first - last).mean() > 1.0              # the bunny moved between the frames
+    assert_content(png, [(0.1, 0.95, 0.0, 0.5), (0.1, 0.95, 0.5, 1.0)])
 
 
 @pytest.mark.parametrize("name", ["ao_mesh.py", "depth_maps.py", "csm_heatmap.py",

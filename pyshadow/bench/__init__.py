@@ -19,6 +19,12 @@ bunny and a torus on a ground plane, two walls) or on the user's own meshes:
    ``difference.png``, ``ao.exr``, ``reference.exr``, ``converged.exr`` and
    ``results.json`` into ``--out``.
 
+``--sky clear|overcast|FILE`` also renders the scene lit ("bent" mode) with
+the CSMs and with Embree on the same directions, prints the relative RMSE
+of radiance and the lit frame time beside AO alone, and writes
+``radiance.exr``, ``lit.png`` and a ``"lighting"`` entry
+(:mod:`~pyshadow.bench.lit`).
+
 ``--sweep`` runs the speed/accuracy trade study instead (maps, resolution,
 samples, filter, depth bits) and writes ``sweep.json``, ``sweep.md`` and
 ``pareto.png``; ``--max-error E`` names the fastest configuration of a sweep
@@ -32,6 +38,7 @@ Usage::
 
     pyshadow-bench                       # default scene, 640x480, 36 samples
     pyshadow-bench --quick               # smaller settings
+    pyshadow-bench --quick --sky clear   # also the lit frame: radiance.exr, lit.png
     pyshadow-bench --sweep --max-error 0.02
     pyshadow-bench --mesh a.obj --mesh b.ply --json
     python -m pyshadow.bench ...         # the same
@@ -41,7 +48,8 @@ Modules: :mod:`~pyshadow.bench.cli` (options, ``main``, output files),
 :mod:`~pyshadow.bench.scenes` (the scenes and their CSMs),
 :mod:`~pyshadow.bench.measure` (G-buffer, Embree and pyshadow passes,
 errors, converged reference), :mod:`~pyshadow.bench.single` (the single
-benchmark), :mod:`~pyshadow.bench.sweep` (the sweep, Pareto front,
+benchmark), :mod:`~pyshadow.bench.lit` (``--sky``: the lit frame),
+:mod:`~pyshadow.bench.sweep` (the sweep, Pareto front,
 ``--max-error``), :mod:`~pyshadow.bench.report` (table, markdown, plots,
 difference image), :mod:`~pyshadow.bench.common` (progress, figure
 records). The CSM cache is :mod:`pyshadow.cache`; the threaded Embree

@@ -13,6 +13,7 @@ from ..cache import CSMCache, default_cache_dir
 from .common import _PROGRESS, _Log
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
+from .lit import sky_lighting
 from .report import format_table, pareto_plot, sweep_markdown
 from .scenes import SceneFactory, _load_meshes
 from .single import run_main
@@ -60,6 +61,15 @@ def build_parser() -> argparse.ArgumentParser:
                     help="CSM and reference cache (default $PYSHADOW_CACHE, else "
                          "the user cache directory of 'pyshadow')")
     io.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    lit = ap.add_argument_group("lighting (single benchmark)")
+    lit.add_argument("--sky", metavar="clear|overcast|FILE",
+                     help="also render the scene lit ('bent' mode) by the clear sky with its sun, "
+                          "the overcast sky, or an HDR environment map FILE (its sun extracted), "
+                          "with the CSMs and with Embree on the same directions; writes radiance.exr "
+                          "and lit.png and a 'lighting' entry in results.json")
+    lit.add_argument("--exposure", type=_positive_float, metavar="S",
+                     help="tone-mapping exposure of lit.png (default: the 99th percentile of the "
+                          "lit pixels' luminance maps to 0.8)")
     knobs = ap.add_argument_group("settings (override the preset; for tests and power users)")
     knobs.add_argument("--maps", type=_maps, metavar="TxP", help="zigzag map grid theta x phi")
     knobs.add_argument("--resolution", type=_int_range(2, 4096, "--resolution"), metavar="R",
@@ -149,6 +159,16 @@ def main(argv=None) -> int:
             meshes = _load_meshes(args.mesh)
         except ValueError as e:
             ap.error(str(e))
+    lighting = None
+    if args.sky is not None:
+        if args.sweep:
+            ap.error("--sky is for the single benchmark, not --sweep")
+        try:
+            lighting = sky_lighting(args.sky)
+        except (OSError, ValueError) as e:
+            ap.error(f"--sky {args.sky}: not 'clear', 'overcast' or a readable HDR environment map ({e})")
+    elif args.exposure is not None:
+        ap.error("--exposure needs --sky")
     _check_out(ap, out)
 
     preset = PRESETS["quick" if args.quick else "default"]
@@ -191,7 +211,7 @@ def main(argv=None) -> int:
         print(sweep_markdown(sw), file=sys.stderr if args.json else sys.stdout)
         return 0
 
-    result = run_main(args, cfg, factory, cache, log)
+    result = run_main(args, cfg, factory, cache, log, lighting)
     result["files"]["results.json"] = str(out / "results.json")
     _emit(result, out / "results.json", args.json)
     print(format_table(result), file=sys.stderr if args.json else sys.stdout)

@@ -70,6 +70,10 @@ def format_table(r: dict) -> str:
                      f"{100 * g['visibility_agreement']:7.3f} %  bias {g['ao_bias_identical']:+.4f}  "
                      f"RMSE {g['ao_rmse_identical']:.4f} (same dirs) {g['ao_rmse_converged']:.4f} "
                      f"(converged)"))
+    if "lighting" in r:
+        from .lit import format_lighting
+
+        rows += format_lighting(r["lighting"])
     w = max(len(k) for k, _ in rows)
     head = (f"pyshadow-bench ({r['mode']}): {r['scene']}\n"
             f"  {c['width']}x{c['height']}, {c['samples']} samples ({c['strategy']}), maps zigzag "

@@ -23,7 +23,7 @@ SCHEMA = "pyshadow-bench/1"
 TIMED_SAMPLES = 1 << 25
 
 
-def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> dict:
+def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lighting=None) -> dict:
     """The single benchmark of one configuration; writes its images into ``args.out``.
 
     Renders AO with pyshadow, traces the identical rays with Embree, times
@@ -43,6 +43,11 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
         CSMs and the converged reference.
     log : callable
         ``log(message)`` for progress on stderr.
+    lighting : (pyshadow.lighting.Lighting, dict), optional
+        ``--sky``'s lighting and its record (:func:`pyshadow.bench.lit.sky_lighting`):
+        also render the lit frame with the CSMs and with Embree
+        (:func:`pyshadow.bench.lit.lit_pass`), write ``radiance.exr`` and
+        ``lit.png``, and add a ``"lighting"`` entry. None: no lighting, no entry.
 
     Returns
     -------
@@ -186,8 +191,15 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
                                   "pixels where raster and Embree primary rays see the same object"),
         "difference_range": _fig(vmax, "AO", "difference.png colour range (+-)"),
     }
+    lit_record = None
+    if lighting is not None:
+        from .lit import lit_pass
+
+        lit_record, lit_files = lit_pass(args, cfg, scene, camera, sampling, lighting[0], lighting[1],
+                                         out_dir, log)
+        files.update(lit_files)
     figures["total_time"] = _fig(time.perf_counter() - t_start, "s", "wall time of this run")
-    return {
+    result = {
         "schema": SCHEMA,
         "mode": args.mode,
         "environment": environment(args.threads),
@@ -210,3 +222,6 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log) -> 
                    "ao_vs_visible_max_abs": consistency},
         "files": files,
     }
+    if lit_record is not None:
+        result["lighting"] = lit_record
+    return result

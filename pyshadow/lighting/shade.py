@@ -5,7 +5,7 @@ of its own. The same code runs on every backend (``"csm"``, ``"csm-vote"``,
 ``"numpy"``, ``"numpy-vote"``, ``"embree"``), so the NumPy reference of the
 composition is this module with ``backend="numpy"``.
 
-Convention (Lambertian, ../shared/LIGHTING.md): outgoing radiance
+Convention (Lambertian, the project's lighting notes): outgoing radiance
 ``L_o = albedo / pi * E`` with ``E`` the irradiance in the lighting's
 radiance units times sr (lux for cd/m^2 skies). Two terms; the sky's comes
 in one of the modes of ``Lighting(mode=)``:
@@ -39,7 +39,7 @@ sun (a directional light with its shadow)
     (a Fibonacci spiral on the cap, turned about the axis per point by the
     point's pattern index and the seed: deterministic), and the shadow is
     soft. A penumbra narrower than a CSM's map spacing or texel is not
-    resolved (../shared/LIGHTING.md): the real sun (0.27 deg) comes out hard.
+    resolved (the project's lighting notes): the real sun (0.27 deg) comes out hard.
 
 The sky given to :class:`Lighting` should not hold the sun when a sun is
 given too (use the sky returned by :func:`pyshadow.lighting.extract_sun`, or

@@ -1,0 +1,219 @@
+"""``pyshadow-bench --sky``: the bundled scene lit, pyshadow ("bent" mode) against Embree.
+
+The sky (:func:`sky_lighting`):
+
+``clear``
+    :meth:`pyshadow.lighting.Lighting.clear_sky`: the Preetham sky of
+    turbidity :data:`CLEAR_TURBIDITY` as SH and its sun (real angular
+    radius) as a directional light, the sun at :data:`CLEAR_SUN` (latitude
+    45 deg N, 21 June, 10:00 local solar time: 57.5 deg above the
+    horizon, south-east, so the bodies' shadows fall back and to the left
+    of the default camera).
+``overcast``
+    :func:`pyshadow.lighting.overcast_sky` (CIE overcast, 10 000 lux on the
+    ground) as SH, no sun.
+any other value
+    An HDR environment map OpenImageIO reads
+    (:meth:`pyshadow.lighting.EnvironmentMap.from_file`), split into a sun
+    and the sky without it (:meth:`Lighting.from_environment`,
+    ``extract=True``).
+
+The lit pass (:func:`lit_pass`) renders :func:`pyshadow.render.render` with
+``lighting=`` twice on the same camera, G-buffer and sampling: with the
+run's CSM backend (``"csm"``, or ``"csm-vote"`` with ``--filtered-lookup``)
+and with ``"embree"``; the sky term uses the identical AO directions, the
+sun term the identical shadow rays. The error is the relative RMSE of
+radiance over the covered pixels::
+
+    sqrt(mean_p |L_csm(p) - L_embree(p)|^2) / sqrt(mean_p |L_embree(p)|^2)
+
+(``|.|`` the RGB vector's length): a pure visibility error, since both
+renders shade alike. The lit frame is timed beside the AO frame alone
+(interleaved rounds, medians).
+
+Exposure of ``lit.png`` (:func:`auto_exposure`), unless ``--exposure``
+gives one: the 99th percentile of the Rec. 709 luminance of the covered
+pixels maps to :data:`EXPOSURE_TARGET` (0.8) before the sRGB curve, so
+about 1 % of the pixels can clip (highlights) and the image does not
+depend on the sky's absolute units (cd/m^2 for the built-in skies).
+"""
+from __future__ import annotations
+
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .common import _bar, _fig
+
+#: Names ``--sky`` takes besides a file.
+SKY_NAMES = ("clear", "overcast")
+#: The clear sky's sun: :func:`pyshadow.lighting.sun_position` arguments.
+CLEAR_SUN = {"latitude": 45.0, "day_of_year": 172.0, "hour": 10.0}
+#: The clear sky's turbidity (Preetham et al.: 2 very clear, 3 clear, 6 hazy).
+CLEAR_TURBIDITY = 3.0
+#: The overcast sky's horizontal illuminance, lux.
+OVERCAST_ILLUMINANCE = 10_000.0
+#: Display value the 99th luminance percentile maps to (linear, before the sRGB curve).
+EXPOSURE_TARGET = 0.8
+EXPOSURE_PERCENTILE = 99.0
+
+
+def sky_lighting(sky: str):
+    """The :class:`pyshadow.lighting.Lighting` of ``--sky`` and a JSON record of what it is.
+
+    Raises
+    ------
+    FileNotFoundError, OSError, ValueError
+        ``sky`` names no readable HDR environment map (the message names the file).
+    """
+    from ..lighting import EnvironmentMap, Lighting, overcast_sky, sun_position
+
+    if sky == "clear":
+        d = sun_position(**CLEAR_SUN)
+        light = Lighting.clear_sky(d, CLEAR_TURBIDITY)
+        rec = {"sky": "clear", "model": "Preetham et al. 1999", "turbidity": CLEAR_TURBIDITY,
+               "sun_position": dict(CLEAR_SUN)}
+    elif sky == "overcast":
+        light = Lighting(overcast_sky(OVERCAST_ILLUMINANCE, height=64))
+        rec = {"sky": "overcast", "model": "CIE overcast", "horizontal_illuminance": OVERCAST_ILLUMINANCE}
+    else:
+        env = EnvironmentMap.from_file(sky)
+        light = Lighting.from_environment(env, extract=True)
+        rec = {"sky": "file", "file": str(Path(sky)), "layout": env.layout,
+               "grid_shape": list(env.grid_shape)}
+    if light.sun is not None:
+        rec["sun"] = {"direction": [float(x) for x in light.sun.direction],
+                      "irradiance": [float(x) for x in light.sun.irradiance],
+                      "angular_radius": float(light.sun.angular_radius)}
+    else:
+        rec["sun"] = None
+    return light, rec
+
+
+def auto_exposure(radiance, covered) -> float:
+    """:data:`EXPOSURE_TARGET` over the 99th percentile of the covered pixels' luminance (1 if that is 0)."""
+    from ..lighting.sky import LUMINANCE_WEIGHTS
+
+    lum = np.asarray(radiance, np.float64)[covered] @ LUMINANCE_WEIGHTS
+    p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0
+    return EXPOSURE_TARGET / p if p > 0 and np.isfinite(p) else 1.0
+
+
+def relative_rmse(a, b) -> float:
+    """RMS of ``|a - b|`` over RMS of ``|b|`` (rows of RGB vectors); nan when empty or ``b`` is 0."""
+    a = np.asarray(a, np.float64)
+    b = np.asarray(b, np.float64)
+    den = float(np.sqrt(np.mean(np.sum(b * b, axis=-1)))) if b.size else 0.0
+    if den == 0.0:
+        return float("nan")
+    return float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=-1)))) / den
+
+
+def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: Path, log) -> tuple:
+    """Render the lit frame with the CSM backend and with Embree; time, compare, write the images.
+
+    Returns
+    -------
+    record : dict
+        The ``"lighting"`` entry of ``results.json``.
+    files : dict
+        ``radiance.exr`` and ``lit.png`` and their paths.
+    """
+    import pyshadow
+    from .. import render as render_stage
+    from ..lighting import tonemap, write_radiance
+
+    backend = "csm" if cfg.lookup == "nearest" else "csm-vote"
+    kw = dict(sampling=sampling, denoise=cfg.filter)
+    log(f"lighting: {sky_record['sky']} sky, 'bent' mode, backend {backend!r} and 'embree'")
+
+    def lit(vis="csm"):
+        return render_stage.render(scene, camera, visibility=backend if vis == "csm" else vis,
+                                   lighting=lighting, **kw)
+
+    def ao_only():
+        return render_stage.render(scene, camera, visibility=backend, **kw)
+
+    frame = lit()                                     # also the warm-up
+    times = {"ao": [], "lit": []}
+    bar = _bar(args.repeats, "timing lit frames", "round")
+    try:
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            ao_only()
+            times["ao"].append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            lit()
+            times["lit"].append(time.perf_counter() - t0)
+            bar.update(1)
+    finally:
+        bar.close()
+    t0 = time.perf_counter()
+    ref = lit("embree")
+    embree_time = time.perf_counter() - t0
+    ao_time, lit_time = statistics.median(times["ao"]), statistics.median(times["lit"])
+
+    covered = frame.object_id != -1
+    L, R = frame.radiance[covered], ref.radiance[covered]
+    rel = relative_rmse(L, R)
+    rel_ao = relative_rmse(frame.ao[covered][:, None], ref.ao[covered][:, None])
+    from ..lighting.sky import LUMINANCE_WEIGHTS
+
+    lum, lum_ref = (np.asarray(x, np.float64) @ LUMINANCE_WEIGHTS for x in (L, R))
+    bias = float(lum.mean() / lum_ref.mean() - 1.0) if lum_ref.size and lum_ref.mean() > 0 else None
+    given = getattr(args, "exposure", None)
+    exposure = given if given is not None else auto_exposure(frame.radiance, covered)
+
+    files = {}
+    write_radiance(out_dir / "radiance.exr", frame.radiance)
+    files["radiance.exr"] = str(out_dir / "radiance.exr")
+    pyshadow.write_image(out_dir / "lit.png", tonemap(frame.radiance, exposure))
+    files["lit.png"] = str(out_dir / "lit.png")
+
+    n, S = int(covered.sum()), cfg.samples
+    bent = {
+        "radiance_rmse_relative": _fig(rel, "1", "relative RMSE of radiance vs Embree 'bent' on the same "
+                                                 f"{S} AO directions and sun rays (RMS |diff| / RMS |Embree|)"),
+        "luminance_bias": _fig(bias, "1", "mean luminance pyshadow / Embree - 1"),
+        "ao_rmse_relative": _fig(rel_ao, "1", "relative RMSE of the lit frames' AO vs Embree's"),
+        "lit_frame_time": _fig(lit_time, "s", "render(lighting=) frame time (median)"),
+        "ao_frame_time": _fig(ao_time, "s", "render() frame time, AO alone (median, interleaved)"),
+        "lighting_overhead": _fig(lit_time - ao_time, "s", "lit frame time - AO frame time"),
+        "lit_throughput": _fig(n * S / lit_time / 1e6 if lit_time else None, "Msamples/s",
+                               "AO samples per second of whole lit frames"),
+        "ao_throughput": _fig(n * S / ao_time / 1e6 if ao_time else None, "Msamples/s",
+                              "AO samples per second of whole AO frames"),
+        "embree_lit_frame_time": _fig(embree_time, "s", "render(visibility='embree', lighting=) frame "
+                                                        "time (one run, includes Embree's scene build)"),
+    }
+    record = {
+        **sky_record,
+        "backend": backend,
+        "exposure": _fig(float(exposure), "1", "tone-mapping exposure of lit.png"),
+        "exposure_rule": ("--exposure" if given is not None else
+                          f"{EXPOSURE_TARGET} / {EXPOSURE_PERCENTILE:g}th percentile of covered "
+                          f"pixels' luminance"),
+        "mean_luminance": _fig(float(lum.mean()) if lum.size else None, "radiance",
+                               "mean Rec. 709 luminance of the covered pixels (sky units)"),
+        "modes": {"bent": bent},
+    }
+    return record, files
+
+
+def format_lighting(rec: dict) -> list:
+    """Rows (label, text) of the result table for a ``results.json`` ``"lighting"`` record."""
+    rows = []
+    sky = rec["sky"] if rec["sky"] != "file" else f"file {rec['file']}"
+    sun = rec.get("sun")
+    rows.append(("lighting", f"{sky} sky, " + ("no sun" if sun is None else
+                 "sun dir (" + ", ".join(f"{x:.3f}" for x in sun["direction"]) + ")")
+                 + f"; exposure {rec['exposure']['value']:.3g}"))
+    for mode, figs in rec["modes"].items():
+        f = {k: v["value"] for k, v in figs.items()}
+        rmse = "n/a" if f["radiance_rmse_relative"] is None else f"{f['radiance_rmse_relative']:.4f}"
+        rows.append((f"  {mode} vs Embree {mode}", f"rel. RMSE {rmse} (same dirs); lit frame "
+                     f"{f['lit_frame_time'] * 1e3:.0f} ms vs AO alone {f['ao_frame_time'] * 1e3:.0f} ms; "
+                     f"Embree lit {f['embree_lit_frame_time'] * 1e3:.0f} ms"))
+    return rows

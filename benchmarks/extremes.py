@@ -205,11 +205,20 @@ def _all_rows() -> dict:
     return out
 
 
-def main(argv=None) -> int:
+def main(argv=None, groups=None, benchmark: str = "extremes", detail=None) -> int:
+    """The table of ``groups`` (default: every group), or ``--json``; exit 1 if a row fails.
+
+    ``extremes_geometry.py``, ``extremes_meshes.py`` and ``extremes_params.py``
+    call it with their own groups; ``detail(row)`` adds text after a row. A
+    group that raises becomes a failing row and the other groups still run.
+    """
+    import time
+
     import pyshadow
 
-    groups = _all_rows()
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    groups = _all_rows() if groups is None else groups
+    ap = argparse.ArgumentParser(description=(__doc__ if benchmark == "extremes" else
+                                              sys.modules["__main__"].__doc__ or __doc__).split("\n\n")[0])
     ap.add_argument("--rows", default=",".join(groups), help=f"comma-separated, of {', '.join(groups)}")
     ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI (default %(default)s)")
     ap.add_argument("--resolution", type=int, default=128)
@@ -223,22 +232,28 @@ def main(argv=None) -> int:
     args.views = pyshadow.ViewSet.zigzag(t, p)
     rows = []
     for name in names:
-        group = groups[name](args)
+        t0 = time.perf_counter()
+        try:
+            group = groups[name](args)
+        except Exception as exc:        # a crash is a row that fails; the other groups still run
+            group = [_row(f"{name}: crashed", float("nan"), None, False, error=f"{type(exc).__name__}: {exc}")]
         for r in group:
             r["group"] = name
         rows += group
         if not args.json:
-            print(f"[{name}: {len(group)} rows]", file=sys.stderr, flush=True)
-    result = {"benchmark": "extremes", **environment(), "maps": args.maps, "resolution": args.resolution,
-              "rows": rows}
+            print(f"[{name}: {len(group)} rows, {time.perf_counter() - t0:.0f} s]", file=sys.stderr, flush=True)
     if args.json:
-        emit(result, True)
+        emit({"benchmark": benchmark, **environment(), "maps": args.maps, "resolution": args.resolution,
+              "rows": rows}, True)
         return 0
-    print(f"{'row':56s} {'figure':>10s} {'bound':>8s}  pass")
+    print(f"{'row':58s} {'figure':>10s} {'bound':>8s}  pass")
     for r in rows:
         bound = "-" if r["bound"] is None or r["bound"] != r["bound"] else f"{r['bound']:8.4g}"
         verdict = "info" if r["pass"] is None else ("yes" if r["pass"] else "NO")
-        print(f"{r['row']:56s} {r['figure']:10.4g} {bound:>8s}  {verdict}")
+        extra = f"  {detail(r)}" if detail is not None else ""
+        print(f"{r['row']:58s} {r['figure']:10.4g} {bound:>8s}  {verdict:4s}{extra}")
+        if "error" in r:
+            print(f"    {r['error'][:300]}")
     return 0 if all(r["pass"] is not False for r in rows) else 1
 
 

@@ -26,7 +26,6 @@ contract and baselines are informational (bound None).
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
 import numpy as np
@@ -471,40 +470,10 @@ ROWS = {name: (lambda f: lambda a: f(a.views, a.resolution))(f) for name, f in _
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rows", default=",".join(ROWS), help=f"comma-separated, of {', '.join(ROWS)}")
-    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI (default %(default)s)")
-    ap.add_argument("--resolution", type=int, default=128)
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    names = [r for r in args.rows.split(",") if r]
-    unknown = [r for r in names if r not in ROWS]
-    if unknown:
-        ap.error(f"unknown rows {unknown}; choose from {', '.join(ROWS)}")
-    t, p = (int(x) for x in args.maps.lower().split("x"))
-    args.views = pyshadow.ViewSet.zigzag(t, p)
-    rows = []
-    if not args.json:
-        print(f"{'row':58s} {'figure':>10s} {'bound':>8s}  pass", flush=True)
-    for name in names:
-        try:
-            group = ROWS[name](args)
-        except Exception as exc:        # a crash is a row that fails, the other groups still run
-            group = [_row(f"{name}: crashed", float("nan"), float("nan"), False, error=f"{type(exc).__name__}: {exc}")]
-        rows += group
-        for r in group if not args.json else ():
-            bound = "-" if r["bound"] is None or r["bound"] != r["bound"] else f"{r['bound']:8.4g}"
-            verdict = "info" if r["pass"] is None else ("yes" if r["pass"] else "NO")
-            print(f"{r['row']:58s} {r['figure']:10.4g} {bound:>8s}  {verdict}", flush=True)
-            if "error" in r:
-                print(f"    {r['error'][:300]}", flush=True)
-    if args.json:
-        import json
+    import extremes
 
-        from _common import environment
-        print(json.dumps({"benchmark": "extremes_geometry", **environment(), "maps": args.maps,
-                          "resolution": args.resolution, "rows": rows}, indent=2, default=str))
-    return 0 if all(r["pass"] is not False for r in rows) else 1
+    return extremes.main(argv, groups=ROWS, benchmark="extremes_geometry")
+
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -13,7 +13,6 @@ single triangle, which have no clean counterpart, to ``DISAGREE_BOUND``.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import warnings
 
@@ -126,17 +125,9 @@ ROWS = {"mesh": lambda a: mesh_rows(a.views, a.resolution)}
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--maps", default="64x128")
-    ap.add_argument("--resolution", type=int, default=128)
-    args = ap.parse_args(argv)
-    t, p = (int(x) for x in args.maps.lower().split("x"))
-    rows = mesh_rows(pyshadow.ViewSet.zigzag(t, p), args.resolution)
-    for r in rows:
-        bound = "-" if r["bound"] is None else f"{r['bound']:8.4g}"
-        verdict = "info" if r["pass"] is None else ("yes" if r["pass"] else "NO")
-        print(f"{r['row']:58s} {r['figure']:10.4g} {bound:>8s}  {verdict}")
-    return 0 if all(r["pass"] is not False for r in rows) else 1
+    import extremes
+
+    return extremes.main(argv, groups=ROWS, benchmark="extremes_meshes")
 
 
 if __name__ == "__main__":

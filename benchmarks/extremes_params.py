@@ -54,14 +54,13 @@ Row groups and what each row is held to:
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 
 import numpy as np
 import trimesh
 
-from _common import emit, environment
+
 
 #: the CSM's visibility disagreement with Embree on the AO rays of the bundled
 #: scene (0.5 %, benchmarks/README.md): what a mean AO difference is held to
@@ -496,38 +495,9 @@ def _fmt(r):
 
 
 def main(argv=None) -> int:
-    import pyshadow
+    import extremes
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--rows", default=",".join(ROWS), help=f"comma-separated, of {', '.join(ROWS)}")
-    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI (default %(default)s)")
-    ap.add_argument("--resolution", type=int, default=128)
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    names = [r for r in args.rows.split(",") if r]
-    unknown = [r for r in names if r not in ROWS]
-    if unknown:
-        ap.error(f"unknown rows {unknown}; choose from {', '.join(ROWS)}")
-    t, p = (int(x) for x in args.maps.lower().split("x"))
-    args.views = pyshadow.ViewSet.zigzag(t, p)
-    rows = []
-    for name in names:
-        t0 = time.perf_counter()
-        got = ROWS[name](args)
-        for r in got:
-            r["group"] = name
-        rows += got
-        if not args.json:
-            print(f"# {name}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
-    result = {"benchmark": "extremes_params", **environment(), "maps": args.maps, "resolution": args.resolution,
-              "rows": rows}
-    if args.json:
-        emit(result, True)
-        return 0
-    print(f"{'row':58s} {'figure':>10s} {'bound':>8s}  pass")
-    for r in rows:
-        print(f"{r['row']:58s} {r['figure']:10.4g} {r['bound']:8.4g}  {'yes' if r['pass'] else 'NO ':3s}  {_fmt(r)}")
-    return 0 if all(r["pass"] for r in rows) else 1
+    return extremes.main(argv, groups=ROWS, benchmark="extremes_params", detail=_fmt)
 
 
 if __name__ == "__main__":

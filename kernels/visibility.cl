@@ -7,7 +7,8 @@
  *   scene_ao        one work-item per point: SAMPLES cosine-weighted
  *                   directions from pattern pidx[i] (sampling.h); writes the
  *                   unoccluded fraction and, with BENT_NORMALS, the
- *                   normalised sum of the unoccluded directions.
+ *                   normalised sum of the unoccluded directions, with
+ *                   TRANSFER the shadowed SH transfer (9 sums).
  *
  * A query (p, w) is occluded when
  *   - GROUND and the ray from p crosses the plane y = ground_y (p above it
@@ -75,6 +76,10 @@
  *   GROUND               1: infinite ground plane y = ground_y
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   TRANSFER             1: scene_ao also writes the shadowed SH transfer
+ *                        (N, 9) float, pi / SAMPLES x the sum of the 9 basis
+ *                        functions over the unoccluded directions
+ *                        (pyshadow.lighting.transfer)
  *   SURFACE_NORMALS      1: every query carries its surface's unit normal
  *                        (scene_visible: normals float (N, 3); scene_ao:
  *                        the point's normal) for the surface rule
@@ -253,6 +258,23 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
 }
 
 #ifdef SAMPLES
+#if TRANSFER
+/* adds the 9 real SH basis functions of order 3 at unit (x, y, z) to t, in
+ * pyshadow.lighting.sh's y-up convention (k = l (l + 1) + m, no
+ * Condon-Shortley phase) */
+inline void sh9_accumulate(float x, float y, float z, float *t)
+{
+    t[0] += 0.28209479177387814f;
+    t[1] += 0.4886025119029199f * z;
+    t[2] += 0.4886025119029199f * y;
+    t[3] += 0.4886025119029199f * x;
+    t[4] += 1.0925484305920792f * x * z;
+    t[5] += 1.0925484305920792f * y * z;
+    t[6] += 0.31539156525252005f * (3.0f * y * y - 1.0f);
+    t[7] += 1.0925484305920792f * x * y;
+    t[8] += 0.5462742152960396f * (x * x - z * z);
+}
+#endif
 /* one work-item per point; its SAMPLES directions LANES at a time. table:
  * local directions per pattern as (M, 3, SPAD) structure of arrays, SPAD =
  * SAMPLES rounded up to LANES (padding lanes are masked out). */
@@ -262,7 +284,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *normals, __global const int *pidx,
                        __global const int *owner,
                        __global const float *table, __global float *ao,
-                       __global float *bent)
+                       __global float *bent, __global float *transfer)
 {
     const int i = get_global_id(0);
     if (i >= n) return;
@@ -275,6 +297,9 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
     int open = 0;
     float3 sum = (float3)(0.0f);
+#if TRANSFER
+    float tr[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+#endif
     for (int s0 = 0; s0 < SPAD; s0 += AO_BATCH) {
         LANE_ARRAY float px[AO_BATCH], py[AO_BATCH], pz[AO_BATCH], wx[AO_BATCH], wy[AO_BATCH],
                          wz[AO_BATCH];
@@ -306,12 +331,20 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
 #if BENT_NORMALS
             sum += (float3)(wx[l], wy[l], wz[l]);
 #endif
+#if TRANSFER
+            sh9_accumulate(wx[l], wy[l], wz[l], tr);
+#endif
         }
     }
     ao[i] = (float)open / (float)SAMPLES;
 #if BENT_NORMALS
     const float len = length(sum);
     vstore3(len > 0.0f ? sum / len : nrm, i, bent);
+#endif
+#if TRANSFER
+    /* cosine-weighted samples (pdf cos / pi): pi / SAMPLES x the sum is the
+     * shadowed transfer integral of V Y_k cos */
+    for (int k = 0; k < 9; ++k) transfer[9 * (size_t)i + k] = tr[k] * (M_PI_F / (float)SAMPLES);
 #endif
 }
 #endif

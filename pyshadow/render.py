@@ -266,7 +266,8 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         Fill ``Frame.radiance`` (H, W, 3) float32, linear, 0 on the
         background: the sky term from the frame's (filtered, upsampled) AO
         and its bent normals (mode "bent"), or along the AO directions of
-        each covered pixel (mode "sampled", at full resolution), the sun term from one ``visible`` query per
+        each covered pixel (modes "transfer" and "sampled", at full
+        resolution), the sun term from one ``visible`` query per
         covered pixel on the same ``visibility`` backend
         (:mod:`pyshadow.lighting.shade`). Every other buffer is the same
         as without it.
@@ -315,7 +316,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
 
 def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling) -> np.ndarray:
     """``Frame.radiance`` of :func:`render` (see its ``lighting``)."""
-    from .lighting.shade import sampled_sky_radiance, sky_radiance, sun_radiance
+    from .lighting.shade import sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky_radiance
 
     H, W = camera.height, camera.width
     out = np.zeros((H * W, 3), np.float32)
@@ -336,10 +337,10 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
         length = np.linalg.norm(b, axis=1, keepdims=True)
         b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
     albedo = lighting.albedo_of(full.surface_ids, len(full.index))
-    if lighting.mode == "sampled":      # the sky along the AO directions of every covered pixel
-        sky = sampled_sky_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility,
-                                   sampling=sampling, surface_ids=full.surface_ids, indices=full.index,
-                                   bias=bias)[0]
+    if lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
+        term = sampled_sky_radiance if lighting.mode == "sampled" else transfer_sky_radiance
+        sky = term(scene, full.points, nrm, lighting, albedo, backend=visibility, sampling=sampling,
+                   surface_ids=full.surface_ids, indices=full.index, bias=bias)[0]
     else:
         sky = sky_radiance(lighting, frame.ao.reshape(-1)[full.index], b, albedo)
     sun, _ = sun_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,

@@ -159,7 +159,7 @@ def test_sampled_beats_bent_against_the_converged_reference(bundled, clear_sky_m
 
 def test_sampled_needs_the_map(small_scene, no_launch):
     """A Lighting of SH coefficients only has no radiance per direction: "sampled" and the reference refuse
-    it before any launch; "transfer" is still unbuilt; the "bent" term refuses a "sampled" Lighting (so
+    it before any launch; an unknown mode is refused; the "bent" term refuses a "sampled" Lighting (so
     render(lighting=) cannot shade it as "bent" unawares)."""
     coef = np.zeros((9, 3))
     coef[0] = 1.0
@@ -170,8 +170,8 @@ def test_sampled_needs_the_map(small_scene, no_launch):
         reference_radiance(small_scene, p, nrm, Lighting(coef), surface_ids=ids)
     with pytest.raises(ValueError, match="samples"):
         reference_radiance(small_scene, p, nrm, Lighting(constant_sky()), samples=0)
-    with pytest.raises(NotImplementedError, match="transfer"):
-        Lighting(constant_sky(), mode="transfer")
+    with pytest.raises(ValueError, match="mode"):
+        Lighting(constant_sky(), mode="transferred")
     light = Lighting(constant_sky(), mode="sampled")
     assert light.env is not None and Lighting(coef).env is None
     with pytest.raises(ValueError, match="sampled"):

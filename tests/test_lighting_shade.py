@@ -268,8 +268,8 @@ def test_bad_points_are_refused_before_any_launch(small_scene, no_launch):
         shade(small_scene, p, up, "sky")
     with pytest.raises(TypeError, match="lighting"):
         render_stage.render(small_scene, small_camera(), lighting={"sky": 1})
-    with pytest.raises(NotImplementedError, match="transfer"):
-        Lighting(mode="transfer")
+    with pytest.raises(ValueError, match="mode"):
+        Lighting(mode="transferred")
 
 
 def test_tonemap_refuses_bad_input():

@@ -19,10 +19,11 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
   plus the sky without it, exactly energy-conserving.
 - :class:`Lighting`, :func:`shade` (:mod:`~pyshadow.lighting.shade`): a sky
   as SH, a sun with its shadow, albedos -> linear RGB radiance of surface
-  points through any visibility backend ("bent" mode; "sampled": the map's
-  radiance per AO sample direction times its visibility); what
-  ``pyshadow.render.render(..., lighting=)`` puts in ``Frame.radiance``
-  ("bent" only).
+  points through any visibility backend ("bent": the irradiance at the bent
+  normal times AO; "transfer": the shadowed SH transfer of
+  :mod:`~pyshadow.lighting.transfer`; "sampled": the map's radiance per AO
+  sample direction times its visibility); what
+  ``pyshadow.render.render(..., lighting=)`` puts in ``Frame.radiance``.
 - :func:`reference_radiance` (:mod:`~pyshadow.lighting.reference`): the same
   integrals converged through Embree, the ground truth of every mode.
 - :func:`tonemap`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
@@ -34,12 +35,15 @@ from .sh import irradiance_sh, sh_basis
 from .sky import (SUN_ANGULAR_RADIUS, add_sun_disc, clear_sky, disc_solid_angle, overcast_sky,
                   sun_irradiance, sun_position)
 from .sun import SunLight, extract_sun
-from .shade import DirectionalLight, Lighting, ShadedPoints, sampled_sky_radiance, shade, shade_terms
+from .shade import (DirectionalLight, Lighting, ShadedPoints, sampled_sky_radiance, shade, shade_terms,
+                    transfer_sky_radiance)
+from .transfer import sh_transfer, transfer_irradiance
 from .reference import reference_radiance
 from .tonemap import tonemap, write_radiance
 
 __all__ = ["DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
            "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky", "cube", "disc_solid_angle",
            "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
-           "overcast_sky", "reference_radiance", "sampled_sky_radiance", "sh", "sh_basis", "shade", "shade_terms", "sun_irradiance",
-           "sun_position", "tonemap", "write_radiance"]
+           "overcast_sky", "reference_radiance", "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
+           "shade_terms", "sun_irradiance", "sun_position", "tonemap", "transfer_irradiance",
+           "transfer_sky_radiance", "write_radiance"]

@@ -1,7 +1,7 @@
-"""Shading: surface points and a :class:`Lighting` in, linear RGB radiance out (issue 19, "bent", "sampled").
+"""Shading: surface points and a :class:`Lighting` in, linear RGB radiance out (issue 19).
 
 Composed from the visibility protocol (:mod:`pyshadow.visibility`); no kernel
-of its own. The same code runs on every backend (``"csm"``, ``"csm-vote"``,
+of its own but the AO kernel's transfer sums. The same code runs on every backend (``"csm"``, ``"csm-vote"``,
 ``"numpy"``, ``"numpy-vote"``, ``"embree"``), so the NumPy reference of the
 composition is this module with ``backend="numpy"``.
 
@@ -16,6 +16,13 @@ sky, mode "bent" (thesis 000 section 5.3.4)
     (:func:`pyshadow.lighting.irradiance_sh`, clamped at 0 where the order-3
     truncation rings) at the bent normal ``b``, and ``AO`` and ``b`` from
     :func:`pyshadow.visibility.ambient_occlusion`.
+sky, mode "transfer" (precomputed radiance transfer, shadowed by every body)
+    ``albedo / pi * max(sum_k L_k T_k, 0)`` with ``L_k`` the sky's SH
+    coefficients and ``T_k`` the point's shadowed transfer, accumulated
+    from the same cosine-weighted directions as AO
+    (:mod:`pyshadow.lighting.transfer`: 9 sums instead of one, inside the
+    AO kernel on the CSM backends). Other moving bodies shadow the sky
+    where they are, not only by turning the bent normal.
 sky, mode "sampled" (the accurate mode, thesis 000 section 7)
     ``albedo * (1/S) sum_s L_env(w_s) V(p, w_s)`` over the S
     cosine-weighted directions ``w_s`` that AO traces
@@ -58,12 +65,11 @@ from .envmap import EnvironmentMap
 from .sh import SH_COUNT, irradiance_sh
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
-           "sampled_sky_radiance", "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO",
+           "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO",
            "DEFAULT_GROUND_ALBEDO"]
 
-#: Shading modes implemented ("transfer" is issue 19's later part).
-MODES = ("bent", "sampled")
-_LATER = ("transfer",)
+#: Shading modes.
+MODES = ("bent", "transfer", "sampled")
 #: Rays per visibility call of the "sampled" sky (points are taken in chunks of this many rays).
 SAMPLED_CHUNK_RAYS = 1 << 20
 #: Albedo of instances without one of their own.
@@ -149,7 +155,7 @@ class Lighting:
         Per-instance RGB albedo.
     ground_albedo : float or array_like (3,), optional
         RGB albedo of the ground plane (``pyshadow.scene.GROUND_ID``).
-    mode : {"bent", "sampled"}, optional
+    mode : {"bent", "transfer", "sampled"}, optional
         How the sky is shaded (module docstring). "sampled" needs ``sky``
         as an :class:`EnvironmentMap` (or no sky at all).
     sun_samples : int, optional
@@ -165,8 +171,6 @@ class Lighting:
         [0, 1] or non-finite, a zero or non-unit sun direction, negative or
         non-finite sun irradiance, an unknown mode, ``mode="sampled"`` with
         a sky given as SH coefficients only.
-    NotImplementedError
-        ``mode="transfer"`` (not built yet).
 
     Attributes
     ----------
@@ -190,8 +194,6 @@ class Lighting:
                                  f"(got shape {coef.shape})")
             if not np.isfinite(coef).all():
                 raise ValueError("sky: SH coefficients must be finite")
-        if mode in _LATER:
-            raise NotImplementedError(f"mode {mode!r} is not implemented yet; use 'bent'")
         if mode not in MODES:
             raise ValueError(f"mode: expected one of {', '.join(MODES)} (got {mode!r})")
         if mode == "sampled" and sky is not None and env is None:
@@ -403,6 +405,24 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     return sky, ao, bent
 
 
+def transfer_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", sampling=None,
+                          surface_ids=None, indices=None, bias=None):
+    """The "transfer" sky term ``albedo / pi * max(sum_k L_k T_k, 0)``, with the AO and bent normals.
+
+    ``T`` from :func:`pyshadow.lighting.transfer.sh_transfer` (the AO kernel's
+    9 extra sums on the CSM backends), ``L`` the sky's SH coefficients; the
+    arguments as :func:`sampled_sky_radiance`'s. Returns (N, 3) float64,
+    (N,) float32, (N, 3) float32.
+    """
+    from .transfer import sh_transfer, transfer_irradiance
+
+    _check_lighting(lighting)
+    ao, bent, T = sh_transfer(scene, points, normals, backend=backend, sampling=sampling,
+                              surface_ids=surface_ids, indices=indices, bias=bias)
+    e = np.maximum(transfer_irradiance(lighting.sh, T), 0.0)
+    return np.asarray(albedo, dtype=np.float64) / math.pi * e, ao, bent
+
+
 def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> np.ndarray:
     """K directions over the light's disc for each point, (N, K, 3) float64, unit.
 
@@ -519,6 +539,9 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     if lighting.mode == "sampled":
         sky, ao, bent = sampled_sky_radiance(scene, p, nrm, lighting, albedo, backend=backend, sampling=sampling,
                                              surface_ids=surface_ids, indices=idx, bias=bias)
+    elif lighting.mode == "transfer":
+        sky, ao, bent = transfer_sky_radiance(scene, p, nrm, lighting, albedo, backend=backend, sampling=sampling,
+                                              surface_ids=surface_ids, indices=idx, bias=bias)
     else:
         ao, bent = vis.ambient_occlusion(scene, p, nrm, backend=backend, sampling=sampling,
                                          return_bent_normals=True, bias=bias, indices=idx, surface_ids=surface_ids)

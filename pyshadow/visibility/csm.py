@@ -141,7 +141,7 @@ class CSMVisibility:
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
              "BATCH": launch.shape().query_batch,
              "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
-             "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f"}
+             "TRANSFER": 0, "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f"}
         d.update(extra)
         return d
 
@@ -200,6 +200,19 @@ class CSMVisibility:
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False,
                           bias=None, indices=None, surface_ids=None):
         """:meth:`pyshadow.Scene.ambient_occlusion` by the kernel."""
+        ao, bent, _ = self._ao(scene, points, normals, sampling, bool(return_bent_normals), False, bias, indices,
+                               surface_ids)
+        return (ao, bent) if return_bent_normals else ao
+
+    def sh_transfer(self, scene, points, normals, *, sampling, bias=None, indices=None, surface_ids=None):
+        """AO, bent normals and the shadowed SH transfer of each point, from one pass of the AO kernel.
+
+        ``T_k = pi / S * sum over the unoccluded directions w_s of Y_k(w_s)``
+        (:mod:`pyshadow.lighting.transfer`): float32 (N,), (N, 3), (N, 9).
+        """
+        return self._ao(scene, points, normals, sampling, True, True, bias, indices, surface_ids)
+
+    def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids):
         p = rows3(points, "points")
         n = unit_normals(normals, len(p))
         N, S = len(p), int(sampling.samples)
@@ -207,12 +220,13 @@ class CSMVisibility:
         own = scene.caster_slots(surface_ids, N)
         ao = np.empty(N, np.float32)
         bent = np.empty((N, 3), np.float32)
+        tr = np.empty((N, 9), np.float32) if transfer else None
         if N:
             anchor = scene.anchor(p)
             atlas, args = self._scene_args(scene, anchor, bias)
             k = _cl.kernel("visibility.cl", "scene_ao",
-                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bool(return_bent_normals)),
-                                         SURFACE_NORMALS=1))
+                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bent_normals),
+                                         TRANSFER=int(transfer), SURFACE_NORMALS=1))
             table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)
@@ -222,14 +236,17 @@ class CSMVisibility:
             for s in range(0, N, chunk):
                 e = min(N, s + chunk)
                 ao_buf = _cl.empty(4 * (e - s))
-                bent_buf = _cl.empty(12 * (e - s) if return_bent_normals else 4)
+                bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
+                tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
                 k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
-                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf)
+                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf, tr_buf)
                 cl.enqueue_copy(q, ao[s:e], ao_buf)
-                if return_bent_normals:
+                if bent_normals:
                     cl.enqueue_copy(q, bent[s:e], bent_buf)
-        return (ao, bent) if return_bent_normals else ao
+                if transfer:
+                    cl.enqueue_copy(q, tr[s:e], tr_buf)
+        return ao, bent, tr
 
 
 register("csm", CSMVisibility("nearest"))

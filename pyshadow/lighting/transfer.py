@@ -1,0 +1,95 @@
+"""The shadowed spherical-harmonic transfer of surface points (the "transfer" shading mode).
+
+For a point with normal ``n`` and visibility ``V``, the transfer vector is
+``T_k = integral V(w) Y_k(w) max(n . w, 0) dOmega`` (k = 0 .. 8, the basis
+of :mod:`pyshadow.lighting.sh`); under a sky with SH coefficients ``L_k``
+(:meth:`EnvironmentMap.sh`) the shadowed irradiance is ``E = sum_k L_k T_k``
+per colour channel -- other bodies shadow the sky, where the "bent" mode
+only turns the unshadowed irradiance towards the bent normal. Without
+occluders ``T_k = A_l Y_k(n)`` and ``E`` is
+:func:`pyshadow.lighting.irradiance_sh`.
+
+It is estimated from the AO's own cosine-weighted directions (pdf
+``cos / pi``): ``T_k = pi / S * sum over the unoccluded w_s of Y_k(w_s)``,
+9 sums beside the AO's one. The CSM backends accumulate them inside the AO
+kernel (``CSMVisibility.sh_transfer``); any other backend (the NumPy mirror,
+Embree) through :func:`pyshadow.visibility.visible` on the same directions
+(:func:`pyshadow.sample_directions`) and the same sums in float64.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .sh import SH_COUNT, sh_basis
+
+__all__ = ["sh_transfer", "transfer_irradiance"]
+
+
+def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface_ids=None, indices=None,
+                bias=None):
+    """AO, bent normals and the shadowed SH transfer of surface points.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points, normals : array_like, shape (N, 3)
+        World positions and unit surface normals (world frame).
+    backend : str or VisibilityBackend, optional
+        A backend with ``sh_transfer`` (the CSM kernels) answers in one pass;
+        any other through ``visible`` on the AO directions.
+    sampling : pyshadow.Sampling, optional
+        Default ``Sampling()``.
+    surface_ids, indices, bias : optional
+        As in :func:`pyshadow.visibility.ambient_occlusion`.
+
+    Returns
+    -------
+    ao : ndarray, shape (N,), float32
+    bent : ndarray, shape (N, 3), float32
+    transfer : ndarray, shape (N, 9), float32
+        ``T_k``, steradians: a sky of constant radiance ``c`` (``L_0 = 4 pi
+        Y_0 c``, the others 0) gives ``E = pi c AO``.
+    """
+    from .. import visibility as vis
+    from .._validate import check_indices, rows3, unit_normals
+    from ..sampling import Sampling, ao_from_samples, sample_directions
+
+    if sampling is None:
+        sampling = Sampling()
+    elif not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    p = rows3(points, "points")
+    n = unit_normals(normals, len(p))
+    idx = check_indices(indices, len(p))
+    b = vis.get_backend(backend)
+    if hasattr(b, "sh_transfer"):
+        return b.sh_transfer(scene, p, n, sampling=sampling, bias=bias, indices=idx, surface_ids=surface_ids)
+    S = sampling.samples
+    dirs = sample_directions(n, sampling=sampling, indices=idx)                  # (N, S, 3) float32
+    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
+    lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=b, bias=bias,
+                      surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
+    Y = sh_basis(dirs.astype(np.float64))                                        # (N, S, 9)
+    transfer = (math.pi / S) * np.einsum("ns,nsk->nk", lit.astype(np.float64), Y)
+    ao, bent = ao_from_samples(dirs, lit, n.astype(np.float32), return_bent_normals=True)
+    return ao, bent, transfer.astype(np.float32)
+
+
+def transfer_irradiance(coefficients, transfer) -> np.ndarray:
+    """Shadowed irradiance ``E = sum_k L_k T_k`` per channel, (N, 3) float64.
+
+    Parameters
+    ----------
+    coefficients : array_like, shape (9, 3)
+        The sky's SH coefficients ``L_k`` (radiance units).
+    transfer : array_like, shape (N, 9)
+        :func:`sh_transfer`'s ``T_k``.
+    """
+    L = np.asarray(coefficients, dtype=np.float64)
+    T = np.asarray(transfer, dtype=np.float64)
+    if L.shape != (SH_COUNT, 3) or T.ndim != 2 or T.shape[1] != SH_COUNT:
+        raise ValueError(f"transfer_irradiance: coefficients (9, 3) and transfer (N, 9) expected "
+                         f"(got {L.shape} and {T.shape})")
+    return T @ L

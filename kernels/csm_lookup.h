@@ -189,6 +189,7 @@ inline iv surface_rule_v(__global const instance_t *I, int j, iv own, fv mx, fv 
     const float hs = I->horizon;
     /* raise: the tangential part scaled to cos(horizon), the normal part sin(horizon) */
     const iv low = up & MASK(s < hs);
+    if (!VANY(low)) return up;          /* most rays: none of the lanes is that low */
     const fv tx = *vx - s * *ox, ty = *vy - s * *oy, tz = *vz - s * *oz;
     const fv tl = sqrt(tx * tx + ty * ty + tz * tz);
     const fv k = VSEL((fv)(0.0f), sqrt(1.0f - hs * hs) / VMAX(tl, (fv)(1e-30f)), low);

@@ -1,4 +1,4 @@
-"""``pyshadow-bench --sky``: the bundled scene lit, pyshadow ("bent" mode) against Embree.
+"""``pyshadow-bench --sky``: the bundled scene lit, pyshadow against Embree in every shading mode.
 
 The sky (:func:`sky_lighting`):
 
@@ -19,10 +19,13 @@ any other value
     ``extract=True``).
 
 The lit pass (:func:`lit_pass`) renders :func:`pyshadow.render.render` with
-``lighting=`` twice on the same camera, G-buffer and sampling: with the
-run's CSM backend (``"csm"``, or ``"csm-vote"`` with ``--filtered-lookup``)
-and with ``"embree"``; the sky term uses the identical AO directions, the
-sun term the identical shadow rays. The error is the relative RMSE of
+``lighting=`` in each shading mode (:data:`LIT_MODES`: "bent", "transfer",
+"sampled"; "sampled" needs the sky as a map, which every ``--sky`` has) twice
+on the same camera, G-buffer and sampling: with the run's CSM backend
+(``"csm"``, or ``"csm-vote"`` with ``--filtered-lookup``) and with
+``"embree"``; the sky term uses the identical AO directions, the sun term
+the identical shadow rays. ``radiance.exr`` and ``lit.png`` are the "bent"
+frame's. The error is the relative RMSE of
 radiance over the covered pixels::
 
     sqrt(mean_p |L_csm(p) - L_embree(p)|^2) / sqrt(mean_p |L_embree(p)|^2)
@@ -47,6 +50,8 @@ import numpy as np
 
 from .common import _bar, _fig
 
+#: Shading modes the lit pass measures, in order ("bent" first: its frame is written).
+LIT_MODES = ("bent", "transfer", "sampled")
 #: Names ``--sky`` takes besides a file.
 SKY_NAMES = ("clear", "overcast")
 #: The clear sky's sun: :func:`pyshadow.lighting.sun_position` arguments.
@@ -127,67 +132,73 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
 
     backend = "csm" if cfg.lookup == "nearest" else "csm-vote"
     kw = dict(sampling=sampling, denoise=cfg.filter)
-    log(f"lighting: {sky_record['sky']} sky, 'bent' mode, backend {backend!r} and 'embree'")
+    modes = [m for m in LIT_MODES if m != "sampled" or lighting.env is not None]
+    log(f"lighting: {sky_record['sky']} sky, modes {', '.join(modes)}, backend {backend!r} and 'embree'")
 
-    def lit(vis="csm"):
+    def lit(light, vis="csm"):
         return render_stage.render(scene, camera, visibility=backend if vis == "csm" else vis,
-                                   lighting=lighting, **kw)
+                                   lighting=light, **kw)
 
     def ao_only():
         return render_stage.render(scene, camera, visibility=backend, **kw)
 
-    frame = lit()                                     # also the warm-up
-    times = {"ao": [], "lit": []}
+    lights = {m: lighting.with_mode(m) for m in modes}
+    frames = {m: lit(lights[m]) for m in modes}       # also the warm-up
+    times = {"ao": [], **{m: [] for m in modes}}
     bar = _bar(args.repeats, "timing lit frames", "round")
     try:
         for _ in range(args.repeats):
             t0 = time.perf_counter()
             ao_only()
             times["ao"].append(time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            lit()
-            times["lit"].append(time.perf_counter() - t0)
+            for m in modes:
+                t0 = time.perf_counter()
+                lit(lights[m])
+                times[m].append(time.perf_counter() - t0)
             bar.update(1)
     finally:
         bar.close()
-    t0 = time.perf_counter()
-    ref = lit("embree")
-    embree_time = time.perf_counter() - t0
-    ao_time, lit_time = statistics.median(times["ao"]), statistics.median(times["lit"])
-
-    covered = frame.object_id != -1
-    L, R = frame.radiance[covered], ref.radiance[covered]
-    rel = relative_rmse(L, R)
-    rel_ao = relative_rmse(frame.ao[covered][:, None], ref.ao[covered][:, None])
+    ao_time = statistics.median(times["ao"])
     from ..lighting.sky import LUMINANCE_WEIGHTS
 
-    lum, lum_ref = (np.asarray(x, np.float64) @ LUMINANCE_WEIGHTS for x in (L, R))
-    bias = float(lum.mean() / lum_ref.mean() - 1.0) if lum_ref.size and lum_ref.mean() > 0 else None
+    frame = frames["bent"]
+    covered = frame.object_id != -1
+    n, S = int(covered.sum()), cfg.samples
     given = getattr(args, "exposure", None)
     exposure = given if given is not None else auto_exposure(frame.radiance, covered)
-
     files = {}
     write_radiance(out_dir / "radiance.exr", frame.radiance)
     files["radiance.exr"] = str(out_dir / "radiance.exr")
     pyshadow.write_image(out_dir / "lit.png", tonemap(frame.radiance, exposure))
     files["lit.png"] = str(out_dir / "lit.png")
 
-    n, S = int(covered.sum()), cfg.samples
-    bent = {
-        "radiance_rmse_relative": _fig(rel, "1", "relative RMSE of radiance vs Embree 'bent' on the same "
-                                                 f"{S} AO directions and sun rays (RMS |diff| / RMS |Embree|)"),
-        "luminance_bias": _fig(bias, "1", "mean luminance pyshadow / Embree - 1"),
-        "ao_rmse_relative": _fig(rel_ao, "1", "relative RMSE of the lit frames' AO vs Embree's"),
-        "lit_frame_time": _fig(lit_time, "s", "render(lighting=) frame time (median)"),
-        "ao_frame_time": _fig(ao_time, "s", "render() frame time, AO alone (median, interleaved)"),
-        "lighting_overhead": _fig(lit_time - ao_time, "s", "lit frame time - AO frame time"),
-        "lit_throughput": _fig(n * S / lit_time / 1e6 if lit_time else None, "Msamples/s",
-                               "AO samples per second of whole lit frames"),
-        "ao_throughput": _fig(n * S / ao_time / 1e6 if ao_time else None, "Msamples/s",
-                              "AO samples per second of whole AO frames"),
-        "embree_lit_frame_time": _fig(embree_time, "s", "render(visibility='embree', lighting=) frame "
-                                                        "time (one run, includes Embree's scene build)"),
-    }
+    records = {}
+    for m in modes:
+        t0 = time.perf_counter()
+        ref = lit(lights[m], "embree")
+        embree_time = time.perf_counter() - t0
+        lit_time = statistics.median(times[m])
+        L, R = frames[m].radiance[covered], ref.radiance[covered]
+        rel = relative_rmse(L, R)
+        rel_ao = relative_rmse(frames[m].ao[covered][:, None], ref.ao[covered][:, None])
+        lum, lum_ref = (np.asarray(x, np.float64) @ LUMINANCE_WEIGHTS for x in (L, R))
+        bias = float(lum.mean() / lum_ref.mean() - 1.0) if lum_ref.size and lum_ref.mean() > 0 else None
+        records[m] = {
+            "radiance_rmse_relative": _fig(rel, "1", f"relative RMSE of radiance vs Embree '{m}' on the same "
+                                                     f"{S} AO directions and sun rays (RMS |diff| / RMS |Embree|)"),
+            "luminance_bias": _fig(bias, "1", "mean luminance pyshadow / Embree - 1"),
+            "ao_rmse_relative": _fig(rel_ao, "1", "relative RMSE of the lit frames' AO vs Embree's"),
+            "lit_frame_time": _fig(lit_time, "s", "render(lighting=) frame time (median)"),
+            "ao_frame_time": _fig(ao_time, "s", "render() frame time, AO alone (median, interleaved)"),
+            "lighting_overhead": _fig(lit_time - ao_time, "s", "lit frame time - AO frame time"),
+            "lit_throughput": _fig(n * S / lit_time / 1e6 if lit_time else None, "Msamples/s",
+                                   "AO samples per second of whole lit frames"),
+            "ao_throughput": _fig(n * S / ao_time / 1e6 if ao_time else None, "Msamples/s",
+                                  "AO samples per second of whole AO frames"),
+            "embree_lit_frame_time": _fig(embree_time, "s", f"render(visibility='embree', lighting=) frame "
+                                                            f"time in mode '{m}' (one run)"),
+        }
+    lum = np.asarray(frame.radiance[covered], np.float64) @ LUMINANCE_WEIGHTS
     record = {
         **sky_record,
         "backend": backend,
@@ -196,8 +207,8 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
                           f"{EXPOSURE_TARGET} / {EXPOSURE_PERCENTILE:g}th percentile of covered "
                           f"pixels' luminance"),
         "mean_luminance": _fig(float(lum.mean()) if lum.size else None, "radiance",
-                               "mean Rec. 709 luminance of the covered pixels (sky units)"),
-        "modes": {"bent": bent},
+                               "mean Rec. 709 luminance of the covered pixels ('bent', sky units)"),
+        "modes": records,
     }
     return record, files
 
@@ -214,6 +225,7 @@ def format_lighting(rec: dict) -> list:
         f = {k: v["value"] for k, v in figs.items()}
         rmse = "n/a" if f["radiance_rmse_relative"] is None else f"{f['radiance_rmse_relative']:.4f}"
         rows.append((f"  {mode} vs Embree {mode}", f"rel. RMSE {rmse} (same dirs); lit frame "
-                     f"{f['lit_frame_time'] * 1e3:.0f} ms vs AO alone {f['ao_frame_time'] * 1e3:.0f} ms; "
+                     f"{f['lit_frame_time'] * 1e3:.0f} ms ({f['lit_throughput']:.1f} Msamples/s) vs AO alone "
+                     f"{f['ao_frame_time'] * 1e3:.0f} ms ({f['ao_throughput']:.1f}); "
                      f"Embree lit {f['embree_lit_frame_time'] * 1e3:.0f} ms"))
     return rows

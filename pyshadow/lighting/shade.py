@@ -246,6 +246,12 @@ class Lighting:
         sun = DirectionalLight(sun_direction, sun_irradiance(sun_direction, turbidity), SUN_ANGULAR_RADIUS)
         return cls(sky, sun=sun, **kwargs)
 
+    def with_mode(self, mode: str) -> "Lighting":
+        """The same sky, sun and albedos shaded in another ``mode`` (checked as in the constructor)."""
+        return Lighting(self.env if self.env is not None else self.sh, sun=self.sun, albedo=self.albedo,
+                        albedos=dict(self.albedos), ground_albedo=self.ground_albedo, mode=mode,
+                        sun_samples=self.sun_samples, seed=self.seed)
+
     def albedo_of(self, surface_ids, n: int | None = None) -> np.ndarray:
         """RGB albedo of each point's surface, (N, 3) float64.
 

@@ -289,10 +289,18 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)
     bent = np.zeros((H, W, 3), np.float32)
+    transfer = None
     if len(sp.index):
-        a, b = vis.ambient_occlusion(scene, sp.points, sp.normals, backend=visibility, sampling=sampling,
-                                     return_bent_normals=True, bias=bias, indices=sp.index,
-                                     surface_ids=sp.surface_ids)
+        one_pass = (lighting is not None and lighting.mode == "transfer" and ao_scale == 1
+                    and hasattr(vis.get_backend(visibility), "sh_transfer"))
+        if one_pass:            # the AO kernel's pass that also sums the transfer: AO and bent normals as below
+            a, b, transfer = vis.get_backend(visibility).sh_transfer(
+                scene, sp.points, sp.normals, sampling=sampling, bias=bias, indices=sp.index,
+                surface_ids=sp.surface_ids)
+        else:
+            a, b = vis.ambient_occlusion(scene, sp.points, sp.normals, backend=visibility, sampling=sampling,
+                                         return_bent_normals=True, bias=bias, indices=sp.index,
+                                         surface_ids=sp.surface_ids)
         ao.reshape(-1)[sp.index] = a
         bent.reshape(-1, 3)[sp.index] = b
     frame = Frame(ao=ao, bent_normal=bent, depth=g["depth"], normal=g["normal"], object_id=sp.object_id,
@@ -310,13 +318,16 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         elif denoise == "box":
             frame.ao = filters.edge_aware_box(frame.ao, g["depth"], g["normal"])
     if lighting is not None:
-        frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling)
+        frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling,
+                                   transfer)
     return frame
 
 
-def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling) -> np.ndarray:
-    """``Frame.radiance`` of :func:`render` (see its ``lighting``)."""
-    from .lighting.shade import sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky_radiance
+def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer) -> np.ndarray:
+    """``Frame.radiance`` of :func:`render` (see its ``lighting``); ``transfer``: the covered pixels'
+    SH transfer when the AO pass summed it already (mode "transfer", full resolution), else None."""
+    from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
+                                 transfer_sky_radiance)
 
     H, W = camera.height, camera.width
     out = np.zeros((H * W, 3), np.float32)
@@ -337,7 +348,9 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
         length = np.linalg.norm(b, axis=1, keepdims=True)
         b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
     albedo = lighting.albedo_of(full.surface_ids, len(full.index))
-    if lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
+    if transfer is not None:
+        sky = transfer_sky(lighting, transfer, albedo)
+    elif lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
         term = sampled_sky_radiance if lighting.mode == "sampled" else transfer_sky_radiance
         sky = term(scene, full.points, nrm, lighting, albedo, backend=visibility, sampling=sampling,
                    surface_ids=full.surface_ids, indices=full.index, bias=bias)[0]

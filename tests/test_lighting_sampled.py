@@ -63,20 +63,6 @@ def converged(bundled, clear_sky_map):
                               indices=sp.index)
 
 
-@pytest.mark.parametrize("backend", ["csm", "numpy", "embree"])
-def test_constant_sky_sampled_on_open_surfaces_is_albedo_times_c(small_scene, backend):
-    """A constant sky c and nothing in the way: every sample sees c, so L = albedo c (float32 rounding),
-    on the box's top face (its albedo) and on the ground far away (the ground's albedo)."""
-    p, nrm, ids = top_and_far_ground()
-    light = Lighting(constant_sky(), albedo=ALBEDO, ground_albedo=0.25, mode="sampled")
-    t = shade_terms(small_scene, p, nrm, light, backend=backend, sampling=Sampling(36), surface_ids=ids)
-    assert t.radiance.dtype == np.float32 and t.radiance.shape == (len(p), 3)
-    assert (t.ao == 1).all()
-    want = np.where((ids == GROUND_ID)[:, None], 0.25 * SKY_C, ALBEDO * SKY_C)
-    np.testing.assert_allclose(t.radiance, want, rtol=2e-7, atol=0)
-    assert (t.sun == 0).all() and (t.sun_visibility == 1).all()
-
-
 def test_sampled_overcast_open_plane_is_albedo_over_pi_times_horizontal_illuminance(small_scene):
     """The CIE overcast sky has horizontal illuminance E_h: an open horizontal surface gets
     albedo / pi * E_h, the estimator's convention (albedo * mean L V = albedo / pi * E). Sampled at 256

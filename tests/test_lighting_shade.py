@@ -36,12 +36,14 @@ def top_and_far_ground(n=8):
     return p, nrm, ids
 
 
-@pytest.mark.parametrize("backend", ["csm", "csm-vote", "numpy"])
-def test_constant_sky_on_open_surfaces_is_albedo_times_c(small_scene, backend):
-    """A constant sky c and nothing in the way: E = pi c, so L = albedo c (float32 rounding), on the box's
-    top face (its albedo) and on the ground far away (the ground's albedo)."""
+@pytest.mark.parametrize("mode, backend", [("bent", "csm"), ("bent", "csm-vote"), ("bent", "numpy"),
+                                           ("sampled", "csm"), ("sampled", "numpy"), ("sampled", "embree")])
+def test_constant_sky_on_open_surfaces_is_albedo_times_c(small_scene, mode, backend):
+    """A constant sky c and nothing in the way: E = pi c ("bent"), every sample sees c ("sampled"), so
+    L = albedo c (float32 rounding), on the box's top face (its albedo) and on the ground far away (the
+    ground's albedo)."""
     p, nrm, ids = top_and_far_ground()
-    light = Lighting(constant_sky(), albedo=ALBEDO, ground_albedo=0.25)
+    light = Lighting(constant_sky(), albedo=ALBEDO, ground_albedo=0.25, mode=mode)
     t = shade_terms(small_scene, p, nrm, light, backend=backend, sampling=Sampling(36), surface_ids=ids)
     assert t.radiance.dtype == np.float32 and t.radiance.shape == (len(p), 3)
     assert (t.ao == 1).all()

@@ -372,8 +372,8 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     bent : ndarray (N, 3), float32
         Normalised sum of those directions (the normal where none does).
     """
-    from .. import visibility as vis
-    from ..sampling import Sampling, ao_from_samples, sample_directions
+    from ..sampling import Sampling, ao_from_samples
+    from .transfer import sample_visibility
 
     _check_lighting(lighting)
     if sampling is None:
@@ -397,11 +397,10 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     for a in range(0, n, step):
         b = min(n, a + step)
         m = b - a
-        dirs = sample_directions(nrm[a:b], sampling=sampling, indices=idx[a:b])         # (m, S, 3) float32
+        dirs, lit = sample_visibility(scene, p[a:b], nrm[a:b], backend=backend, sampling=sampling,
+                                      indices=idx[a:b], surface_ids=None if ids is None else ids[a:b],
+                                      bias=bias)                           # (m, S, 3) float32, (m, S)
         flat = dirs.reshape(-1, 3)
-        lit = vis.visible(scene, np.repeat(p[a:b], k, axis=0), flat, backend=backend, bias=bias,
-                          surface_ids=None if ids is None else np.repeat(ids[a:b], k),
-                          normals=np.repeat(nrm[a:b], k, axis=0)).reshape(m, k)
         if env is not None:
             w = flat.astype(np.float64)
             w /= np.linalg.norm(w, axis=1, keepdims=True)
@@ -420,13 +419,20 @@ def transfer_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *,
     arguments as :func:`sampled_sky_radiance`'s. Returns (N, 3) float64,
     (N,) float32, (N, 3) float32.
     """
-    from .transfer import sh_transfer, transfer_irradiance
+    from .transfer import sh_transfer
 
     _check_lighting(lighting)
     ao, bent, T = sh_transfer(scene, points, normals, backend=backend, sampling=sampling,
                               surface_ids=surface_ids, indices=indices, bias=bias)
-    e = np.maximum(transfer_irradiance(lighting.sh, T), 0.0)
-    return np.asarray(albedo, dtype=np.float64) / math.pi * e, ao, bent
+    return transfer_sky(lighting, T, albedo), ao, bent
+
+
+def transfer_sky(lighting: Lighting, transfer, albedo) -> np.ndarray:
+    """``albedo / pi * max(sum_k L_k T_k, 0)`` for given transfer vectors ``T`` (N, 9): (N, 3) float64."""
+    from .transfer import transfer_irradiance
+
+    e = np.maximum(transfer_irradiance(lighting.sh, transfer), 0.0)
+    return np.asarray(albedo, dtype=np.float64) / math.pi * e
 
 
 def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> np.ndarray:

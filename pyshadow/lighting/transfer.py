@@ -54,7 +54,7 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
     """
     from .. import visibility as vis
     from .._validate import check_indices, rows3, unit_normals
-    from ..sampling import Sampling, ao_from_samples, sample_directions
+    from ..sampling import Sampling, ao_from_samples
 
     if sampling is None:
         sampling = Sampling()
@@ -67,14 +67,32 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
     if hasattr(b, "sh_transfer"):
         return b.sh_transfer(scene, p, n, sampling=sampling, bias=bias, indices=idx, surface_ids=surface_ids)
     S = sampling.samples
-    dirs = sample_directions(n, sampling=sampling, indices=idx)                  # (N, S, 3) float32
-    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
-    lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=b, bias=bias,
-                      surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
+    dirs, lit = sample_visibility(scene, p, n, backend=b, sampling=sampling, indices=idx,
+                                  surface_ids=surface_ids, bias=bias)
     Y = sh_basis(dirs.astype(np.float64))                                        # (N, S, 9)
     transfer = (math.pi / S) * np.einsum("ns,nsk->nk", lit.astype(np.float64), Y)
     ao, bent = ao_from_samples(dirs, lit, n.astype(np.float32), return_bent_normals=True)
     return ao, bent, transfer.astype(np.float32)
+
+
+def sample_visibility(scene, points, normals, *, backend, sampling, indices, surface_ids=None, bias=None):
+    """The AO directions of each point and whether each reaches the sky, through ``visible``.
+
+    ``dirs`` (N, S, 3) float32 are :func:`pyshadow.sample_directions`' (those the
+    AO kernel traces) and ``lit`` (N, S) bool their visibility, asked with the
+    points' unit ``normals`` (the surface rule) and ``surface_ids`` (int or (N,)).
+    """
+    from .. import visibility as vis
+    from ..sampling import sample_directions
+
+    p = np.asarray(points, dtype=np.float64)
+    n = np.asarray(normals, dtype=np.float64)
+    S = sampling.samples
+    dirs = sample_directions(n, sampling=sampling, indices=indices)
+    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
+    lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
+                      surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
+    return dirs, lit
 
 
 def transfer_irradiance(coefficients, transfer) -> np.ndarray:

@@ -14,8 +14,9 @@ One module (or package) a job: :mod:`~pyshadow.mesh`, :mod:`~pyshadow.views`,
 (the render stage), :mod:`~pyshadow.filters`, :mod:`~pyshadow.io`,
 :mod:`~pyshadow.cache`, :mod:`~pyshadow.embree` (ground truth),
 :mod:`~pyshadow.viz` (pyvista), :mod:`~pyshadow.bench` (``pyshadow-bench``),
+:mod:`~pyshadow.bake` (``pyshadow-bake``, batch baking on Dask),
 :mod:`~pyshadow.data` (bundled meshes). ``import pyshadow`` reaches each of them
-(``embree``, ``viz`` and ``bench`` are imported on first use).
+(``embree``, ``viz``, ``bench`` and ``bake`` are imported on first use).
 """
 import importlib
 
@@ -36,12 +37,12 @@ from .render import Frame
 from . import (cache, camera, csm, data, filters, gbuffer, io, lighting, mesh, raster, render, sampling, scene,
                views, visibility)
 
-_LAZY = ("embree", "viz", "bench")
+_LAZY = ("embree", "viz", "bench", "bake")
 
 
 def __getattr__(name):
-    """``pyshadow.embree``, ``pyshadow.viz`` and ``pyshadow.bench`` load on first use
-    (they import embreex, pyvista and the CLI's dependencies)."""
+    """``pyshadow.embree``, ``pyshadow.viz``, ``pyshadow.bench`` and ``pyshadow.bake`` load on
+    first use (they import embreex, pyvista and the command lines' dependencies)."""
     if name in _LAZY:
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -75,6 +76,6 @@ __all__ = [
     "upsample",
     "write_image",
     # submodules
-    "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "lighting", "mesh", "raster",
+    "bake", "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "lighting", "mesh", "raster",
     "render", "sampling", "scene", "viz", "views", "visibility",
 ]

@@ -327,17 +327,16 @@ class CoherentShadowMap:
     # ------------------------------------------------------------------
     # files
     # ------------------------------------------------------------------
-    def save(self, path) -> Path:
-        """Write the CSM to ``path`` atomically (temporary file, then rename).
+    def save(self, path, *, reproducible: bool = False) -> Path:
+        """Write the CSM to ``path`` atomically (temporary file, then rename); never pickled.
 
-        The layout is in :mod:`pyshadow.csm.fileformat`.
-
-        16-bit depth ``k`` means ``k / 65534``, ``65535`` a miss; float32
-        depth ``+inf`` is a miss. Never pickled.
+        Layout in :mod:`pyshadow.csm.fileformat`: 16-bit depth ``k`` means ``k / 65534``,
+        ``65535`` a miss; float32 ``+inf`` a miss. ``reproducible=True`` leaves the measured
+        build time out (``null``), so equal CSMs give equal bytes (:mod:`pyshadow.bake`).
         """
         from .fileformat import save
 
-        return save(self, path)
+        return save(self, path, reproducible=reproducible)
 
     @classmethod
     def load(cls, path, mmap: bool = True) -> "CoherentShadowMap":

@@ -43,7 +43,8 @@ FORMAT_VERSION = 1
 ALIGN = 64
 
 
-def header(csm) -> dict:
+def header(csm, reproducible: bool = False) -> dict:
+    seconds = csm._build_seconds if np.isfinite(csm._build_seconds) and not reproducible else None
     return {
         "format": "pyshadow-csm",
         "version": FORMAT_VERSION,
@@ -61,7 +62,7 @@ def header(csm) -> dict:
         "mesh_hash": csm.mesh_hash,
         "segments": csm.segments,
         "offsets_dtype": csm.offsets.dtype.str,
-        "build_seconds": csm._build_seconds if np.isfinite(csm._build_seconds) else None,
+        "build_seconds": seconds,
     }
 
 
@@ -81,10 +82,10 @@ def array_layout(start: int, resolution: int, maps: int, segments: int, depth_bi
     return out, pos
 
 
-def save(csm, path) -> Path:
+def save(csm, path, reproducible: bool = False) -> Path:
     """:meth:`CoherentShadowMap.save` (which documents the layout)."""
     path = Path(path)
-    head = json.dumps(header(csm), sort_keys=True).encode()
+    head = json.dumps(header(csm, reproducible), sort_keys=True).encode()
     start = 16 + len(head)
     layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments,
                                      csm.depth_bits, csm.offsets.dtype)

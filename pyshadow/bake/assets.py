@@ -1,0 +1,174 @@
+"""One asset's bake, as a worker runs it: mesh bytes in, CSM and AO-baked mesh bytes out.
+
+The worker never touches the output folder: it receives the source file's
+bytes and returns the bytes of every output, so that the same task runs in
+this process, in a process pool or on any Dask worker, with or without a
+shared file system, and only the driver writes files (atomically).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import socket
+import tempfile
+import time
+import traceback
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .params import AssetParams
+
+__all__ = ["bake_asset", "output_names", "baked_mesh_bytes"]
+
+
+def output_names(name: str, params: AssetParams) -> dict:
+    """Relative output paths of asset ``name``: ``{"csm": ..., "mesh": ...}``."""
+    return {"csm": f"csm/{name}.csm", "mesh": f"meshes/{name}.{params.mesh_format}"}
+
+
+def _sha256(b: bytes) -> str:
+    return hashlib.sha256(b).hexdigest()
+
+
+def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
+    """The mesh with per-vertex AO and bent normals, as PLY or GLB bytes.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Vertices and faces written (positions as float32 in both formats).
+    ao : ndarray, float32, shape (V,)
+        AO per vertex in [0, 1]; stored as the float vertex property ``ao``
+        (PLY) or attribute ``_ao`` (GLB), and as the vertex colour, grey,
+        sRGB-encoded (so a viewer shows AO's brightness), alpha 255.
+    bent : ndarray, float32, shape (V, 3)
+        Unit bent normals in the mesh's own frame; PLY properties
+        ``bent_nx``, ``bent_ny``, ``bent_nz``, GLB attribute ``_bent_normal``
+        (VEC3).
+    mesh_format : {'ply', 'glb'}
+
+    Returns
+    -------
+    bytes
+        The file's bytes (binary little-endian PLY, or binary glTF).
+    """
+    import trimesh
+
+    from ..io import linear_to_srgb
+
+    out = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)
+    grey = np.round(255.0 * linear_to_srgb(np.clip(ao, 0.0, 1.0))).astype(np.uint8)
+    colours = np.empty((len(ao), 4), np.uint8)
+    colours[:, :3] = grey[:, None]
+    colours[:, 3] = 255
+    out.visual = trimesh.visual.ColorVisuals(out, vertex_colors=colours)
+    ao = np.ascontiguousarray(ao, np.float32)
+    bent = np.ascontiguousarray(bent, np.float32)
+    if mesh_format == "ply":
+        out.vertex_attributes["ao"] = ao
+        for k, axis in enumerate("xyz"):
+            out.vertex_attributes[f"bent_n{axis}"] = np.ascontiguousarray(bent[:, k])
+        return out.export(file_type="ply", encoding="binary", include_attributes=True)
+    out.vertex_attributes["ao"] = ao
+    out.vertex_attributes["bent_normal"] = bent
+    return out.export(file_type="glb")
+
+
+def _csm_bytes(csm) -> bytes:
+    with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+        path = Path(d) / "asset.csm"
+        csm.save(path, reproducible=True)
+        return path.read_bytes()
+
+
+def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> dict:
+    """Bake one asset: build its CSM, bake per-vertex AO and bent normals.
+
+    The task function of :func:`pyshadow.bake.bake_assets`; it never raises
+    for a bad asset (the error is returned) and writes nothing but a
+    temporary copy of the source (the mesh readers want a file).
+
+    Parameters
+    ----------
+    name : str
+        The asset's name (output file stem).
+    suffix : str
+        The source file's extension with its dot (``".obj"``): tells the
+        reader the format.
+    data : bytes
+        The source file's content.
+    params : dict
+        :meth:`AssetParams.to_dict`.
+    key : str
+        :func:`pyshadow.bake.params.asset_key` of this asset (stored in the
+        record).
+
+    Returns
+    -------
+    dict
+        ``record``: the asset's manifest entry (``status`` 'baked' or
+        'failed', ``error``, ``notes`` (cleanup warnings), ``mesh``, ``csm``
+        and ``ao`` summaries, ``timings`` in seconds, ``worker``); ``files``:
+        relative output path -> bytes (empty when failed).
+    """
+    from ..mesh import load_mesh
+    from ..sampling import Sampling
+    from ..scene import Scene
+
+    t0 = time.perf_counter()
+    p = AssetParams.from_dict(params)
+    record = {"name": name, "key": key, "source_sha256": _sha256(data), "params": p.to_dict(),
+              "status": "failed", "error": None, "notes": [], "timings": {},
+              "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    src = None
+    try:
+        with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+            src = Path(d) / f"asset{suffix}"
+            src.write_bytes(data)
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                mesh = load_mesh(src, fill_holes=p.fill_holes)
+        record["notes"] = sorted({str(w.message).replace(str(src), name) for w in caught})
+        record["mesh"] = {"vertices": int(len(mesh.vertices)), "faces": int(len(mesh.faces)),
+                          "watertight": bool(mesh.is_watertight)}
+        t1 = time.perf_counter()
+        if p.max_error is not None:
+            from .choose import choose_csm
+
+            csm, choice = choose_csm(mesh, p)
+            record["choice"] = choice
+        else:
+            from ..views import ViewSet
+
+            csm = _build(mesh, ViewSet.zigzag(p.theta, p.phi), p.resolution, p.depth_bits)
+        t2 = time.perf_counter()
+        scene = Scene(ground=float(np.min(mesh.vertices[:, 1])) if p.ground else None)
+        scene.add(csm, np.eye(4), mesh=mesh)
+        ao, bent = scene.vertex_ao(0, sampling=Sampling(p.samples), return_bent_normals=True, lookup=p.lookup)
+        t3 = time.perf_counter()
+        names = output_names(name, p)
+        files = {names["csm"]: _csm_bytes(csm),
+                 names["mesh"]: baked_mesh_bytes(mesh, ao, bent, p.mesh_format)}
+        s = csm.stats
+        record["csm"] = {k: s[k] for k in ("layout", "maps", "resolution", "depth_bits", "segments", "bytes",
+                                           "ratio")}
+        record["csm"]["build_seconds"] = t2 - t1
+        record["ao"] = {"mean": float(ao.mean()), "min": float(ao.min()), "max": float(ao.max())}
+        record["timings"] = {"load_s": t1 - t0, "csm_s": t2 - t1, "ao_s": t3 - t2,
+                             "encode_s": time.perf_counter() - t3}
+        record["status"] = "baked"
+    except Exception as e:          # a bad asset is reported, never fatal to the job
+        message = f"{type(e).__name__}: {e}"
+        record["error"] = message.replace(str(src), name + suffix) if src is not None else message
+        record["traceback"] = traceback.format_exc(limit=6)
+        files = {}
+    record["timings"]["total_s"] = time.perf_counter() - t0
+    return {"record": record, "files": files}
+
+
+def _build(mesh, views, resolution, depth_bits):
+    from ..csm import CoherentShadowMap
+
+    return CoherentShadowMap.build(mesh, views, resolution=resolution, depth_bits=depth_bits, progress=False)

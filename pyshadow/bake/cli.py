@@ -1,0 +1,209 @@
+"""The ``pyshadow-bake`` command line: ``assets``, ``frames`` and ``motion``.
+
+Usage::
+
+    pyshadow-bake assets MESHES_DIR -o baked/              # Dask LocalCluster, one worker per core
+    pyshadow-bake assets a.obj b.ply -o baked/ --scheduler tcp://host:8786
+    pyshadow-bake frames -o frames/ --frames 60            # the bundled scene, turning
+    pyshadow-bake frames -o frames/ --mesh a.obj --mesh b.obj --motion motion.npz
+    pyshadow-bake motion motion.npz --frames 60            # the bundled scene's motion, as a file
+
+Exit status: 0 when every asset or frame is done, 1 when one failed, 2 on
+bad arguments, 130 when interrupted (Ctrl-C).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+from ..bench.config import _int_range, _maps, _positive_float, _size
+from .params import AssetParams
+from .runner import EXECUTORS
+
+
+def _executor_options(p):
+    g = p.add_argument_group("where it runs")
+    g.add_argument("--executor", choices=EXECUTORS, default=None,
+                   help="dask (default when dask.distributed is installed: a LocalCluster, or the cluster of "
+                        "--scheduler), process (a local process pool) or serial (this process)")
+    g.add_argument("--workers", type=_int_range(1, 4096, "--workers"), default=None,
+                   help="local worker processes (default: the machine's cores; each gets cores/workers "
+                        "OpenCL CPU threads)")
+    g.add_argument("--scheduler", metavar="ADDRESS",
+                   help="an existing Dask scheduler (tcp://host:8786) or its scheduler file")
+    g.add_argument("--quiet", action="store_true", help="no progress bar or notes on stderr")
+
+
+def _csm_options(p, maps="64x128"):
+    g = p.add_argument_group("CSM")
+    g.add_argument("--maps", type=_maps, default=_maps(maps), metavar="THETAxPHI",
+                   help=f"zigzag view set (default {maps})")
+    g.add_argument("--resolution", type=_int_range(8, 4096, "--resolution"), default=128,
+                   help="texels per map side (default 128)")
+    g.add_argument("--depth-bits", type=int, choices=(16, 32), default=16)
+    g.add_argument("--lookup", choices=("nearest", "vote"), default="nearest",
+                   help="CSM lookup of the AO rays (default nearest)")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``pyshadow-bake``."""
+    ap = argparse.ArgumentParser(prog="pyshadow-bake",
+                                 description="Batch baking with pyshadow: CSMs and per-vertex AO for a "
+                                             "library of meshes, or every frame of a scene's motion, on "
+                                             "this machine or a Dask cluster.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    a = sub.add_parser("assets", help="a CSM and an AO-baked mesh per mesh file, and a manifest")
+    a.add_argument("sources", nargs="+", metavar="MESH_OR_DIR",
+                   help="mesh files, or folders (their files with a mesh extension)")
+    a.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    _csm_options(a)
+    a.add_argument("--samples", type=_int_range(1, 65536, "--samples"), default=64,
+                   help="AO samples per vertex (default 64)")
+    a.add_argument("--ground", action="store_true", help="bake with a ground plane under each asset")
+    a.add_argument("--fill-holes", action="store_true", help="close the meshes' holes first")
+    a.add_argument("--format", choices=("ply", "glb"), default="ply", help="output mesh format")
+    a.add_argument("--max-error", type=_positive_float, metavar="E",
+                   help="choose each asset's maps and resolution: the cheapest whose visibility "
+                        "disagreement with Embree on its own AO rays is at most E (e.g. 0.01)")
+    _executor_options(a)
+    f = sub.add_parser("frames", help="AO images (EXR and PNG) of every frame of a rigid motion")
+    f.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
+    f.add_argument("--mesh", action="append", metavar="PATH",
+                   help="a body of the scene (repeatable; all cast shadows); default: the bundled scene")
+    f.add_argument("--motion", metavar="FILE",
+                   help="per-frame transforms (.npz or .json, pyshadow.bake.motion); required with --mesh, "
+                        "default for the bundled scene: its bodies turning (pyshadow-bake motion)")
+    f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=60,
+                   help="frames of the bundled scene's default motion (default 60)")
+    f.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
+    f.add_argument("--samples", type=_int_range(1, 65536, "--samples"), default=36,
+                   help="AO samples per pixel (default 36)")
+    f.add_argument("--denoise", choices=("bilateral", "separable", "box"), default=None)
+    f.add_argument("--ground", type=float, default=0.0, metavar="Y", help="ground plane height (default 0)")
+    f.add_argument("--no-ground", action="store_true", help="no ground plane")
+    f.add_argument("--chunk", type=_int_range(1, 10_000, "--chunk"), default=4, help="frames per task (default 4)")
+    f.add_argument("--cache-dir", metavar="DIR",
+                   help="CSM cache (default $PYSHADOW_CACHE or the user cache folder)")
+    f.add_argument("--no-cache", action="store_true", help="build the CSMs, do not cache them")
+    _csm_options(f)
+    _executor_options(f)
+    m = sub.add_parser("motion", help="write the bundled scene's default motion as a motion file")
+    m.add_argument("path", help="output .npz or .json")
+    m.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=60)
+    return ap
+
+
+def _log(quiet):
+    return (lambda msg: None) if quiet else (lambda msg: print(msg, file=sys.stderr, flush=True))
+
+
+def _assets(args) -> int:
+    from .library import bake_assets
+
+    params = AssetParams(theta=args.maps[0], phi=args.maps[1], resolution=args.resolution,
+                         depth_bits=args.depth_bits, samples=args.samples, lookup=args.lookup,
+                         ground=args.ground, fill_holes=args.fill_holes, mesh_format=args.format,
+                         max_error=args.max_error)
+    m = bake_assets(args.sources, args.out, params, executor=args.executor, workers=args.workers,
+                    scheduler=args.scheduler, progress=not args.quiet, log=_log(args.quiet))
+    print(assets_table(m))
+    return 1 if m["summary"]["failed"] or m["summary"]["interrupted"] else 0
+
+
+def assets_table(m: dict) -> str:
+    """The assets manifest as a text table (what ``pyshadow-bake assets`` prints)."""
+    rows = [("asset", "action", "vertices", "maps", "CSM MB", "ratio", "AO mean", "seconds", "error")]
+    for e in m["assets"]:
+        c = e.get("csm", {})
+        rows.append((e["name"], e["action"], str(e.get("mesh", {}).get("vertices", "")),
+                     f"{c['maps']}@{c['resolution']}" if c else "",
+                     f"{c['bytes'] / 1e6:.2f}" if c else "", f"{c['ratio']:.1f}" if c else "",
+                     f"{e['ao']['mean']:.3f}" if "ao" in e else "",
+                     f"{e['timings']['total_s']:.2f}" if e.get("timings") else "",
+                     (e.get("error") or "")[:60]))
+    w = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines = ["  ".join(c.ljust(w[i]) for i, c in enumerate(r)).rstrip() for r in rows]
+    s, ex = m["summary"], m["executor"]
+    lines.append(f"{s['baked']} baked, {s['skipped']} skipped (done), {s['failed']} failed, "
+                 f"{s['interrupted']} interrupted in {m['seconds']:.1f} s on {ex['kind']} "
+                 f"({ex['workers'] or 0} workers)")
+    return "\n".join(lines)
+
+
+def _frames(args) -> int:
+    import numpy as np
+
+    from ..cache import CSMCache, default_cache_dir
+    from ..camera import Camera
+    from ..views import ViewSet
+    from .frames import auto_camera, bake_frames
+    from .motion import default_motion, read_motion
+
+    log = _log(args.quiet)
+    W, H = args.size
+    if args.mesh:
+        from ..bench.scenes import _load_meshes
+
+        if args.motion is None:
+            raise ValueError("--mesh needs --motion: the per-frame transforms of the meshes")
+        parts = [(name, mesh, True) for name, mesh in _load_meshes(args.mesh)]
+        T, _ = read_motion(args.motion)
+        if T.shape[1] != len(parts):
+            raise ValueError(f"--motion {args.motion} moves {T.shape[1]} bodies, --mesh gives {len(parts)}")
+        camera = auto_camera(parts, T, width=W, height=H)
+    else:
+        from ..data import default_parts
+
+        parts = [(n, m, c) for n, m, _, c in default_parts()]
+        T = read_motion(args.motion)[0] if args.motion else default_motion(args.frames)[0]
+        if T.shape[1] != len(parts):
+            raise ValueError(f"--motion {args.motion} moves {T.shape[1]} bodies, the bundled scene has "
+                             f"{len(parts)} ({', '.join(p[0] for p in parts)})")
+        camera = Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], fov_y=45.0, width=W, height=H)
+    cache = CSMCache(None if args.no_cache else (args.cache_dir or default_cache_dir()), log=log)
+    views = ViewSet.zigzag(*args.maps)
+
+    def csm_for(name, mesh):
+        return cache.csm(name, mesh, views, args.resolution, args.depth_bits, progress=not args.quiet)[0]
+
+    m = bake_frames(args.out, parts, camera, np.asarray(T), ground=None if args.no_ground else args.ground,
+                    samples=args.samples, lookup=args.lookup, denoise=args.denoise, csm_for=csm_for,
+                    chunk=args.chunk, executor=args.executor, workers=args.workers, scheduler=args.scheduler,
+                    progress=not args.quiet, log=log)
+    s, ex = m["summary"], m["executor"]
+    fpm = f"{m['frames_per_minute']:.1f} frames/min" if m["frames_per_minute"] else "nothing rendered"
+    print(f"{len(m['frames'])} frames ({W}x{H}, {args.samples} samples) in {args.out}: {s['rendered']} rendered, "
+          f"{s['skipped']} skipped (done), {s['failed']} failed, {s['interrupted']} interrupted; {fpm} "
+          f"({m['seconds']:.1f} s, {m['prepare_seconds']:.1f} s of it the CSMs) on {ex['kind']} "
+          f"({ex['workers'] or 0} workers)")
+    return 1 if s["failed"] or s["interrupted"] else 0
+
+
+def main(argv=None) -> int:
+    """Entry point of ``pyshadow-bake``; returns the exit status."""
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")       # mesh cleanup notes go to the manifest
+            if args.command == "assets":
+                return _assets(args)
+            if args.command == "frames":
+                return _frames(args)
+            from .motion import default_motion, write_motion
+
+            T, names = default_motion(args.frames)
+            write_motion(args.path, T, names)
+            print(f"wrote {args.path}: {T.shape[0]} frames of {T.shape[1]} bodies ({', '.join(names)})")
+            return 0
+    except KeyboardInterrupt:
+        print("interrupted: finished outputs are kept, nothing half-written; rerun to continue", file=sys.stderr)
+        return 130
+    except (ValueError, FileNotFoundError, ImportError) as e:
+        ap.error(str(e))
+    return 2
+
+
+if __name__ == "__main__":           # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,300 @@
+"""Rendering every frame of a scene's rigid motion: AO images as EXR and PNG.
+
+The driver builds (or loads from the CSM cache) each caster's CSM once,
+writes it to ``out/csm/`` and sends the scene to every worker once, as
+plain data: mesh arrays and CSM file bytes. A worker builds its scene from
+them the first time and keeps it; each task renders a chunk of frames
+(``set_transform`` per body, then :meth:`pyshadow.Scene.render`) and
+returns the image files' bytes, which the driver writes atomically::
+
+    out/exr/frame_0000.exr     AO, linear float32 (one channel "Y")
+    out/png/frame_0000.png     AO, sRGB 8-bit
+    out/csm/<body>.csm         the casters' CSMs (reproducible bytes)
+    out/records/frame_0000.json  the frame's done mark (key and output hashes)
+    out/manifest.json
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .._files import write_bytes_atomic
+from .._version import __version__
+from .params import code_digest
+from .records import done, store
+from .runner import open_executor, sweep_temporaries
+
+__all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
+
+FRAMES_SCHEMA = "pyshadow-bake-frames/1"
+_SCENES: dict = {}          # per worker process: payload key -> (Scene, Camera)
+
+
+def _csm_bytes(csm) -> bytes:
+    with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+        p = Path(d) / "body.csm"
+        csm.save(p, reproducible=True)
+        return p.read_bytes()
+
+
+def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
+    """The scene as plain data a worker can rebuild it from.
+
+    Parameters
+    ----------
+    parts : list of (name, trimesh.Trimesh, casts)
+    camera : pyshadow.Camera
+    ground : float or None
+        Ground plane height.
+    render : dict
+        ``samples``, ``lookup``, ``denoise`` of :meth:`pyshadow.Scene.render`.
+    csm_for : callable
+        ``csm_for(name, mesh) -> CoherentShadowMap`` for each caster.
+
+    Returns
+    -------
+    dict
+        ``key`` (SHA-256 of everything else), ``parts`` (``name``,
+        ``casts``, ``vertices`` float64 (V, 3), ``faces`` int64 (T, 3),
+        ``csm`` file bytes or None), ``camera``, ``ground``, ``render``.
+    """
+    out, h = [], hashlib.sha256()
+    for name, mesh, casts in parts:
+        v = np.ascontiguousarray(mesh.vertices, np.float64)
+        f = np.ascontiguousarray(mesh.faces, np.int64)
+        csm = _csm_bytes(csm_for(name, mesh)) if casts else None
+        out.append({"name": name, "casts": bool(casts), "vertices": v, "faces": f, "csm": csm})
+        for b in (name.encode(), bytes([casts]), v.tobytes(), f.tobytes(), csm or b""):
+            h.update(hashlib.sha256(b).digest())
+    cam = {"eye": camera.eye.tolist(), "target": camera.target.tolist(), "up": camera.up.tolist(),
+           "fov_y": float(camera.fov_y), "width": camera.width, "height": camera.height}
+    h.update(json.dumps({"camera": cam, "ground": ground, "render": render}, sort_keys=True).encode())
+    return {"key": h.hexdigest(), "parts": out, "camera": cam, "ground": ground, "render": render}
+
+
+def _scene(payload):
+    """This worker's scene and camera of ``payload`` (built on first use, then kept)."""
+    key = payload["key"]
+    if key not in _SCENES:
+        import trimesh
+
+        from ..camera import Camera
+        from ..csm import CoherentShadowMap
+        from ..scene import Scene
+
+        scene = Scene(ground=payload["ground"])
+        with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+            for i, part in enumerate(payload["parts"]):
+                mesh = trimesh.Trimesh(part["vertices"], part["faces"], process=False)
+                if part["casts"]:
+                    p = Path(d) / f"{i}.csm"
+                    p.write_bytes(part["csm"])
+                    scene.add(CoherentShadowMap.load(p, mmap=False), np.eye(4), mesh=mesh)
+                else:
+                    scene.add(mesh, np.eye(4), casts=False)
+        c = payload["camera"]
+        camera = Camera(c["eye"], c["target"], up=c["up"], fov_y=c["fov_y"], width=c["width"],
+                        height=c["height"])
+        _SCENES.clear()                 # one scene per worker at a time bounds its memory
+        _SCENES[key] = (scene, camera)
+    return _SCENES[key]
+
+
+def render_chunk(frames, transforms, payload) -> list:
+    """Render frames of the payload's scene (the task of :func:`bake_frames`).
+
+    Parameters
+    ----------
+    frames : list of int
+        Frame numbers.
+    transforms : ndarray, float64, shape (len(frames), N, 4, 4)
+    payload : dict
+        :func:`scene_payload`.
+
+    Returns
+    -------
+    list of dict
+        Per frame: ``frame``, ``files`` (``exr/frame_NNNN.exr`` and
+        ``png/frame_NNNN.png`` -> bytes), ``seconds`` (render),
+        ``ao_mean`` (over covered pixels), ``worker``.
+    """
+    import socket
+
+    from ..io import write_image
+    from ..sampling import Sampling
+
+    scene, camera = _scene(payload)
+    r = payload["render"]
+    results = []
+    for f, T in zip(frames, transforms):
+        t0 = time.perf_counter()
+        for i, M in enumerate(T):
+            scene.set_transform(i, M)
+        frame = scene.render(camera, sampling=Sampling(r["samples"]), lookup=r["lookup"], denoise=r["denoise"])
+        seconds = time.perf_counter() - t0
+        files = {}
+        with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+            for kind in ("exr", "png"):
+                p = Path(d) / f"frame.{kind}"
+                write_image(p, frame.ao)
+                files[f"{kind}/frame_{f:04d}.{kind}"] = p.read_bytes()
+        covered = frame.object_id >= 0
+        results.append({"frame": int(f), "files": files, "seconds": seconds,
+                        "ao_mean": float(frame.ao[covered].mean()) if covered.any() else None,
+                        "worker": f"{socket.gethostname()}:{os.getpid()}"})
+    return results
+
+
+def _frame_key(payload_key: str, T: np.ndarray, code: str) -> str:
+    h = hashlib.sha256(payload_key.encode())
+    h.update(np.ascontiguousarray(T, "<f8").tobytes())
+    h.update(code.encode())
+    return h.hexdigest()
+
+
+def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int = 36, lookup: str = "nearest",
+                denoise=None, csm_for=None, chunk: int = 4, executor=None, workers=None, scheduler=None,
+                threads=None, progress: bool = True, log=None) -> dict:
+    """Render every frame of a rigid motion to ``out_dir`` (layout in :mod:`pyshadow.bake.frames`).
+
+    Parameters
+    ----------
+    out_dir : str or path-like
+        Created if missing.
+    parts : list of (name, trimesh.Trimesh, casts)
+        The scene's bodies, in the order of the motion's bodies.
+    camera : pyshadow.Camera
+    transforms : ndarray, shape (F, N, 4, 4)
+        Per-frame object-to-world transforms (:func:`pyshadow.bake.read_motion`).
+    ground : float or None
+        Ground plane height (None: no ground).
+    samples, lookup, denoise :
+        As :meth:`pyshadow.Scene.render` (``Sampling(samples)``).
+    csm_for : callable, optional
+        ``csm_for(name, mesh) -> CoherentShadowMap``; default: build with
+        the default parameters.
+    chunk : int
+        Frames per task (bounds a task's memory: ``chunk`` frames of images).
+    executor, workers, scheduler, threads, progress, log :
+        As :func:`pyshadow.bake.bake_assets`.
+
+    Returns
+    -------
+    dict
+        The manifest (also ``out_dir/manifest.json``): ``schema``,
+        ``frames`` (per frame ``frame``, ``action`` 'rendered', 'skipped',
+        'failed' or 'interrupted', ``outputs``, ``seconds``, ``error``),
+        ``summary``, ``seconds`` (wall), ``frames_per_minute``, ``csm``
+        (file per caster), ``executor``.
+    """
+    from tqdm.auto import tqdm
+
+    t_start = time.perf_counter()
+    log = log or (lambda msg: None)
+    T = np.asarray(transforms, np.float64)
+    if T.ndim != 4 or T.shape[1:] != (len(parts), 4, 4):
+        raise ValueError(f"transforms must have shape (frames, {len(parts)}, 4, 4) for {len(parts)} bodies, "
+                         f"got {T.shape}")
+    if isinstance(chunk, bool) or int(chunk) < 1:
+        raise ValueError(f"chunk must be a positive int, got {chunk!r}")
+    out = Path(out_dir).expanduser()
+    out.mkdir(parents=True, exist_ok=True)
+    sweep_temporaries(out)
+    if csm_for is None:
+        from ..csm import CoherentShadowMap
+        from ..views import ViewSet
+
+        def csm_for(name, mesh):
+            return CoherentShadowMap.build(mesh, ViewSet.zigzag(64, 128), progress=False)
+
+    t0 = time.perf_counter()
+    payload = scene_payload(parts, camera, ground=ground, csm_for=csm_for,
+                            render={"samples": int(samples), "lookup": lookup, "denoise": denoise})
+    csm_files = {}
+    for part in payload["parts"]:
+        if part["csm"] is not None:
+            rel = f"csm/{part['name']}.csm"
+            (out / "csm").mkdir(exist_ok=True)
+            write_bytes_atomic(out / rel, part["csm"])
+            csm_files[part["name"]] = rel
+    prepare = time.perf_counter() - t0
+    code = code_digest()
+    entries, todo = {}, []
+    for f in range(len(T)):
+        key = _frame_key(payload["key"], T[f], code)
+        rec = done(out, f"records/frame_{f:04d}.json", key)
+        if rec is not None:
+            entries[f] = dict(rec, action="skipped")
+        else:
+            todo.append((f, key))
+    log(f"{len(T)} frames: {len(todo)} to render")
+    keys = dict(todo)
+    tasks = [([f for f, _ in todo[i:i + chunk]], T[[f for f, _ in todo[i:i + chunk]]])
+             for i in range(0, len(todo), int(chunk))]
+    ex = None
+    bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
+    try:
+        if todo:
+            ex = open_executor(executor, workers, scheduler, threads)
+            for frames, res, err in ex.run(render_chunk, ((tuple(fs), (fs, Tc)) for fs, Tc in tasks),
+                                            shared=payload):
+                if err is not None:
+                    for f in frames:
+                        entries[f] = {"frame": f, "key": keys[f], "status": "failed", "action": "failed",
+                                      "error": f"{type(err).__name__}: {err}"}
+                else:
+                    for r in res:
+                        rec = {"frame": r["frame"], "key": keys[r["frame"]], "status": "baked",
+                               "seconds": r["seconds"], "ao_mean": r["ao_mean"], "worker": r["worker"]}
+                        rec = store(out, f"records/frame_{r['frame']:04d}.json", rec, r["files"])
+                        entries[r["frame"]] = dict(rec, action="rendered")
+                bar.update(len(frames))
+    finally:
+        bar.close()
+        if ex is not None:
+            ex.close()
+        sweep_temporaries(out)
+        for f, key in todo:
+            entries.setdefault(f, {"frame": f, "key": key, "status": "failed", "action": "interrupted",
+                                   "error": "interrupted before it finished"})
+        wall = time.perf_counter() - t_start
+        actions = [e["action"] for e in entries.values()]
+        rendered = actions.count("rendered")
+        manifest = {
+            "schema": FRAMES_SCHEMA, "pyshadow": __version__, "code": code, "scene": payload["key"],
+            "render": payload["render"], "camera": payload["camera"], "ground": ground, "csm": csm_files,
+            "executor": {"kind": ex.kind if ex is not None else executor, "workers": getattr(ex, "workers", None),
+                         "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)},
+            "seconds": wall, "prepare_seconds": prepare,
+            "frames_per_minute": 60.0 * rendered / (wall - prepare) if rendered and wall > prepare else None,
+            "summary": {a: actions.count(a) for a in ("rendered", "skipped", "failed", "interrupted")},
+            "frames": [entries[f] for f in sorted(entries)],
+        }
+        write_bytes_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True).encode())
+    return manifest
+
+
+def auto_camera(parts, transforms, *, width=640, height=480, fov_y=40.0):
+    """A camera that frames every body in every frame, from the front (+z), above and to the right."""
+    from ..camera import Camera
+
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for b, (name, mesh, casts) in enumerate(parts):
+        v = np.asarray(mesh.vertices)
+        for T in transforms[:, b]:
+            w = v @ T[:3, :3].T + T[:3, 3]
+            lo, hi = np.minimum(lo, w.min(axis=0)), np.maximum(hi, w.max(axis=0))
+    target = 0.5 * (lo + hi)
+    radius = 0.5 * float(np.linalg.norm(hi - lo))
+    half = math.radians(fov_y) / 2.0
+    half = min(half, math.atan(math.tan(half) * width / height))
+    view = np.array([0.35, 0.55, 1.0])
+    eye = target + 1.08 * radius / math.sin(half) * view / np.linalg.norm(view)
+    return Camera(eye, target, fov_y=fov_y, width=width, height=height)

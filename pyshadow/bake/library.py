@@ -1,0 +1,238 @@
+"""Baking a library of assets: a CSM and an AO-baked mesh per mesh file, and a manifest.
+
+Output folder layout::
+
+    out/manifest.json          this run: parameters, executor, every asset's entry
+    out/csm/<name>.csm         the asset's Coherent Shadow Map (reproducible bytes)
+    out/meshes/<name>.ply      the mesh with per-vertex AO and bent normals (or .glb)
+    out/records/<name>.json    the asset's record, written last: the mark that it is done
+
+Only the driver writes, each file atomically (temporary file, then rename),
+the record after the outputs it lists; so an interrupted or killed run
+leaves complete files or none, and a rerun trusts an asset only when its
+record holds the same key (source hash, parameters, code) and every output
+it lists is present with the recorded SHA-256.
+"""
+from __future__ import annotations
+
+import json
+import re
+import time
+from pathlib import Path
+
+from .._files import write_bytes_atomic
+from .._version import __version__
+from .assets import bake_asset
+from .params import AssetParams, asset_key, code_digest
+from .records import done, sha256_file, store
+from .runner import open_executor, sweep_temporaries
+
+__all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
+
+MANIFEST_SCHEMA = "pyshadow-bake-assets/1"
+
+
+def _mesh_suffixes() -> set:
+    import trimesh
+
+    return {"." + f.lower() for f in trimesh.available_formats()}
+
+
+def find_assets(sources) -> tuple[list, list]:
+    """The mesh files of ``sources`` and the files passed over.
+
+    Parameters
+    ----------
+    sources : str, path-like, or list of them
+        A folder (its files whose extension trimesh reads, not its
+        subfolders, hidden files or other files), or mesh files (every one
+        is an asset, whatever its extension).
+
+    Returns
+    -------
+    assets : list of (name, pathlib.Path)
+        Sorted by path. ``name`` (output file stem) is the file's stem with
+        characters other than letters, digits, ``.``, ``_`` and ``-``
+        replaced by ``_``; stems that collide (``a.obj`` and ``a.ply``)
+        get their extension appended (``a_obj``, ``a_ply``).
+    ignored : list of str
+        Files of a folder that are not meshes.
+
+    Raises
+    ------
+    FileNotFoundError
+        A source that does not exist.
+    """
+    if isinstance(sources, (str, Path)) or hasattr(sources, "__fspath__"):
+        sources = [sources]
+    suffixes = _mesh_suffixes()
+    files, ignored = [], []
+    for s in sources:
+        p = Path(s).expanduser()
+        if p.is_dir():
+            for f in sorted(p.iterdir()):
+                if f.is_file() and not f.name.startswith(".") and f.suffix.lower() in suffixes:
+                    files.append(f)
+                elif f.is_file() and not f.name.startswith("."):
+                    ignored.append(str(f))
+        elif p.exists():
+            files.append(p)
+        else:
+            raise FileNotFoundError(f"no such mesh file or folder: {p}")
+    files = sorted(set(files))
+    stems = [re.sub(r"[^A-Za-z0-9._-]", "_", f.stem) or "mesh" for f in files]
+    lower = [s.lower() for s in stems]
+    names = [s if lower.count(s.lower()) == 1 else f"{s}_{f.suffix.lstrip('.').lower()}"
+             for s, f in zip(stems, files)]
+    if len(set(n.lower() for n in names)) != len(names):
+        raise ValueError(f"assets with the same name: {sorted(names)}; rename the files")
+    return list(zip(names, files)), ignored
+
+
+def _size(path: Path) -> int:
+    try:
+        return path.stat().st_size
+    except OSError:
+        return 0
+
+
+def _failed(name: str, path: Path, key, error: str) -> dict:
+    return {"name": name, "source": str(path), "key": key, "status": "failed", "error": error}
+
+
+def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor: str | None = None,
+                workers: int | None = None, scheduler: str | None = None, threads: int | None = None,
+                progress: bool = True,
+                log=None) -> dict:
+    """Bake a CSM and per-vertex AO for every mesh of ``sources`` into ``out_dir``.
+
+    Parameters
+    ----------
+    sources : str, path-like, or list of them
+        A folder of meshes or mesh files (:func:`find_assets`).
+    out_dir : str or path-like
+        Output folder (created); layout in :mod:`pyshadow.bake.library`.
+    params : AssetParams, optional
+        The same for every asset; default ``AssetParams()``.
+    executor : {'dask', 'process', 'serial'}, optional
+        Where tasks run (:func:`pyshadow.bake.runner.open_executor`); default
+        Dask when installed (a ``LocalCluster`` of ``workers`` processes, or
+        the cluster of ``scheduler``), else a process pool.
+    workers : int, optional
+        Local worker processes (default: the machine's cores).
+    scheduler : str, optional
+        Address or scheduler file of an existing Dask cluster.
+    threads : int, optional
+        OpenCL CPU threads per local worker (default: cores // workers).
+    progress : bool
+        A progress bar over the assets to bake.
+    log : callable, optional
+        ``log(str)`` for notes (default: print nothing).
+
+    Returns
+    -------
+    dict
+        The manifest (also written to ``out_dir/manifest.json``): ``schema``,
+        ``params``, ``code`` (digest of the kernels), ``executor``,
+        ``seconds``, ``summary`` (counts of ``baked``, ``skipped``,
+        ``failed``, ``interrupted``), ``ignored`` files and ``assets``: per
+        asset its record (:func:`pyshadow.bake.assets.bake_asset`) with
+        ``source``, ``outputs`` (relative path -> ``sha256``, ``bytes``) and
+        ``action`` ('baked', 'skipped' (done before, unchanged), 'failed' or
+        'interrupted').
+
+    Notes
+    -----
+    Rerunning with the same sources and parameters bakes nothing; a
+    changed, new, failed or damaged asset (an output missing or altered)
+    is baked again. A failed asset (unreadable, empty, not a mesh) is
+    reported in the manifest and does not stop the others. On
+    ``KeyboardInterrupt`` the tasks are cancelled, temporary files removed
+    and the manifest written (the assets not finished marked
+    'interrupted') before the interrupt propagates.
+    """
+    from tqdm.auto import tqdm
+
+    t_start = time.perf_counter()
+    log = log or (lambda msg: None)
+    params = params if params is not None else AssetParams()
+    out = Path(out_dir).expanduser()
+    for sub in ("", "csm", "meshes", "records"):
+        (out / sub).mkdir(parents=True, exist_ok=True)
+    for p in sweep_temporaries(out):
+        log(f"removed a temporary file of an interrupted run: {p}")
+    assets, ignored = find_assets(sources)
+    code = code_digest()
+    entries, todo = {}, []
+    for name, path in assets:
+        try:
+            key = asset_key(sha256_file(path), params, code)
+        except OSError as e:
+            entries[name] = dict(_failed(name, path, None, f"{type(e).__name__}: {e}"), action="failed")
+            continue
+        rec = done(out, f"records/{name}.json", key)
+        if rec is not None:
+            entries[name] = dict(rec, action="skipped")
+        else:
+            todo.append((name, path, key))
+    # largest first: the long tasks start early and the short ones fill in the tail (LPT order)
+    todo.sort(key=lambda t: (-_size(t[1]), t[0]))
+    log(f"{len(assets)} assets: {len(todo)} to bake, {len(entries)} done or unreadable")
+
+    def tasks():
+        for name, path, key in todo:
+            try:
+                data = path.read_bytes()
+            except OSError as e:
+                entries[name] = dict(_failed(name, path, key, f"{type(e).__name__}: {e}"), action="failed")
+                continue
+            yield (name, path, key), (name, path.suffix.lower(), data, params.to_dict(), key)
+
+    ex = None
+    bar = tqdm(total=len(todo), unit="asset", desc="baking", disable=not progress or not todo)
+    try:
+        if todo:
+            ex = open_executor(executor, workers, scheduler, threads)
+            for (name, path, key), res, err in ex.run(bake_asset, tasks()):
+                if err is not None:         # the task itself failed (e.g. its worker died again and again)
+                    entries[name] = dict(_failed(name, path, key, f"{type(err).__name__}: {err}"), action="failed")
+                else:
+                    entries[name] = _store(out, path, res)
+                bar.update(1)
+                bar.set_postfix_str(f"{name}: {entries[name]['action']}")
+    finally:
+        bar.close()
+        if ex is not None:
+            ex.close()
+        for p in sweep_temporaries(out):
+            log(f"removed a temporary file: {p}")
+        for name, path, key in todo:
+            entries.setdefault(name, dict(_failed(name, path, key, "interrupted before it finished"),
+                                          action="interrupted"))
+        manifest = _manifest(params, code, ex, executor, ignored, entries, time.perf_counter() - t_start)
+        write_bytes_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True).encode())
+    return manifest
+
+
+def _store(out: Path, path: Path, res: dict) -> dict:
+    """Write a finished task's outputs, then its record; returns its manifest entry."""
+    rec = dict(res["record"], source=str(path))
+    if rec["status"] != "baked":
+        return dict(rec, action="failed")
+    return dict(store(out, f"records/{rec['name']}.json", rec, res["files"]), action="baked")
+
+
+def _manifest(params, code, ex, executor, ignored, entries, seconds) -> dict:
+    actions = [e["action"] for e in entries.values()]
+    return {
+        "schema": MANIFEST_SCHEMA,
+        "pyshadow": __version__,
+        "code": code,
+        "params": params.to_dict(),
+        "executor": {"kind": ex.kind if ex is not None else executor, "workers": getattr(ex, "workers", None),
+                     "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)},
+        "seconds": seconds,
+        "summary": {a: actions.count(a) for a in ("baked", "skipped", "failed", "interrupted")},
+        "ignored": ignored,
+        "assets": [entries[k] for k in sorted(entries)],
+    }

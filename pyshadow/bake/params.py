@@ -1,0 +1,112 @@
+"""What a baked output depends on: the parameters of a bake and the code that runs it."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+
+__all__ = ["AssetParams", "code_digest", "asset_key"]
+
+MESH_FORMATS = ("ply", "glb")
+LOOKUPS = ("nearest", "vote")
+
+
+@dataclasses.dataclass(frozen=True)
+class AssetParams:
+    """Parameters of one asset bake: the CSM, the per-vertex AO and the output mesh.
+
+    Parameters
+    ----------
+    theta, phi : int
+        Maps of the ``ViewSet.zigzag(theta, phi)`` view set of the CSM
+        (rows of polar angle, maps per row).
+    resolution : int
+        Texels per map side.
+    depth_bits : {16, 32}
+        Depth precision of the CSM.
+    samples : int
+        AO samples per vertex (cosine-weighted Hammersley patterns,
+        :class:`pyshadow.Sampling`).
+    lookup : {'nearest', 'vote'}
+        CSM lookup of the AO rays (:func:`pyshadow.visibility.visible`).
+    ground : bool
+        Bake with a ground plane at the mesh's lowest vertex (``y`` up), as
+        an asset standing on a floor; default: the mesh alone.
+    fill_holes : bool
+        Close the mesh's holes before building the CSM
+        (:func:`pyshadow.load_mesh`); the output mesh is then the closed one.
+    mesh_format : {'ply', 'glb'}
+        Format of the output mesh.
+    max_error : float or None
+        When set, the CSM's maps and resolution are not ``theta``, ``phi``,
+        ``resolution`` but the cheapest rung of
+        :data:`pyshadow.bake.choose.LADDER` whose visibility disagreement
+        with Embree on the asset's own AO rays is at most ``max_error``
+        (a fraction, e.g. 0.01), measured per asset
+        (:func:`pyshadow.bake.choose.choose_csm`).
+    """
+
+    theta: int = 64
+    phi: int = 128
+    resolution: int = 128
+    depth_bits: int = 16
+    samples: int = 64
+    lookup: str = "nearest"
+    ground: bool = False
+    fill_holes: bool = False
+    mesh_format: str = "ply"
+    max_error: float | None = None
+
+    def __post_init__(self):
+        for f in ("theta", "phi", "resolution", "samples"):
+            v = getattr(self, f)
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise ValueError(f"AssetParams.{f} must be a positive int, got {v!r}")
+        if self.theta < 2 or self.phi < 2:
+            raise ValueError(f"AssetParams: at least 2x2 maps, got {self.theta}x{self.phi}")
+        if self.depth_bits not in (16, 32):
+            raise ValueError(f"AssetParams.depth_bits must be 16 or 32, got {self.depth_bits!r}")
+        if self.lookup not in LOOKUPS:
+            raise ValueError(f"AssetParams.lookup must be one of {LOOKUPS}, got {self.lookup!r}")
+        if self.mesh_format not in MESH_FORMATS:
+            raise ValueError(f"AssetParams.mesh_format must be one of {MESH_FORMATS}, got {self.mesh_format!r}")
+        if self.max_error is not None and not (0.0 < float(self.max_error) < 1.0):
+            raise ValueError(f"AssetParams.max_error must lie in (0, 1), got {self.max_error!r}")
+
+    def to_dict(self) -> dict:
+        """The parameters as a JSON-ready dict (the manifest's ``params``)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "AssetParams":
+        """Inverse of :meth:`to_dict`; unknown keys are an error."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        extra = set(d) - names
+        if extra:
+            raise ValueError(f"unknown bake parameters: {', '.join(sorted(extra))}")
+        return cls(**d)
+
+
+def code_digest() -> str:
+    """SHA-256 (hex) of pyshadow's version and every kernel source it ships.
+
+    A baked output depends on the CSM builder and on the AO kernels; hashing
+    all of ``kernels/`` (with includes inlined) and the version makes a code
+    change produce new keys, so a rerun redoes the assets instead of keeping
+    stale ones.
+    """
+    from .. import _cl
+    from .._version import __version__
+
+    h = hashlib.sha256(__version__.encode())
+    for path in sorted(_cl.kernel_dir().glob("*")):
+        if path.suffix in (".cl", ".h"):
+            h.update(path.name.encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()
+
+
+def asset_key(source_sha256: str, params: AssetParams, code: str) -> str:
+    """The key a baked asset is stored under: SHA-256 of its source, parameters and code."""
+    spec = {"source": source_sha256, "params": params.to_dict(), "code": code}
+    return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()

@@ -1,0 +1,55 @@
+"""Done marks: a task's outputs, then a record listing their hashes, each written atomically.
+
+A record (JSON) is written after every output it lists, so its presence
+with a matching ``key`` and matching output hashes is the proof that a task
+finished with these inputs; anything else is redone.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from .._files import write_bytes_atomic
+
+__all__ = ["done", "store", "sha256_file"]
+
+
+def sha256_file(path) -> str:
+    """SHA-256 (hex) of a file's bytes, read in 4 MiB chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 22), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def done(out: Path, record: str, key: str):
+    """The record at ``out/record`` if it has status 'baked', this ``key`` and every output intact, else None."""
+    try:
+        rec = json.loads((out / record).read_text())
+        if rec.get("status") != "baked" or rec.get("key") != key:
+            return None
+        for rel, meta in rec["outputs"].items():
+            f = out / rel
+            if not f.is_file() or f.stat().st_size != meta["bytes"] or sha256_file(f) != meta["sha256"]:
+                return None
+        return rec
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
+
+
+def store(out: Path, record: str, rec: dict, files: dict) -> dict:
+    """Write ``files`` (relative path -> bytes) under ``out``, then ``rec`` with their hashes as ``out/record``.
+
+    Returns ``rec`` with ``outputs`` (relative path -> ``sha256``, ``bytes``).
+    """
+    outputs = {}
+    for rel, data in sorted(files.items()):
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        write_bytes_atomic(out / rel, data)
+        outputs[rel] = {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}
+    rec = dict(rec, outputs=outputs)
+    (out / record).parent.mkdir(parents=True, exist_ok=True)
+    write_bytes_atomic(out / record, json.dumps(rec, indent=1, sort_keys=True).encode())
+    return rec

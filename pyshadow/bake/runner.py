@@ -1,0 +1,241 @@
+"""Where bake tasks run: in this process, in a local process pool, or on Dask.
+
+Every executor takes the same tasks (a picklable function and plain
+arguments: names, bytes, dicts; never an object of the OpenCL runtime) and
+yields results as they complete, keeping at most ``window`` tasks in flight
+so that neither the driver nor a worker holds more than a few tasks' data.
+
+Dask (``dask.distributed``) is the path for more than one machine: a
+``LocalCluster`` of ``workers`` single-threaded worker processes by default,
+or an existing cluster by scheduler address. A worker that dies has its
+tasks rerun on the others by the Dask scheduler. Without Dask installed a
+``concurrent.futures`` process pool (or ``serial``) runs the same tasks.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import os
+import re
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from multiprocessing import get_context
+from pathlib import Path
+
+__all__ = ["EXECUTORS", "open_executor", "thread_env", "sweep_temporaries", "dask_available"]
+
+EXECUTORS = ("dask", "process", "serial")
+
+# the temporary names of pyshadow._files.atomic_path: ".<stem>.<12 hex>.tmp<suffix>"
+_TEMPORARY = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[^.]*)?$")
+
+
+def dask_available() -> bool:
+    """True when ``dask.distributed`` can be imported."""
+    import importlib.util
+
+    return importlib.util.find_spec("distributed") is not None
+
+
+def thread_env(threads: int) -> dict:
+    """Environment that limits the OpenCL CPU device of a worker to ``threads`` threads.
+
+    PoCL's CPU device starts one thread per core in every process; ``workers``
+    processes on one machine would then run ``workers x cores`` threads. Both
+    PoCL's names for the limit are set (``POCL_MAX_PTHREAD_COUNT``, read by
+    the pip wheel's PoCL 3, and ``POCL_CPU_MAX_CU_NUM``, read by later
+    versions). GPUs ignore them.
+    """
+    n = str(max(1, int(threads)))
+    return {"POCL_MAX_PTHREAD_COUNT": n, "POCL_CPU_MAX_CU_NUM": n, "OMP_NUM_THREADS": n}
+
+
+def sweep_temporaries(root) -> list[Path]:
+    """Remove the temporary files atomic writes left under ``root`` (a killed run's); returns them."""
+    root = Path(root)
+    gone = []
+    if not root.is_dir():
+        return gone
+    for path in root.rglob(".*"):
+        if path.is_file() and _TEMPORARY.match(path.name):
+            try:
+                path.unlink()
+                gone.append(path)
+            except OSError:
+                pass
+    return gone
+
+
+def _init_process_worker(env: dict) -> None:
+    os.environ.update(env)
+
+
+class _Serial:
+    kind = "serial"
+
+    def __init__(self):
+        self.workers = 1
+        self.threads = None             # this process's own device
+
+    def run(self, fn, tasks, shared=None, window=None):
+        for tag, args in tasks:
+            extra = (shared,) if shared is not None else ()
+            try:
+                yield tag, fn(*args, *extra), None
+            except Exception as e:           # the driver reports it with the task's tag
+                yield tag, None, e
+
+    def close(self):
+        pass
+
+
+class _Pool:
+    kind = "process"
+
+    def __init__(self, workers: int, threads: int):
+        self.workers, self.threads = workers, threads
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
+                                        initializer=_init_process_worker, initargs=(thread_env(threads),))
+
+    def run(self, fn, tasks, shared=None, window=None):
+        window = window or 2 * self.workers
+        extra = (shared,) if shared is not None else ()
+        it = iter(tasks)
+        pending = {}
+
+        def submit():
+            for tag, args in it:
+                pending[self.pool.submit(fn, *args, *extra)] = tag
+                return True
+            return False
+
+        while len(pending) < window and submit():
+            pass
+        while pending:
+            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+            for fut in done:
+                tag = pending.pop(fut)
+                try:
+                    yield tag, fut.result(), None
+                except Exception as e:
+                    yield tag, None, e
+                submit()
+
+    def close(self):
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class _Dask:
+    kind = "dask"
+
+    def __init__(self, workers: int, threads: int, scheduler: str | None):
+        from distributed import Client, LocalCluster
+
+        self.cluster = None
+        self.threads = threads if scheduler is None else None
+        if scheduler is None:
+            self.cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                        dashboard_address=None, env=thread_env(threads),
+                                        silence_logs=logging.ERROR)
+            self.client = Client(self.cluster)
+        else:
+            self.client = Client(scheduler, timeout="30s")
+        info = self.client.scheduler_info()
+        self.address = info.get("address")
+        self.workers = max(1, len(info.get("workers", {})))
+        self._futures = []
+
+    def run(self, fn, tasks, shared=None, window=None):
+        from distributed import as_completed
+
+        window = window or max(2, 2 * self.workers)
+        extra = ()
+        if shared is not None:               # sent to every worker once, not once per task
+            [fut] = self.client.scatter([shared], broadcast=True)
+            extra = (fut,)
+        it = iter(tasks)
+        pending = {}
+        ac = as_completed()
+
+        def submit():
+            for tag, args in it:
+                fut = self.client.submit(fn, *args, *extra, pure=False)
+                pending[fut] = tag
+                ac.add(fut)
+                return True
+            return False
+
+        while len(pending) < window and submit():
+            pass
+        for fut in ac:
+            tag = pending.pop(fut)
+            try:
+                yield tag, fut.result(), None
+            except Exception as e:           # e.g. KilledWorker after repeated worker deaths
+                yield tag, None, e
+            fut.release()
+            submit()
+        self._futures = list(pending)
+
+    def close(self):
+        for fut in self._futures:
+            fut.cancel()
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+def open_executor(kind: str | None = None, workers: int | None = None, scheduler: str | None = None,
+                  threads: int | None = None):
+    """An executor of bake tasks.
+
+    Parameters
+    ----------
+    kind : {'dask', 'process', 'serial'} or None
+        None: 'dask' when ``dask.distributed`` is installed (or a
+        ``scheduler`` is given), else 'process'.
+    workers : int, optional
+        Worker processes on this machine (default: its cores); each is
+        limited to ``cores // workers`` OpenCL CPU threads
+        (:func:`thread_env`). Ignored with ``scheduler``.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://host:8786``) or the
+        path of a scheduler file; its workers bring their own environment.
+    threads : int, optional
+        OpenCL CPU threads per local worker (default ``cores // workers``,
+        at least 1).
+
+    Returns
+    -------
+    executor
+        ``.run(fn, tasks, shared=None, window=None)`` yields ``(tag, result,
+        exception)`` per task as they complete (``tasks`` an iterable of
+        ``(tag, args)``; ``shared`` appended to every call's arguments and,
+        on Dask, sent to each worker once); ``.close()``; ``.kind``;
+        ``.workers``.
+    """
+    cores = os.cpu_count() or 1
+    if kind is None:
+        kind = "dask" if (scheduler is not None or dask_available()) else "process"
+    if kind not in EXECUTORS:
+        raise ValueError(f"executor must be one of {EXECUTORS}, got {kind!r}")
+    if scheduler is not None and kind != "dask":
+        raise ValueError(f"a scheduler address needs the 'dask' executor, not {kind!r}")
+    if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
+        raise ValueError(f"workers must be a positive int, got {workers!r}")
+    workers = int(workers) if workers is not None else cores
+    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
+        raise ValueError(f"threads must be a positive int, got {threads!r}")
+    threads = int(threads) if threads is not None else max(1, cores // workers)
+    if kind == "serial":
+        return _Serial()
+    if kind == "process":
+        return _Pool(workers, threads)
+    if not dask_available():
+        raise ImportError("the 'dask' executor needs dask.distributed: pip install 'pyshadow[dask]' "
+                          "(or use executor='process' on one machine)")
+    if scheduler is not None and Path(scheduler).is_file():       # a scheduler file (dask scheduler --scheduler-file)
+        try:
+            scheduler = json.loads(Path(scheduler).read_text())["address"]
+        except (OSError, ValueError, KeyError) as e:
+            raise ValueError(f"{scheduler}: not a Dask scheduler file ({e})") from None
+    return _Dask(workers, threads, scheduler)

@@ -370,3 +370,37 @@ def test_reproducible_csm_files(tmp_path):
     assert pyshadow.CoherentShadowMap.load(t0).stats["build_seconds"] > 0   # the plain file keeps its build time
     for a in ("offsets", "iend", "depth"):
         np.testing.assert_array_equal(getattr(back, a), getattr(pyshadow.CoherentShadowMap.load(t0), a))
+
+
+def test_without_dask_installed_a_process_pool_bakes(serial, sources, tmp_path):
+    ref, _ = serial
+    code = ("import sys, json\n"
+            "sys.modules['distributed'] = None; sys.modules['dask'] = None   # as if not installed\n"
+            "from pyshadow.bake import AssetParams, bake_assets\n"
+            "if __name__ == '__main__':\n"
+            f"    m = bake_assets({str(sources)!r}, {str(tmp_path)!r}, AssetParams(**{PARAMS.to_dict()!r}),\n"
+            "                    workers=2, progress=False)\n"
+            "    print(json.dumps([m['executor']['kind'], m['summary']]))\n")
+    script = tmp_path / "nodask.py"
+    script.write_text(code)
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr[-2000:]
+    kind, summary = json.loads(res.stdout.strip().splitlines()[-1])
+    assert kind == "process" and summary == {"baked": 9, "skipped": 0, "failed": 2, "interrupted": 0}
+    assert _outputs(tmp_path) == _outputs(ref)
+
+
+def test_max_error_climbs_the_ladder(monkeypatch):
+    from pyshadow.bake import choose
+
+    monkeypatch.setattr(choose, "LADDER", ((4, 8, 16), (8, 16, 32), (16, 32, 64)))
+    mesh = pyshadow.data.mesh("spot")
+    loose = AssetParams(max_error=0.5)
+    csm, c = choose.choose_csm(mesh, loose)
+    assert c["met"] and c["maps"] == [4, 8] and len(c["tried"]) == 1 and csm.maps == 32
+    csm, c = choose.choose_csm(mesh, AssetParams(max_error=1e-9))     # out of reach: every rung, the finest kept
+    assert not c["met"] and [t["resolution"] for t in c["tried"]] == [16, 32, 64] and csm.resolution == 64
+    scene = pyshadow.Scene()
+    scene.add(csm, np.eye(4), mesh=mesh)
+    assert choose.disagreement(scene, mesh) == c["disagreement"] > 0      # deterministic: the same rays
+    assert c["tried"][0]["disagreement"] > c["tried"][-1]["disagreement"]

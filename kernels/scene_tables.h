@@ -8,8 +8,9 @@
  *                         scene_t S made of those parameters (same order)
  *   ground_v()            GROUND only: rays that cross the ground plane
  *   sphere_v()            rays that can meet an instance's bounding sphere
+ *   box_v()               INSTANCE_BVH only: rays that can meet a node's box
  * Expects: LANES (lanes.h), DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
- * (csm_search.h: pair_t), GROUND.
+ * (csm_search.h: pair_t), GROUND, INSTANCE_BVH (0/1).
  */
 #ifndef PYSHADOW_SCENE_TABLES_H
 #define PYSHADOW_SCENE_TABLES_H
@@ -31,6 +32,9 @@ typedef struct {
     int ninst;
     float ground_y, ground_eps;
     float bias_abs, bias_texels, bias_tan, bias_other;
+    __global const bvh_node_t *nodes;   /* INSTANCE_BVH: the tree over the casters, root first */
+    __global const int *order;          /* its leaves' instances */
+    float bvh_pad;                      /* margin around every box (pyshadow.visibility.bvh.box_pad) */
 } scene_t;
 
 #define SCENE_ARGS __global const csm_type_t *types, __global const uint *offsets,    \
@@ -40,12 +44,14 @@ typedef struct {
                    __global const instance_t *inst, __global const int *itype,          \
                    const int ninst, const float ground_y, const float ground_eps,        \
                    const float bias_abs,                                                 \
-                   const float bias_texels, const float bias_tan, const float bias_other
+                   const float bias_texels, const float bias_tan, const float bias_other,  \
+                   __global const bvh_node_t *nodes, __global const int *order,         \
+                   const float bvh_pad
 
 #define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
                                 inst, itype,                                            \
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
-                                bias_other}
+                                bias_other, nodes, order, bvh_pad}
 
 #if GROUND
 /* lanes (-1) whose ray crosses the ground plane y = ground_y; within
@@ -68,5 +74,24 @@ inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
     const float r2 = I->radius * I->radius;
     return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(oc2 - tca * tca > r2)));
 }
+
+#if INSTANCE_BVH
+/* lanes (-1) whose ray p + t w, t >= 0, meets node B's box grown by
+ * bvh_pad (slab test; ix = 1 / wx, +-inf where wx = 0). A sphere lies inside
+ * its box, more than bvh_pad from every face, so a ray meeting the sphere
+ * passes this test despite the float rounding; a NaN (a ray on a face's
+ * plane, parallel to it) can only answer for rays outside the sphere. */
+inline iv box_v(const scene_t *S, __global const bvh_node_t *B, fv px, fv py, fv pz, fv ix, fv iy,
+                fv iz)
+{
+    const float e = S->bvh_pad;
+    const fv ax = (B->lo[0] - e - px) * ix, bx = (B->hi[0] + e - px) * ix;
+    const fv ay = (B->lo[1] - e - py) * iy, by = (B->hi[1] + e - py) * iy;
+    const fv az = (B->lo[2] - e - pz) * iz, bz = (B->hi[2] + e - pz) * iz;
+    const fv t0 = VMAX(VMAX(VMIN(ax, bx), VMIN(ay, by)), VMIN(az, bz));
+    const fv t1 = VMIN(VMIN(VMAX(ax, bx), VMAX(ay, by)), VMAX(az, bz));
+    return MASK(t1 >= VMAX(t0, (fv)(0.0f)));
+}
+#endif
 
 #endif

@@ -22,6 +22,7 @@ from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, load_mesh, mesh_hash
 from .sampling import Sampling
+from .scene_arrays import scene_arrays
 from .views import ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
@@ -130,6 +131,7 @@ class Scene:
         self.progress = progress
         self.instances: list[Instance] = []
         self._built: dict = {}           # id(mesh) -> CSM built by add()
+        self._version = 0                # advanced by add() and set_transform() (scene_arrays)
 
     # ------------------------------------------------------------------
     # building the scene
@@ -160,10 +162,9 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
-        T = check_transform(np.eye(4) if transform is None else transform, rigid=True,
-                            name="transform")
-        inst = _new_instance(self, obj, T, casts, mesh)
-        self.instances.append(inst)
+        T = check_transform(np.eye(4) if transform is None else transform, rigid=True, name="transform").copy()
+        self.instances.append(_new_instance(self, obj, T, casts, mesh))
+        self._version += 1
         return len(self.instances) - 1
 
     def _instance(self, instance_id) -> Instance:
@@ -174,8 +175,8 @@ class Scene:
 
     def set_transform(self, instance_id: int, transform) -> None:
         """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt."""
-        inst = self._instance(instance_id)
-        inst.transform = check_transform(transform, rigid=True, name="transform")
+        self._instance(instance_id).transform = check_transform(transform, rigid=True, name="transform").copy()
+        self._version += 1
 
     def transform(self, instance_id: int) -> np.ndarray:
         """The current 4x4 transform of an instance (a copy)."""
@@ -183,16 +184,12 @@ class Scene:
 
     @property
     def casters(self) -> list[int]:
-        return [i for i, inst in enumerate(self.instances) if inst.casts]
+        return np.flatnonzero(scene_arrays(self)["casts"]).tolist()
 
     def caster_types(self):
         """The distinct CSMs of the casters (list, in first-use order) and ``{id(csm): type index}``."""
-        seen, types = {}, []
-        for inst in self.instances:
-            if inst.casts and id(inst.csm) not in seen:
-                seen[id(inst.csm)] = len(types)
-                types.append(inst.csm)
-        return types, seen
+        a = scene_arrays(self)
+        return list(a["types"]), dict(a["type_index"])
 
     def caster_slots(self, surface_ids, n):
         """Caster slot of each point's surface, (n,) int32: -1 unknown, -2 not a caster.
@@ -209,7 +206,7 @@ class Scene:
         for an empty scene).
         """
         if self.instances:
-            return np.mean([inst.world_sphere()[0] for inst in self.instances], axis=0)
+            return np.mean(scene_arrays(self)["world_centre"], axis=0)
         if points is not None and len(points):
             return points.mean(axis=0)
         return np.zeros(3)
@@ -218,7 +215,7 @@ class Scene:
         """Largest world bounding-sphere radius of the instances (1 for an empty scene)."""
         if not self.instances:
             return 1.0
-        return max(inst.world_sphere()[1] for inst in self.instances)
+        return float(scene_arrays(self)["world_radius"].max())
 
     # ------------------------------------------------------------------
     # queries: thin wrappers over pyshadow.visibility and pyshadow.render
@@ -422,7 +419,7 @@ def _caster_slots(scene, surface_ids, n):
     if not np.issubdtype(ids.dtype, np.integer):
         raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
     if (ids.dtype == np.int32 and ids.shape == (n,) and ids.flags.c_contiguous and n
-            and scene.casters == list(range(len(scene.instances)))
+            and scene_arrays(scene)["casts"].all()
             and ids.min() >= GROUND_ID and ids.max() < len(scene.instances)):
         return ids          # every instance casts: ids are the slots (-1, -2 included)
     ids = np.broadcast_to(ids, (n,)).astype(np.int64)
@@ -431,8 +428,8 @@ def _caster_slots(scene, surface_ids, n):
         raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); "
                          f"got {int(ids[~ok][0])}")
     slot = np.full(len(scene.instances) + 2, -2, np.int32)     # receivers: -2
-    for k, i in enumerate(scene.casters):
-        slot[i] = k
+    casters = scene.casters
+    slot[casters] = np.arange(len(casters), dtype=np.int32)
     slot[-1] = -1                                            # index -1: unknown
     slot[-2] = -2                                            # index -2: ground
     return slot[ids]

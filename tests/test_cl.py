@@ -251,7 +251,7 @@ def test_launch_shape_follows_the_device_kind():
 
 def test_table_structs_match_their_dtypes_on_the_device():
     """The generated C structs have every field at the dtype's byte offset."""
-    fields = [("csm_type_t", tables.CSM_TYPE), ("instance_t", tables.INSTANCE)]
+    fields = [("csm_type_t", tables.CSM_TYPE), ("instance_t", tables.INSTANCE), ("bvh_node_t", tables.BVH_NODE)]
     lines = []
     for cname, dt in fields:
         lines.append(f"    {{ __global const {cname} *r = (__global const {cname} *)base;")
@@ -273,7 +273,7 @@ def test_table_structs_match_their_dtypes_on_the_device():
     prg.offsets(_cl.queue(), (1,), None, _cl.empty(256), buf)
     cl.enqueue_copy(_cl.queue(), out, buf)
     assert out.tolist() == want
-    assert tables.CSM_TYPE.itemsize == 48 and tables.INSTANCE.itemsize == 104
+    assert tables.CSM_TYPE.itemsize == 48 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
 
 
 def test_c_struct_refuses_fields_it_cannot_lay_out_alike():

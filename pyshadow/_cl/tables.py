@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CSM_TYPE", "INSTANCE", "c_struct", "GENERATED_HEADERS"]
+__all__ = ["CSM_TYPE", "INSTANCE", "BVH_NODE", "c_struct", "GENERATED_HEADERS"]
 
 # one record per CSM type of a scene's atlas (pyshadow.csm.device.scene_atlas)
 CSM_TYPE = np.dtype([
@@ -35,6 +35,15 @@ INSTANCE = np.dtype([
     ("centre", "<f4", (3,)),      # world bounding sphere centre
     ("radius", "<f4"),            # world bounding sphere radius (slightly enlarged)
     ("horizon", "<f4"),           # the surface rule's lowest lookup elevation (sine)
+])
+
+# one node of the bounding volume hierarchy over the casters' bounding spheres
+# (pyshadow.visibility.bvh); root first
+BVH_NODE = np.dtype([
+    ("lo", "<f4", (3,)),          # box corner, anchor-relative world
+    ("hi", "<f4", (3,)),
+    ("a", "<i4"),                 # inner node: left child; leaf: first entry of the order table
+    ("b", "<i4"),                 # inner node: right child (== a: one child); leaf: -(instance count)
 ])
 
 _C_TYPES = {np.dtype("<i4"): "int", np.dtype("<u4"): "uint", np.dtype("<f4"): "float"}
@@ -68,6 +77,7 @@ def _header() -> str:
         "#define PYSHADOW_SCENE_TYPES_H",
         c_struct(CSM_TYPE, "csm_type_t"),
         c_struct(INSTANCE, "instance_t"),
+        c_struct(BVH_NODE, "bvh_node_t"),
         "#endif",
     ])
 

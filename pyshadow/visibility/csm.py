@@ -33,15 +33,17 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl import launch
-from .._cl.tables import INSTANCE
+from .._cl.tables import BVH_NODE, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import direction_table, pattern_indices
+from ..scene_arrays import scene_arrays
 from ..views import FILTER_ANGLE_EPS
 from .base import register
+from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 
 __all__ = ["CSMVisibility", "lane_table"]
 
@@ -77,26 +79,37 @@ def _device_atlas(scene):
 
 
 def _instance_data(scene, anchor, index, lookup="nearest"):
-    """The casters' INSTANCE records (anchor-relative) and CSM type indices."""
-    casters = [inst for inst in scene.instances if inst.casts]
-    rows = np.zeros(max(1, len(casters)), INSTANCE)
-    itype = np.zeros(max(1, len(casters)), np.int32)
-    for k, inst in enumerate(casters):
-        s = inst.scale
-        Rm = inst.rotation
-        c, r = inst.csm.centre, inst.csm.radius
-        t = inst.transform[:3, 3]
-        wc, wr = inst.world_sphere()
-        rows[k] = (
-            (Rm.T / (s * r)).reshape(-1),               # to_object A
-            Rm.T @ (anchor - t) / (s * r) - c / r,      # offset c
-            Rm.T.reshape(-1),                           # rotation Rw
-            wc - anchor,                                # centre
-            wr * (1 + 1e-6),                            # radius
-            surface_horizon(inst.csm, lookup),          # horizon (sine)
-        )
-        itype[k] = index[id(inst.csm)]
-    return _cl.to_device(rows), _cl.to_device(itype), len(casters)
+    """The casters' INSTANCE records (anchor-relative), CSM type indices, and their count.
+
+    Computed for all casters at once from :func:`pyshadow.scene_arrays.scene_arrays`, with
+    the operations of :meth:`pyshadow.scene.Instance.world_sphere` (bit-identical to
+    computing them instance by instance).
+    """
+    arr = scene_arrays(scene)
+    sel = np.flatnonzero(arr["casts"])
+    n = len(sel)
+    rows = np.zeros(max(1, n), INSTANCE)
+    itype = np.zeros(max(1, n), np.int32)
+    if n:
+        T = arr["transform"][sel]
+        s = arr["scale"][sel]
+        RT = (T[:, :3, :3] / s[:, None, None]).transpose(0, 2, 1)        # rotation^T
+        c, r = arr["object_centre"][sel], arr["object_radius"][sel]
+        sr = (s * r)[:, None]
+        rows["to_object"] = (RT / sr[:, :, None]).reshape(n, 9)         # A
+        rows["offset"] = np.matmul(RT, (anchor - T[:, :3, 3])[:, :, None])[:, :, 0] / sr - c / r[:, None]
+        rows["rotation"] = RT.reshape(n, 9)                             # Rw
+        rows["centre"] = arr["world_centre"][sel] - anchor
+        rows["radius"] = arr["world_radius"][sel] * (1 + 1e-6)
+        itype[:] = arr["itype"][sel]          # the type order of scene.caster_types() (``index``)
+        horizon = np.array([surface_horizon(csm, lookup) for csm in arr["types"]], np.float64)
+        rows["horizon"] = horizon[itype]
+    return rows, itype, n
+
+
+def _extent(p, anchor) -> float:
+    """A bound on the largest |coordinate| of the points relative to the anchor (no temporaries)."""
+    return max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
 
 
 class CSMVisibility:
@@ -133,6 +146,7 @@ class CSMVisibility:
         return bias, 0.0, 0.0, bias
 
     def _defines(self, scene, atlas, **extra):
+        ninst = int(scene_arrays(scene)["casts"].sum())
         d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
              "SEARCH_BLOCK": SEARCH_BLOCK,
              "NTYPES": atlas["ntypes"],
@@ -141,19 +155,27 @@ class CSMVisibility:
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
              "BATCH": launch.shape().query_batch,
              "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
-             "TRANSFER": 0, "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f"}
+             "TRANSFER": 0, "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
+             "INSTANCE_BVH": int(ninst >= BVH_MIN_INSTANCES), "BVH_STACK": BVH_STACK}
         d.update(extra)
         return d
 
-    def _scene_args(self, scene, anchor, bias):
+    def _scene_args(self, scene, anchor, bias, points_extent=0.0):
+        """Kernel arguments of the scene tables; ``points_extent``: largest |coordinate| of the
+        queries' anchor-relative points (it sizes the margin of the instance tree's boxes)."""
         atlas, index = _device_atlas(scene)
-        inst, itype, ninst = _instance_data(scene, anchor, index, self.lookup)
+        rows, itype, ninst = _instance_data(scene, anchor, index, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
-        args = [*atlas["buffers"], inst, itype, np.int32(ninst), np.float32(gy), np.float32(g_eps),
-                np.float32(b_abs), np.float32(b_tex), np.float32(b_tan),
-                np.float32(b_other)]
+        if ninst >= BVH_MIN_INSTANCES:
+            nodes, order, _ = instance_bvh(rows["centre"], rows["radius"])
+            pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
+        else:                               # no tree: the kernels loop over the casters
+            nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0
+        args = [*atlas["buffers"], _cl.to_device(rows), _cl.to_device(itype), np.int32(ninst), np.float32(gy),
+                np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),
+                _cl.to_device(nodes), _cl.to_device(order), np.float32(pad)]
         return atlas, args
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None) -> np.ndarray:
@@ -178,7 +200,7 @@ class CSMVisibility:
             p = (p - anchor).astype(np.float32)
             if w.dtype == np.float64:
                 w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
-        atlas, args = self._scene_args(scene, anchor, bias)
+        atlas, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
         k = _cl.kernel("visibility.cl", "scene_visible",
                        self._defines(scene, atlas, HAVE_FP64=int(fp64), POINTS_F64=int(p.dtype == np.float64),
                                      DIRS_F64=int(w.dtype == np.float64), SURFACE_NORMALS=int(m is not None)))
@@ -223,7 +245,7 @@ class CSMVisibility:
         tr = np.empty((N, 9), np.float32) if transfer else None
         if N:
             anchor = scene.anchor(p)
-            atlas, args = self._scene_args(scene, anchor, bias)
+            atlas, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
             k = _cl.kernel("visibility.cl", "scene_ao",
                            self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bent_normals),
                                          TRANSFER=int(transfer), SURFACE_NORMALS=1))

@@ -214,14 +214,30 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     __global const csm_type_t *T = S->types + S->itype[j];
     const int R = T->resolution, layout = T->layout, vbase = T->view_base;
     __global const float *A = I->to_object, *Rw = I->rotation;
-    const fv qx = A[0] * px + A[1] * py + A[2] * pz + I->offset[0];
-    const fv qy = A[3] * px + A[4] * py + A[5] * pz + I->offset[1];
-    const fv qz = A[6] * px + A[7] * py + A[8] * pz + I->offset[2];
+    fv qx = A[0] * px + A[1] * py + A[2] * pz + I->offset[0];
+    fv qy = A[3] * px + A[4] * py + A[5] * pz + I->offset[1];
+    fv qz = A[6] * px + A[7] * py + A[8] * pz + I->offset[2];
     fv vx = Rw[0] * wx + Rw[1] * wy + Rw[2] * wz;
     fv vy = Rw[3] * wx + Rw[4] * wy + Rw[5] * wz;
     fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
     const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
+    /* a point outside the bounding sphere (radius 1 here) moves along its
+     * ray to where the ray enters the sphere: no part of this caster lies
+     * between, and the map projects along its own axis, not the ray, so the
+     * texel then misses the ray's path by at most the sphere's diameter
+     * times the angle between the two, as for points on the caster -- not
+     * by the point's distance times that angle. q' = q_perp - sqrt(1 -
+     * |q_perp|^2) v, with q_perp = q - (q.v) v (no cancellation of |q|^2). */
+    {
+        const fv b = qx * vx + qy * vy + qz * vz;
+        const fv sx = qx - b * vx, sy = qy - b * vy, sz = qz - b * vz;
+        const fv e = sqrt(VMAX(1.0f - (sx * sx + sy * sy + sz * sz), (fv)(0.0f)));
+        const iv far = MASK(qx * qx + qy * qy + qz * qz > 1.0f) & MASK(b < -e);
+        qx = VSEL(qx, sx - e * vx, far);
+        qy = VSEL(qy, sy - e * vy, far);
+        qz = VSEL(qz, sz - e * vz, far);
+    }
 #if SURFACE_NORMALS
     fv ox, oy, oz;
     const iv up = surface_rule_v(I, j, own, mx, my, mz, &ox, &oy, &oz, &vx, &vy, &vz);

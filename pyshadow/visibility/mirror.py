@@ -62,13 +62,15 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
         tca = np.einsum("ij,ij->i", oc, w)
         oc2 = np.einsum("ij,ij->i", oc, oc)
         r2 = (wr * (1 + 1e-6)) ** 2
-        act = ~occ & ~((oc2 > r2) & ((tca < 0) | (oc2 - tca * tca > r2)))
+        perp = oc - tca[:, None] * w                     # as sphere_v: no difference of squares
+        act = ~occ & ~((oc2 > r2) & ((tca < 0) | (np.einsum("ij,ij->i", perp, perp) > r2)))
         if not act.any():
             continue
         Rm, s = inst.rotation, inst.scale
         t = inst.transform[:3, 3]
         pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
         wn = w[act] @ Rm
+        pn = _to_sphere(pn, wn)
         mine = (own[act] == -1) | (own[act] == slot)
         mn, up = None, None
         if m is not None:
@@ -83,6 +85,16 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
         idx = np.flatnonzero(act)
         occ[idx[vote > 0.5]] = True
     return ~occ
+
+
+def _to_sphere(q, v):
+    """Points outside the unit sphere moved along their unit rays ``v`` to where the ray
+    enters it (kernels/csm_lookup.h, instance_v); the others unchanged. float64."""
+    b = np.einsum("ij,ij->i", q, v)
+    perp = q - b[:, None] * v
+    e = np.sqrt(np.maximum(1.0 - np.einsum("ij,ij->i", perp, perp), 0.0))
+    far = (np.einsum("ij,ij->i", q, q) > 1.0) & (b < -e)
+    return np.where(far[:, None], perp - e[:, None] * v, q)
 
 
 def _raise_directions(csm, lookup, wn, mn, mine):

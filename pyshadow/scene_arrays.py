@@ -31,7 +31,8 @@ def scene_arrays(scene) -> dict:
         ``world_centre`` (n, 3), ``world_radius`` (n,); ``casts`` (n,) bool;
         ``types`` (the distinct CSMs of the casters, in first-use order),
         ``type_index`` (``{id(csm): index}``), ``itype`` (n,) int32 (each
-        instance's type, -1 for a receiver).
+        instance's type, -1 for a receiver). Callers may keep derived data
+        of their own in the dict (it is dropped with it when the scene changes).
     """
     version = getattr(scene, "_version", None)
     held = _HELD.get(scene)

@@ -168,8 +168,12 @@ class CSMVisibility:
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
-        if ninst >= BVH_MIN_INSTANCES:
-            nodes, order, _ = instance_bvh(rows["centre"], rows["radius"])
+        if ninst >= BVH_MIN_INSTANCES:          # kept with the scene's arrays until the scene changes
+            held = scene_arrays(scene)
+            key = ("instance_bvh", np.asarray(anchor, np.float64).tobytes())
+            if key not in held:
+                held[key] = instance_bvh(rows["centre"], rows["radius"])
+            nodes, order, _ = held[key]
             pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
         else:                               # no tree: the kernels loop over the casters
             nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0

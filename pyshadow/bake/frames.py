@@ -29,7 +29,7 @@ from .._files import write_bytes_atomic
 from .._version import __version__
 from .params import code_digest
 from .records import done, store
-from .runner import open_executor, sweep_temporaries
+from .runner import executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
@@ -270,8 +270,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         manifest = {
             "schema": FRAMES_SCHEMA, "pyshadow": __version__, "code": code, "scene": payload["key"],
             "render": payload["render"], "camera": payload["camera"], "ground": ground, "csm": csm_files,
-            "executor": {"kind": ex.kind if ex is not None else executor, "workers": getattr(ex, "workers", None),
-                         "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)},
+            "executor": executor_info(ex, executor),
             "seconds": wall, "prepare_seconds": prepare,
             "frames_per_minute": 60.0 * rendered / (wall - prepare) if rendered and wall > prepare else None,
             "summary": {a: actions.count(a) for a in ("rendered", "skipped", "failed", "interrupted")},

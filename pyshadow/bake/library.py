@@ -25,7 +25,7 @@ from .._version import __version__
 from .assets import bake_asset
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
-from .runner import open_executor, sweep_temporaries
+from .runner import executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
 
@@ -229,8 +229,7 @@ def _manifest(params, code, ex, executor, ignored, entries, seconds) -> dict:
         "pyshadow": __version__,
         "code": code,
         "params": params.to_dict(),
-        "executor": {"kind": ex.kind if ex is not None else executor, "workers": getattr(ex, "workers", None),
-                     "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)},
+        "executor": executor_info(ex, executor),
         "seconds": seconds,
         "summary": {a: actions.count(a) for a in ("baked", "skipped", "failed", "interrupted")},
         "ignored": ignored,

@@ -21,7 +21,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing import get_context
 from pathlib import Path
 
-__all__ = ["EXECUTORS", "open_executor", "thread_env", "sweep_temporaries", "dask_available"]
+__all__ = ["EXECUTORS", "open_executor", "executor_info", "thread_env", "sweep_temporaries", "dask_available"]
 
 EXECUTORS = ("dask", "process", "serial")
 
@@ -182,6 +182,13 @@ class _Dask:
         self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+
+
+def executor_info(ex, kind=None) -> dict:
+    """The manifest's ``executor`` entry: ``kind``, ``workers``, ``threads`` (per local
+    worker), ``address`` (Dask scheduler); ``ex`` None when nothing was run."""
+    return {"kind": ex.kind if ex is not None else kind, "workers": getattr(ex, "workers", None),
+            "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)}
 
 
 def open_executor(kind: str | None = None, workers: int | None = None, scheduler: str | None = None,

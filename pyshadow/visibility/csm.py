@@ -78,7 +78,7 @@ def _device_atlas(scene):
     return atlas, index
 
 
-def _instance_data(scene, anchor, index, lookup="nearest"):
+def _instance_data(scene, anchor, lookup="nearest"):
     """The casters' INSTANCE records (anchor-relative), CSM type indices, and their count.
 
     Computed for all casters at once from :func:`pyshadow.scene_arrays.scene_arrays`, with
@@ -101,7 +101,7 @@ def _instance_data(scene, anchor, index, lookup="nearest"):
         rows["rotation"] = RT.reshape(n, 9)                             # Rw
         rows["centre"] = arr["world_centre"][sel] - anchor
         rows["radius"] = arr["world_radius"][sel] * (1 + 1e-6)
-        itype[:] = arr["itype"][sel]          # the type order of scene.caster_types() (``index``)
+        itype[:] = arr["itype"][sel]          # the type order of scene.caster_types(), as the atlas
         horizon = np.array([surface_horizon(csm, lookup) for csm in arr["types"]], np.float64)
         rows["horizon"] = horizon[itype]
     return rows, itype, n
@@ -163,8 +163,8 @@ class CSMVisibility:
     def _scene_args(self, scene, anchor, bias, points_extent=0.0):
         """Kernel arguments of the scene tables; ``points_extent``: largest |coordinate| of the
         queries' anchor-relative points (it sizes the margin of the instance tree's boxes)."""
-        atlas, index = _device_atlas(scene)
-        rows, itype, ninst = _instance_data(scene, anchor, index, self.lookup)
+        atlas, _ = _device_atlas(scene)
+        rows, itype, ninst = _instance_data(scene, anchor, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()

@@ -20,7 +20,7 @@ import numpy as np
 
 from .params import AssetParams
 
-__all__ = ["bake_asset", "output_names", "baked_mesh_bytes"]
+__all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "csm_file_bytes"]
 
 
 def output_names(name: str, params: AssetParams) -> dict:
@@ -76,7 +76,8 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
     return out.export(file_type="glb")
 
 
-def _csm_bytes(csm) -> bytes:
+def csm_file_bytes(csm) -> bytes:
+    """The bytes of ``csm``'s file as ``save(..., reproducible=True)`` writes it."""
     with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
         path = Path(d) / "asset.csm"
         csm.save(path, reproducible=True)
@@ -149,7 +150,7 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> d
         ao, bent = scene.vertex_ao(0, sampling=Sampling(p.samples), return_bent_normals=True, lookup=p.lookup)
         t3 = time.perf_counter()
         names = output_names(name, p)
-        files = {names["csm"]: _csm_bytes(csm),
+        files = {names["csm"]: csm_file_bytes(csm),
                  names["mesh"]: baked_mesh_bytes(mesh, ao, bent, p.mesh_format)}
         s = csm.stats
         record["csm"] = {k: s[k] for k in ("layout", "maps", "resolution", "depth_bits", "segments", "bytes",

@@ -27,6 +27,7 @@ import numpy as np
 
 from .._files import write_bytes_atomic
 from .._version import __version__
+from .assets import csm_file_bytes
 from .params import code_digest
 from .records import done, store
 from .runner import executor_info, open_executor, sweep_temporaries
@@ -35,13 +36,6 @@ __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
 FRAMES_SCHEMA = "pyshadow-bake-frames/1"
 _SCENES: dict = {}          # per worker process: payload key -> (Scene, Camera)
-
-
-def _csm_bytes(csm) -> bytes:
-    with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
-        p = Path(d) / "body.csm"
-        csm.save(p, reproducible=True)
-        return p.read_bytes()
 
 
 def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
@@ -69,7 +63,7 @@ def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
     for name, mesh, casts in parts:
         v = np.ascontiguousarray(mesh.vertices, np.float64)
         f = np.ascontiguousarray(mesh.faces, np.int64)
-        csm = _csm_bytes(csm_for(name, mesh)) if casts else None
+        csm = csm_file_bytes(csm_for(name, mesh)) if casts else None
         out.append({"name": name, "casts": bool(casts), "vertices": v, "faces": f, "csm": csm})
         for b in (name.encode(), bytes([casts]), v.tobytes(), f.tobytes(), csm or b""):
             h.update(hashlib.sha256(b).digest())

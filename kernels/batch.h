@@ -5,7 +5,9 @@
  * LANES), GROUND, SURFACE_NORMALS (0/1: each query's surface normal in
  * nx, ny, nz, for the surface rule of csm_lookup.h), INSTANCE_BVH (0/1:
  * find the casters through the tree over their boxes, BVH_STACK deep;
- * pyshadow.visibility.bvh), and what csm_lookup.h expects.
+ * pyshadow.visibility.bvh), NTYPES (0: the scene has no caster; only the
+ * ground test is compiled -- no sphere test, tree or lookup), and what
+ * csm_lookup.h expects.
  */
 #ifndef PYSHADOW_BATCH_H
 #define PYSHADOW_BATCH_H
@@ -38,6 +40,7 @@
 #define BATCH_NORMAL_ARGS
 #endif
 
+#if NTYPES
 /* the open queries of the batch against caster j: its bounding sphere, then
  * the lookup of those whose ray can meet it, packed LANES at a time */
 inline void batch_instance(const scene_t *S, const int j, const float *px, const float *py, const float *pz,
@@ -84,6 +87,7 @@ inline void batch_instance(const scene_t *S, const int j, const float *px, const
             occ[gi[l]] |= ra[l];
     }
 }
+#endif
 
 inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own,
@@ -93,7 +97,7 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
     for (int c = 0; c < nb; c += LANES)
         LANE_STORE(LANE_LOAD(occ + c) | ground_v(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
 #endif
-#if INSTANCE_BVH
+#if NTYPES && INSTANCE_BVH
     LANE_ARRAY float ix[BATCH], iy[BATCH], iz[BATCH];
     for (int c = 0; c < nb; c += LANES) {
         LANE_STORE((fv)(1.0f) / LANE_LOAD(wx + c), ix + c);
@@ -123,7 +127,7 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
             break;
         node = stack[--sp];
     }
-#else
+#elif NTYPES
     for (int j = 0; j < S->ninst; ++j)
         batch_instance(S, j, px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS);
 #endif

@@ -20,7 +20,10 @@
  * (memory latency is what limits these kernels on CPUs). With LANES = 1
  * each work-item answers its queries one by one (GPUs).
  *
- * Expects: LANES (lanes.h); DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
+ * NTYPES 0 (a scene without casters): nothing of this file is compiled
+ * (batch.h then asks no caster).
+ *
+ * Expects: LANES (lanes.h); NTYPES; DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
  * (csm_search.h); LAYOUT_ZIGZAG, LAYOUT_HILBERT, FILTERED, FILTER_ANGLE_EPS
  * (FILTERED only); SURFACE_NORMALS (0/1) and SURFACE_LIFT_TEXELS (float,
  * SURFACE_NORMALS only: the surface rule); optional PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH
@@ -35,9 +38,13 @@
 #include "views_hilbert.h"
 #include "views_zigzag.h"
 
+#ifndef NTYPES
+#error "NTYPES (number of CSM types of the scene, 0: no caster) must be defined by the host"
+#endif
 #ifndef SURFACE_NORMALS
 #error "SURFACE_NORMALS (0/1: queries carry their surface normal) must be defined by the host"
 #endif
+#if NTYPES
 #if SURFACE_NORMALS
 #define NORMAL_LIFT_PARAMS , iv up, fv ox, fv oy, fv oz, float btex
 #else
@@ -372,4 +379,5 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
 #endif
 }
 
+#endif  /* NTYPES */
 #endif

@@ -7,10 +7,12 @@
  *   SCENE_ARGS, SCENE_INIT  the kernels' parameters for them, and the
  *                         scene_t S made of those parameters (same order)
  *   ground_v()            GROUND only: rays that cross the ground plane
- *   sphere_v()            rays that can meet an instance's bounding sphere
- *   box_v()               INSTANCE_BVH only: rays that can meet a node's box
+ *   sphere_v()            NTYPES > 0 only: rays that can meet an instance's
+ *                         bounding sphere
+ *   box_v()               NTYPES > 0 and INSTANCE_BVH only: rays that can
+ *                         meet a node's box
  * Expects: LANES (lanes.h), DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
- * (csm_search.h: pair_t), GROUND, INSTANCE_BVH (0/1).
+ * (csm_search.h: pair_t), NTYPES, GROUND, INSTANCE_BVH (0/1).
  */
 #ifndef PYSHADOW_SCENE_TABLES_H
 #define PYSHADOW_SCENE_TABLES_H
@@ -63,6 +65,7 @@ inline iv ground_v(const scene_t *S, fv py, fv wy)
 }
 #endif
 
+#if NTYPES
 /* lanes (-1) whose ray p + t w, t >= 0 (w unit), can come within instance
  * j's bounding sphere. The ray's squared distance from the centre is that
  * of o - (o.w) w, not |o|^2 - (o.w)^2: far from the sphere the difference of
@@ -77,8 +80,9 @@ inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
     const float r2 = I->radius * I->radius;
     return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(ex * ex + ey * ey + ez * ez > r2)));
 }
+#endif
 
-#if INSTANCE_BVH
+#if NTYPES && INSTANCE_BVH
 /* lanes (-1) whose ray p + t w, t >= 0, meets node B's box grown by
  * bvh_pad (slab test; ix = 1 / wx, +-inf where wx = 0). A sphere lies inside
  * its box, more than bvh_pad from every face, so a ray meeting the sphere

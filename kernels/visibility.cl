@@ -72,8 +72,11 @@
  *
  * Macros
  *   DEPTH_BITS, IEND_T, PAIR_WIDE   storage of the atlas (csm_common.h)
- *   NTYPES               number of CSM types (>= 0)
- *   GROUND               1: infinite ground plane y = ground_y
+ *   NTYPES               number of CSM types (>= 0); 0 (no caster): no
+ *                        sphere test, instance tree or CSM lookup is
+ *                        compiled (csm_lookup.h, batch.h)
+ *   GROUND               1: infinite ground plane y = ground_y (0: no
+ *                        ground test is compiled)
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
  *   SAMPLES, BENT_NORMALS  (scene_ao only)
  *   TRANSFER             1: scene_ao also writes the shadowed SH transfer

@@ -23,6 +23,15 @@ Rays that leave a caster's own surface at a known normal (AO always;
 ``visible(..., normals=...)``) follow the surface rule of
 :mod:`pyshadow.csm.surface_rule`: grazing rays over a flat face are not
 shadowed by that face.
+
+Unused features cost nothing: a scene without casters compiles with
+``NTYPES=0`` (no sphere test, instance tree or CSM lookup in the kernel), one
+without a ground plane with ``GROUND=0`` (no ground test). With neither, no
+kernel is launched where the answer is known: ``visible`` is all True and
+AO all 1; only bent normals and the SH transfer still launch the AO kernel,
+which then merely sums its sample directions (bent normals bit-identical to
+those of a scene with occluders that block nothing).
+:meth:`CSMVisibility.query_defines` tells what a query compiles with.
 """
 from __future__ import annotations
 
@@ -107,6 +116,11 @@ def _instance_data(scene, anchor, lookup="nearest"):
     return rows, itype, n
 
 
+def _open_sky(scene) -> bool:
+    """Whether nothing in ``scene`` can occlude a ray: no caster and no ground plane."""
+    return scene.ground is None and not scene_arrays(scene)["casts"].any()
+
+
 def _extent(p, anchor) -> float:
     """A bound on the largest |coordinate| of the points relative to the anchor (no temporaries)."""
     return max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
@@ -160,6 +174,36 @@ class CSMVisibility:
         d.update(extra)
         return d
 
+    def query_defines(self, scene, kernel: str = "scene_visible", **extra) -> dict | None:
+        """The compile-time defines of a query kernel for ``scene``, or None where no kernel is launched.
+
+        Parameters
+        ----------
+        scene : pyshadow.Scene
+        kernel : {'scene_visible', 'scene_ao'}
+            The kernel of :meth:`visible`, or that of :meth:`ambient_occlusion`
+            and :meth:`sh_transfer`.
+        **extra
+            The query's own defines (e.g. ``BENT_NORMALS=1``, ``TRANSFER=1``,
+            ``SAMPLES``), which override the scene's.
+
+        Returns
+        -------
+        dict or None
+            The ``-D`` defines (without ``LANES``, which :func:`pyshadow._cl.kernel`
+            adds): ``NTYPES`` 0 for a scene without casters (no CSM lookup is
+            compiled), ``GROUND`` 0 for one without a ground plane (no ground
+            test). None when the scene has neither and the answer needs no
+            kernel: ``visible``, and AO without bent normals or transfer.
+        """
+        if kernel not in ("scene_visible", "scene_ao"):
+            raise ValueError(f"kernel must be 'scene_visible' or 'scene_ao', got {kernel!r}")
+        sums = kernel == "scene_ao" and (extra.get("BENT_NORMALS") or extra.get("TRANSFER"))
+        if _open_sky(scene) and not sums:
+            return None
+        atlas, _ = _device_atlas(scene)
+        return self._defines(scene, atlas, **extra)
+
     def _scene_args(self, scene, anchor, bias, points_extent=0.0):
         """Kernel arguments of the scene tables; ``points_extent``: largest |coordinate| of the
         queries' anchor-relative points (it sizes the margin of the instance tree's boxes)."""
@@ -193,8 +237,16 @@ class CSMVisibility:
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
-        anchor = scene.anchor(p)
         fp64 = _cl.has_fp64()
+        # float64 inputs are read as such where the device has doubles (else the host rounds them below)
+        defines = self.query_defines(scene, "scene_visible", HAVE_FP64=int(fp64),
+                                     POINTS_F64=int(fp64 and p.dtype == np.float64),
+                                     DIRS_F64=int(fp64 and w.dtype == np.float64),
+                                     SURFACE_NORMALS=int(m is not None))
+        if defines is None:             # nothing occludes: no kernel
+            out[:] = True
+            return out
+        anchor = scene.anchor(p)
         if not fp64:
             # float-only device: the host does what the kernel does in double
             # elsewhere, with the same roundings: points relative to the
@@ -204,10 +256,8 @@ class CSMVisibility:
             p = (p - anchor).astype(np.float32)
             if w.dtype == np.float64:
                 w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
-        atlas, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
-        k = _cl.kernel("visibility.cl", "scene_visible",
-                       self._defines(scene, atlas, HAVE_FP64=int(fp64), POINTS_F64=int(p.dtype == np.float64),
-                                     DIRS_F64=int(w.dtype == np.float64), SURFACE_NORMALS=int(m is not None)))
+        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
+        k = _cl.kernel("visibility.cl", "scene_visible", defines)
         # what the kernel subtracts from the points (the host already did on float-only devices)
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
         q = _cl.queue()
@@ -247,12 +297,14 @@ class CSMVisibility:
         ao = np.empty(N, np.float32)
         bent = np.empty((N, 3), np.float32)
         tr = np.empty((N, 9), np.float32) if transfer else None
-        if N:
+        defines = self.query_defines(scene, "scene_ao", SAMPLES=S, BENT_NORMALS=int(bent_normals),
+                                     TRANSFER=int(transfer), SURFACE_NORMALS=1) if N else None
+        if N and defines is None:       # nothing occludes and only AO is asked: every sample is open
+            ao[:] = 1.0
+        elif N:
             anchor = scene.anchor(p)
-            atlas, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
-            k = _cl.kernel("visibility.cl", "scene_ao",
-                           self._defines(scene, atlas, SAMPLES=S, BENT_NORMALS=int(bent_normals),
-                                         TRANSFER=int(transfer), SURFACE_NORMALS=1))
+            _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
+            k = _cl.kernel("visibility.cl", "scene_ao", defines)
             table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)

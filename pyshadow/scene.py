@@ -137,7 +137,8 @@ class Scene:
     # building the scene
     # ------------------------------------------------------------------
     @keyword_only("Scene.add", old=1)
-    def add(self, obj, transform=None, *, casts: bool = True, mesh=None) -> int:
+    def add(self, obj, transform=None, *, casts: bool = True, mesh=None, max_error: float | None = None,
+            lookup: str = "nearest") -> int:
         """Place an object; returns its instance id.
 
         Parameters
@@ -155,6 +156,9 @@ class Scene:
             The mesh of a CSM given as ``obj``, needed to draw it
             (:meth:`render`) and for :meth:`vertex_ao` and the Embree
             reference; it must be the mesh the CSM was built from.
+        max_error, lookup : optional
+            For a mesh that casts: its CSM's maps and resolution chosen for
+            this accuracy and lookup (:meth:`CoherentShadowMap.build`).
 
         Raises
         ------
@@ -163,7 +167,7 @@ class Scene:
             that does not match the CSM.
         """
         T = check_transform(np.eye(4) if transform is None else transform, rigid=True, name="transform").copy()
-        self.instances.append(_new_instance(self, obj, T, casts, mesh))
+        self.instances.append(_new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
 
@@ -382,11 +386,13 @@ class Scene:
                                    ao_scale=ao_scale, ground_size=ground_size, bias=bias)
 
 
-def _new_instance(scene, obj, T, casts, mesh) -> Instance:
+def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:
     """The :class:`Instance` that :meth:`Scene.add` places (building a caster's CSM once per mesh)."""
     if isinstance(obj, CoherentShadowMap):
         if not casts:
             raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")
+        if max_error is not None:
+            raise ValueError("max_error= chooses the CSM built for a mesh; this CSM is built already")
         if mesh is not None:
             if not isinstance(mesh, trimesh.Trimesh):
                 mesh = load_mesh(mesh)
@@ -400,13 +406,19 @@ def _new_instance(scene, obj, T, casts, mesh) -> Instance:
             obj = load_mesh(obj)
         csm = None
         if casts:
-            csm = scene._built.get(id(obj))
-            if csm is None:
-                o = scene.csm_options
+            key = id(obj) if max_error is None else (id(obj), float(max_error), lookup)
+            csm = scene._built.get(key)
+            o = scene.csm_options
+            if csm is None and max_error is not None:
+                csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"],
+                                              progress=scene.progress, max_error=max_error, lookup=lookup)
+            elif csm is None:
                 csm = CoherentShadowMap.build(obj, o["views"], resolution=o["resolution"],
                                               depth_bits=o["depth_bits"], layers=o["layers"],
                                               progress=scene.progress, footprint=o["footprint"])
-                scene._built[id(obj)] = csm
+            scene._built[key] = csm
+        elif max_error is not None:
+            raise ValueError("max_error= chooses a caster's CSM; a receiver (casts=False) has none")
         inst = Instance(T, bool(casts), csm=csm, mesh=obj)
     return inst
 

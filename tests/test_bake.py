@@ -395,17 +395,18 @@ def test_without_dask_installed_a_process_pool_bakes(serial, sources, tmp_path):
     assert _outputs(tmp_path) == _outputs(ref)
 
 
-def test_max_error_climbs_the_ladder(monkeypatch):
-    from pyshadow.bake import choose
+def test_max_error_is_the_error_models_choice():
+    import json
 
-    monkeypatch.setattr(choose, "LADDER", ((4, 8, 16), (8, 16, 32), (16, 32, 64)))
+    from pyshadow.bake import choose
+    from pyshadow.csm.choose import choose_csm
+
     mesh = pyshadow.data.mesh("spot")
-    loose = AssetParams(max_error=0.5)
-    csm, c = choose.choose_csm(mesh, loose)
-    assert c["met"] and c["maps"] == [4, 8] and len(c["tried"]) == 1 and csm.maps == 32
-    csm, c = choose.choose_csm(mesh, AssetParams(max_error=1e-9))     # out of reach: every rung, the finest kept
-    assert not c["met"] and [t["resolution"] for t in c["tried"]] == [16, 32, 64] and csm.resolution == 64
-    scene = pyshadow.Scene()
-    scene.add(csm, np.eye(4), mesh=mesh)
-    assert choose.disagreement(scene, mesh) == c["disagreement"] > 0      # deterministic: the same rays
-    assert c["tried"][0]["disagreement"] > c["tried"][-1]["disagreement"]
+    csm, c = choose.choose_csm(mesh, AssetParams(max_error=0.03))
+    assert c["met"] and c["measured"]["disagreement"] <= 0.03
+    again, direct = choose_csm(mesh, 0.03)                  # deterministic: every worker chooses alike
+    assert (again.maps, again.resolution) == (csm.maps, csm.resolution)
+    assert direct["measured"] == c["measured"]
+    assert {k: v for k, v in direct["predicted"].items() if k != "seconds"} == \
+        {k: v for k, v in c["predicted"].items() if k != "seconds"}
+    json.dumps(c)                                            # the manifest can hold it

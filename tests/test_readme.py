@@ -45,3 +45,10 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     assert np.array_equal(ns["frame"].object_id, fresh.object_id)
     covered = fresh.object_id >= 0
     assert np.abs(ns["frame"].ao - fresh.ao)[covered].mean() < 0.02
+    # accuracy in, parameters out
+    code = re.findall(r"```python\n(.*?)```", README, re.S)[2]
+    exec(compile(code, "README.md", "exec"), ns)
+    c = ns["choice"]
+    assert c["met"] and c["measured"]["disagreement"] <= 0.02 and c["target"] == 0.02
+    assert ns["scene"].instances[ns["t"]].csm.stats["choice"]["measured"]["disagreement"] <= 0.02
+    assert ns["small"].stats["bytes"] <= 2_000_000

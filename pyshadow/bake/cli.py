@@ -64,8 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--fill-holes", action="store_true", help="close the meshes' holes first")
     a.add_argument("--format", choices=("ply", "glb"), default="ply", help="output mesh format")
     a.add_argument("--max-error", type=_positive_float, metavar="E",
-                   help="choose each asset's maps and resolution: the cheapest whose visibility "
-                        "disagreement with Embree on its own AO rays is at most E (e.g. 0.01)")
+                   help="choose each asset's maps and resolution: the smallest CSM whose visibility "
+                        "disagreement with Embree, predicted by the error model and then checked, "
+                        "is at most E (e.g. 0.01)")
     _executor_options(a)
     f = sub.add_parser("frames", help="AO images (EXR and PNG) of every frame of a rigid motion")
     f.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")

@@ -39,11 +39,11 @@ class AssetParams:
         Format of the output mesh.
     max_error : float or None
         When set, the CSM's maps and resolution are not ``theta``, ``phi``,
-        ``resolution`` but the cheapest rung of
-        :data:`pyshadow.bake.choose.LADDER` whose visibility disagreement
-        with Embree on the asset's own AO rays is at most ``max_error``
-        (a fraction, e.g. 0.01), measured per asset
-        (:func:`pyshadow.bake.choose.choose_csm`).
+        ``resolution`` but the smallest CSM whose visibility disagreement
+        with Embree (on the asset's own AO rays and on rays of bodies
+        around it) is at most ``max_error`` (a fraction, e.g. 0.01):
+        predicted by the error model, then checked per asset
+        (:func:`pyshadow.csm.choose.choose_csm`).
     """
 
     theta: int = 64

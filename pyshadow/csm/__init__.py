@@ -37,6 +37,33 @@ segments are sorted by ``i_end``; ``offsets[t] .. offsets[t+1]`` is texel
 per-texel run state on the device and dropped, so memory does not grow with
 the number of maps.
 
+Layer rules (``layers`` of :meth:`CoherentShadowMap.build`): which surfaces
+bound a map's interval of valid depths.
+
+* ``2``: ``[z1, z2)`` -- every shadow query along a texel's ray is exact (up
+  to the depth quantum and the map discretisation), for points anywhere: on
+  this object, on other objects, on the ground -- on a closed mesh. On an
+  open one, a point in the air between two sheets (inside an open box, say)
+  may be reported lit; points on the second sheet where it faces the light
+  (every ``z2`` with ``two_sided``) stay in shadow: the interval ends ``m``
+  (below) more before it, or is ``z1``. All end z2's slope term before it.
+* ``3``: ``[z1, z3 - m)`` with ``m = FRONT_MARGIN_TEXELS / R`` (3 texels of
+  depth) where the texel's ray leaves the object at ``z2`` and re-enters it
+  at ``z3`` and ``z3 - m > z2``, ``[z1, z2)`` elsewhere; closed meshes only
+  (the freedom of Ritschel et al.; thesis 4.2.1, footnote 2). Fewer
+  segments. Exact for points on this object's own surface whose normal faces
+  the light, tested with a self-bias up to ``m`` (the back face at ``z2`` is
+  never asked: its hemisphere excludes the light; the default self-bias of
+  :meth:`pyshadow.Scene.visible` is 1.5 texels plus an angle term), and for
+  every other point except those inside a concavity of the object along the
+  ray, between its exit ``z2`` and re-entry ``z3``: such a point (on another
+  body, say, tucked under an arch of this one) may be reported lit where it
+  is in shadow. The margin keeps a stored depth out of the self-bias of
+  ``z3``, so the re-entry surface stays in shadow. The stored depth is taken
+  inside ``[z1, z2)`` of every map of the run whenever that is possible. What
+  the margin and the rule cost and buy is measured in benchmarks/README.md.
+* ``'auto'``: 3 for watertight meshes, else 2.
+
 Depth storage: 16 bit fixed point ``k / 65534`` (``k = 65535`` is a miss) or
 32 bit float (``+inf`` a miss). Quantised values obey the same rule: each
 map's set becomes a set of integer keys (``[ceil(z1*Q), ceil(z2*Q) - 1]``)
@@ -49,17 +76,21 @@ The package, one module a job: :mod:`.core` (:class:`CoherentShadowMap`, the
 arrays and their decoding), :mod:`.build` (the streaming builder),
 :mod:`.device` (search arrays and the scene atlas of the kernels),
 :mod:`.fileformat` (``.csm`` save, load, validation), :mod:`.reference`
-(NumPy mirrors of the kernels).
+(NumPy mirrors of the kernels), :mod:`.error_model` (a CSM's disagreement
+with a ray tracer, predicted before it is built) and :mod:`.choose`
+(parameters from the accuracy asked for, or the most accurate within a size).
 """
 from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, SLOPE_SLACK_QUANTA, CoherentShadowMap,
                    CSMFormatError, front_margin, slope_slack)
 from .build import corner_frame, footprint_corners, footprint_scale
 from .fileformat import FORMAT_VERSION, MAGIC
 from .reference import compress_reference, footprint_interval, second_bound, second_slope, shadow_vote
-from . import build, core, device, fileformat, reference
+from .choose import choose_csm, choose_within
+from . import build, choose, core, device, error_model, fileformat, reference
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
            "SLOPE_SLACK_QUANTA", "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "slope_slack",
            "second_bound", "second_slope", "corner_frame",
            "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
-           "build", "core", "device", "fileformat", "reference"]
+           "choose_csm", "choose_within",
+           "build", "choose", "core", "device", "error_model", "fileformat", "reference"]

@@ -123,16 +123,19 @@ class CoherentShadowMap:
         self._build_seconds = float(build_seconds)
         self._peak_bytes = int(peak_bytes)
         self._device = None
+        self.choice = None           # set by build(max_error=...)
 
     # ------------------------------------------------------------------
     # build
     # ------------------------------------------------------------------
     @classmethod
     @keyword_only("CoherentShadowMap.build")
-    def build(cls, mesh, views: ViewSet, *, resolution: int = 128, depth_bits: int = 16,
+    def build(cls, mesh, views: ViewSet | None = None, *, resolution: int | None = None, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False, two_sided: bool = False) -> "CoherentShadowMap":
-        """Render and compress the depth maps of ``mesh`` for ``views``.
+              frame=None, footprint: bool = False, two_sided: bool = False,
+              max_error: float | None = None, max_bytes: int | None = None, lookup: str = "nearest",
+              verify: bool = True) -> "CoherentShadowMap":
+        """Render and compress the depth maps of ``mesh`` for ``views``, or for the accuracy asked.
 
         Parameters
         ----------
@@ -140,40 +143,18 @@ class CoherentShadowMap:
             Anything :func:`pyshadow.load_mesh` accepts.
         views : ViewSet
             A ``zigzag`` or ``hilbert`` view set (their nearest-map lookup is
-            what the query kernels implement).
+            what the query kernels implement). Leave out with ``max_error``.
         resolution : int, optional
-            Texels per side, 1 .. 4096.
+            Texels per side, 1 .. 4096; default 128. Leave out with ``max_error``.
         depth_bits : {16, 32}, optional
             Stored depth precision.
         layers : {'auto', 2, 3}, optional
-            Which surfaces bound a map's interval of valid depths.
-            ``2``: ``[z1, z2)`` -- every shadow query along a texel's ray is
-            exact (up to the depth quantum and the map discretisation), for
-            points anywhere: on this object, on other objects, on the ground
-            -- on a closed mesh. On an open one, a point in the air between
-            two sheets (inside an open box, say) may be reported lit; points
-            on the second sheet where it faces the light (every ``z2`` with
-            ``two_sided``) stay in shadow: the interval ends ``m`` (below) more
-            before it, or is ``z1``. All end z2's slope term before it (:mod:`pyshadow.csm`).
-            ``3``: ``[z1, z3 - m)`` with ``m = FRONT_MARGIN_TEXELS / R`` (3
-            texels of depth) where the texel's ray leaves the object at
-            ``z2`` and re-enters it at ``z3`` and ``z3 - m > z2``, ``[z1,
-            z2)`` elsewhere; closed meshes only (the freedom of Ritschel et al.;
-            thesis 4.2.1, footnote 2). Fewer segments. Exact for points on
-            this object's own surface whose normal faces the light, tested
-            with a self-bias up to ``m`` (the back face at ``z2`` is never
-            asked: its hemisphere excludes the light; the default self-bias
-            of :meth:`pyshadow.Scene.visible` is 1.5 texels plus an angle
-            term), and for every other point except those inside a
-            concavity of the object along the ray, between its exit ``z2``
-            and re-entry ``z3``: such a point (on another body, say, tucked
-            under an arch of this one) may be reported lit where it is in
-            shadow. The margin keeps a stored depth out of the self-bias of
-            ``z3``, so the re-entry surface stays in shadow. The stored depth
-            is taken inside ``[z1, z2)`` of every map of the run whenever that
-            is possible. What the margin and the rule cost and buy is measured
-            in benchmarks/README.md.
-            ``'auto'``: 3 for watertight meshes, else 2.
+            Which surfaces bound a map's interval of valid depths (the
+            guarantees of each: :mod:`pyshadow.csm`, "Layer rules"). ``2``:
+            ``[z1, z2)``, exact for points anywhere around a closed mesh;
+            ``3``: up to the re-entry ``z3`` less a margin where the ray leaves
+            and re-enters, closed meshes only, fewer segments; ``'auto'``: 3
+            for watertight meshes, else 2.
         block : int, optional
             Maps rendered and folded per step; default keeps the device
             working set near 96 MiB. Peak memory depends on ``block`` and
@@ -189,27 +170,43 @@ class CoherentShadowMap:
             detail per texel falls (benchmarks/README.md, ``compression.py``).
         footprint : bool, optional
             Take each map's interval over the texel's whole footprint, not
-            only along its centre ray: where the centre ray meets two
-            surfaces, the first surface's depth at the texel's four corners
-            raises the lower end (a point anywhere in the texel on the
-            surface nearest the light then stays lit without a larger
-            self-bias) and the second surface's depth at the corners lowers
-            the upper end. Corner depths come from a second rendering at
-            ``R + 1`` texels (:func:`footprint_interval`); the result always
-            lies inside the centre's interval, so every guarantee above
-            holds, and where the corners leave no depth the centre's
-            interval stands. Narrower intervals mean more segments, and the
-            second rendering doubles the rasterisation (measured in
-            benchmarks/README.md, ``accuracy.py`` section 7). ``R <= 4095``.
+            only its centre ray: the surfaces' depths at the texel's four
+            corners (a second rendering at ``R + 1`` texels,
+            :func:`footprint_interval`) narrow the centre's interval, so every
+            guarantee above holds and a point anywhere in the texel on the
+            surface nearest the light stays lit without a larger self-bias.
+            More segments, twice the rasterisation (benchmarks/README.md,
+            ``accuracy.py`` section 7). ``R <= 4095``.
         two_sided : bool, optional
             ``m`` before every ``z2``: open sheets seen from both sides (an open box). ``layers=2`` only.
+        max_error : float, optional
+            Choose views and resolution instead: the smallest CSM whose
+            disagreement with Embree, predicted by the error model and checked
+            (:mod:`pyshadow.csm.choose`), is at most this fraction of rays.
+            How it chose is in ``stats["choice"]``.
+        max_bytes : int, optional
+            The other way round: the most accurate CSM within this size.
+        lookup : {'nearest', 'vote'}, optional
+            With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with.
+        verify : bool, optional
+            With ``max_error``: measure the built CSM against Embree on
+            independent rays, and go on to the next candidate where it misses;
+            with ``max_bytes``: measure it (reported).
 
         Returns
         -------
         CoherentShadowMap
         """
+        if max_error is not None or max_bytes is not None:
+            from .choose import build_chosen
+            return build_chosen(mesh, views, resolution, frame, footprint, two_sided, max_error=max_error,
+                                max_bytes=max_bytes, lookup=lookup, depth_bits=depth_bits, layers=layers,
+                                verify=verify, progress=progress)
+        if views is None:
+            raise TypeError("CoherentShadowMap.build needs views (or max_error)")
         from .build import build_csm
-        return build_csm(cls, mesh, views, resolution, depth_bits, layers, block, progress, frame, footprint, two_sided)
+        return build_csm(cls, mesh, views, 128 if resolution is None else resolution, depth_bits, layers, block,
+                         progress, frame, footprint, two_sided)
 
     # ------------------------------------------------------------------
     # sizes and statistics
@@ -234,7 +231,9 @@ class CoherentShadowMap:
             (``D * R^2 * depth_bits / 8``), ``ratio`` (uncompressed / bytes),
             ``build_seconds``, ``peak_bytes`` (device and host working set of
             the build), ``depth_bits``, ``layer_rule``, ``front_margin_texels``,
-            ``footprint``, ``layout``.
+            ``footprint``, ``layout``, ``choice`` (how ``build(max_error=...)``
+            chose the parameters, with the error model's prediction and the
+            check; None otherwise).
         """
         nbytes = int(self.depth.nbytes + self.iend.nbytes + self.offsets.nbytes)
         unc = self.maps * self.resolution**2 * self.depth_bits // 8
@@ -252,6 +251,7 @@ class CoherentShadowMap:
             "front_margin_texels": self.front_margin_texels,
             "footprint": self.footprint,
             "layout": self.views.layout,
+            "choice": self.choice,
         }
 
     def texel_segment_counts(self) -> np.ndarray:

@@ -12,7 +12,7 @@ from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin, 
 from .surface_rule import SURFACE_LIFT_TEXELS
 
 __all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",
-           "shadow_vote"]
+           "shadow_taps", "shadow_vote"]
 
 
 def _keys_at_or_above(z, depth_bits):
@@ -317,6 +317,30 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     keys = (np.repeat(np.arange(R * R), np.diff(np.asarray(csm.offsets, dtype=np.int64))) * D
             + np.asarray(csm.iend, dtype=np.int64))
     depths = np.asarray(csm.depth)
+    vote = np.zeros(len(pn))
+    for k, tex, _, _, depth, b, inside, weight in shadow_taps(
+            csm.views, R, pn, wn, maps, map_weights, quantum=quantum, texels=texels, self_=self_, bias=bias,
+            bias_texels=bias_texels, normals=normals, lift=lift):
+        seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
+        z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
+        vote += weight * (inside & (depth > z + b))
+    return vote
+
+
+def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1, self_=True,
+                bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS, normals=None, lift=None):
+    """The taps of :func:`shadow_vote`, one at a time, whatever answers them.
+
+    Yields, per map column and texel tap, ``(k, tex, col, row, depth, b,
+    inside, weight)``: map index (N,), texel index ``row * R + col`` and its
+    column and row (N,) int64, the asked point's normalised depth in map
+    ``k`` (N,), the bias (N,) or scalar, whether the point lies in the map's
+    square, and the tap's weight (map weight times bilinear weight). A tap
+    votes "shadowed" where ``inside`` and the depth exceeds the first
+    surface's depth along the texel's centre ray plus ``b``: the stored
+    depth in :func:`shadow_vote`, a traced ray in
+    :mod:`pyshadow.csm.error_model`.
+    """
     if texels == 4:      # texel offsets and their bilinear weights (tx, ty)
         taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
                 (1, 0, lambda tx, ty: (1 - tx) * ty), (1, 1, lambda tx, ty: tx * ty)]
@@ -324,10 +348,9 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         taps = [(0, 0, lambda tx, ty: 1.0)]
     else:
         raise ValueError(f"texels must be 1 or 4, got {texels!r}")
-    vote = np.zeros(len(pn))
     for m in range(maps.shape[1]):
         k = maps[:, m]
-        B = csm.views.bases[k]
+        B = views.bases[k]
         q = pn if normals is None else pn + _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
         depth = (1.0 - np.einsum("ij,ij->i", q, B[:, 2])) * 0.5
         fx = (np.einsum("ij,ij->i", q, B[:, 0]) + 1.0) * 0.5 * R
@@ -343,8 +366,6 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         x0, y0 = np.floor(gx), np.floor(gy)
         tx, ty = gx - x0, gy - y0
         for dy, dx, weight in taps:
-            tex = np.clip(y0.astype(np.int64) + dy, 0, R - 1) * R + np.clip(x0.astype(np.int64) + dx, 0, R - 1)
-            seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
-            z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
-            vote += map_weights[:, m] * weight(tx, ty) * (inside & (depth > z + b))
-    return vote
+            col = np.clip(x0.astype(np.int64) + dx, 0, R - 1)
+            row = np.clip(y0.astype(np.int64) + dy, 0, R - 1)
+            yield k, row * R + col, col, row, depth, b, inside, map_weights[:, m] * weight(tx, ty)

@@ -18,7 +18,7 @@ from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
 
-__all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference"]
+__all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference", "caster_occludes"]
 
 
 def visible_reference(scene, points, directions, *, bias: float | None = None,
@@ -39,7 +39,6 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     """
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
-    filtered = lookup == "vote"
     p = rows3(points, "points")
     w = nonzero(rows3(directions, "directions", len(p)), "directions")
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
@@ -53,38 +52,70 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     types, _ = scene.caster_types()
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
-    b_texels = VOTE_BIAS_TEXELS if filtered else DEFAULT_BIAS_TEXELS
     for slot, i in enumerate(scene.casters):
         inst = scene.instances[i]
-        csm = inst.csm
-        wc, wr = inst.world_sphere()
-        oc = wc - p
-        tca = np.einsum("ij,ij->i", oc, w)
-        oc2 = np.einsum("ij,ij->i", oc, oc)
-        r2 = (wr * (1 + 1e-6)) ** 2
-        perp = oc - tca[:, None] * w                     # as sphere_v: no difference of squares
-        act = ~occ & ~((oc2 > r2) & ((tca < 0) | (np.einsum("ij,ij->i", perp, perp) > r2)))
-        if not act.any():
-            continue
-        Rm, s = inst.rotation, inst.scale
-        t = inst.transform[:3, 3]
-        pn = ((p[act] - t) @ Rm) / (s * csm.radius) - csm.centre / csm.radius
-        wn = w[act] @ Rm
-        pn = _to_sphere(pn, wn)
-        mine = (own[act] == -1) | (own[act] == slot)
-        mn, up = None, None
-        if m is not None:
-            mn = m[act] @ Rm
-            wn, up = _raise_directions(csm, lookup, wn, mn, mine)
-        if filtered:
-            maps, map_w = csm.views.filter_window(wn)
-        else:
-            maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
-        vote = shadow_vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if filtered else 1,
-                           self_=mine, bias=bias, bias_texels=b_texels, normals=mn, lift=up)
-        idx = np.flatnonzero(act)
-        occ[idx[vote > 0.5]] = True
+        own_rows = (own == -1) | (own == slot)
+        occ |= caster_occludes(inst.csm, inst.world_sphere(), inst.rotation, inst.scale,
+                               inst.transform[:3, 3], p, w, m, own_rows, ~occ, lookup=lookup, bias=bias,
+                               quantum=quantum, vote=shadow_vote)
     return ~occ
+
+
+def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows, ask, *, lookup, bias,
+                    quantum, vote) -> np.ndarray:
+    """Rows ``ask`` of world rays ``(p, w)`` that one caster shadows, by the kernel's rules (float64).
+
+    Bounding-sphere cull, the point and direction in the caster's normalised
+    frame, far points moved to the sphere, the surface rule where normals
+    ``m`` are given (for the rows ``own_rows`` that may lie on this caster),
+    the nearest map or the vote's window, then ``vote`` (:func:`shadow_vote`,
+    or the traced taps of :mod:`pyshadow.csm.error_model`) over the taps.
+
+    Parameters
+    ----------
+    csm : CoherentShadowMap or anything with ``views``, ``resolution``, ``centre``, ``radius``
+    sphere : (centre (3,), radius)
+        The caster's bounding sphere in world space.
+    rotation : ndarray, shape (3, 3)
+    scale : float
+    translation : ndarray, shape (3,)
+    p, w : ndarray, shape (N, 3)
+        World points and unit directions.
+    m : ndarray, shape (N, 3), or None
+        Unit surface normals.
+    own_rows, ask : ndarray of bool, shape (N,)
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+    """
+    wc, wr = sphere
+    oc = wc - p
+    tca = np.einsum("ij,ij->i", oc, w)
+    oc2 = np.einsum("ij,ij->i", oc, oc)
+    r2 = (wr * (1 + 1e-6)) ** 2
+    perp = oc - tca[:, None] * w                     # as sphere_v: no difference of squares
+    act = ask & ~((oc2 > r2) & ((tca < 0) | (np.einsum("ij,ij->i", perp, perp) > r2)))
+    out = np.zeros(len(p), bool)
+    if not act.any():
+        return out
+    pn = ((p[act] - translation) @ rotation) / (scale * csm.radius) - csm.centre / csm.radius
+    wn = w[act] @ rotation
+    pn = _to_sphere(pn, wn)
+    mine = own_rows[act]
+    mn, up = None, None
+    if m is not None:
+        mn = m[act] @ rotation
+        wn, up = _raise_directions(csm, lookup, wn, mn, mine)
+    if lookup == "vote":
+        maps, map_w = csm.views.filter_window(wn)
+    else:
+        maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
+    v = vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if lookup == "vote" else 1,
+             self_=mine, bias=bias, bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS,
+             normals=mn, lift=up)
+    out[np.flatnonzero(act)[v > 0.5]] = True
+    return out
 
 
 def _to_sphere(q, v):

@@ -1,0 +1,265 @@
+"""Parameters from the accuracy asked for: the cheapest CSM the error model says meets it, verified.
+
+Cost is the CSM's size, the lasting price (build time grows with maps times
+texels, query time barely depends on either): :func:`size_model` predicts
+the bytes of every candidate from three small pilot builds (segments grow
+as a power of the resolution and of the map count, both exponents measured
+on the body). :func:`choose_csm` walks :data:`~pyshadow.csm.error_model.CANDIDATES`
+from the smallest predicted size up, predicts each candidate's
+disagreement with Embree (:func:`pyshadow.csm.error_model.predict`: the
+body's own AO rays and the rays of bodies around it, the larger counts),
+and builds the first whose prediction, widened by the model's measured
+range, meets the target. With ``verify`` the built CSM is measured on rays
+drawn independently of the model's; where it misses, the model's miss on
+this body (measured over predicted) is carried to the remaining candidates
+and the walk goes on. Everything predicted, built and measured is returned
+for ``csm.stats["choice"]``.
+"""
+from __future__ import annotations
+
+import time
+import warnings
+
+import numpy as np
+
+from .error_model import CANDIDATES, MODEL_RATIO, _count, predict, rays_for
+
+__all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model", "PILOTS"]
+
+#: the pilot builds of :func:`size_model`: (theta, phi, resolution)
+PILOTS = ((16, 32, 64), (32, 64, 64), (16, 32, 128))
+
+
+def _build(mesh, cand, depth_bits, layers, progress, built):
+    """The CSM of candidate ``(theta, phi, resolution)``, built once (``built`` keeps them)."""
+    from ..views import ViewSet
+    from .core import CoherentShadowMap
+
+    if cand not in built:
+        t0 = time.perf_counter()
+        csm = CoherentShadowMap.build(mesh, ViewSet.zigzag(cand[0], cand[1]), resolution=cand[2],
+                                      depth_bits=depth_bits, layers=layers, progress=progress)
+        built[cand] = (csm, time.perf_counter() - t0)
+    return built[cand]
+
+
+def size_model(mesh, depth_bits: int = 16, layers="auto", built: dict | None = None):
+    """Predicted bytes of a CSM of ``mesh`` for any (theta, phi, resolution), from :data:`PILOTS`.
+
+    Segments ``S = S0 (R / 64)^a (D / 512)^g``, with ``a`` and ``g`` measured
+    from the pilots (resolution doubled, maps quadrupled); bytes are the
+    segments times their stored size plus the offset table (``R^2 + 1``
+    entries of 4 bytes).
+
+    Returns
+    -------
+    predict : callable
+        ``predict(theta, phi, resolution) -> bytes`` (float).
+    info : dict
+        ``a``, ``g``, ``segments0`` and the pilots' build seconds.
+    """
+    built = {} if built is None else built
+    pil = [_build(mesh, c, depth_bits, layers, False, built) for c in PILOTS]
+    s0, s_maps, s_res = (max(c.segments, 1) for c, _ in pil)
+    a = float(np.log2(s_res / s0))
+    g = float(np.log(s_maps / s0) / np.log(4.0))
+    per = pil[0][0].depth.itemsize + pil[0][0].iend.itemsize
+
+    def predict(theta, phi, resolution):
+        seg = s0 * (resolution / 64.0) ** a * (theta * phi / 512.0) ** g
+        return float(seg * per + (resolution * resolution + 1) * 4)
+    return predict, {"a": a, "g": g, "segments0": int(s0), "pilot_seconds": sum(t for _, t in pil)}
+
+
+def measure(csm, mesh, rays: dict, lookup: str = "nearest") -> dict:
+    """Disagreement of a built CSM with Embree on :func:`~pyshadow.csm.error_model.rays_for` rays.
+
+    The CSM alone in a scene (identity transform, no ground), queried by
+    :meth:`pyshadow.Scene.visible` (the kernel): own AO rays as rays from
+    its surface with their normals, near rays as rays from elsewhere.
+
+    Returns
+    -------
+    dict
+        Per ray set ``disagreement``, ``interval``, ``rays``; ``disagreement``
+        at the top: the larger.
+    """
+    from ..scene import GROUND_ID, Scene
+
+    scene = Scene()
+    scene.add(csm, np.eye(4), mesh=mesh)
+    out = {}
+    for name, r in rays.items():
+        own = r["n"] is not None
+        ids = np.full(len(r["p"]), 0 if own else GROUND_ID, np.int64)
+        ours = scene.visible(r["p"], r["d"], surface_ids=ids, normals=r["n"] if own else None, lookup=lookup)
+        out[name] = _count(r["truth"], ours, r["w"])
+    out["disagreement"] = max(out[name]["disagreement"] for name in rays)
+    return out
+
+
+def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: int = 16, layers="auto",
+               verify: bool = True, points: int = 2000, samples: int = 16, near: int = 16000, seed: int = 7,
+               progress: bool = False, candidates=CANDIDATES):
+    """The cheapest CSM of ``mesh`` predicted (and, with ``verify``, measured) to meet ``max_error``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    max_error : float
+        Largest share of rays, in (0, 1), the CSM may answer unlike Embree:
+        on the body's own AO rays and on rays of bodies around it.
+    lookup : {'nearest', 'vote'}
+        The lookup the CSM will be queried with.
+    depth_bits : {16, 32}
+    layers : {'auto', 2, 3}
+        As :meth:`CoherentShadowMap.build`.
+    verify : bool
+        Measure the built CSM against Embree on independent rays and go on
+        up the candidates where it misses.
+    points, samples, near, seed : int
+        The rays of :func:`~pyshadow.csm.error_model.rays_for` (the model's
+        with ``seed``, the verification's with ``seed + 1``).
+    progress : bool
+    candidates : sequence of (theta, phi, resolution)
+        Tried by increasing predicted size (:func:`size_model`).
+
+    Returns
+    -------
+    csm : CoherentShadowMap
+        The choice; the last candidate's, with a ``UserWarning``, when none meets the target.
+    choice : dict
+        ``target``, ``lookup``, ``met``, ``verified``, ``maps``,
+        ``resolution``, ``depth_bits``, ``predicted`` (the model's record),
+        ``measured`` (or None), ``tried`` (every candidate looked at:
+        prediction and predicted bytes, and bytes, build seconds and
+        measurement where built), ``size_model``, ``seconds`` (model,
+        pilots, builds and checks together).
+    """
+    max_error = float(max_error)
+    if not 0.0 < max_error < 1.0:
+        raise ValueError(f"max_error must lie in (0, 1), got {max_error!r}")
+    if lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    if not candidates:
+        raise ValueError("choose_csm needs at least one candidate")
+    t0 = time.perf_counter()
+    draw = dict(points=points, samples=samples, near=near)
+    rays = rays_for(mesh, seed=seed, **draw)
+    check = rays_for(mesh, seed=seed + 1, **draw) if verify else None
+    built = {}
+    size, size_info = size_model(mesh, depth_bits, layers, built)
+    order = sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))
+    need = max_error / MODEL_RATIO[1]
+    tried, csm, entry = [], None, None
+    for i, cand in enumerate(order):
+        pred = predict(mesh, cand[:2], cand[2], depth_bits, lookup, rays=rays)
+        entry = {"predicted": pred, "predicted_bytes": size(*cand)}
+        tried.append(entry)
+        if pred["disagreement"] > need and i < len(order) - 1:
+            continue
+        csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)
+        entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
+        if not verify:
+            break
+        entry["measured"] = measure(csm, mesh, check, lookup)
+        got = entry["measured"]["disagreement"]
+        if got <= max_error:
+            break
+        if pred["disagreement"] > 0:       # the model missed by got / predicted on this body: ask that much more
+            need = min(need, max_error * pred["disagreement"] / got)
+        else:
+            need = 0.0
+    got = entry["measured"]["disagreement"] if verify else entry["predicted"]["disagreement"] * MODEL_RATIO[1]
+    met = got <= max_error
+    if not met:
+        warnings.warn(f"no candidate CSM meets max_error={max_error:g} (best "
+                      f"{'measured' if verify else 'predicted'} {got:.4f}); keeping {entry['predicted']['layout']}",
+                      UserWarning, stacklevel=3)
+    p = entry["predicted"]
+    return csm, {"target": max_error, "lookup": lookup, "met": bool(met), "verified": bool(verify),
+                 "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
+                 "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
+                 "seconds": time.perf_counter() - t0}
+
+
+def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: int = 16, layers="auto",
+                  verify: bool = True, points: int = 2000, samples: int = 16, near: int = 16000, seed: int = 7,
+                  progress: bool = False, candidates=CANDIDATES):
+    """The other direction: the most accurate CSM of ``mesh`` that fits in ``max_bytes``.
+
+    Every candidate's disagreement is predicted (the error model) and its
+    size too (:func:`size_model`); the candidates that fit are built from
+    the most accurate prediction down until one's actual size fits.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    max_bytes : int
+        Largest ``csm.stats["bytes"]`` allowed.
+    lookup, depth_bits, layers, verify, points, samples, near, seed, progress, candidates :
+        As :func:`choose_csm`; ``verify`` measures the result (reported only).
+
+    Returns
+    -------
+    csm : CoherentShadowMap
+    choice : dict
+        As :func:`choose_csm`, with ``budget_bytes`` instead of ``target``.
+
+    Raises
+    ------
+    ValueError
+        If no candidate fits (the message gives the smallest predicted size).
+    """
+    max_bytes = int(max_bytes)
+    if max_bytes <= 0:
+        raise ValueError(f"max_bytes must be positive, got {max_bytes!r}")
+    if lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    t0 = time.perf_counter()
+    draw = dict(points=points, samples=samples, near=near)
+    rays = rays_for(mesh, seed=seed, **draw)
+    built = {}
+    size, size_info = size_model(mesh, depth_bits, layers, built)
+    tried = [{"candidate": c, "predicted": predict(mesh, c[:2], c[2], depth_bits, lookup, rays=rays),
+              "predicted_bytes": size(*c)} for c in candidates]
+    fits = sorted((t for t in tried if t["predicted_bytes"] <= max_bytes),
+                  key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"]))
+    csm = entry = None
+    for entry in fits:
+        c, seconds = _build(mesh, entry["candidate"], depth_bits, layers, progress, built)
+        entry.update(bytes=c.stats["bytes"], build_seconds=seconds)
+        if c.stats["bytes"] <= max_bytes:
+            csm = c
+            break
+    if csm is None:
+        small = min(t["predicted_bytes"] for t in tried)
+        raise ValueError(f"no candidate CSM fits in {max_bytes} bytes (the smallest is predicted at "
+                         f"{small:.0f} bytes)")
+    if verify:
+        entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=seed + 1, **draw), lookup)
+    p = entry["predicted"]
+    for t in tried:
+        t.pop("candidate")
+    return csm, {"budget_bytes": max_bytes, "lookup": lookup, "verified": bool(verify),
+                 "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
+                 "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
+                 "seconds": time.perf_counter() - t0}
+
+
+def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_error, max_bytes, lookup, depth_bits,
+                 layers, verify, progress):
+    """:meth:`CoherentShadowMap.build` with ``max_error`` or ``max_bytes``: the chosen CSM, ``choice`` set."""
+    from ..mesh import load_mesh
+
+    if views is not None or resolution is not None or frame is not None or footprint or two_sided:
+        raise TypeError("CoherentShadowMap.build: max_error and max_bytes choose views and resolution; "
+                        "leave out views, resolution, frame, footprint and two_sided")
+    if max_error is not None and max_bytes is not None:
+        raise TypeError("CoherentShadowMap.build: pass max_error or max_bytes, not both")
+    mesh = mesh if hasattr(mesh, "faces") else load_mesh(mesh)
+    kw = dict(lookup=lookup, depth_bits=depth_bits, layers=layers, verify=verify, progress=progress)
+    csm, choice = (choose_csm(mesh, max_error, **kw) if max_error is not None
+                   else choose_within(mesh, max_bytes, **kw))
+    csm.choice = choice
+    return csm

@@ -1,0 +1,365 @@
+"""The error model: how often a CSM will disagree with a ray tracer, predicted before it is built.
+
+A CSM answers a ray by asking, in the map(s) its lookup picks, whether a
+surface lies between the point and the light along the *centre ray of the
+point's texel*, beyond the bias (:func:`pyshadow.csm.reference.shadow_taps`).
+Every error it makes comes from that substitution: the map's axis instead of
+the ray's direction (map spacing, the lookup), the texel's centre instead of
+the point (resolution), the bias and the depth quantum (depth bits), the
+surface rule's raised directions. A ray tracer can ask exactly the same
+question of the mesh without rendering a single map: trace, from the texel
+centre at the point's depth, the ray along the map's axis, starting past the
+bias. This model does so for a sample of rays (by default the object's own
+AO rays: area-uniform points, cosine-weighted directions about the face
+normal) and counts where the lookup's vote differs from the ray's own
+answer. The object's geometry enters through the rays it stops -- its
+feature size, thin parts, silhouettes and openness are what make the
+substituted ray differ -- so nothing is fitted to a mesh; the cost is one
+Embree pass per tap, independent of map count and resolution.
+
+What it leaves out: the compression (exact for every point outside the
+object, :mod:`pyshadow.csm`), the rasteriser's coverage rule at triangle
+edges against Embree's, and the footprint option. How far its predictions
+lie from measured CSMs on the shared meshes is measured by
+``benchmarks/error_model.py`` and stated as :data:`MODEL_RATIO` (the range of
+measured / predicted); the sampling uncertainty of each prediction is the
+Wilson interval of its count.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..views import ViewSet
+from .core import DEPTH_Q
+from .reference import shadow_taps
+
+__all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "traced_vote", "truth_visible", "model_visible",
+           "ao_rays", "near_rays", "rays_for", "predict", "wilson"]
+
+#: measured / predicted disagreement on the shared meshes (benchmarks/error_model.py):
+#: the range a prediction is stated with; a choice aims at ``target / MODEL_RATIO[1]``
+MODEL_RATIO = (0.8, 1.3)
+
+#: the candidates a choice considers, by build work (maps x texels): (theta, phi, resolution)
+CANDIDATES = tuple(sorted(((t, 2 * t, r) for t in (16, 32, 64, 128) for r in (64, 128, 256, 512)
+                           if t * r <= 64 * 512), key=lambda c: (c[0] * c[1] * c[2] ** 2, c[2])))
+
+
+@dataclasses.dataclass(frozen=True)
+class Layout:
+    """What a CSM's lookup depends on, without its tables: views, resolution, depth bits, frame.
+
+    Parameters
+    ----------
+    views : ViewSet
+    resolution : int
+        Texels per map side.
+    depth_bits : {16, 32}
+    centre : ndarray, shape (3,)
+        The frame's centre, object units (the bounding sphere's by default).
+    radius : float
+        The frame's radius, object units.
+    """
+    views: ViewSet
+    resolution: int
+    depth_bits: int
+    centre: np.ndarray
+    radius: float
+
+    @classmethod
+    def for_mesh(cls, mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16) -> "Layout":
+        """The layout :meth:`CoherentShadowMap.build` would give ``mesh`` (zigzag maps, bounding sphere)."""
+        from ..mesh import bounding_sphere
+
+        c, r = bounding_sphere(mesh)
+        return cls(ViewSet.zigzag(*maps), int(resolution), int(depth_bits), np.asarray(c, np.float64), float(r))
+
+    @property
+    def label(self) -> str:
+        p = self.views.params
+        return f"{p.get('theta', '?')}x{p.get('phi', '?')} r{self.resolution} {self.depth_bits}b"
+
+
+@dataclasses.dataclass
+class Body:
+    """A rigid body of a modelled scene: its mesh, object-to-world transform and layout (or None: receiver)."""
+    mesh: object
+    transform: np.ndarray
+    layout: Layout | None
+
+    @property
+    def scale(self) -> float:
+        return float(np.cbrt(np.linalg.det(self.transform[:3, :3])))
+
+    def world_triangles(self, anchor) -> np.ndarray:
+        T = self.transform
+        v = np.asarray(self.mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3] - anchor
+        return v[np.asarray(self.mesh.faces)]
+
+    def world_sphere(self):
+        T = self.transform
+        return T[:3, :3] @ self.layout.centre + T[:3, 3], self.layout.radius * self.scale
+
+
+def traced_vote(tracer):
+    """A ``vote`` for :func:`pyshadow.visibility.mirror.caster_occludes` that traces each tap.
+
+    Parameters
+    ----------
+    tracer : pyshadow.embree.EmbreeScene
+        The body's triangles in its layout's normalised frame.
+
+    Returns
+    -------
+    callable
+        ``vote(layout, pn, wn, maps, map_weights, **taps)``: the summed
+        weights of the taps whose texel-centre ray, from the point's depth
+        plus the bias towards the light along the map's axis, meets the mesh.
+    """
+    def vote(layout, pn, wn, maps, map_weights, **kw):
+        R = layout.resolution
+        out = np.zeros(len(pn))
+        for k, _, col, row, depth, b, inside, weight in shadow_taps(layout.views, R, pn, wn, maps, map_weights, **kw):
+            B = layout.views.bases[k]
+            start = 1.0 - 2.0 * (depth - b)                      # along the axis: depth z is at 1 - 2z
+            o = (B[:, 0] * ((2.0 * (col + 0.5) / R - 1.0))[:, None] + B[:, 1] * ((2.0 * (row + 0.5) / R - 1.0))[:, None]
+                 + B[:, 2] * start[:, None])
+            ask = np.flatnonzero(inside & (start < 1.0))
+            hit = np.zeros(len(pn), bool)
+            if len(ask):
+                hit[ask] = tracer.occluded(o[ask], B[ask, 2])
+            out += weight * hit
+        return out
+    return vote
+
+
+def _frame(bodies, points):
+    """(casters, anchor, scale) of modelled bodies: the casters, their mean sphere centre, largest radius."""
+    casters = [b for b in bodies if b.layout is not None]
+    anchor = np.mean([b.world_sphere()[0] for b in casters], axis=0) if casters else np.zeros(3)
+    return casters, anchor, max([b.world_sphere()[1] for b in casters] or [1.0])
+
+
+def _ground(p, w, ground, scale):
+    if ground is None:
+        return np.zeros(len(p), bool)
+    h = p[:, 1] - ground
+    eps = 1e-5 * scale
+    return ((h >= -eps) & (w[:, 1] < 0)) | ((h < -eps) & (w[:, 1] > 0))
+
+
+def _rays(points, directions):
+    p = np.asarray(points, np.float64).reshape(-1, 3)
+    w = np.asarray(directions, np.float64).reshape(-1, 3)
+    return p, w / np.linalg.norm(w, axis=1, keepdims=True)
+
+
+def truth_visible(bodies, points, directions, *, ground: float | None = None) -> np.ndarray:
+    """Embree's answers for world rays among the casters of ``bodies`` (as :func:`pyshadow.embree.visible`).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True where the ray reaches the sky.
+    """
+    from ..embree import EmbreeScene, ray_epsilon
+
+    p, w = _rays(points, directions)
+    casters, anchor, scale = _frame(bodies, p)
+    occ = _ground(p, w, ground, scale)
+    rel = p - anchor
+    world = EmbreeScene(np.concatenate([b.world_triangles(anchor) for b in casters]) if casters
+                        else np.zeros((0, 3, 3)))
+    eps = np.maximum(2e-5 * scale, ray_epsilon(np.maximum(np.abs(rel).max(axis=1), scale)))
+    todo = np.flatnonzero(~occ)
+    occ[todo] = world.occluded(rel[todo] + eps[todo, None] * w[todo], w[todo])
+    return ~occ
+
+
+def model_visible(bodies, points, directions, normals=None, owner=None, *, lookup: str = "nearest",
+                  ground: float | None = None) -> np.ndarray:
+    """The answers the bodies' CSMs would give, without building them (traced taps).
+
+    Parameters
+    ----------
+    bodies : sequence of Body
+        Casters (``layout`` set) and receivers (``layout`` None) in world space.
+    points, directions : ndarray, shape (N, 3), float64
+        World ray origins and directions.
+    normals : ndarray, shape (N, 3), optional
+        Unit surface normals at the points (the surface rule; AO rays have them).
+    owner : ndarray of int, shape (N,), optional
+        Index into ``bodies`` of the body each point lies on (-1 unknown).
+    lookup : {'nearest', 'vote'}
+    ground : float, optional
+        Height of the ground plane y = ground (analytic, exact in both).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,)
+        True where the modelled lookup lets the ray reach the sky.
+    """
+    from ..embree import EmbreeScene
+    from ..visibility.mirror import caster_occludes
+
+    if lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    p, w = _rays(points, directions)
+    casters, _, scale = _frame(bodies, p)
+    owner = np.full(len(p), -1) if owner is None else np.broadcast_to(np.asarray(owner), (len(p),))
+    occ = _ground(p, w, ground, scale)
+    bits = 16 if all(b.layout.depth_bits == 16 for b in casters) else 32
+    quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
+    m = None if normals is None else np.asarray(normals, np.float64).reshape(-1, 3)
+    for i, b in enumerate(bodies):
+        if b.layout is None:
+            continue
+        L = b.layout
+        tracer = EmbreeScene((np.asarray(b.mesh.vertices, np.float64)[np.asarray(b.mesh.faces)] - L.centre) / L.radius)
+        s = b.scale
+        occ |= caster_occludes(L, b.world_sphere(), b.transform[:3, :3] / s, s, b.transform[:3, 3], p, w, m,
+                               (owner == -1) | (owner == i), ~occ, lookup=lookup, bias=None, quantum=quantum,
+                               vote=traced_vote(tracer))
+    return ~occ
+
+
+def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
+    """A body's own AO rays: ``points`` area-uniform surface points, ``samples`` cosine-weighted directions each.
+
+    Returns
+    -------
+    p, d, n : ndarray, shape (points * samples, 3), float64
+        Origins (object frame), unit directions, unit face normals.
+    """
+    import trimesh
+
+    from ..sampling import Sampling, sample_directions
+
+    local, face = trimesh.sample.sample_surface(mesh, points, seed=seed)
+    nrm = np.asarray(mesh.face_normals, np.float64)[face]
+    d = sample_directions(nrm, sampling=Sampling(samples, seed=seed)).reshape(-1, 3).astype(np.float64)
+    return np.repeat(local, samples, axis=0), d, np.repeat(nrm, samples, axis=0)
+
+
+def near_rays(mesh, count: int = 16000, seed: int = 7):
+    """Rays of other bodies near a body: the shadows it casts.
+
+    Origins uniform in volume in the shell between one and two bounding
+    radii around the body's bounding sphere (outside it, so never inside
+    the body); directions uniform over the sphere of directions, drawn
+    only from the cone of those that meet the bounding sphere (the others
+    can be answered wrongly by no CSM), each ray weighted by that cone's
+    share of the sphere.
+
+    Returns
+    -------
+    p, d : ndarray, shape (count, 3), float64
+        Origins (object frame) and unit directions.
+    w : ndarray, shape (count,), float64
+        The weights: ``(1 - cos a) / 2`` of the cone's half-angle ``a``.
+    """
+    from ..mesh import bounding_sphere
+
+    c, r = bounding_sphere(mesh)
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(count, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    dist = r * np.cbrt(1.0 + 7.0 * rng.random(count))            # uniform in volume, r .. 2r
+    cos_max = np.sqrt(1.0 - (r / dist) ** 2)                    # the cone that meets the sphere
+    ct = 1.0 - rng.random(count) * (1.0 - cos_max)
+    st = np.sqrt(np.maximum(0.0, 1.0 - ct * ct))
+    ph = 2.0 * np.pi * rng.random(count)
+    a = -u                                                       # the cone's axis: towards the centre
+    t1 = np.cross(a, np.where(np.abs(a[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]]))
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(a, t1)
+    d = a * ct[:, None] + t1 * (st * np.cos(ph))[:, None] + t2 * (st * np.sin(ph))[:, None]
+    return np.asarray(c, np.float64) + u * dist[:, None], d, 0.5 * (1.0 - cos_max)
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval of a proportion ``k / n`` (95 % by default)."""
+    if n == 0:
+        return 0.0, 1.0
+    ph = k / n
+    den = 1 + z * z / n
+    mid = (ph + z * z / (2 * n)) / den
+    half = z * math.sqrt(ph * (1 - ph) / n + z * z / (4 * n * n)) / den
+    return max(0.0, mid - half), min(1.0, mid + half)
+
+
+def rays_for(mesh, *, points: int = 2000, samples: int = 16, near: int = 16000, seed: int = 7) -> dict:
+    """The rays a body's CSM is judged on, with Embree's answers: ``{"own": ..., "near": ...}``.
+
+    ``own``: its AO rays (:func:`ao_rays`, ``points * samples``); ``near``:
+    :func:`near_rays` (``near``; none when 0). Each a dict ``p, d, n``
+    (normals or None), ``truth`` (bool), ``w`` (weights, or None), in the
+    object's frame, no ground.
+    """
+    body = [Body(mesh, np.eye(4), Layout.for_mesh(mesh))]
+    p, d, nrm = ao_rays(mesh, points, samples, seed)
+    out = {"own": {"p": p, "d": d, "n": nrm, "truth": truth_visible(body, p, d), "w": None}}
+    if near:
+        q, e, w = near_rays(mesh, near, seed)
+        out["near"] = {"p": q, "d": e, "n": None, "truth": truth_visible(body, q, e), "w": w}
+    return out
+
+
+def _count(truth, answer, weights=None) -> dict:
+    """Disagreement of ``answer`` with ``truth``: the share (or weighted mean) and its 95 % interval."""
+    flip = truth != answer
+    n = len(flip)
+    if weights is None:
+        k = int(np.count_nonzero(flip))
+        return {"disagreement": k / max(n, 1), "interval": wilson(k, n), "rays": n}
+    x = np.asarray(weights, np.float64) * flip
+    e = float(x.mean()) if n else 0.0
+    half = 1.96 * float(x.std()) / math.sqrt(max(n, 1))
+    return {"disagreement": e, "interval": (max(0.0, e - half), e + half), "rays": n}
+
+
+def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, lookup: str = "nearest", *,
+            rays: dict | None = None, **draw) -> dict:
+    """Predicted disagreement with Embree of the CSM ``build`` would give ``mesh``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    maps : (theta, phi)
+        Zigzag view set.
+    resolution : int
+    depth_bits : {16, 32}
+    lookup : {'nearest', 'vote'}
+        The lookup the CSM will be queried with.
+    rays : dict, optional
+        :func:`rays_for` of ``mesh``, to share between predictions;
+        otherwise drawn with the keyword arguments ``draw``.
+
+    Returns
+    -------
+    dict
+        Per ray set (``own``: the body's AO rays; ``near``: rays of
+        bodies around it, :func:`near_rays`), ``disagreement`` (fraction),
+        ``interval``
+        (Wilson 95 %), ``rays``; and at the top ``disagreement`` (the larger
+        of the two), ``range`` (times :data:`MODEL_RATIO`: where the
+        measured value is expected), ``layout`` (label), ``lookup``,
+        ``seconds`` (the model's own cost, without drawing the rays).
+    """
+    import time
+
+    L = Layout.for_mesh(mesh, maps, resolution, depth_bits)
+    body = [Body(mesh, np.eye(4), L)]
+    rays = rays_for(mesh, **draw) if rays is None else rays
+    t0 = time.perf_counter()
+    out = {"layout": L.label, "maps": [int(maps[0]), int(maps[1])], "resolution": int(resolution),
+           "depth_bits": int(depth_bits), "lookup": lookup}
+    for name, r in rays.items():
+        owner = np.zeros(len(r["p"]), np.int64) if r["n"] is not None else np.full(len(r["p"]), -2)
+        out[name] = _count(r["truth"], model_visible(body, r["p"], r["d"], r["n"], owner, lookup=lookup), r["w"])
+    e = max(out[name]["disagreement"] for name in rays)
+    out.update(disagreement=e, range=[e * MODEL_RATIO[0], e * MODEL_RATIO[1]], seconds=time.perf_counter() - t0)
+    return out

@@ -435,12 +435,15 @@ class EmbreeTracer:
         return ground, todo, origins[todo], dirs32[todo]
 
 
-def render(scene, camera, *args, sampling=None, ground_size=None, **old):
+def render(scene, camera, *args, sampling=None, ground_size=None, normals="flat", crease_angle=None, **old):
     """Ground-truth :meth:`pyshadow.Scene.render`: Embree primary rays, then Embree AO
     rays along the identical directions (pixel ``r*W + c`` uses the same pattern).
 
     :func:`pyshadow.render.render` with ``visibility="embree"`` on the
     G-buffer of :func:`gbuffer`; returns a :class:`pyshadow.render.Frame`.
+    ``normals`` and ``crease_angle`` (default that of
+    :mod:`pyshadow.shading_normals`) as in :func:`pyshadow.render.render`:
+    with ``"smooth"`` the same shading normals and the same hemisphere rule.
     The old positional ``samples, strategy, seed, patterns`` still work, with a
     DeprecationWarning.
     """
@@ -450,6 +453,9 @@ def render(scene, camera, *args, sampling=None, ground_size=None, **old):
 
     sampling, _ = legacy_sampling("embree.render", args, ("samples", "strategy", "seed", "patterns"), sampling,
                                   old, Sampling())
+    from .shading_normals import DEFAULT_CREASE_ANGLE
+
     items, _ = scene.draw_items(ground_size)
     return render_frame(scene, camera, visibility="embree", sampling=sampling, ground_size=ground_size,
-                        gbuffer=gbuffer(items, camera))
+                        gbuffer=gbuffer(items, camera), normals=normals,
+                        crease_angle=DEFAULT_CREASE_ANGLE if crease_angle is None else crease_angle)

@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .materials import VISUAL_KEY, mesh_visual, visual_of
+
 __all__ = [
     "MeshCleanupWarning",
     "load_mesh",
@@ -29,14 +31,18 @@ class MeshCleanupWarning(UserWarning):
     """Faces were removed from a mesh while loading it (degenerate or duplicate)."""
 
 
-def _as_trimesh(source, label: str) -> trimesh.Trimesh:
-    """Turn what trimesh gives back for ``source`` into one Trimesh (no processing)."""
+def _as_trimesh(source, label: str) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """Turn what trimesh gives back for ``source`` into one Trimesh (no processing).
+
+    Returns the new mesh (geometry only) and the Trimesh it was copied from
+    (with its visual attributes).
+    """
     if isinstance(source, trimesh.Trimesh):
         return trimesh.Trimesh(
             vertices=np.array(source.vertices, dtype=np.float64),
             faces=np.array(source.faces, dtype=np.int64),
             process=False,
-        )
+        ), source
     if isinstance(source, trimesh.Scene):
         meshes = [g for g in source.geometry.values() if isinstance(g, trimesh.Trimesh)]
         if not meshes:
@@ -72,7 +78,13 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         Vertices float64 (V, 3), faces int64 (T, 3); coincident vertices
         merged; degenerate faces (repeated vertices or zero area) and
         duplicate faces (the same three vertices in any order or winding)
-        removed. Visual attributes (UVs, colours) are dropped.
+        removed. Visual attributes (vertex or face colours, UVs and a base
+        colour texture) take no part in merging: they are kept per face
+        corner, aligned with the cleaned faces, as a
+        :class:`pyshadow.materials.MeshVisual` in
+        ``mesh.metadata["pyshadow_visual"]`` (linear RGB; absent when the
+        source has none). Vertices, faces and :func:`mesh_hash` are the same
+        with or without them.
 
     Raises
     ------
@@ -120,7 +132,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
 
     if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
         raise ValueError(f"{label}: the file holds no geometry (empty mesh)")
-    mesh = _as_trimesh(raw, label)
+    mesh, source = _as_trimesh(raw, label)
     if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
         raise ValueError(f"{label}: the mesh has no triangles (empty mesh)")
     bad = ~np.isfinite(mesh.vertices).all(axis=1)
@@ -160,11 +172,15 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
             MeshCleanupWarning,
             stacklevel=2,
         )
-    faces = faces[np.sort(np.flatnonzero(unique_mask))]
+    kept = np.sort(np.flatnonzero(unique_mask))
+    faces = faces[kept]
     if len(faces) == 0:
         raise ValueError(f"{label}: every face is degenerate (empty mesh after cleaning)")
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     mesh.remove_unreferenced_vertices()
+    visual = mesh_visual(source)          # per corner of the source's faces, which merging keeps in order
+    if visual is not None:
+        mesh.metadata[VISUAL_KEY] = visual.take(kept)
     if fill_holes:
         mesh = close_holes(mesh)
     return mesh
@@ -211,14 +227,16 @@ def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     -------
     trimesh.Trimesh
         A new mesh; ``is_watertight`` holds when every boundary was a
-        simple closed loop.
+        simple closed loop. A :class:`pyshadow.materials.MeshVisual` of
+        ``mesh`` is carried over (:meth:`pyshadow.materials.MeshVisual.with_fans`).
     """
     faces = np.asarray(mesh.faces, dtype=np.int64)
     verts = np.asarray(mesh.vertices, dtype=np.float64)
     new_verts = [verts]
     new_faces = [faces]
     n = len(verts)
-    for loop in _boundary_loops(faces):
+    loops = _boundary_loops(faces)
+    for loop in loops:
         if len(loop) < 3:
             continue
         ring = np.array([a for a, _ in loop])
@@ -227,9 +245,13 @@ def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
         fan = np.array([(b, a, n) for a, b in loop], dtype=np.int64)
         new_faces.append(fan)
         n += 1
-    return trimesh.Trimesh(
+    out = trimesh.Trimesh(
         vertices=np.concatenate(new_verts), faces=np.concatenate(new_faces), process=False
     )
+    visual = visual_of(mesh)
+    if visual is not None:
+        out.metadata[VISUAL_KEY] = visual.with_fans(faces, loops)
+    return out
 
 
 def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:

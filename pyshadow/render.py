@@ -14,7 +14,9 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .materials import visual_of
 from .sampling import Sampling
+from .shading_normals import DEFAULT_CREASE_ANGLE, NORMAL_MODES, check_crease_angle
 
 __all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels", "draw_items", "ground_quad",
            "DENOISERS"]
@@ -36,12 +38,17 @@ class Frame(Mapping):
     depth : ndarray, shape (H, W), float32
         Distance along the eye ray (world units), ``inf`` on the background.
     normal : ndarray, shape (H, W, 3), float32
-        World normals facing the camera.
+        World normals facing the camera: the shading normals AO and
+        shading used (the G-buffer's face normals with ``normals="flat"``,
+        interpolated ones with ``normals="smooth"``), 0 on the background.
     object_id : ndarray, shape (H, W), int32
         Instance id; ``pyshadow.scene.GROUND_ID`` (-2) for the ground, -1
         for the background.
     position : ndarray, shape (H, W, 3), float32
         World positions (NaN on the background).
+    geometric_normal : ndarray, shape (H, W, 3), float32, or None
+        With ``normals="smooth"``: the G-buffer's face normals (facing the
+        camera); None otherwise (then not among the mapping's keys).
     radiance : ndarray, shape (H, W, 3), float32, or None
         Linear radiance, where a lighting stage fills it; None otherwise
         (then not among the mapping's keys).
@@ -53,6 +60,7 @@ class Frame(Mapping):
     normal: np.ndarray
     object_id: np.ndarray
     position: np.ndarray
+    geometric_normal: np.ndarray | None = None
     radiance: np.ndarray | None = None
 
     def _keys(self):
@@ -238,7 +246,8 @@ def _check_render_options(denoise, ao_scale, sampling):
 
 
 def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_scale: int = 1,
-           ground_size=None, bias=None, gbuffer=None, lighting=None) -> Frame:
+           ground_size=None, bias=None, gbuffer=None, lighting=None, normals: str = "flat",
+           crease_angle: float = DEFAULT_CREASE_ANGLE) -> Frame:
     """Render AO, bent normals and the G-buffer of ``scene`` from ``camera``.
 
     Parameters
@@ -270,7 +279,21 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         resolution), the sun term from one ``visible`` query per
         covered pixel on the same ``visibility`` backend
         (:mod:`pyshadow.lighting.shade`). Every other buffer is the same
-        as without it.
+        as without it. The albedo of a pixel is its instance's
+        (``Lighting(albedo=, albedos=)``) times the colour its mesh carries
+        (vertex colours, texture: :mod:`pyshadow.materials`), if any.
+    normals : {"flat", "smooth"}, optional
+        Shading normals: the G-buffer's face normals ("flat", the default),
+        or normals interpolated from the mesh's corners with creases kept
+        sharp ("smooth", :mod:`pyshadow.shading_normals`). With "smooth",
+        AO, bent normals, filters and shading use them, directions below a
+        pixel's geometric plane count as occluded on every backend, and
+        ``Frame.geometric_normal`` holds the face normals. A given
+        ``gbuffer`` then needs its ``face`` buffer.
+    crease_angle : float, optional
+        Radians in [0, pi/2) (default :data:`pyshadow.shading_normals.DEFAULT_CREASE_ANGLE`,
+        30 degrees): faces meeting at a larger angle keep a sharp edge with
+        ``normals="smooth"``.
 
     Returns
     -------
@@ -279,24 +302,47 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     from . import visibility as vis
 
     sampling = _check_render_options(denoise, ao_scale, sampling)
+    if normals not in NORMAL_MODES:
+        raise ValueError(f"normals must be 'flat' or 'smooth', got {normals!r}")
+    crease_angle = check_crease_angle(crease_angle)
     if lighting is not None:
         from .lighting.shade import Lighting
 
         if not isinstance(lighting, Lighting):
             raise TypeError(f"lighting must be a pyshadow.lighting.Lighting, got {lighting!r}")
+    smooth = normals == "smooth"
+    colour = None
+    items = scene.draw_items(ground_size)[0] if smooth or lighting is not None else []
+    if smooth or any(visual_of(mesh) is not None for mesh, _ in items):
+        from .gbuffer import render_gbuffer
+        from .materials import surface_colours
+        from .shading_normals import pixel_surface, shading_gbuffer
+
+        gbuffer = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
+        surface = pixel_surface(items, gbuffer, camera)
+        if smooth:
+            gbuffer = shading_gbuffer(items, gbuffer, camera, crease_angle, surface)
+        if lighting is not None:
+            colour = surface_colours(items, *surface[1:])   # the covered pixels in flat order, as covered_pixels
     sp = surface_points(scene, camera, ground_size=ground_size, ao_scale=ao_scale, gbuffer=gbuffer)
     g = sp.gbuffer
+    geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)
     bent = np.zeros((H, W, 3), np.float32)
     transfer = None
     if len(sp.index):
-        one_pass = (lighting is not None and lighting.mode == "transfer" and ao_scale == 1
+        one_pass = (lighting is not None and lighting.mode == "transfer" and ao_scale == 1 and not smooth
                     and hasattr(vis.get_backend(visibility), "sh_transfer"))
         if one_pass:            # the AO kernel's pass that also sums the transfer: AO and bent normals as below
             a, b, transfer = vis.get_backend(visibility).sh_transfer(
                 scene, sp.points, sp.normals, sampling=sampling, bias=bias, indices=sp.index,
                 surface_ids=sp.surface_ids)
+        elif smooth:
+            from .shading_normals import ambient_occlusion
+
+            a, b = ambient_occlusion(scene, sp.points, sp.normals, geo, backend=visibility, sampling=sampling,
+                                     indices=sp.index, surface_ids=sp.surface_ids, bias=bias)
         else:
             a, b = vis.ambient_occlusion(scene, sp.points, sp.normals, backend=visibility, sampling=sampling,
                                          return_bent_normals=True, bias=bias, indices=sp.index,
@@ -304,7 +350,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         ao.reshape(-1)[sp.index] = a
         bent.reshape(-1, 3)[sp.index] = b
     frame = Frame(ao=ao, bent_normal=bent, depth=g["depth"], normal=g["normal"], object_id=sp.object_id,
-                  position=g["position"])
+                  position=g["position"], geometric_normal=g.get("geometric_normal") if smooth else None)
     if ao_scale != 1 or denoise is not None:
         from . import filters
 
@@ -319,13 +365,16 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
             frame.ao = filters.edge_aware_box(frame.ao, g["depth"], g["normal"])
     if lighting is not None:
         frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling,
-                                   transfer)
+                                   transfer, colour)
     return frame
 
 
-def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer) -> np.ndarray:
+def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer,
+              colour=None) -> np.ndarray:
     """``Frame.radiance`` of :func:`render` (see its ``lighting``); ``transfer``: the covered pixels'
-    SH transfer when the AO pass summed it already (mode "transfer", full resolution), else None."""
+    SH transfer when the AO pass summed it already (mode "transfer", full resolution), else None;
+    ``colour``: (K, 3) surface colours of every covered pixel (flat order) or None (ones). With
+    ``Frame.geometric_normal`` set, the hemisphere rule of :mod:`pyshadow.shading_normals` applies."""
     from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
                                  transfer_sky_radiance)
 
@@ -348,15 +397,18 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
         length = np.linalg.norm(b, axis=1, keepdims=True)
         b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
     albedo = lighting.albedo_of(full.surface_ids, len(full.index))
+    if colour is not None:
+        albedo = albedo * colour
+    geo = None if frame.geometric_normal is None else frame.geometric_normal.reshape(-1, 3)[full.index]
     if transfer is not None:
         sky = transfer_sky(lighting, transfer, albedo)
     elif lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
         term = sampled_sky_radiance if lighting.mode == "sampled" else transfer_sky_radiance
         sky = term(scene, full.points, nrm, lighting, albedo, backend=visibility, sampling=sampling,
-                   surface_ids=full.surface_ids, indices=full.index, bias=bias)[0]
+                   surface_ids=full.surface_ids, indices=full.index, bias=bias, geometric_normals=geo)[0]
     else:
         sky = sky_radiance(lighting, frame.ao.reshape(-1)[full.index], b, albedo)
     sun, _ = sun_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
-                          surface_ids=full.surface_ids, indices=full.index)
+                          surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
     out[full.index] = sky + sun
     return out.reshape(H, W, 3)

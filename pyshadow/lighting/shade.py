@@ -343,7 +343,7 @@ def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
 
 
 def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", sampling=None,
-                         surface_ids=None, indices=None, bias=None):
+                         surface_ids=None, indices=None, bias=None, geometric_normals=None):
     """The "sampled" sky term, with the AO and bent normals of its samples.
 
     ``albedo * mean_s L_env(w_s) V(p, w_s)`` over the cosine-weighted
@@ -363,6 +363,9 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     albedo : ndarray (N, 3)
     backend, sampling, surface_ids, indices, bias :
         As in :func:`shade_terms`.
+    geometric_normals : ndarray (N, 3), optional
+        When ``normals`` are shading normals: directions at or below the
+        geometric plane are occluded (:mod:`pyshadow.shading_normals`).
 
     Returns
     -------
@@ -399,7 +402,8 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
         m = b - a
         dirs, lit = sample_visibility(scene, p[a:b], nrm[a:b], backend=backend, sampling=sampling,
                                       indices=idx[a:b], surface_ids=None if ids is None else ids[a:b],
-                                      bias=bias)                           # (m, S, 3) float32, (m, S)
+                                      bias=bias, geometric_normals=None if geometric_normals is None
+                                      else np.asarray(geometric_normals)[a:b])                           # (m, S, 3) float32, (m, S)
         flat = dirs.reshape(-1, 3)
         if env is not None:
             w = flat.astype(np.float64)
@@ -411,7 +415,7 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
 
 
 def transfer_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", sampling=None,
-                          surface_ids=None, indices=None, bias=None):
+                          surface_ids=None, indices=None, bias=None, geometric_normals=None):
     """The "transfer" sky term ``albedo / pi * max(sum_k L_k T_k, 0)``, with the AO and bent normals.
 
     ``T`` from :func:`pyshadow.lighting.transfer.sh_transfer` (the AO kernel's
@@ -423,7 +427,7 @@ def transfer_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *,
 
     _check_lighting(lighting)
     ao, bent, T = sh_transfer(scene, points, normals, backend=backend, sampling=sampling,
-                              surface_ids=surface_ids, indices=indices, bias=bias)
+                              surface_ids=surface_ids, indices=indices, bias=bias, geometric_normals=geometric_normals)
     return transfer_sky(lighting, T, albedo), ao, bent
 
 
@@ -464,12 +468,14 @@ def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> n
 
 
 def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", surface_ids=None,
-                 indices=None, bias=None):
+                 indices=None, bias=None, geometric_normals=None):
     """The sun term and the visible fraction of its directions: ((N, 3) float64, (N,) float64).
 
     ``points`` (N, 3), ``normals`` (N, 3) unit, ``albedo`` (N, 3); zero
     radiance and visibility 1 without a sun. One :func:`pyshadow.visibility.visible`
-    call of N K rays, asked with the normals.
+    call of N K rays, asked with the normals; with ``geometric_normals`` (N, 3)
+    (``normals`` then shading normals) directions at or below the geometric
+    plane are shadowed (:mod:`pyshadow.shading_normals`).
     """
     from .. import visibility as vis
 
@@ -487,6 +493,10 @@ def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend=
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,)), k)
     lit = vis.visible(scene, np.repeat(p, k, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
                       surface_ids=ids, normals=np.repeat(nrm, k, axis=0)).reshape(n, k)
+    if geometric_normals is not None:
+        from ..shading_normals import below_geometric
+
+        lit = lit & ~below_geometric(dirs, geometric_normals)
     e = sun.irradiance[None, :] * (cos * lit).mean(axis=1)[:, None]
     return np.asarray(albedo, dtype=np.float64) / math.pi * e, lit.mean(axis=1)
 

@@ -28,7 +28,7 @@ __all__ = ["sh_transfer", "transfer_irradiance"]
 
 
 def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface_ids=None, indices=None,
-                bias=None):
+                bias=None, geometric_normals=None):
     """AO, bent normals and the shadowed SH transfer of surface points.
 
     Parameters
@@ -43,6 +43,11 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
         Default ``Sampling()``.
     surface_ids, indices, bias : optional
         As in :func:`pyshadow.visibility.ambient_occlusion`.
+    geometric_normals : array_like, shape (N, 3), optional
+        Unit geometric normals when ``normals`` are shading normals: the
+        hemisphere rule of :mod:`pyshadow.shading_normals` (directions at or
+        below the geometric plane are occluded) applies, through ``visible``
+        on every backend.
 
     Returns
     -------
@@ -64,23 +69,26 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
     n = unit_normals(normals, len(p))
     idx = check_indices(indices, len(p))
     b = vis.get_backend(backend)
-    if hasattr(b, "sh_transfer"):
+    if hasattr(b, "sh_transfer") and geometric_normals is None:
         return b.sh_transfer(scene, p, n, sampling=sampling, bias=bias, indices=idx, surface_ids=surface_ids)
     S = sampling.samples
     dirs, lit = sample_visibility(scene, p, n, backend=b, sampling=sampling, indices=idx,
-                                  surface_ids=surface_ids, bias=bias)
+                                  surface_ids=surface_ids, bias=bias, geometric_normals=geometric_normals)
     Y = sh_basis(dirs.astype(np.float64))                                        # (N, S, 9)
     transfer = (math.pi / S) * np.einsum("ns,nsk->nk", lit.astype(np.float64), Y)
     ao, bent = ao_from_samples(dirs, lit, n.astype(np.float32), return_bent_normals=True)
     return ao, bent, transfer.astype(np.float32)
 
 
-def sample_visibility(scene, points, normals, *, backend, sampling, indices, surface_ids=None, bias=None):
+def sample_visibility(scene, points, normals, *, backend, sampling, indices, surface_ids=None, bias=None,
+                      geometric_normals=None):
     """The AO directions of each point and whether each reaches the sky, through ``visible``.
 
     ``dirs`` (N, S, 3) float32 are :func:`pyshadow.sample_directions`' (those the
     AO kernel traces) and ``lit`` (N, S) bool their visibility, asked with the
     points' unit ``normals`` (the surface rule) and ``surface_ids`` (int or (N,)).
+    With ``geometric_normals`` (N, 3), directions at or below the geometric
+    plane are not lit and not traced (:func:`pyshadow.shading_normals.below_geometric`).
     """
     from .. import visibility as vis
     from ..sampling import sample_directions
@@ -90,9 +98,17 @@ def sample_visibility(scene, points, normals, *, backend, sampling, indices, sur
     S = sampling.samples
     dirs = sample_directions(n, sampling=sampling, indices=indices)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
-    lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
-                      surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
-    return dirs, lit
+    if geometric_normals is None:
+        lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
+                          surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
+        return dirs, lit
+    from ..shading_normals import below_geometric
+
+    up = np.flatnonzero(~below_geometric(dirs, geometric_normals).reshape(-1))
+    lit = np.zeros(len(p) * S, bool)
+    lit[up] = vis.visible(scene, np.repeat(p, S, axis=0)[up], dirs.reshape(-1, 3)[up], backend=backend, bias=bias,
+                          surface_ids=None if ids is None else ids[up], normals=np.repeat(n, S, axis=0)[up])
+    return dirs, lit.reshape(len(p), S)
 
 
 def transfer_irradiance(coefficients, transfer) -> np.ndarray:

@@ -1,0 +1,291 @@
+"""Smooth shading normals with sharp creases, and the hemisphere rule that goes with them (issue 19).
+
+Stage "render" option ``normals="smooth"`` (:func:`pyshadow.render.render`).
+The G-buffer holds each pixel's geometric (face) normal; a tessellated curved
+surface then shades as facets (every facet of the bundled torus is a band in
+its AO image). With smooth normals each pixel's *shading normal* is
+interpolated from its face's corners instead:
+
+Corner normals (:func:`corner_normals`, once per mesh and crease angle,
+cached with the mesh)
+    The normal of corner ``(f, v)`` is the angle-weighted sum (Thürmer and
+    Wüthrich 1998: each face weighted by its angle at ``v``) of the unit
+    normals of the faces around vertex ``v`` whose normal lies within the
+    *crease angle* of face ``f``'s normal, normalised. Faces meeting at a
+    larger dihedral angle keep a sharp crease between them; a face whose
+    neighbours are all beyond the crease angle keeps its flat normal
+    exactly. Vertices are shared by index (:func:`pyshadow.load_mesh`
+    merges coincident ones). Computed in the mesh's own frame and carried to
+    the world by the inverse transpose of the instance's 3x3 part.
+Per pixel (:func:`shading_gbuffer`)
+    The barycentric interpolation of the face's corner normals at the
+    pixel's surface point (from the G-buffer's ``face`` and ``depth``,
+    float64 on the host), normalised and turned to the side of the
+    G-buffer's normal (the side facing the camera). Pixels of faces whose
+    three corner normals equal the face normal keep the G-buffer's normal
+    bit for bit, so a mesh without smooth regions renders exactly as with
+    ``normals="flat"``. With the crease angle below 90 degrees every corner
+    normal, hence every interpolated one, lies within it of the face normal:
+    ``n_s . n_g > 0``.
+
+The hemisphere rule (:func:`below_geometric`)
+    AO, the sun and the sky's samples use the hemisphere of the shading
+    normal ``n_s``: directions are drawn about it exactly as about a flat
+    normal (:func:`pyshadow.sample_directions` of ``n_s``). A direction at or
+    below the *geometric* tangent plane (``w . n_g <= 0``) would leave
+    through the surface itself; it counts as occluded, decided analytically
+    before any ray is traced (the usual guard against light leaking through
+    a smoothed surface). Every backend applies the same rule on the same
+    directions (:func:`ambient_occlusion`; the "sampled" and "transfer" sky
+    and the sun through ``geometric_normals=`` in
+    :mod:`pyshadow.lighting`), Embree included, so a backend's agreement
+    with Embree is measured on identical rays.
+"""
+from __future__ import annotations
+
+import math
+import weakref
+
+import numpy as np
+
+from .materials import barycentrics
+
+__all__ = ["NORMAL_MODES", "DEFAULT_CREASE_ANGLE", "corner_normals", "check_crease_angle", "shading_gbuffer",
+           "pixel_surface", "below_geometric", "ambient_occlusion"]
+
+#: Accepted values of ``normals=``: the G-buffer's face normals, or interpolated ones with creases.
+NORMAL_MODES = ("flat", "smooth")
+#: Default crease angle, radians (30 degrees, Blender's default auto-smooth angle): faces meeting at a
+#: larger angle keep a sharp edge. The bundled torus's facets meet at 5.6 and 15 degrees.
+DEFAULT_CREASE_ANGLE = math.radians(30.0)
+
+# mesh -> {crease angle: (corner normals (T, 3, 3), smooth face mask (T,))}; a mesh changed in place
+# hashes differently and misses
+_CORNERS = weakref.WeakKeyDictionary()
+
+
+def check_crease_angle(angle) -> float:
+    """``angle`` as a float in [0, pi/2) radians, or a ValueError naming it."""
+    try:
+        a = float(angle)
+    except (TypeError, ValueError):
+        raise ValueError(f"crease_angle: expected a number of radians (got {angle!r})") from None
+    if isinstance(angle, bool) or not (0.0 <= a < math.pi / 2):
+        raise ValueError(f"crease_angle: expected radians in [0, pi/2) (got {angle!r}); at pi/2 or more a "
+                         f"shading normal could turn away from its face")
+    return a
+
+
+def _face_normals(v, faces) -> np.ndarray:
+    n = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    return n / np.where(length > 0, length, 1.0)
+
+
+def _corner_angles(v, faces) -> np.ndarray:
+    """Interior angle of each face at each of its corners, (T, 3) float64 radians."""
+    out = np.empty(faces.shape)
+    for k in range(3):
+        a = v[faces[:, (k + 1) % 3]] - v[faces[:, k]]
+        b = v[faces[:, (k + 2) % 3]] - v[faces[:, k]]
+        out[:, k] = np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.einsum("ij,ij->i", a, b))
+    return out
+
+
+def corner_normals(mesh, crease_angle: float = DEFAULT_CREASE_ANGLE, *, return_smooth: bool = False):
+    """Unit shading normal of each face corner, in the mesh's own frame (module docstring).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    crease_angle : float, optional
+        Radians in [0, pi/2): faces whose normals differ by more keep a crease.
+    return_smooth : bool, optional
+        Also return which faces have a corner normal other than their face normal.
+
+    Returns
+    -------
+    normals : ndarray, shape (T, 3, 3), float64
+        ``normals[f, k]`` belongs to vertex ``mesh.faces[f, k]`` of face ``f``
+        (winding side). Read-only (cached with the mesh).
+    smooth : ndarray, shape (T,), bool
+        Only with ``return_smooth``.
+    """
+    crease = check_crease_angle(crease_angle)
+    held = _CORNERS.setdefault(mesh, {})
+    if crease not in held:
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64)
+        fn = _face_normals(v, faces)
+        weight = _corner_angles(v, faces).reshape(-1)
+        vert = faces.reshape(-1)                      # corner c = 3 f + k
+        order = np.argsort(vert, kind="stable")
+        counts = np.bincount(vert, minlength=len(v))
+        start = np.concatenate([[0], np.cumsum(counts)])
+        # every pair (c, c') of corners at the same vertex, c in sorted order
+        size = counts[vert[order]]
+        first = start[vert[order]]
+        c = np.repeat(order, size)
+        offset = np.arange(len(c)) - np.repeat(np.cumsum(size) - size, size)
+        c2 = order[np.repeat(first, size) + offset]
+        f, f2 = c // 3, c2 // 3
+        near = np.einsum("ij,ij->i", fn[f], fn[f2]) >= math.cos(crease)
+        c, f2 = c[near], f2[near]
+        w = weight[c2[near]]
+        acc = np.column_stack([np.bincount(c, weights=w * fn[f2, j], minlength=len(vert)) for j in range(3)])
+        length = np.linalg.norm(acc, axis=1, keepdims=True)
+        own = np.repeat(fn, 3, axis=0)
+        out = np.where(length > 0, acc / np.where(length > 0, length, 1.0), own).reshape(-1, 3, 3)
+        # a corner whose only contributions are faces parallel to its own keeps the face normal exactly
+        alone = np.bincount(c, weights=(np.abs(fn[f2] - own[c]).max(axis=1) > 0).astype(np.float64),
+                            minlength=len(vert)) == 0
+        out.reshape(-1, 3)[alone] = own[alone]
+        smooth = (out != fn[:, None, :]).any(axis=(1, 2))
+        out.setflags(write=False)
+        smooth.setflags(write=False)
+        held[crease] = (out, smooth)
+    out, smooth = held[crease]
+    return (out, smooth) if return_smooth else out
+
+
+def pixel_surface(items, gbuffer, camera):
+    """Where each covered pixel lies on its mesh: item, face and barycentric coordinates.
+
+    Parameters
+    ----------
+    items : sequence of (mesh, transform)
+        The drawn items of the G-buffer (its ``object_id`` indexes them).
+    gbuffer : dict
+        :func:`pyshadow.render_gbuffer`'s form, with ``face``.
+    camera : pyshadow.Camera
+
+    Returns
+    -------
+    index : ndarray, shape (K,), int64
+        Flat pixel index of each covered pixel.
+    item, face : ndarray, shape (K,), int64
+    bary : ndarray, shape (K, 3), float64
+        In the face's corner order (:func:`pyshadow.materials.barycentrics`
+        of the pixel's point ``eye + depth * ray`` in the world triangle).
+    """
+    if "face" not in gbuffer:
+        raise ValueError("the G-buffer has no 'face' buffer: smooth normals and surface colours need each "
+                         "pixel's face (pyshadow.render_gbuffer and pyshadow.embree.gbuffer give it)")
+    obj = np.asarray(gbuffer["object_id"]).reshape(-1)
+    index = np.flatnonzero(obj >= 0)
+    item, face = obj[index].astype(np.int64), np.asarray(gbuffer["face"]).reshape(-1)[index].astype(np.int64)
+    dirs = camera.ray_directions().reshape(-1, 3)[index]
+    p = camera.eye + np.asarray(gbuffer["depth"]).reshape(-1)[index, None].astype(np.float64) * dirs
+    bary = np.zeros((len(index), 3))
+    for i in np.unique(item):
+        mesh, T = items[i]
+        sel = np.flatnonzero(item == i)
+        T = np.asarray(T, dtype=np.float64)
+        w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
+        bary[sel] = barycentrics(p[sel], w[np.asarray(mesh.faces)[face[sel]]])
+    return index, item, face, bary
+
+
+def shading_gbuffer(items, gbuffer, camera, crease_angle: float = DEFAULT_CREASE_ANGLE, surface=None) -> dict:
+    """A copy of ``gbuffer`` whose ``normal`` is the smooth shading normal (module docstring).
+
+    Parameters
+    ----------
+    items, gbuffer, camera :
+        As in :func:`pixel_surface`.
+    crease_angle : float, optional
+        Radians, as in :func:`corner_normals`.
+    surface : tuple, optional
+        :func:`pixel_surface`'s result, if computed already.
+
+    Returns
+    -------
+    dict
+        The G-buffer's arrays, ``normal`` (H, W, 3) float32 replaced by the
+        unit world shading normal (facing the camera's side, 0 on the
+        background) and ``geometric_normal`` (H, W, 3) float32 the
+        G-buffer's own normal.
+    """
+    crease = check_crease_angle(crease_angle)
+    index, item, face, bary = pixel_surface(items, gbuffer, camera) if surface is None else surface
+    ng = np.asarray(gbuffer["normal"], dtype=np.float32)
+    out_n = ng.copy().reshape(-1, 3)
+    for i in np.unique(item):
+        mesh, T = items[i]
+        corners, smooth = corner_normals(mesh, crease, return_smooth=True)
+        sel = np.flatnonzero(item == i)
+        sel = sel[smooth[face[sel]]]
+        if not len(sel):
+            continue
+        M = np.linalg.inv(np.asarray(T, dtype=np.float64)[:3, :3])      # n_world ~ n @ M = M^T n
+        f = face[sel]
+        n = np.einsum("nk,nkj->nj", bary[sel], corners[f]) @ M
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        v = np.asarray(mesh.vertices, dtype=np.float64)
+        fn = _face_normals(v, np.asarray(mesh.faces)[f]) @ M               # the face's normal, same map
+        g = ng.reshape(-1, 3)[index[sel]].astype(np.float64)
+        flip = np.einsum("ij,ij->i", fn, g) < 0
+        out_n[index[sel]] = np.where(flip[:, None], -n, n).astype(np.float32)
+    out = dict(gbuffer)
+    out["normal"] = out_n.reshape(ng.shape)
+    out["geometric_normal"] = ng
+    return out
+
+
+def below_geometric(directions, geometric_normals) -> np.ndarray:
+    """Directions at or below the geometric tangent plane, ``w . n_g <= 0``: (N, S) bool.
+
+    ``directions`` (N, S, 3) and ``geometric_normals`` (N, 3), any float
+    type (the product is taken in float64).
+    """
+    d = np.asarray(directions, dtype=np.float64)
+    g = np.asarray(geometric_normals, dtype=np.float64)
+    return np.einsum("nsj,nj->ns", d, g) <= 0.0
+
+
+def ambient_occlusion(scene, points, normals, geometric_normals, *, backend="csm", sampling=None, indices=None,
+                      surface_ids=None, bias=None):
+    """AO and bent normals about shading normals, under the hemisphere rule (module docstring).
+
+    The backend's AO kernel answers every point whose shading normal is its
+    geometric normal and every point none of whose directions falls below the
+    geometric plane (the rule changes nothing there); the others are asked
+    through :func:`pyshadow.visibility.visible` on the same directions
+    (:func:`pyshadow.lighting.transfer.sample_visibility`) with the rule applied.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : ndarray, shape (N, 3), float64
+        World positions.
+    normals, geometric_normals : ndarray, shape (N, 3)
+        Unit world shading and geometric normals (``n_s . n_g > 0``).
+    backend, sampling, indices, surface_ids, bias :
+        As in :func:`pyshadow.visibility.ambient_occlusion`.
+
+    Returns
+    -------
+    ao : ndarray, shape (N,), float32
+    bent : ndarray, shape (N, 3), float32
+    """
+    from . import visibility as vis
+    from .lighting.transfer import sample_visibility
+    from .sampling import Sampling, ao_from_samples, sample_directions
+
+    sampling = Sampling() if sampling is None else sampling
+    n = np.asarray(normals)
+    ng = np.asarray(geometric_normals)
+    idx = np.arange(len(n)) if indices is None else np.asarray(indices, dtype=np.int64)
+    ao, bent = vis.ambient_occlusion(scene, points, n, backend=backend, sampling=sampling, return_bent_normals=True,
+                                     bias=bias, indices=idx, surface_ids=surface_ids)
+    tilted = np.flatnonzero((n != ng).any(axis=1))
+    if len(tilted):
+        below = below_geometric(sample_directions(n[tilted], sampling=sampling, indices=idx[tilted]), ng[tilted])
+        redo = tilted[below.any(axis=1)]
+        if len(redo):
+            ids = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (len(n),))[redo]
+            dirs, lit = sample_visibility(scene, np.asarray(points)[redo], n[redo], backend=backend,
+                                          sampling=sampling, indices=idx[redo], surface_ids=ids, bias=bias,
+                                          geometric_normals=ng[redo])
+            ao[redo], bent[redo] = ao_from_samples(dirs, lit, n[redo].astype(np.float32), return_bent_normals=True)
+    return ao, bent

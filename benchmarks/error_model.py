@@ -35,10 +35,11 @@ from _common import emit, environment
 TARGETS = (0.02, 0.01, 0.005)
 
 
-def choose(mesh, target, layers="auto"):
+def choose(mesh, target, layers="auto", lookup="auto"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)         # a miss is reported in the row
-        return pyshadow.CoherentShadowMap.build(mesh, max_error=target, layers=layers, progress=False)
+        return pyshadow.CoherentShadowMap.build(mesh, max_error=target, layers=layers, lookup=lookup,
+                                                progress=False)
 
 
 def mesh_row(name, mesh, target):
@@ -46,7 +47,8 @@ def mesh_row(name, mesh, target):
     c = csm.stats["choice"]
     p, m = c["predicted"], c["measured"]
     built = [t for t in c["tried"] if "build_seconds" in t]
-    row = {"mesh": name, "target": target, "choice": p["layout"], "bytes": csm.stats["bytes"], "met": c["met"],
+    row = {"mesh": name, "target": target, "choice": p["layout"], "lookup": c["lookup"],
+           "bytes": csm.stats["bytes"], "met": c["met"],
            "candidates_predicted": len(c["tried"]), "builds": len(built),
            "model_seconds": sum(t["predicted"]["seconds"] for t in c["tried"]),
            "build_seconds": sum(t["build_seconds"] for t in built), "choice_seconds": c["seconds"]}
@@ -109,7 +111,7 @@ def main(argv=None):
             chosen[name, target] = csm
             rows.append(row)
             if not args.json:
-                print(f"{name:20s} {target:.3f} {row['choice']:16s} own {row['predicted_own']:.4f}/"
+                print(f"{name:20s} {target:.3f} {row['choice']:16s} {row['lookup']:7s} own {row['predicted_own']:.4f}/"
                       f"{row['measured_own']:.4f} near {row['predicted_near']:.4f}/{row['measured_near']:.4f} "
                       f"ratio {row['ratio'] if row['ratio'] is None else round(row['ratio'], 2)} met {row['met']} "
                       f"{row['bytes'] / 1e6:.2f} MB  model {row['model_seconds']:.1f} s build "
@@ -127,7 +129,10 @@ def main(argv=None):
         s.add(chosen["stanford-bunny.obj", target], pyshadow.stand_on_ground(bunny), mesh=bunny)
         s.add(chosen["fandisk.obj", target], pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4),
                                                                       rotation=rot), mesh=fandisk)
-        two[target] = scene_study(s, {0: bunny, 1: fandisk})
+        lk = "vote" if any(chosen[n, target].stats["choice"]["lookup"] == "vote"
+                           for n in ("stanford-bunny.obj", "fandisk.obj")) else "nearest"
+        two[target] = scene_study(s, {0: bunny, 1: fandisk}, lookup=lk)
+        two[target]["lookup"] = lk
         if not args.json:
             a = two[target]["all"]
             print(f"two-object scene {target:.3f}: predicted {a['predicted']:.4f} measured {a['measured']:.4f} "
@@ -139,14 +144,17 @@ def main(argv=None):
     for name, (m, T) in parts.items():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
-            mixed.add(m, T, max_error=0.01)
-    study = scene_study(mixed, {i: parts[n][0] for i, n in enumerate(parts)})
+            mixed.add(m, T, max_error=0.01, lookup="auto")
+    lk = "vote" if any(inst.csm.stats["choice"]["lookup"] == "vote" for inst in mixed.instances) else "nearest"
+    study = scene_study(mixed, {i: parts[n][0] for i, n in enumerate(parts)}, lookup=lk)
     csms = [inst.csm for inst in mixed.instances]
     detailed = max(csms, key=lambda c: c.maps * c.resolution ** 2)
     same = [detailed.stats["bytes"] if c is detailed else
             pyshadow.CoherentShadowMap.build(parts[n][0], detailed.views, resolution=detailed.resolution,
                                              progress=False).stats["bytes"] for n, c in zip(parts, csms)]
-    mixed_out = {"bodies": {n: {"choice": c.stats["choice"]["predicted"]["layout"], "bytes": c.stats["bytes"],
+    mixed_out = {"lookup": lk,
+                 "bodies": {n: {"choice": c.stats["choice"]["predicted"]["layout"], "bytes": c.stats["bytes"],
+                                "lookup": c.stats["choice"]["lookup"],
                                 "agreement": study[f"body{i}"]["agreement"]}
                             for i, (n, c) in enumerate(zip(parts, csms))},
                  "bytes_chosen": sum(c.stats["bytes"] for c in csms), "bytes_at_detailed_parameters": sum(same),
@@ -161,7 +169,7 @@ def main(argv=None):
         print(f"measured / predicted over {len(ratios)} mesh rows: {min(ratios):.2f} .. {max(ratios):.2f} "
               f"(median {np.median(ratios):.2f}); all within 1.5x: {res['all_within_1_5']}; all met: {res['all_met']}")
         for n, b in mixed_out["bodies"].items():
-            print(f"mixed scene at 1 %: {n} {b['choice']} {b['bytes'] / 1e6:.2f} MB, agreement {b['agreement']:.4%}")
+            print(f"mixed scene at 1 %: {n} {b['choice']} {b['lookup']} {b['bytes'] / 1e6:.2f} MB, agreement {b['agreement']:.4%}")
         print(f"mixed scene bytes {mixed_out['bytes_chosen'] / 1e6:.2f} MB against "
               f"{mixed_out['bytes_at_detailed_parameters'] / 1e6:.2f} MB at the detailed body's parameters")
         print(f"total {res['seconds']:.0f} s")

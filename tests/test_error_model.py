@@ -1,4 +1,5 @@
 """The error model (traced taps) against built CSMs, and build(max_error=...) / Scene.add(max_error=...)."""
+import warnings
 
 import numpy as np
 import pytest
@@ -195,3 +196,20 @@ def test_budget_gives_the_most_accurate_that_fits(torus):
         choose_within(torus, 1000, points=100, samples=4, near=500, candidates=cands)
     with pytest.raises(TypeError, match="not both"):
         pyshadow.CoherentShadowMap.build(torus, max_error=0.01, max_bytes=10**6)
+
+
+def test_auto_lookup_takes_the_vote_only_where_one_texel_cannot(torus):
+    one = ((16, 32, 64),)
+    p_near = predict(torus, (16, 32), 64, lookup="nearest", points=400, samples=8, near=3000, seed=7)
+    p_vote = predict(torus, (16, 32), 64, lookup="vote", points=400, samples=8, near=3000, seed=7)
+    assert p_vote["disagreement"] < p_near["disagreement"]
+    loose = 1.01 * MODEL_RATIO[1] * p_near["disagreement"]          # one-texel meets it: no vote
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        csm, c = choose_csm(torus, loose, lookup="auto", points=400, samples=8, near=3000, candidates=one)
+        assert c["lookup"] == "nearest" and len(c["tried"]) == 1
+        tight = MODEL_RATIO[1] * (p_vote["disagreement"] + p_near["disagreement"]) / 2
+        csm, c = choose_csm(torus, tight, lookup="auto", points=400, samples=8, near=3000, candidates=one)
+    assert [t["predicted"]["lookup"] for t in c["tried"]] == ["nearest", "vote"]
+    assert c["lookup"] == "vote" and "measured" not in c["tried"][0]
+    assert c["met"] == (c["measured"]["disagreement"] <= tight)

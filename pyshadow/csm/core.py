@@ -186,8 +186,9 @@ class CoherentShadowMap:
             How it chose is in ``stats["choice"]``.
         max_bytes : int, optional
             The other way round: the most accurate CSM within this size.
-        lookup : {'nearest', 'vote'}, optional
-            With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with.
+        lookup : {'nearest', 'vote', 'auto'}, optional
+            With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with
+            (``'auto'``, ``max_error`` only: one-texel where it can meet it, else the vote).
         verify : bool, optional
             With ``max_error``: measure the built CSM against Embree on
             independent rays, and go on to the next candidate where it misses;

@@ -295,6 +295,6 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         return ao
     b = (directions * visible[..., None]).sum(axis=1)
     length = np.linalg.norm(b, axis=1, keepdims=True)
-    b = np.where(length > 0, b / np.maximum(length, 1e-300), normals)
+    b = np.where(length > 0, b / np.maximum(length, np.finfo(length.dtype).tiny), normals)
     return ao, b.astype(np.float32)
 

@@ -348,7 +348,7 @@ class Scene:
 
     def render(self, camera, *args, sampling: Sampling | None = None, lookup: str = "nearest",
                denoise: str | None = None, ao_scale: int = 1, ground_size: float | None = None,
-               bias: float | None = None, backend=None, **old):
+               bias: float | None = None, backend=None, normals: str = "flat", crease_angle=None, **old):
         """Render AO and the G-buffer of the scene from ``camera``: :func:`pyshadow.render.render`.
 
         Parameters
@@ -364,6 +364,8 @@ class Scene:
             AO at 1/ao_scale resolution, upsampled with the G-buffer.
         ground_size : float, optional
             Side of the drawn ground quad (:meth:`ground_quad`).
+        normals, crease_angle : optional
+            Shading normals, as :func:`pyshadow.render.render` (``crease_angle`` None: its default).
         **old
             Deprecated: ``samples, strategy, seed, patterns`` (also
             positionally, in that order), ``filter`` and ``filtered``.
@@ -382,8 +384,9 @@ class Scene:
             denoise = old.pop("filter")
         sampling, _, name = _query_options("Scene.render", args, old, sampling, False, lookup, backend,
                                            Sampling(), _RENDER_ORDER)
+        extra = {} if crease_angle is None else {"crease_angle": crease_angle}
         return render_stage.render(self, camera, visibility=name, sampling=sampling, denoise=denoise,
-                                   ao_scale=ao_scale, ground_size=ground_size, bias=bias)
+                                   ao_scale=ao_scale, ground_size=ground_size, bias=bias, normals=normals, **extra)
 
 
 def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:

@@ -299,3 +299,13 @@ def test_a_foreign_visual_is_refused():
     mesh.metadata[VISUAL_KEY] = "red"
     with pytest.raises(TypeError, match="MeshVisual"):
         visual_of(mesh)
+
+
+def test_scene_render_passes_the_shading_normals_on():
+    s, cam = pyshadow.data.default_scene(views=pyshadow.ViewSet.zigzag(8, 16), resolution=32, width=64, height=48)
+    a = s.render(cam, sampling=pyshadow.Sampling(8), normals="smooth", crease_angle=0.3)
+    b = pyshadow.render.render(s, cam, sampling=pyshadow.Sampling(8), normals="smooth", crease_angle=0.3)
+    assert np.array_equal(a.ao, b.ao) and np.array_equal(a.normal, b.normal)
+    flat = s.render(cam, sampling=pyshadow.Sampling(8))
+    assert not np.array_equal(a.normal, flat.normal) and a.geometric_normal is not None
+    np.testing.assert_array_equal(a.geometric_normal, flat.normal)

@@ -27,8 +27,12 @@ of radiance and the lit frame time beside AO alone, and writes
 
 ``--sweep`` runs the speed/accuracy trade study instead (maps, resolution,
 samples, filter, depth bits) and writes ``sweep.json``, ``sweep.md`` and
-``pareto.png``; ``--max-error E`` names the fastest configuration of a sweep
-whose AO RMSE (against the converged reference) is at most ``E``.
+``pareto.png``; with ``--sweep``, ``--max-error E`` names the fastest row of
+the sweep whose AO RMSE (against the converged reference) is at most ``E``.
+``--max-error E`` alone answers without a sweep: a model of AO noise, bias
+and frame time fitted to a few renders of the base CSMs chooses the sample
+count and filter, and a render of the choice verifies it
+(:mod:`~pyshadow.bench.answer`, ``max_error.json``).
 
 Every figure of ``results.json`` is an object ``{"value": ..., "unit": ...,
 "label": ...}``; see ``benchmarks/README.md`` for the schema and the
@@ -40,6 +44,7 @@ Usage::
     pyshadow-bench --quick               # smaller settings
     pyshadow-bench --quick --sky clear   # also the lit frame: radiance.exr, lit.png
     pyshadow-bench --sweep --max-error 0.02
+    pyshadow-bench --max-error 0.02      # from a model, verified: no sweep
     pyshadow-bench --mesh a.obj --mesh b.ply --json
     python -m pyshadow.bench ...         # the same
 
@@ -50,7 +55,8 @@ Modules: :mod:`~pyshadow.bench.cli` (options, ``main``, output files),
 errors, converged reference), :mod:`~pyshadow.bench.single` (the single
 benchmark), :mod:`~pyshadow.bench.lit` (``--sky``: the lit frame),
 :mod:`~pyshadow.bench.sweep` (the sweep, Pareto front,
-``--max-error``), :mod:`~pyshadow.bench.report` (table, markdown, plots,
+``--sweep --max-error``), :mod:`~pyshadow.bench.answer` (``--max-error``
+alone: the model and its verification), :mod:`~pyshadow.bench.report` (table, markdown, plots,
 difference image), :mod:`~pyshadow.bench.common` (progress, figure
 records). The CSM cache is :mod:`pyshadow.cache`; the threaded Embree
 tracer is :class:`pyshadow.embree.EmbreeTracer`.
@@ -58,6 +64,7 @@ tracer is :class:`pyshadow.embree.EmbreeTracer`.
 
 from ..cache import CSMCache, default_cache_dir
 from ..embree import EmbreeTracer
+from .answer import MAX_ERROR_SCHEMA, FilterModel, run_max_error
 from .cli import build_parser, main
 from .common import environment
 from .config import PRESETS, SWEEP_GRIDS, Config
@@ -74,4 +81,6 @@ __all__ = ["main", "PRESETS", "SWEEP_GRIDS", "Config", "CSMCache", "EmbreeTracer
            "build_parser", "by_surface", "converged_reference", "default_cache_dir", "difference_rgb",
            "embree_pass", "environment", "format_table", "GBuffer", "pareto_plot", "run_main",
            "run_sweep", "SceneFactory", "SCHEMA", "SWEEP_SCHEMA", "best_under", "sweep_configs",
-           "sweep_markdown", "time_rays", "TIMED_SAMPLES", "visibility_pass"]
+           "sweep_markdown", "time_rays", "TIMED_SAMPLES", "visibility_pass",
+           # --max-error without --sweep
+           "FilterModel", "MAX_ERROR_SCHEMA", "run_max_error"]

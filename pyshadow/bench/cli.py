@@ -10,6 +10,7 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 from ..cache import CSMCache, default_cache_dir
+from .answer import answer_text, run_max_error
 from .common import _PROGRESS, _Log
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
@@ -17,7 +18,7 @@ from .lit import sky_lighting
 from .report import format_table, pareto_plot, sweep_markdown
 from .scenes import SceneFactory, _load_meshes
 from .single import run_main
-from .sweep import SWEEP_SCHEMA, _answer, _answer_text, run_sweep
+from .sweep import _answer, run_sweep
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="Defaults: zigzag 64x128 maps of 128^2 texels, 16-bit depth, 640x480, 36 samples, "
                "1024-sample reference (< 3 min on 2 CPU cores, most of it the first CSM build and "
                "the reference). --quick: 32x64 maps, 320x240, 512-sample reference (< 1 min). "
-               "The sweep's full grid takes about 8 minutes cold on 2 CPU cores. "
+               "The sweep's full grid takes about 8 minutes cold on 2 CPU cores; --max-error E "
+               "alone answers from a model in seconds once the CSMs and reference are cached. "
                "See benchmarks/README.md.")
     mode = ap.add_argument_group("what to run")
     mode.add_argument("--quick", action="store_true",
@@ -44,9 +46,12 @@ def build_parser() -> argparse.ArgumentParser:
                       help="rows of the sweep (default: 'quick' with --quick, else 'full'; "
                            "'tiny' is for tests)")
     mode.add_argument("--max-error", type=_positive_float, metavar="E",
-                      help="print the fastest sweep configuration with AO RMSE <= E (vs the "
-                           "converged reference); with --sweep from the new sweep, else from "
-                           "OUT/sweep.json of an earlier sweep (no benchmark is run)")
+                      help="answer the fastest configuration with AO RMSE <= E (vs the converged "
+                           "reference). Alone: from a model of noise, bias and frame time fitted "
+                           "to a few renders of the base CSMs (samples x filter none/bilateral), "
+                           "then verified by rendering the choice; writes max_error.json, runs no "
+                           "sweep and reads no earlier sweep.json. With --sweep: the fastest row "
+                           "of the new sweep")
     mode.add_argument("--mesh", action="append", metavar="PATH",
                       help="use this mesh instead of the default bodies (repeatable); each is "
                            "scaled to bounding radius 1 and stood on the ground, side by side")
@@ -54,8 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
     io.add_argument("--out", default="pyshadow-bench-out", metavar="DIR",
                     help="output directory (default ./pyshadow-bench-out)")
     io.add_argument("--json", action="store_true",
-                    help="print results.json (sweep.json with --sweep) on stdout and nothing else; "
-                         "the table goes to stderr")
+                    help="print results.json (sweep.json with --sweep, max_error.json with "
+                         "--max-error alone) on stdout and nothing else; the table goes to stderr")
     io.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
     io.add_argument("--cache-dir", metavar="DIR",
                     help="CSM and reference cache (default $PYSHADOW_CACHE, else "
@@ -132,25 +137,6 @@ def main(argv=None) -> int:
     out = Path(args.out).expanduser()
     args.out = str(out)
 
-    # --max-error alone: answer from an earlier sweep
-    if args.max_error is not None and not args.sweep:
-        path = out / "sweep.json"
-        try:
-            sw = json.loads(path.read_text())
-            if sw.get("schema") != SWEEP_SCHEMA:
-                raise ValueError(f"not a pyshadow-bench sweep (schema {sw.get('schema')!r})")
-        except FileNotFoundError:
-            ap.error(f"--max-error without --sweep reads {path}, which does not exist; "
-                     "run with --sweep (or point --out at an earlier sweep)")
-        except (OSError, ValueError) as e:
-            ap.error(f"--max-error: cannot read {path} ({e})")
-        ans = _answer(sw, args.max_error)
-        if args.json:
-            _emit({"max_error": ans}, None, True)
-        else:
-            print(_answer_text(ans))
-        return 0
-
     if args.sweep_grid is not None and not args.sweep:
         ap.error("--sweep-grid needs --sweep")
     meshes = None
@@ -159,10 +145,13 @@ def main(argv=None) -> int:
             meshes = _load_meshes(args.mesh)
         except ValueError as e:
             ap.error(str(e))
+    answer_mode = args.max_error is not None and not args.sweep
+    if answer_mode and args.filter != "none":
+        ap.error("--filter: --max-error chooses the filter itself (none or bilateral)")
     lighting = None
     if args.sky is not None:
-        if args.sweep:
-            ap.error("--sky is for the single benchmark, not --sweep")
+        if args.sweep or answer_mode:
+            ap.error("--sky is for the single benchmark, not --sweep or --max-error")
         try:
             lighting = sky_lighting(args.sky)
         except (OSError, ValueError) as e:
@@ -186,6 +175,10 @@ def main(argv=None) -> int:
             args.sweep_grid = "quick" if args.quick else "full"
         if "repeats" not in explicit:
             args.repeats = 3
+    elif answer_mode:
+        args.mode = "max-error"
+        if "repeats" not in explicit:
+            args.repeats = 3          # renders per model configuration: 1 untimed, 2 timed
     cfg = Config(tuple(args.maps), args.resolution, args.depth_bits, args.samples,
                  None if args.filter == "none" else args.filter, bool(args.filtered_lookup))
 
@@ -209,6 +202,12 @@ def main(argv=None) -> int:
         write_bytes_atomic(out / "sweep.md", sweep_markdown(sw).encode())
         _emit(sw, out / "sweep.json", args.json)
         print(sweep_markdown(sw), file=sys.stderr if args.json else sys.stdout)
+        return 0
+
+    if answer_mode:
+        rec = run_max_error(args, cfg, factory, cache, log)
+        _emit(rec, out / "max_error.json", args.json)
+        print(answer_text(rec), file=sys.stderr if args.json else sys.stdout)
         return 0
 
     result = run_main(args, cfg, factory, cache, log, lighting)

@@ -405,7 +405,7 @@ def test_bench_sweep_tiny_and_max_error(tmp_path, cache_dir):
     (["--exposure", "2"], "--exposure needs --sky"),
     (["--sky", "clear", "--sweep"], "--sky is for the single benchmark"),
     (["--sky", "clear", "--max-error", "0.02"], "--sky is for the single benchmark"),
-    (["--max-error", "0.02", "--filter", "bilateral"], "--max-error chooses the filter"),
+    (["--max-error", "0.02", "--filter", "bilateral"], "--max-error and --frame-budget choose the filter"),
 ])
 def test_bench_bad_arguments(tmp_path, args, message):
     p = bench(*args, "--out", tmp_path / "o", check=False)

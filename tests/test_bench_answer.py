@@ -234,3 +234,28 @@ def test_model_counts():
     assert model_counts(8) == (4, 8, 16)
     assert model_counts(1024) == (4, 16, 64)
     assert model_counts(1) == (1, 4, 16)
+
+
+def test_frame_budget_gives_the_least_predicted_error_within_it(tmp_path):
+    """--frame-budget T: the least predicted RMSE among the candidates predicted within T / TIME_MARGIN,
+    verified by timing; the budget is set between the model's own cheapest and dearest frames."""
+    from pyshadow.bench.answer import TIME_MARGIN
+
+    probe = bench(*TINY, "--max-error", E, "--out", tmp_path / "probe", "--json", cache=tmp_path / "cache")
+    cands = json.loads(probe.stdout)["candidates"]
+    times = sorted(c["predicted_frame_time"]["value"] for c in cands)
+    T = TIME_MARGIN * times[len(times) // 2]                   # about half the candidates fit
+    p = bench(*TINY, "--frame-budget", T, "--out", tmp_path / "b", "--json", cache=tmp_path / "cache")
+    rec = json.loads(p.stdout)
+    assert json.loads((tmp_path / "b" / "frame_budget.json").read_text()) == rec
+    assert "max_error" not in rec and rec["frame_budget"]["budget"]["value"] == pytest.approx(T)
+    first = rec["attempts"][0]
+    fit = [c for c in rec["candidates"] if c["predicted_frame_time"]["value"] <= T / TIME_MARGIN]
+    assert fit and len(fit) < len(rec["candidates"])
+    best = min(fit, key=lambda c: (c["predicted_rmse"]["value"], c["predicted_frame_time"]["value"]))
+    assert first["label"] == best["label"]
+    ans = rec["frame_budget"]
+    assert ans["met"] == (ans["measured"]["frame_time"]["value"] <= T)
+    assert "least AO RMSE within" in p.stderr
+    bad = bench(*TINY, "--frame-budget", T, "--max-error", E, "--out", tmp_path / "c", check=False)
+    assert bad.returncode == 2 and "--frame-budget answers alone" in bad.stderr

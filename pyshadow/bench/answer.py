@@ -1,5 +1,10 @@
 """``--max-error E`` without ``--sweep``: a model of AO error and frame time, its answer, verified.
 
+The other direction, ``--frame-budget T``, uses the same model: the least
+predicted RMSE among the configurations predicted to render within ``T /
+TIME_MARGIN`` seconds a frame, verified by timing it (a verification slower
+than predicted scales every predicted time by as much).
+
 Instead of rendering and timing a grid of configurations, the answer keeps
 the base configuration's CSMs (maps, resolution, depth bits, lookup) and
 chooses only the AO sample count ``S`` and the filter. It renders the base
@@ -70,6 +75,9 @@ MODEL_SAMPLES = (4, 16)
 #: of N pixels), the spread of one seed's RMSE about its expectation, and counts
 #: between the measured ones that converge slower than 1/S from below (no power of two).
 MARGIN = 1.1
+#: ``--frame-budget T``: the predicted frame time must be at most T / TIME_MARGIN (frame times
+#: of single renders on a shared 2-core machine scatter by 10-20 %).
+TIME_MARGIN = 1.2
 #: Verification renders at most (each a miss corrects the model, then the next pick).
 MAX_ATTEMPTS = 3
 #: Timed renders of the verified configuration (median), after its measuring render.
@@ -295,6 +303,20 @@ def choose(preds: list[dict], exclude=()) -> dict | None:
     return min(ok, key=lambda p: (p["frame_time"], p["samples"], p["filter"] is not None))
 
 
+def choose_within_time(preds: list[dict], budget: float, time_scale: float = 1.0, exclude=()) -> dict | None:
+    """The other direction: the least predicted RMSE among candidates predicted within ``budget``.
+
+    A candidate fits when its predicted frame time times ``time_scale`` (raised
+    by a verification that ran slower than predicted) is at most ``budget /
+    TIME_MARGIN``. Ties go to the faster. None when none fits.
+    """
+    ok = [p for p in preds if p["frame_time"] * time_scale <= budget / TIME_MARGIN
+          and (p["samples"], p["filter"]) not in exclude]
+    if not ok:
+        return None
+    return min(ok, key=lambda p: (p["rmse"], p["frame_time"]))
+
+
 def _reference(cache, scene, gb, args, log):
     """(ao, seconds, source) of the converged reference; Embree is started only when not cached."""
     key = _reference_key(scene, gb, args.reference_samples, args.strategy, args.seed, args.patterns)
@@ -346,7 +368,8 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
         the first.
     """
     t_start = time.perf_counter()
-    E = float(args.max_error)
+    budget = getattr(args, "frame_budget", None)
+    E = float(args.max_error) if budget is None else math.inf
     strat, pat, seed = args.strategy, args.patterns, args.seed
     R = max(2, int(args.repeats))
     counts = model_counts(base.samples)
@@ -355,7 +378,7 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
     base = dataclasses.replace(base, filter=None)
     scene, camera, infos = factory(base)
     csm = _csm_summary(infos)
-    log(f"--max-error {E:g}: model from {R} renders at {', '.join(map(str, counts))} samples, filters "
+    log(f"{'--max-error' if budget is None else '--frame-budget'} {E if budget is None else budget:g}: model from {R} renders at {', '.join(map(str, counts))} samples, filters "
         f"{', '.join(str(f or 'none') for f in MODEL_FILTERS)}, on the CSMs of {base.label}")
 
     def render(S, f, sd):
@@ -387,12 +410,11 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
     for m in models.values():
         m.slope = c
     preds = initial = predictions(models, ladder, E)
-    log(f"model fitted in {time.perf_counter() - t_start:.1f} s; "
-        f"{sum(p['meets'] for p in preds)} of {len(preds)} candidates predicted to meet {E:g}")
+    log(f"model fitted in {time.perf_counter() - t_start:.1f} s")
 
-    attempts, tried, answer = [], set(), None
+    attempts, tried, answer, time_scale = [], set(), None, 1.0
     for _ in range(MAX_ATTEMPTS):
-        pick = choose(preds, tried)
+        pick = choose(preds, tried) if budget is None else choose_within_time(preds, budget, time_scale, tried)
         if pick is None:
             break
         S, f = pick["samples"], pick["filter"]
@@ -416,11 +438,16 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
                "measured_mae": _fig(mae, "AO", "AO MAE vs converged, the run's seed"),
                "measured_frame_time": _fig(statistics.median(dts), "s",
                                            f"Scene.render frame time (median of {VERIFY_TIMED})"),
-               "met": bool(rmse <= E), "noise_scale": None}
+               "met": bool(rmse <= E if budget is None else statistics.median(dts) <= budget),
+               "noise_scale": None}
         attempts.append(att)
         if att["met"]:
             answer = att
             break
+        if budget is not None:          # slower than predicted: every prediction by as much
+            time_scale = max(time_scale, statistics.median(dts) / max(pick["frame_time"], 1e-12))
+            log(f"  over budget: {statistics.median(dts) * 1e3:.0f} ms; frame times x{time_scale:.2f}")
+            continue
         # a miss: the noise term of this filter was too small by the measured excess
         m = models[f]
         m.correct(S, rmse)
@@ -428,7 +455,19 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
         log(f"  missed: RMSE {rmse:.4f} > {E:g}; noise term of filter {f or 'none'} x{m.noise_scale:.2f}")
         preds = predictions(models, ladder, E)
     if answer is None and attempts:
-        answer = min(attempts, key=lambda a: a["measured_rmse"]["value"])
+        key = "measured_rmse" if budget is None else "measured_frame_time"
+        answer = min(attempts, key=lambda a: a[key]["value"])
+    verdict = {
+        "label": answer["label"] if answer else None,
+        "config": answer["config"] if answer else None,
+        "predicted": {k: answer[f"predicted_{k}"] for k in ("rmse", "frame_time")} if answer else None,
+        "measured": {k: answer[f"measured_{k}"] for k in ("rmse", "mae", "frame_time")} if answer else None,
+        "met": bool(answer is not None and answer["met"])}
+    if budget is None:
+        verdict["threshold"] = _fig(E, "AO", "largest AO RMSE vs the converged reference allowed")
+    else:
+        verdict["budget"] = _fig(float(budget), "s", "largest frame time allowed")
+        verdict["time_scale"] = time_scale
 
     return {
         "schema": MAX_ERROR_SCHEMA,
@@ -444,15 +483,9 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
         "margin": MARGIN,
         "model": {str(f or "none"): m.as_dict() for f, m in models.items()},
         "candidates": [_candidate(base, p) for p in initial],
+        "time_margin": TIME_MARGIN,
         "attempts": attempts,
-        "max_error": {
-            "threshold": _fig(E, "AO", "largest AO RMSE vs the converged reference allowed"),
-            "label": answer["label"] if answer else None,
-            "config": answer["config"] if answer else None,
-            "predicted": {k: answer[f"predicted_{k}"] for k in ("rmse", "frame_time")} if answer else None,
-            "measured": {k: answer[f"measured_{k}"] for k in ("rmse", "mae", "frame_time")}
-            if answer else None,
-            "met": bool(answer is not None and answer["met"])},
+        ("max_error" if budget is None else "frame_budget"): verdict,
         "runtime": _fig(time.perf_counter() - t_start, "s", "wall time of the model, choice and verification"),
     }
 
@@ -469,6 +502,8 @@ def _candidate(base: Config, p: dict) -> dict:
 def answer_text(rec: dict) -> str:
     """The ``--max-error`` answer of a :func:`run_max_error` record as text: the answer, the
     model, every candidate's prediction, the verifications and the total time."""
+    if "frame_budget" in rec:
+        return _budget_text(rec)
     ans = rec["max_error"]
     E = ans["threshold"]["value"]
     if ans["label"] is None:
@@ -480,7 +515,26 @@ def answer_text(rec: dict) -> str:
                 f"{m['frame_time'] * 1e3:.0f} ms/frame (predicted {p['frame_time'] * 1e3:.0f}), "
                 f"RMSE {m['rmse']:.4f} (predicted {p['rmse']:.4f}): "
                 + ("target met" if ans["met"] else "target MISSED"))
-    lines = [head, "", f"model: {len(rec['model_seeds'])} renders per configuration (seeds "
+    return "\n".join([head, ""] + _model_lines(rec, f"RMSE <= {E:g} / {rec['margin']:g}"))
+
+
+def _budget_text(rec: dict) -> str:
+    """:func:`answer_text` of a ``--frame-budget`` record."""
+    ans = rec["frame_budget"]
+    T = ans["budget"]["value"]
+    if ans["label"] is None:
+        head = f"no configuration is predicted to render within {T * 1e3:.0f} ms a frame"
+    else:
+        p, m = ({k: v["value"] for k, v in ans[x].items()} for x in ("predicted", "measured"))
+        head = (f"least AO RMSE within {T * 1e3:.0f} ms a frame (model, verified): {ans['label']} -- "
+                f"{m['frame_time'] * 1e3:.0f} ms/frame (predicted {p['frame_time'] * 1e3:.0f}), "
+                f"RMSE {m['rmse']:.4f} (predicted {p['rmse']:.4f}): " + ("within" if ans["met"] else "OVER budget"))
+    return "\n".join([head, ""] + _model_lines(rec, None))
+
+
+def _model_lines(rec: dict, star) -> list:
+    """The model, the candidates' predictions, the verifications and the total time, as text lines."""
+    lines = [f"model: {len(rec['model_seeds'])} renders per configuration (seeds "
                        f"{rec['model_seeds'][0]}..{rec['model_seeds'][-1]}), reference "
                        f"{rec['reference_samples']} spp ({rec['converged_source']})"]
     for name, fm in rec["model"].items():
@@ -490,7 +544,7 @@ def answer_text(rec: dict) -> str:
                      f"frame {fm['time_intercept']['value'] * 1e3:.0f} ms + "
                      f"{fm['time_per_sample']['value'] * 1e3:.2f} ms/sample")
     filters = list(dict.fromkeys(c["filter"] for c in rec["candidates"]))
-    lines += ["", f"candidates, predicted (* : RMSE <= {E:g} / {rec['margin']:g}):",
+    lines += ["", "candidates, predicted" + (f" (* : {star}):" if star else ":"),
               "| samples | " + " | ".join(f"{f or 'none'} RMSE | {f or 'none'} ms" for f in filters) + " |",
               "| ---: |" + " ---: | ---: |" * len(filters)]
     by = {(c["samples"], c["filter"]): c for c in rec["candidates"]}
@@ -498,7 +552,7 @@ def answer_text(rec: dict) -> str:
         cells = []
         for f in filters:
             c = by[S, f]
-            cells += [f"{c['predicted_rmse']['value']:.4f}{' *' if c['meets'] else ''}",
+            cells += [f"{c['predicted_rmse']['value']:.4f}{' *' if star and c['meets'] else ''}",
                       f"{c['predicted_frame_time']['value'] * 1e3:.0f}"]
         lines.append(f"| {S} | " + " | ".join(cells) + " |")
     lines.append("")
@@ -508,7 +562,7 @@ def answer_text(rec: dict) -> str:
                      f"ms/frame (predicted {a['predicted_frame_time']['value'] * 1e3:.0f}): "
                      + ("met" if a["met"] else "missed"))
     lines.append(f"total {rec['runtime']['value']:.1f} s")
-    return "\n".join(lines)
+    return lines
 
 
 def _label(cfg: dict) -> str:

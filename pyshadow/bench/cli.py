@@ -52,6 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "then verified by rendering the choice; writes max_error.json, runs no "
                            "sweep and reads no earlier sweep.json. With --sweep: the fastest row "
                            "of the new sweep")
+    mode.add_argument("--frame-budget", type=_positive_float, metavar="SECONDS",
+                      help="the other direction: the configuration (samples x filter on the base "
+                           "CSMs) with the least predicted AO RMSE that renders within SECONDS a "
+                           "frame, from the same model, verified by timing it; writes frame_budget.json")
     mode.add_argument("--mesh", action="append", metavar="PATH",
                       help="use this mesh instead of the default bodies (repeatable); each is "
                            "scaled to bounding radius 1 and stood on the ground, side by side")
@@ -145,13 +149,15 @@ def main(argv=None) -> int:
             meshes = _load_meshes(args.mesh)
         except ValueError as e:
             ap.error(str(e))
-    answer_mode = args.max_error is not None and not args.sweep
+    if args.frame_budget is not None and (args.sweep or args.max_error is not None):
+        ap.error("--frame-budget answers alone: not with --sweep or --max-error")
+    answer_mode = (args.max_error is not None and not args.sweep) or args.frame_budget is not None
     if answer_mode and args.filter != "none":
-        ap.error("--filter: --max-error chooses the filter itself (none or bilateral)")
+        ap.error("--filter: --max-error and --frame-budget choose the filter themselves (none or bilateral)")
     lighting = None
     if args.sky is not None:
         if args.sweep or answer_mode:
-            ap.error("--sky is for the single benchmark, not --sweep or --max-error")
+            ap.error("--sky is for the single benchmark, not --sweep, --max-error or --frame-budget")
         try:
             lighting = sky_lighting(args.sky)
         except (OSError, ValueError) as e:
@@ -176,7 +182,7 @@ def main(argv=None) -> int:
         if "repeats" not in explicit:
             args.repeats = 3
     elif answer_mode:
-        args.mode = "max-error"
+        args.mode = "max-error" if args.frame_budget is None else "frame-budget"
         if "repeats" not in explicit:
             args.repeats = 3          # renders per model configuration: 1 untimed, 2 timed
     cfg = Config(tuple(args.maps), args.resolution, args.depth_bits, args.samples,
@@ -206,7 +212,7 @@ def main(argv=None) -> int:
 
     if answer_mode:
         rec = run_max_error(args, cfg, factory, cache, log)
-        _emit(rec, out / "max_error.json", args.json)
+        _emit(rec, out / ("max_error.json" if args.frame_budget is None else "frame_budget.json"), args.json)
         print(answer_text(rec), file=sys.stderr if args.json else sys.stdout)
         return 0
 

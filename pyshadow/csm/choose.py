@@ -8,11 +8,12 @@ on the body). :func:`choose_csm` walks :data:`~pyshadow.csm.error_model.CANDIDAT
 from the smallest predicted size up, predicts each candidate's
 disagreement with Embree (:func:`pyshadow.csm.error_model.predict`: the
 body's own AO rays and the rays of bodies around it, the larger counts),
-and builds the first whose prediction, widened by the model's measured
-range, meets the target. With ``verify`` the built CSM is measured on rays
-drawn independently of the model's; where it misses, the model's miss on
-this body (measured over predicted) is carried to the remaining candidates
-and the walk goes on. Everything predicted, built and measured is returned
+and builds the first predicted to meet the target. With ``verify`` (the
+default) the built CSM is measured on rays drawn independently of the
+model's; where it misses, the model's miss on this body (measured over
+predicted) is carried to the remaining candidates and the walk goes on.
+Without it, the prediction must meet the target widened by the model's
+measured range (:data:`~pyshadow.csm.error_model.MODEL_RATIO`). Everything predicted, built and measured is returned
 for ``csm.stats["choice"]``.
 """
 from __future__ import annotations
@@ -155,7 +156,9 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     size, size_info = size_model(mesh, depth_bits, layers, built)
     lookups = ("nearest", "vote") if lookup == "auto" else (lookup,)
     order = [(c, lk) for lk in lookups for c in sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))]
-    need = dict.fromkeys(lookups, max_error / MODEL_RATIO[1])
+    # with the check, the central prediction decides what to build first (a miss costs a build, the
+    # check catches it); without, the prediction widened by the model's measured range
+    need = dict.fromkeys(lookups, max_error / (1.0 if verify else MODEL_RATIO[1]))
     tried, csm, entry = [], None, None
     for i, (cand, lk) in enumerate(order):
         pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)

@@ -40,7 +40,7 @@ __all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "traced_vote", "truth_
            "ao_rays", "near_rays", "rays_for", "predict", "wilson"]
 
 #: measured / predicted disagreement on the shared meshes (benchmarks/error_model.py):
-#: the range a prediction is stated with; a choice aims at ``target / MODEL_RATIO[1]``
+#: the range a prediction is stated with; an unverified choice aims at ``target / MODEL_RATIO[1]``
 MODEL_RATIO = (0.8, 1.3)
 
 #: the candidates a choice considers, by build work (maps x texels): (theta, phi, resolution)
@@ -136,7 +136,7 @@ def traced_vote(tracer):
     return vote
 
 
-def _frame(bodies, points):
+def _frame(bodies):
     """(casters, anchor, scale) of modelled bodies: the casters, their mean sphere centre, largest radius."""
     casters = [b for b in bodies if b.layout is not None]
     anchor = np.mean([b.world_sphere()[0] for b in casters], axis=0) if casters else np.zeros(3)
@@ -168,7 +168,7 @@ def truth_visible(bodies, points, directions, *, ground: float | None = None) ->
     from ..embree import EmbreeScene, ray_epsilon
 
     p, w = _rays(points, directions)
-    casters, anchor, scale = _frame(bodies, p)
+    casters, anchor, scale = _frame(bodies)
     occ = _ground(p, w, ground, scale)
     rel = p - anchor
     world = EmbreeScene(np.concatenate([b.world_triangles(anchor) for b in casters]) if casters
@@ -208,7 +208,7 @@ def model_visible(bodies, points, directions, normals=None, owner=None, *, looku
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     p, w = _rays(points, directions)
-    casters, _, scale = _frame(bodies, p)
+    casters, _, scale = _frame(bodies)
     owner = np.full(len(p), -1) if owner is None else np.broadcast_to(np.asarray(owner), (len(p),))
     occ = _ground(p, w, ground, scale)
     bits = 16 if all(b.layout.depth_bits == 16 for b in casters) else 32

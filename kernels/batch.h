@@ -5,7 +5,8 @@
  * LANES), GROUND, SURFACE_NORMALS (0/1: each query's surface normal in
  * nx, ny, nz, for the surface rule of csm_lookup.h), INSTANCE_BVH (0/1:
  * find the casters through the tree over their boxes, BVH_STACK deep;
- * pyshadow.visibility.bvh), NTYPES (0: the scene has no caster; only the
+ * pyshadow.visibility.bvh), FINITE_RAYS (0/1: each query's length in tm,
+ * scene_tables.h), NTYPES (0: the scene has no caster; only the
  * ground test is compiled -- no sphere test, tree or lookup), and what
  * csm_lookup.h expects.
  */
@@ -39,20 +40,29 @@
 #define BATCH_NORMAL_PARAMS
 #define BATCH_NORMAL_ARGS
 #endif
+#if FINITE_RAYS         /* each query's length tm (world units; scene_tables.h) */
+#define BATCH_TMAX_PARAMS , const float *tm
+#define BATCH_TMAX_ARGS , tm
+#define TMAX_LANES(c) , LANE_LOAD(tm + (c))
+#else
+#define BATCH_TMAX_PARAMS
+#define BATCH_TMAX_ARGS
+#define TMAX_LANES(c)
+#endif
 
 #if NTYPES
 /* the open queries of the batch against caster j: its bounding sphere, then
  * the lookup of those whose ray can meet it, packed LANES at a time */
 inline void batch_instance(const scene_t *S, const int j, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own, int *occ,
-                           const int nb BATCH_NORMAL_PARAMS)
+                           const int nb BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
 {
     LANE_ARRAY int idx[BATCH];
     int cnt = 0;
     for (int c = 0; c < nb; c += LANES) {
         const iv act = ~LANE_LOAD(occ + c)
                        & sphere_v(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
-                                  LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c));
+                                  LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c) TMAX_LANES(c));
         LANE_ARRAY int am[LANES];
         LANE_STORE(act, am);
         for (int l = 0; l < LANES; ++l) {       /* branch-free packing; cnt <= c + l here */
@@ -91,11 +101,12 @@ inline void batch_instance(const scene_t *S, const int j, const float *px, const
 
 inline void batch_occluded(const scene_t *S, const float *px, const float *py, const float *pz,
                            const float *wx, const float *wy, const float *wz, const int *own,
-                           int *occ, const int nb BATCH_NORMAL_PARAMS)
+                           int *occ, const int nb BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
 {
 #if GROUND
     for (int c = 0; c < nb; c += LANES)
-        LANE_STORE(LANE_LOAD(occ + c) | ground_v(S, LANE_LOAD(py + c), LANE_LOAD(wy + c)), occ + c);
+        LANE_STORE(LANE_LOAD(occ + c) | ground_v(S, LANE_LOAD(py + c), LANE_LOAD(wy + c) TMAX_LANES(c)),
+                   occ + c);
 #endif
 #if NTYPES && INSTANCE_BVH
     LANE_ARRAY float ix[BATCH], iy[BATCH], iz[BATCH];
@@ -111,7 +122,8 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
         iv hit = (iv)(0);
         for (int c = 0; c < nb; c += LANES)
             hit |= ~LANE_LOAD(occ + c) & box_v(S, B, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
-                                               LANE_LOAD(ix + c), LANE_LOAD(iy + c), LANE_LOAD(iz + c));
+                                               LANE_LOAD(ix + c), LANE_LOAD(iy + c), LANE_LOAD(iz + c)
+                                               TMAX_LANES(c));
         if (VANY(hit)) {
             const int a = B->a, b = B->b;
             if (b >= 0) {                       /* inner node: the left child next, the right one later */
@@ -121,7 +133,8 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
                 continue;
             }
             for (int k = a; k < a - b; ++k)     /* leaf: its casters */
-                batch_instance(S, S->order[k], px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS);
+                batch_instance(S, S->order[k], px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS
+                               BATCH_TMAX_ARGS);
         }
         if (sp == 0)
             break;
@@ -129,7 +142,7 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
     }
 #elif NTYPES
     for (int j = 0; j < S->ninst; ++j)
-        batch_instance(S, j, px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS);
+        batch_instance(S, j, px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
 #endif
 }
 

@@ -11,8 +11,15 @@
  *                         bounding sphere
  *   box_v()               NTYPES > 0 and INSTANCE_BVH only: rays that can
  *                         meet a node's box
+ * With FINITE_RAYS each takes one more argument, the rays' lengths tm (world
+ * units, unit w; +inf = unbounded): the ground counts only where the segment
+ * ends on the plane's other side, a sphere only where the segment passes the
+ * midpoint of its chord (tca < tm: the host refuses or reroutes the rays that
+ * end inside a sphere, so for the rest this says "the sphere lies wholly
+ * before the end", and otherwise it lies wholly beyond), a box only where
+ * the segment reaches it.
  * Expects: LANES (lanes.h), DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
- * (csm_search.h: pair_t), NTYPES, GROUND, INSTANCE_BVH (0/1).
+ * (csm_search.h: pair_t), NTYPES, GROUND, INSTANCE_BVH, FINITE_RAYS (0/1).
  */
 #ifndef PYSHADOW_SCENE_TABLES_H
 #define PYSHADOW_SCENE_TABLES_H
@@ -55,13 +62,25 @@ typedef struct {
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
                                 bias_other, nodes, order, bvh_pad}
 
+#if FINITE_RAYS
+#define TMAX_PARAM , fv tm
+#else
+#define TMAX_PARAM
+#endif
+
 #if GROUND
 /* lanes (-1) whose ray crosses the ground plane y = ground_y; within
  * ground_eps of the plane counts as on it (above) */
-inline iv ground_v(const scene_t *S, fv py, fv wy)
+inline iv ground_v(const scene_t *S, fv py, fv wy TMAX_PARAM)
 {
     const fv h = py - S->ground_y;
+#if FINITE_RAYS
+    const fv e = h + tm * wy;             /* the segment's end, above the plane */
+    return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f) & MASK(e < 0.0f))
+           | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f) & MASK(e > 0.0f));
+#else
     return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f)) | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f));
+#endif
 }
 #endif
 
@@ -70,7 +89,7 @@ inline iv ground_v(const scene_t *S, fv py, fv wy)
  * j's bounding sphere. The ray's squared distance from the centre is that
  * of o - (o.w) w, not |o|^2 - (o.w)^2: far from the sphere the difference of
  * squares loses every digit (at 5000 radii float32 leaves it +-1.5 r^2). */
-inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz)
+inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz TMAX_PARAM)
 {
     __global const instance_t *I = S->inst + j;
     const fv ox = I->centre[0] - px, oy = I->centre[1] - py, oz = I->centre[2] - pz;
@@ -78,7 +97,11 @@ inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
     const fv oc2 = ox * ox + oy * oy + oz * oz;
     const fv ex = ox - tca * wx, ey = oy - tca * wy, ez = oz - tca * wz;
     const float r2 = I->radius * I->radius;
+#if FINITE_RAYS
+    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(ex * ex + ey * ey + ez * ez > r2))) & MASK(tca < tm);
+#else
     return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(ex * ex + ey * ey + ez * ez > r2)));
+#endif
 }
 #endif
 
@@ -89,7 +112,7 @@ inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, f
  * passes this test despite the float rounding; a NaN (a ray on a face's
  * plane, parallel to it) can only answer for rays outside the sphere. */
 inline iv box_v(const scene_t *S, __global const bvh_node_t *B, fv px, fv py, fv pz, fv ix, fv iy,
-                fv iz)
+                fv iz TMAX_PARAM)
 {
     const float e = S->bvh_pad;
     const fv ax = (B->lo[0] - e - px) * ix, bx = (B->hi[0] + e - px) * ix;
@@ -97,7 +120,11 @@ inline iv box_v(const scene_t *S, __global const bvh_node_t *B, fv px, fv py, fv
     const fv az = (B->lo[2] - e - pz) * iz, bz = (B->hi[2] + e - pz) * iz;
     const fv t0 = VMAX(VMAX(VMIN(ax, bx), VMIN(ay, by)), VMIN(az, bz));
     const fv t1 = VMIN(VMIN(VMAX(ax, bx), VMAX(ay, by)), VMAX(az, bz));
+#if FINITE_RAYS
+    return MASK(t1 >= VMAX(t0, (fv)(0.0f))) & MASK(t0 <= tm);
+#else
     return MASK(t1 >= VMAX(t0, (fv)(0.0f)));
+#endif
 }
 #endif
 

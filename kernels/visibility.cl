@@ -87,6 +87,10 @@
  *                        (scene_visible: normals float (N, 3); scene_ao:
  *                        the point's normal) for the surface rule
  *   SURFACE_LIFT_TEXELS  float: the surface rule's lift (csm_lookup.h)
+ *   FINITE_RAYS          1 (scene_visible only): each query carries its
+ *                        length tmax float (N), world units, > 0 (+inf =
+ *                        unbounded); occluders beyond it do not count
+ *                        (scene_tables.h). 0: not compiled, bit-identical
  *   FILTERED             1: filtered lookups (instance16): the four maps of
  *                        views.ViewSet.filter_window, four texels each
  *   FILTER_ANGLE_EPS     float: views.FILTER_ANGLE_EPS (FILTERED only)
@@ -175,6 +179,9 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
 #if SURFACE_NORMALS
                             __global const float *normals,
 #endif
+#if FINITE_RAYS
+                            __global const float *tmax,
+#endif
                             __global uchar *out)
 {
     const int base = get_global_id(0) * BATCH;
@@ -247,10 +254,12 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
         const int i = base + min(l, m - 1);
         nx[l] = normals[3 * i]; ny[l] = normals[3 * i + 1]; nz[l] = normals[3 * i + 2];
     }
-    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH, nx, ny, nz);
-#else
-    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH);
 #endif
+#if FINITE_RAYS
+    LANE_ARRAY float tm[BATCH];                    /* lengths, validated on the host */
+    for (int l = 0; l < BATCH; ++l) tm[l] = tmax[base + min(l, m - 1)];
+#endif
+    batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
     for (int c = 0; c < m; c += LANES) {
         if (c + LANES <= m) {                     /* -1 (occluded) -> 0, 0 -> 1 */
             STOREU(ucharvu_t, out + base + c, CONVERT(uchar, LANE_LOAD(occ + c) + 1));
@@ -261,6 +270,9 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
 }
 
 #ifdef SAMPLES
+#if FINITE_RAYS
+#error "FINITE_RAYS is for scene_visible only"
+#endif
 #if TRANSFER
 /* adds the 9 real SH basis functions of order 3 at unit (x, y, z) to t, in
  * pyshadow.lighting.sh's y-up convention (k = l (l + 1) + m, no

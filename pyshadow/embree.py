@@ -204,7 +204,7 @@ def caster_scene(scene) -> tuple[EmbreeScene, np.ndarray]:
     return EmbreeScene(np.concatenate(tris) if tris else np.zeros((0, 3, 3))), anchor
 
 
-def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
+def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.ndarray:
     """The scene's ground plane, decided analytically as the visibility kernel does.
 
     Parameters
@@ -216,6 +216,10 @@ def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
         Ray directions (any length).
     anchor : ndarray, shape (3,), optional
         The anchor of :func:`caster_scene`.
+    tmax : ndarray, shape (N,), optional
+        Ray lengths (world units; the directions must then be unit): the
+        plane blocks only segments that cross it
+        (:mod:`pyshadow.visibility.finite`).
 
     Returns
     -------
@@ -229,9 +233,9 @@ def ground_occludes(scene, points, directions, anchor=None) -> np.ndarray:
     if scene.ground is None:
         return np.zeros(len(points), bool)
     level = scene.ground - (0.0 if anchor is None else anchor[1])
-    h = points[:, 1] - level
-    eps = 1e-5 * scene.scale()
-    return ((h >= -eps) & (directions[:, 1] < 0)) | ((h < -eps) & (directions[:, 1] > 0))
+    from .visibility.finite import ground_blocks
+
+    return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, 1e-5 * scene.scale())
 
 
 def surface_epsilon(scene, points=None):
@@ -256,23 +260,32 @@ def surface_epsilon(scene, points=None):
     return np.maximum(floor, ray_epsilon(np.maximum(rel, scene.scale())))
 
 
-def visible(scene, points, directions) -> np.ndarray:
+def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     """Ground-truth :meth:`pyshadow.Scene.visible`: Embree occlusion rays.
 
     Each ray starts at the point moved by :func:`surface_epsilon` along its
     direction (so a point on a surface does not hit that surface) and runs
-    to infinity; the ground plane is tested analytically as in the kernel.
+    to infinity, or with ``max_distance`` (float or (N,), world units, > 0)
+    to ``max_distance - epsilon`` from its moved start (``tfar``: the
+    segment ends at ``p + max_distance w``); the ground plane is tested
+    analytically as in the kernel (:mod:`pyshadow.visibility.finite`).
     """
+    from .visibility.finite import check_max_distance
+
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    tmax = check_max_distance(max_distance, len(p))
     rays, anchor = caster_scene(scene)
     rel = p - anchor
-    occ = ground_occludes(scene, rel, w, anchor)
+    occ = ground_occludes(scene, rel, w, anchor, tmax)
     todo = np.flatnonzero(~occ)
     if len(todo):
         eps = surface_epsilon(scene, p[todo])
-        occ[todo] = rays.occluded(rel[todo] + eps[:, None] * w[todo], w[todo])
+        tfar = None if tmax is None else np.maximum(tmax[todo] - eps, 0.0)
+        if tfar is not None:            # beyond float32's range: unbounded
+            tfar = np.where(tfar > np.finfo(np.float32).max, np.inf, tfar)
+        occ[todo] = rays.occluded(rel[todo] + eps[:, None] * w[todo], w[todo], tfar)
     return ~occ
 
 

@@ -375,6 +375,7 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     SH transfer when the AO pass summed it already (mode "transfer", full resolution), else None;
     ``colour``: (K, 3) surface colours of every covered pixel (flat order) or None (ones). With
     ``Frame.geometric_normal`` set, the hemisphere rule of :mod:`pyshadow.shading_normals` applies."""
+    from .lighting.local import lights_radiance
     from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
                                  transfer_sky_radiance)
 
@@ -410,5 +411,7 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
         sky = sky_radiance(lighting, frame.ao.reshape(-1)[full.index], b, albedo)
     sun, _ = sun_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
                           surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
+    sun += lights_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
+                           surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
     out[full.index] = sky + sun
     return out.reshape(H, W, 3)

@@ -225,42 +225,39 @@ class Scene:
     # queries: thin wrappers over pyshadow.visibility and pyshadow.render
     # ------------------------------------------------------------------
     def visible(self, points, directions, *, lookup: str = "nearest", bias: float | None = None,
-                surface_ids=None, backend=None, filtered=None, normals=None) -> np.ndarray:
+                surface_ids=None, backend=None, filtered=None, normals=None, max_distance=None,
+                straddle: str = "error") -> np.ndarray:
         """Is each ray unoccluded by the scene's casters and ground plane?
 
-        :func:`pyshadow.visibility.visible` on this scene (which documents
-        ``points``, ``directions``, ``bias``, ``surface_ids`` and
-        ``normals``: with the normal of each point's surface, grazing rays
-        over a flat face are not shadowed by the face itself).
+        :func:`pyshadow.visibility.visible` on this scene, which documents
+        every parameter: ``points``, ``directions`` (N, 3) world positions
+        and directions (normalised there); ``bias``; ``surface_ids``;
+        ``normals`` (grazing rays over a flat face are not shadowed by it);
+        ``max_distance`` (float or (N,), world units: finite rays, e.g.
+        towards a point light; :mod:`pyshadow.visibility.finite`) and
+        ``straddle`` (``'error'`` or ``'embree'``: rays ending inside a
+        caster's bounding sphere, which a CSM cannot answer).
 
         Parameters
         ----------
-        points, directions : array_like, shape (N, 3)
-            World positions and directions (normalised here).
         lookup : {'nearest', 'vote'}, optional
             The CSM lookup: one texel of each caster's nearest map (backend
             ``"csm"``), or the weighted vote of four maps times four texels
             (``"csm-vote"``).
-        bias, surface_ids : optional
-            Depth tolerance against every caster (default: a self-bias
-            against the caster a point lies on); instance id of each point's
-            surface (-1 unknown, ``GROUND_ID`` the ground).
         backend : str or VisibilityBackend, optional
-            Another backend (:func:`pyshadow.visibility.backends`) instead of
-            the CSM kernel, e.g. ``"embree"`` or ``"numpy"``.
-        filtered : bool, optional
-            Deprecated: ``lookup="vote"``.
+            Another backend (:func:`pyshadow.visibility.backends`), e.g.
+            ``"embree"`` or ``"numpy"``. ``filtered``: deprecated ``lookup``.
 
         Returns
         -------
         ndarray, shape (N,), bool
-            True where the ray reaches the sky.
+            True where the ray reaches the sky (or its end).
         """
         from . import visibility
 
         name = _backend("Scene.visible", lookup, backend, filtered)
         return visibility.visible(self, points, directions, backend=name, bias=bias, surface_ids=surface_ids,
-                                  normals=normals)
+                                  normals=normals, max_distance=max_distance, straddle=straddle)
 
     def ambient_occlusion(self, points, normals, *args, sampling: Sampling | None = None,
                           return_bent_normals: bool = False, lookup: str = "nearest",

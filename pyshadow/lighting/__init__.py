@@ -24,6 +24,9 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
   :mod:`~pyshadow.lighting.transfer`; "sampled": the map's radiance per AO
   sample direction times its visibility); what
   ``pyshadow.render.render(..., lighting=)`` puts in ``Frame.radiance``.
+- :class:`PointLight`, :class:`SpotLight`, :func:`point_light_radiance`
+  (:mod:`~pyshadow.lighting.local`): point, sphere and spot lights with their
+  shadows through finite shadow rays, in the sun's irradiance units.
 - :func:`reference_radiance` (:mod:`~pyshadow.lighting.reference`): the same
   integrals converged through Embree, the ground truth of every mode.
 - :func:`tonemap`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
@@ -39,11 +42,12 @@ from .shade import (DirectionalLight, Lighting, ShadedPoints, sampled_sky_radian
                     transfer_sky_radiance)
 from .transfer import sh_transfer, transfer_irradiance
 from .reference import reference_radiance
+from .local import PointLight, SpotLight, point_light_radiance
 from .tonemap import tonemap, write_radiance
 
 __all__ = ["DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
            "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky", "cube", "disc_solid_angle",
            "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
-           "overcast_sky", "reference_radiance", "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
+           "overcast_sky", "PointLight", "SpotLight", "point_light_radiance", "reference_radiance", "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
            "shade_terms", "sun_irradiance", "sun_position", "tonemap", "transfer_irradiance",
            "transfer_sky_radiance", "write_radiance"]

@@ -28,6 +28,7 @@ import dataclasses
 
 import numpy as np
 
+from .local import lights_radiance
 from .shade import Lighting, _check_lighting, _check_points, sampled_sky_radiance, sun_radiance
 
 __all__ = ["reference_radiance", "REFERENCE_BACKEND"]
@@ -103,4 +104,6 @@ def reference_radiance(scene, points, normals, lighting: Lighting, *, samples: i
     light.sun_samples = k
     sun, _ = sun_radiance(scene, p, nrm, light, albedo, backend=REFERENCE_BACKEND, surface_ids=surface_ids,
                           indices=idx)
+    sun += lights_radiance(scene, p, nrm, light, albedo, backend=REFERENCE_BACKEND, surface_ids=surface_ids,
+                           indices=idx)
     return (sky + sun).astype(np.float32)

@@ -62,6 +62,7 @@ import numpy as np
 
 from ._checks import in_range, unit_direction
 from .envmap import EnvironmentMap
+from .local import lights_radiance
 from .sh import SH_COUNT, irradiance_sh
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
@@ -149,6 +150,9 @@ class Lighting:
         Default: no sky (zeros).
     sun : DirectionalLight or SunLight, optional
         The directional light; its shadow comes from the visibility backend.
+    lights : sequence of PointLight or SpotLight, optional
+        Local lights with their shadows (:mod:`pyshadow.lighting.local`),
+        added to the sun's term; sphere lights take ``sun_samples`` rays.
     albedo : float or array_like (3,), optional
         RGB albedo in [0, 1] of every instance without one in ``albedos``.
     albedos : mapping {instance id: albedo}, optional
@@ -181,7 +185,13 @@ class Lighting:
     """
 
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
-                 ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0):
+                 ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0,
+                 lights=()):
+        from .local import PointLight
+
+        self.lights = tuple(lights)
+        if not all(isinstance(x, PointLight) for x in self.lights):
+            raise TypeError(f"lights: expected PointLight or SpotLight objects (got {self.lights!r})")
         env = sky if isinstance(sky, EnvironmentMap) else None
         if sky is None:
             coef = np.zeros((SH_COUNT, 3))
@@ -250,7 +260,7 @@ class Lighting:
         """The same sky, sun and albedos shaded in another ``mode`` (checked as in the constructor)."""
         return Lighting(self.env if self.env is not None else self.sh, sun=self.sun, albedo=self.albedo,
                         albedos=dict(self.albedos), ground_albedo=self.ground_albedo, mode=mode,
-                        sun_samples=self.sun_samples, seed=self.seed)
+                        sun_samples=self.sun_samples, seed=self.seed, lights=self.lights)
 
     def albedo_of(self, surface_ids, n: int | None = None) -> np.ndarray:
         """RGB albedo of each point's surface, (N, 3) float64.
@@ -292,7 +302,8 @@ class ShadedPoints:
     radiance : (N, 3) float32
         ``sky + sun``, linear.
     sky, sun : (N, 3) float32
-        The two terms of the module docstring.
+        The two terms of the module docstring (``sun`` with the local lights'
+        radiance added, :mod:`pyshadow.lighting.local`).
     ao : (N,) float32
         "bent": :func:`pyshadow.visibility.ambient_occlusion`'s; "sampled": the
         visible fraction of the sky estimator's own directions (the same
@@ -570,6 +581,8 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
         sky = sky_radiance(lighting, ao, bent, albedo)
     sun, frac = sun_radiance(scene, p, nrm, lighting, albedo, backend=backend, surface_ids=surface_ids,
                              indices=idx, bias=bias)
+    sun = sun + lights_radiance(scene, p, nrm, lighting, albedo, backend=backend, surface_ids=surface_ids,
+                                indices=idx, bias=bias)
     f32 = np.float32
     return ShadedPoints(radiance=(sky + sun).astype(f32), sky=sky.astype(f32), sun=sun.astype(f32),
                         ao=np.asarray(ao, f32), bent_normal=np.asarray(bent, f32),

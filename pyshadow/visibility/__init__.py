@@ -17,6 +17,7 @@ in :mod:`pyshadow.visibility.base`.
 """
 from __future__ import annotations
 
+from . import finite
 from .base import VisibilityBackend, backends, get_backend, register
 from .csm import CSMVisibility
 from .mirror import NumPyVisibility, ambient_occlusion_reference, visible_reference
@@ -27,7 +28,8 @@ __all__ = ["visible", "ambient_occlusion", "VisibilityBackend", "register", "get
            "ambient_occlusion_reference"]
 
 
-def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=None, normals=None):
+def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=None, normals=None,
+            max_distance=None, straddle="error"):
     """Does each ray reach the sky?
 
     Parameters
@@ -63,6 +65,16 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         (:mod:`pyshadow.csm.surface_rule`): grazing rays over a flat face
         are not shadowed by the face itself. ``ambient_occlusion`` always
         applies it. Backends that need no normals (``"embree"``) ignore them.
+    max_distance : float or array_like, shape (N,), optional
+        Finite shadow rays: the length of each ray, world units (> 0;
+        ``inf``: unbounded), e.g. the distance to a point light. Occluders
+        beyond it do not count; a caster whose bounding sphere holds the
+        ray's end cannot be answered by a CSM (:mod:`pyshadow.visibility.finite`
+        gives the rules, the ground plane's included). Default: unbounded.
+    straddle : {'error', 'embree'}, optional
+        With ``max_distance``: refuse rays that end inside a caster's
+        bounding sphere with a ``ValueError`` naming the instance (default),
+        or answer those rays only with Embree (needs the casters' meshes).
 
     Returns
     -------
@@ -70,6 +82,8 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         True where the ray reaches the sky.
     """
     extra = {} if normals is None else {"normals": normals}
+    if max_distance is not None:        # backends without finite rays still answer the default query
+        extra.update(max_distance=max_distance, straddle=finite.check_straddle(straddle))
     return get_backend(backend).visible(scene, points, directions, bias=bias, surface_ids=surface_ids, **extra)
 
 

@@ -4,7 +4,9 @@ A backend answers two questions about a :class:`pyshadow.Scene`:
 
 ``visible(scene, points, directions, *, bias=None, surface_ids=None)``
     ``(N,)`` bool: does each ray from a world point along a world direction
-    reach the sky (no caster, no ground plane in the way)?
+    reach the sky (no caster, no ground plane in the way)? Backends with
+    finite rays also take ``max_distance=`` and ``straddle=``
+    (:mod:`pyshadow.visibility.finite`); they are passed only when given.
 ``ambient_occlusion(scene, points, normals, *, sampling, return_bent_normals=False, bias=None, indices=None, surface_ids=None)``
     ``(N,)`` float32 in [0, 1] (1 = open), the unoccluded fraction of
     cosine-weighted directions about each normal, drawn as

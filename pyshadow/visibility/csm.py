@@ -52,6 +52,7 @@ from ..sampling import direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
 from ..views import FILTER_ANGLE_EPS
 from .base import register
+from .finite import answer_finite, check_max_distance, check_straddle, unit_directions
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 
 __all__ = ["CSMVisibility", "lane_table"]
@@ -126,6 +127,11 @@ def _extent(p, anchor) -> float:
     return max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
 
 
+def _float32_lengths(tmax):
+    """float64 ray lengths -> float32 for the kernel (those beyond float32's range: +inf)."""
+    return np.where(tmax > np.finfo(np.float32).max, np.inf, tmax).astype(np.float32)
+
+
 class CSMVisibility:
     """Visibility from the scene's Coherent Shadow Maps, by the OpenCL kernels.
 
@@ -169,7 +175,7 @@ class CSMVisibility:
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),
              "BATCH": launch.shape().query_batch,
              "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
-             "TRANSFER": 0, "SURFACE_NORMALS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
+             "TRANSFER": 0, "SURFACE_NORMALS": 0, "FINITE_RAYS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
              "INSTANCE_BVH": int(ninst >= BVH_MIN_INSTANCES), "BVH_STACK": BVH_STACK}
         d.update(extra)
         return d
@@ -226,14 +232,29 @@ class CSMVisibility:
                 _cl.to_device(nodes), _cl.to_device(order), np.float32(pad)]
         return atlas, args
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None) -> np.ndarray:
-        """:meth:`pyshadow.Scene.visible` by the kernel (float32 or float64 rows read in place)."""
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
+                max_distance=None, straddle="error") -> np.ndarray:
+        """:meth:`pyshadow.Scene.visible` by the kernel (float32 or float64 rows read in place).
+
+        ``max_distance`` and ``straddle``: :mod:`pyshadow.visibility.finite`
+        (the kernel compiled with ``FINITE_RAYS=1`` only when given).
+        """
         p = kernel_rows(points, "points")
         w = kernel_rows(directions, "directions", len(p))
         check_both(p, "points", w, "directions")
         n = len(p)
         own = scene.caster_slots(surface_ids, n)
         m = None if normals is None else unit_normals(normals, n).astype(np.float32)
+        tmax = check_max_distance(max_distance, n)
+        if tmax is not None and n:
+            check_straddle(straddle)
+            return answer_finite(scene, np.asarray(p, np.float64), unit_directions(w), tmax, straddle,
+                                 lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
+        return self._visible(scene, p, w, own, m, bias, None)
+
+    def _visible(self, scene, p, w, own, m, bias, tmax):
+        """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None)."""
+        n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
@@ -242,7 +263,7 @@ class CSMVisibility:
         defines = self.query_defines(scene, "scene_visible", HAVE_FP64=int(fp64),
                                      POINTS_F64=int(fp64 and p.dtype == np.float64),
                                      DIRS_F64=int(fp64 and w.dtype == np.float64),
-                                     SURFACE_NORMALS=int(m is not None))
+                                     SURFACE_NORMALS=int(m is not None), FINITE_RAYS=int(tmax is not None))
         if defines is None:             # nothing occludes: no kernel
             out[:] = True
             return out
@@ -269,7 +290,8 @@ class CSMVisibility:
             buf = _cl.host_buffer(res[s:e], writable=True)
             k(q, *launch.grid(-(-(e - s) // batch), shape.query_group), *args, np.int32(e - s),
               _cl.host_buffer(p[s:e]), _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]),
-              *([] if m is None else [_cl.host_buffer(m[s:e])]), buf)
+              *([] if m is None else [_cl.host_buffer(m[s:e])]),
+              *([] if tmax is None else [_cl.host_buffer(tmax[s:e])]), buf)
             _cl.sync_host_buffer(buf, res[s:e])
         return out
 

@@ -17,12 +17,14 @@ from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
+from .finite import answer_finite, check_max_distance, check_straddle, ground_blocks
 
 __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference", "caster_occludes"]
 
 
 def visible_reference(scene, points, directions, *, bias: float | None = None,
-                      surface_ids=None, lookup: str = "nearest", normals=None) -> np.ndarray:
+                      surface_ids=None, lookup: str = "nearest", normals=None, max_distance=None,
+                      straddle: str = "error") -> np.ndarray:
     """NumPy version of :meth:`Scene.visible` (the same rules in float64).
 
     For each caster: bounding-sphere cull, the point and direction in the
@@ -35,7 +37,8 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     rounding (e.g. a direction almost exactly between two maps, a vote of
     almost exactly one half). With ``normals``, the surface rule of
     :mod:`pyshadow.csm.surface_rule` for the rays leaving a caster's own
-    surface.
+    surface. With ``max_distance``, finite rays by the rules of
+    :mod:`pyshadow.visibility.finite` (``straddle`` as there).
     """
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
@@ -44,11 +47,19 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
     own = scene.caster_slots(surface_ids, len(p))
     m = None if normals is None else unit_normals(normals, len(p))
+    tmax = check_max_distance(max_distance, len(p))
+    if tmax is None or not len(p):
+        return _visible_reference(scene, p, w, own, m, lookup, bias, None)
+    check_straddle(straddle)
+    return answer_finite(scene, p, w, tmax, straddle,
+                         lambda: _visible_reference(scene, p, w, own, m, lookup, bias, tmax))
+
+
+def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
+    """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None)."""
     occ = np.zeros(len(p), bool)
     if scene.ground is not None:
-        h = p[:, 1] - scene.ground
-        eps = 1e-5 * scene.scale()
-        occ |= ((h >= -eps) & (w[:, 1] < 0)) | ((h < -eps) & (w[:, 1] > 0))
+        occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, 1e-5 * scene.scale())
     types, _ = scene.caster_types()
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
@@ -57,12 +68,12 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
         own_rows = (own == -1) | (own == slot)
         occ |= caster_occludes(inst.csm, inst.world_sphere(), inst.rotation, inst.scale,
                                inst.transform[:3, 3], p, w, m, own_rows, ~occ, lookup=lookup, bias=bias,
-                               quantum=quantum, vote=shadow_vote)
+                               quantum=quantum, vote=shadow_vote, tmax=tmax)
     return ~occ
 
 
 def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows, ask, *, lookup, bias,
-                    quantum, vote) -> np.ndarray:
+                    quantum, vote, tmax=None) -> np.ndarray:
     """Rows ``ask`` of world rays ``(p, w)`` that one caster shadows, by the kernel's rules (float64).
 
     Bounding-sphere cull, the point and direction in the caster's normalised
@@ -84,6 +95,10 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
     m : ndarray, shape (N, 3), or None
         Unit surface normals.
     own_rows, ask : ndarray of bool, shape (N,)
+    tmax : ndarray, shape (N,), optional
+        Ray lengths, world units: the caster counts only where the ray
+        passes the midpoint of its chord through the sphere (``tca < tmax``,
+        :mod:`pyshadow.visibility.finite`). Default: unbounded rays.
 
     Returns
     -------
@@ -96,6 +111,8 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
     r2 = (wr * (1 + 1e-6)) ** 2
     perp = oc - tca[:, None] * w                     # as sphere_v: no difference of squares
     act = ask & ~((oc2 > r2) & ((tca < 0) | (np.einsum("ij,ij->i", perp, perp) > r2)))
+    if tmax is not None:
+        act &= tca < tmax
     out = np.zeros(len(p), bool)
     if not act.any():
         return out
@@ -173,9 +190,11 @@ class NumPyVisibility:
     def __repr__(self) -> str:
         return f"<NumPyVisibility {self.name!r}>"
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None):
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
+                max_distance=None, straddle="error"):
         return visible_reference(scene, points, directions, bias=bias, surface_ids=surface_ids,
-                                 lookup=self.lookup, normals=normals)
+                                 lookup=self.lookup, normals=normals, max_distance=max_distance,
+                                 straddle=straddle)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
                           indices=None, surface_ids=None):

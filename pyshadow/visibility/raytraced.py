@@ -2,7 +2,8 @@
 
 Answers through :mod:`pyshadow.embree` on the identical rays: a ray starts at
 the point lifted off its surface by :func:`pyshadow.embree.surface_epsilon`
-and runs to infinity; the ground plane is tested analytically as the
+and runs to infinity (or to ``max_distance``: every ray is answered, there
+is nothing to ``straddle``); the ground plane is tested analytically as the
 kernels do. ``bias`` does not apply (there is no depth to compare) and
 ``surface_ids`` is not needed (the lift keeps a ray off its own surface).
 Every caster needs its mesh (``Scene.add(csm, mesh=...)``).
@@ -22,10 +23,11 @@ class EmbreeVisibility:
     def __repr__(self) -> str:
         return "<EmbreeVisibility 'embree'>"
 
-    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None):
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
+                max_distance=None, straddle="error"):
         from .. import embree
 
-        return embree.visible(scene, points, directions)
+        return embree.visible(scene, points, directions, max_distance=max_distance)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
                           indices=None, surface_ids=None):

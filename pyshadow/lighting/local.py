@@ -1,0 +1,275 @@
+"""Local lights: point, sphere and spot lights with their shadows, through finite shadow rays.
+
+Units, consistent with :class:`~pyshadow.lighting.DirectionalLight` and the
+sky (the project's lighting notes): a light's ``intensity`` is RGB radiant
+(or luminous) intensity in the sky's radiance units times sr times world
+length squared (W/sr where radiance is W/(m^2 sr) and the scene is in
+metres), so that a surface facing the light at distance ``d`` receives the
+irradiance ``E = intensity / d^2`` in the units of ``DirectionalLight.irradiance``
+and the terms add. Outgoing radiance (Lambertian)
+
+    ``L_o = albedo / pi * intensity * spot(l) * max(n . l, 0) / d^2 * V``
+
+with ``l`` the unit direction from the point to the light, ``spot`` the
+spot light's cone factor (1 for a point light) and ``V`` the visibility of
+the segment from the point to the light: :func:`pyshadow.visibility.visible`
+with ``max_distance = d`` (:mod:`pyshadow.visibility.finite`; a light inside a
+caster's bounding sphere is refused unless ``straddle="embree"``).
+
+A sphere light (``radius > 0``) of uniform radiance ``L = intensity / (pi R^2)``
+subtends the cone of half-angle ``a = asin(R / d)``; with ``samples = K`` its
+``K`` directions are spread uniformly in solid angle over that cone (the
+Fibonacci spiral of :func:`pyshadow.lighting.shade.sun_directions`, turned per
+point by its pattern index and the seed), each traced to the sphere's
+surface, and ``E = L * Omega * mean_k(max(n . l_k, 0) V_k)`` with ``Omega = 2 pi
+(1 - cos a)`` (for ``R << d``: ``intensity / d^2 * mean(cos V)``). ``K = 1`` or
+``radius = 0``: one ray to the centre, hard shadows. Embree
+(``backend="embree"``) answers the identical rays: the ground truth.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._checks import in_range, unit_direction
+
+__all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def _position(x, name):
+    v = np.asarray(x, dtype=np.float64)
+    if v.shape != (3,) or not np.isfinite(v).all():
+        raise ValueError(f"{name}: expected a finite 3-vector (got {x!r})")
+    return v.copy()
+
+
+def _intensity(x, name):
+    v = np.asarray(x, dtype=np.float64)
+    if v.shape not in ((3,), ()):
+        raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got shape {v.shape})")
+    v = np.broadcast_to(v, (3,)).copy()
+    if not np.isfinite(v).all() or (v < 0).any():
+        raise ValueError(f"{name}: must be finite and >= 0 (got {v.tolist()})")
+    return v
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """A point light (``radius = 0``: hard shadows) or a sphere light (soft shadows).
+
+    Attributes
+    ----------
+    position : ndarray, shape (3,), float64
+        World position of the light's centre.
+    intensity : ndarray, shape (3,), float64
+        RGB intensity (>= 0): the irradiance on a surface facing the light at
+        distance ``d`` is ``intensity / d^2`` (sky radiance units x sr; module
+        docstring). A scalar means grey.
+    radius : float
+        Radius of the sphere light, world units (>= 0, finite).
+    """
+
+    position: np.ndarray
+    intensity: np.ndarray
+    radius: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "position", _position(self.position, "light position"))
+        object.__setattr__(self, "intensity", _intensity(self.intensity, "light intensity"))
+        r = float(self.radius)
+        if not (math.isfinite(r) and r >= 0):
+            raise ValueError(f"light radius: must be finite and >= 0 (got {self.radius!r})")
+        object.__setattr__(self, "radius", r)
+
+    def factor(self, to_point) -> np.ndarray:
+        """Angular factor of the intensity towards unit directions light -> point, (N,) (1 here)."""
+        return np.ones(len(to_point))
+
+
+@dataclass(frozen=True)
+class SpotLight(PointLight):
+    """A spot light: a point (or sphere) light shining into a cone.
+
+    Attributes
+    ----------
+    direction : ndarray, shape (3,)
+        Unit axis of the cone, from the light towards where it shines.
+    angle : float
+        Half-angle of the cone, rad, in (0, pi/2]: no light outside it.
+    falloff : float
+        Width of the soft edge, rad, in [0, angle]: the factor rises from 0
+        at ``angle`` to 1 at ``angle - falloff`` (smoothstep in the cosine);
+        0 is a hard edge.
+    """
+
+    direction: np.ndarray = None
+    angle: float = math.pi / 4
+    falloff: float = 0.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.direction is None:
+            raise ValueError("spot direction: required (a unit 3-vector)")
+        object.__setattr__(self, "direction", unit_direction(self.direction, "spot direction"))
+        a = float(self.angle)
+        if not (math.isfinite(a) and 0 < a <= math.pi / 2):
+            raise ValueError(f"spot angle: must lie in (0, pi/2] (got {self.angle!r})")
+        object.__setattr__(self, "angle", a)
+        object.__setattr__(self, "falloff", in_range(self.falloff, "spot falloff", 0.0, a))
+
+    def factor(self, to_point) -> np.ndarray:
+        """Cone factor in [0, 1] of unit directions light -> point, (N,)."""
+        c = np.asarray(to_point, np.float64) @ self.direction
+        lo, hi = math.cos(self.angle), math.cos(self.angle - self.falloff)
+        if hi <= lo:
+            return (c >= lo).astype(np.float64)
+        x = np.clip((c - lo) / (hi - lo), 0.0, 1.0)
+        return np.where(c >= lo, x * x * (3.0 - 2.0 * x), 0.0)
+
+
+def light_directions(axis, half_angle, k: int, indices, seed: int = 0) -> np.ndarray:
+    """K unit directions per point spread uniformly in solid angle over a cone, (N, K, 3) float64.
+
+    Parameters
+    ----------
+    axis : ndarray, shape (N, 3)
+        Unit cone axes (point -> light centre).
+    half_angle : ndarray, shape (N,)
+        Half-angles, rad, in [0, pi/2].
+    k : int
+    indices : ndarray of int, shape (N,)
+        Pattern index of each point (turns its spiral).
+    seed : int
+
+    ``cos a_j = 1 - (j + 1/2) / K (1 - cos half_angle)``, azimuth
+    ``2 pi (j g + t_i)`` as :func:`pyshadow.lighting.shade.sun_directions`.
+    """
+    d = np.asarray(axis, np.float64)
+    n = len(d)
+    if k == 1:
+        return d[:, None, :].copy()
+    a = np.where(np.abs(d[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
+    e1 = np.cross(d, a)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(d, e1)
+    j = np.arange(k)
+    cos_a = 1.0 - (j[None, :] + 0.5) / k * (1.0 - np.cos(half_angle))[:, None]
+    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a ** 2))
+    u = float(np.random.default_rng(seed).random())
+    turn = np.mod(u + (np.asarray(indices, np.int64)[:n] % (1 << 20)) * _GOLDEN, 1.0)
+    phi = 2.0 * math.pi * (j[None, :] * _GOLDEN + turn[:, None])
+    out = (cos_a[..., None] * d[:, None, :] + (sin_a * np.cos(phi))[..., None] * e1[:, None, :]
+           + (sin_a * np.sin(phi))[..., None] * e2[:, None, :])
+    return out / np.linalg.norm(out, axis=2, keepdims=True)
+
+
+def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, backend="csm", samples: int = 1,
+                         surface_ids=None, indices=None, seed: int = 0, bias=None, straddle: str = "error",
+                         geometric_normals=None):
+    """Radiance of surface points lit by a point, sphere or spot light, with its shadow.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : array_like, shape (N, 3)
+        World positions (none may coincide with the light's centre or lie
+        within a sphere light).
+    normals : array_like, shape (N, 3)
+        World unit surface normals (normalised here; zero rows are an error).
+    light : PointLight or SpotLight
+    albedo : array_like, shape (3,) or (N, 3)
+        Linear RGB albedo in [0, 1].
+    backend : str, optional
+        Visibility backend (:func:`pyshadow.visibility.backends`); ``"embree"``
+        is the ground truth on the identical rays.
+    samples : int, optional
+        Rays per point over a sphere light (``K``, >= 1; 1 for a point light).
+    surface_ids, indices, seed, bias : optional
+        As for :func:`pyshadow.visibility.visible` (``surface_ids``, ``bias``);
+        the pattern index of each point (default ``arange(N)``) and the seed
+        that turn the sphere light's spiral.
+    straddle : {'error', 'embree'}, optional
+        Rays ending inside a caster's bounding sphere (a light inside one):
+        refused, or answered by Embree (:mod:`pyshadow.visibility.finite`).
+    geometric_normals : ndarray, shape (N, 3), optional
+        With ``normals`` shading normals: light directions at or below the
+        geometric plane are shadowed (:mod:`pyshadow.shading_normals`).
+
+    Returns
+    -------
+    radiance : ndarray, shape (N, 3), float64
+        ``albedo / pi * E``, the module docstring's units.
+    visibility : ndarray, shape (N,), float64
+        Fraction of the point's light rays that reach the light (0 where the
+        light is behind the surface or outside the spot's cone: nothing is
+        traced there).
+    """
+    from .. import visibility as vis
+    from .._validate import check_indices, rows3, unit_normals
+
+    if not isinstance(light, PointLight):
+        raise TypeError(f"light: expected a PointLight or SpotLight (got {type(light).__name__})")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise ValueError(f"samples: must be an int >= 1 (got {samples!r})")
+    p = rows3(points, "points")
+    nrm = unit_normals(normals, len(p))
+    n = len(p)
+    alb = np.broadcast_to(np.asarray(albedo, np.float64), (n, 3))
+    if not np.isfinite(alb).all() or (alb < 0).any() or (alb > 1).any():
+        raise ValueError("albedo: must be finite and lie in [0, 1]")
+    idx = check_indices(indices, n)
+    to_light = light.position - p
+    d = np.linalg.norm(to_light, axis=1)
+    if n and not (d > light.radius).all():
+        i = int(np.argmin(d - light.radius))
+        raise ValueError(f"point {i} lies {'at the light' if light.radius == 0 else 'within the sphere light'} "
+                         f"(distance {d[i]:.6g}, light radius {light.radius:g}): its irradiance is undefined")
+    axis = to_light / np.where(d > 0, d, 1.0)[:, None]
+    spot = light.factor(-axis)
+    k = int(samples) if light.radius > 0 else 1
+    half = np.arcsin(np.minimum(light.radius / np.maximum(d, 1e-300), 1.0))
+    dirs = light_directions(axis, half, k, idx, seed)                              # (N, K, 3)
+    cos = np.maximum(np.einsum("nkj,nj->nk", dirs, nrm), 0.0)
+    live = (cos > 0).any(axis=1) & (spot > 0)
+    lit = np.zeros((n, k), bool)
+    if live.any():
+        rows = np.flatnonzero(live)
+        # each ray runs to the sphere's near surface along its direction (to the centre: R = 0)
+        b = np.einsum("nkj,nj->nk", dirs[rows], to_light[rows])
+        tmax = b - np.sqrt(np.maximum(b * b - (d[rows] ** 2 - light.radius ** 2)[:, None], 0.0))
+        ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,))[rows], k)
+        lit[rows] = vis.visible(scene, np.repeat(p[rows], k, axis=0), dirs[rows].reshape(-1, 3), backend=backend,
+                                bias=bias, surface_ids=ids, normals=np.repeat(nrm[rows], k, axis=0),
+                                max_distance=tmax.reshape(-1),
+                                straddle=straddle).reshape(len(rows), k)
+    if geometric_normals is not None:
+        from ..shading_normals import below_geometric
+
+        lit = lit & ~below_geometric(dirs, geometric_normals)
+    shaded = (cos * lit).mean(axis=1) * spot
+    if light.radius > 0:
+        omega = 2.0 * math.pi * (1.0 - np.cos(half))
+        scale = omega / (math.pi * light.radius ** 2)          # L Omega with L = I / (pi R^2)
+    else:
+        scale = 1.0 / d ** 2
+    e = light.intensity[None, :] * (scale * shaded)[:, None]
+    return alb / math.pi * e, np.where(live, lit.mean(axis=1), 0.0)
+
+
+def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", surface_ids=None, indices=None,
+                    bias=None, geometric_normals=None) -> np.ndarray:
+    """The sum of :func:`point_light_radiance` over ``lighting.lights``, (N, 3) float64.
+
+    Sphere lights take ``lighting.sun_samples`` rays a point, turned by
+    ``lighting.seed``; zeros without local lights.
+    """
+    out = np.zeros((len(points), 3))
+    for light in lighting.lights:
+        out += point_light_radiance(scene, points, normals, light, albedo, backend=backend,
+                                    samples=lighting.sun_samples, surface_ids=surface_ids, indices=indices,
+                                    seed=lighting.seed, bias=bias, geometric_normals=geometric_normals)[0]
+    return out

@@ -388,3 +388,17 @@ def cl_target(request):
         else:
             with _cl.use_lanes(width):
                 yield request.param
+
+
+def two_body_scene():
+    """Bunny and a turned fandisk on the ground, coarse CSMs (16x32 maps at 64^2), with meshes."""
+    import trimesh
+
+    import pyshadow
+
+    bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(16, 32), resolution=64)
+    scene.add(bunny, on_ground(bunny, unit_frame(bunny)))
+    scene.add(fan, on_ground(fan, unit_frame(fan, 0.7, rotation=trimesh.transformations.rotation_matrix(
+        0.5, [0, 1, 0])[:3, :3], offset=(1.6, 0, 0.3))))
+    return scene

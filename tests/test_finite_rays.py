@@ -10,18 +10,12 @@ from pyshadow.visibility import visible_reference
 from pyshadow.visibility.csm import CSMVisibility
 from pyshadow.visibility.finite import straddling, unit_directions
 
-from conftest import load, on_ground, surface_queries, unit_frame
+from conftest import surface_queries, two_body_scene
 
 
 @pytest.fixture(scope="module")
 def two_bodies():
-    """Bunny and a turned fandisk on the ground, coarse CSMs (16x32 maps at 64^2), with meshes."""
-    bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(16, 32), resolution=64)
-    scene.add(bunny, on_ground(bunny, unit_frame(bunny)))
-    scene.add(fan, on_ground(fan, unit_frame(fan, 0.7, rotation=trimesh.transformations.rotation_matrix(
-        0.5, [0, 1, 0])[:3, :3], offset=(1.6, 0, 0.3))))
-    return scene
+    return two_body_scene()
 
 
 def light_rays(scene, light, rng, n=1500):

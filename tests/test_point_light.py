@@ -11,17 +11,12 @@ from pyshadow import visibility
 from pyshadow.lighting import DirectionalLight, Lighting, PointLight, SpotLight, point_light_radiance
 from pyshadow.lighting.shade import sun_radiance
 
-from conftest import load, on_ground, unit_frame
+from conftest import two_body_scene
 
 
 @pytest.fixture(scope="module")
 def two_bodies():
-    bunny, fan = load("stanford-bunny.obj"), load("fandisk.obj")
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(16, 32), resolution=64)
-    scene.add(bunny, on_ground(bunny, unit_frame(bunny)))
-    scene.add(fan, on_ground(fan, unit_frame(fan, 0.7, rotation=trimesh.transformations.rotation_matrix(
-        0.5, [0, 1, 0])[:3, :3], offset=(1.6, 0, 0.3))))
-    return scene
+    return two_body_scene()
 
 
 def ground_grid(n=40, half=3.0):

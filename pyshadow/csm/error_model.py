@@ -144,11 +144,12 @@ def _frame(bodies):
 
 
 def _ground(p, w, ground, scale):
+    """The analytic ground plane's answer, by the kernels' rule (:func:`pyshadow.visibility.finite.ground_blocks`)."""
+    from ..visibility.finite import ground_blocks
+
     if ground is None:
         return np.zeros(len(p), bool)
-    h = p[:, 1] - ground
-    eps = 1e-5 * scale
-    return ((h >= -eps) & (w[:, 1] < 0)) | ((h < -eps) & (w[:, 1] > 0))
+    return ground_blocks(p[:, 1] - ground, w[:, 1], None, 1e-5 * scale)
 
 
 def _rays(points, directions):

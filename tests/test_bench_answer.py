@@ -249,13 +249,16 @@ def test_frame_budget_gives_the_least_predicted_error_within_it(tmp_path):
     rec = json.loads(p.stdout)
     assert json.loads((tmp_path / "b" / "frame_budget.json").read_text()) == rec
     assert "max_error" not in rec and rec["frame_budget"]["budget"]["value"] == pytest.approx(T)
-    first = rec["attempts"][0]
+    bad = bench(*TINY, "--frame-budget", T, "--max-error", E, "--out", tmp_path / "c", check=False)
+    assert bad.returncode == 2 and "--frame-budget answers alone" in bad.stderr
+    # the rule, on the budget run's own predictions (its timings, not the probe's: the machine's load moves them)
     fit = [c for c in rec["candidates"] if c["predicted_frame_time"]["value"] <= T / TIME_MARGIN]
-    assert fit and len(fit) < len(rec["candidates"])
+    if not fit:                                                # slower this time: no pick, said so
+        assert rec["attempts"] == [] and rec["frame_budget"]["label"] is None
+        assert "no configuration is predicted to render within" in p.stderr
+        return
     best = min(fit, key=lambda c: (c["predicted_rmse"]["value"], c["predicted_frame_time"]["value"]))
-    assert first["label"] == best["label"]
+    assert rec["attempts"][0]["label"] == best["label"]
     ans = rec["frame_budget"]
     assert ans["met"] == (ans["measured"]["frame_time"]["value"] <= T)
     assert "least AO RMSE within" in p.stderr
-    bad = bench(*TINY, "--frame-budget", T, "--max-error", E, "--out", tmp_path / "c", check=False)
-    assert bad.returncode == 2 and "--frame-budget answers alone" in bad.stderr

@@ -6,7 +6,7 @@ the sun from each, asked of the CSM (both lookups, with the pixels' normals:
 the surface rule) and of Embree; the agreement is printed. Suns: 45 deg N on
 21 June at 10:00 and 17:00 solar time, and (0.6, 0.5, 0.4) normalised.
 
-    python benchmarks/sun_shadows.py [--width 640 --height 480] [--json]
+    python benchmarks/sun_shadows.py [--width 640 --height 480] [--maps 64x128 --resolution 128] [--json]
 """
 from __future__ import annotations
 
@@ -26,9 +26,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI of the casters' CSMs")
+    ap.add_argument("--resolution", type=int, default=128, help="CSM texels per side")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height)
+    t, p = (int(x) for x in args.maps.split("x"))
+    scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height,
+                                             views=pyshadow.ViewSet.zigzag(t, p), resolution=args.resolution)
     sp = render.surface_points(scene, cam)
     n = np.asarray(sp.normals, np.float64)
     n /= np.linalg.norm(n, axis=1, keepdims=True)
@@ -49,7 +53,8 @@ def main(argv=None) -> int:
             print(f"{name:20s} elevation {row['elevation_deg']:5.1f} deg, {row['pixels']} pixels: "
                   f"one-texel {100 * row['csm']:.2f} %, vote {100 * row['csm-vote']:.2f} %", flush=True)
     if args.json:
-        emit({"benchmark": "sun_shadows", **environment(), "rows": rows}, True)
+        emit({"benchmark": "sun_shadows", **environment(), "maps": args.maps, "resolution": args.resolution,
+              "rows": rows}, True)
     return 0
 
 

@@ -48,10 +48,13 @@ __kernel void gbuffer_raster(__global const float *tris, const int n_tris,
     const float2 p2 = to_screen(c, fx, fy, W, H);
     const float area = edge_fn(p0, p1, p2);
     if (area == 0.0f || !isfinite(area)) return;
-    const int c0 = (int)fmax(ceil(fmin(p0.x, fmin(p1.x, p2.x))), 0.0f);
-    const int c1 = (int)fmin(floor(fmax(p0.x, fmax(p1.x, p2.x))), (float)(W - 1));
-    const int r0 = (int)fmax(ceil(fmin(p0.y, fmin(p1.y, p2.y))), 0.0f);
-    const int r1 = (int)fmin(floor(fmax(p0.y, fmax(p1.y, p2.y))), (float)(H - 1));
+    /* the box tested against the image in float first: a triangle wholly off it (screen
+       coordinates beyond int's range near the near plane) never reaches a float-to-int conversion */
+    const float x0 = ceil(fmin(p0.x, fmin(p1.x, p2.x))), x1 = floor(fmax(p0.x, fmax(p1.x, p2.x)));
+    const float y0 = ceil(fmin(p0.y, fmin(p1.y, p2.y))), y1 = floor(fmax(p0.y, fmax(p1.y, p2.y)));
+    if (!(x0 <= (float)(W - 1) && x1 >= 0.0f && y0 <= (float)(H - 1) && y1 >= 0.0f)) return;
+    const int c0 = (int)fmax(x0, 0.0f), c1 = (int)fmin(x1, (float)(W - 1));
+    const int r0 = (int)fmax(y0, 0.0f), r1 = (int)fmin(y1, (float)(H - 1));
     const float3 iz = (float3)(1.0f / a.z, 1.0f / b.z, 1.0f / c.z);
     for (int r = r0; r <= r1; ++r) {
         for (int col = c0; col <= c1; ++col) {

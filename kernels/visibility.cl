@@ -5,7 +5,8 @@
  *   scene_visible   one work-item per BATCH (point, direction) queries: 1 if
  *                   the ray from the point along the direction is unoccluded.
  *   scene_ao        one work-item per point: SAMPLES cosine-weighted
- *                   directions from pattern pidx[i] (sampling.h); writes the
+ *                   directions from pattern pidx[i] (sampling.h), with
+ *                   FINITE_RAYS of length tmax[i]; writes the
  *                   unoccluded fraction and, with BENT_NORMALS, the
  *                   normalised sum of the unoccluded directions, with
  *                   TRANSFER the shadowed SH transfer (9 sums).
@@ -87,10 +88,12 @@
  *                        (scene_visible: normals float (N, 3); scene_ao:
  *                        the point's normal) for the surface rule
  *   SURFACE_LIFT_TEXELS  float: the surface rule's lift (csm_lookup.h)
- *   FINITE_RAYS          1 (scene_visible only): each query carries its
- *                        length tmax float (N), world units, > 0 (+inf =
- *                        unbounded); occluders beyond it do not count
- *                        (scene_tables.h). 0: not compiled, bit-identical
+ *   FINITE_RAYS          1: each query carries its length tmax float (N),
+ *                        world units, > 0 (+inf = unbounded); occluders
+ *                        beyond it do not count (scene_tables.h). In
+ *                        scene_ao one length per point, for all its
+ *                        samples (distance-limited AO). 0: not compiled,
+ *                        bit-identical
  *   FILTERED             1: filtered lookups (instance16): the four maps of
  *                        views.ViewSet.filter_window, four texels each
  *   FILTER_ANGLE_EPS     float: views.FILTER_ANGLE_EPS (FILTERED only)
@@ -270,9 +273,6 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
 }
 
 #ifdef SAMPLES
-#if FINITE_RAYS
-#error "FINITE_RAYS is for scene_visible only"
-#endif
 #if TRANSFER
 /* adds the 9 real SH basis functions of order 3 at unit (x, y, z) to t, in
  * pyshadow.lighting.sh's y-up convention (k = l (l + 1) + m, no
@@ -298,6 +298,9 @@ inline void sh9_accumulate(float x, float y, float z, float *t)
 __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *normals, __global const int *pidx,
                        __global const int *owner,
+#if FINITE_RAYS
+                       __global const float *tmax,
+#endif
                        __global const float *table, __global float *ao,
                        __global float *bent, __global float *transfer)
 {
@@ -323,6 +326,10 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         LANE_ARRAY float nx[AO_BATCH], ny[AO_BATCH], nz[AO_BATCH];
         for (int l = 0; l < AO_BATCH; ++l) { nx[l] = nrm.x; ny[l] = nrm.y; nz[l] = nrm.z; }
 #endif
+#if FINITE_RAYS
+        LANE_ARRAY float tm[AO_BATCH];            /* the point's length, validated on the host */
+        for (int l = 0; l < AO_BATCH; ++l) tm[l] = tmax[i];
+#endif
         for (int c = 0; c < AO_BATCH; c += LANES) {
             const int s = min(s0 + c, SPAD - LANES);
             const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
@@ -336,9 +343,9 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
             LANE_STORE(MASK((iv)(s0 + c) + LANE_IDS >= SAMPLES), occ + c);   /* padding: decided */
         }
 #if SURFACE_NORMALS
-        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH, nx, ny, nz);
+        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH, nx, ny, nz BATCH_TMAX_ARGS);
 #else
-        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH);
+        batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH BATCH_TMAX_ARGS);
 #endif
         for (int l = 0; l < min(AO_BATCH, SAMPLES - s0); ++l) {
             if (occ[l]) continue;

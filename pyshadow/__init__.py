@@ -12,6 +12,8 @@ One module (or package) a job: :mod:`~pyshadow.mesh`, :mod:`~pyshadow.views`,
 (placement), :mod:`~pyshadow.visibility` (queries, backends by name),
 :mod:`~pyshadow.sampling`, :mod:`~pyshadow.gbuffer`, :mod:`~pyshadow.render`
 (the render stage), :mod:`~pyshadow.filters`, :mod:`~pyshadow.io`,
+:mod:`~pyshadow.cubemap` (cube-map AO, seed 002) and :mod:`~pyshadow.ssao`
+(screen-space AO): the compared methods,
 :mod:`~pyshadow.cache`, :mod:`~pyshadow.embree` (ground truth),
 :mod:`~pyshadow.viz` (pyvista), :mod:`~pyshadow.bench` (``pyshadow-bench``),
 :mod:`~pyshadow.bake` (``pyshadow-bake``, batch baking on Dask),
@@ -34,8 +36,9 @@ from .filters import bilateral, edge_aware_box, upsample
 from .io import read_image, write_image
 from .gbuffer import render_gbuffer
 from .render import Frame
-from . import (cache, camera, csm, data, filters, gbuffer, io, lighting, mesh, raster, render, sampling, scene,
-               views, visibility)
+from .ssao import screen_space_ao
+from . import (cache, camera, csm, cubemap, data, filters, gbuffer, io, lighting, mesh, raster, render, sampling, scene,
+               ssao, views, visibility)
 
 _LAZY = ("embree", "viz", "bench", "bake")
 
@@ -72,10 +75,12 @@ __all__ = [
     "render_gbuffer",
     "sample_directions",
     "Scene",
+    "screen_space_ao",
     "STRATEGIES",
     "upsample",
     "write_image",
     # submodules
-    "bake", "bench", "cache", "camera", "csm", "data", "embree", "filters", "gbuffer", "io", "lighting", "mesh", "raster",
-    "render", "sampling", "scene", "viz", "views", "visibility",
+    "bake", "bench", "cache", "camera", "csm", "cubemap", "data", "embree", "filters", "gbuffer", "io", "lighting",
+    "mesh", "raster",
+    "render", "sampling", "scene", "ssao", "viz", "views", "visibility",
 ]

@@ -58,7 +58,7 @@ class EmbreeScene:
             return np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros((n, 3))
         kw = {}
         if tfar is not None:
-            kw["dists"] = np.ascontiguousarray(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)
+            kw["dists"] = np.array(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)    # a writable copy
         res = self._scene.run(o, d, output=1, **kw)
         prim = np.asarray(res["primID"], dtype=np.int64)
         t = np.where(prim >= 0, np.asarray(res["tfar"], dtype=np.float64), np.inf)
@@ -72,7 +72,7 @@ class EmbreeScene:
             return np.zeros(len(o), dtype=bool)
         kw = {}
         if tfar is not None:
-            kw["dists"] = np.ascontiguousarray(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)
+            kw["dists"] = np.array(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)    # a writable copy
         res = self._scene.run(o, d, query="OCCLUDED", **kw)
         return np.asarray(res) >= 0
 
@@ -290,7 +290,7 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
 
 
 def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_normals: bool = False,
-                      indices=None, **old):
+                      indices=None, max_distance=None, obscurance=None, **old):
     """Ground-truth :meth:`pyshadow.Scene.ambient_occlusion` on the identical directions.
 
     The directions are :func:`pyshadow.sample_directions`' for ``sampling``
@@ -300,6 +300,15 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     float32 bent normals with ``return_bent_normals=True``). The old
     positional ``samples, strategy, seed, patterns, bent_normals`` still work,
     with a DeprecationWarning.
+
+    ``max_distance`` (float or (N,), world units, > 0) and ``obscurance``
+    (``tau``, 1 / world units): distance AO, exact -- each ray contributes
+    ``rho(L)`` of its first-hit distance ``L`` (Embree's closest hit from the
+    lifted origin, or the ground plane's analytic distance):
+    ``[L > max_distance]`` (distance-limited), ``1 - exp(-tau L)`` for
+    ``L <= max_distance`` and 1 beyond (distance-weighted;
+    :mod:`pyshadow.visibility.finite`). Bent normals weight each direction
+    by its ``rho``.
     """
     from ._compat import legacy_sampling
     from .sampling import Sampling, ao_from_samples, sample_directions
@@ -312,10 +321,18 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    distance = max_distance is not None or obscurance is not None
+    if distance:                        # checked before anything is launched
+        from .visibility.finite import check_ao_options, check_max_distance
+
+        tau = check_ao_options(obscurance, 1, "error")[0]
+        tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
     dirs = sample_directions(n, sampling=sampling, indices=indices).astype(np.float64)
     rays, anchor = caster_scene(scene)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
+    if distance:
+        return _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals)
     # the ground is tested at the point itself, as the kernel does
     occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
     origins = np.repeat(p - anchor + surface_epsilon(scene, p)[:, None] * n, S, axis=0)
@@ -326,6 +343,31 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
         occ[sel] = rays.occluded(origins[sel], flat[sel])
     vis = ~occ.reshape(N, S)
     return ao_from_samples(dirs, vis, n, bent_normals)
+
+
+def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
+    """:func:`ambient_occlusion`'s distance AO from first-hit distances (float64 until the result)."""
+    from .visibility.finite import obscurance_weight, weights_to_ao
+
+    N, S = dirs.shape[:2]
+    flat = dirs.reshape(-1, 3)
+    L = np.full(N * S, np.inf)
+    if scene.ground is not None:        # the plane's distance, by the rule of finite.ground_blocks
+        h = np.repeat(p[:, 1] - scene.ground, S)
+        wy = flat[:, 1].astype(np.float64)
+        eps = 1e-5 * scene.scale()
+        with np.errstate(divide="ignore", invalid="ignore"):
+            down = (h >= -eps) & (wy < 0)
+            up = (h < -eps) & (wy > 0)
+            L = np.where(down, np.maximum(h, 0.0) / -wy, L)
+            L = np.where(up, -h / wy, L)
+    origins = np.repeat(p - anchor + surface_epsilon(scene, p)[:, None] * n, S, axis=0)
+    chunk = 1 << 21
+    for s in range(0, N * S, chunk):
+        t, _, _ = rays.intersect(origins[s:s + chunk], flat[s:s + chunk])
+        L[s:s + chunk] = np.minimum(L[s:s + chunk], t)
+    weights = obscurance_weight(L, np.repeat(tmax, S), tau).reshape(N, S)
+    return weights_to_ao(dirs.astype(np.float64), weights, n, bent_normals)
 
 
 class EmbreeTracer:

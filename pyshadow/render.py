@@ -51,7 +51,9 @@ class Frame(Mapping):
         camera); None otherwise (then not among the mapping's keys).
     radiance : ndarray, shape (H, W, 3), float32, or None
         Linear radiance, where a lighting stage fills it; None otherwise
-        (then not among the mapping's keys).
+        (then not among the mapping's keys). With a
+        :class:`~pyshadow.lighting.phong.PhongLighting`: thesis 000's
+        display-referred colour instead (:mod:`pyshadow.lighting.phong`).
     """
 
     ao: np.ndarray
@@ -282,6 +284,12 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         as without it. The albedo of a pixel is its instance's
         (``Lighting(albedo=, albedos=)``) times the colour its mesh carries
         (vertex colours, texture: :mod:`pyshadow.materials`), if any.
+        A :class:`pyshadow.lighting.phong.PhongLighting` instead fills it
+        with thesis 000's display-referred colour ``c`` (eq. 3.2: a point
+        light with Phong specular towards ``camera.eye``, the ambient term
+        weighted by the frame's AO, or constant, or one shadow sample along
+        the normal; the light's shadow on the same ``visibility`` backend),
+        not radiance in :class:`~pyshadow.lighting.Lighting`'s units.
     normals : {"flat", "smooth"}, optional
         Shading normals: the G-buffer's face normals ("flat", the default),
         or normals interpolated from the mesh's corners with creases kept
@@ -305,15 +313,19 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     if normals not in NORMAL_MODES:
         raise ValueError(f"normals must be 'flat' or 'smooth', got {normals!r}")
     crease_angle = check_crease_angle(crease_angle)
+    phong = False
     if lighting is not None:
+        from .lighting.phong import PhongLighting
         from .lighting.shade import Lighting
 
-        if not isinstance(lighting, Lighting):
-            raise TypeError(f"lighting must be a pyshadow.lighting.Lighting, got {lighting!r}")
+        phong = isinstance(lighting, PhongLighting)
+        if not (phong or isinstance(lighting, Lighting)):
+            raise TypeError(f"lighting must be a pyshadow.lighting.Lighting or PhongLighting, got {lighting!r}")
     smooth = normals == "smooth"
-    colour = None
+    colour = surface = None
     items = scene.draw_items(ground_size)[0] if smooth or lighting is not None else []
-    if smooth or any(visual_of(mesh) is not None for mesh, _ in items):
+    gouraud = phong and lighting.per_vertex
+    if smooth or gouraud or any(visual_of(mesh) is not None for mesh, _ in items):
         from .gbuffer import render_gbuffer
         from .materials import surface_colours
         from .shading_normals import pixel_surface, shading_gbuffer
@@ -332,7 +344,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     bent = np.zeros((H, W, 3), np.float32)
     transfer = None
     if len(sp.index):
-        one_pass = (lighting is not None and lighting.mode == "transfer" and ao_scale == 1 and not smooth
+        one_pass = (lighting is not None and not phong and lighting.mode == "transfer" and ao_scale == 1 and not smooth
                     and hasattr(vis.get_backend(visibility), "sh_transfer"))
         if one_pass:            # the AO kernel's pass that also sums the transfer: AO and bent normals as below
             a, b, transfer = vis.get_backend(visibility).sh_transfer(
@@ -363,10 +375,42 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
             frame.ao = filters.bilateral(frame.ao, g["depth"], g["normal"], separable=True)
         elif denoise == "box":
             frame.ao = filters.edge_aware_box(frame.ao, g["depth"], g["normal"])
-    if lighting is not None:
+    if phong:
+        frame.radiance = _phong_radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, colour,
+                                         items, surface)
+    elif lighting is not None:
         frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling,
                                    transfer, colour)
     return frame
+
+
+def _phong_radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, colour, items,
+                    surface) -> np.ndarray:
+    """``Frame.radiance`` of :func:`render` for a :class:`~pyshadow.lighting.phong.PhongLighting`:
+    thesis 000's display colour ``c`` (eq. 3.2 and its modes) of every covered pixel, with the
+    frame's (filtered, upsampled) AO and ``e`` towards ``camera.eye``; ``colour``, ``surface``:
+    the pixels' mesh colours and :func:`pyshadow.shading_normals.pixel_surface` (or None)."""
+    from .lighting.phong import phong_shade, vertex_terms
+
+    H, W = camera.height, camera.width
+    out = np.zeros((H * W, 3), np.float32)
+    full = sp if ao_scale == 1 else covered_pixels(camera, sp.gbuffer, sp.object_id)
+    if not len(full.index):
+        return out.reshape(H, W, 3)
+    nrm = np.asarray(full.normals, np.float64)
+    nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    albedo = lighting.albedo_of(full.surface_ids, len(full.index))
+    if colour is not None:
+        albedo = albedo * colour
+    geo = None if frame.geometric_normal is None else frame.geometric_normal.reshape(-1, 3)[full.index]
+    terms = None
+    if lighting.per_vertex:
+        terms = vertex_terms(items, surface[1], surface[2], surface[3], nrm, camera.eye, lighting)
+    c, _, _ = phong_shade(scene, full.points, nrm, camera.eye, lighting, frame.ao.reshape(-1)[full.index],
+                          backend=visibility, surface_ids=full.surface_ids, bias=bias, albedo=albedo,
+                          geometric_normals=geo, terms=terms)
+    out[full.index] = c
+    return out.reshape(H, W, 3)
 
 
 def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer,

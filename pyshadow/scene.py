@@ -118,16 +118,14 @@ class Scene:
     def __init__(self, ground: float | None = None, *, views: ViewSet | None = None,
                  resolution: int = 128, depth_bits: int = 16, layers="auto", footprint: bool = False,
                  progress: bool = False):
-        if ground is not None:
-            ground = float(ground)
-            if not np.isfinite(ground):
-                raise ValueError(f"ground must be a finite height, got {ground}")
+        ground = None if ground is None else float(ground)
+        if ground is not None and not np.isfinite(ground):
+            raise ValueError(f"ground must be a finite height, got {ground}")
         if not isinstance(footprint, (bool, np.bool_)):
             raise TypeError(f"footprint must be True or False, got {footprint!r}")
         self.ground = ground
-        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128),
-                                resolution=resolution, depth_bits=depth_bits, layers=layers,
-                                footprint=bool(footprint))
+        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128), resolution=resolution,
+                                depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
         self.progress = progress
         self.instances: list[Instance] = []
         self._built: dict = {}           # id(mesh) -> CSM built by add()
@@ -260,8 +258,8 @@ class Scene:
                                   normals=normals, max_distance=max_distance, straddle=straddle)
 
     def ambient_occlusion(self, points, normals, *args, sampling: Sampling | None = None,
-                          return_bent_normals: bool = False, lookup: str = "nearest",
-                          bias: float | None = None, indices=None, surface_ids=None, backend=None, **old):
+                          return_bent_normals: bool = False, lookup: str = "nearest", bias: float | None = None,
+                          indices=None, surface_ids=None, backend=None, max_distance=None, obscurance=None, **old):
         """Ambient occlusion of surface points (1 = open): :func:`pyshadow.visibility.ambient_occlusion`.
 
         Parameters
@@ -277,6 +275,8 @@ class Scene:
             As in :meth:`visible`.
         indices : array_like of int, optional
             Sample-pattern index of each point; default ``arange(N)``.
+        max_distance, obscurance : optional
+            Distance-limited and distance-weighted AO (:func:`pyshadow.visibility.ambient_occlusion`).
         **old
             Deprecated: ``samples, strategy, patterns, seed, bent_normals``
             (also positionally, in that order) and ``filtered``.
@@ -294,7 +294,7 @@ class Scene:
                                               lookup, backend, Sampling())
         return visibility.ambient_occlusion(self, points, normals, backend=name, sampling=sampling,
                                             return_bent_normals=bent, bias=bias, indices=indices,
-                                            surface_ids=surface_ids)
+                                            surface_ids=surface_ids, max_distance=max_distance, obscurance=obscurance)
 
     # ------------------------------------------------------------------
     # meshes, vertices, images

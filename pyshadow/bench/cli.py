@@ -15,6 +15,7 @@ from .common import _PROGRESS, _Log
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
 from .lit import sky_lighting
+from .methods import METHODS, methods_table, parse_methods, positive_distance
 from .report import format_table, pareto_plot, sweep_markdown
 from .scenes import SceneFactory, _load_meshes
 from .single import run_main
@@ -79,6 +80,21 @@ def build_parser() -> argparse.ArgumentParser:
     lit.add_argument("--exposure", type=_positive_float, metavar="S",
                      help="tone-mapping exposure of lit.png (default: the 99th percentile of the "
                           "lit pixels' luminance maps to 0.8)")
+    lit.add_argument("--light", metavar="sun|sun:AZ,EL|point|point:X,Y,Z",
+                     help="also measure one light's hard shadows: the CSM (one-texel, vote) against "
+                          "the classic shadow map at equal memory and at 1024^2, on identical rays "
+                          "against Embree, with the time per frame while a body moves; writes "
+                          "shadow.png and a 'light' entry (pyshadow/bench/light.py)")
+    meth = ap.add_argument_group("methods")
+    meth.add_argument("--method", type=parse_methods, action="append", metavar="|".join(METHODS),
+                      help="also measure these AO methods on the same pixels (repeatable or "
+                           "comma-separated): a 'methods' entry in results.json and a methods table "
+                           "(pyshadow/bench/methods.py)")
+    meth.add_argument("--ao-distance", type=positive_distance, metavar="D",
+                      help="D of the distance-limited AO the methods are also measured on (world "
+                           "units; default: the mean bounding radius of the casters)")
+    meth.add_argument("--probe-resolution", type=_int_range(16, 2048, "--probe-resolution"),
+                      default=128, metavar="R", help="cube-map face resolution (default 128)")
     knobs = ap.add_argument_group("settings (override the preset; for tests and power users)")
     knobs.add_argument("--maps", type=_maps, metavar="TxP", help="zigzag map grid theta x phi")
     knobs.add_argument("--resolution", type=_int_range(2, 4096, "--resolution"), metavar="R",
@@ -164,6 +180,20 @@ def main(argv=None) -> int:
             ap.error(f"--sky {args.sky}: not 'clear', 'overcast' or a readable HDR environment map ({e})")
     elif args.exposure is not None:
         ap.error("--exposure needs --sky")
+    if args.light is not None:
+        if args.sweep or answer_mode:
+            ap.error("--light is for the single benchmark, not --sweep, --max-error or --frame-budget")
+        from .light import parse_light
+
+        try:
+            args.light = parse_light(args.light)
+        except ValueError as e:
+            ap.error(str(e))
+    if (args.method or args.ao_distance is not None) and (args.sweep or answer_mode):
+        ap.error("--method and --ao-distance are for the single benchmark, not --sweep, --max-error "
+                 "or --frame-budget")
+    if args.ao_distance is not None and not args.method:
+        ap.error("--ao-distance needs --method")
     _check_out(ap, out)
 
     preset = PRESETS["quick" if args.quick else "default"]
@@ -220,4 +250,6 @@ def main(argv=None) -> int:
     result["files"]["results.json"] = str(out / "results.json")
     _emit(result, out / "results.json", args.json)
     print(format_table(result), file=sys.stderr if args.json else sys.stdout)
+    if "methods" in result:
+        print(methods_table(result["methods"]), file=sys.stderr if args.json else sys.stdout)
     return 0

@@ -74,6 +74,10 @@ def format_table(r: dict) -> str:
         from .lit import format_lighting
 
         rows += format_lighting(r["lighting"])
+    if "light" in r:
+        from .light import format_light
+
+        rows += format_light(r["light"])
     w = max(len(k) for k, _ in rows)
     head = (f"pyshadow-bench ({r['mode']}): {r['scene']}\n"
             f"  {c['width']}x{c['height']}, {c['samples']} samples ({c['strategy']}), maps zigzag "

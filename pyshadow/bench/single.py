@@ -118,6 +118,12 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
         vis = visibility_pass(scene, gb, S, strat, seed, pat, ident["occluded"], cfg.lookup)
         conv, conv_s, conv_src = converged_reference(cache, tracer, scene, gb, args.reference_samples,
                                                      strat, seed, pat, log)
+        methods = None
+        if getattr(args, "method", None):
+            from .methods import methods_pass
+
+            methods = methods_pass(args, scene, camera, gb, tracer, cache, csm, conv, vis, cfg.lookup,
+                                   factory.names, log)
     finally:
         tracer.close()
 
@@ -224,4 +230,14 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
     }
     if lit_record is not None:
         result["lighting"] = lit_record
+    if getattr(args, "light", None) is not None:
+        from .light import light_pass
+
+        try:
+            result["light"], light_files = light_pass(args, scene, camera, csm["bytes"], args.light, out_dir, log)
+        except ValueError as e:                     # a light inside a caster's sphere of the user's scene
+            raise SystemExit(f"pyshadow-bench: {e}") from None
+        files.update(light_files)
+    if methods is not None:
+        result["methods"] = methods
     return result

@@ -27,6 +27,16 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
 - :class:`PointLight`, :class:`SpotLight`, :func:`point_light_radiance`
   (:mod:`~pyshadow.lighting.local`): point, sphere and spot lights with their
   shadows through finite shadow rays, in the sun's irradiance units.
+- :class:`DiscLight`, :class:`RectLight`, :func:`area_light_radiance`
+  (:mod:`~pyshadow.lighting.area`): one-sided area lights with soft shadows,
+  area-sampled, in the point lights' units.
+- :class:`PhongLighting`, :func:`phong_shade` (:mod:`~pyshadow.lighting.phong`):
+  thesis 000 eq. 3.2 (point light, Phong specular, AO-weighted, constant or
+  normal-sample ambient); display-referred, not added to :class:`Lighting`'s radiance.
+- :class:`ShadowMapVisibility` (:mod:`~pyshadow.lighting.shadow_map`): the
+  classic scene shadow map (orthographic for a sun, a cube map for a point
+  light) re-rendered when bodies move, with a depth bias and PCF; a
+  visibility backend for light rays, the baseline the CSM is compared with.
 - :func:`reference_radiance` (:mod:`~pyshadow.lighting.reference`): the same
   integrals converged through Embree, the ground truth of every mode.
 - :func:`tonemap`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
@@ -43,11 +53,17 @@ from .shade import (DirectionalLight, Lighting, ShadedPoints, sampled_sky_radian
 from .transfer import sh_transfer, transfer_irradiance
 from .reference import reference_radiance
 from .local import PointLight, SpotLight, point_light_radiance
+from .area import DiscLight, RectLight, area_light_radiance, area_light_samples
+from .phong import PhongLighting, phong_shade
+from .shadow_map import ShadowMapVisibility
 from .tonemap import tonemap, write_radiance
 
-__all__ = ["DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
+__all__ = ["DiscLight", "PhongLighting", "RectLight", "ShadowMapVisibility", "area_light_radiance",
+           "area_light_samples", "phong_shade",
+           "DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
            "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky", "cube", "disc_solid_angle",
            "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
-           "overcast_sky", "PointLight", "SpotLight", "point_light_radiance", "reference_radiance", "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
+           "overcast_sky", "PointLight", "SpotLight", "point_light_radiance", "reference_radiance",
+           "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
            "shade_terms", "sun_irradiance", "sun_position", "tonemap", "transfer_irradiance",
            "transfer_sky_radiance", "write_radiance"]

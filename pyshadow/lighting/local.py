@@ -25,6 +25,9 @@ surface, and ``E = L * Omega * mean_k(max(n . l_k, 0) V_k)`` with ``Omega = 2 pi
 (1 - cos a)`` (for ``R << d``: ``intensity / d^2 * mean(cos V)``). ``K = 1`` or
 ``radius = 0``: one ray to the centre, hard shadows. Embree
 (``backend="embree"``) answers the identical rays: the ground truth.
+
+Disc and rectangle lights (one-sided, area-sampled, the same units) live in
+:mod:`pyshadow.lighting.area`; :func:`lights_radiance` sums every kind.
 """
 from __future__ import annotations
 
@@ -262,14 +265,19 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
 
 def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", surface_ids=None, indices=None,
                     bias=None, geometric_normals=None) -> np.ndarray:
-    """The sum of :func:`point_light_radiance` over ``lighting.lights``, (N, 3) float64.
+    """The sum of each light's radiance over ``lighting.lights``, (N, 3) float64.
 
-    Sphere lights take ``lighting.sun_samples`` rays a point, turned by
-    ``lighting.seed``; zeros without local lights.
+    Point, sphere and spot lights through :func:`point_light_radiance`, disc
+    and rectangle lights through :func:`pyshadow.lighting.area.area_light_radiance`;
+    sphere and area lights take ``lighting.sun_samples`` rays a point, turned
+    by ``lighting.seed``; zeros without local lights.
     """
+    from .area import AreaLight, area_light_radiance
+
     out = np.zeros((len(points), 3))
     for light in lighting.lights:
-        out += point_light_radiance(scene, points, normals, light, albedo, backend=backend,
-                                    samples=lighting.sun_samples, surface_ids=surface_ids, indices=indices,
-                                    seed=lighting.seed, bias=bias, geometric_normals=geometric_normals)[0]
+        fn = area_light_radiance if isinstance(light, AreaLight) else point_light_radiance
+        out += fn(scene, points, normals, light, albedo, backend=backend, samples=lighting.sun_samples,
+                  surface_ids=surface_ids, indices=indices, seed=lighting.seed, bias=bias,
+                  geometric_normals=geometric_normals)[0]
     return out

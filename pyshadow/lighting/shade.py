@@ -150,9 +150,9 @@ class Lighting:
         Default: no sky (zeros).
     sun : DirectionalLight or SunLight, optional
         The directional light; its shadow comes from the visibility backend.
-    lights : sequence of PointLight or SpotLight, optional
-        Local lights with their shadows (:mod:`pyshadow.lighting.local`),
-        added to the sun's term; sphere lights take ``sun_samples`` rays.
+    lights : sequence of PointLight, SpotLight, DiscLight or RectLight, optional
+        Local lights with their shadows (:mod:`pyshadow.lighting.local`, ``.area``),
+        added to the sun's term; sphere and area lights take ``sun_samples`` rays.
     albedo : float or array_like (3,), optional
         RGB albedo in [0, 1] of every instance without one in ``albedos``.
     albedos : mapping {instance id: albedo}, optional
@@ -163,8 +163,8 @@ class Lighting:
         How the sky is shaded (module docstring). "sampled" needs ``sky``
         as an :class:`EnvironmentMap` (or no sky at all).
     sun_samples : int, optional
-        Directions K over the sun's disc (1 .. 1024) for a soft shadow; used
-        only when the sun's angular radius is > 0.
+        Rays K a point (1 .. 1024) over the sun's disc (when its angular
+        radius is > 0) and over sphere and area lights; 1: hard shadows.
     seed : int, optional
         Seed of the per-point turn of the sun's directions.
 
@@ -187,11 +187,11 @@ class Lighting:
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
                  ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0,
                  lights=()):
-        from .local import PointLight
+        from .area import LIGHT_TYPES
 
         self.lights = tuple(lights)
-        if not all(isinstance(x, PointLight) for x in self.lights):
-            raise TypeError(f"lights: expected PointLight or SpotLight objects (got {self.lights!r})")
+        if not all(isinstance(x, LIGHT_TYPES) for x in self.lights):
+            raise TypeError(f"lights: expected point, spot, disc or rectangle lights (got {self.lights!r})")
         env = sky if isinstance(sky, EnvironmentMap) else None
         if sky is None:
             coef = np.zeros((SH_COUNT, 3))

@@ -51,8 +51,10 @@ from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
 from ..views import FILTER_ANGLE_EPS
+from . import finite
 from .base import register
-from .finite import answer_finite, check_max_distance, check_straddle, unit_directions
+from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
+                     shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 
 __all__ = ["CSMVisibility", "lane_table"]
@@ -296,11 +298,84 @@ class CSMVisibility:
         return out
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False,
-                          bias=None, indices=None, surface_ids=None):
-        """:meth:`pyshadow.Scene.ambient_occlusion` by the kernel."""
+                          bias=None, indices=None, surface_ids=None, max_distance=None, obscurance=None,
+                          quadrature=16, straddle="error"):
+        """:meth:`pyshadow.Scene.ambient_occlusion` by the kernel.
+
+        ``max_distance``, ``obscurance``, ``quadrature``, ``straddle``: distance
+        AO (:func:`pyshadow.visibility.ambient_occlusion`); without the first
+        two, the kernel of before (compiled with ``FINITE_RAYS=0``).
+        """
+        if max_distance is not None or obscurance is not None:
+            return self._distance_ao(scene, points, normals, sampling, bool(return_bent_normals), bias, indices,
+                                     surface_ids, max_distance, *check_ao_options(obscurance, quadrature, straddle))
         ao, bent, _ = self._ao(scene, points, normals, sampling, bool(return_bent_normals), False, bias, indices,
                                surface_ids)
         return (ao, bent) if return_bent_normals else ao
+
+    def _distance_ao(self, scene, points, normals, sampling, bent, bias, indices, surface_ids, max_distance, tau,
+                     Q, straddle):
+        """Distance-limited (one node) or -weighted (Q nodes) AO (:mod:`pyshadow.visibility.finite`).
+
+        Per distinct node length: the points whose rays cannot end inside a
+        caster's bounding sphere (:func:`finite.shell_clear`) run the AO
+        kernel with ``FINITE_RAYS=1``; the others go ray by ray through the
+        visibility kernel (``sample_directions``' directions) and the
+        straddle rule of :func:`finite.answer_finite_ao`. Bent normals of
+        weighted AO take the ray-by-ray path for every point and node.
+        """
+        p = rows3(points, "points")
+        n = unit_normals(normals, len(p))
+        N = len(p)
+        idx = check_indices(indices, N)
+        own = scene.caster_slots(surface_ids, N)
+        tmax = check_max_distance(np.inf if max_distance is None else max_distance, N)
+        sid = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (N,))
+        nodes = ao_nodes(tmax, tau, Q)
+        out_bent = np.zeros((N, 3), np.float32)
+        S = int(sampling.samples)
+
+        def by_rays(rows, cols):
+            """AO (and bent normals) of points ``rows`` at node lengths ``cols`` (K, q), ray by ray."""
+            res_ao, res_bent = np.empty(len(rows)), np.empty((len(rows), 3), np.float32)
+            step = max(1, (1 << 20) // (S * cols.shape[1]))
+            for s in range(0, len(rows), step):
+                sel = rows[s:s + step]
+                dirs = sampling.directions(n[sel], indices=idx[sel])
+                P, W = np.repeat(p[sel], S, axis=0), dirs.reshape(-1, 3)
+                own_r, m_r = np.repeat(own[sel], S), np.repeat(n[sel].astype(np.float32), S, axis=0)
+
+                def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r):
+                    return self._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
+
+                weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer)
+                res = finite.weights_to_ao(dirs.astype(np.float64), weights, n[sel], True)
+                res_ao[s:s + step], res_bent[s:s + step] = res
+            return res_ao, res_bent
+
+        if bent and nodes.shape[1] > 1:
+            ao, out_bent = by_rays(np.arange(N), nodes)
+            return ao.astype(np.float32), out_bent
+        acc = np.zeros(N)
+        last = held = None
+        for j in range(nodes.shape[1]):
+            t = nodes[:, j]
+            if last is not None and np.array_equal(t, last):     # the same lengths: the same answers
+                acc += held
+                continue
+            held, last = np.zeros(N), t
+            clear = shell_clear(scene, p, t)
+            c, r = np.flatnonzero(clear), np.flatnonzero(~clear)
+            if len(c):
+                a, b, _ = self._ao(scene, p[c], n[c], sampling, bent, False, bias, idx[c],
+                                   None if sid is None else sid[c], tmax=_float32_lengths(t[c]))
+                held[c] = a
+                out_bent[c] = b
+            if len(r):
+                held[r], out_bent[r] = by_rays(r, t[r, None])
+            acc += held
+        ao = (acc / nodes.shape[1]).astype(np.float32)
+        return (ao, out_bent) if bent else ao
 
     def sh_transfer(self, scene, points, normals, *, sampling, bias=None, indices=None, surface_ids=None):
         """AO, bent normals and the shadowed SH transfer of each point, from one pass of the AO kernel.
@@ -310,7 +385,8 @@ class CSMVisibility:
         """
         return self._ao(scene, points, normals, sampling, True, True, bias, indices, surface_ids)
 
-    def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids):
+    def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids, tmax=None):
+        """The AO kernel (``tmax``: float32 (N,) lengths, compiled with ``FINITE_RAYS=1``, or None)."""
         p = rows3(points, "points")
         n = unit_normals(normals, len(p))
         N, S = len(p), int(sampling.samples)
@@ -319,8 +395,9 @@ class CSMVisibility:
         ao = np.empty(N, np.float32)
         bent = np.empty((N, 3), np.float32)
         tr = np.empty((N, 9), np.float32) if transfer else None
+        finite_def = {} if tmax is None else {"FINITE_RAYS": 1}
         defines = self.query_defines(scene, "scene_ao", SAMPLES=S, BENT_NORMALS=int(bent_normals),
-                                     TRANSFER=int(transfer), SURFACE_NORMALS=1) if N else None
+                                     TRANSFER=int(transfer), SURFACE_NORMALS=1, **finite_def) if N else None
         if N and defines is None:       # nothing occludes and only AO is asked: every sample is open
             ao[:] = 1.0
         elif N:
@@ -340,7 +417,8 @@ class CSMVisibility:
                 tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
                 k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
-                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]), table, ao_buf, bent_buf, tr_buf)
+                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
+                  *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf)
                 cl.enqueue_copy(q, ao[s:e], ao_buf)
                 if bent_normals:
                     cl.enqueue_copy(q, bent[s:e], bent_buf)

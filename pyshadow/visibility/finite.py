@@ -34,6 +34,17 @@ Every backend applies these rules (the kernel under ``FINITE_RAYS=1``, the
 NumPy mirror in float64, Embree with ``tfar``); ``max_distance=None`` (or
 ``+inf`` for a ray) is the unbounded ray of before, bit-identical and as
 fast: the kernel is compiled without the length test then.
+
+Distance AO (``ambient_occlusion(..., max_distance=, obscurance=)``, seed 002
+eq. 3.2-3.4) asks the same finite rays: see the section below
+(:func:`ao_nodes`, :func:`answer_finite_ao`, :func:`rays_ao`). Its straddle
+rule differs from that of :func:`answer_finite` in one respect: a
+straddling ray is first asked unbounded, and only if that ray is occluded is
+it undecided (``straddle='error'``, ``'embree'`` or ``'infinite'``). For a
+convex caster that fills its bounding sphere (a sphere) ``'infinite'`` is
+then wrong only for rays that end between the body and its sphere, or that
+another caster occludes beyond the end: a ray that ends inside such a body
+has met it.
 """
 from __future__ import annotations
 
@@ -41,11 +52,14 @@ import numpy as np
 
 from ..scene_arrays import scene_arrays
 
-__all__ = ["STRADDLE", "check_max_distance", "check_straddle", "unit_directions", "straddling",
-           "ground_blocks", "answer_finite"]
+__all__ = ["STRADDLE", "AO_STRADDLE", "check_max_distance", "check_straddle", "unit_directions", "straddling",
+           "ground_blocks", "answer_finite", "check_ao_options", "ao_nodes", "obscurance_weight", "shell_clear",
+           "answer_finite_ao", "rays_ao", "weights_to_ao"]
 
 #: What to do with rays that end inside a caster's bounding sphere.
 STRADDLE = ("error", "embree")
+#: The same for the rays of distance-limited AO (:func:`answer_finite_ao`).
+AO_STRADDLE = ("error", "embree", "infinite")
 
 
 def check_max_distance(max_distance, n: int):
@@ -192,3 +206,198 @@ def answer_finite(scene, points, directions, tmax, straddle, answer) -> np.ndarr
 
         vis[rows] = embree.visible(scene, points[rows], directions[rows], max_distance=tmax[rows])
     return vis
+
+
+# ---------------------------------------------------------------------------
+# distance-limited and distance-weighted AO (seed 002, eq. 3.2-3.4)
+# ---------------------------------------------------------------------------
+# Distance-limited AO counts an occluder only when a sample ray meets it
+# within ``D = max_distance``: each ray contributes rho(L) = [L > D], L its
+# first-hit distance (inf: a miss). Distance-weighted AO ("obscurance",
+# [IKSZ03] as in seed 002 eq. 3.3) contributes rho(L) = 1 - exp(-tau L) for
+# L <= D and 1 beyond D (D = inf by default); AO is the mean of rho over the
+# cosine-weighted samples, 1 = open.
+#
+# A CSM answers "is the ray free up to t" (V_t = [L > t]), not L. Since
+# rho_D(L) = P(min(t(U), D) < L) for U uniform on [0, 1) and
+# t(u) = -log(1 - u) / tau (the inverse of rho), the midpoint rule with Q
+# nodes u_j = (j - 1/2) / Q gives, per ray,
+#     rho_Q(L) = (1/Q) sum_j V_{t_j},   t_j = min(t(u_j), D),
+# i.e. (1/Q) #{j : u_j < rho(L)} for L <= D and exactly 1 for L > D (a miss
+# included): |rho_Q(L) - rho_D(L)| <= 1 / (2Q) for every ray, hence for
+# every point's AO (before the backend's own errors on the V_t).
+def check_ao_options(obscurance, quadrature, straddle):
+    """Validate the options of distance AO; returns ``(tau or None, Q, straddle)``.
+
+    Parameters
+    ----------
+    obscurance : None or float
+        ``tau`` of rho(L) = 1 - exp(-tau L), 1 / world units, finite and > 0.
+    quadrature : int
+        Nodes Q of the CSM's quadrature, 1 .. 256.
+    straddle : {'error', 'embree', 'infinite'}
+    """
+    tau = None
+    if obscurance is not None:
+        try:
+            tau = float(obscurance)
+        except (TypeError, ValueError):
+            raise TypeError(f"obscurance must be a number (tau, 1 / world units), got {obscurance!r}") from None
+        if not (np.isfinite(tau) and tau > 0):
+            raise ValueError(f"obscurance (tau) must be finite and > 0, got {tau}")
+    if isinstance(quadrature, bool) or not isinstance(quadrature, (int, np.integer)) or not 1 <= quadrature <= 256:
+        raise ValueError(f"quadrature must be an int in 1..256, got {quadrature!r}")
+    if straddle not in AO_STRADDLE:
+        raise ValueError(f"straddle must be one of {AO_STRADDLE}, got {straddle!r}")
+    return tau, int(quadrature), straddle
+
+
+def ao_nodes(tmax, tau, quadrature: int) -> np.ndarray:
+    """The lengths ``t_j`` at which each point's rays are asked, (N, Q) float64 ascending.
+
+    ``tau`` None (distance-limited): one node, ``tmax``. Else the Q nodes
+    ``min(-log(1 - u_j) / tau, tmax)``, ``u_j = (j - 1/2) / Q``.
+    """
+    tmax = np.asarray(tmax, np.float64)
+    if tau is None:
+        return tmax[:, None].copy()
+    u = (np.arange(quadrature) + 0.5) / quadrature
+    return np.minimum(-np.log1p(-u)[None, :] / tau, tmax[:, None])
+
+
+def obscurance_weight(L, tmax, tau) -> np.ndarray:
+    """rho_D of first-hit distances ``L`` (inf: miss), float64: exact, for ray tracers."""
+    L = np.asarray(L, np.float64)
+    tmax = np.broadcast_to(np.asarray(tmax, np.float64), L.shape)
+    beyond = (L > tmax) | np.isposinf(L)           # a miss counts as beyond
+    if tau is None:
+        return beyond.astype(np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        w = -np.expm1(-tau * np.where(np.isfinite(L), L, 0.0))
+    return np.where(beyond, 1.0, w)
+
+
+def shell_clear(scene, points, tmax) -> np.ndarray:
+    """Points none of whose rays of length ``tmax`` can end inside a caster's bounding sphere.
+
+    The ends ``p + t w`` lie on the sphere of radius ``t`` about ``p``; it
+    meets the bounding sphere ``(c, r)`` only where ``| |p - c| - t | <= r``.
+    (N,) bool; O(N x casters).
+    """
+    arr = scene_arrays(scene)
+    casters = np.flatnonzero(arr["casts"])
+    p = np.asarray(points, np.float64)
+    t = np.asarray(tmax, np.float64)
+    ok = np.ones(len(p), bool)
+    fin = np.isfinite(t)
+    for k in casters:
+        r = arr["world_radius"][k] * (1 + 1e-6)
+        d = np.linalg.norm(p - arr["world_centre"][k], axis=1)
+        with np.errstate(invalid="ignore"):
+            ok &= ~fin | (np.abs(d - t) > r * (1 + 1e-9) + 1e-12)
+    return ok
+
+
+def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.ndarray:
+    """Finite AO rays by a CSM backend: ``answer(rows, lengths)`` -> (K,) bool for the rows it is given.
+
+    Rays that do not straddle (:func:`straddling`) are answered at their
+    length. A straddling ray is first asked unbounded: where that ray is
+    free, so is every part of it (exact). Only a straddling ray the CSM finds
+    occluded unbounded is undecided -- the occluder may lie beyond the end;
+    ``straddle`` then says: ``'error'`` raise a ``ValueError`` naming the
+    instance, ``'embree'`` trace those rays with Embree (exact; needs the
+    meshes), ``'infinite'`` keep the unbounded answer (occluded: AO too dark
+    by the occluders met beyond the end, never too bright).
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points, directions : ndarray, shape (N, 3), float64
+        World origins and unit directions.
+    tmax : ndarray, shape (N,)
+        Validated lengths.
+    straddle : {'error', 'embree', 'infinite'}
+    answer : callable
+
+    Returns
+    -------
+    ndarray, shape (N,), bool
+        True where the ray is free up to its length.
+    """
+    n = len(points)
+    vis = np.empty(n, bool)
+    rows, inst = straddling(scene, points, directions, tmax)
+    clean = np.ones(n, bool)
+    clean[rows] = False
+    sel = np.flatnonzero(clean)
+    if len(sel):
+        vis[sel] = answer(sel, tmax[sel])
+    if not len(rows):
+        return vis
+    vis[rows] = answer(rows, np.full(len(rows), np.inf))
+    open_ = vis[rows]
+    amb, owner = rows[~open_], inst[~open_]
+    if not len(amb) or straddle == "infinite":
+        return vis
+    meshes = all(scene.instances[i].mesh is not None for i in np.flatnonzero(scene_arrays(scene)["casts"]))
+    if straddle == "error" or not meshes:
+        i, j = int(amb[0]), int(owner[0])
+        c, r = scene.instances[j].world_sphere()
+        why = ("pass straddle='embree' (ray tracing) or 'infinite' (the unbounded answer)"
+               if straddle == "error" else "straddle='embree' needs every caster's mesh (Scene.add(csm, mesh=...))")
+        raise ValueError(f"AO ray {i} (and {len(amb) - 1} more) of length {float(tmax[i]):.6g} ends inside the "
+                         f"bounding sphere of caster instance {j} (centre {np.round(np.asarray(c), 6).tolist()}, "
+                         f"radius {float(r):.6g}) and is occluded unbounded: a CSM cannot tell whether the "
+                         f"occluder lies before or beyond the end; {why}")
+    from .. import embree
+
+    vis[amb] = embree.visible(scene, points[amb], directions[amb], max_distance=tmax[amb])
+    return vis
+
+
+def weights_to_ao(directions, weights, normals, return_bent_normals: bool):
+    """AO (mean of the per-sample weights) and bent normals (normalised weighted sum of the
+    directions; the normal where it vanishes); float32. With 0/1 weights: :func:`pyshadow.sampling.ao_from_samples`."""
+    ao = weights.mean(axis=1).astype(np.float32)
+    if not return_bent_normals:
+        return ao
+    b = (directions * weights[..., None]).sum(axis=1)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    b = np.where(length > 0, b / np.maximum(length, np.finfo(np.float64).tiny), normals)
+    return ao, b.astype(np.float32)
+
+
+def rays_ao(scene, points, normals, directions, nodes, straddle, answer):
+    """Per-sample weights rho_Q of distance AO from finite visibility queries.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points, normals : ndarray, shape (N, 3), float64
+    directions : ndarray, shape (N, S, 3)
+        The sample directions of each point.
+    nodes : ndarray, shape (N, Q)
+        :func:`ao_nodes`.
+    straddle : {'error', 'embree', 'infinite'}
+    answer : callable
+        ``answer(rows, lengths)``: the backend's finite visibility of the
+        flattened rays ``rows`` (point-major, ``i * S + s``), (K,) bool.
+
+    Returns
+    -------
+    ndarray, shape (N, S), float64
+        ``(1/Q) sum_j V_{t_j}`` per sample.
+    """
+    N, S = directions.shape[:2]
+    Q = nodes.shape[1]
+    P = np.repeat(np.asarray(points, np.float64), S, axis=0)
+    W = unit_directions(directions.reshape(-1, 3))
+    weight = np.zeros(N * S)
+    vis = prev = None
+    for j in range(Q):
+        t = np.repeat(nodes[:, j], S)
+        if vis is None or not np.array_equal(t, prev):      # equal lengths: the same answers
+            vis, prev = answer_finite_ao(scene, P, W, t, straddle, answer), t
+        weight += vis
+    return (weight / Q).reshape(N, S)

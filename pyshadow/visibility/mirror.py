@@ -17,7 +17,8 @@ from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
-from .finite import answer_finite, check_max_distance, check_straddle, ground_blocks
+from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
+                     rays_ao, weights_to_ao)
 
 __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference", "caster_occludes"]
 
@@ -161,18 +162,33 @@ def _raise_directions(csm, lookup, wn, mn, mine):
 
 
 def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
-                                indices=None, surface_ids=None, lookup: str = "nearest"):
+                                indices=None, surface_ids=None, lookup: str = "nearest", max_distance=None,
+                                obscurance=None, quadrature=16, straddle="error"):
     """NumPy version of :meth:`Scene.ambient_occlusion`: :func:`visible_reference` on every sample.
 
     AO is the fraction of the sample directions that reach the sky; the bent
     normal is the normalised sum of those directions (the normal where none
-    does), float64 until the float32 result.
+    does), float64 until the float32 result. With ``max_distance`` or
+    ``obscurance``: distance AO by the same finite queries and quadrature as
+    the CSM backends (:mod:`pyshadow.visibility.finite`), ray by ray.
     """
     p = rows3(points, "points")
     n = nonzero(rows3(normals, "normals", len(p)), "normals")
     n = n / np.linalg.norm(n, axis=1, keepdims=True)
     idx = check_indices(indices, len(p))
     S = sampling.samples
+    if max_distance is not None or obscurance is not None:
+        tau, Q, straddle = check_ao_options(obscurance, quadrature, straddle)
+        tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
+        own = np.repeat(scene.caster_slots(surface_ids, len(p)), S)
+        dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
+        P, W, M = np.repeat(p, S, axis=0), dirs.reshape(-1, 3), np.repeat(n, S, axis=0)
+
+        def answer(k, t):
+            return _visible_reference(scene, P[k], W[k], own[k], M[k], lookup, bias, t)
+
+        weights = rays_ao(scene, p, n, dirs, ao_nodes(tmax, tau, Q), straddle, answer)
+        return weights_to_ao(dirs, weights, n, return_bent_normals)
     dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
@@ -197,10 +213,10 @@ class NumPyVisibility:
                                  straddle=straddle)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
-                          indices=None, surface_ids=None):
+                          indices=None, surface_ids=None, **distance):
         return ambient_occlusion_reference(scene, points, normals, sampling=sampling,
                                            return_bent_normals=return_bent_normals, bias=bias,
-                                           indices=indices, surface_ids=surface_ids, lookup=self.lookup)
+                                           indices=indices, surface_ids=surface_ids, lookup=self.lookup, **distance)
 
 
 register("numpy", NumPyVisibility("nearest"))

@@ -1,0 +1,177 @@
+"""The shading modes against a converged Embree reference, at equal samples and at equal time (issue 19).
+
+On the bundled scene (``pyshadow.data.default_scene``, 640x480 by default)
+under the clear sky with its sun (``pyshadow-bench --sky clear``'s sky) and
+under the overcast sky, each shading mode ("bent", "transfer", "sampled")
+is rendered with the CSM backend (one-texel lookup) and compared with a
+converged reference: ``pyshadow.lighting.reference_radiance`` (Embree) at
+``--reference-samples`` (1024) sky samples with another seed and 1024
+directions over the sun's disc, i.e. the shadowed sky and sun integrals the
+three modes approximate (the CSM renders trace one ray to the sun's centre). The figure is the relative RMSE of radiance
+over the covered pixels (``pyshadow.bench.lit.relative_rmse``).
+
+Rows:
+
+* every mode at 36 samples, with its frame time (median of ``--repeats``
+  interleaved renders) and the AO frame alone beside it, in Msamples/s;
+* equal time: for each budget (each mode's 36-sample frame time), every
+  mode at the sample count whose frame time fits it; frame time is modelled
+  as ``a + b * samples`` (least squares over the renders at 16, 36 and 64
+  samples), corrected once from the chosen render's measured time when
+  that misses the budget by more than 10 %; the measured time is printed;
+* "sampled" at 256 samples with the CSM against "sampled" at 256 samples
+  with Embree on the identical directions (the 2 % acceptance), and both
+  against the reference.
+
+    python benchmarks/lighting_modes.py [--width 640 --height 480] [--reference-samples 1024] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import copy
+import statistics
+import sys
+import time
+
+import numpy as np
+
+from _common import emit, environment
+
+MODES = ("bent", "transfer", "sampled")
+
+
+def frame_time(fn, repeats):
+    """Median wall time of ``repeats`` calls after one untimed call; the last result too."""
+    out = fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), out
+
+
+def reference(scene, cam, lighting, samples, chunk=8192):
+    """Converged radiance of the covered pixels (``pyshadow.lighting.reference_radiance`` over chunks of
+    pixels, seed 1), in the row-major order of ``covered``; and ``covered`` (H, W) bool."""
+    import pyshadow
+    from pyshadow.lighting import reference_radiance
+
+    sp = pyshadow.render.surface_points(scene, cam)
+    order = np.argsort(sp.index)
+    out = np.empty((len(order), 3), np.float32)
+    sampling = pyshadow.Sampling(samples, seed=1)
+    for a in range(0, len(order), chunk):
+        i = order[a:a + chunk]
+        out[a:a + len(i)] = reference_radiance(scene, sp.points[i], sp.normals[i], lighting, samples=samples,
+                                               sampling=sampling, surface_ids=sp.surface_ids[i],
+                                               indices=sp.index[i])
+    covered = np.zeros(cam.height * cam.width, bool)
+    covered[sp.index] = True
+    return out, covered.reshape(cam.height, cam.width)
+
+
+def measure_sky(sky, scene, cam, args, log):
+    import pyshadow
+    from pyshadow.bench.lit import relative_rmse, sky_lighting
+
+    lighting, rec = sky_lighting(sky)
+    lights = {m: lighting.with_mode(m) for m in MODES}
+
+    def render(mode, samples, vis="csm", seed=0):
+        return pyshadow.render.render(scene, cam, visibility=vis, lighting=lights[mode],
+                                      sampling=pyshadow.Sampling(samples, seed=seed))
+
+    t0 = time.perf_counter()
+    R, covered = reference(scene, cam, lighting, args.reference_samples)
+    log(f"{sky}: reference ({args.reference_samples} sky samples, 1024 over the sun's disc, Embree) in "
+        f"{time.perf_counter() - t0:.0f} s")
+    n = int(covered.sum())
+
+    def err(frame):
+        return relative_rmse(frame.radiance[covered], R)
+
+    row = {**rec, "covered_pixels": n, "reference_samples": args.reference_samples, "at_36": {}}
+    ao_t, _ = frame_time(lambda: pyshadow.render.render(scene, cam, visibility="csm",
+                                                         sampling=pyshadow.Sampling(36)), args.repeats)
+    row["ao_frame_s"] = ao_t
+    row["ao_msamples_s"] = n * 36 / ao_t / 1e6
+    fits = {}
+    for m in MODES:
+        t36, f36 = frame_time(lambda: render(m, 36), args.repeats)
+        t16, _ = frame_time(lambda: render(m, 16), args.repeats)
+        t64, _ = frame_time(lambda: render(m, 64), args.repeats)
+        b, a = np.polyfit([16.0, 36.0, 64.0], [t16, t36, t64], 1)
+        fits[m] = (max(float(a), 0.0), max(float(b), 1e-9))
+        row["at_36"][m] = {"rmse_relative": err(f36), "frame_s": t36, "msamples_s": n * 36 / t36 / 1e6,
+                           "frame_s_16": t16, "frame_s_64": t64}
+        log(f"{sky}: {m:8s} 36 samples: rel. RMSE {row['at_36'][m]['rmse_relative']:.4f}, frame {t36 * 1e3:.0f} ms "
+            f"({n * 36 / t36 / 1e6:.1f} Msamples/s; AO alone {ao_t * 1e3:.0f} ms, {row['ao_msamples_s']:.1f})")
+    row["equal_time"] = []
+    for budget_mode in MODES:
+        budget = row["at_36"][budget_mode]["frame_s"]
+        entry = {"budget_of": budget_mode, "budget_s": budget, "modes": {}}
+        for m in MODES:
+            a, b = fits[m]
+            s = int(np.clip(np.floor((budget - a) / b), 1, 4096))
+            t, f = frame_time(lambda: render(m, s), max(1, args.repeats // 2))
+            if abs(t - budget) > 0.1 * budget:      # one correction from the measured time
+                s = int(np.clip(np.floor(s * (budget - a) / max(t - a, 1e-9)), 1, 4096))
+                t, f = frame_time(lambda: render(m, s), max(1, args.repeats // 2))
+            entry["modes"][m] = {"samples": s, "frame_s": t, "rmse_relative": err(f)}
+            log(f"{sky}: budget {budget * 1e3:.0f} ms ({budget_mode} @36): {m:8s} {s:4d} samples, "
+                f"{t * 1e3:.0f} ms, rel. RMSE {entry['modes'][m]['rmse_relative']:.4f}")
+        row["equal_time"].append(entry)
+    s256 = render("sampled", 256)
+    e256 = render("sampled", 256, "embree")
+    row["sampled_256"] = {"csm_vs_embree_same_dirs": relative_rmse(s256.radiance[covered], e256.radiance[covered]),
+                          "csm_vs_reference": err(s256), "embree_vs_reference": err(e256)}
+    if lighting.sun is not None:        # the sky's term alone: the sun's hard shadow edges weigh heavily above
+        sky_only = copy.copy(lights["sampled"])
+        sky_only.sun = None
+        a, b = (pyshadow.render.render(scene, cam, visibility=v, lighting=sky_only, sampling=pyshadow.Sampling(256))
+                for v in ("csm", "embree"))
+        row["sampled_256"]["sky_only_csm_vs_embree_same_dirs"] = relative_rmse(a.radiance[covered],
+                                                                               b.radiance[covered])
+    log(f"{sky}: sampled @256: CSM vs Embree on identical directions {row['sampled_256']['csm_vs_embree_same_dirs']:.4f}"
+        f" (target <= 0.02); vs reference CSM {row['sampled_256']['csm_vs_reference']:.4f}, "
+        f"Embree {row['sampled_256']['embree_vs_reference']:.4f}")
+    return row
+
+
+def main(argv=None) -> int:
+    import pyshadow
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--width", type=int, default=640)
+    ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--reference-samples", type=int, default=1024)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--sky", action="append", choices=("clear", "overcast"))
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+
+    def log(msg):
+        print(msg, file=sys.stderr if args.json else sys.stdout, flush=True)
+
+    scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height)
+    rows = [measure_sky(s, scene, cam, args, log) for s in (args.sky or ["clear", "overcast"])]
+    checks = {}
+    for r in rows:
+        a = r["at_36"]
+        checks[r["sky"]] = {
+            "transfer_beats_bent_at_36": a["transfer"]["rmse_relative"] < a["bent"]["rmse_relative"],
+            "sampled_beats_bent_at_36": a["sampled"]["rmse_relative"] < a["bent"]["rmse_relative"],
+            "sampled_256_within_2pct_of_embree": r["sampled_256"]["csm_vs_embree_same_dirs"] <= 0.02,
+            "sampled_256_sky_within_2pct_of_embree": r["sampled_256"].get(
+                "sky_only_csm_vs_embree_same_dirs", r["sampled_256"]["csm_vs_embree_same_dirs"]) <= 0.02,
+        }
+    log(f"checks: {checks}")
+    if args.json:
+        emit({"benchmark": "lighting_modes", **environment(), "width": args.width, "height": args.height,
+              "rows": rows, "checks": checks}, True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,449 @@
+"""AO methods side by side (issue 23): CSM, CSM vote, cube-map AO, SSAO and Embree.
+
+Three parts, all through :mod:`pyshadow.bench.methods` (the code of
+``pyshadow-bench --method``):
+
+1. **The methods table** on the bundled scene (``pyshadow.data.default_scene``)
+   and on the two-object scene (bunny + turned fandisk, as in
+   ``benchmarks/direct_light.py``): precompute time, memory, frame time,
+   agreement with Embree on identical rays, AO RMSE against the converged
+   unlimited and distance-limited Embree references, per surface.
+2. **The Pareto study** on the bundled scene: every method at a few settings
+   (samples 9/16/36/64 for csm, csm-vote, embree, ssao; probe resolution
+   64/128/256 for the cube map), AO RMSE against frame time, two panels (vs
+   the limited and the unlimited reference), written to
+   ``benchmarks/out/methods_pareto.png``; the fastest method under each error
+   target is printed.
+3. **The moving-body study**: 30 frames while the torus circles beside the
+   bunny. Each frame's reference is Embree at 64 samples on that frame; the
+   CSMs need no update, the cube-map probe is either used stale (placed at
+   frame 0) or refreshed every frame (its cost counted), SSAO sees only the
+   screen.
+
+Usage::
+
+    python benchmarks/methods.py [--size 320x240] [--samples 16] [--json] [--skip-pareto] [--skip-study]
+
+The frame time of every method is the G-buffer raster plus its AO of the
+covered pixels (``pyshadow.bench.methods``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import REPO, environment, load_mesh  # noqa: E402
+
+OUT = REPO / "benchmarks" / "out"
+TARGETS = (0.01, 0.02, 0.03, 0.05, 0.1, 0.2)
+
+
+def log(msg):
+    print(msg, file=sys.stderr, flush=True)
+
+
+def bundled(cache, width, height, maps, resolution):
+    """(scene, camera, csm summary, surface names) of the bundled scene, CSMs from the cache."""
+    from pyshadow.bench.config import Config
+    from pyshadow.bench.scenes import SceneFactory, _csm_summary
+
+    f = SceneFactory(None, (width, height), cache, False)
+    scene, cam, infos = f(Config(maps, resolution, 16, 16))
+    return scene, cam, _csm_summary(infos), f.names
+
+
+def two_objects(cache, width, height, maps, resolution):
+    """The bunny and the turned fandisk of benchmarks/direct_light.py, CSMs from the cache."""
+    import trimesh
+
+    import pyshadow
+    from pyshadow.bench.scenes import _csm_summary
+    from pyshadow.scene import GROUND_ID
+
+    views = pyshadow.ViewSet.zigzag(*maps)
+    bunny, fandisk = load_mesh("stanford-bunny.obj"), load_mesh("fandisk.obj")
+    scene = pyshadow.Scene(ground=0.0)
+    infos = []
+    rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
+    for name, mesh, T in (("bunny", bunny, pyshadow.stand_on_ground(bunny)),
+                          ("fandisk", fandisk, pyshadow.stand_on_ground(fandisk, radius=0.8, position=(1.7, 0.4),
+                                                                        rotation=rot))):
+        csm, info = cache.csm(name, mesh, views, resolution, 16)
+        infos.append(info)
+        scene.add(csm, T, mesh=mesh)
+    cam = pyshadow.Camera([3.0, 2.6, 4.6], [0.85, 0.5, 0.2], fov_y=45.0, width=width, height=height)
+    return scene, cam, _csm_summary(infos), {0: "bunny", 1: "fandisk", GROUND_ID: "ground"}
+
+
+def context(scene, cam, cache, tracer, ref_samples, D=None):
+    """A pyshadow.bench.methods.Context of the camera's pixels, both references from the cache."""
+    from pyshadow.bench.measure import converged_reference
+    from pyshadow.bench.methods import Context, default_distance, limited_reference
+    from pyshadow.gbuffer import render_gbuffer
+
+    D = default_distance(scene) if D is None else D
+    g = render_gbuffer(scene.draw_items()[0], cam)
+    gb = _gbuffer(scene, cam, g)
+    conv, _, _ = converged_reference(cache, tracer, scene, gb, ref_samples, "hammersley", 0, 256, log)
+    conv_d, _, _ = limited_reference(cache, tracer, scene, gb, D, ref_samples, "hammersley", 0, 256, log)
+    return Context(scene, cam, gb, g, D, "hammersley", 0, 256, tracer, conv, conv_d)
+
+
+def _gbuffer(scene, cam, g):
+    """The bench's GBuffer of the covered pixels of the G-buffer ``g``."""
+    from pyshadow.bench.measure import GBuffer
+    from pyshadow.render import surface_points
+
+    sp = surface_points(scene, cam, gbuffer=g)
+    n = np.asarray(sp.normals, np.float64)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    return GBuffer(cam.height, cam.width, sp.index.astype(np.int64), np.asarray(sp.points, np.float64), n,
+                   sp.surface_ids.astype(np.int32), None)
+
+
+# ---------------------------------------------------------------------------
+# 1. the methods table
+# ---------------------------------------------------------------------------
+def methods_table(name, scene, cam, csm, names, cache, args):
+    from pyshadow.bench.methods import METHODS, run_methods
+    from pyshadow.embree import EmbreeTracer
+
+    t0 = time.perf_counter()
+    with EmbreeTracer(scene, args.threads) as tracer:
+        ctx = context(scene, cam, cache, tracer, args.reference_samples)
+        rows = run_methods(ctx, METHODS, args.samples, args.repeats, probe_resolution=128, csm=csm, names=names)
+    from pyshadow.bench.measure import _errors
+
+    return {"scene": name, "width": cam.width, "height": cam.height, "pixels": ctx.gb.n, "distance": ctx.D,
+            "limit_effect_rmse": _errors(ctx.conv, ctx.conv_d)[0], "gbuffer_time": ctx.gbuffer_time,
+            "rows": rows, "seconds": time.perf_counter() - t0}
+
+
+def table_md(t):
+    from pyshadow.bench.methods import methods_table as md
+
+    m = {"distance": {"value": t["distance"]}, "limit_effect_rmse": {"value": t["limit_effect_rmse"]},
+         "rows": t["rows"]}
+    return f"### {t['scene']} ({t['width']}x{t['height']}, {t['pixels']} px)\n" + md(m)
+
+
+# ---------------------------------------------------------------------------
+# 2. Pareto
+# ---------------------------------------------------------------------------
+def pareto(scene, cam, csm, cache, args):
+    from pyshadow.bench.methods import method_runs, time_rows, measure_row
+    from pyshadow.embree import EmbreeTracer
+
+    pts = []
+    with EmbreeTracer(scene, args.threads) as tracer:
+        ctx = context(scene, cam, cache, tracer, args.reference_samples)
+        for S in args.pareto_samples:
+            log(f"pareto: {S} samples")
+            rows = [r for m in ("csm", "csm-vote", "ssao", "embree") for r in method_runs(ctx, m, S, csm=csm)]
+            ctx.gbuffer_time = time_rows(ctx, rows, args.repeats)
+            pts += [_point(measure_row(ctx, {**r, "visible": None}), ctx) for r in rows]
+        for R in args.probe_resolutions:
+            log(f"pareto: cube map R = {R}")
+            rows = method_runs(ctx, "cubemap", args.samples, probe_resolution=R)
+            ctx.gbuffer_time = time_rows(ctx, rows, args.repeats)
+            pts += [_point(measure_row(ctx, {**r, "visible": None}), ctx) for r in rows]
+    return pts
+
+
+def _point(rec, ctx):
+    st = rec["setting"]
+    both = rec["method"] in ("csm", "csm-vote", "embree")       # two definitions: mark the limited one
+    label = rec["method"] + (" D" if both and rec["definition"] == "limited" else "")
+    setting = f"R{st['probe_resolution']}" if "probe_resolution" in st else f"{st['samples']}"
+    return {"method": rec["method"], "definition": rec["definition"], "label": label, "setting": setting,
+            "samples": st["samples"], "probe_resolution": st.get("probe_resolution"),
+            "frame_time": rec["frame_time"]["value"], "precompute_time": rec["precompute_time"]["value"],
+            "rmse_limited": rec["ao_rmse_limited"]["value"], "rmse_unlimited": rec["ao_rmse_unlimited"]["value"]}
+
+
+def front(pts, key):
+    """Indices of the Pareto front (no other point both faster and more accurate), by frame time."""
+    order = sorted(range(len(pts)), key=lambda i: (pts[i]["frame_time"], pts[i][key]))
+    out, best = [], math.inf
+    for i in order:
+        if pts[i][key] < best:
+            out.append(i)
+            best = pts[i][key]
+    return out
+
+
+def winners(pts, key):
+    """For each error target: the fastest point with RMSE <= target (None if none)."""
+    res = []
+    for e in TARGETS:
+        ok = [p for p in pts if p[key] <= e]
+        res.append({"target": e, "winner": min(ok, key=lambda p: p["frame_time"]) if ok else None})
+    return res
+
+
+def winners_text(w, what):
+    lines = [f"fastest method within each AO RMSE target ({what} reference):"]
+    for r in w:
+        p = r["winner"]
+        lines.append(f"  RMSE <= {r['target']:<5g}: " + (
+            "none of the measured settings" if p is None else
+            f"{p['label']} ({p['setting']}{' spp' if p['probe_resolution'] is None else ''}), "
+            f"{1e3 * p['frame_time']:.0f} ms, RMSE {p[f'rmse_{what}']:.4f}"))
+    return "\n".join(lines)
+
+
+def pareto_png(pts, path, title):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+    labels = sorted({p["label"] for p in pts})
+    marks = dict(zip(labels, "os^vDP*Xph"))
+    for ax, key, what in ((axes[0], "rmse_limited", "distance-limited"), (axes[1], "rmse_unlimited", "unlimited")):
+        for j, lab in enumerate(labels):
+            q = [p for p in pts if p["label"] == lab]
+            ax.scatter([1e3 * p["frame_time"] for p in q], [p[key] for p in q], marker=marks[lab],
+                       color=f"C{j}", label=lab)
+            for p in q:
+                ax.annotate(p["setting"], (1e3 * p["frame_time"], p[key]), fontsize=6, xytext=(3, 3),
+                            textcoords="offset points")
+        f = front(pts, key)
+        ax.plot([1e3 * pts[i]["frame_time"] for i in f], [pts[i][key] for i in f], "k--", lw=0.8,
+                label="Pareto front")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("frame time, ms (G-buffer + AO)")
+        ax.set_ylabel(f"AO RMSE vs converged {what} Embree")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+# ---------------------------------------------------------------------------
+# 3. moving body
+# ---------------------------------------------------------------------------
+def torus_path(T0, k, frames, radius=1.4, centre=(2.6, 1.0)):
+    """Frame ``k``'s transform of the torus: its start ``T0`` moved to a circle of ``radius`` about
+    ``centre`` (x, z) on the ground and turned about its own vertical axis by the same angle."""
+    th = 2 * math.pi * k / frames
+    c, s = math.cos(th), math.sin(th)
+    Ry = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    T = np.eye(4)
+    T[:3, :3] = Ry @ T0[:3, :3]
+    T[:3, 3] = [centre[0] + radius * c, T0[1, 3], centre[1] + radius * s]
+    return T
+
+
+def moving_study(cache, args):
+    import pyshadow
+    from pyshadow import visibility
+    from pyshadow.bench.measure import _errors, embree_pass
+    from pyshadow.bench.methods import default_distance, limited_pass
+    from pyshadow.cubemap import CubeMapAO
+    from pyshadow.embree import EmbreeTracer
+    from pyshadow.gbuffer import render_gbuffer
+    from pyshadow.ssao import screen_space_ao
+
+    W, H = args.study_size
+    scene, cam, _, _ = bundled(cache, W, H, tuple(args.maps), 128)
+    D = default_distance(scene)
+    S, Sref, R = args.samples, args.study_reference_samples, args.study_resolution
+    smp = pyshadow.Sampling(S)
+    torus = 1
+    T0 = scene.transform(torus)
+    scene.set_transform(torus, torus_path(T0, 0, args.frames))
+    stale = CubeMapAO(scene, D, resolution=R, sampling=smp)
+    fresh = CubeMapAO(scene, D, resolution=R, sampling=smp)
+    stale.place(cam)
+    fresh.place(cam)
+    rows = []
+    for k in range(args.frames):
+        if k:
+            scene.set_transform(torus, torus_path(T0, k, args.frames))
+        t0 = time.perf_counter()
+        g = render_gbuffer(scene.draw_items()[0], cam)            # the items carry the moved transform
+        t_g = time.perf_counter() - t0
+        from pyshadow.render import surface_points
+
+        sp = surface_points(scene, cam, gbuffer=g)
+        n = np.asarray(sp.normals, np.float64)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        p, ids, sel = np.asarray(sp.points, np.float64), sp.surface_ids, sp.index
+        t0 = time.perf_counter()
+        tracer = EmbreeTracer(scene, args.threads)        # Embree's BVH follows the moved body
+        t_bvh = time.perf_counter() - t0
+        try:
+            gbk = _gb(cam, sel, p, n, ids)
+            ref_d, _ = limited_pass(tracer, gbk, Sref, "hammersley", 0, 256, D, keep=False)
+            ref_u = embree_pass(tracer, gbk, Sref, "hammersley", 0, 256, keep=False)["ao"]
+            t0 = time.perf_counter()
+            emb, _ = limited_pass(tracer, gbk, S, "hammersley", 0, 256, D, keep=False)
+            t_emb = time.perf_counter() - t0 + t_bvh
+        finally:
+            tracer.close()
+        res = {"frame": k, "pixels": len(sel), "gbuffer_s": t_g, "torus_pixels": int(np.count_nonzero(ids == torus))}
+
+        c_t, r_t = scene.instances[torus].world_sphere()
+        near = (np.linalg.norm(p - c_t, axis=1) < r_t + D) & (ids != torus)    # what the torus shades
+        res["near_pixels"] = int(near.sum())
+
+        def timed(name, fn, ref, extra=0.0):
+            t0 = time.perf_counter()
+            a = np.asarray(fn(), np.float32)
+            res[name] = {"seconds": time.perf_counter() - t0 + extra, "rmse": _errors(a, ref)[0],
+                         "rmse_near": _errors(a[near], ref[near])[0]}
+
+        timed("csm", lambda: visibility.ambient_occlusion(scene, p, n, backend="csm", sampling=smp, indices=sel,
+                                                          surface_ids=ids), ref_u)
+        timed("csm D", lambda: visibility.ambient_occlusion(scene, p, n, backend="csm", sampling=smp, indices=sel,
+                                                            surface_ids=ids, max_distance=D, straddle="embree"),
+              ref_d)
+        res["embree D"] = {"seconds": t_emb, "rmse": _errors(emb, ref_d)[0],
+                           "rmse_near": _errors(emb[near], ref_d[near])[0]}
+        pr = stale.project(cam, gbuffer=g, fallback=1.0, on_empty="fallback")
+        timed("cubemap stale", lambda: stale.project(cam, gbuffer=g, fallback=1.0,
+                                                     on_empty="fallback").ao.reshape(-1)[sel], ref_d)
+        res["cubemap stale"]["coverage"] = pr.coverage
+        t0 = time.perf_counter()
+        fresh.refresh()
+        t_ref = time.perf_counter() - t0
+        timed("cubemap refreshed", lambda: fresh.project(cam, gbuffer=g, fallback=1.0,
+                                                         on_empty="fallback").ao.reshape(-1)[sel], ref_d, t_ref)
+        res["cubemap refreshed"]["refresh_s"] = t_ref
+        timed("ssao", lambda: screen_space_ao(g, cam, D, samples=S, seed=0).reshape(-1)[sel], ref_d)
+        rows.append(res)
+        log(f"frame {k}: " + ", ".join(f"{m} {res[m]['rmse']:.3f}" for m in STUDY))
+    scene.set_transform(torus, T0)
+    return {"size": [W, H], "frames": args.frames, "samples": S, "reference_samples": Sref, "distance": D,
+            "probe_resolution": R, "rows": rows}
+
+
+STUDY = ("csm", "csm D", "embree D", "cubemap stale", "cubemap refreshed", "ssao")
+
+
+def _gb(cam, sel, p, n, ids):
+    from pyshadow.bench.measure import GBuffer
+
+    return GBuffer(cam.height, cam.width, np.asarray(sel, np.int64), p, n, np.asarray(ids, np.int32), None)
+
+
+def study_md(st):
+    lines = [f"moving torus: {st['frames']} frames, {st['size'][0]}x{st['size'][1]}, {st['samples']} spp, "
+             f"D = {st['distance']:.3g}, reference Embree {st['reference_samples']} spp each frame "
+             f"(csm: unlimited reference; the others: limited), probe R = {st['probe_resolution']}",
+             "| method | RMSE frame 0 | RMSE median | RMSE max | RMSE last | cost per frame ms (median) |",
+             "|---|---|---|---|---|---|"]
+    for m in STUDY:
+        e = [r[m]["rmse"] for r in st["rows"]]
+        c = [r[m]["seconds"] for r in st["rows"]]
+        lines.append(f"| {m} | {e[0]:.4f} | {np.median(e):.4f} | {max(e):.4f} | {e[-1]:.4f} | "
+                     f"{1e3 * np.median(c):.0f} |")
+    most = max(r["torus_pixels"] for r in st["rows"])
+    off = [r for r in st["rows"] if r["torus_pixels"] < 0.1 * most]
+    on = [r for r in st["rows"] if r["torus_pixels"] >= 0.1 * most]
+    lines.append(f"RMSE on the pixels within D of the torus's bounding sphere (not the torus), median over the "
+                 f"frames with the torus on screen ({len(on)}) / mostly off screen (< 10 % of its largest pixel "
+                 f"count; {len(off)}):")
+    for m in STUDY:
+        lines.append(f"  {m}: {_med(on, m, 'rmse_near')} / {_med(off, m, 'rmse_near')}")
+    lines.append("per frame (every 3rd) -- frame: torus px, RMSE stale / refreshed cube map / ssao: " + "; ".join(
+        f"{r['frame']}: {r['torus_pixels']} px, {r['cubemap stale']['rmse']:.3f} / "
+        f"{r['cubemap refreshed']['rmse']:.3f} / {r['ssao']['rmse']:.3f}" for r in st["rows"][::3]))
+    return "\n".join(lines)
+
+
+def _med(rows, m, key="rmse"):
+    v = [r[m][key] for r in rows if r[m][key] is not None and np.isfinite(r[m][key])]
+    return f"{np.median(v):.4f}" if v else "n/a"
+
+
+def _size(text):
+    w, h = text.lower().split("x")
+    return int(w), int(h)
+
+
+def main(argv=None):
+    import os
+
+    from pyshadow._files import write_bytes_atomic
+    from pyshadow.cache import CSMCache, default_cache_dir
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--size", type=_size, default=(320, 240), help="image of the tables and the Pareto study")
+    ap.add_argument("--samples", type=int, default=16, help="samples per pixel of the tables and the study")
+    ap.add_argument("--reference-samples", type=int, default=256, help="converged references' samples")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--maps", type=_size, default=(32, 64), help="CSM zigzag grid (default 32x64, at 128^2)")
+    ap.add_argument("--pareto-samples", type=int, nargs="+", default=[9, 16, 36, 64])
+    ap.add_argument("--probe-resolutions", type=int, nargs="+", default=[64, 128, 256])
+    ap.add_argument("--frames", type=int, default=30)
+    ap.add_argument("--study-size", type=_size, default=(240, 180))
+    ap.add_argument("--study-resolution", type=int, default=64, help="probe resolution of the study")
+    ap.add_argument("--study-reference-samples", type=int, default=64)
+    ap.add_argument("--skip-tables", action="store_true")
+    ap.add_argument("--skip-pareto", action="store_true")
+    ap.add_argument("--skip-study", action="store_true")
+    ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--json", action="store_true", help="print everything as JSON on stdout")
+    args = ap.parse_args(argv)
+    cache = CSMCache(default_cache_dir(), lambda m: None)
+    W, H = args.size
+    t_all = time.perf_counter()
+    result = {"environment": environment(), "tables": [], "pareto": None, "study": None}
+    text = []
+    if not args.skip_tables:
+        for name, make in (("bundled scene", bundled), ("two-object scene", two_objects)):
+            log(f"methods table: {name}")
+            scene, cam, csm, names = make(cache, W, H, tuple(args.maps), 128)
+            t = methods_table(name, scene, cam, csm, names, cache, args)
+            result["tables"].append(t)
+            text.append(table_md(t))
+    if not args.skip_pareto:
+        scene, cam, csm, _ = bundled(cache, W, H, tuple(args.maps), 128)
+        pts = pareto(scene, cam, csm, cache, args)
+        png = args.out / "methods_pareto.png"
+        pareto_png(pts, png, f"AO methods on the bundled scene, {W}x{H}, {environment()['device']}")
+        wl, wu = winners(pts, "rmse_limited"), winners(pts, "rmse_unlimited")
+        result["pareto"] = {"points": pts, "png": str(png), "winners_limited": wl, "winners_unlimited": wu,
+                            "front_limited": [pts[i]["label"] + " " + pts[i]["setting"]
+                                              for i in front(pts, "rmse_limited")],
+                            "front_unlimited": [pts[i]["label"] + " " + pts[i]["setting"]
+                                                for i in front(pts, "rmse_unlimited")]}
+        lines = ["### Pareto points (bundled scene)", "| method | setting | frame ms | precompute s | "
+                 "RMSE vs limited | RMSE vs unlimited |", "|---|---|---|---|---|---|"]
+        for p in sorted(pts, key=lambda p: (p["label"], p["frame_time"])):
+            lines.append(f"| {p['label']} | {p['setting']} | {1e3 * p['frame_time']:.0f} | "
+                         f"{p['precompute_time'] or 0:.2f} | {p['rmse_limited']:.4f} | {p['rmse_unlimited']:.4f} |")
+        text += ["\n".join(lines), winners_text(wl, "limited"), winners_text(wu, "unlimited"), f"plot: {png}"]
+    if not args.skip_study:
+        st = moving_study(cache, args)
+        result["study"] = st
+        text.append(study_md(st))
+    result["seconds"] = time.perf_counter() - t_all
+    text.append(f"total {result['seconds']:.0f} s")
+    body = "\n\n".join(text)
+    if args.json:
+        print(json.dumps(result, indent=1, default=float))
+        print(body, file=sys.stderr)
+    else:
+        print(body)
+    write_bytes_atomic(args.out / "methods.json", json.dumps(result, indent=1, default=float).encode())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

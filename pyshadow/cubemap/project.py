@@ -1,0 +1,441 @@
+"""Cube-map AO onto a camera's pixels: several probes, best-quality choice, coverage placement.
+
+Seed 002, sections 4.4 (projective texturing, the depth test, face choice
+by the largest component, best quality among several cube maps), 4.5 (the
+7 x 7 edge-aware low-pass filter, Listing 4.15) and 4.6 (a new cube map at
+the camera when under 75 % of the visible pixels are shaded, counted on an
+8 x 8 grid).
+
+Which probe shades a pixel
+--------------------------
+A pixel's surface point ``x`` (normal ``n``, facing the camera) is seen by a
+probe at ``c`` when, with ``u = x - c``, ``r = |u|``: the texel of ``u``
+(:func:`~pyshadow.cubemap.probe.direction_texels`) shows the same instance,
+the texel's surface depth along ``u`` (its plane's, as the raymarch
+estimator reads it) is within ``tolerance * r`` of ``r``, ``n . (c - x) > 0``
+(the probe sees the side the camera sees) and the texel has an AO value.
+Among the probes that see it the one of the largest quality
+``Q = Q_a Q_b Q_c`` wins, with (seed 002, Figure 4.10, which gives the
+terms' intent but no formulas; these are ours):
+
+* ``Q_a = D / (D + r)`` -- nearer probes sample the surface more finely;
+* ``Q_b = max_i |u_i| / r`` -- 1 at a face centre, ``1/sqrt 3`` at a cube
+  corner (texels are stretched off-centre);
+* ``Q_c = n . (c - x) / r`` -- the surface faces the probe.
+
+Pixels no probe sees are NaN in ``ao`` and False in ``covered`` unless
+``fallback`` gives a value.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..sampling import Sampling
+from .estimators import ESTIMATORS, GRAZING, march_defaults, texel_ao
+from .probe import CubeProbe, _check_resolution, direction_texels
+
+__all__ = ["CubeMapAO", "Projection", "quality", "coverage_grid", "seed_box_filter", "normal_hash"]
+
+
+def quality(points, normals, centre, max_distance) -> np.ndarray:
+    """The quality ``Q_a Q_b Q_c`` (module docstring) of a probe at ``centre`` for surface points.
+
+    Parameters
+    ----------
+    points, normals : ndarray, shape (K, 3), float
+        World points and unit normals (facing the viewer).
+    centre : array_like, shape (3,)
+    max_distance : float
+        ``D`` of ``Q_a``, world units.
+
+    Returns
+    -------
+    ndarray, shape (K,), float64
+        In ``[0, 1]``; 0 where the surface faces away from the probe.
+    """
+    u = np.asarray(points, np.float64) - np.asarray(centre, np.float64)
+    r = np.maximum(np.linalg.norm(u, axis=1), 1e-300)
+    qa = max_distance / (max_distance + r)
+    qb = np.abs(u).max(axis=1) / r
+    qc = np.maximum(0.0, -np.einsum("ij,ij->i", np.asarray(normals, np.float64), u) / r)
+    return qa * qb * qc
+
+
+@dataclass(eq=False)
+class Projection:
+    """Cube-map AO of one camera image.
+
+    Attributes
+    ----------
+    ao : ndarray, shape (H, W), float32
+        AO in [0, 1] where covered; ``fallback`` (NaN by default) where a
+        surface pixel is seen by no probe; 1 on the background.
+    covered : ndarray, shape (H, W), bool
+        A probe shades the pixel.
+    probe : ndarray, shape (H, W), int32
+        Index of the probe that shades it; -1 uncovered, -2 background.
+    quality : ndarray, shape (H, W), float32
+        Its quality factor (0 where uncovered).
+    depth, normal : ndarray
+        The camera's G-buffer depth (H, W) and normals (H, W, 3), for filtering.
+    """
+
+    ao: np.ndarray
+    covered: np.ndarray
+    probe: np.ndarray
+    quality: np.ndarray
+    depth: np.ndarray
+    normal: np.ndarray
+
+    @property
+    def coverage(self) -> float:
+        """Fraction of the surface pixels a probe shades (1 for an image without surface)."""
+        surf = self.probe != -2
+        return float(self.covered[surf].mean()) if surf.any() else 1.0
+
+
+def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
+    """AO, quality inputs and a mask of which points ``probe`` sees (module docstring)."""
+    R, c = probe.resolution, probe.centre
+    u = points - c
+    r = np.linalg.norm(u, axis=1)
+    uh = u / np.maximum(r, 1e-300)[:, None]
+    if normals is None:                                   # no normals: every point faces the probe
+        normals = -uh
+    face, row, col, x, y = direction_texels(uh, R)
+
+    def test(fl):
+        n = probe.normal.reshape(-1, 3)[fl].astype(np.float64)
+        den = np.einsum("ij,ij->i", n, uh)
+        zc = probe.depth.reshape(-1)[fl].astype(np.float64)
+        P = probe.position.reshape(-1, 3)[fl].astype(np.float64) - c
+        with np.errstate(divide="ignore", invalid="ignore"):
+            zp = np.einsum("ij,ij->i", n, P) / den
+        z = np.where((np.abs(den) >= GRAZING) & (zp > 0) & np.isfinite(zc), zp, zc)
+        a = ao_map.reshape(-1)[fl]
+        ok = (np.abs(z - r) <= tolerance * r) & np.isfinite(a)
+        if ids is not None:
+            ok &= probe.object_id.reshape(-1)[fl] == ids
+        return ok, a
+
+    flat = (face * R + row) * R + col
+    seen, ao = test(flat)
+    seen &= np.einsum("ij,ij->i", normals, -u) > 0
+    if lookup == "bilinear":
+        fx = (x + 1.0) * 0.5 * R - 0.5
+        fy = (1.0 - y) * 0.5 * R - 0.5
+        c0, r0 = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+        ax, ay = fx - c0, fy - r0
+        num = np.zeros(len(points))
+        den = np.zeros(len(points))
+        for dr, dc, wgt in ((0, 0, (1 - ax) * (1 - ay)), (0, 1, ax * (1 - ay)), (1, 0, (1 - ax) * ay),
+                            (1, 1, ax * ay)):
+            fl = (face * R + np.clip(r0 + dr, 0, R - 1)) * R + np.clip(c0 + dc, 0, R - 1)
+            ok, a = test(fl)
+            wgt = np.where(ok, wgt, 0.0)
+            num += wgt * np.nan_to_num(a)
+            den += wgt
+        ao = np.where(den > 0, num / np.maximum(den, 1e-300), ao)
+    return seen, ao
+
+
+def coverage_grid(covered, background, grid: int = 8) -> float:
+    """Seed 002, section 4.6: the shaded fraction counted on a ``grid x grid`` image.
+
+    The image is cut into ``grid x grid`` cells (``np.array_split`` of rows
+    and columns); a cell is background when most of its pixels are, else
+    shaded when at least as many of its pixels are shaded as unshaded. The
+    result is shaded cells over non-background cells (1 when all are background).
+
+    Parameters
+    ----------
+    covered, background : ndarray, shape (H, W), bool
+    grid : int, optional
+        Cells per side, 1 .. min(H, W) (default 8, the thesis's 8 x 8 target).
+    """
+    H, W = covered.shape
+    if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 1 <= grid <= min(H, W):
+        raise ValueError(f"grid must be an int in 1..{min(H, W)}, got {grid!r}")
+    shaded = total = 0
+    for rows in np.array_split(np.arange(H), grid):
+        for cols in np.array_split(np.arange(W), grid):
+            bg = background[np.ix_(rows, cols)]
+            cv = covered[np.ix_(rows, cols)] & ~bg
+            if bg.mean() > 0.5:
+                continue
+            total += 1
+            shaded += int(cv.sum() >= (~bg).sum() - cv.sum())
+    return shaded / total if total else 1.0
+
+
+class CubeMapAO:
+    """Cube-map AO of a scene: probes, their per-texel AO, projection onto cameras.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    max_distance : float
+        ``D``: occluders farther than this from a point do not count (world units, > 0).
+    resolution : int, optional
+        Face resolution of new probes (:class:`CubeProbe`).
+    estimator : {'raymarch', 'horizon'} or None, optional
+        Per-texel AO (:mod:`pyshadow.cubemap.estimators`); None: probes
+        only, no per-texel AO (for :class:`CubeMapVisibility`; nothing to
+        :meth:`project`).
+    sampling : pyshadow.Sampling, optional
+        Sample directions of the raymarch estimator (default ``Sampling()``).
+    device : bool, optional
+        Raymarch on the OpenCL device (else the NumPy reference).
+    ground_size : float, optional
+        Side of the drawn ground quad.
+    **options
+        Estimator options (:func:`pyshadow.cubemap.texel_ao`).
+
+    Attributes
+    ----------
+    probes : list of CubeProbe
+    ao_maps : list of ndarray, each (6, R, R) float32 (None with ``estimator=None``)
+    timings : list of dict
+        Per probe: ``render_s`` and ``ao_s`` (seconds).
+    """
+
+    def __init__(self, scene, max_distance, *, resolution: int = 128, estimator: str = "raymarch",
+                 sampling: Sampling | None = None, device: bool = True, ground_size: float | None = None,
+                 **options):
+        if estimator is not None and estimator not in ESTIMATORS:
+            raise ValueError(f"estimator must be one of {ESTIMATORS} or None, got {estimator!r}")
+        self.max_distance = march_defaults(max_distance)["max_distance"]
+        _check_resolution(resolution)
+        self.scene, self.resolution, self.estimator = scene, int(resolution), estimator
+        self.sampling, self.device, self.ground_size, self.options = sampling, device, ground_size, options
+        self.probes: list[CubeProbe] = []
+        self.ao_maps: list[np.ndarray] = []
+        self.timings: list[dict] = []
+
+    def add_probe(self, centre) -> int:
+        """Render a probe at ``centre`` (world, (3,)) and its per-texel AO; returns its index."""
+        t0 = time.perf_counter()
+        probe = CubeProbe(self.scene, centre, self.resolution, ground_size=self.ground_size)
+        t1 = time.perf_counter()
+        ao = None if self.estimator is None else texel_ao(
+            probe, self.max_distance, estimator=self.estimator, sampling=self.sampling, device=self.device,
+            **self.options)
+        t2 = time.perf_counter()
+        self.probes.append(probe)
+        self.ao_maps.append(ao)
+        self.timings.append({"render_s": t1 - t0, "ao_s": t2 - t1})
+        return len(self.probes) - 1
+
+    @property
+    def stale(self) -> bool:
+        """True when any probe is stale (the scene moved since it was rendered)."""
+        return any(p.stale for p in self.probes)
+
+    def refresh(self) -> int:
+        """Re-render every stale probe at its centre; returns how many were."""
+        old = [(i, p.centre) for i, p in enumerate(self.probes) if p.stale]
+        for i, c in old:
+            j = self.add_probe(c)
+            self.probes[i], self.ao_maps[i], self.timings[i] = self.probes.pop(j), self.ao_maps.pop(j), \
+                self.timings.pop(j)
+        return len(old)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the probes' maps and AO maps."""
+        return sum(p.nbytes for p in self.probes) + sum(a.nbytes for a in self.ao_maps if a is not None)
+
+    def project(self, camera, *, gbuffer=None, lookup: str = "nearest", tolerance: float = 0.02,
+                fallback: float | None = None, on_empty: str = "raise") -> Projection:
+        """AO of ``camera``'s pixels from the best probe that sees each (module docstring).
+
+        Parameters
+        ----------
+        camera : pyshadow.Camera
+        gbuffer : dict, optional
+            The camera's G-buffer of ``scene.draw_items(ground_size)`` (default: rendered).
+        lookup : {'nearest', 'bilinear'}, optional
+            ``'bilinear'``: the four texels around the point, weighted, those
+            that fail the depth test left out (renormalised).
+        tolerance : float, optional
+            Relative depth tolerance of the visibility test, in (0, 1).
+        fallback : float, optional
+            AO of surface pixels no probe sees (default NaN; ``covered`` tells them).
+        on_empty : {'raise', 'fallback'}, optional
+            What to do when no probe sees any surface pixel of the camera:
+            ``ValueError`` (default) or the fallback image.
+
+        Raises
+        ------
+        ValueError
+            Bad options; no probe at all; with ``on_empty='raise'``, a camera
+            with surface pixels none of which a probe sees.
+        """
+        from ..render import surface_points
+
+        if lookup not in ("nearest", "bilinear"):
+            raise ValueError(f"lookup must be 'nearest' or 'bilinear', got {lookup!r}")
+        if on_empty not in ("raise", "fallback"):
+            raise ValueError(f"on_empty must be 'raise' or 'fallback', got {on_empty!r}")
+        if not 0 < float(tolerance) < 1:
+            raise ValueError(f"tolerance must be in (0, 1), got {tolerance!r}")
+        fill = np.nan if fallback is None else float(fallback)
+        if not self.probes:
+            raise ValueError("CubeMapAO.project: no probe placed yet (add_probe or place first)")
+        if self.estimator is None:
+            raise ValueError("CubeMapAO.project: built with estimator=None, the probes hold no AO")
+        sp = surface_points(self.scene, camera, ground_size=self.ground_size, gbuffer=gbuffer)
+        H, W = camera.height, camera.width
+        pts = sp.points
+        nrm = sp.normals.astype(np.float64)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+        best_i, best_q, best_ao = self._best(pts, nrm, sp.surface_ids, float(tolerance), lookup)
+        covered_pts = best_i >= 0
+        if len(pts) and not covered_pts.any() and on_empty == "raise":
+            raise ValueError(f"no probe sees any of the camera's {len(pts)} surface pixels "
+                             "(place a probe, e.g. CubeMapAO.place(camera), or on_empty='fallback')")
+        ao_img = np.ones(H * W, np.float32)
+        probe_img = np.full(H * W, -2, np.int32)
+        q_img = np.zeros(H * W, np.float32)
+        ao_img[sp.index] = np.where(covered_pts, best_ao, fill)
+        probe_img[sp.index] = best_i
+        q_img[sp.index] = np.maximum(best_q, 0.0)
+        g = sp.gbuffer
+        return Projection(ao=ao_img.reshape(H, W), covered=(probe_img >= 0).reshape(H, W),
+                          probe=probe_img.reshape(H, W), quality=q_img.reshape(H, W),
+                          depth=np.asarray(g["depth"], np.float32), normal=np.asarray(g["normal"], np.float32))
+
+    def _best(self, points, normals, ids, tolerance, lookup="nearest"):
+        """Best probe (index, -1 none), its quality and its AO for each point (module docstring)."""
+        best_q = np.zeros(len(points))
+        best_ao = np.full(len(points), np.nan)
+        best_i = np.full(len(points), -1, np.int32)
+        for i, (probe, ao_map) in enumerate(zip(self.probes, self.ao_maps)):
+            if ao_map is None:                                  # probes only: any texel will do
+                ao_map = np.zeros(probe.depth.shape, np.float32)
+            seen, ao = _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup)
+            nrm = normals if normals is not None else probe.centre - points
+            nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
+            q = np.where(seen, quality(points, nrm, probe.centre, self.max_distance), -1.0)
+            better = seen & (q > best_q)
+            best_q[better], best_ao[better], best_i[better] = q[better], ao[better], i
+        return best_i, best_q, best_ao
+
+    def assign(self, points, normals=None, surface_ids=None, *, tolerance: float = 0.02):
+        """Which probe answers each world point: the best-quality one that sees it.
+
+        Parameters
+        ----------
+        points : ndarray, shape (K, 3), float
+            World points on surfaces.
+        normals : ndarray, shape (K, 3), float, optional
+            Their unit normals; None: each point is taken as facing every probe
+            (no side test, ``Q_c = 1``).
+        surface_ids : ndarray, shape (K,), int, optional
+            Instance ids (``GROUND_ID`` for the ground); None: not compared.
+        tolerance : float, optional
+            Relative depth tolerance of the visibility test.
+
+        Returns
+        -------
+        probe : ndarray, shape (K,), int32
+            Probe index, -1 where no probe sees the point.
+        quality : ndarray, shape (K,), float64
+        """
+        p = np.asarray(points, np.float64).reshape(-1, 3)
+        n = None if normals is None else np.asarray(normals, np.float64).reshape(-1, 3)
+        ids = None if surface_ids is None else np.asarray(surface_ids).reshape(-1)
+        best_i, best_q, _ = self._best(p, n, ids, float(tolerance))
+        return best_i, np.maximum(best_q, 0.0)
+
+    def place(self, camera, *, threshold: float = 0.75, grid: int = 8, gbuffer=None) -> bool:
+        """Seed 002, 4.6: add a probe at ``camera.eye`` when under ``threshold`` of the image is shaded.
+
+        The shaded fraction is :func:`coverage_grid` of the projection (a
+        ``grid x grid`` count); with no probe yet, a probe is always placed.
+        Returns True when a probe was added.
+        """
+        if not 0 < float(threshold) <= 1:
+            raise ValueError(f"threshold must be in (0, 1], got {threshold!r}")
+        if self.probes:
+            pr = self.project(camera, gbuffer=gbuffer, on_empty="fallback")
+            if coverage_grid(pr.covered, pr.probe == -2, grid) >= threshold:
+                return False
+        self.add_probe(camera.eye)
+        return True
+
+
+# ---------------------------------------------------------------------------
+# seed 002, 4.5: the 7 x 7 edge-aware low-pass filter
+# ---------------------------------------------------------------------------
+def normal_hash(normal) -> np.ndarray:
+    """Seed 002 eq. (4.5): ``0.14 (nx/2+1/2) + 0.29 (ny/2+1/2) + 0.5 (nz/2+1/2)``, (H, W) float64."""
+    n = np.asarray(normal, np.float64)
+    return 0.14 * (n[..., 0] * 0.5 + 0.5) + 0.29 * (n[..., 1] * 0.5 + 0.5) + 0.5 * (n[..., 2] * 0.5 + 0.5)
+
+
+def seed_box_filter(ao, depth, normal, *, rule: str = "seed", size: int = 7, depth_threshold: float = 0.01,
+                    hash_threshold: float = 0.1) -> np.ndarray:
+    """Seed 002's edge-aware box filter (Listing 4.15), or pyshadow's form of it.
+
+    Parameters
+    ----------
+    ao : ndarray, shape (H, W), float
+        AO image; NaN marks uncovered pixels (they count for no neighbour and stay NaN).
+    depth : ndarray, shape (H, W), float
+        Distance along each pixel's ray (world units), ``inf`` on background.
+    normal : ndarray, shape (H, W, 3), float
+        Unit normals.
+    rule : {'seed', 'relative'}, optional
+        ``'seed'``: Listing 4.15 as written -- the mean over the ``size x
+        size`` window (cut at the border) of the pixels with
+        ``|z_q - z_p| < depth_threshold`` (world units) and
+        ``|hash_q - hash_p| < hash_threshold`` (:func:`normal_hash`).
+        ``'relative'``: :func:`pyshadow.filters.edge_aware_box` with
+        ``size`` (relative depth, normal cosine; its defaults); the image
+        must then have no NaN on surface pixels (use ``fallback=``).
+    size : int, optional
+        Odd window side (default 7).
+
+    Returns
+    -------
+    ndarray, shape (H, W), float32
+        Background (infinite depth) pixels pass through unchanged.
+    """
+    from .. import filters
+
+    ao = np.asarray(ao, np.float32)
+    depth = np.asarray(depth, np.float32)
+    if ao.ndim != 2 or depth.shape != ao.shape or np.shape(normal) != ao.shape + (3,):
+        raise ValueError(f"ao (H, W), depth (H, W) and normal (H, W, 3) must agree, got {ao.shape}, "
+                         f"{depth.shape}, {np.shape(normal)}")
+    if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1 or size % 2 == 0:
+        raise ValueError(f"size must be an odd int >= 1, got {size!r}")
+    if rule == "relative":
+        if np.isnan(ao[np.isfinite(depth)]).any():
+            raise ValueError("rule='relative' needs AO on every surface pixel (project with fallback=)")
+        return filters.edge_aware_box(ao, depth, normal, size=int(size))
+    if rule != "seed":
+        raise ValueError(f"rule must be 'seed' or 'relative', got {rule!r}")
+    H, W = ao.shape
+    z = depth.astype(np.float64)
+    hsh = normal_hash(normal)
+    a = ao.astype(np.float64)
+    num = np.zeros((H, W))
+    cnt = np.zeros((H, W))
+    half = size // 2
+    pad = lambda x, v: np.pad(x, half, constant_values=v)  # noqa: E731
+    zp, hp, ap = pad(z, np.inf), pad(hsh, np.inf), pad(a, np.nan)
+    for dy in range(-half, half + 1):
+        for dx in range(-half, half + 1):
+            sl = (slice(half + dy, half + dy + H), slice(half + dx, half + dx + W))
+            with np.errstate(invalid="ignore"):
+                ok = (np.abs(zp[sl] - z) < depth_threshold) & (np.abs(hp[sl] - hsh) < hash_threshold) \
+                    & np.isfinite(ap[sl])
+            num += np.where(ok, ap[sl], 0.0)
+            cnt += ok
+    out = np.where(cnt > 0, num / np.maximum(cnt, 1), a)
+    return np.where(np.isfinite(z), out, a).astype(np.float32)

@@ -1,0 +1,348 @@
+"""Area lights: one-sided discs and rectangles with soft shadows, through finite shadow rays.
+
+Units (as :mod:`pyshadow.lighting.local`, so the terms add with the sun and
+the sky): a planar light of area ``A`` and uniform radiance ``L`` emitting
+from its front face (along its unit normal ``n_L``, Lambertian) has the
+intensity ``I = L A`` along its normal, in the sky's radiance units times sr
+times world length squared; a surface facing it on its axis far away
+receives ``E = I / d^2``, as from ``PointLight(intensity=I)``. The light is
+given by ``intensity`` (RGB ``I``) or by ``power`` (RGB ``Phi = pi I``, the
+flux of a one-sided Lambertian emitter: ``Phi = pi L A``).
+
+Estimator (area sampling). With ``samples = K`` points ``y_k`` spread over
+the light's area (uniform in area, stratified: a Vogel spiral on a disc, a
+Fibonacci lattice on a rectangle, both turned per point by its pattern index
+and the seed, as the sphere light's spiral), ``l_k = (y_k - p) / d_k``,
+``d_k = |y_k - p|``::
+
+    E = L A / K * sum_k max(n . l_k, 0) * max(-n_L . l_k, 0) / d_k^2 * V_k
+      = I / K * sum_k ...
+
+an unbiased estimate of ``integral L cos(theta) cos(theta_L) / d^2 V dA``;
+``V_k`` from :func:`pyshadow.visibility.visible` on the finite ray from
+``p`` towards ``y_k`` with ``max_distance = d_k`` (:mod:`pyshadow.visibility.finite`).
+Outgoing radiance ``albedo / pi * E``. ``K = 1``: the single sample is the
+light's centre (``I cos cos_L / d^2``: a point light with a cosine lobe; hard
+shadows). Embree (``backend="embree"``) traces the identical rays: the ground
+truth; a converged reference is Embree with many samples.
+
+One-sided: a point behind the light's plane (``(p - c) . n_L <= 0``) gets no
+light and nothing is traced for it; a point on the plane within the light's
+extent has an undefined irradiance and is refused (``ValueError``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import InitVar, dataclass
+
+import numpy as np
+
+from ._checks import unit_direction
+from .local import PointLight, SpotLight, _intensity, _position
+
+__all__ = ["DiscLight", "RectLight", "AreaLight", "LIGHT_TYPES", "area_light_samples", "area_light_radiance"]
+
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+_SQRT2_FRAC = math.sqrt(2.0) - 1.0
+#: Rays per visibility call (points are taken in chunks of about this many rays).
+CHUNK_RAYS = 1 << 20
+#: Relative tolerance of the "point on the light's plane" test (times the light's size plus the distance).
+PLANE_TOL = 1e-9
+
+
+def _flux(obj, intensity, power):
+    if (intensity is None) == (power is None):
+        raise ValueError(f"{type(obj).__name__}: give exactly one of intensity= or power= "
+                         f"(got intensity={intensity!r}, power={power!r})")
+    if power is not None:
+        return _intensity(power, "light power") / math.pi
+    return _intensity(intensity, "light intensity")
+
+
+def _extent(x, name):
+    r = float(x)
+    if not (math.isfinite(r) and r > 0):
+        raise ValueError(f"{name}: must be finite and > 0 (a zero-area light has no radiance; got {x!r})")
+    return r
+
+
+def _frame(n):
+    """Two unit vectors completing ``n`` (3,) to a right-handed orthonormal frame."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(n, a)
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(n, e1)
+
+
+@dataclass(frozen=True)
+class DiscLight:
+    """A one-sided Lambertian disc light.
+
+    Attributes
+    ----------
+    position : ndarray, shape (3,), float64
+        World position of the disc's centre.
+    normal : ndarray, shape (3,), float64
+        Unit normal; the disc emits into the half-space it points to.
+    radius : float
+        Radius, world units (finite, > 0).
+    intensity : ndarray, shape (3,), float64
+        RGB intensity along the normal, ``I = L pi radius^2`` (>= 0; module
+        docstring). Give this or ``power`` (init only: ``Phi = pi I``).
+    """
+
+    position: np.ndarray
+    normal: np.ndarray
+    radius: float
+    intensity: np.ndarray = None
+    power: InitVar[object] = None
+
+    def __post_init__(self, power):
+        object.__setattr__(self, "position", _position(self.position, "light position"))
+        object.__setattr__(self, "normal", unit_direction(self.normal, "light normal"))
+        object.__setattr__(self, "radius", _extent(self.radius, "disc light radius"))
+        object.__setattr__(self, "intensity", _flux(self, self.intensity, power))
+
+    @property
+    def area(self) -> float:
+        """Area, world units squared."""
+        return math.pi * self.radius ** 2
+
+    @property
+    def radiance(self) -> np.ndarray:
+        """Uniform RGB radiance ``L = I / A``, (3,)."""
+        return self.intensity / self.area
+
+    def sample(self, uv) -> np.ndarray:
+        """World points of unit-disc coordinates ``uv`` (..., 2) (|uv| <= 1), (..., 3)."""
+        e1, e2 = _frame(self.normal)
+        uv = np.asarray(uv, np.float64) * self.radius
+        return self.position + uv[..., :1] * e1 + uv[..., 1:] * e2
+
+    def inside(self, q) -> np.ndarray:
+        """Whether in-plane offsets from the centre (..., 3) lie within the disc, (...,) bool."""
+        return np.linalg.norm(q, axis=-1) <= self.radius * (1 + 1e-12)
+
+
+@dataclass(frozen=True)
+class RectLight:
+    """A one-sided Lambertian rectangle light.
+
+    Attributes
+    ----------
+    position : ndarray, shape (3,), float64
+        World position of the rectangle's centre.
+    u, v : ndarray, shape (3,), float64
+        Edge half-vectors, world units (finite, non-zero, orthogonal to a
+        relative 1e-9): the corners are ``position +- u +- v``; the light
+        emits along its normal ``u x v / |u x v|``.
+    intensity : ndarray, shape (3,), float64
+        RGB intensity along the normal, ``I = L 4 |u| |v|`` (>= 0). Give
+        this or ``power`` (init only: ``Phi = pi I``).
+    """
+
+    position: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    intensity: np.ndarray = None
+    power: InitVar[object] = None
+
+    def __post_init__(self, power):
+        object.__setattr__(self, "position", _position(self.position, "light position"))
+        for name in ("u", "v"):
+            e = _position(getattr(self, name), f"rectangle light edge {name}")
+            _extent(np.linalg.norm(e), f"rectangle light edge {name}: length")
+            object.__setattr__(self, name, e)
+        nu, nv = np.linalg.norm(self.u), np.linalg.norm(self.v)
+        if abs(self.u @ self.v) > 1e-9 * nu * nv:
+            raise ValueError(f"rectangle light: edges u and v must be orthogonal (u.v = {self.u @ self.v:.6g})")
+        object.__setattr__(self, "intensity", _flux(self, self.intensity, power))
+
+    @classmethod
+    def facing(cls, position, normal, width: float, height: float, *, intensity=None, power=None):
+        """A ``width`` x ``height`` rectangle centred at ``position`` emitting along the unit ``normal``.
+
+        The ``width`` edge lies along the first vector of an orthonormal frame
+        of ``normal`` (``normal x (1, 0, 0)`` normalised, or ``normal x (0, 0, 1)``
+        when ``normal`` is within ~26 deg of the x axis).
+        """
+        n = unit_direction(normal, "light normal")
+        e1, e2 = _frame(n)
+        return cls(position, e1 * 0.5 * _extent(width, "rectangle width"),
+                   e2 * 0.5 * _extent(height, "rectangle height"), intensity=intensity, power=power)
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Unit normal ``u x v / |u x v|``, (3,)."""
+        c = np.cross(self.u, self.v)
+        return c / np.linalg.norm(c)
+
+    @property
+    def area(self) -> float:
+        """Area ``4 |u| |v|``, world units squared."""
+        return 4.0 * float(np.linalg.norm(self.u) * np.linalg.norm(self.v))
+
+    @property
+    def radiance(self) -> np.ndarray:
+        """Uniform RGB radiance ``L = I / A``, (3,)."""
+        return self.intensity / self.area
+
+    def sample(self, ab) -> np.ndarray:
+        """World points of square coordinates ``ab`` (..., 2) in [-1, 1]^2, (..., 3)."""
+        ab = np.asarray(ab, np.float64)
+        return self.position + ab[..., :1] * self.u + ab[..., 1:] * self.v
+
+    def inside(self, q) -> np.ndarray:
+        """Whether in-plane offsets from the centre (..., 3) lie within the rectangle, (...,) bool."""
+        a = np.abs(q @ self.u) / (self.u @ self.u)
+        b = np.abs(q @ self.v) / (self.v @ self.v)
+        return (a <= 1 + 1e-12) & (b <= 1 + 1e-12)
+
+
+#: The area light classes.
+AreaLight = (DiscLight, RectLight)
+#: Every local light :class:`pyshadow.lighting.Lighting` accepts in ``lights``.
+LIGHT_TYPES = (PointLight, SpotLight, DiscLight, RectLight)
+
+
+def _pattern(light, k: int, indices, seed: int) -> np.ndarray:
+    """Stratified light coordinates per point, (N, K, 2) float64 (module docstring)."""
+    idx = np.asarray(indices, np.int64) % (1 << 20)
+    n = len(idx)
+    if k == 1:
+        return np.zeros((n, 1, 2))
+    u = np.random.default_rng(seed).random(2)
+    j = np.arange(k)
+    t = np.mod(u[0] + idx * _GOLDEN, 1.0)
+    if isinstance(light, DiscLight):            # Vogel spiral: radius sqrt((j + 1/2) / K), golden azimuth
+        r = np.sqrt((j + 0.5) / k)[None, :]
+        phi = 2.0 * math.pi * (j[None, :] * _GOLDEN + t[:, None])
+        return np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)
+    s = np.mod(u[1] + idx * _SQRT2_FRAC, 1.0)   # Fibonacci lattice, Cranley-Patterson shifted per point
+    x = np.mod((j[None, :] + 0.5) / k + s[:, None], 1.0)
+    y = np.mod(j[None, :] * _GOLDEN + t[:, None], 1.0)
+    return np.stack([2.0 * x - 1.0, 2.0 * y - 1.0], axis=-1)
+
+
+def area_light_samples(light, k: int, indices, seed: int = 0) -> np.ndarray:
+    """The K sample points over the light's area for each point, (N, K, 3) float64, world.
+
+    Parameters
+    ----------
+    light : DiscLight or RectLight
+    k : int
+        Samples per point (>= 1); 1 is the light's centre.
+    indices : array_like of int, shape (N,)
+        Pattern index of each point: turns its pattern.
+    seed : int
+
+    Disc: ``radius sqrt((j + 1/2) / K)`` at azimuth ``2 pi (j g + t_i)`` (``g``
+    the golden ratio's fraction, ``t_i = frac(u_0 + i g)``). Rectangle:
+    ``(frac((j + 1/2) / K + s_i), frac(j g + t_i))`` mapped to ``[-1, 1]^2``,
+    ``s_i = frac(u_1 + i (sqrt 2 - 1))``; ``u_0, u_1`` drawn from ``seed``.
+    Both are uniform in area and stratified.
+    """
+    if not isinstance(light, AreaLight):
+        raise TypeError(f"light: expected a DiscLight or RectLight (got {type(light).__name__})")
+    return light.sample(_pattern(light, int(k), indices, seed))
+
+
+def _check_plane(light, p):
+    """Signed heights above the light's plane (N,); refuse points on the plane within the light."""
+    q = p - light.position
+    h = q @ light.normal
+    size = light.radius if isinstance(light, DiscLight) else math.sqrt(light.area)
+    on = np.abs(h) <= PLANE_TOL * (size + np.linalg.norm(q, axis=1))
+    bad = np.flatnonzero(on & light.inside(q - h[:, None] * light.normal))
+    if len(bad):
+        raise ValueError(f"point {bad[0]} lies on the {type(light).__name__}'s plane within its extent "
+                         f"({len(bad)} such points): its irradiance is undefined")
+    return np.where(on, 0.0, h)
+
+
+def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm", samples: int = 16,
+                        surface_ids=None, indices=None, seed: int = 0, bias=None, straddle: str = "error",
+                        geometric_normals=None):
+    """Radiance of surface points lit by a disc or rectangle light, with its soft shadow.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : array_like, shape (N, 3)
+        World positions (none on the light's plane within its extent).
+    normals : array_like, shape (N, 3)
+        World surface normals (normalised here; zero or non-finite rows are an error).
+    light : DiscLight or RectLight
+    albedo : array_like, shape (3,) or (N, 3)
+        Linear RGB albedo in [0, 1].
+    backend : str, optional
+        Visibility backend (:func:`pyshadow.visibility.backends`); ``"embree"``
+        traces the identical rays: the ground truth.
+    samples : int, optional
+        Points ``K`` over the light per surface point (>= 1; 1: its centre).
+    surface_ids, indices, seed, bias : optional
+        As for :func:`pyshadow.visibility.visible` (``surface_ids``, ``bias``);
+        the pattern index of each point (default ``arange(N)``) and the seed
+        that turn its pattern (:func:`area_light_samples`).
+    straddle : {'error', 'embree'}, optional
+        Rays ending inside a caster's bounding sphere: refused or answered by
+        Embree (:mod:`pyshadow.visibility.finite`).
+    geometric_normals : ndarray, shape (N, 3), optional
+        With ``normals`` shading normals: rays at or below the geometric
+        plane are shadowed (:mod:`pyshadow.shading_normals`).
+
+    Returns
+    -------
+    radiance : ndarray, shape (N, 3), float64
+        ``albedo / pi * E`` (module docstring), the sun's units.
+    visibility : ndarray, shape (N,), float64
+        The lit share of the unshadowed estimate, ``sum_k w_k V_k / sum_k w_k``
+        with ``w_k`` the k-th term's weight (0 where no sample lights the
+        point: behind the light or the surface; nothing is traced there).
+    """
+    from .. import visibility as vis
+    from .._validate import check_indices, rows3, unit_normals
+
+    if not isinstance(light, AreaLight):
+        raise TypeError(f"light: expected a DiscLight or RectLight (got {type(light).__name__})")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise ValueError(f"samples: must be an int >= 1 (got {samples!r})")
+    p = rows3(points, "points")
+    n = len(p)
+    nrm = unit_normals(normals, n)
+    alb = np.broadcast_to(np.asarray(albedo, np.float64), (n, 3))
+    if not np.isfinite(alb).all() or (alb < 0).any() or (alb > 1).any():
+        raise ValueError("albedo: must be finite and lie in [0, 1]")
+    idx = check_indices(indices, n)
+    ids_all = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
+    gn = None if geometric_normals is None else np.asarray(geometric_normals, np.float64).reshape(n, 3)
+    h = _check_plane(light, p)
+    k = int(samples)
+    num, den = np.zeros(n), np.zeros(n)
+    front = np.flatnonzero(h > 0)
+    step = max(1, CHUNK_RAYS // k)
+    for lo in range(0, len(front), step):
+        rows = front[lo:lo + step]
+        y = area_light_samples(light, k, idx[rows], seed)                          # (M, K, 3)
+        dv = y - p[rows, None, :]
+        d = np.linalg.norm(dv, axis=2)
+        w_dir = dv / d[..., None]
+        cos_s = np.maximum(np.einsum("mkj,mj->mk", w_dir, nrm[rows]), 0.0)
+        cos_l = np.maximum(-(w_dir @ light.normal), 0.0)
+        w = cos_s * cos_l / d ** 2
+        lit = np.zeros(w.shape, bool)
+        m, s = np.nonzero(w > 0)
+        if len(m):
+            ids = None if ids_all is None else ids_all[rows][m]
+            lit[m, s] = vis.visible(scene, p[rows][m], w_dir[m, s], backend=backend, bias=bias, surface_ids=ids,
+                                    normals=nrm[rows][m], max_distance=d[m, s], straddle=straddle)
+        if gn is not None:
+            from ..shading_normals import below_geometric
+
+            lit &= ~below_geometric(w_dir, gn[rows])
+        num[rows] = (w * lit).sum(axis=1)
+        den[rows] = w.sum(axis=1)
+    e = light.intensity[None, :] * (num / k)[:, None]
+    frac = np.divide(num, den, out=np.zeros(n), where=den > 0)
+    return alb / math.pi * e, frac
+

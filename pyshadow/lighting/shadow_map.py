@@ -1,0 +1,585 @@
+"""The classic scene shadow map, re-rendered from the light: the baseline a CSM is compared against.
+
+Issue 20 item 4; thesis 001, 4.4.1 (the map and its depth tolerance ε);
+lecture 004 (hard shadows, percentage-closer filtering). A
+:class:`ShadowMapVisibility` is a visibility backend
+(:mod:`pyshadow.visibility.base`): ``pyshadow.visibility.visible(scene,
+points, directions, backend=ShadowMapVisibility())`` and the lighting calls
+that take ``backend=`` answer through it. It answers rays that belong to one
+light:
+
+* rays that share one direction (unbounded: a directional light): an
+  orthographic depth map along the light, R x R texels, fitted to the
+  rectangle that holds the casters' world bounding spheres seen from the
+  light (texels are square only when that rectangle is);
+* rays that end at one common point (``points + directions * max_distance``
+  equal to 1e-6 of the rays' length plus the scene's size: a point or spot
+  light): a cube map of six 90 degree faces, R x R texels each, at that point.
+
+Any other ray set is refused with a ``ValueError``. The map holds every
+caster instance (each needs its mesh) placed by its current transform; it is
+rendered when first needed and kept while the scene's casters, their
+transforms and the light stay the same (:meth:`Scene.set_transform` makes
+the next query render again). The ground plane is not in the map: it is
+decided analytically for each ray, by the rule every backend applies
+(:func:`pyshadow.visibility.finite.ground_blocks`, tolerance 1e-5 of the
+scene's largest radius), so the ground agrees with the other backends
+exactly.
+
+Depth tolerance ε (the bias rule)
+    The point's texel (the nearest texel centre) and each PCF tap (the texel
+    ``(dj, di)`` from it) compare a *receiver depth* against the stored
+    depth. With normals (``visible(..., normals=...)``; the lighting calls
+    always pass them) the receiver depth is that of the point's tangent
+    plane at the tap's texel centre (the receiver-plane rule: exact for a
+    flat receiver at any slope, so a lit flat face shows no acne at grazing
+    light; the slope followed is at most ``TAN_MAX`` = 10 per unit of
+    lateral distance, 84 degrees). Without normals it is the point's own
+    depth, and the slope is covered by the tolerance instead. The tap is lit
+    when ``receiver depth - ε <= stored depth``, with
+
+    ``ε = bias + t (BIAS_TEXELS + [no normals] NO_NORMAL_SLOPE (h + 1/sqrt 2))``
+
+    where ``t`` is the world size of a texel at the tap (the larger side of
+    an orthographic texel; ``2 z / R`` on a cube face at depth ``z``), ``h``
+    the PCF radius (``pcf // 2``), ``bias`` the user's value in world units
+    (>= 0), ``BIAS_TEXELS`` = 1 (the rasterised depth at a texel centre
+    comes from the receiver's neighbouring triangle there: curvature and
+    creases within a texel) and ``NO_NORMAL_SLOPE`` = 2 (slopes up to 63
+    degrees over the farthest tap). The price of ε is light leaking
+    ("peter-panning") where an occluder is within ε of the receiver along
+    the light: at a contact with light at elevation ``e`` over the receiver,
+    over a strip of width about ``ε cos e`` plus a texel.
+
+Percentage-closer filtering
+    ``pcf`` = k (1, 3, 5 or 7): the fraction of the k x k taps that are lit
+    (:meth:`ShadowMapVisibility.lit_fraction`); ``visible`` answers True
+    where more than half are (``pcf=1``: the hard shadow map). Orthographic
+    taps off the map are lit (no caster projects there); a cube tap whose
+    receiver point falls on another face is looked up on that face.
+
+The trapezoidal warp of thesis 001 (4.4.2) is not implemented.
+"""
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+
+import numpy as np
+import pyopencl as cl
+
+from .. import _cl
+from .._validate import check_both, check_values, kernel_rows
+from ..scene_arrays import scene_arrays
+
+__all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
+           "BIAS_TEXELS", "NO_NORMAL_SLOPE", "TAN_MAX", "PCF_SIZES", "MIN_RESOLUTION", "MAX_RESOLUTION"]
+
+MIN_RESOLUTION, MAX_RESOLUTION = 8, 8192
+PCF_SIZES = (1, 3, 5, 7)
+BIAS_TEXELS = 1.0
+NO_NORMAL_SLOPE = 2.0
+TAN_MAX = 10.0
+LIGHT_TOL = 1e-6            # rays of one light: directions / endpoints equal to this (relative)
+CACHE_MAPS = 4              # rendered maps kept per backend object
+
+
+def _check_resolution(resolution) -> int:
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+        raise ValueError(f"resolution must be an int in {MIN_RESOLUTION}..{MAX_RESOLUTION}, got {resolution!r}")
+    if not MIN_RESOLUTION <= int(resolution) <= MAX_RESOLUTION:
+        raise ValueError(f"resolution must be in {MIN_RESOLUTION}..{MAX_RESOLUTION}, got {resolution}")
+    return int(resolution)
+
+
+def _check_pcf(pcf) -> int:
+    if isinstance(pcf, bool) or not isinstance(pcf, (int, np.integer)) or int(pcf) not in PCF_SIZES:
+        raise ValueError(f"pcf must be one of {PCF_SIZES} (an odd kernel size), got {pcf!r}")
+    return int(pcf)
+
+
+def _check_bias(bias, name="bias"):
+    if bias is None:
+        return None
+    try:
+        b = float(bias)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}") from None
+    if not (np.isfinite(b) and b >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}")
+    return b
+
+
+def light_of_rays(points, directions, max_distance=None, scale=1.0):
+    """The one light a set of shadow rays belongs to.
+
+    Parameters
+    ----------
+    points : ndarray, shape (N, 3), float64
+        World ray origins (finite).
+    directions : ndarray, shape (N, 3), float64
+        World unit directions.
+    max_distance : None or ndarray, shape (N,), float64
+        Validated ray lengths (``inf``: unbounded).
+    scale : float
+        The scene's size (world units) for the endpoint tolerance.
+
+    Returns
+    -------
+    kind : {'directional', 'point'}
+    light : ndarray, shape (3,), float64
+        The unit direction towards a directional light, or a point light's
+        world position.
+
+    Raises
+    ------
+    ValueError
+        Unbounded rays whose directions lie more than ``LIGHT_TOL`` radians
+        from their mean;
+        bounded rays whose ends differ by more than ``LIGHT_TOL`` times the
+        longest ray plus ``scale``; a mix of bounded and unbounded rays.
+    """
+    if max_distance is None or np.isinf(max_distance).all():
+        w = directions.mean(axis=0)
+        w /= np.linalg.norm(w)
+        cos = directions @ w                # unit rows: the angle to the mean is below LIGHT_TOL
+        if not cos.min() >= 1.0 - 0.5 * LIGHT_TOL ** 2:
+            i = int(np.argmin(cos))
+            raise ValueError(f"a shadow map answers the rays of one light: unbounded rays must share one "
+                             f"direction (a directional light), but ray {i}'s direction "
+                             f"{np.round(directions[i], 6).tolist()} lies "
+                             f"{float(np.arccos(np.clip(cos[i], -1, 1))):.3g} rad from their mean "
+                             f"{np.round(w, 6).tolist()} (> {LIGHT_TOL})")
+        return "directional", w
+    if not np.isfinite(max_distance).all():
+        raise ValueError("a shadow map answers the rays of one light: max_distance must be finite for every ray "
+                         "(a point light) or infinite for every ray (a directional light), not a mix")
+    ends = points + max_distance[:, None] * directions
+    light = ends.mean(axis=0)
+    dev = np.abs(ends - light).max(axis=1)
+    tol = LIGHT_TOL * (float(max_distance.max()) + float(scale))
+    if float(dev.max()) > tol:
+        i = int(dev.argmax())
+        raise ValueError(f"a shadow map answers the rays of one light: bounded rays must end at one point "
+                         f"(a point light), but ray {i} ends at {np.round(ends[i], 6).tolist()}, "
+                         f"{float(dev[i]):.3g} from their mean end {np.round(light, 6).tolist()} (> {tol:.3g})")
+    return "point", light
+
+
+def _light_frame(direction):
+    """Orthonormal (u, v, d) with d = -direction (the light's travel direction)."""
+    d = -np.asarray(direction, np.float64)
+    a = np.zeros(3)
+    a[int(np.argmin(np.abs(d)))] = 1.0
+    u = np.cross(a, d)
+    u /= np.linalg.norm(u)
+    return u, np.cross(d, u), d
+
+
+#: the six cube faces: (forward, up) in face order +X, -X, +Y, -Y, +Z, -Z (the kernel's cube_face)
+_CUBE_FACES = (((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 1, 0), (0, 0, 1)),
+               ((0, -1, 0), (0, 0, 1)), ((0, 0, 1), (0, 1, 0)), ((0, 0, -1), (0, 1, 0)))
+
+
+def _cube_cameras(position, resolution):
+    from ..camera import Camera
+
+    return [Camera(position, np.asarray(position) + f, up=u, fov_y=90.0, width=resolution, height=resolution)
+            for f, u in _CUBE_FACES]
+
+
+def _ortho_frame(scene, casters, direction, R):
+    """The orthographic map's affine world-to-texel map ``q = A (p - origin) + b`` (float64), the kernel's
+    frame (float32) and the texel size: the rectangle of the casters' spheres seen along the light."""
+    u, v, d = _light_frame(direction)
+    arr = scene_arrays(scene)
+    c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
+    origin = c.mean(axis=0) if len(casters) else np.zeros(3)
+    rel = c - origin
+    if len(casters):
+        lo = np.array([(rel @ u - r).min(), (rel @ v - r).min(), (rel @ d - r).min()])
+        hi = np.array([(rel @ u + r).max(), (rel @ v + r).max()])
+    else:
+        lo, hi = -np.ones(3), np.ones(2)
+    tu, tv = (hi - lo[:2]) / R
+    A = np.stack([u / tu, v / tv, d])
+    b = np.array([-lo[0] / tu - 0.5, -lo[1] / tv - 0.5, -lo[2]])
+    frame = np.concatenate([A[0], [b[0]], A[1], [b[1]], A[2], [b[2]], [tu, tv]]).astype(np.float32)
+    return A, b, origin, frame, float(max(tu, tv))
+
+
+class ShadowMap:
+    """One rendered shadow map (a device buffer) and the frame its lookups need.
+
+    Attributes
+    ----------
+    kind : {'directional', 'point'}
+    light : ndarray, shape (3,), float64
+        Unit direction towards the light, or the light's world position.
+    resolution : int
+        Texels per side (per face of a cube map).
+    origin : ndarray, shape (3,), float64
+        World point the lookups' coordinates are relative to (the light's
+        position for a cube map).
+    frame : ndarray, float32
+        The kernel's frame (``kernels/shadow_map.cl``).
+    texel : float or None
+        World size of a texel (the larger side) of an orthographic map.
+    nbytes : int
+        Bytes of the depth buffer (float32 per texel; 0 without casters).
+    """
+
+    def __init__(self, kind, light, resolution, origin, frame, buffer, texel=None):
+        self.kind, self.light, self.resolution = kind, light, resolution
+        self.origin, self.frame, self.buffer, self.texel = origin, frame, buffer, texel
+        faces = 6 if kind == "point" else 1
+        self.nbytes = 0 if buffer is None else 4 * faces * resolution ** 2
+
+    def depth(self) -> np.ndarray:
+        """A host copy of the depths, float32 (R, R) or (6, R, R) (+inf where no caster)."""
+        R = self.resolution
+        out = np.full((6, R, R) if self.kind == "point" else (R, R), np.inf, np.float32)
+        if self.buffer is not None:
+            cl.enqueue_copy(_cl.queue(), out, self.buffer)
+        return out
+
+
+class ShadowMapVisibility:
+    """A visibility backend answering the rays of one light from a re-rendered shadow map.
+
+    Parameters
+    ----------
+    resolution : int, optional
+        Texels per side of the orthographic map, or of each cube face,
+        ``MIN_RESOLUTION`` .. ``MAX_RESOLUTION`` (8 .. 8192).
+    bias : float, optional
+        The user's part of ε, world units (>= 0; default 0). A ``bias``
+        passed to :meth:`visible` replaces it for that call.
+    pcf : {1, 3, 5, 7}, optional
+        Percentage-closer filter size (1: hard).
+    bias_texels : float, optional
+        The texel part of ε (default ``BIAS_TEXELS``), >= 0.
+
+    Notes
+    -----
+    The module docstring gives the rays it answers and the rule of ε. It
+    cannot answer ambient occlusion (:meth:`ambient_occlusion` raises).
+    :attr:`renders` counts the maps rendered.
+    """
+
+    name = "shadow-map"
+
+    def __init__(self, resolution: int = 1024, bias=None, pcf: int = 1, bias_texels: float = BIAS_TEXELS):
+        self.resolution = _check_resolution(resolution)
+        self.bias = _check_bias(bias)
+        self.pcf = _check_pcf(pcf)
+        if bias_texels is None:
+            raise ValueError("bias_texels must be a finite number >= 0, got None")
+        self.bias_texels = _check_bias(bias_texels, "bias_texels")
+        self.renders = 0
+        self._maps: OrderedDict = OrderedDict()
+        self._meshes: dict = {}
+
+    def __repr__(self) -> str:
+        return f"<ShadowMapVisibility {self.resolution}^2 pcf={self.pcf}>"
+
+    # ------------------------------------------------------------------
+    # the protocol
+    # ------------------------------------------------------------------
+    def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
+                max_distance=None, straddle="error") -> np.ndarray:
+        """Does each ray reach its light? (N,) bool: more than half of the PCF taps lit.
+
+        Parameters as :meth:`lit_fraction` (those of
+        :func:`pyshadow.visibility.visible`, with the differences it lists).
+        """
+        return self.lit_fraction(scene, points, directions, bias=bias, surface_ids=surface_ids, normals=normals,
+                                 max_distance=max_distance, straddle=straddle) > 0.5
+
+    def lit_fraction(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
+                     max_distance=None, straddle="error") -> np.ndarray:
+        """The fraction of each ray's PCF taps that are lit.
+
+        Parameters
+        ----------
+        scene : pyshadow.Scene
+            Every caster needs its mesh.
+        points : array_like, shape (N, 3)
+            World positions, float32 or float64 (others converted), finite.
+        directions : array_like, shape (N, 3)
+            World directions towards the light (any non-zero length): one
+            shared direction (unbounded rays), or, with ``max_distance``,
+            segments that end at one point (module docstring).
+        bias : float, optional
+            The user's part of ε, world units (>= 0); default the
+            constructor's (0 if None there). Not the normalised depth units
+            of the CSM backends.
+        surface_ids : int or array_like of int, optional
+            Validated as for :func:`pyshadow.visibility.visible`, not needed:
+            the receiver-plane rule replaces a self-bias.
+        normals : array_like, shape (N, 3), optional
+            World normals of the points' surfaces (any non-zero length;
+            finite): the receiver-plane rule. Without them ε grows by the
+            slope term (module docstring).
+        max_distance : float or array_like, shape (N,), optional
+            Ray lengths, world units (> 0): the distance to a point light.
+            All finite (a point light) or all ``inf``/None (directional).
+        straddle : {'error', 'embree'}, optional
+            Validated and ignored: a shadow map answers a light inside a
+            caster's bounding sphere.
+
+        Returns
+        -------
+        ndarray, shape (N,), float32
+            In [0, 1], in steps of ``1 / pcf^2``; 0 where the ground plane
+            blocks the ray (:func:`pyshadow.visibility.finite.ground_blocks`).
+
+        Raises
+        ------
+        ValueError
+            Bad shapes or values, rays of more than one light, a caster
+            without its mesh; before anything is rendered or launched.
+        """
+        from ..visibility.finite import check_max_distance, check_straddle, ground_blocks, unit_directions
+
+        p = kernel_rows(points, "points")
+        w = kernel_rows(directions, "directions", len(p))
+        check_both(p, "points", w, "directions")
+        n = len(p)
+        m = None                        # the receiver-plane rule needs the normals' directions only
+        if normals is not None:
+            m = kernel_rows(normals, "normals", n)
+            check_values(m, "normals", nonzero=True)
+        scene.caster_slots(surface_ids, n)
+        tmax = check_max_distance(max_distance, n)
+        check_straddle(straddle)
+        b = self.bias if bias is None else _check_bias(bias)
+        if n == 0:
+            return np.zeros(0, np.float32)
+        p = np.asarray(p, np.float64)
+        w = unit_directions(w)
+        kind, light = light_of_rays(p, w, tmax, scene.scale())
+        sm = self.shadow_map(scene, **{"direction" if kind == "directional" else "position": light})
+        frac = self._lookup(sm, p, m, 0.0 if b is None else b)
+        if scene.ground is not None:
+            blocked = ground_blocks(p[:, 1] - scene.ground, w[:, 1], None if kind == "directional" else tmax,
+                                    1e-5 * scene.scale())
+            frac[blocked] = 0.0
+        return frac
+
+    def ambient_occlusion(self, scene, points, normals, *, sampling=None, return_bent_normals=False, bias=None,
+                          indices=None, surface_ids=None, **options):
+        """Not answerable: a shadow map holds one light's depths, AO asks every direction (any options)."""
+        raise ValueError("a shadow map answers the rays of one light (one direction, or one end point); it "
+                         "cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree'")
+
+    # ------------------------------------------------------------------
+    # maps
+    # ------------------------------------------------------------------
+    def shadow_map(self, scene, *, direction=None, position=None) -> ShadowMap:
+        """The shadow map of a directional light or a point light, rendered unless kept.
+
+        Parameters
+        ----------
+        scene : pyshadow.Scene
+        direction : array_like, shape (3,), optional
+            World direction towards a directional light (normalised here).
+        position : array_like, shape (3,), optional
+            World position of a point light. Exactly one of the two.
+
+        Returns
+        -------
+        ShadowMap
+            Kept (up to ``CACHE_MAPS`` of them) while the casters, their
+            transforms and the light are unchanged.
+        """
+        if (direction is None) == (position is None):
+            raise ValueError("give exactly one of direction= (a directional light) or position= (a point light)")
+        kind = "directional" if position is None else "point"
+        light = np.asarray(direction if position is None else position, np.float64).reshape(-1)
+        if light.shape != (3,) or not np.isfinite(light).all():
+            raise ValueError(f"the light's {'direction' if position is None else 'position'} must be 3 finite "
+                             f"numbers, got {light.tolist()}")
+        if kind == "directional":
+            norm = float(np.linalg.norm(light))
+            if not norm > 0:
+                raise ValueError("the light's direction must not be zero")
+            light = light / norm
+        arr = scene_arrays(scene)
+        casters = np.flatnonzero(arr["casts"])
+        for i in casters:
+            if scene.instances[i].mesh is None:
+                raise ValueError(f"caster instance {int(i)} has no mesh: a shadow map rasterises the casters' "
+                                 f"triangles (Scene.add(csm, mesh=...))")
+        state = (id(_cl.context()), id(scene), kind, self.resolution,
+                 tuple((id(scene.instances[i].mesh), scene.instances[i].transform.tobytes()) for i in casters))
+        tol = LIGHT_TOL * (1.0 if kind == "directional" else float(np.abs(light).max()) + scene.scale())
+        for key, sm in self._maps.items():
+            if key[0] == state and np.abs(sm.light - light).max() <= tol:
+                self._maps.move_to_end(key)
+                return sm
+        sm = (self._render_directional(scene, casters, light) if kind == "directional"
+              else self._render_point(scene, casters, light))
+        self.renders += 1
+        self._maps[(state, light.tobytes())] = sm
+        while len(self._maps) > CACHE_MAPS:
+            self._maps.popitem(last=False)
+        return sm
+
+    def clear(self) -> None:
+        """Forget the kept maps: the next query renders its map again."""
+        self._maps.clear()
+
+    def _mesh_triangles(self, mesh):
+        """(device buffer of (T, 9) float32 corners relative to the mesh's centre, T, centre)."""
+        held = self._meshes.get(id(mesh))
+        if held is None or held[0] is not mesh or held[4] != id(_cl.context()):
+            v = np.asarray(mesh.vertices, np.float64)
+            centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            tris = (v - centre)[np.asarray(mesh.faces)].reshape(-1, 9)
+            held = (mesh, _cl.to_device(tris, np.float32), len(tris), centre, id(_cl.context()))
+            self._meshes[id(mesh)] = held
+        return held[1:4]
+
+    def _new_depth(self, faces):
+        nbytes = 4 * faces * self.resolution ** 2
+        buf = _cl.empty(nbytes)
+        cl.enqueue_fill_buffer(_cl.queue(), buf, np.float32(np.inf), 0, nbytes)
+        return buf
+
+    def _raster(self, buf, tris, n_tris, m, cube, zoff):
+        if n_tris:
+            k = _cl.kernel("shadow_map.cl", "sm_raster", {"TAN_MAX": TAN_MAX})
+            k(_cl.queue(), (n_tris,), None, tris, np.int32(n_tris), _cl.to_device(m.reshape(12), np.float32),
+              np.int32(self.resolution), np.int32(cube), np.int32(zoff), buf)
+
+    def _render_directional(self, scene, casters, direction):
+        """The orthographic map fitted to the casters' world spheres seen along ``direction``."""
+        R = self.resolution
+        A, b, origin, frame, texel = _ortho_frame(scene, casters, direction, R)
+        if not len(casters):
+            return ShadowMap("directional", direction, R, origin, frame, None, texel)
+        buf = self._new_depth(1)
+        for i in casters:
+            inst = scene.instances[i]
+            tris, n_tris, centre = self._mesh_triangles(inst.mesh)
+            T = inst.transform
+            m = np.concatenate([A @ T[:3, :3], (A @ (T[:3, :3] @ centre + T[:3, 3] - origin) + b)[:, None]], axis=1)
+            self._raster(buf, tris, n_tris, m, 0, 0)
+        return ShadowMap("directional", direction, R, origin, frame, buf, texel)
+
+    def _render_point(self, scene, casters, position):
+        """The cube map at ``position``: six 90 degree faces of the casters' depths (along each face's axis)."""
+        from ..gbuffer import gbuffer_triangles
+
+        R = self.resolution
+        cams = _cube_cameras(position, R)
+        frame = np.concatenate([cam.rotation.reshape(9) for cam in cams]).astype(np.float32)
+        if not len(casters):
+            return ShadowMap("point", position, R, position, frame, None)
+        buf = self._new_depth(6)
+        items = [(scene.instances[i].mesh, scene.instances[i].transform) for i in casters]
+        eye = np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
+        for f, cam in enumerate(cams):
+            tris = gbuffer_triangles(items, cam)[0]
+            self._raster(buf, _cl.to_device(tris.reshape(-1, 9), np.float32), len(tris), eye, 1, f * R * R)
+        return ShadowMap("point", position, R, position, frame, buf)
+
+    def _lookup(self, sm, p, m, bias):
+        """Lit fraction of the PCF taps of each point, (N,) float32 (validated float64 rows)."""
+        n = len(p)
+        if sm.buffer is None:
+            return np.ones(n, np.float32)
+        half = self.pcf // 2
+        texels = self.bias_texels + (0.0 if m is not None else NO_NORMAL_SLOPE * (half + math.sqrt(0.5)))
+        out = np.empty(n, np.float32)
+        q = _cl.queue()
+        k = _cl.kernel("shadow_map.cl", "sm_lookup", {"TAN_MAX": TAN_MAX})
+        pts = _cl.to_device(p - sm.origin, np.float32)
+        nrm = _cl.to_device(m if m is not None else np.zeros((1, 3)), np.float32)
+        res = _cl.empty(4 * n)
+        k(q, (n,), None, sm.buffer, np.int32(sm.resolution), np.int32(sm.kind == "point"),
+          _cl.to_device(sm.frame), np.int32(n), pts, nrm, np.int32(m is not None), np.float32(bias),
+          np.float32(texels), np.int32(half), res)
+        cl.enqueue_copy(q, out, res)
+        return out
+
+
+# ---------------------------------------------------------------------------
+# NumPy references of the orthographic map (float64; small inputs, for the tests)
+# ---------------------------------------------------------------------------
+def render_reference(scene, direction, resolution: int) -> np.ndarray:
+    """The orthographic depth map of ``sm_raster`` in NumPy: (R, R) float64 (+inf where no caster).
+
+    Same frame, texel centres and watertight edge rule
+    (:func:`pyshadow.raster.covered_samples`); depth interpolated linearly
+    over each triangle and clamped at 0; the nearest depth per texel kept.
+    """
+    from ..raster import covered_samples
+
+    R = _check_resolution(resolution)
+    direction = np.asarray(direction, np.float64) / np.linalg.norm(direction)
+    casters = np.flatnonzero(scene_arrays(scene)["casts"])
+    A, b, origin, _, _ = _ortho_frame(scene, casters, direction, R)
+    out = np.full((R, R), np.inf)
+    for i in casters:
+        inst = scene.instances[i]
+        T = inst.transform
+        world = np.asarray(inst.mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
+        q = (world - origin) @ A.T + b
+        for f in np.asarray(inst.mesh.faces):
+            s = q[f, :2]
+            lo = np.maximum(np.ceil(s.min(axis=0)).astype(int), 0)
+            hi = np.minimum(np.floor(s.max(axis=0)).astype(int), R - 1)
+            if (lo > hi).any():
+                continue
+            cov = covered_samples(s[0], s[1], s[2], lo, hi)
+            if cov is not None:
+                rows, cols, w = cov
+                np.minimum.at(out, (rows, cols), np.maximum(w.T @ q[f, 2], 0.0))
+    return out
+
+
+def lookup_reference(sm: ShadowMap, depth, points, normals=None, *, pcf: int = 1, bias: float = 0.0,
+                     bias_texels: float = BIAS_TEXELS) -> np.ndarray:
+    """``sm_lookup`` of an orthographic map in NumPy (float64): the lit fraction of the PCF taps, (N,).
+
+    Parameters
+    ----------
+    sm : ShadowMap
+        An orthographic map (its float32 frame, read as float64).
+    depth : ndarray, shape (R, R)
+        Its depths (:meth:`ShadowMap.depth` or :func:`render_reference`).
+    points, normals : ndarray, shape (N, 3)
+        World points and unit normals (None: the rule without normals).
+    pcf, bias, bias_texels :
+        As for :class:`ShadowMapVisibility`. The ground plane is not applied.
+    """
+    if sm.kind != "directional":
+        raise ValueError("lookup_reference mirrors the orthographic map only")
+    f = sm.frame.astype(np.float64)
+    U, V, D, tu, tv = f[0:3], f[4:7], f[8:11], f[12], f[13]
+    p = np.asarray(points, np.float64) - sm.origin
+    col, row, z = p @ U + f[3], p @ V + f[7], p @ D + f[11]
+    h = _check_pcf(pcf) // 2
+    texels = bias_texels + (0.0 if normals is not None else NO_NORMAL_SLOPE * (h + math.sqrt(0.5)))
+    eps = bias + texels * max(tu, tv)
+    if normals is not None:
+        n = np.asarray(normals, np.float64)
+        nu, nv, nd = (n @ U) * tu, (n @ V) * tv, n @ D
+    R = depth.shape[0]
+    lit = np.zeros(len(p))
+    for di in range(-h, h + 1):
+        for dj in range(-h, h + 1):
+            tj, ti = np.floor(col + 0.5).astype(np.int64) + dj, np.floor(row + 0.5).astype(np.int64) + di
+            du, dv = (tj - col) * tu, (ti - row) * tv
+            zr = z
+            if normals is not None:
+                lim = TAN_MAX * (np.abs(du) + np.abs(dv))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    shift = np.clip(-(nu * du + nv * dv) / nd, -lim, lim)
+                zr = np.where(nd < 0, z + shift, z)
+            inside = (tj >= 0) & (tj < R) & (ti >= 0) & (ti < R)
+            stored = np.where(inside, depth[np.clip(ti, 0, R - 1), np.clip(tj, 0, R - 1)], np.inf)
+            lit += ~inside | (zr - eps <= stored)
+    return lit / (2 * h + 1) ** 2

@@ -1,0 +1,206 @@
+"""Screen-space ambient occlusion (SSAO) from a G-buffer, with its NumPy reference.
+
+The standard sample-based method: about each pixel's surface point ``p``
+(normal ``n``) ``samples`` cosine-weighted directions ``w`` -- pyshadow's own
+(:func:`pyshadow.sample_directions`, pattern = the pixel's index
+``r * W + c``) -- give sample points ``q = p + radius * w`` on the
+hemisphere of radius ``radius``. Each is projected into the camera's image;
+it counts as occluded when the depth buffer at that pixel (nearest) holds a
+surface closer to the camera than ``q`` by more than ``bias`` (view depth,
+along the camera's forward axis) and that surface's view depth lies within
+``radius`` of the pixel's own (the range check: a surface far in front is
+another object, not an occluder near ``p``). Samples behind the eye, off the
+image or over the background are open. AO = 1 - occluded fraction, 1 =
+open, as everywhere in pyshadow.
+
+What it estimates: a sample point at distance ``radius`` along ``w`` lies
+behind the visible surface exactly when the ray from ``p`` along ``w`` has
+entered an occluder before ``radius`` -- provided the occluder is thick and
+its front is what the camera sees. So SSAO estimates the *distance-limited*
+AO with ``D = radius`` (:func:`pyshadow.visibility.ambient_occlusion`,
+``max_distance=radius``) on the same directions; it misses what the camera
+does not see (off screen, hidden behind other surfaces, thin occluders seen
+edge-on), and its nearest-pixel depth lookup with ``bias`` decides samples
+that graze a surface.
+
+:func:`screen_space_ao` runs ``kernels/ssao.cl``; :func:`screen_space_ao_reference`
+does the same in float64 NumPy (same float32 inputs and directions) and
+can return each pixel's margin: the two differ only at pixels with a
+sample within float32 rounding of a decision (a pixel edge or a depth
+threshold).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _cl
+from .sampling import MAX_SAMPLES, Sampling, direction_table, pattern_indices, sample_directions
+
+__all__ = ["screen_space_ao", "screen_space_ao_reference", "view_depth"]
+
+
+def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
+    """Validated inputs: float32 eye-relative points (N, 3), normals (N, 3), view depth (N,), and the options."""
+    from .camera import Camera
+
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a pyshadow.Camera, got {camera!r}")
+    H, W = camera.height, camera.width
+    for key, shape in (("depth", (H, W)), ("normal", (H, W, 3))):
+        if key not in gbuffer:
+            raise ValueError(f"gbuffer lacks {key!r} (screen_space_ao needs 'depth' and 'normal')")
+        if np.shape(gbuffer[key]) != shape:
+            raise ValueError(f"gbuffer[{key!r}] has shape {np.shape(gbuffer[key])}; the camera needs {shape}")
+    try:
+        radius = float(radius)
+    except (TypeError, ValueError):
+        raise TypeError(f"radius must be a number (world units), got {radius!r}") from None
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
+        raise ValueError(f"samples must be an int in 1..{MAX_SAMPLES}, got {samples!r}")
+    bias = 0.02 * radius if bias is None else float(bias)
+    if not (np.isfinite(bias) and bias >= 0):
+        raise ValueError(f"bias must be finite and >= 0 (world units), got {bias}")
+    depth = np.asarray(gbuffer["depth"], np.float64).reshape(-1)
+    normal = np.asarray(gbuffer["normal"], np.float64).reshape(-1, 3)
+    hit = np.isfinite(depth)
+    if (depth[hit] <= 0).any():
+        raise ValueError("gbuffer['depth'] must be > 0 where finite (distance from the eye)")
+    length = np.linalg.norm(normal[hit], axis=1)
+    if not (np.isfinite(length).all() and (length > 1e-6).all()):
+        raise ValueError("gbuffer['normal'] must be finite and non-zero wherever depth is finite")
+    dirs = camera.ray_directions().reshape(-1, 3)
+    rel = np.where(hit[:, None], np.where(hit, depth, 0.0)[:, None] * dirs, 0.0)
+    n = np.zeros_like(normal)
+    n[hit] = normal[hit] / length[:, None]
+    n[~hit] = (0.0, 1.0, 0.0)
+    return (rel.astype(np.float32), n.astype(np.float32), view_depth(gbuffer, camera).reshape(-1), radius,
+            Sampling(int(samples), seed=int(seed)), np.float32(bias),
+            np.float32(radius if range_check else np.inf))
+
+
+def view_depth(gbuffer, camera) -> np.ndarray:
+    """View depth (along ``camera.forward``) of each pixel's surface, (H, W) float32, +inf for the background.
+
+    ``depth * (ray direction . forward)`` from the G-buffer's distance along
+    each pixel's ray (world units).
+    """
+    depth = np.asarray(gbuffer["depth"], np.float64)
+    cos = camera.ray_directions() @ camera.forward
+    with np.errstate(invalid="ignore"):
+        z = np.where(np.isfinite(depth), depth * cos, np.inf)
+    return z.astype(np.float32)
+
+
+def _camera_args(camera):
+    f = 1.0 / camera.tan_half
+    return [np.float32(x) for x in (*camera.right, *camera.up, *camera.forward, f / camera.aspect, f)]
+
+
+def screen_space_ao(gbuffer, camera, radius, *, samples: int = 16, seed: int = 0, bias=None,
+                    range_check: bool = True) -> np.ndarray:
+    """SSAO of every pixel by the OpenCL kernel ``kernels/ssao.cl``.
+
+    Parameters
+    ----------
+    gbuffer : dict
+        :func:`pyshadow.render_gbuffer`'s dict (or a Frame): ``'depth'``
+        (H, W), distance from the eye along each pixel's ray, world units,
+        inf for the background; ``'normal'`` (H, W, 3) world normals.
+    camera : pyshadow.Camera
+        The camera the G-buffer was rendered with.
+    radius : float
+        Radius of the sample hemisphere, world units (> 0): the distance
+        limit D of the AO it estimates.
+    samples : int, optional
+        Directions per pixel, 1 .. 4096.
+    seed : int, optional
+        Seed of the sample patterns (:class:`pyshadow.Sampling`).
+    bias : float, optional
+        Depth tolerance, world units (>= 0); default ``0.02 * radius``.
+    range_check : bool, optional
+        Count an occluder only when its view depth is within ``radius`` of
+        the pixel's own (default); False counts every closer surface.
+
+    Returns
+    -------
+    ndarray, shape (H, W), float32
+        Unoccluded fraction of the samples (1 = open; 1 on the background).
+    """
+    rel, n, z, radius, sampling, bias, rng = _check(gbuffer, camera, radius, samples, seed, bias, range_check)
+    H, W = camera.height, camera.width
+    out = np.empty(H * W, np.float32)
+    S = sampling.samples
+    table = direction_table(S, sampling.strategy, sampling.patterns, sampling.seed)
+    pidx = pattern_indices(np.arange(H * W), sampling.patterns, sampling.seed)
+    import pyopencl as cl
+
+    q = _cl.queue()
+    buf = _cl.empty(4 * H * W)
+    k = _cl.kernel("ssao.cl", "ssao", {"SAMPLES": S})
+    k(q, (H * W,), None, _cl.to_device(rel), _cl.to_device(n), _cl.to_device(z), _cl.to_device(pidx, np.int32),
+      _cl.to_device(table), *_camera_args(camera), np.int32(W), np.int32(H), np.float32(radius), bias, rng, buf)
+    cl.enqueue_copy(q, out, buf)
+    return out.reshape(H, W)
+
+
+def screen_space_ao_reference(gbuffer, camera, radius, *, samples: int = 16, seed: int = 0, bias=None,
+                              range_check: bool = True, return_margin: bool = False):
+    """NumPy (float64) version of :func:`screen_space_ao` on the same float32 inputs and directions.
+
+    Parameters
+    ----------
+    gbuffer, camera, radius, samples, seed, bias, range_check
+        As in :func:`screen_space_ao`.
+    return_margin : bool, optional
+        Also return each pixel's margin: the smallest distance, over its
+        samples, of a decided quantity from its decision boundary (the
+        projected column and row from a pixel edge, in pixels; the depth
+        tests, relative to the view depth). A pixel where the kernel's
+        answer differs must have a sample within float32 rounding of one.
+
+    Returns
+    -------
+    ao : ndarray, shape (H, W), float32
+    margin : ndarray, shape (H, W), float64
+        Only with ``return_margin=True`` (inf for the background).
+    """
+    rel, n, z, radius, sampling, bias, rng = _check(gbuffer, camera, radius, samples, seed, bias, range_check)
+    H, W = camera.height, camera.width
+    hit = np.flatnonzero(np.isfinite(z))
+    ao = np.ones(H * W, np.float32)
+    margin = np.full(H * W, np.inf)
+    cam = np.asarray(_camera_args(camera), np.float64)
+    R, sx, sy = cam[:9].reshape(3, 3), cam[9], cam[10]
+    bias, rng = float(bias), float(rng)
+    zf = z.astype(np.float64)
+    step = max(1, (1 << 20) // sampling.samples)
+    for s in range(0, len(hit), step):
+        pix = hit[s:s + step]
+        w = sample_directions(n[pix], sampling=sampling, indices=pix).astype(np.float64)
+        q = rel[pix, None, :].astype(np.float64) + radius * w            # (P, S, 3)
+        xc, yc, zc = (q @ R.T).transpose(2, 0, 1)
+        front = zc > 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            col = (xc / zc * sx + 1.0) * 0.5 * W
+            row = (1.0 - yc / zc * sy) * 0.5 * H
+        inside = front & (col >= 0) & (col < W) & (row >= 0) & (row < H)
+        j = np.clip(np.where(inside, col, 0).astype(np.int64), 0, W - 1)
+        k = np.clip(np.where(inside, row, 0).astype(np.int64), 0, H - 1)
+        zb = zf[k * W + j]
+        zp = zf[pix][:, None]
+        known = inside & np.isfinite(zb)
+        occ = known & (zb < zc - bias) & (np.abs(zp - zb) <= rng)
+        ao[pix] = np.float32(1.0) - occ.sum(axis=1).astype(np.float32) / np.float32(sampling.samples)
+        if return_margin:
+            scale = np.maximum(np.abs(zc), 1e-30)
+            with np.errstate(invalid="ignore"):
+                m = np.minimum.reduce([
+                    np.abs(col - np.round(col)), np.abs(row - np.round(row)),
+                    np.where(known, np.abs(zb - (zc - bias)) / scale, np.inf),
+                    np.where(known & np.isfinite(rng), np.abs(np.abs(zp - zb) - rng) / scale, np.inf),
+                    np.abs(zc) / np.maximum(np.linalg.norm(q, axis=2), 1e-30)])
+            margin[pix] = np.nanmin(np.where(np.isnan(m), 0.0, m), axis=1)
+    ao = ao.reshape(H, W)
+    return (ao, margin.reshape(H, W)) if return_margin else ao

@@ -20,7 +20,7 @@ shadowed fraction, the times (a shadow map's includes rendering it), min
 and mean over the lights, and per scene the aggregate agreement over all
 pixels of all its lights (point, directional, both).
 
-    python benchmarks/direct_light.py [--width 640 --height 480] [--json]
+    python benchmarks/direct_light.py [--width 640 --height 480] [--maps 64x128] [--json]
 """
 from __future__ import annotations
 
@@ -48,14 +48,14 @@ def sun_direction(azimuth, elevation):
     return np.array([np.cos(e) * np.cos(a), np.sin(e), np.cos(e) * np.sin(a)])
 
 
-def two_object_scene(width, height):
-    """accuracy.py section 2's scene and a camera looking at both bodies."""
+def two_object_scene(width, height, maps=(64, 128)):
+    """accuracy.py section 2's scene (CSMs of ``maps`` zigzag maps @ 128^2) and a camera looking at both bodies."""
     import trimesh
 
     import pyshadow
 
     bunny, fandisk = load_mesh("stanford-bunny.obj"), load_mesh("fandisk.obj")
-    views = pyshadow.ViewSet.zigzag(64, 128)
+    views = pyshadow.ViewSet.zigzag(*maps)
     two = pyshadow.Scene(ground=0.0)
     two.add(pyshadow.CoherentShadowMap.build(bunny, views, resolution=128, progress=False),
             pyshadow.stand_on_ground(bunny), mesh=bunny)
@@ -152,12 +152,15 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--width", type=int, default=640)
     ap.add_argument("--height", type=int, default=480)
+    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI of every CSM (default 64x128)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    grid = tuple(int(x) for x in args.maps.split("x"))
     rows, per_scene = [], {}
     for name, lights in POINT_LIGHTS.items():
-        scene, cam = (pyshadow.data.default_scene(width=args.width, height=args.height) if name == "bundled"
-                      else two_object_scene(args.width, args.height))
+        scene, cam = (pyshadow.data.default_scene(width=args.width, height=args.height,
+                                                  views=pyshadow.ViewSet.zigzag(*grid)) if name == "bundled"
+                      else two_object_scene(args.width, args.height, grid))
         px = pixels(scene, cam)
         maps = {f"sm{r}": ShadowMapVisibility(r) for r in SM_RESOLUTIONS}
         for sm in maps.values():        # compile the kernels outside the timings (a light not measured)

@@ -84,6 +84,10 @@
  *                        (N, 9) float, pi / SAMPLES x the sum of the 9 basis
  *                        functions over the unoccluded directions
  *                        (pyshadow.lighting.transfer)
+ *   SKY_SAMPLED          1: scene_ao also writes sky (N, 3) float, the mean
+ *                        over SAMPLES of the lat-long map env (env_h, env_w,
+ *                        3)'s nearest-texel radiance at the unoccluded
+ *                        directions (envmap.h; the "sampled" sky)
  *   SURFACE_NORMALS      1: every query carries its surface's unit normal
  *                        (scene_visible: normals float (N, 3); scene_ao:
  *                        the point's normal) for the surface rule
@@ -125,6 +129,9 @@
 #include "scene_tables.h"
 #include "csm_lookup.h"
 #include "batch.h"
+#if SKY_SAMPLED
+#include "envmap.h"
+#endif
 
 /* Inputs of scene_visible: (N, 3) rows of POINT_T and DIR_T (float or, with
  * HAVE_FP64, double), read in place from the caller's arrays. Points are made
@@ -302,7 +309,11 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *tmax,
 #endif
                        __global const float *table, __global float *ao,
-                       __global float *bent, __global float *transfer)
+                       __global float *bent, __global float *transfer
+#if SKY_SAMPLED
+                       , __global const float *env, const int env_h, const int env_w, __global float *sky
+#endif
+                       )
 {
     const int i = get_global_id(0);
     if (i >= n) return;
@@ -317,6 +328,9 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     float3 sum = (float3)(0.0f);
 #if TRANSFER
     float tr[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+#endif
+#if SKY_SAMPLED
+    float3 sky_sum = (float3)(0.0f);
 #endif
     for (int s0 = 0; s0 < SPAD; s0 += AO_BATCH) {
         LANE_ARRAY float px[AO_BATCH], py[AO_BATCH], pz[AO_BATCH], wx[AO_BATCH], wy[AO_BATCH],
@@ -356,6 +370,9 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
 #if TRANSFER
             sh9_accumulate(wx[l], wy[l], wz[l], tr);
 #endif
+#if SKY_SAMPLED
+            sky_sum += envmap_latlong(env, env_h, env_w, wx[l], wy[l], wz[l]);
+#endif
         }
     }
     ao[i] = (float)open / (float)SAMPLES;
@@ -367,6 +384,9 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     /* cosine-weighted samples (pdf cos / pi): pi / SAMPLES x the sum is the
      * shadowed transfer integral of V Y_k cos */
     for (int k = 0; k < 9; ++k) transfer[9 * (size_t)i + k] = tr[k] * (M_PI_F / (float)SAMPLES);
+#endif
+#if SKY_SAMPLED
+    vstore3(sky_sum / (float)SAMPLES, i, sky);         /* mean radiance of the open samples */
 #endif
 }
 #endif

@@ -340,7 +340,8 @@ def pytest_terminal_summary(terminalreporter):
 # test modules whose kernels work on lanes (kernels/lanes.h): each of their
 # tests runs at every width the device passed the probe at
 LANE_TEST_MODULES = frozenset({"test_raster", "test_csm", "test_scene", "test_visibility",
-                               "test_visibility_backends", "test_render", "test_surface_rule"})
+                               "test_visibility_backends", "test_render", "test_surface_rule",
+                               "test_sampled_kernel"})
 
 
 def test_targets(lanes: bool):

@@ -361,8 +361,8 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     directions ``w_s = pyshadow.sample_directions(normals, sampling=sampling,
     indices=indices)`` (those AO traces), ``V`` from
     :func:`pyshadow.visibility.visible` asked with the normals and
-    ``surface_ids`` (module docstring). Points are taken in chunks of
-    :data:`SAMPLED_CHUNK_RAYS` rays; the result does not depend on the chunking.
+    ``surface_ids`` (module docstring); a CSM backend and lat-long map: in the AO
+    kernel (:mod:`pyshadow.lighting.sampled`), else chunks of :data:`SAMPLED_CHUNK_RAYS` rays.
 
     Parameters
     ----------
@@ -387,6 +387,7 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
         Normalised sum of those directions (the normal where none does).
     """
     from ..sampling import Sampling, ao_from_samples
+    from .sampled import device_sampled_sky
     from .transfer import sample_visibility
 
     _check_lighting(lighting)
@@ -404,6 +405,10 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
     n, k = len(p), sampling.samples
     idx = np.arange(n) if indices is None else np.asarray(indices, dtype=np.int64)
     ids = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
+    got = device_sampled_sky(scene, p, nrm, env, backend=backend, sampling=sampling, indices=indices, surface_ids=ids,
+                             bias=bias, geometric_normals=geometric_normals)      # the AO kernel (.sampled)
+    if got is not None:
+        return alb * got[0], got[1], got[2]
     sky = np.zeros((n, 3))
     ao = np.zeros(n, np.float32)
     bent = np.zeros((n, 3), np.float32)

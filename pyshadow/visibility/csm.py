@@ -51,7 +51,7 @@ from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
 from ..views import FILTER_ANGLE_EPS
-from . import finite
+from . import finite, order
 from .base import register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
@@ -134,7 +134,56 @@ def _float32_lengths(tmax):
     return np.where(tmax > np.finfo(np.float32).max, np.inf, tmax).astype(np.float32)
 
 
-class CSMVisibility:
+class _SampledSky:
+    """The "sampled" sky on the AO kernel (``SKY_SAMPLED=1``), a part of :class:`CSMVisibility`."""
+
+    def sampled_sky(self, scene, points, normals, env_radiance, layout_shape=None, *, sampling, bias=None,
+                    indices=None, surface_ids=None):
+        """Mean sky radiance of each point's AO directions, with its AO and bent normals, in one AO pass.
+
+        The "sampled" sky (:func:`pyshadow.lighting.sampled_sky_radiance`)
+        on the device: ``mean_s L(w_s) V(p, w_s)`` over the AO kernel's
+        cosine-weighted directions ``w_s`` (``pyshadow.sample_directions``),
+        ``L`` the nearest texel of a lat-long map by the rule of
+        :meth:`pyshadow.lighting.EnvironmentMap.texel_index`, evaluated in
+        float32 (a direction within float rounding of a texel edge may take
+        the neighbouring texel). Cube-layout maps are not handled here.
+
+        Parameters
+        ----------
+        scene : pyshadow.Scene
+        points, normals : array_like, shape (N, 3)
+            World positions and unit normals (world frame).
+        env_radiance : array_like, shape (h, w, 3)
+            Lat-long radiance, linear RGB, row 0 at +y (``EnvironmentMap.radiance``);
+            rounded to float32.
+        layout_shape : tuple (h, w), optional
+            The map's ``grid_shape``; checked against ``env_radiance``.
+        sampling : pyshadow.Sampling
+        bias, indices, surface_ids : optional
+            As in :meth:`ambient_occlusion`.
+
+        Returns
+        -------
+        sky : ndarray, shape (N, 3), float32
+            Sum of the texel radiance over the unoccluded directions / S.
+        ao : ndarray, shape (N,), float32
+        bent : ndarray, shape (N, 3), float32
+            Both bit-identical to :meth:`ambient_occlusion`'s.
+        """
+        env = np.asarray(env_radiance)
+        if env.ndim != 3 or env.shape[2] != 3 or env.shape[0] < 1 or env.shape[1] < 1:
+            raise ValueError(f"env_radiance must be a lat-long map of shape (h, w, 3), got {env.shape}")
+        if layout_shape is not None and tuple(layout_shape) != env.shape[:2]:
+            raise ValueError(f"layout_shape {tuple(layout_shape)} does not match env_radiance {env.shape}")
+        env = np.ascontiguousarray(env, np.float32)
+        if not np.all(np.isfinite(env)):
+            raise ValueError("env_radiance must be finite (in float32)")
+        sky_env = [_cl.to_device(env), np.int32(env.shape[0]), np.int32(env.shape[1])]
+        return self._ao(scene, points, normals, sampling, True, False, bias, indices, surface_ids, sky_env=sky_env)
+
+
+class CSMVisibility(_SampledSky):
     """Visibility from the scene's Coherent Shadow Maps, by the OpenCL kernels.
 
     Parameters
@@ -254,12 +303,14 @@ class CSMVisibility:
                                  lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
         return self._visible(scene, p, w, own, m, bias, None)
 
-    def _visible(self, scene, p, w, own, m, bias, tmax):
-        """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None)."""
+    def _visible(self, scene, p, w, own, m, bias, tmax, coherent=True):
+        """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`)."""
         n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
+        if coherent and order.enabled(n) and self.query_defines(scene, "scene_visible") is not None:
+            return order.reordered(lambda *r: self._visible(scene, *r[:4], bias, r[4], False), p, w, own, m, tmax)
         fp64 = _cl.has_fp64()
         # float64 inputs are read as such where the device has doubles (else the host rounds them below)
         defines = self.query_defines(scene, "scene_visible", HAVE_FP64=int(fp64),
@@ -385,8 +436,10 @@ class CSMVisibility:
         """
         return self._ao(scene, points, normals, sampling, True, True, bias, indices, surface_ids)
 
-    def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids, tmax=None):
-        """The AO kernel (``tmax``: float32 (N,) lengths, compiled with ``FINITE_RAYS=1``, or None)."""
+    def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids, tmax=None,
+            sky_env=None):
+        """The AO kernel (``tmax``: float32 (N,) lengths, compiled with ``FINITE_RAYS=1``, or None; ``sky_env``:
+        the map's arguments (:meth:`sampled_sky`), ``SKY_SAMPLED=1``: (sky, ao, bent), not (ao, bent, transfer))."""
         p = rows3(points, "points")
         n = unit_normals(normals, len(p))
         N, S = len(p), int(sampling.samples)
@@ -396,6 +449,8 @@ class CSMVisibility:
         bent = np.empty((N, 3), np.float32)
         tr = np.empty((N, 9), np.float32) if transfer else None
         finite_def = {} if tmax is None else {"FINITE_RAYS": 1}
+        if sky_env is not None:       # bent normals asked too: the kernel runs even where nothing occludes
+            finite_def["SKY_SAMPLED"], sky = 1, np.zeros((N, 3), np.float32)
         defines = self.query_defines(scene, "scene_ao", SAMPLES=S, BENT_NORMALS=int(bent_normals),
                                      TRANSFER=int(transfer), SURFACE_NORMALS=1, **finite_def) if N else None
         if N and defines is None:       # nothing occludes and only AO is asked: every sample is open
@@ -418,13 +473,16 @@ class CSMVisibility:
                 k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
                   _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
-                  *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf)
+                  *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,
+                  *([] if sky_env is None else [*sky_env, sky_buf := _cl.empty(12 * (e - s))]))
                 cl.enqueue_copy(q, ao[s:e], ao_buf)
+                if sky_env is not None:
+                    cl.enqueue_copy(q, sky[s:e], sky_buf)
                 if bent_normals:
                     cl.enqueue_copy(q, bent[s:e], bent_buf)
                 if transfer:
                     cl.enqueue_copy(q, tr[s:e], tr_buf)
-        return ao, bent, tr
+        return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
 
 
 register("csm", CSMVisibility("nearest"))

@@ -17,8 +17,9 @@ Rows:
 * equal time: for each budget (each mode's 36-sample frame time), every
   mode at the sample count whose frame time fits it; frame time is modelled
   as ``a + b * samples`` (least squares over the renders at 16, 36 and 64
-  samples), corrected once from the chosen render's measured time when
-  that misses the budget by more than 10 %; the measured time is printed;
+  samples) for a first guess, then bracketed on measured times
+  (:func:`fit_budget`: the largest count found within 10 % over the
+  budget, at most 5 renders); the measured time is printed;
 * "sampled" at 256 samples with the CSM against "sampled" at 256 samples
   with Embree on the identical directions (the 2 % acceptance), and both
   against the reference.
@@ -49,6 +50,34 @@ def frame_time(fn, repeats):
         out = fn()
         times.append(time.perf_counter() - t0)
     return statistics.median(times), out
+
+
+def fit_budget(timed, s, budget, tries=5):
+    """The largest sample count found whose measured frame time is within 10 % over ``budget``.
+
+    Starts from ``s`` (the linear model's guess) and brackets: a count over
+    budget bounds it from above, one under from below; the next count is the
+    geometric mean of the bounds (twice the count while unbounded above).
+    Returns ``(samples, time, frame)`` of the best count measured (the
+    smallest, when every count measured is over budget)."""
+    lo, hi, best, fallback = 0, None, None, None
+    for _ in range(tries):
+        t, f = timed(s)
+        if t <= 1.1 * budget:
+            lo = s
+            if best is None or s > best[0]:
+                best = (s, t, f)
+            if t >= 0.9 * budget:
+                break
+        else:
+            hi = s
+            if fallback is None or s < fallback[0]:
+                fallback = (s, t, f)
+        nxt = min(2 * s, 4096) if hi is None else int(np.sqrt(max(lo, 1) * hi))
+        if nxt in (lo, hi, s) or nxt < 1:
+            break
+        s = nxt
+    return best if best is not None else fallback
 
 
 def reference(scene, cam, lighting, samples, chunk=8192):
@@ -113,11 +142,8 @@ def measure_sky(sky, scene, cam, args, log):
         entry = {"budget_of": budget_mode, "budget_s": budget, "modes": {}}
         for m in MODES:
             a, b = fits[m]
-            s = int(np.clip(np.floor((budget - a) / b), 1, 4096))
-            t, f = frame_time(lambda: render(m, s), max(1, args.repeats // 2))
-            if abs(t - budget) > 0.1 * budget:      # one correction from the measured time
-                s = int(np.clip(np.floor(s * (budget - a) / max(t - a, 1e-9)), 1, 4096))
-                t, f = frame_time(lambda: render(m, s), max(1, args.repeats // 2))
+            s, t, f = fit_budget(lambda k: frame_time(lambda: render(m, k), max(1, args.repeats // 2)),
+                                 int(np.clip(np.floor((budget - a) / b), 1, 1024)), budget)
             entry["modes"][m] = {"samples": s, "frame_s": t, "rmse_relative": err(f)}
             log(f"{sky}: budget {budget * 1e3:.0f} ms ({budget_mode} @36): {m:8s} {s:4d} samples, "
                 f"{t * 1e3:.0f} ms, rel. RMSE {entry['modes'][m]['rmse_relative']:.4f}")

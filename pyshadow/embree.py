@@ -347,7 +347,8 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
 
 def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
     """:func:`ambient_occlusion`'s distance AO from first-hit distances (float64 until the result)."""
-    from .visibility.finite import obscurance_weight, weights_to_ao
+    from .sampling import ao_from_samples
+    from .visibility.finite import obscurance_weight
 
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
@@ -367,7 +368,7 @@ def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
         t, _, _ = rays.intersect(origins[s:s + chunk], flat[s:s + chunk])
         L[s:s + chunk] = np.minimum(L[s:s + chunk], t)
     weights = obscurance_weight(L, np.repeat(tmax, S), tau).reshape(N, S)
-    return weights_to_ao(dirs.astype(np.float64), weights, n, bent_normals)
+    return ao_from_samples(dirs.astype(np.float64), weights, n, bent_normals)
 
 
 class EmbreeTracer:

@@ -392,17 +392,9 @@ def _phong_radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_sca
     the pixels' mesh colours and :func:`pyshadow.shading_normals.pixel_surface` (or None)."""
     from .lighting.phong import phong_shade, vertex_terms
 
-    H, W = camera.height, camera.width
-    out = np.zeros((H * W, 3), np.float32)
-    full = sp if ao_scale == 1 else covered_pixels(camera, sp.gbuffer, sp.object_id)
-    if not len(full.index):
-        return out.reshape(H, W, 3)
-    nrm = np.asarray(full.normals, np.float64)
-    nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
-    albedo = lighting.albedo_of(full.surface_ids, len(full.index))
-    if colour is not None:
-        albedo = albedo * colour
-    geo = None if frame.geometric_normal is None else frame.geometric_normal.reshape(-1, 3)[full.index]
+    out, full, nrm, albedo, geo = _lit_pixels(camera, sp, frame, lighting, ao_scale, colour)
+    if full is None:
+        return out
     terms = None
     if lighting.per_vertex:
         terms = vertex_terms(items, surface[1], surface[2], surface[3], nrm, camera.eye, lighting)
@@ -410,7 +402,25 @@ def _phong_radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_sca
                           backend=visibility, surface_ids=full.surface_ids, bias=bias, albedo=albedo,
                           geometric_normals=geo, terms=terms)
     out[full.index] = c
-    return out.reshape(H, W, 3)
+    return out.reshape(camera.height, camera.width, 3)
+
+
+def _lit_pixels(camera, sp, frame, lighting, ao_scale, colour):
+    """What both lit paths start from: the zero (H*W, 3) radiance, the covered pixels at full
+    resolution, their unit normals (float64), albedos (times ``colour``) and geometric normals (or
+    None); ``full`` None (and ``out`` shaped (H, W, 3)) when no pixel is covered."""
+    H, W = camera.height, camera.width
+    out = np.zeros((H * W, 3), np.float32)
+    full = sp if ao_scale == 1 else covered_pixels(camera, sp.gbuffer, sp.object_id)
+    if not len(full.index):
+        return out.reshape(H, W, 3), None, None, None, None
+    nrm = np.asarray(full.normals, np.float64)
+    nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    albedo = lighting.albedo_of(full.surface_ids, len(full.index))
+    if colour is not None:
+        albedo = albedo * colour
+    geo = None if frame.geometric_normal is None else frame.geometric_normal.reshape(-1, 3)[full.index]
+    return out, full, nrm, albedo, geo
 
 
 def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer,
@@ -423,13 +433,9 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
                                  transfer_sky_radiance)
 
-    H, W = camera.height, camera.width
-    out = np.zeros((H * W, 3), np.float32)
-    full = sp if ao_scale == 1 else covered_pixels(camera, sp.gbuffer, sp.object_id)
-    if not len(full.index):
-        return out.reshape(H, W, 3)
-    nrm = np.asarray(full.normals, np.float64)
-    nrm = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    out, full, nrm, albedo, geo = _lit_pixels(camera, sp, frame, lighting, ao_scale, colour)
+    if full is None:
+        return out
     bent = frame.bent_normal
     if ao_scale != 1:                     # bent normals exist on the AO pass's pixels only: upsample them
         from . import filters
@@ -441,10 +447,6 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     if ao_scale != 1:
         length = np.linalg.norm(b, axis=1, keepdims=True)
         b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
-    albedo = lighting.albedo_of(full.surface_ids, len(full.index))
-    if colour is not None:
-        albedo = albedo * colour
-    geo = None if frame.geometric_normal is None else frame.geometric_normal.reshape(-1, 3)[full.index]
     if transfer is not None:
         sky = transfer_sky(lighting, transfer, albedo)
     elif lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
@@ -458,4 +460,4 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     sun += lights_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
                            surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
     out[full.index] = sky + sun
-    return out.reshape(H, W, 3)
+    return out.reshape(camera.height, camera.width, 3)

@@ -276,8 +276,9 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
     ----------
     directions : ndarray, shape (N, S, 3)
         The cosine-weighted sample directions of each point.
-    visible : ndarray, shape (N, S), bool
-        Which of them reach the sky.
+    visible : ndarray, shape (N, S), bool or float
+        Which of them reach the sky; or per-sample weights in [0, 1]
+        (distance-weighted AO: AO their mean, the bent normal their weighted sum).
     normals : ndarray, shape (N, 3)
         Unit normals: the bent normal where no direction reaches the sky.
     return_bent_normals : bool, optional

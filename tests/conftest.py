@@ -403,3 +403,16 @@ def two_body_scene():
     scene.add(fan, on_ground(fan, unit_frame(fan, 0.7, rotation=trimesh.transformations.rotation_matrix(
         0.5, [0, 1, 0])[:3, :3], offset=(1.6, 0, 0.3))))
     return scene
+
+
+@pytest.fixture(scope="module")
+def two_bodies():
+    """:func:`two_body_scene`, built once per test module."""
+    return two_body_scene()
+
+
+def ground_grid(n=40, half=3.0):
+    """An n x n grid of points on the ground y = 0 over [-half, half]^2 and their normals (+y)."""
+    x, z = np.meshgrid(np.linspace(-half, half, n), np.linspace(-half, half, n))
+    p = np.c_[x.ravel(), np.zeros(n * n), z.ravel()]
+    return p, np.tile([0.0, 1.0, 0.0], (len(p), 1))

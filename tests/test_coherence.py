@@ -8,12 +8,7 @@ import pytest
 from pyshadow.visibility import order, visible
 from pyshadow.visibility.csm import CSMVisibility
 
-from conftest import surface_queries, two_body_scene
-
-
-@pytest.fixture(scope="module")
-def two_bodies():
-    return two_body_scene()
+from conftest import surface_queries
 
 
 @pytest.fixture

@@ -10,12 +10,7 @@ from pyshadow.visibility import visible_reference
 from pyshadow.visibility.csm import CSMVisibility
 from pyshadow.visibility.finite import straddling, unit_directions
 
-from conftest import surface_queries, two_body_scene
-
-
-@pytest.fixture(scope="module")
-def two_bodies():
-    return two_body_scene()
+from conftest import surface_queries
 
 
 def light_rays(scene, light, rng, n=1500):

@@ -11,18 +11,7 @@ from pyshadow import visibility
 from pyshadow.lighting import DirectionalLight, Lighting, PointLight, SpotLight, point_light_radiance
 from pyshadow.lighting.shade import sun_radiance
 
-from conftest import two_body_scene
-
-
-@pytest.fixture(scope="module")
-def two_bodies():
-    return two_body_scene()
-
-
-def ground_grid(n=40, half=3.0):
-    x, z = np.meshgrid(np.linspace(-half, half, n), np.linspace(-half, half, n))
-    p = np.c_[x.ravel(), np.zeros(n * n), z.ravel()]
-    return p, np.tile([0.0, 1.0, 0.0], (len(p), 1))
+from conftest import ground_grid
 
 
 def test_unoccluded_point_light_is_inverse_square_cosine():

@@ -48,10 +48,10 @@ from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
-from ..sampling import direction_table, pattern_indices
+from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
 from ..views import FILTER_ANGLE_EPS
-from . import finite, order
+from . import order
 from .base import register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
@@ -400,7 +400,7 @@ class CSMVisibility(_SampledSky):
                     return self._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
 
                 weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer)
-                res = finite.weights_to_ao(dirs.astype(np.float64), weights, n[sel], True)
+                res = ao_from_samples(dirs.astype(np.float64), weights, n[sel], True)
                 res_ao[s:s + step], res_bent[s:s + step] = res
             return res_ao, res_bent
 

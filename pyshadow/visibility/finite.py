@@ -54,7 +54,7 @@ from ..scene_arrays import scene_arrays
 
 __all__ = ["STRADDLE", "AO_STRADDLE", "check_max_distance", "check_straddle", "unit_directions", "straddling",
            "ground_blocks", "answer_finite", "check_ao_options", "ao_nodes", "obscurance_weight", "shell_clear",
-           "answer_finite_ao", "rays_ao", "weights_to_ao"]
+           "answer_finite_ao", "rays_ao"]
 
 #: What to do with rays that end inside a caster's bounding sphere.
 STRADDLE = ("error", "embree")
@@ -354,18 +354,6 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.nd
 
     vis[amb] = embree.visible(scene, points[amb], directions[amb], max_distance=tmax[amb])
     return vis
-
-
-def weights_to_ao(directions, weights, normals, return_bent_normals: bool):
-    """AO (mean of the per-sample weights) and bent normals (normalised weighted sum of the
-    directions; the normal where it vanishes); float32. With 0/1 weights: :func:`pyshadow.sampling.ao_from_samples`."""
-    ao = weights.mean(axis=1).astype(np.float32)
-    if not return_bent_normals:
-        return ao
-    b = (directions * weights[..., None]).sum(axis=1)
-    length = np.linalg.norm(b, axis=1, keepdims=True)
-    b = np.where(length > 0, b / np.maximum(length, np.finfo(np.float64).tiny), normals)
-    return ao, b.astype(np.float32)
 
 
 def rays_ao(scene, points, normals, directions, nodes, straddle, answer):

@@ -18,7 +18,7 @@ from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
 from .base import register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
-                     rays_ao, weights_to_ao)
+                     rays_ao)
 
 __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference", "caster_occludes"]
 
@@ -188,7 +188,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
             return _visible_reference(scene, P[k], W[k], own[k], M[k], lookup, bias, t)
 
         weights = rays_ao(scene, p, n, dirs, ao_nodes(tmax, tau, Q), straddle, answer)
-        return weights_to_ao(dirs, weights, n, return_bent_normals)
+        return ao_from_samples(dirs, weights, n, return_bent_normals)
     dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,

@@ -255,24 +255,9 @@ def vtk_ssao(scene, camera, points, truth_at, radius):
     """pyvista's SSAO pass (blur off) on the same camera: the ratio of ambient-only renders with and
     without it, on the patch of each point. Returns the rows, or the error text."""
     try:
-        import pyvista as pv
+        from pyshadow.viz.ssao_pass import vtk_ssao as ssao_pass
 
-        from pyshadow.viz.plotter import make_plotter
-
-        items, _ = scene.draw_items()
-        images = []
-        for ssao_on in (False, True):
-            pl = make_plotter(window_size=(camera.width, camera.height), off_screen=True)
-            for mesh, T in items:
-                m = pv.wrap(mesh.copy().apply_transform(T))
-                pl.add_mesh(m, color="white", ambient=1.0, diffuse=0.0, specular=0.0, lighting=True)
-            pl.camera.position, pl.camera.focal_point = tuple(camera.eye), tuple(camera.target)
-            pl.camera.up, pl.camera.view_angle = tuple(camera.up), camera.fov_y
-            if ssao_on:
-                pl.enable_ssao(radius=radius, bias=0.02 * radius, kernel_size=256, blur=False)
-            images.append(pl.screenshot(return_img=True).astype(np.float64)[..., :3].mean(axis=2))
-            pl.close()
-        ratio = images[1] / np.maximum(images[0], 1e-9)
+        ratio = ssao_pass(scene, camera, radius, kernel_size=256, bias=0.02 * radius, blur=False).ao
         from pyshadow.render import surface_points
 
         sp = surface_points(scene, camera)

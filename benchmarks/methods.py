@@ -1,4 +1,5 @@
-"""AO methods side by side (issue 23): CSM, CSM vote, cube-map AO, SSAO and Embree.
+"""AO methods side by side (issue 23): CSM, CSM vote, cube-map AO (two estimators), SSAO (ours and
+pyvista's pass) and Embree.
 
 Three parts, all through :mod:`pyshadow.bench.methods` (the code of
 ``pyshadow-bench --method``):
@@ -9,16 +10,17 @@ Three parts, all through :mod:`pyshadow.bench.methods` (the code of
    agreement with Embree on identical rays, AO RMSE against the converged
    unlimited and distance-limited Embree references, per surface.
 2. **The Pareto study** on the bundled scene: every method at a few settings
-   (samples 9/16/36/64 for csm, csm-vote, embree, ssao; probe resolution
-   64/128/256 for the cube map), AO RMSE against frame time, two panels (vs
+   (samples 9/16/36/64 for csm, csm-vote, embree, ssao, and the kernel size
+   of pyvista's SSAO pass; probe resolution 64/128/256 for both cube-map
+   estimators), AO RMSE against frame time, two panels (vs
    the limited and the unlimited reference), written to
    ``benchmarks/out/methods_pareto.png``; the fastest method under each error
    target is printed.
 3. **The moving-body study**: 30 frames while the torus circles beside the
    bunny. Each frame's reference is Embree at 64 samples on that frame; the
    CSMs need no update, the cube-map probe is either used stale (placed at
-   frame 0) or refreshed every frame (its cost counted), SSAO sees only the
-   screen.
+   frame 0) or refreshed every frame (its cost counted), SSAO (ours and
+   pyvista's pass) sees only the screen.
 
 Usage::
 
@@ -42,7 +44,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import REPO, environment, load_mesh  # noqa: E402
 
 OUT = REPO / "benchmarks" / "out"
-TARGETS = (0.01, 0.02, 0.03, 0.05, 0.1, 0.2)
 
 
 def log(msg):
@@ -138,65 +139,14 @@ def table_md(t):
 # 2. Pareto
 # ---------------------------------------------------------------------------
 def pareto(scene, cam, csm, cache, args):
-    from pyshadow.bench.methods import method_runs, time_rows, measure_row
+    from pyshadow.bench.method_sweep import method_points
+    from pyshadow.bench.methods import METHODS
     from pyshadow.embree import EmbreeTracer
 
-    pts = []
     with EmbreeTracer(scene, args.threads) as tracer:
         ctx = context(scene, cam, cache, tracer, args.reference_samples)
-        for S in args.pareto_samples:
-            log(f"pareto: {S} samples")
-            rows = [r for m in ("csm", "csm-vote", "ssao", "embree") for r in method_runs(ctx, m, S, csm=csm)]
-            ctx.gbuffer_time = time_rows(ctx, rows, args.repeats)
-            pts += [_point(measure_row(ctx, {**r, "visible": None}), ctx) for r in rows]
-        for R in args.probe_resolutions:
-            log(f"pareto: cube map R = {R}")
-            rows = method_runs(ctx, "cubemap", args.samples, probe_resolution=R)
-            ctx.gbuffer_time = time_rows(ctx, rows, args.repeats)
-            pts += [_point(measure_row(ctx, {**r, "visible": None}), ctx) for r in rows]
-    return pts
-
-
-def _point(rec, ctx):
-    st = rec["setting"]
-    both = rec["method"] in ("csm", "csm-vote", "embree")       # two definitions: mark the limited one
-    label = rec["method"] + (" D" if both and rec["definition"] == "limited" else "")
-    setting = f"R{st['probe_resolution']}" if "probe_resolution" in st else f"{st['samples']}"
-    return {"method": rec["method"], "definition": rec["definition"], "label": label, "setting": setting,
-            "samples": st["samples"], "probe_resolution": st.get("probe_resolution"),
-            "frame_time": rec["frame_time"]["value"], "precompute_time": rec["precompute_time"]["value"],
-            "rmse_limited": rec["ao_rmse_limited"]["value"], "rmse_unlimited": rec["ao_rmse_unlimited"]["value"]}
-
-
-def front(pts, key):
-    """Indices of the Pareto front (no other point both faster and more accurate), by frame time."""
-    order = sorted(range(len(pts)), key=lambda i: (pts[i]["frame_time"], pts[i][key]))
-    out, best = [], math.inf
-    for i in order:
-        if pts[i][key] < best:
-            out.append(i)
-            best = pts[i][key]
-    return out
-
-
-def winners(pts, key):
-    """For each error target: the fastest point with RMSE <= target (None if none)."""
-    res = []
-    for e in TARGETS:
-        ok = [p for p in pts if p[key] <= e]
-        res.append({"target": e, "winner": min(ok, key=lambda p: p["frame_time"]) if ok else None})
-    return res
-
-
-def winners_text(w, what):
-    lines = [f"fastest method within each AO RMSE target ({what} reference):"]
-    for r in w:
-        p = r["winner"]
-        lines.append(f"  RMSE <= {r['target']:<5g}: " + (
-            "none of the measured settings" if p is None else
-            f"{p['label']} ({p['setting']}{' spp' if p['probe_resolution'] is None else ''}), "
-            f"{1e3 * p['frame_time']:.0f} ms, RMSE {p[f'rmse_{what}']:.4f}"))
-    return "\n".join(lines)
+        return method_points(ctx, METHODS, args.pareto_samples, args.probe_resolutions, args.repeats,
+                             probe_samples=args.samples, csm=csm, log=log)
 
 
 def pareto_png(pts, path, title):
@@ -205,31 +155,26 @@ def pareto_png(pts, path, title):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from pyshadow._files import atomic_path
+    from pyshadow.bench.method_sweep import plot_points
+
     fig, axes = plt.subplots(1, 2, figsize=(12, 5))
-    labels = sorted({p["label"] for p in pts})
-    marks = dict(zip(labels, "os^vDP*Xph"))
     for ax, key, what in ((axes[0], "rmse_limited", "distance-limited"), (axes[1], "rmse_unlimited", "unlimited")):
-        for j, lab in enumerate(labels):
-            q = [p for p in pts if p["label"] == lab]
-            ax.scatter([1e3 * p["frame_time"] for p in q], [p[key] for p in q], marker=marks[lab],
-                       color=f"C{j}", label=lab)
-            for p in q:
-                ax.annotate(p["setting"], (1e3 * p["frame_time"], p[key]), fontsize=6, xytext=(3, 3),
-                            textcoords="offset points")
-        f = front(pts, key)
-        ax.plot([1e3 * pts[i]["frame_time"] for i in f], [pts[i][key] for i in f], "k--", lw=0.8,
-                label="Pareto front")
+        plot_points(ax, pts, key)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("frame time, ms (G-buffer + AO)")
+        ax.set_xlabel("frame time, ms (G-buffer + AO; vtk-ssao: its render)")
         ax.set_ylabel(f"AO RMSE vs converged {what} Embree")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=120)
+    finally:
+        plt.close(fig)
 
 
 # ---------------------------------------------------------------------------
@@ -256,6 +201,7 @@ def moving_study(cache, args):
     from pyshadow.embree import EmbreeTracer
     from pyshadow.gbuffer import render_gbuffer
     from pyshadow.ssao import screen_space_ao
+    from pyshadow.viz.ssao_pass import vtk_ssao
 
     W, H = args.study_size
     scene, cam, _, _ = bundled(cache, W, H, tuple(args.maps), 128)
@@ -324,6 +270,9 @@ def moving_study(cache, args):
                                                          on_empty="fallback").ao.reshape(-1)[sel], ref_d, t_ref)
         res["cubemap refreshed"]["refresh_s"] = t_ref
         timed("ssao", lambda: screen_space_ao(g, cam, D, samples=S, seed=0).reshape(-1)[sel], ref_d)
+        vtk = vtk_ssao(scene, cam, D, kernel_size=S)            # pyvista's pass: its own render is its cost
+        res["vtk-ssao"] = {"seconds": vtk.render_s, "rmse": _errors(vtk.ao.reshape(-1)[sel], ref_d)[0],
+                           "rmse_near": _errors(vtk.ao.reshape(-1)[sel][near], ref_d[near])[0]}
         rows.append(res)
         log(f"frame {k}: " + ", ".join(f"{m} {res[m]['rmse']:.3f}" for m in STUDY))
     scene.set_transform(torus, T0)
@@ -331,7 +280,7 @@ def moving_study(cache, args):
             "probe_resolution": R, "rows": rows}
 
 
-STUDY = ("csm", "csm D", "embree D", "cubemap stale", "cubemap refreshed", "ssao")
+STUDY = ("csm", "csm D", "embree D", "cubemap stale", "cubemap refreshed", "ssao", "vtk-ssao")
 
 
 def _gb(cam, sel, p, n, ids):
@@ -379,9 +328,10 @@ def main(argv=None):
     import os
 
     from pyshadow._files import write_bytes_atomic
+    from pyshadow.bench.method_sweep import points_markdown, summary, winners_text
     from pyshadow.cache import CSMCache, default_cache_dir
 
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     ap.add_argument("--size", type=_size, default=(320, 240), help="image of the tables and the Pareto study")
     ap.add_argument("--samples", type=int, default=16, help="samples per pixel of the tables and the study")
     ap.add_argument("--reference-samples", type=int, default=256, help="converged references' samples")
@@ -417,18 +367,10 @@ def main(argv=None):
         pts = pareto(scene, cam, csm, cache, args)
         png = args.out / "methods_pareto.png"
         pareto_png(pts, png, f"AO methods on the bundled scene, {W}x{H}, {environment()['device']}")
-        wl, wu = winners(pts, "rmse_limited"), winners(pts, "rmse_unlimited")
-        result["pareto"] = {"points": pts, "png": str(png), "winners_limited": wl, "winners_unlimited": wu,
-                            "front_limited": [pts[i]["label"] + " " + pts[i]["setting"]
-                                              for i in front(pts, "rmse_limited")],
-                            "front_unlimited": [pts[i]["label"] + " " + pts[i]["setting"]
-                                                for i in front(pts, "rmse_unlimited")]}
-        lines = ["### Pareto points (bundled scene)", "| method | setting | frame ms | precompute s | "
-                 "RMSE vs limited | RMSE vs unlimited |", "|---|---|---|---|---|---|"]
-        for p in sorted(pts, key=lambda p: (p["label"], p["frame_time"])):
-            lines.append(f"| {p['label']} | {p['setting']} | {1e3 * p['frame_time']:.0f} | "
-                         f"{p['precompute_time'] or 0:.2f} | {p['rmse_limited']:.4f} | {p['rmse_unlimited']:.4f} |")
-        text += ["\n".join(lines), winners_text(wl, "limited"), winners_text(wu, "unlimited"), f"plot: {png}"]
+        result["pareto"] = {**summary(pts), "png": str(png)}
+        lines = ["### Pareto points (bundled scene)", points_markdown(pts)]
+        text += ["\n".join(lines), winners_text(result["pareto"]["winners_limited"], "limited"),
+                 winners_text(result["pareto"]["winners_unlimited"], "unlimited"), f"plot: {png}"]
     if not args.skip_study:
         st = moving_study(cache, args)
         result["study"] = st
@@ -441,6 +383,7 @@ def main(argv=None):
         print(body, file=sys.stderr)
     else:
         print(body)
+    args.out.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(args.out / "methods.json", json.dumps(result, indent=1, default=float).encode())
     return 0
 

@@ -17,7 +17,8 @@ def run(tmp_path_factory):
     """A tiny run of every method (repeated and comma-separated --method): (results, stderr)."""
     out = tmp_path_factory.mktemp("methods")
     cache = tmp_path_factory.mktemp("methods-cache")
-    p = bench(*TINY, "--method", "csm,ssao", "--method", "cubemap,embree", "--probe-resolution", PROBE_R,
+    p = bench(*TINY, "--method", "csm,ssao", "--method", "cubemap,embree", "--method", "cubemap-horizon,vtk-ssao",
+              "--probe-resolution", PROBE_R,
               "--out", out, "--json", cache=cache)
     return json.loads(p.stdout), p.stderr
 
@@ -57,13 +58,16 @@ def _limited_ao(scene, gb, samples, D):
 def test_rows_and_table(run):
     r, err = run
     assert set(_rows(r)) == {("csm", "unlimited"), ("csm", "limited"), ("cubemap", "limited"),
-                             ("ssao", "limited"), ("embree", "unlimited"), ("embree", "limited")}
-    assert [row["method"] for row in r["methods"]["rows"]] == ["csm", "csm", "cubemap", "ssao", "embree", "embree"]
+                             ("cubemap-horizon", "limited"), ("ssao", "limited"), ("vtk-ssao", "limited"),
+                             ("embree", "unlimited"), ("embree", "limited")}
+    assert [row["method"] for row in r["methods"]["rows"]] == ["csm", "csm", "cubemap", "cubemap-horizon", "ssao",
+                                                               "vtk-ssao", "embree", "embree"]
     assert "| cubemap | limited | 8 spp, R 32 |" in err           # the table went to stderr with --json
     share = _val(_rows(r)["csm", "limited"]["embree_share"])    # rays the CSM hands to Embree within D
     assert 0 < share < 1 and "embree_share" not in _rows(r)["csm", "unlimited"]
-    for row in r["methods"]["rows"]:
-        assert _val(row["frame_time"]) == pytest.approx(_val(row["ao_time"]) + _val(r["methods"]["gbuffer_time"]))
+    for row in r["methods"]["rows"]:       # pyvista's pass renders its own frame: no G-buffer raster added
+        raster = 0.0 if row["method"] == "vtk-ssao" else _val(r["methods"]["gbuffer_time"])
+        assert _val(row["frame_time"]) == pytest.approx(_val(row["ao_time"]) + raster)
         assert sum(_val(s["pixels"]) for s in row["surfaces"]) == _val(r["figures"]["covered_pixels"])
 
 
@@ -125,6 +129,33 @@ def test_ssao_rmse_recomputed(run, tiny_scene):
                                                                                  rel=1e-12)
 
 
+def test_horizon_and_vtk_rows_recomputed(run, tiny_scene):
+    """The horizon row is CubeMapAO(estimator='horizon') projected on the camera (uncovered pixels open);
+    the vtk-ssao row is pyshadow.viz.ssao_pass.vtk_ssao with radius D and kernel size = samples (VTK's
+    pass is deterministic: two renders give the same image). Neither answers rays."""
+    from pyshadow.cubemap import CubeMapAO
+    from pyshadow.gbuffer import render_gbuffer
+    from pyshadow.viz.ssao_pass import vtk_ssao
+
+    r, _ = run
+    scene, cam, gb = tiny_scene
+    D = _val(r["methods"]["distance"])
+    ref, _ = _limited_ao(scene, gb, 64, D)
+    rows = _rows(r)
+    maps = CubeMapAO(scene, D, resolution=PROBE_R, estimator="horizon")
+    maps.place(cam)
+    g = render_gbuffer(scene.draw_items()[0], cam)
+    pr = maps.project(cam, gbuffer=g, fallback=1.0, on_empty="fallback")
+    for name, ao in (("cubemap-horizon", pr.ao.reshape(-1)[gb.sel]),
+                     ("vtk-ssao", vtk_ssao(scene, cam, D, kernel_size=8).ao.reshape(-1)[gb.sel])):
+        d = np.asarray(ao, np.float32).astype(np.float64) - ref
+        assert _val(rows[name, "limited"]["ao_rmse_limited"]) == pytest.approx(np.sqrt(np.mean(d * d)),
+                                                                                rel=1e-9), name
+        assert rows[name, "limited"]["visibility_agreement"].startswith("n/a")
+    assert _val(rows["cubemap-horizon", "limited"]["coverage"]) == pytest.approx(pr.coverage)
+    assert _val(rows["vtk-ssao", "limited"]["memory"]) == 0
+
+
 def test_memory_and_precompute(run):
     r, _ = run
     rows = _rows(r)
@@ -144,7 +175,7 @@ def test_memory_and_precompute(run):
     (["--method", "csm", "--ao-distance", "-1.5"], "must be finite and > 0"),
     (["--method", "csm", "--ao-distance", "inf"], "must be finite and > 0"),
     (["--ao-distance", "1"], "--ao-distance needs --method"),
-    (["--method", "ssao", "--sweep"], "for the single benchmark"),
+    (["--method", "ssao", "--max-error", "0.05"], "for the single benchmark and --sweep"),
     (["--method", "cubemap", "--probe-resolution", "8"], "--probe-resolution"),
 ])
 def test_option_errors(argv, message, capsys, tmp_path):

@@ -89,12 +89,14 @@ def build_parser() -> argparse.ArgumentParser:
     meth.add_argument("--method", type=parse_methods, action="append", metavar="|".join(METHODS),
                       help="also measure these AO methods on the same pixels (repeatable or "
                            "comma-separated): a 'methods' entry in results.json and a methods table "
-                           "(pyshadow/bench/methods.py)")
+                           "(pyshadow/bench/methods.py); with --sweep, each method at the grid's sample "
+                           "counts on the sweep's axes (pyshadow/bench/method_sweep.py)")
     meth.add_argument("--ao-distance", type=positive_distance, metavar="D",
                       help="D of the distance-limited AO the methods are also measured on (world "
                            "units; default: the mean bounding radius of the casters)")
     meth.add_argument("--probe-resolution", type=_int_range(16, 2048, "--probe-resolution"),
-                      default=128, metavar="R", help="cube-map face resolution (default 128)")
+                      default=128, metavar="R", help="cube-map face resolution (default 128; with --sweep, R/2, R "
+                                                     "and 2R)")
     knobs = ap.add_argument_group("settings (override the preset; for tests and power users)")
     knobs.add_argument("--maps", type=_maps, metavar="TxP", help="zigzag map grid theta x phi")
     knobs.add_argument("--resolution", type=_int_range(2, 4096, "--resolution"), metavar="R",
@@ -189,8 +191,8 @@ def main(argv=None) -> int:
             args.light = parse_light(args.light)
         except ValueError as e:
             ap.error(str(e))
-    if (args.method or args.ao_distance is not None) and (args.sweep or answer_mode):
-        ap.error("--method and --ao-distance are for the single benchmark, not --sweep, --max-error "
+    if (args.method or args.ao_distance is not None) and answer_mode:
+        ap.error("--method and --ao-distance are for the single benchmark and --sweep, not --max-error "
                  "or --frame-budget")
     if args.ao_distance is not None and not args.method:
         ap.error("--ao-distance needs --method")

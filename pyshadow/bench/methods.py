@@ -26,8 +26,12 @@ Definitions
 (every occluder counts) and the distance-limited AO (occluders within ``D``;
 :func:`pyshadow.visibility.ambient_occlusion` with ``max_distance=D``; the
 CSM rows use ``straddle='embree'``: the rays a CSM cannot decide are traced
-by Embree). ``cubemap`` (seed 002, raymarch estimator) and ``ssao`` estimate
-the distance-limited AO only.
+by Embree). ``cubemap`` (seed 002, raymarch estimator), ``cubemap-horizon``
+(the thesis's horizon estimator, eq. 4.4), ``ssao`` (:mod:`pyshadow.ssao`) and
+``vtk-ssao`` (pyvista's own SSAO render pass on the same camera,
+:func:`pyshadow.viz.ssao_pass.vtk_ssao`, radius ``D``, kernel size = the
+samples) estimate the distance-limited AO only. ``vtk-ssao`` renders its own
+frame: its frame time is that render, with no G-buffer raster added.
 
 The distance ``D``
 ------------------
@@ -55,7 +59,7 @@ from .common import _fig
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
 
 #: Method names of ``--method``.
-METHODS = ("csm", "csm-vote", "cubemap", "ssao", "embree")
+METHODS = ("csm", "csm-vote", "cubemap", "cubemap-horizon", "ssao", "vtk-ssao", "embree")
 #: AO of pixels no cube-map probe sees.
 CUBEMAP_FALLBACK = 1.0
 
@@ -338,10 +342,11 @@ def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: in
             rows.append({"method": "embree", "definition": definition, "setting": setting, "precompute_s": pre,
                          "bytes": nbytes, "ao": lambda lim=lim: ctx._trace(S, lim)[0],
                          "visible": lambda lim=lim: ~ctx._trace(S, lim)[1], "coverage": 1.0})
-    elif method == "cubemap":
+    elif method in ("cubemap", "cubemap-horizon"):
         from pyshadow.cubemap import CubeMapAO, CubeMapVisibility
 
-        maps = CubeMapAO(scene, D, resolution=probe_resolution, estimator="raymarch", sampling=smp)
+        estimator = "raymarch" if method == "cubemap" else "horizon"
+        maps = CubeMapAO(scene, D, resolution=probe_resolution, estimator=estimator, sampling=smp)
         maps.place(ctx.camera)
         pre = sum(t["render_s"] + t["ao_s"] for t in maps.timings)
         state = {}
@@ -360,10 +365,10 @@ def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: in
                                                    normals=np.repeat(gb.normals[s:e], S, axis=0))
             return out
 
-        rows.append({"method": "cubemap", "definition": "limited",
+        rows.append({"method": method, "definition": "limited",
                      "setting": {**setting, "probe_resolution": int(probe_resolution), "probes": len(maps.probes)},
-                     "precompute_s": pre, "bytes": maps.nbytes, "ao": ao, "visible": vis, "coverage": state,
-                     "maps": maps})
+                     "precompute_s": pre, "bytes": maps.nbytes, "ao": ao, "coverage": state, "maps": maps,
+                     "visible": vis if estimator == "raymarch" else None})      # the horizon answers no rays
     elif method == "ssao":
         from pyshadow.ssao import screen_space_ao
 
@@ -372,6 +377,18 @@ def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: in
 
         rows.append({"method": "ssao", "definition": "limited", "setting": setting, "precompute_s": 0.0,
                      "bytes": 0, "ao": ao, "visible": None, "coverage": 1.0})
+    elif method == "vtk-ssao":
+        from pyshadow.viz.ssao_pass import vtk_ssao
+
+        renders = []
+
+        def ao():
+            r = vtk_ssao(scene, ctx.camera, D, kernel_size=S)
+            renders.append(r.render_s)
+            return r.ao.reshape(-1)[gb.sel]
+
+        rows.append({"method": "vtk-ssao", "definition": "limited", "setting": setting, "precompute_s": 0.0,
+                     "bytes": 0, "ao": ao, "visible": None, "coverage": 1.0, "own_frame": renders})
     else:
         raise ValueError(f"unknown method {method!r}: choose from {', '.join(METHODS)}")
     return rows
@@ -398,8 +415,8 @@ def time_rows(ctx: Context, rows, repeats: int) -> float:
             t0 = time.perf_counter()
             r["ao"]()
             r["times"].append(time.perf_counter() - t0)
-    for r in rows:
-        r["ao_s"] = statistics.median(r["times"])
+    for r in rows:       # a method rendering its own frame: its render, not the whole call
+        r["ao_s"] = statistics.median(r["own_frame"][1:] if "own_frame" in r else r["times"])
     return statistics.median(graster)
 
 
@@ -426,7 +443,8 @@ def measure_row(ctx: Context, row, names=None, agreement=None) -> dict:
                                                           "texel AO; BVH build; none)"),
         "memory": _fig(row["bytes"], "B", "precomputed data kept for frames"),
         "ao_time": _fig(row["ao_s"], "s", "AO of the covered pixels from the G-buffer (median)"),
-        "frame_time": _fig(row["ao_s"] + ctx.gbuffer_time, "s", "G-buffer raster + AO (medians)"),
+        "frame_time": _fig(row["ao_s"] + (0.0 if "own_frame" in row else ctx.gbuffer_time), "s",
+                           "G-buffer raster + AO (medians); its own render for vtk-ssao"),
         "coverage": _fig(cov, "fraction", "pixels the method shades (cube map: probes see them)"),
         "visibility_agreement": na if agreement is None else _fig(
             agreement["agreement"], "fraction", f"rays agreeing with Embree ({row['definition']}), identical rays"),
@@ -471,6 +489,25 @@ def run_methods(ctx: Context, methods, samples, repeats, *, probe_resolution=128
     return recs
 
 
+def method_context(args, scene, camera, gb: GBuffer, tracer, cache, conv, log):
+    """The :class:`Context` of a benchmark's pixels: ``D`` (``args.ao_distance`` or the default rule),
+    the limited reference (cached) and the G-buffer of ``scene.draw_items()``.
+
+    Returns ``(ctx, rule, limited reference seconds, its source)``.
+    """
+    from pyshadow.gbuffer import render_gbuffer
+
+    D = args.ao_distance if args.ao_distance is not None else default_distance(scene)
+    rule = "--ao-distance" if args.ao_distance is not None else "mean bounding radius of the casters"
+    conv_d, conv_d_s, conv_d_src = limited_reference(cache, tracer, scene, gb, D, args.reference_samples,
+                                                     args.strategy, args.seed, args.patterns, log)
+    g = render_gbuffer(scene.draw_items()[0], camera)
+    if not np.array_equal(np.flatnonzero(np.asarray(g["object_id"]).reshape(-1) >= 0), gb.sel):
+        raise RuntimeError("the G-buffer raster does not cover the benchmark's pixels")
+    ctx = Context(scene, camera, gb, g, D, args.strategy, args.seed, args.patterns, tracer, conv, conv_d)
+    return ctx, rule, conv_d_s, conv_d_src
+
+
 def methods_pass(args, scene, camera, gb: GBuffer, tracer, cache, csm, conv, vis, lookup, names, log) -> dict:
     """The ``"methods"`` entry of results.json (module docstring): every ``--method`` on the benchmark's pixels.
 
@@ -499,18 +536,9 @@ def methods_pass(args, scene, camera, gb: GBuffer, tracer, cache, csm, conv, vis
     -------
     dict
     """
-    from pyshadow.gbuffer import render_gbuffer
-
     methods = selected_methods(args.method)
-    D = args.ao_distance if args.ao_distance is not None else default_distance(scene)
-    rule = "--ao-distance" if args.ao_distance is not None else "mean bounding radius of the casters"
-    conv_d, conv_d_s, conv_d_src = limited_reference(cache, tracer, scene, gb, D, args.reference_samples,
-                                                     args.strategy, args.seed, args.patterns, log)
-    items, _ = scene.draw_items()
-    g = render_gbuffer(items, camera)
-    if not np.array_equal(np.flatnonzero(np.asarray(g["object_id"]).reshape(-1) >= 0), gb.sel):
-        raise RuntimeError("the G-buffer raster does not cover the benchmark's pixels")
-    ctx = Context(scene, camera, gb, g, D, args.strategy, args.seed, args.patterns, tracer, conv, conv_d)
+    ctx, rule, conv_d_s, conv_d_src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
+    D, conv_d = ctx.D, ctx.conv_d
     log(f"methods: {', '.join(methods)} at D = {D:.4g} ({rule}), {args.samples} samples")
     own = {"method": "csm" if lookup == "nearest" else "csm-vote", **vis}
     rows = run_methods(ctx, methods, args.samples, args.repeats, probe_resolution=args.probe_resolution,

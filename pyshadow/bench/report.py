@@ -117,6 +117,16 @@ def sweep_markdown(sw: dict) -> str:
               "CSMs (also for cached ones).", ""]
     if sw.get("max_error"):
         lines += [_answer_text(sw["max_error"]), ""]
+    if sw.get("methods"):
+        from .method_sweep import points_markdown, winners_text
+
+        m = sw["methods"]
+        lines += [f"## Methods (D = {m['distance']['value']:.4g} for the distance-limited definition; "
+                  "frame time: G-buffer raster + AO, vtk-ssao its own render)", "",
+                  points_markdown(m["points"]), "",
+                  winners_text(m["winners_limited"], "limited"), "",
+                  winners_text(m["winners_unlimited"], "unlimited")
+                  + "\n  (the sweep's CSM rows included; their frame time is Scene.render's)", ""]
     return "\n".join(lines)
 
 
@@ -162,28 +172,43 @@ def pareto_plot(sw: dict, path: Path, max_error: float | None = None):
     t = np.array([r["figures"]["frame_time"]["value"] * 1e3 for r in rows])
     e = np.array([r["figures"]["ao_rmse_converged"]["value"] for r in rows], float)
     on = np.array([r["pareto"] for r in rows])
-    fig, ax = plt.subplots(figsize=(10, 6.5), dpi=110)
+    methods = sw.get("methods")
+    if methods:         # the methods on the same axes, and their distance-limited panel beside
+        fig, (ax, ax_d) = plt.subplots(1, 2, figsize=(16, 6.5), dpi=110)
+    else:
+        fig, ax = plt.subplots(figsize=(10, 6.5), dpi=110)
     ax.scatter(t[~on], e[~on], c="0.6", s=28, label="dominated")
     order = np.argsort(t[on])
     ax.step(t[on][order], e[on][order], where="post", c="C3", lw=1, alpha=0.6)
     ax.scatter(t[on], e[on], c="C3", s=46, marker="D", label="Pareto front", zorder=3)
     if max_error is not None:
         ax.axhline(max_error, c="C0", ls="--", lw=1, label=f"RMSE = {max_error:g}")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    for axis in (ax.xaxis, ax.yaxis):          # after set_*scale, which resets them
-        axis.set_major_formatter(FormatStrFormatter("%g"))
-        axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
-        axis.set_minor_formatter(FormatStrFormatter("%g"))
-    ax.tick_params(which="minor", labelsize=7)
-    ax.margins(x=0.12, y=0.08)
-    ax.set_xlabel("frame time (ms, Scene.render, median)")
+    if methods:
+        from .method_sweep import plot_points
+
+        plot_points(ax, methods["points"], "rmse_unlimited")
+        plot_points(ax_d, methods["points"], "rmse_limited")
+        ax_d.set_xlabel("frame time (ms, G-buffer raster + AO; vtk-ssao: its render; median)")
+        ax_d.set_ylabel(f"AO RMSE vs converged distance-limited Embree (D = {methods['distance']['value']:.3g})")
+        ax_d.set_title("methods, distance-limited AO", fontsize=9)
+        ax_d.legend(fontsize=7)
+    for a in ([ax, ax_d] if methods else [ax]):
+        a.set_xscale("log")
+        a.set_yscale("log")
+        for axis in (a.xaxis, a.yaxis):          # after set_*scale, which resets them
+            axis.set_major_formatter(FormatStrFormatter("%g"))
+            axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+            axis.set_minor_formatter(FormatStrFormatter("%g"))
+        a.tick_params(which="minor", labelsize=7)
+        a.margins(x=0.12, y=0.08)
+        a.grid(True, which="both", alpha=0.3)
+    ax.set_xlabel("frame time (ms, Scene.render, median)" if not methods else
+                  "frame time (ms, median; sweep rows: Scene.render; methods: G-buffer raster + AO)")
     ax.set_ylabel("AO RMSE vs converged Embree reference")
     ax.set_title(f"pyshadow speed/accuracy: {sw['scene']}\n"
                  f"{sw['image']['width']}x{sw['image']['height']}, {sw['environment']['device']}",
                  fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8 if not methods else 7, loc="upper right")
     fig.tight_layout()
     fig.canvas.draw()
     front = sorted(np.flatnonzero(on), key=lambda i: t[i])

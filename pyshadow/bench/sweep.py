@@ -70,7 +70,9 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
     dict
         The ``sweep.json`` record (schema :data:`SWEEP_SCHEMA`): ``rows``
         (each with figure records and a ``pareto`` flag) and ``pareto``
-        (the labels of the front, by frame time), among others.
+        (the labels of the front, by frame time), among others; with
+        ``args.method``, ``methods``
+        (:func:`pyshadow.bench.method_sweep.sweep_methods`).
     """
     t_start = time.perf_counter()
     configs = sweep_configs(base, args.sweep_grid)
@@ -78,7 +80,7 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
     log(f"sweep '{args.sweep_grid}': {len(configs)} configurations around {base.label}, "
         f"{factory.size[0]}x{factory.size[1]}, {args.repeats} timed runs each")
     # the G-buffer does not depend on the CSMs: one G-buffer, one converged reference
-    scene0, camera, _ = factory(base)
+    scene0, camera, infos0 = factory(base)
     gb = GBuffer.from_render(scene0.render(camera, sampling=Sampling(1, strat, pat, seed)), camera)
     if gb.n == 0:
         raise RuntimeError("the camera sees no surface: nothing to measure")
@@ -136,6 +138,12 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
                     bar.update(1)
         finally:
             bar.close()
+        methods = None
+        if getattr(args, "method", None):      # every --method on the same pixels and axes
+            from .method_sweep import sweep_methods
+
+            methods = sweep_methods(args, scene0, camera, gb, tracer, cache, conv, _csm_summary(infos0),
+                                    sorted({cfg.samples for cfg, _ in configs}), log)
     finally:
         tracer.close()
     for ent in entries:
@@ -163,6 +171,15 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
                           for r in rows])
     for i, r in enumerate(rows):
         r["pareto"] = i in front
+    extra = {}
+    if methods is not None:         # which wins at each target: the methods and the sweep's CSM rows together
+        from .method_sweep import winners
+
+        csm_pts = [{"label": f"csm {r['label']}", "setting": "", "probe_resolution": None,
+                    "frame_time": r["figures"]["frame_time"]["value"],
+                    "rmse_unlimited": r["figures"]["ao_rmse_converged"]["value"]} for r in rows]
+        methods["winners_unlimited"] = winners(methods["points"] + csm_pts, "rmse_unlimited")
+        extra["methods"] = methods
     return {
         "schema": SWEEP_SCHEMA,
         "environment": environment(args.threads),
@@ -177,6 +194,7 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
         "rows": rows,
         "pareto": [rows[i]["label"] for i in front],
         "runtime": _fig(time.perf_counter() - t_start, "s", "wall time of the sweep"),
+        **extra,
     }
 
 

@@ -34,6 +34,9 @@ Everything below is imported from ``pyshadow.viz``; the modules only group it:
   them, the ground grid.
 * :mod:`pyshadow.viz.images` -- image panels, colour bars, bent-normal colours.
 * :mod:`pyshadow.viz.viewsets` -- view sets on the sphere, CSM segment heat maps.
+* :mod:`pyshadow.viz.ssao_pass` -- pyvista's own SSAO render pass read back as
+  an AO image on a :class:`pyshadow.Camera` (the reference of
+  ``pyshadow-bench --method vtk-ssao``).
 """
 from __future__ import annotations
 
@@ -52,6 +55,7 @@ from .plotter import (
     save_screenshot,
     update_title,
 )
+from .ssao_pass import VTKSSAO, vtk_ssao
 from .viewsets import add_view_set, segment_heatmap, view_set_points
 
 __all__ = [
@@ -76,6 +80,8 @@ __all__ = [
     "segment_heatmap",
     "stand_on_ground",
     "ground_grid",
+    "vtk_ssao",
+    "VTKSSAO",
 ]
 
 # ``viz.ctypes`` as when viz was one module: configure_offscreen looks EGL and

@@ -1,0 +1,106 @@
+"""pyvista's own screen-space AO render pass, read back as an AO image on a pyshadow camera.
+
+What a pyvista user gets from ``Plotter.enable_ssao`` is a darkening of the
+ambient term, not a number. To measure it beside pyshadow's methods the
+scene is drawn twice off screen with the same camera, every surface white,
+ambient 1 and no diffuse or specular light: once plain and once with VTK's
+SSAO pass. Their ratio is the pass's AO, pixel by pixel (8-bit screenshots,
+so steps of 1/255).
+
+The pixel grid is that of :class:`pyshadow.Camera` (same eye, target, up,
+vertical field of view and image size; row 0 at the top), so a pixel of the
+result lies over the same surface point as pyshadow's G-buffer pixel,
+except along silhouettes, where the two rasterisers may choose a different
+surface for a pixel.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["VTKSSAO", "vtk_ssao"]
+
+
+@dataclass(frozen=True)
+class VTKSSAO:
+    """The AO image of VTK's SSAO pass (:func:`vtk_ssao`).
+
+    Attributes
+    ----------
+    ao : ndarray, shape (H, W), float64
+        Ratio of the render with the SSAO pass to the one without, in
+        [0, 1] on surfaces (background pixels are meaningless).
+    render_s : float
+        Seconds of the render with the SSAO pass (window already set up).
+    plain_render_s : float
+        Seconds of the render without it, for the pass's own cost.
+    """
+
+    ao: np.ndarray
+    render_s: float
+    plain_render_s: float
+
+
+def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: float | None = None,
+             blur: bool = False) -> VTKSSAO:
+    """Render ``scene`` through pyvista's SSAO pass on ``camera`` and return its AO per pixel.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+        Drawn as :meth:`pyshadow.Scene.draw_items` gives it (every instance
+        with a mesh, and the ground).
+    camera : pyshadow.Camera
+        Eye, target, up and ``fov_y`` (degrees) in world units; the image is
+        ``camera.width`` x ``camera.height``.
+    radius : float
+        SSAO radius, world units (> 0): VTK's hemisphere radius, the
+        distance limit of the estimate.
+    kernel_size : int, optional
+        Samples per pixel of the pass (>= 1).
+    bias : float, optional
+        VTK's depth bias, world units; default ``0.02 * radius``.
+    blur : bool, optional
+        VTK's blur of the AO (off by default: the raw estimate).
+
+    Returns
+    -------
+    VTKSSAO
+
+    Raises
+    ------
+    ValueError
+        A radius that is not finite and > 0, or a kernel size < 1.
+    """
+    radius = float(radius)
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
+    if int(kernel_size) < 1:
+        raise ValueError(f"kernel_size must be >= 1, got {kernel_size}")
+    from .plotter import _pv, make_plotter
+
+    pv = _pv()
+    items, _ = scene.draw_items()
+    images, seconds = [], []
+    for ssao_on in (False, True):
+        pl = make_plotter(window_size=(camera.width, camera.height), off_screen=True)
+        try:
+            for mesh, T in items:
+                m = pv.wrap(mesh.copy().apply_transform(T))
+                pl.add_mesh(m, color="white", ambient=1.0, diffuse=0.0, specular=0.0, lighting=True)
+            pl.camera.position, pl.camera.focal_point = tuple(camera.eye), tuple(camera.target)
+            pl.camera.up, pl.camera.view_angle = tuple(camera.up), float(camera.fov_y)
+            if ssao_on:
+                pl.enable_ssao(radius=radius, bias=0.02 * radius if bias is None else float(bias),
+                               kernel_size=int(kernel_size), blur=bool(blur))
+            pl.show(auto_close=False)            # window and pipeline set up, first render
+            t0 = time.perf_counter()
+            pl.render()
+            seconds.append(time.perf_counter() - t0)
+            images.append(pl.screenshot(return_img=True).astype(np.float64)[..., :3].mean(axis=2))
+        finally:
+            pl.close()
+    ao = np.clip(images[1] / np.maximum(images[0], 1e-9), 0.0, 1.0)
+    return VTKSSAO(ao, seconds[1], seconds[0])

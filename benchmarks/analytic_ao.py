@@ -39,7 +39,10 @@ Estimators: ``unlimited``, ``limited`` (max_distance D), ``weighted``
 straddle='infinite' both shown; weighted by the quadrature of Q = 16
 lengths, error <= 1/32 per ray), ``numpy`` (the float64 mirror of ``csm``),
 ``ssao`` (pyshadow.ssao on a G-buffer of the scene, radius = D: limited
-only; ``ssao-norange`` without its range check), ``vtk-ssao`` (pyvista's SSAO render pass on the same camera, the
+only; ``ssao-norange`` without its range check), ``cubemap-raymarch`` and
+``cubemap-horizon`` (seed 002: one probe at the camera's eye, R = 128, the
+per-texel AO of either estimator projected onto the patch; limited only),
+``vtk-ssao`` (pyvista's SSAO render pass on the same camera, the
 ratio of the ambient-only images with and without it; blur off). Each
 point is asked ``copies`` times with different sample patterns
 (``copies x samples`` rays); SSAO averages a 5x5 pixel patch around the
@@ -251,6 +254,30 @@ def ssao_case(scene, camera, points, truth_at, radius, samples, range_check=True
     return out, seconds
 
 
+def cubemap_case(scene, camera, points, truth_at, radius, estimator, resolution=128, samples=64):
+    """Cube-map AO (one probe at the camera's eye, seed 002) projected onto the patch of each point,
+    against the closed form at each pixel's position. Returns (rows, seconds of probe + texel AO)."""
+    from pyshadow import Sampling
+    from pyshadow.cubemap import CubeMapAO
+    from pyshadow.render import surface_points
+
+    maps = CubeMapAO(scene, radius, resolution=resolution, estimator=estimator, sampling=Sampling(samples))
+    maps.place(camera)
+    seconds = sum(t["render_s"] + t["ao_s"] for t in maps.timings)
+    sp = surface_points(scene, camera)
+    pr = maps.project(camera, gbuffer=sp.gbuffer)
+    ao = pr.ao.reshape(camera.height, camera.width)
+    out = []
+    for point in points:
+        rows, cols = patch(camera, sp, point)
+        pos = np.asarray(sp.gbuffer["position"], np.float64)[rows, cols]
+        v = ao[rows, cols]
+        out.append({"value": float(np.nanmean(v)) if np.isfinite(v).any() else float("nan"),
+                    "covered": float(np.isfinite(v).mean()),
+                    "closed_form": float(np.mean([truth_at(q) for q in pos]))})
+    return out, seconds
+
+
 def vtk_ssao(scene, camera, points, truth_at, radius):
     """pyvista's SSAO pass (blur off) on the same camera: the ratio of ambient-only renders with and
     without it, on the patch of each point. Returns the rows, or the error text."""
@@ -278,7 +305,8 @@ def vtk_ssao(scene, camera, points, truth_at, radius):
 
 
 # ---------------------------------------------------------------------------
-def run(samples=64, copies=64, ssao_samples=256, width=320, height=240, vtk=True, maps=32, resolution=128):
+def run(samples=64, copies=64, ssao_samples=256, width=320, height=240, vtk=True, maps=32, resolution=128,
+        cube_resolution=128):
     import pyshadow
 
     sampling = pyshadow.Sampling(samples)
@@ -321,6 +349,12 @@ def run(samples=64, copies=64, ssao_samples=256, width=320, height=240, vtk=True
             for v, g in zip(params, got):
                 rows.append({"case": case, "param": v, "estimator": "limited", "D": D,
                              "method": "ssao" if rc else "ssao-norange", "straddle": None,
+                             **g, "error": g["value"] - g["closed_form"], "seconds": secs})
+        for est in ("raymarch", "horizon"):
+            got, secs = cubemap_case(scene, cam, points, at, D, est, cube_resolution, samples)
+            for v, g in zip(params, got):
+                rows.append({"case": case, "param": v, "estimator": "limited", "D": D,
+                             "method": f"cubemap-{est}", "straddle": None, "probe_resolution": cube_resolution,
                              **g, "error": g["value"] - g["closed_form"], "seconds": secs})
         if vtk:
             got = vtk_ssao(scene, cam, points, at, D)
@@ -372,6 +406,7 @@ def main(argv=None):
     ap.add_argument("--width", type=int, default=320)
     ap.add_argument("--height", type=int, default=240)
     ap.add_argument("--no-vtk", action="store_true", help="skip pyvista's SSAO pass")
+    ap.add_argument("--probe-resolution", type=int, default=128, help="cube-map face resolution (default 128)")
     ap.add_argument("--timing", action="store_true", help="only time the AO queries (20000 points, 36 samples)")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
@@ -383,7 +418,8 @@ def main(argv=None):
             for k, v in t.items():
                 print(f"{k:28s} {v:8.3f} s")
         return
-    rows = run(a.samples, a.copies, a.ssao_samples, a.width, a.height, not a.no_vtk)
+    rows = run(a.samples, a.copies, a.ssao_samples, a.width, a.height, not a.no_vtk,
+               cube_resolution=a.probe_resolution)
     result = {"environment": environment(), "D": {"wall": WALL["D"], "sphere": SPHERE["D"]}, "tau": TAU,
               "quadrature": QUADRATURE, "samples": a.samples, "copies": a.copies, "ssao_samples": a.ssao_samples,
               "rows": rows}
@@ -403,7 +439,8 @@ def main(argv=None):
         print(f"{r['case']:7s} {r['param']:5.2f} {r['estimator']:9s} {r['method']:12s} {str(r['straddle'] or ''):8s} "
               f"{r['value']:7.4f} {r['closed_form']:7.4f} {r['error']:+8.4f} {bound:6.4f}"
               + (f"  (Embree, same rays: {r['embree_same_rays']:.4f})" if "embree_same_rays" in r else "")
-              + (f"  (open floor: {r['open_floor_ratio']:.4f})" if "open_floor_ratio" in r else ""))
+              + (f"  (open floor: {r['open_floor_ratio']:.4f})" if "open_floor_ratio" in r else "")
+              + (f"  (probe sees {100 * r['covered']:.0f} % of the patch)" if "covered" in r else ""))
 
 
 if __name__ == "__main__":

@@ -3,12 +3,14 @@
 On the bundled scene (``pyshadow.data.default_scene``, 640x480 by default)
 under the clear sky with its sun (``pyshadow-bench --sky clear``'s sky) and
 under the overcast sky, each shading mode ("bent", "transfer", "sampled")
-is rendered with the CSM backend (one-texel lookup) and compared with a
-converged reference: ``pyshadow.lighting.reference_radiance`` (Embree) at
-``--reference-samples`` (1024) sky samples with another seed and 1024
-directions over the sun's disc, i.e. the shadowed sky and sun integrals the
-three modes approximate (the CSM renders trace one ray to the sun's centre). The figure is the relative RMSE of radiance
-over the covered pixels (``pyshadow.bench.lit.relative_rmse``).
+is rendered with the CSM backend (one-texel lookup unless ``--lookup vote``)
+and compared with a converged reference:
+``pyshadow.lighting.reference_radiance`` (Embree) at ``--reference-samples``
+(1024) sky samples with another seed and 1024 directions over the sun's
+disc, i.e. the shadowed sky and sun integrals the three modes approximate
+(the renders trace one ray to the sun's centre, or ``--sun-samples`` over
+its disc). The figure is the relative RMSE of radiance over the covered
+pixels (``pyshadow.bench.lit.relative_rmse``).
 
 Rows:
 
@@ -22,9 +24,19 @@ Rows:
   budget, at most 5 renders); the measured time is printed;
 * "sampled" at 256 samples with the CSM against "sampled" at 256 samples
   with Embree on the identical directions (the 2 % acceptance), and both
-  against the reference.
+  against the reference; with a sun also the sky's term alone, and the
+  share of the squared error carried by the pixels whose sun ray(s) the two
+  answer differently (the sun term's difference over 1e-3 of its largest).
+
+``--identical-only`` measures only the last row (no reference, no 36-sample
+or equal-time rows). ``--maps``, ``--resolution`` (the casters' CSMs, as in
+``benchmarks/sun_shadows.py``) and ``--lookup`` (the backend of every CSM
+render) change the CSM renders; ``--sun-samples`` (``Lighting(sun_samples=)``:
+rays over the sun's real disc) those of both backends, on identical rays.
 
     python benchmarks/lighting_modes.py [--width 640 --height 480] [--reference-samples 1024] [--json]
+    python benchmarks/lighting_modes.py --identical-only [--maps 64x128] [--resolution 128] [--lookup nearest|vote]
+        [--sun-samples 1]
 """
 from __future__ import annotations
 
@@ -80,13 +92,19 @@ def fit_budget(timed, s, budget, tries=5):
     return best if best is not None else fallback
 
 
-def reference(scene, cam, lighting, samples, chunk=8192):
-    """Converged radiance of the covered pixels (``pyshadow.lighting.reference_radiance`` over chunks of
-    pixels, seed 1), in the row-major order of ``covered``; and ``covered`` (H, W) bool."""
+def covered_pixels(sp, cam):
+    """(H, W) bool: the pixels of ``sp`` (``pyshadow.render.surface_points``)."""
+    covered = np.zeros(cam.height * cam.width, bool)
+    covered[sp.index] = True
+    return covered.reshape(cam.height, cam.width)
+
+
+def reference(scene, sp, lighting, samples, chunk=8192):
+    """Converged radiance of the covered pixels of ``sp`` (``pyshadow.lighting.reference_radiance`` over
+    chunks of pixels, seed 1), in the row-major order of the covered pixels."""
     import pyshadow
     from pyshadow.lighting import reference_radiance
 
-    sp = pyshadow.render.surface_points(scene, cam)
     order = np.argsort(sp.index)
     out = np.empty((len(order), 3), np.float32)
     sampling = pyshadow.Sampling(samples, seed=1)
@@ -95,24 +113,72 @@ def reference(scene, cam, lighting, samples, chunk=8192):
         out[a:a + len(i)] = reference_radiance(scene, sp.points[i], sp.normals[i], lighting, samples=samples,
                                                sampling=sampling, surface_ids=sp.surface_ids[i],
                                                indices=sp.index[i])
-    covered = np.zeros(cam.height * cam.width, bool)
-    covered[sp.index] = True
-    return out, covered.reshape(cam.height, cam.width)
+    return out
+
+
+def identical_256(scene, cam, lighting, csm, covered, ground, log, name):
+    """"sampled" at 256 samples, the CSM backend ``csm`` against Embree on identical directions.
+
+    Returns the two frames and a record: the relative RMSE between them and,
+    with a sun, that of the sky's term alone and the part of the squared
+    error on the pixels whose sun ray(s) the two answer differently
+    (``ground``: which covered pixels, in row-major order, are the ground)."""
+    import pyshadow
+    from pyshadow.bench.lit import relative_rmse
+
+    def render(light, vis):
+        return pyshadow.render.render(scene, cam, visibility=vis, lighting=light, sampling=pyshadow.Sampling(256))
+
+    c, e = render(lighting, csm), render(lighting, "embree")
+    C, E = c.radiance[covered].astype(np.float64), e.radiance[covered].astype(np.float64)
+    rec = {"csm_vs_embree_same_dirs": relative_rmse(C, E)}
+    if lighting.sun is not None:        # the sky's term alone: the sun's hard shadow edges weigh heavily above
+        sky_only = copy.copy(lighting)
+        sky_only.sun = None
+        sc, se = (render(sky_only, v).radiance[covered].astype(np.float64) for v in (csm, "embree"))
+        rec["sky_only_csm_vs_embree_same_dirs"] = relative_rmse(sc, se)
+        sun_c, sun_e = C - sc, E - se           # the sun terms (float32 rounding aside)
+        diff = np.linalg.norm(sun_c - sun_e, axis=1)
+        bad = diff > 1e-3 * np.linalg.norm(sun_e, axis=1).max()
+        sq = np.sum((C - E) ** 2, axis=1)
+        rec["sun_disagree"] = {"pixels": int(bad.sum()), "fraction": float(bad.mean()),
+                               "share_of_squared_error": float(sq[bad].sum() / max(sq.sum(), 1e-300)),
+                               "on_ground": float(ground[bad].mean()) if bad.any() else 0.0,
+                               "rmse_relative_without": relative_rmse(C[~bad], E[~bad])}
+        d = rec["sun_disagree"]
+        log(f"{name}: sampled @256, sky term alone: CSM vs Embree {rec['sky_only_csm_vs_embree_same_dirs']:.4f}; "
+            f"sun ray(s) answered differently on {d['pixels']} pixels ({100 * d['fraction']:.2f} %, "
+            f"{100 * d['on_ground']:.0f} % of them ground), {100 * d['share_of_squared_error']:.1f} % of the "
+            f"squared error (without them {d['rmse_relative_without']:.4f})")
+    return c, e, rec
 
 
 def measure_sky(sky, scene, cam, args, log):
     import pyshadow
     from pyshadow.bench.lit import relative_rmse, sky_lighting
+    from pyshadow.scene import GROUND_ID
 
     lighting, rec = sky_lighting(sky)
+    if lighting.sun is not None and args.sun_samples != 1:
+        lighting = copy.copy(lighting)      # with_mode (below) checks the count
+        lighting.sun_samples = args.sun_samples
     lights = {m: lighting.with_mode(m) for m in MODES}
+    csm = "csm" if args.lookup == "nearest" else "csm-vote"
+    sp = pyshadow.render.surface_points(scene, cam)
+    covered = covered_pixels(sp, cam)
+    ground = sp.surface_ids[np.argsort(sp.index)] == GROUND_ID
+    if args.identical_only:
+        _, _, same = identical_256(scene, cam, lights["sampled"], csm, covered, ground, log, sky)
+        log(f"{sky}: sampled @256: CSM vs Embree on identical directions {same['csm_vs_embree_same_dirs']:.4f}"
+            f" (target <= 0.02)")
+        return {**rec, "covered_pixels": int(covered.sum()), "sampled_256": same}
 
-    def render(mode, samples, vis="csm", seed=0):
+    def render(mode, samples, vis=csm, seed=0):
         return pyshadow.render.render(scene, cam, visibility=vis, lighting=lights[mode],
                                       sampling=pyshadow.Sampling(samples, seed=seed))
 
     t0 = time.perf_counter()
-    R, covered = reference(scene, cam, lighting, args.reference_samples)
+    R = reference(scene, sp, lighting, args.reference_samples)
     log(f"{sky}: reference ({args.reference_samples} sky samples, 1024 over the sun's disc, Embree) in "
         f"{time.perf_counter() - t0:.0f} s")
     n = int(covered.sum())
@@ -121,7 +187,7 @@ def measure_sky(sky, scene, cam, args, log):
         return relative_rmse(frame.radiance[covered], R)
 
     row = {**rec, "covered_pixels": n, "reference_samples": args.reference_samples, "at_36": {}}
-    ao_t, _ = frame_time(lambda: pyshadow.render.render(scene, cam, visibility="csm",
+    ao_t, _ = frame_time(lambda: pyshadow.render.render(scene, cam, visibility=csm,
                                                          sampling=pyshadow.Sampling(36)), args.repeats)
     row["ao_frame_s"] = ao_t
     row["ao_msamples_s"] = n * 36 / ao_t / 1e6
@@ -148,17 +214,8 @@ def measure_sky(sky, scene, cam, args, log):
             log(f"{sky}: budget {budget * 1e3:.0f} ms ({budget_mode} @36): {m:8s} {s:4d} samples, "
                 f"{t * 1e3:.0f} ms, rel. RMSE {entry['modes'][m]['rmse_relative']:.4f}")
         row["equal_time"].append(entry)
-    s256 = render("sampled", 256)
-    e256 = render("sampled", 256, "embree")
-    row["sampled_256"] = {"csm_vs_embree_same_dirs": relative_rmse(s256.radiance[covered], e256.radiance[covered]),
-                          "csm_vs_reference": err(s256), "embree_vs_reference": err(e256)}
-    if lighting.sun is not None:        # the sky's term alone: the sun's hard shadow edges weigh heavily above
-        sky_only = copy.copy(lights["sampled"])
-        sky_only.sun = None
-        a, b = (pyshadow.render.render(scene, cam, visibility=v, lighting=sky_only, sampling=pyshadow.Sampling(256))
-                for v in ("csm", "embree"))
-        row["sampled_256"]["sky_only_csm_vs_embree_same_dirs"] = relative_rmse(a.radiance[covered],
-                                                                               b.radiance[covered])
+    s256, e256, row["sampled_256"] = identical_256(scene, cam, lights["sampled"], csm, covered, ground, log, sky)
+    row["sampled_256"].update(csm_vs_reference=err(s256), embree_vs_reference=err(e256))
     log(f"{sky}: sampled @256: CSM vs Embree on identical directions {row['sampled_256']['csm_vs_embree_same_dirs']:.4f}"
         f" (target <= 0.02); vs reference CSM {row['sampled_256']['csm_vs_reference']:.4f}, "
         f"Embree {row['sampled_256']['embree_vs_reference']:.4f}")
@@ -174,27 +231,39 @@ def main(argv=None) -> int:
     ap.add_argument("--reference-samples", type=int, default=1024)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--sky", action="append", choices=("clear", "overcast"))
+    ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI of the casters' CSMs")
+    ap.add_argument("--resolution", type=int, default=128, help="CSM texels per side")
+    ap.add_argument("--lookup", choices=("nearest", "vote"), default="nearest",
+                    help="the CSM lookup of every CSM render (backend 'csm' or 'csm-vote')")
+    ap.add_argument("--sun-samples", type=int, default=1,
+                    help="rays over the sun's disc a pixel (Lighting(sun_samples=); 1: its centre)")
+    ap.add_argument("--identical-only", action="store_true",
+                    help="only 'sampled' at 256 samples, CSM against Embree on identical directions")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
 
     def log(msg):
         print(msg, file=sys.stderr if args.json else sys.stdout, flush=True)
 
-    scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height)
+    t, p = (int(x) for x in args.maps.split("x"))
+    scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height,
+                                             views=pyshadow.ViewSet.zigzag(t, p), resolution=args.resolution)
     rows = [measure_sky(s, scene, cam, args, log) for s in (args.sky or ["clear", "overcast"])]
     checks = {}
     for r in rows:
-        a = r["at_36"]
-        checks[r["sky"]] = {
+        a = r.get("at_36")
+        checks[r["sky"]] = {} if a is None else {
             "transfer_beats_bent_at_36": a["transfer"]["rmse_relative"] < a["bent"]["rmse_relative"],
-            "sampled_beats_bent_at_36": a["sampled"]["rmse_relative"] < a["bent"]["rmse_relative"],
+            "sampled_beats_bent_at_36": a["sampled"]["rmse_relative"] < a["bent"]["rmse_relative"]}
+        checks[r["sky"]].update({
             "sampled_256_within_2pct_of_embree": r["sampled_256"]["csm_vs_embree_same_dirs"] <= 0.02,
             "sampled_256_sky_within_2pct_of_embree": r["sampled_256"].get(
-                "sky_only_csm_vs_embree_same_dirs", r["sampled_256"]["csm_vs_embree_same_dirs"]) <= 0.02,
-        }
+                "sky_only_csm_vs_embree_same_dirs", r["sampled_256"]["csm_vs_embree_same_dirs"]) <= 0.02})
     log(f"checks: {checks}")
     if args.json:
         emit({"benchmark": "lighting_modes", **environment(), "width": args.width, "height": args.height,
+              "maps": args.maps, "resolution": args.resolution, "lookup": args.lookup,
+              "sun_samples": args.sun_samples, "identical_only": args.identical_only,
               "rows": rows, "checks": checks}, True)
     return 0
 

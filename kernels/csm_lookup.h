@@ -101,8 +101,10 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
 
 /* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
  * type's first map): the map axis d, the point's depth (1 - q.d) / 2 and
- * texel coordinates (fx, fy) in [0, R)^2 on the map; lanes (-1) where the
- * point lies inside the map's square, behind the bounding sphere's front.
+ * the texel coordinates (fx, fy) in [0, R)^2 on the map of its texel point
+ * (tx, ty, tz) (q itself, or for a point brought from outside the sphere,
+ * its chord's midpoint: instance_v); lanes (-1) where the texel point lies
+ * inside the map's square and the point behind the bounding sphere's front.
  * With SURFACE_NORMALS, the lanes of `up` (a ray leaving this body's own
  * surface, unit normal (ox, oy, oz) in the object frame) are first lifted
  * off the surface along the normal by
@@ -113,6 +115,7 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
  * that looks at the surface steeply, up to about 0.7 texel for a grazing one. */
 __attribute__((always_inline))
 inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
+                      fv tx, fv ty, fv tz,
                       fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy NORMAL_LIFT_PARAMS)
 {
     LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
@@ -134,11 +137,14 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
         qx = VSEL(qx, qx + h * ox, lift);
         qy = VSEL(qy, qy + h * oy, lift);
         qz = VSEL(qz, qz + h * oz, lift);
+        tx = VSEL(tx, tx + h * ox, lift);
+        ty = VSEL(ty, ty + h * oy, lift);
+        tz = VSEL(tz, tz + h * oz, lift);
     }
 #endif
     *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
-    *fx = (qx * ux + qy * uy + qz * uz + 1.0f) * (0.5f * (float)R);
-    *fy = (qx * vx + qy * vy + qz * vz + 1.0f) * (0.5f * (float)R);
+    *fx = (tx * ux + ty * uy + tz * uz + 1.0f) * (0.5f * (float)R);
+    *fy = (tx * vx + ty * vy + tz * vz + 1.0f) * (0.5f * (float)R);
     return MASK(*depth > 0.0f) & MASK(*fx >= 0.0f) & MASK(*fx < (float)R) & MASK(*fy >= 0.0f)
            & MASK(*fy < (float)R);
 }
@@ -231,11 +237,15 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     vx *= inv; vy *= inv; vz *= inv;
     /* a point outside the bounding sphere (radius 1 here) moves along its
      * ray to where the ray enters the sphere: no part of this caster lies
-     * between, and the map projects along its own axis, not the ray, so the
-     * texel then misses the ray's path by at most the sphere's diameter
-     * times the angle between the two, as for points on the caster -- not
-     * by the point's distance times that angle. q' = q_perp - sqrt(1 -
-     * |q_perp|^2) v, with q_perp = q - (q.v) v (no cancellation of |q|^2). */
+     * between. Its depth is asked there, q' = q_perp - sqrt(1 - |q_perp|^2) v
+     * with q_perp = q - (q.v) v (no cancellation of |q|^2); its texel at the
+     * chord's midpoint q_perp (t*). The map projects along its own axis, not
+     * the ray, so the texel column and the ray part by the angle between the
+     * two times the distance along the chord from where the texel is taken;
+     * every occluder the ray can meet lies on the chord, so from its
+     * midpoint that is at most the radius times the angle (from the entry
+     * point, the diameter), whatever the point's distance. */
+    fv cqx = qx, cqy = qy, cqz = qz;
     {
         const fv b = qx * vx + qy * vy + qz * vz;
         const fv sx = qx - b * vx, sy = qy - b * vy, sz = qz - b * vz;
@@ -244,6 +254,9 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
         qx = VSEL(qx, sx - e * vx, far);
         qy = VSEL(qy, sy - e * vy, far);
         qz = VSEL(qz, sz - e * vz, far);
+        cqx = VSEL(qx, sx, far);
+        cqy = VSEL(qy, sy, far);
+        cqz = VSEL(qz, sz, far);
     }
 #if SURFACE_NORMALS
     fv ox, oy, oz;
@@ -304,7 +317,7 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     iv open = act;
     for (int m = 0; m < 4 && VANY(open); ++m) {
         fv dx, dy, dz, depth, fx, fy;
-        const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz,
+        const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz, cqx, cqy, cqz,
                                              &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
         const fv wm = LANE_LOAD(mw[m]);
         if (!VANY(inside)) {
@@ -365,7 +378,7 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
         LANE_STORE(k, ka);
     }
     fv dx, dy, dz, depth, fx, fy;
-    const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz,
+    const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz, cqx, cqy, cqz,
                                        &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
     if (!VANY(valid)) return (iv)(0);
     const iv tex = VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1));

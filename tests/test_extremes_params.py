@@ -54,11 +54,13 @@ GENERIC = 6
 @pytest.fixture(scope="module")
 def generic_wrong(bunny_csm):
     """The worst Embree disagreement of GENERIC ordinary directions, per lookup (the bound of the
-    benchmark's direction rows, here doubled: 3000 rays per direction)."""
+    benchmark's direction rows, here doubled: 3000 rays per direction), and under "angle" the largest
+    angle, radians, between one of those directions and its nearest map."""
     scene = _bunny_scene(bunny_csm)
     rng = np.random.default_rng(99)
-    out = {"nearest": 0.0, "vote": 0.0}
+    out = {"nearest": 0.0, "vote": 0.0, "angle": 0.0}
     for g in rng.normal(size=(GENERIC, 3)):
+        out["angle"] = max(out["angle"], _map_angle(bunny_csm.views, g / np.linalg.norm(g)))
         P, D = _rays_along(scene, g / np.linalg.norm(g), 3000, rng)
         truth = embree.visible(scene, P, D)
         for lookup, be in (("nearest", "csm"), ("vote", "csm-vote")):
@@ -79,8 +81,22 @@ def _nudged(views, d_obj, R=np.eye(3), step=2e-4):
     return [R @ polar_direction(th + a, ph + b) for a in (0, -step, step) for b in (0, -step, step)]
 
 
-def _check_direction(scene, d, rng, lookup, generic, accept):
-    """Kernel == mirror at one of the ``accept`` directions; Embree within twice the worst generic."""
+def _map_angle(views, d_obj) -> float:
+    """Angle, radians, between the object-frame direction ``d_obj`` and its nearest map."""
+    d = np.asarray(d_obj, float) / np.linalg.norm(d_obj)
+    return float(np.arccos(np.clip(views.directions[views.nearest(d[None])[0]] @ d, -1.0, 1.0)))
+
+
+def _check_direction(scene, d, rng, lookup, generic, accept, d_obj=None):
+    """Kernel == mirror at one of the ``accept`` directions; Embree within twice the worst generic,
+    scaled by the direction's angle to its nearest map over the largest generic one where it is larger.
+
+    A lookup's texel misses the ray's path by the angle between the ray and its map times the distance
+    along the ray's chord, so disagreement grows with that angle. A zigzag layout has a map at the +y
+    pole and none at -y: -y lies pi / T from its nearest maps, the largest angle of the layout (22.5
+    deg at 8 x 16 against 11.0 deg for the worst generic direction here). Measured, 4000 rays from
+    1.05 radii, one-texel / vote: -y 0.090 / 0.086 against a generic mean 0.047 / 0.024 (before the
+    chord-midpoint texel of far points: 0.190 / 0.198 against 0.085 / 0.055)."""
     P, D = _rays_along(scene, d, 3000, rng)
     be = "csm" if lookup == "nearest" else "csm-vote"
     vis = visibility.visible(scene, P, D, backend=be)
@@ -90,7 +106,10 @@ def _check_direction(scene, d, rng, lookup, generic, accept):
     off = np.mean(~np.any([r == vis for r in refs], axis=0))
     assert off <= 2e-3, f"{off:.4f} of the rays differ from the mirror along {d}"
     wrong = np.mean(vis != embree.visible(scene, P, D))
-    assert wrong <= 2 * generic[lookup], f"{wrong:.3f} disagree with Embree along {d} (generic {generic[lookup]:.3f})"
+    views = scene.instances[0].csm.views
+    scale = max(1.0, _map_angle(views, d if d_obj is None else d_obj) / generic["angle"])
+    assert wrong <= 2 * scale * generic[lookup], \
+        f"{wrong:.3f} disagree with Embree along {d} (generic {generic[lookup]:.3f}, angle scale {scale:.2f})"
     return vis
 
 
@@ -109,7 +128,7 @@ def test_direction_at_pole_turned_instance(bunny_csm, generic_wrong, lookup, pol
     map-frame direction beside the pole). The kernel must answer as the mirror does at the pole."""
     scene = _bunny_scene(bunny_csm, turned=True)
     d0 = np.array([0.0, pole, 0.0])
-    _check_direction(scene, TURN @ d0, rng, lookup, generic_wrong, _nudged(bunny_csm.views, d0, TURN))
+    _check_direction(scene, TURN @ d0, rng, lookup, generic_wrong, _nudged(bunny_csm.views, d0, TURN), d_obj=d0)
 
 
 @pytest.mark.parametrize("lookup", ["nearest", "vote"])

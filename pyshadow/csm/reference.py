@@ -273,7 +273,7 @@ def _lift(normals, rows, B, R, bias, bias_texels):
 
 def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
                 self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS,
-                normals=None, lift=None) -> np.ndarray:
+                normals=None, lift=None, texel_points=None) -> np.ndarray:
     """Weighted shadowing vote of a CSM's taps for points and directions in its frame (NumPy).
 
     The rule of the visibility kernel (``instance16``) for one caster, in
@@ -305,6 +305,10 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         Unit surface normals in the CSM's frame, for the surface rule's lift
         (:mod:`pyshadow.csm.surface_rule`) of the rows where ``lift`` is True.
     lift : ndarray of bool, shape (N,), optional
+    texel_points : ndarray, shape (N, 3), optional
+        Where each point's texel is taken, normalised frame (default ``pn``;
+        a point from outside the sphere: its chord's midpoint,
+        :func:`pyshadow.visibility.mirror.caster_occludes`).
 
     Returns
     -------
@@ -320,7 +324,7 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     vote = np.zeros(len(pn))
     for k, tex, _, _, depth, b, inside, weight in shadow_taps(
             csm.views, R, pn, wn, maps, map_weights, quantum=quantum, texels=texels, self_=self_, bias=bias,
-            bias_texels=bias_texels, normals=normals, lift=lift):
+            bias_texels=bias_texels, normals=normals, lift=lift, texel_points=texel_points):
         seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
         z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
         vote += weight * (inside & (depth > z + b))
@@ -328,7 +332,8 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
 
 
 def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1, self_=True,
-                bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS, normals=None, lift=None):
+                bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS, normals=None, lift=None,
+                texel_points=None):
     """The taps of :func:`shadow_vote`, one at a time, whatever answers them.
 
     Yields, per map column and texel tap, ``(k, tex, col, row, depth, b,
@@ -339,7 +344,8 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
     votes "shadowed" where ``inside`` and the depth exceeds the first
     surface's depth along the texel's centre ray plus ``b``: the stored
     depth in :func:`shadow_vote`, a traced ray in
-    :mod:`pyshadow.csm.error_model`.
+    :mod:`pyshadow.csm.error_model`. The texel is that of ``texel_points``
+    where given (the depth stays that of ``pn``).
     """
     if texels == 4:      # texel offsets and their bilinear weights (tx, ty)
         taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
@@ -351,10 +357,15 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
     for m in range(maps.shape[1]):
         k = maps[:, m]
         B = views.bases[k]
-        q = pn if normals is None else pn + _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
+        pt = pn if texel_points is None else texel_points
+        if normals is None:
+            q, qt = pn, pt
+        else:
+            h = _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
+            q, qt = pn + h, pt + h
         depth = (1.0 - np.einsum("ij,ij->i", q, B[:, 2])) * 0.5
-        fx = (np.einsum("ij,ij->i", q, B[:, 0]) + 1.0) * 0.5 * R
-        fy = (np.einsum("ij,ij->i", q, B[:, 1]) + 1.0) * 0.5 * R
+        fx = (np.einsum("ij,ij->i", qt, B[:, 0]) + 1.0) * 0.5 * R
+        fy = (np.einsum("ij,ij->i", qt, B[:, 1]) + 1.0) * 0.5 * R
         inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
         if bias is None:
             ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)

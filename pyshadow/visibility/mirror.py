@@ -78,7 +78,8 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
     """Rows ``ask`` of world rays ``(p, w)`` that one caster shadows, by the kernel's rules (float64).
 
     Bounding-sphere cull, the point and direction in the caster's normalised
-    frame, far points moved to the sphere, the surface rule where normals
+    frame, far points moved to the sphere (depth at the ray's entry, texel at
+    its chord's midpoint), the surface rule where normals
     ``m`` are given (for the rows ``own_rows`` that may lie on this caster),
     the nearest map or the vote's window, then ``vote`` (:func:`shadow_vote`,
     or the traced taps of :mod:`pyshadow.csm.error_model`) over the taps.
@@ -119,7 +120,7 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         return out
     pn = ((p[act] - translation) @ rotation) / (scale * csm.radius) - csm.centre / csm.radius
     wn = w[act] @ rotation
-    pn = _to_sphere(pn, wn)
+    pn, pt = _to_sphere(pn, wn)
     mine = own_rows[act]
     mn, up = None, None
     if m is not None:
@@ -131,19 +132,23 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
     v = vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if lookup == "vote" else 1,
              self_=mine, bias=bias, bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS,
-             normals=mn, lift=up)
+             normals=mn, lift=up, texel_points=pt)
     out[np.flatnonzero(act)[v > 0.5]] = True
     return out
 
 
 def _to_sphere(q, v):
-    """Points outside the unit sphere moved along their unit rays ``v`` to where the ray
-    enters it (kernels/csm_lookup.h, instance_v); the others unchanged. float64."""
+    """Where points outside the unit sphere are asked (kernels/csm_lookup.h, instance_v), float64.
+
+    Returns ``(depth_points, texel_points)``: a point whose unit ray ``v``
+    enters the sphere is asked its depth where the ray enters and its texel
+    at the midpoint of the ray's chord; the others are unchanged in both.
+    """
     b = np.einsum("ij,ij->i", q, v)
     perp = q - b[:, None] * v
     e = np.sqrt(np.maximum(1.0 - np.einsum("ij,ij->i", perp, perp), 0.0))
     far = (np.einsum("ij,ij->i", q, q) > 1.0) & (b < -e)
-    return np.where(far[:, None], perp - e[:, None] * v, q)
+    return np.where(far[:, None], perp - e[:, None] * v, q), np.where(far[:, None], perp, q)
 
 
 def _raise_directions(csm, lookup, wn, mn, mine):

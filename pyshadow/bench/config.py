@@ -140,11 +140,17 @@ def _int_range(lo, hi, what):
     return parse
 
 
-def _positive_float(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text!r}")
-    return v
+def positive_number(not_a_number: str, not_positive: str):
+    """An argparse type for a finite number > 0; the messages are formatted with ``text``."""
+    def parse(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(not_a_number.format(text=text)) from None
+        if not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(not_positive.format(text=text))
+        return v
+    return parse
+
+
+_positive_float = positive_number("expected a number, got {text!r}", "must be a positive finite number, got {text!r}")

@@ -56,6 +56,7 @@ import time
 import numpy as np
 
 from .common import _fig
+from .config import positive_number
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
 
 #: Method names of ``--method``.
@@ -74,15 +75,8 @@ def parse_methods(text: str) -> list:
     return names
 
 
-def positive_distance(text: str) -> float:
-    """``--ao-distance`` value: a finite number > 0 (argparse type)."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not (np.isfinite(v) and v > 0):
-        raise argparse.ArgumentTypeError(f"must be finite and > 0 (world units), got {text}")
-    return v
+#: ``--ao-distance`` value: a finite number > 0, world units (argparse type).
+positive_distance = positive_number("not a number: {text!r}", "must be finite and > 0 (world units), got {text}")
 
 
 def selected_methods(values) -> list:

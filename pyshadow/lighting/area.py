@@ -39,6 +39,7 @@ import numpy as np
 
 from ._checks import unit_direction
 from .local import PointLight, SpotLight, _intensity, _position
+from .sun import _tangent_frame as _frame   # two unit vectors completing a unit normal
 
 __all__ = ["DiscLight", "RectLight", "AreaLight", "LIGHT_TYPES", "area_light_samples", "area_light_radiance"]
 
@@ -64,14 +65,6 @@ def _extent(x, name):
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"{name}: must be finite and > 0 (a zero-area light has no radiance; got {x!r})")
     return r
-
-
-def _frame(n):
-    """Two unit vectors completing ``n`` (3,) to a right-handed orthonormal frame."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    e1 = np.cross(n, a)
-    e1 /= np.linalg.norm(e1)
-    return e1, np.cross(n, e1)
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,9 @@ and compared with a converged reference:
 ``pyshadow.lighting.reference_radiance`` (Embree) at ``--reference-samples``
 (1024) sky samples with another seed and 1024 directions over the sun's
 disc, i.e. the shadowed sky and sun integrals the three modes approximate
-(the renders trace one ray to the sun's centre, or ``--sun-samples`` over
-its disc). The figure is the relative RMSE of radiance over the covered
+(the renders trace one ray to the sun's centre in modes "bent" and
+"transfer", and ``pyshadow.lighting.SAMPLED_SUN_SAMPLES`` rays over its disc
+in mode "sampled", unless ``--sun-samples`` says how many for every mode). The figure is the relative RMSE of radiance over the covered
 pixels (``pyshadow.bench.lit.relative_rmse``).
 
 Rows:
@@ -32,11 +33,12 @@ Rows:
 or equal-time rows). ``--maps``, ``--resolution`` (the casters' CSMs, as in
 ``benchmarks/sun_shadows.py``) and ``--lookup`` (the backend of every CSM
 render) change the CSM renders; ``--sun-samples`` (``Lighting(sun_samples=)``:
-rays over the sun's real disc) those of both backends, on identical rays.
+rays over the sun's real disc; 1: the hard sun of the earlier figures) those of both
+backends, on identical rays.
 
     python benchmarks/lighting_modes.py [--width 640 --height 480] [--reference-samples 1024] [--json]
     python benchmarks/lighting_modes.py --identical-only [--maps 64x128] [--resolution 128] [--lookup nearest|vote]
-        [--sun-samples 1]
+        [--sun-samples K]
 """
 from __future__ import annotations
 
@@ -159,10 +161,8 @@ def measure_sky(sky, scene, cam, args, log):
     from pyshadow.scene import GROUND_ID
 
     lighting, rec = sky_lighting(sky)
-    if lighting.sun is not None and args.sun_samples != 1:
-        lighting = copy.copy(lighting)      # with_mode (below) checks the count
-        lighting.sun_samples = args.sun_samples
-    lights = {m: lighting.with_mode(m) for m in MODES}
+    asked = {} if args.sun_samples is None else {"sun_samples": args.sun_samples}
+    lights = {m: lighting.with_mode(m, **asked) for m in MODES}
     csm = "csm" if args.lookup == "nearest" else "csm-vote"
     sp = pyshadow.render.surface_points(scene, cam)
     covered = covered_pixels(sp, cam)
@@ -235,8 +235,9 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128, help="CSM texels per side")
     ap.add_argument("--lookup", choices=("nearest", "vote"), default="nearest",
                     help="the CSM lookup of every CSM render (backend 'csm' or 'csm-vote')")
-    ap.add_argument("--sun-samples", type=int, default=1,
-                    help="rays over the sun's disc a pixel (Lighting(sun_samples=); 1: its centre)")
+    ap.add_argument("--sun-samples", type=int, default=None,
+                    help="rays over the sun's disc a pixel (Lighting(sun_samples=); 1: its centre; default: "
+                         "Lighting's, SAMPLED_SUN_SAMPLES in mode 'sampled', 1 in the others)")
     ap.add_argument("--identical-only", action="store_true",
                     help="only 'sampled' at 256 samples, CSM against Embree on identical directions")
     ap.add_argument("--json", action="store_true")

@@ -283,3 +283,33 @@ def test_tonemap_refuses_bad_input():
         tonemap(ok, exposure=0)
     with pytest.raises(ValueError, match="curve"):
         tonemap(ok, curve="aces")
+
+
+def test_sampled_mode_samples_the_suns_disc_by_default(small_scene):
+    """Lighting(mode="sampled") takes SAMPLED_SUN_SAMPLES rays over a sun with a disc unless told otherwise;
+    the other modes one ray to its centre. Ground points across the box's shadow edge under a sun 45 deg up,
+    0.2 rad in radius (Embree): the sampled mode's default equals sun_samples=16 exactly and gives a
+    penumbra (visible fractions strictly between 0 and 1); "bent" by default equals sun_samples=1, hard."""
+    from pyshadow.lighting import SAMPLED_SUN_SAMPLES
+
+    assert SAMPLED_SUN_SAMPLES == 16
+    sun = DirectionalLight(np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0), [100.0, 90.0, 80.0], 0.2)
+    x = np.linspace(-1.4, -0.6, 41)
+    p = np.column_stack([x, np.zeros_like(x), np.full_like(x, 0.1)])
+    nrm = np.tile([0.0, 1.0, 0.0], (len(p), 1))
+    ids = np.full(len(p), GROUND_ID, np.int32)
+
+    def terms(light):
+        return shade_terms(small_scene, p, nrm, light, sampling=Sampling(4), surface_ids=ids, backend="embree")
+
+    sampled = Lighting(sun=sun, mode="sampled")
+    assert sampled.sun_samples == SAMPLED_SUN_SAMPLES and sampled.with_mode("bent").sun_samples == 1
+    assert Lighting(sun=sun).with_mode("sampled").sun_samples == SAMPLED_SUN_SAMPLES
+    assert Lighting(sun=sun, sun_samples=3).with_mode("sampled").sun_samples == 3
+    soft = terms(sampled)
+    np.testing.assert_array_equal(soft.sun, terms(Lighting(sun=sun, mode="sampled", sun_samples=16)).sun)
+    frac = soft.sun_visibility
+    assert ((frac > 0) & (frac < 1)).sum() >= 3 and frac.min() == 0 and frac.max() == 1
+    hard = terms(Lighting(sun=sun))
+    np.testing.assert_array_equal(hard.sun, terms(Lighting(sun=sun, sun_samples=1)).sun)
+    assert set(np.unique(hard.sun_visibility)) == {0.0, 1.0}

@@ -48,8 +48,8 @@ from .sh import irradiance_sh, sh_basis
 from .sky import (SUN_ANGULAR_RADIUS, add_sun_disc, clear_sky, disc_solid_angle, overcast_sky,
                   sun_irradiance, sun_position)
 from .sun import SunLight, extract_sun
-from .shade import (DirectionalLight, Lighting, ShadedPoints, sampled_sky_radiance, shade, shade_terms,
-                    transfer_sky_radiance)
+from .shade import (SAMPLED_SUN_SAMPLES, DirectionalLight, Lighting, ShadedPoints, sampled_sky_radiance, shade,
+                    shade_terms, transfer_sky_radiance)
 from .transfer import sh_transfer, transfer_irradiance
 from .reference import reference_radiance
 from .local import PointLight, SpotLight, point_light_radiance
@@ -60,7 +60,7 @@ from .tonemap import tonemap, write_radiance
 
 __all__ = ["DiscLight", "PhongLighting", "RectLight", "ShadowMapVisibility", "area_light_radiance",
            "area_light_samples", "phong_shade",
-           "DirectionalLight", "EnvironmentMap", "Lighting", "ShadedPoints", "SunLight",
+           "DirectionalLight", "EnvironmentMap", "Lighting", "SAMPLED_SUN_SAMPLES", "ShadedPoints", "SunLight",
            "SUN_ANGULAR_RADIUS", "add_sun_disc", "clear_sky", "cube", "disc_solid_angle",
            "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
            "overcast_sky", "PointLight", "SpotLight", "point_light_radiance", "reference_radiance",

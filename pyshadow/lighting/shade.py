@@ -41,7 +41,8 @@ sun (a directional light with its shadow)
     ``V`` from :func:`pyshadow.visibility.visible` asked with the surface
     normal (the surface rule: grazing light does not self-shadow a face).
     ``K = 1`` (``l_1`` the sun's direction) unless the sun has an angular
-    radius > 0 and ``Lighting(sun_samples=K)`` asks for more: then ``l_k``
+    radius > 0 and ``K > 1`` (``Lighting(sun_samples=K)``; by default
+    :data:`SAMPLED_SUN_SAMPLES` in mode "sampled", 1 otherwise): then ``l_k``
     are K directions spread uniformly in solid angle over the sun's disc
     (a Fibonacci spiral on the cap, turned about the axis per point by the
     point's pattern index and the seed: deterministic), and the shadow is
@@ -64,22 +65,25 @@ from ._checks import in_range, unit_direction
 from .envmap import EnvironmentMap
 from .local import lights_radiance
 from .sh import SH_COUNT, irradiance_sh
+from .sun import sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
-           "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES", "DEFAULT_ALBEDO",
+           "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES", "SAMPLED_SUN_SAMPLES", "DEFAULT_ALBEDO",
            "DEFAULT_GROUND_ALBEDO"]
 
 #: Shading modes.
 MODES = ("bent", "transfer", "sampled")
 #: Rays per visibility call of the "sampled" sky (points are taken in chunks of this many rays).
 SAMPLED_CHUNK_RAYS = 1 << 20
+#: Sun rays a point in mode "sampled" unless ``Lighting(sun_samples=)`` says otherwise: over the real disc a
+#: shadow edge's pixel then differs from the reference by steps of 1/16 of the sun's term, not all of it.
+SAMPLED_SUN_SAMPLES = 16
 #: Albedo of instances without one of their own.
 DEFAULT_ALBEDO = (0.8, 0.8, 0.8)
 #: Albedo of the ground plane.
 DEFAULT_GROUND_ALBEDO = (0.5, 0.5, 0.5)
 #: Largest sun angular radius accepted (rad).
 MAX_SUN_RADIUS = math.pi / 4
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def _albedo(a, name: str) -> np.ndarray:
@@ -165,6 +169,8 @@ class Lighting:
     sun_samples : int, optional
         Rays K a point (1 .. 1024) over the sun's disc (when its angular
         radius is > 0) and over sphere and area lights; 1: hard shadows.
+        Default: :data:`SAMPLED_SUN_SAMPLES` in mode "sampled" (the accurate
+        mode samples the sun's real disc), 1 in the others.
     seed : int, optional
         Seed of the per-point turn of the sun's directions.
 
@@ -185,7 +191,7 @@ class Lighting:
     """
 
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
-                 ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int = 1, seed: int = 0,
+                 ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int | None = None, seed: int = 0,
                  lights=()):
         from .area import LIGHT_TYPES
 
@@ -209,6 +215,9 @@ class Lighting:
         if mode == "sampled" and sky is not None and env is None:
             raise ValueError("mode 'sampled' needs the sky as an EnvironmentMap (it looks up the map's radiance "
                              "per sample direction); this sky was given as SH coefficients only")
+        self._sun_samples_asked = sun_samples
+        if sun_samples is None:
+            sun_samples = SAMPLED_SUN_SAMPLES if mode == "sampled" else 1
         if isinstance(sun_samples, bool) or not isinstance(sun_samples, (int, np.integer)) \
                 or not 1 <= sun_samples <= 1024:
             raise ValueError(f"sun_samples: expected an int in 1 .. 1024 (got {sun_samples!r})")
@@ -256,11 +265,13 @@ class Lighting:
         sun = DirectionalLight(sun_direction, sun_irradiance(sun_direction, turbidity), SUN_ANGULAR_RADIUS)
         return cls(sky, sun=sun, **kwargs)
 
-    def with_mode(self, mode: str) -> "Lighting":
-        """The same sky, sun and albedos shaded in another ``mode`` (checked as in the constructor)."""
-        return Lighting(self.env if self.env is not None else self.sh, sun=self.sun, albedo=self.albedo,
-                        albedos=dict(self.albedos), ground_albedo=self.ground_albedo, mode=mode,
-                        sun_samples=self.sun_samples, seed=self.seed, lights=self.lights)
+    def with_mode(self, mode: str, **changes) -> "Lighting":
+        """The same sky, sun and albedos shaded in another ``mode``, with ``changes`` (``sun_samples``,
+        ``seed``) to the constructor's other arguments; checked as in the constructor."""
+        kw = dict(sun=self.sun, albedo=self.albedo, albedos=dict(self.albedos), ground_albedo=self.ground_albedo,
+                  sun_samples=self._sun_samples_asked, seed=self.seed, lights=self.lights)
+        sky = self.env if self.env is not None else (self.sh if self.sh.any() else None)    # zeros: no sky
+        return Lighting(sky, mode=mode, **{**kw, **changes})
 
     def albedo_of(self, surface_ids, n: int | None = None) -> np.ndarray:
         """RGB albedo of each point's surface, (N, 3) float64.
@@ -453,34 +464,6 @@ def transfer_sky(lighting: Lighting, transfer, albedo) -> np.ndarray:
 
     e = np.maximum(transfer_irradiance(lighting.sh, transfer), 0.0)
     return np.asarray(albedo, dtype=np.float64) / math.pi * e
-
-
-def sun_directions(light: DirectionalLight, k: int, indices, seed: int = 0) -> np.ndarray:
-    """K directions over the light's disc for each point, (N, K, 3) float64, unit.
-
-    Uniform in solid angle: ``cos a_j = 1 - (j + 1/2) / K (1 - cos r)``,
-    azimuth ``2 pi (j g + t_i)`` with ``g`` the golden ratio's fraction and
-    ``t_i = frac(u + i g)`` for the point's pattern index ``i`` and ``u``
-    drawn from ``seed``. ``K = 1`` or ``r = 0``: the light's direction itself.
-    """
-    idx = np.asarray(indices, dtype=np.int64)
-    n = len(idx)
-    d = light.direction
-    if k == 1 or light.angular_radius == 0.0:
-        return np.broadcast_to(d, (n, 1, 3)).copy()
-    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    e1 = np.cross(d, a)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(d, e1)
-    j = np.arange(k)
-    cos_a = 1.0 - (j + 0.5) / k * (1.0 - math.cos(light.angular_radius))
-    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a ** 2))
-    u = float(np.random.default_rng(seed).random())
-    turn = np.mod(u + (idx % (1 << 20)) * _GOLDEN, 1.0)
-    phi = 2.0 * math.pi * (j[None, :] * _GOLDEN + turn[:, None])
-    out = (cos_a[None, :, None] * d + (sin_a * np.cos(phi))[..., None] * e1
-           + (sin_a * np.sin(phi))[..., None] * e2)
-    return out / np.linalg.norm(out, axis=2, keepdims=True)
 
 
 def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend="csm", surface_ids=None,

@@ -64,6 +64,34 @@ def _tangent_frame(d):
     return e1, np.cross(d, e1)
 
 
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def sun_directions(light, k: int, indices, seed: int = 0) -> np.ndarray:
+    """K directions over the light's disc for each point, (N, K, 3) float64, unit.
+
+    Uniform in solid angle: ``cos a_j = 1 - (j + 1/2) / K (1 - cos r)``,
+    azimuth ``2 pi (j g + t_i)`` with ``g`` the golden ratio's fraction and
+    ``t_i = frac(u + i g)`` for the point's pattern index ``i`` and ``u``
+    drawn from ``seed``. ``K = 1`` or ``r = 0``: the light's direction itself.
+    """
+    idx = np.asarray(indices, dtype=np.int64)
+    n = len(idx)
+    d = light.direction
+    if k == 1 or light.angular_radius == 0.0:
+        return np.broadcast_to(d, (n, 1, 3)).copy()
+    e1, e2 = _tangent_frame(d)
+    j = np.arange(k)
+    cos_a = 1.0 - (j + 0.5) / k * (1.0 - math.cos(light.angular_radius))
+    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a ** 2))
+    u = float(np.random.default_rng(seed).random())
+    turn = np.mod(u + (idx % (1 << 20)) * _GOLDEN, 1.0)
+    phi = 2.0 * math.pi * (j[None, :] * _GOLDEN + turn[:, None])
+    out = (cos_a[None, :, None] * d + (sin_a * np.cos(phi))[..., None] * e1
+           + (sin_a * np.sin(phi))[..., None] * e2)
+    return out / np.linalg.norm(out, axis=2, keepdims=True)
+
+
 def _background(dirs, lum_or_rgb, omega, ring, centre):
     """Least-squares quadratic in the tangent coordinates (u, v) around ``centre``,
     Omega-weighted over the ``ring`` texels; returns a function of directions."""

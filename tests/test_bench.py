@@ -288,6 +288,21 @@ def test_bench_sky_overcast_radiance_error(lit):
         assert set(v) == {"value", "unit", "label"}
 
 
+def test_bench_sky_smooth_normals(lit, cache_dir, tmp_path):
+    """--normals smooth: the lit frames take interpolated vertex normals on both backends alike, so the
+    "bent" error against Embree stays within the flat run's bound (< 0.12, test above), while the torus's
+    and the bunny's pixels change (no facet bands) and results.json says which normals were used."""
+    import pyshadow
+
+    p = bench(*TINY, "--sky", "overcast", "--normals", "smooth", "--out", tmp_path, "--json", cache=cache_dir)
+    r = json.loads(p.stdout)
+    assert r["lighting"]["normals"] == "smooth" and lit[0]["lighting"]["normals"] == "flat"
+    f = {k: v["value"] for k, v in r["lighting"]["modes"]["bent"].items()}
+    assert 0.0 < f["radiance_rmse_relative"] < 0.12
+    smooth, flat = (pyshadow.read_image(d / "radiance.exr") for d in (tmp_path, lit[1]))
+    assert np.abs(smooth - flat).max() > 0.01 * float(flat.max())
+
+
 def test_bench_sky_measures_every_mode(lit):
     """--sky measures "transfer" and "sampled" beside "bent", each against Embree in the same mode on the
     same directions. With no sun all three are the sky weighted by the same rays' visibility, so each
@@ -403,6 +418,7 @@ def test_bench_sweep_tiny_and_max_error(tmp_path, cache_dir):
     (["--sweep-grid", "tiny"], "--sweep-grid needs --sweep"),
     (["--mesh", "/nonexistent/dir/bunny.obj"], "no such file"),
     (["--exposure", "2"], "--exposure needs --sky"),
+    (["--normals", "smooth"], "--normals needs --sky"),
     (["--sky", "clear", "--sweep"], "--sky is for the single benchmark"),
     (["--sky", "clear", "--max-error", "0.02"], "--sky is for the single benchmark"),
     (["--max-error", "0.02", "--filter", "bilateral"], "--max-error and --frame-budget choose the filter"),

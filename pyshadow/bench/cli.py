@@ -77,6 +77,11 @@ def build_parser() -> argparse.ArgumentParser:
                           "the overcast sky, or an HDR environment map FILE (its sun extracted), "
                           "with the CSMs and with Embree on the same directions; writes radiance.exr "
                           "and lit.png and a 'lighting' entry in results.json")
+    lit.add_argument("--normals", choices=("flat", "smooth"),
+                     help="shading normals of the lit frames (--sky), both backends alike: 'flat' the "
+                          "faces' (default; the kernels' one-pass transfer and sampled sky), 'smooth' "
+                          "vertex normals interpolated, creases kept sharp (pyshadow.shading_normals; "
+                          "no facet bands, but 'transfer' and 'sampled' take the host route)")
     lit.add_argument("--exposure", type=_positive_float, metavar="S",
                      help="tone-mapping exposure of lit.png (default: the 99th percentile of the "
                           "lit pixels' luminance maps to 0.8)")
@@ -180,8 +185,9 @@ def main(argv=None) -> int:
             lighting = sky_lighting(args.sky)
         except (OSError, ValueError) as e:
             ap.error(f"--sky {args.sky}: not 'clear', 'overcast' or a readable HDR environment map ({e})")
-    elif args.exposure is not None:
-        ap.error("--exposure needs --sky")
+    elif args.exposure is not None or args.normals is not None:
+        ap.error(f"{'--exposure' if args.exposure is not None else '--normals'} needs --sky")
+    args.normals = args.normals or "flat"
     if args.light is not None:
         if args.sweep or answer_mode:
             ap.error("--light is for the single benchmark, not --sweep, --max-error or --frame-budget")

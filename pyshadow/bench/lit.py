@@ -131,7 +131,7 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
     from ..lighting import tonemap, write_radiance
 
     backend = "csm" if cfg.lookup == "nearest" else "csm-vote"
-    kw = dict(sampling=sampling, denoise=cfg.filter)
+    kw = dict(sampling=sampling, denoise=cfg.filter, normals=args.normals)
     modes = [m for m in LIT_MODES if m != "sampled" or lighting.env is not None]
     log(f"lighting: {sky_record['sky']} sky, modes {', '.join(modes)}, backend {backend!r} and 'embree'")
 
@@ -202,6 +202,7 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
     record = {
         **sky_record,
         "backend": backend,
+        "normals": args.normals,
         "exposure": _fig(float(exposure), "1", "tone-mapping exposure of lit.png"),
         "exposure_rule": ("--exposure" if given is not None else
                           f"{EXPOSURE_TARGET} / {EXPOSURE_PERCENTILE:g}th percentile of covered "

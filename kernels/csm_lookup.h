@@ -2,8 +2,8 @@
  * direction) shadowed by one caster instance? (thesis 000, sections 5.3.2,
  * 5.3.3; the rule in visibility.cl's opening comment)
  *
- *   stored_v()      the stored depth of (map, texel) for every lane: the
- *                   counting search of csm_search.h over the padded lists
+ *   stored_v()      (csm_stored.h) the stored depth of (map, texel) for
+ *                   every lane: the counting search over the padded lists
  *   map_frame_v()   a point seen from a map: axis, depth, texel coordinates
  *   bias_v()        the depth tolerance of a lane against a map
  *   surface_rule_v() rays leaving their own body's surface (SURFACE_NORMALS)
@@ -20,8 +20,7 @@
  * (memory latency is what limits these kernels on CPUs). With LANES = 1
  * each work-item answers its queries one by one (GPUs).
  *
- * NTYPES 0 (a scene without casters): nothing of this file is compiled
- * (batch.h then asks no caster).
+ * NTYPES 0 (no casters): nothing of this file is compiled (batch.h asks none).
  *
  * Expects: LANES (lanes.h); NTYPES; DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
  * (csm_search.h); LAYOUT_ZIGZAG, LAYOUT_HILBERT, FILTERED, FILTER_ANGLE_EPS
@@ -33,6 +32,7 @@
 #define PYSHADOW_CSM_LOOKUP_H
 
 #include "csm_search.h"
+#include "csm_stored.h"
 #include "lanes.h"
 #include "scene_tables.h"
 #include "views_hilbert.h"
@@ -51,60 +51,11 @@
 #define NORMAL_LIFT_PARAMS
 #endif
 
-/* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
- * every lane with va[l] != 0, +inf for the others. The search of csm_find()
- * (csm_search.h) for every lane: first the list's block summary, then the
- * block. */
-__attribute__((always_inline))
-inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *ka, const int *ta,
-                     const int *va, float *za)
-{
-    __global const uint *off = S->offsets + T->texel_base;
-    __global const uint *sof = S->soff + T->texel_base;
-    LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
-    for (int l = 0; l < LANES; ++l) {
-        const uint t = va[l] ? (uint)ta[l] : 0u;
-        base[l] = off[t];
-        lo[l] = sof[t];
-        hi[l] = va[l] ? sof[t + 1] - 1u : lo[l];
-        PREFETCH(S->summary + lo[l]);
-#if PROFILE_SKIP_SEARCH
-        hi[l] = lo[l];
-#endif
-    }
-    /* counting scans: the number of summary entries below the map is the
-     * block, the number of i_end below it in that block the segment --
-     * branch-free, sequential reads, no mispredicted jumps. The lists are
-     * padded to whole blocks (search_arrays(padded=True)) with copies of
-     * their last pair (i_end = D - 1, never below the map), so every block is
-     * SEARCH_BLOCK pairs at an aligned start. First every lane's block is
-     * found and its first pair read (the lanes' cache misses are in flight
-     * together), then the blocks are counted. */
-    LANE_ARRAY uint b0a[LANES];
-    LANE_ARRAY pair_t first[LANES];
-    for (int l = 0; l < LANES; ++l) {
-        const uint k = (uint)ka[l];
-        uint c = 0u;
-        for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
-        b0a[l] = base[l] + SEARCH_BLOCK * c;
-        PREFETCH(S->pairs + b0a[l]);
-    }
-    for (int l = 0; l < LANES; ++l) {
-        const uint k = (uint)ka[l], b0 = b0a[l];
-        uint c2 = 0u;
-        for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
-        first[l] = S->pairs[b0 + c2];
-    }
-    for (int l = 0; l < LANES; ++l)
-        za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
-}
-
 /* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
  * type's first map): the map axis d, the point's depth (1 - q.d) / 2 and
- * the texel coordinates (fx, fy) in [0, R)^2 on the map of its texel point
- * (tx, ty, tz) (q itself, or for a point brought from outside the sphere,
- * its chord's midpoint: instance_v); lanes (-1) where the texel point lies
- * inside the map's square and the point behind the bounding sphere's front.
+ * the texel coordinates (fx, fy) in [0, R)^2 of its texel point (tx, ty, tz)
+ * (q, or its chord's midpoint: instance_v); lanes (-1) where the texel point
+ * lies inside the map's square and the point behind the sphere's front.
  * With SURFACE_NORMALS, the lanes of `up` (a ray leaving this body's own
  * surface, unit normal (ox, oy, oz) in the object frame) are first lifted
  * off the surface along the normal by
@@ -162,8 +113,7 @@ inline fv bias_v(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv
 }
 
 #if FILTERED
-/* sort four (weight w[i], item x[i]) lane vectors by weight, heaviest first,
- * lane by lane (a sorting network) */
+/* sort four (weight w[i], item x[i]) lane vectors by weight, heaviest first (a sorting network) */
 inline void sort4_heaviest_first(fv *w, iv *x)
 {
     const int pairs[5][2] = {{0, 1}, {2, 3}, {0, 2}, {1, 3}, {1, 2}};
@@ -235,28 +185,35 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
     const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
-    /* a point outside the bounding sphere (radius 1 here) moves along its
-     * ray to where the ray enters the sphere: no part of this caster lies
-     * between. Its depth is asked there, q' = q_perp - sqrt(1 - |q_perp|^2) v
-     * with q_perp = q - (q.v) v (no cancellation of |q|^2); its texel at the
-     * chord's midpoint q_perp (t*). The map projects along its own axis, not
-     * the ray, so the texel column and the ray part by the angle between the
-     * two times the distance along the chord from where the texel is taken;
-     * every occluder the ray can meet lies on the chord, so from its
-     * midpoint that is at most the radius times the angle (from the entry
-     * point, the diameter), whatever the point's distance. */
+    /* the ray's chord through the caster, inside the bounding sphere (radius
+     * 1 here) and the mesh's box (T->box_lo, box_hi): u in [u0, u1] along v
+     * from q_perp = q - (q.v) v, q at u = q.v. A point before its chord takes
+     * its texel at the chord's midpoint (the map's axis and the ray part by
+     * their angle times the distance from there: at most half the chord) and,
+     * from outside the sphere, its depth where the ray enters the sphere
+     * (well behind the mesh). A chord empty or behind the point: a miss. */
     fv cqx = qx, cqy = qy, cqz = qz;
     {
         const fv b = qx * vx + qy * vy + qz * vz;
         const fv sx = qx - b * vx, sy = qy - b * vy, sz = qz - b * vz;
-        const fv e = sqrt(VMAX(1.0f - (sx * sx + sy * sy + sz * sz), (fv)(0.0f)));
-        const iv far = MASK(qx * qx + qy * qy + qz * qz > 1.0f) & MASK(b < -e);
-        qx = VSEL(qx, sx - e * vx, far);
-        qy = VSEL(qy, sy - e * vy, far);
-        qz = VSEL(qz, sz - e * vz, far);
-        cqx = VSEL(qx, sx, far);
-        cqy = VSEL(qy, sy, far);
-        cqz = VSEL(qz, sz, far);
+        const fv h2 = 1.0f - (sx * sx + sy * sy + sz * sz), e = sqrt(VMAX(h2, (fv)(0.0f)));
+        fv u0 = -e, u1 = e;
+        const fv sv[3] = {sx, sy, sz}, vv[3] = {vx, vy, vz};
+        for (int a = 0; a < 3; ++a) {
+            const fv r = 1.0f / VSEL(vv[a], (fv)(1e-30f), MASK(fabs(vv[a]) < 1e-30f));
+            const fv ua = (T->box_lo[a] - sv[a]) * r, ub = (T->box_hi[a] - sv[a]) * r;
+            u0 = VMAX(u0, VMIN(ua, ub));
+            u1 = VMIN(u1, VMAX(ua, ub));
+        }
+        act &= ~(MASK(h2 < 0.0f) | MASK(u0 > u1) | MASK(u1 < b));
+        const iv far = MASK(b < u0), out = far & MASK(b < -e);
+        const fv um = 0.5f * (u0 + u1);
+        qx = VSEL(qx, sx - e * vx, out);
+        qy = VSEL(qy, sy - e * vy, out);
+        qz = VSEL(qz, sz - e * vz, out);
+        cqx = VSEL(qx, sx + um * vx, far);
+        cqy = VSEL(qy, sy + um * vy, far);
+        cqz = VSEL(qz, sz + um * vz, far);
     }
 #if SURFACE_NORMALS
     fv ox, oy, oz;

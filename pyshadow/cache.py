@@ -61,7 +61,8 @@ def _code_digest() -> str:
     -------
     str
         SHA-256 hex digest of pyshadow's version, the CSM builder's front
-        margin (``pyshadow.csm.FRONT_MARGIN_TEXELS``) and the source of the
+        margin (``pyshadow.csm.FRONT_MARGIN_TEXELS``), the mesh's box (CSMs
+        carry it since the box-cut chord) and the source of the
         build kernels ``csm.cl`` and ``raster.cl`` (a kernel that cannot be
         read contributes its name only).
     """
@@ -71,6 +72,7 @@ def _code_digest() -> str:
 
     h = hashlib.sha256(__version__.encode())
     h.update(repr(FRONT_MARGIN_TEXELS).encode())
+    h.update(b"box")                    # CSMs carry their mesh's box (older cached files lack it)
     for name in ("csm.cl", "raster.cl"):
         try:
             h.update(_cl.kernel_source(name).encode())

@@ -213,3 +213,21 @@ def test_csm_load_rejects_nan_depth(tmp_path):
     bad = _rewrite(good, tmp_path / "nan.csm", edit_arrays=edit)
     with pytest.raises(CSMFormatError, match="miss value"):
         CoherentShadowMap.load(bad)
+
+
+def test_box_survives_save_and_load_and_old_files_have_none(tmp_path, small_csm):
+    """The mesh's box (normalised frame) is saved exactly; a file from before boxes loads with none (the
+    lookup then cuts chords by the sphere alone); a box that is not 2 x 3 numbers with lo <= hi inside
+    [-1, 1] is refused by name."""
+    assert small_csm.box is not None and small_csm.box.shape == (2, 3)
+    path = small_csm.save(tmp_path / "b.csm")
+    back = CoherentShadowMap.load(path)
+    np.testing.assert_array_equal(back.box, small_csm.box)
+    old = CoherentShadowMap.load(_rewrite(path, tmp_path / "old.csm", edit_header=lambda h: h.pop("box")))
+    assert old.box is None and old.depth.tobytes() == small_csm.depth.tobytes()
+    for label, box in (("shape", [[0.0, 0.0, 0.0]]), ("inverted", [[0.5, 0, 0], [-0.5, 1, 1]]),
+                       ("outside", [[-2.0, -1, -1], [1, 1, 1]]), ("nan", [[float("nan"), 0, 0], [1, 1, 1]]),
+                       ("type", "x")):
+        bad = _rewrite(path, tmp_path / f"{label}.csm", edit_header=lambda h, b=box: h.update(box=b))
+        with pytest.raises(CSMFormatError, match="box"):
+            CoherentShadowMap.load(bad)

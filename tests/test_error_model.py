@@ -31,7 +31,7 @@ def test_traced_taps_answer_as_the_built_csm(bunny, lookup):
     # model's flips (16-22 % on the shared meshes at these sizes).
     csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False)
     rays = rays_for(bunny, points=600, samples=16, near=4000, seed=3)
-    L = Layout(csm.views, csm.resolution, csm.depth_bits, csm.centre, csm.radius)
+    L = Layout(csm.views, csm.resolution, csm.depth_bits, csm.centre, csm.radius, csm.box)
     scene = pyshadow.Scene()
     scene.add(csm, np.eye(4), mesh=bunny)
     for name, r in rays.items():
@@ -96,7 +96,7 @@ def test_truth_matches_embree_visible_of_a_scene(torus):
     rng = np.random.default_rng(0)
     p = rng.uniform(-2, 2, (4000, 3)) + [0, 1, 0]
     d = rng.normal(size=(4000, 3))
-    body = [Body(torus, T, Layout(csm.views, csm.resolution, csm.depth_bits, csm.centre, csm.radius))]
+    body = [Body(torus, T, Layout(csm.views, csm.resolution, csm.depth_bits, csm.centre, csm.radius, csm.box))]
     np.testing.assert_array_equal(truth_visible(body, p, d, ground=0.0), pyshadow.embree.visible(s, p, d))
 
 

@@ -226,4 +226,5 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
                centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
-               front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint)
+               front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint,
+               box=(np.asarray(mesh.bounds, np.float64) - centre) / radius)

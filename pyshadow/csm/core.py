@@ -16,7 +16,7 @@ from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
            "FRONT_MARGIN_TEXELS", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN", "VOTE_BIAS_TEXELS",
-           "front_margin", "SLOPE_SLACK_QUANTA", "slope_slack"]
+           "front_margin", "SLOPE_SLACK_QUANTA", "slope_slack", "BOX_PAD", "lookup_box"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
 SEARCH_BLOCK = 16        # segments per block of the device search summary
@@ -40,6 +40,11 @@ DEFAULT_BIAS_TAN = 0.5
 VOTE_BIAS_TEXELS = 1.0      # the same for the vote lookup
 
 
+# the lookup's box (lookup_box) lies this far (normalised units) outside the
+# mesh's box: beyond the float32 rounding of a point in the normalised frame
+BOX_PAD = 1e-4
+
+
 class CSMFormatError(ValueError):
     """A .csm file is truncated, corrupted, foreign or inconsistent."""
 
@@ -53,6 +58,20 @@ def slope_slack() -> np.float32:
     """The slack after z2's slope term in normalised depth: ``SLOPE_SLACK_QUANTA / DEPTH_Q`` as float32."""
     return np.float32(SLOPE_SLACK_QUANTA / DEPTH_Q)
 
+
+
+def lookup_box(csm) -> tuple[np.ndarray, np.ndarray]:
+    """The box the lookup cuts each ray's chord to, normalised frame: ``(lo, hi)``, float32 (3,) each.
+
+    The mesh's box (``csm.box``) padded by :data:`BOX_PAD`; for a CSM without
+    one (a file from before boxes) the cube of side 4, which holds the
+    bounding sphere, so that the sphere alone cuts the chord as it did.
+    """
+    box = getattr(csm, "box", None)
+    if box is None:
+        return np.full(3, -2.0, np.float32), np.full(3, 2.0, np.float32)
+    return (np.asarray(box[0], np.float64) - BOX_PAD).astype(np.float32), \
+        (np.asarray(box[1], np.float64) + BOX_PAD).astype(np.float32)
 
 
 def _depth_dtype(bits):
@@ -82,9 +101,8 @@ class CoherentShadowMap:
         Texels per map side ``R``.
     depth_bits : {16, 32}
     layer_rule : {2, 3}
-        2: runs intersect ``[z1, z2)``; 3: up to ``z3`` (closed meshes); both
-        keep a margin in front of surfaces that face the light (module
-        docstring).
+        2: runs intersect ``[z1, z2)``; 3: up to ``z3`` (closed meshes); both keep a
+        margin in front of surfaces that face the light (module docstring).
     centre : ndarray, shape (3,), float64
     radius : float
     mesh_hash : str
@@ -92,30 +110,31 @@ class CoherentShadowMap:
     offsets : ndarray, shape (R*R + 1,), uint32 or uint64
         Texel ``t = row*R + col`` owns segments ``offsets[t]:offsets[t+1]``.
     iend : ndarray, shape (S,), uint16 (D <= 65536) or uint32
-        Last map index of each segment, strictly increasing within a list,
-        the last of every list ``D - 1``.
+        Last map index of each segment, strictly rising within a list, the last ``D - 1``.
     depth : ndarray, shape (S,), uint16 or float32
         Stored depth (see module docstring for the encoding).
     front_margin_texels : float
-        How far (in texels of depth, ``1/R`` each) a stored depth stays in
-        front of a surface behind the first one that faces the light; 0 for
-        files written before the margin existed.
+        How far (texels of depth, ``1/R``) a stored depth stays in front of a surface behind
+        the first one that faces the light; 0 in files from before the margin.
     footprint : bool
-        Built with ``footprint=True`` (intervals over each texel's corners);
-        False for files written before the option existed.
+        Built with ``footprint=True`` (texel corners); False in files from before the option.
+    box : ndarray, shape (2, 3), float64, or None
+        The mesh's bounding box ``(lo, hi)``, normalised frame: the lookup cuts each ray's
+        chord to it (:func:`lookup_box`); None in files from before boxes (the sphere alone).
     stats : dict
         See :attr:`stats`.
     """
 
     def __init__(self, *, views, resolution, depth_bits, layer_rule, centre, radius, mesh_hash,
                  offsets, iend, depth, build_seconds=float("nan"), peak_bytes=0, front_margin_texels=0.0,
-                 footprint=False):
+                 footprint=False, box=None):
         self.views = views
         self.resolution = int(resolution)
         self.depth_bits = int(depth_bits)
         self.layer_rule = int(layer_rule)
         self.front_margin_texels = float(front_margin_texels)
         self.footprint = bool(footprint)
+        self.box = None if box is None else np.array(box, dtype=np.float64).reshape(2, 3)
         self.centre = np.asarray(centre, dtype=np.float64)
         self.radius = float(radius)
         self.mesh_hash = str(mesh_hash)

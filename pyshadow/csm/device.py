@@ -11,7 +11,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl.tables import CSM_TYPE
-from .core import DEPTH_Q, SEARCH_BLOCK
+from .core import DEPTH_Q, SEARCH_BLOCK, lookup_box
 
 __all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas"]
 
@@ -147,7 +147,8 @@ def scene_atlas(types) -> dict:
         # zigzag grid steps' cos and sin: the kernel's angle addition
         steps = ([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
                   np.sin(2 * np.pi / p2)] if c.views.layout == "zigzag" else [0.0] * 4)
-        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32))
+        box = lookup_box(c)
+        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), box[0], box[1])
         offs.append(a["offsets"][:-1].astype(np.int64) + seg)
         soffs.append(a["soff"][:-1].astype(np.int64) + blk)
         summ.append(a["summary"].astype(di))

@@ -62,12 +62,16 @@ class Layout:
         The frame's centre, object units (the bounding sphere's by default).
     radius : float
         The frame's radius, object units.
+    box : ndarray, shape (2, 3), optional
+        The mesh's box in the normalised frame (:attr:`CoherentShadowMap.box`);
+        None: the sphere alone cuts a ray's chord.
     """
     views: ViewSet
     resolution: int
     depth_bits: int
     centre: np.ndarray
     radius: float
+    box: np.ndarray | None = None
 
     @classmethod
     def for_mesh(cls, mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16) -> "Layout":
@@ -75,7 +79,9 @@ class Layout:
         from ..mesh import bounding_sphere
 
         c, r = bounding_sphere(mesh)
-        return cls(ViewSet.zigzag(*maps), int(resolution), int(depth_bits), np.asarray(c, np.float64), float(r))
+        c = np.asarray(c, np.float64)
+        return cls(ViewSet.zigzag(*maps), int(resolution), int(depth_bits), c, float(r),
+                   (np.asarray(mesh.bounds, np.float64) - c) / float(r))
 
     @property
     def label(self) -> str:

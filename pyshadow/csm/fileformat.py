@@ -15,7 +15,8 @@ bytes     content
           layout_params, centre, radius, depth_bits, layer_rule,
           mesh_hash, segments, offsets_dtype, writer; optional
           front_margin_texels (default 0), footprint (default
-          false), build_seconds
+          false), box (the mesh's box in the normalised frame,
+          [[lo x, y, z], [hi x, y, z]]; default none), build_seconds
 aligned   arrays at 64-byte boundaries after the header, in order:
           offsets (R*R+1, uint32 or uint64), iend (S, uint16 when
           D <= 65536 else uint32), depth (S, uint16 or float32)
@@ -59,6 +60,7 @@ def header(csm, reproducible: bool = False) -> dict:
         "layer_rule": csm.layer_rule,
         "front_margin_texels": csm.front_margin_texels,
         "footprint": csm.footprint,
+        "box": None if csm.box is None else csm.box.tolist(),
         "mesh_hash": csm.mesh_hash,
         "segments": csm.segments,
         "offsets_dtype": csm.offsets.dtype.str,
@@ -186,6 +188,17 @@ def _from_header(cls, path, head, start, size, mmap):
     footprint = head.get("footprint", False)             # absent in files from before the option
     if not isinstance(footprint, bool):
         raise CSMFormatError(f"{path}: footprint must be true or false, got {footprint!r}")
+    box = head.get("box")                                 # absent in files from before boxes
+    if box is not None:
+        try:
+            box = np.array(box, dtype=np.float64)
+            ok = box.shape == (2, 3) and bool(np.isfinite(box).all()) and bool((box[0] <= box[1]).all()) \
+                and bool((np.abs(box) <= 1.0 + 1e-6).all())
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise CSMFormatError(f"{path}: box must be [[lo x, y, z], [hi x, y, z]] with lo <= hi inside "
+                                 f"[-1, 1] (the normalised frame), got {head.get('box')!r}")
     if layout not in _LAYOUTS:
         raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
     if odt not in ("<u4", "<u8"):
@@ -233,7 +246,7 @@ def _from_header(cls, path, head, start, size, mmap):
                centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
                offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
                build_seconds=head.get("build_seconds") or float("nan"), front_margin_texels=margin,
-               footprint=footprint)
+               footprint=footprint, box=box)
 
 
 def _validate_arrays(path, data, R, D, S, bits):

@@ -307,7 +307,7 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     lift : ndarray of bool, shape (N,), optional
     texel_points : ndarray, shape (N, 3), optional
         Where each point's texel is taken, normalised frame (default ``pn``;
-        a point from outside the sphere: its chord's midpoint,
+        a point before its chord through the caster: the chord's midpoint,
         :func:`pyshadow.visibility.mirror.caster_occludes`).
 
     Returns

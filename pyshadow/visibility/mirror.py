@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import check_indices, nonzero, rows3, unit_normals
-from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS
+from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
@@ -78,11 +78,12 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
     """Rows ``ask`` of world rays ``(p, w)`` that one caster shadows, by the kernel's rules (float64).
 
     Bounding-sphere cull, the point and direction in the caster's normalised
-    frame, far points moved to the sphere (depth at the ray's entry, texel at
-    its chord's midpoint), the surface rule where normals
-    ``m`` are given (for the rows ``own_rows`` that may lie on this caster),
-    the nearest map or the vote's window, then ``vote`` (:func:`shadow_vote`,
-    or the traced taps of :mod:`pyshadow.csm.error_model`) over the taps.
+    frame, points before their ray's chord through the sphere and the mesh's
+    box asked at it (:func:`_to_chord`; rays whose chord is empty or behind
+    them missed), the surface rule where normals ``m`` are given (for the rows
+    ``own_rows`` that may lie on this caster), the nearest map or the vote's
+    window, then ``vote`` (:func:`shadow_vote`, or the traced taps of
+    :mod:`pyshadow.csm.error_model`) over the taps.
 
     Parameters
     ----------
@@ -120,7 +121,7 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         return out
     pn = ((p[act] - translation) @ rotation) / (scale * csm.radius) - csm.centre / csm.radius
     wn = w[act] @ rotation
-    pn, pt = _to_sphere(pn, wn)
+    pn, pt, miss = _to_chord(pn, wn, lookup_box(csm))
     mine = own_rows[act]
     mn, up = None, None
     if m is not None:
@@ -130,25 +131,38 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         maps, map_w = csm.views.filter_window(wn)
     else:
         maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
-    v = vote(csm, pn, wn, maps, map_w, quantum=quantum, texels=4 if lookup == "vote" else 1,
-             self_=mine, bias=bias, bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS,
-             normals=mn, lift=up, texel_points=pt)
-    out[np.flatnonzero(act)[v > 0.5]] = True
+    taps = dict(quantum=quantum, texels=4 if lookup == "vote" else 1, self_=mine, bias=bias,
+                bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS, normals=mn, lift=up)
+    v = vote(csm, pn, wn, maps, map_w, texel_points=pt, **taps)
+    out[np.flatnonzero(act)[(v > 0.5) & ~miss]] = True
     return out
 
 
-def _to_sphere(q, v):
-    """Where points outside the unit sphere are asked (kernels/csm_lookup.h, instance_v), float64.
+def _to_chord(q, v, box):
+    """Where points are asked on their ray's chord through a caster (kernels/csm_lookup.h, instance_v), float64.
 
-    Returns ``(depth_points, texel_points)``: a point whose unit ray ``v``
-    enters the sphere is asked its depth where the ray enters and its texel
-    at the midpoint of the ray's chord; the others are unchanged in both.
+    The chord is the part of the ray inside both the unit sphere and
+    ``box`` (``(lo, hi)``, :func:`pyshadow.csm.core.lookup_box`): ``u`` in
+    ``[u0, u1]`` along ``v`` from ``perp = q - (q.v) v``. Returns
+    ``(depth_points, texel_points, miss)``: a point before its chord takes
+    its texel at the chord's midpoint and,
+    from outside the sphere, its depth where the ray enters the sphere; other
+    points are unchanged in both; ``miss`` where the chord is empty or behind
+    the point (the caster cannot shadow the ray).
     """
     b = np.einsum("ij,ij->i", q, v)
     perp = q - b[:, None] * v
-    e = np.sqrt(np.maximum(1.0 - np.einsum("ij,ij->i", perp, perp), 0.0))
-    far = (np.einsum("ij,ij->i", q, q) > 1.0) & (b < -e)
-    return np.where(far[:, None], perp - e[:, None] * v, q), np.where(far[:, None], perp, q)
+    h2 = 1.0 - np.einsum("ij,ij->i", perp, perp)
+    e = np.sqrt(np.maximum(h2, 0.0))
+    lo, hi = (np.asarray(x, np.float64) for x in box)
+    r = 1.0 / np.where(np.abs(v) < 1e-30, 1e-30, v)
+    ua, ub = (lo - perp) * r, (hi - perp) * r
+    u0 = np.maximum(-e, np.minimum(ua, ub).max(axis=1))
+    u1 = np.minimum(e, np.maximum(ua, ub).min(axis=1))
+    miss = (h2 < 0) | (u0 > u1) | (u1 < b)
+    far = (b < u0) & ~miss
+    return (np.where((far & (b < -e))[:, None], perp - e[:, None] * v, q),
+            np.where(far[:, None], perp + (0.5 * (u0 + u1))[:, None] * v, q), miss)
 
 
 def _raise_directions(csm, lookup, wn, mn, mine):

@@ -33,8 +33,10 @@
  *     covering angle above the tangent plane where it is lower, and the
  *     point is lifted off the surface where the map sees it obliquely
  *     (pyshadow.csm.surface_rule gives the reasons).
- *   Points outside map k's square or in front of the bounding sphere
- *   (depth <= 0) cannot be shadowed by that instance.
+ *   A point before its ray's chord through the instance (inside its sphere
+ *   and its mesh's box) is asked there (csm_lookup.h, instance_v); a ray
+ *   whose chord is empty or behind it, points outside map k's square or in
+ *   front of the bounding sphere (depth <= 0) are not shadowed by it.
  *   FILTERED: instead of one texel of map k, a vote -- the four maps of
  *   views.ViewSet.filter_window (inverse-angle weights) times the four
  *   texels around p' in each (bilinear weights of the texel centres), each

@@ -83,7 +83,7 @@ def test_box_cut_chord_on_a_thin_plate(plate_scenes):
     """Rays from 1.5 and 20 plate radii away through points inside the plate (Embree: every one blocked).
     The chord cut to the box takes the texel within the plate instead of up to a sphere radius beside it.
     Measured (PoCL, 8 lanes; these 6000 rays): one-texel 0.9623 -> 0.9925, vote 0.9817 -> 0.9988 against
-    the sphere alone; bounds 0.985 and 0.995 with the box, and at least 0.02 (one-texel) and 0.01 (vote)
+    the sphere alone; bounds 0.99 and 0.995 with the box, and at least 0.02 (one-texel) and 0.01 (vote)
     better than without it. Kernel and mirror agree ray for ray up to float32 rounding (<= 0.2 %)."""
     rng = np.random.default_rng(1)
     n = 6000
@@ -94,7 +94,7 @@ def test_box_cut_chord_on_a_thin_plate(plate_scenes):
     for distance in (1.5, 20.0):
         P, D = target + d * distance, -d
         assert not embree.visible(new, P, D).any()
-        for lookup, bound in (("nearest", 0.985), ("vote", 0.995)):
+        for lookup, bound in (("nearest", 0.99), ("vote", 0.995)):
             got, before = (1.0 - s.visible(P, D, lookup=lookup).mean() for s in (new, old))
             assert got >= bound
             assert got >= before + (0.02 if lookup == "nearest" else 0.01)

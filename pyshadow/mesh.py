@@ -24,6 +24,7 @@ __all__ = [
     "close_holes",
     "mesh_hash",
     "normalised_vertices",
+    "normalised_bounds",
 ]
 
 
@@ -332,6 +333,11 @@ def normalised_vertices(mesh: trimesh.Trimesh, centre=None, radius=None) -> np.n
     if centre is None or radius is None:
         centre, radius = bounding_sphere(mesh)
     return (np.asarray(mesh.vertices, dtype=np.float64) - centre) / radius
+
+
+def normalised_bounds(mesh: trimesh.Trimesh, centre, radius) -> np.ndarray:
+    """The mesh's axis-aligned bounding box ``(lo, hi)`` in the normalised frame, float64 (2, 3)."""
+    return (np.asarray(mesh.bounds, dtype=np.float64) - centre) / radius
 
 
 def mesh_hash(mesh: trimesh.Trimesh) -> str:

@@ -12,7 +12,7 @@ import pyopencl as cl
 import trimesh
 
 from .. import _cl
-from ..mesh import bounding_sphere, load_mesh, mesh_hash
+from ..mesh import bounding_sphere, load_mesh, mesh_hash, normalised_bounds
 from ..raster import DepthRenderer, _check_resolution_layers
 from ..views import ViewSet
 from . import core
@@ -227,4 +227,4 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
                centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
                front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint,
-               box=(np.asarray(mesh.bounds, np.float64) - centre) / radius)
+               box=normalised_bounds(mesh, centre, radius))

@@ -76,12 +76,12 @@ class Layout:
     @classmethod
     def for_mesh(cls, mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16) -> "Layout":
         """The layout :meth:`CoherentShadowMap.build` would give ``mesh`` (zigzag maps, bounding sphere)."""
-        from ..mesh import bounding_sphere
+        from ..mesh import bounding_sphere, normalised_bounds
 
         c, r = bounding_sphere(mesh)
         c = np.asarray(c, np.float64)
         return cls(ViewSet.zigzag(*maps), int(resolution), int(depth_bits), c, float(r),
-                   (np.asarray(mesh.bounds, np.float64) - c) / float(r))
+                   normalised_bounds(mesh, c, float(r)))
 
     @property
     def label(self) -> str:

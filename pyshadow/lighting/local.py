@@ -37,10 +37,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import in_range, unit_direction
+from .sun import _GOLDEN
 
 __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
-
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def _position(x, name):

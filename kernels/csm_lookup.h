@@ -233,8 +233,8 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     if (layout == 0) {
         iv k[4];
         fv cx[4], cy[4], cz[4];
-        zigzag_window_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1], T->zigzag_steps[2],
-                        T->zigzag_steps[3], vx, vy, vz, k, cx, cy, cz);
+        zigzag_window_v(T->p1, T->p2, T->zigzag_offset, T->zigzag_steps[0], T->zigzag_steps[1],
+                        T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz, k, cx, cy, cz);
         fv wsum = (fv)(0.0f), wt[4];
         for (int m = 0; m < 4; ++m) {
             const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];
@@ -317,8 +317,9 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
 #if PROFILE_SKIP_NEAREST
     if (layout == 0) k = clamp(CONVERT(int, fabs(vx) * (float)(T->maps - 1)), 0, T->maps - 1);
 #else
-    if (layout == 0) k = nearest_zigzag_v(T->p1, T->p2, T->zigzag_steps[0], T->zigzag_steps[1],
-                                          T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz);
+    if (layout == 0) k = nearest_zigzag_v(T->p1, T->p2, T->zigzag_offset, T->zigzag_steps[0],
+                                          T->zigzag_steps[1], T->zigzag_steps[2], T->zigzag_steps[3],
+                                          vx, vy, vz);
 #endif
 #endif
     LANE_ARRAY int ka[LANES];

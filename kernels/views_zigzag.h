@@ -6,8 +6,9 @@
  *   zigzag_window_v()   the four candidates, as map indices and directions
  *                       (also the window of FILTERED lookups)
  *   nearest_zigzag_v()  the nearest of them (one-texel lookups)
- * A CSM type gives T = p1, P = p2 and the cos and sin of one grid step in
- * theta and in phi (csm_type_t.zigzag_steps, scene_types.h).
+ * A CSM type gives T = p1, P = p2, the cos and sin of one grid step in
+ * theta and in phi (csm_type_t.zigzag_steps, scene_types.h) and the rows'
+ * offset off (zigzag_offset: row i at theta = (i + off) pi / T).
  * Expects: LANES (lanes.h), LAYOUT_ZIGZAG (0: nothing is compiled; lane_math.h
  * still is, unused).
  */
@@ -19,17 +20,25 @@
 #include "lane_math.h"
 
 #if LAYOUT_ZIGZAG
-/* the 2 x 2 grid points around each lane's (theta, phi) -- rows r0, r0 + 1
- * (the last row repeated), columns c0, c0 + 1 -- as map indices k[4] and
- * directions (cx, cy, cz)[4], in the order of views.ViewSet.filter_window */
-inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float ssp,
+/* the 2 x 2 grid points around each lane's (theta, phi) -- rows r0, r0 + 1,
+ * columns c0, c0 + 1 -- as map indices k[4] and directions (cx, cy, cz)[4],
+ * in the order of views.ViewSet.filter_window. r0 is the last row at or
+ * above theta (row 0 above the first row). Beyond the first or the last row
+ * the second pair is, on centred rows (off 0.5) with P even, the same row's
+ * opposite columns c + P / 2 across the pole (the nearest maps there);
+ * otherwise the next row, or the last row repeated. */
+inline void zigzag_window_v(int T, int P, float off, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)
 {
     const fv th = acos_v(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
     const fv ph = atan2_pos_v(wz, wx);
     const float dth = PI_F / (float)T, dph = 2.0f * PI_F / (float)P;
-    /* th, ph >= 0: truncation is floor */
-    const iv r0 = VMIN(VMAX(CONVERT(int, th * ((float)T / PI_F)), (iv)(0)), (iv)(T - 1));
+    /* ph >= 0: truncation is floor; th T / pi - off may lie in (-1, 0) above
+     * the first row, where truncation gives 0 as the clamp would */
+    const fv rowf = th * ((float)T / PI_F) - off;
+    const iv ru = CONVERT(int, rowf);
+    const iv r0 = VMIN(VMAX(ru, (iv)(0)), (iv)(T - 1));
+    const iv across = (MASK(rowf < 0.0f) | MASK(ru >= T - 1)) & (iv)((off == 0.5f && (P & 1) == 0) ? -1 : 0);
     /* cu: the column below ph before wrapping (ph may round up to 2 pi just
      * below the seam: cu = P), the offset dcol is measured from it */
     const iv cu = VMIN(VMAX(CONVERT(int, ph * ((float)P / (2.0f * PI_F))), (iv)(0)), (iv)(P));
@@ -41,7 +50,8 @@ inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float
     const iv pole = MASK(rho == 0.0f);
     const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
     const fv cth = wy, sth = rho;
-    const fv drow = th - CONVERT(float, r0) * dth, dcol = ph - CONVERT(float, cu) * dph;
+    /* drow < 0 above the first row (the short series and cos, sin are odd and even) */
+    const fv drow = th - (CONVERT(float, r0) + off) * dth, dcol = ph - CONVERT(float, cu) * dph;
     /* the offsets are below one grid step: the short series where a step is
      * below 0.2 rad (1e-8), the library's cos and sin on coarser grids */
     fv cd, sd, ce, se;
@@ -52,19 +62,27 @@ inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float
     }
     const fv ct0 = cth * cd + sth * sd, st0 = sth * cd - cth * sd;
     const fv cp0 = cph * ce + sph * se, sp0 = sph * ce - cph * se;
-    const iv last = MASK(r0 + 1 > T - 1);
-    const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last), st1 = VSEL(st0 * cst + ct0 * sst, st0, last);
+    /* the second row: one step on, the last row repeated, or across the
+     * pole (theta mirrored through it: the same cos, the sine negated, which
+     * turns (cos phi, sin phi) half a turn) */
+    const iv last = MASK(r0 + 1 > T - 1) | across;
+    const fv ct1 = VSEL(ct0 * cst - st0 * sst, ct0, last);
+    const fv st1 = VSEL(VSEL(st0 * cst + ct0 * sst, st0, last), -st0, across);
     const fv cp1 = cp0 * csp - sp0 * ssp, sp1 = sp0 * csp + cp0 * ssp;
     iv c1 = c0 + 1;
     c1 = VSEL(c1, c1 - P, MASK(c1 >= P));
-    const iv r1 = VMIN(r0 + 1, (iv)(T - 1));
+    const iv r1 = VSEL(VMIN(r0 + 1, (iv)(T - 1)), r0, across);
+    /* the second row's columns: c0, c1, or across the pole c + P / 2 */
+    iv a0 = VSEL(c0, c0 + P / 2, across), a1 = VSEL(c1, c1 + P / 2, across);
+    a0 = VSEL(a0, a0 - P, MASK(a0 >= P));
+    a1 = VSEL(a1, a1 - P, MASK(a1 >= P));
 #define ZZ_CANDIDATE(I, R, C, CT, ST, CP, SP)                                        \
     k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), MASK(((R) & 1) != 0));              \
     cx[I] = (ST) * (CP); cy[I] = (CT); cz[I] = (ST) * (SP);
     ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
     ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
-    ZZ_CANDIDATE(2, r1, c0, ct1, st1, cp0, sp0)
-    ZZ_CANDIDATE(3, r1, c1, ct1, st1, cp1, sp1)
+    ZZ_CANDIDATE(2, r1, a0, ct1, st1, cp0, sp0)
+    ZZ_CANDIDATE(3, r1, a1, ct1, st1, cp1, sp1)
 #undef ZZ_CANDIDATE
 }
 
@@ -73,12 +91,12 @@ inline void zigzag_window_v(int T, int P, float cst, float sst, float csp, float
  * and phi need only be near: an error far below the grid step can only move
  * the 2 x 2 window when the direction is next to a grid line, and then the
  * grid point on that line -- the nearest -- stays in the window. */
-inline iv nearest_zigzag_v(int T, int P, float cst, float sst, float csp, float ssp,
+inline iv nearest_zigzag_v(int T, int P, float off, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz)
 {
     iv k[4];
     fv cx[4], cy[4], cz[4];
-    zigzag_window_v(T, P, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
+    zigzag_window_v(T, P, off, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
     for (int c = 0; c < 4; ++c) {

@@ -11,9 +11,15 @@ directions with nearby bases.
 Layouts
 -------
 ``zigzag``
-    The thesis grid (Listing 5.1): ``theta`` rows with ``theta_i = i*pi/theta``
-    (row 0 lies *on* the north pole), ``phi`` columns with
+    The thesis grid (Listing 5.1): ``theta`` rows with
+    ``theta_i = (i + row_offset)*pi/theta``, ``phi`` columns with
     ``phi_j = j*2*pi/phi``; even rows run up in phi, odd rows back down.
+    The thesis's ``row_offset = 0`` puts row 0 *on* the north pole and no
+    row on the south pole, which then lies a whole row step from its
+    nearest maps, twice the half step of any other direction. The default
+    ``row_offset = 0.5`` centres the rows in their bands: both poles lie
+    half a step from a row, and no row is a pole's ``phi`` copies of one
+    direction.
 ``hilbert``
     An equal-area octahedral map of the sphere onto a ``2^k x 2^k`` grid
     (Clarberg 2008), cells visited along one Hilbert curve (as in Ritschel
@@ -24,9 +30,10 @@ Bases (both layouts) are parallel-transported along the order: each basis is
 its predecessor rotated by the smallest rotation taking ``d_{k-1}`` to
 ``d_k``, starting from the thesis's up-vector basis (eq. 5.4) at the first
 map, written in the grid angles (``u = (sin phi, 0, -cos phi)``) so that it
-is defined on the zigzag grid's pole row, where ``(0, 1, 0) x d`` vanishes.
-Consecutive bases then differ exactly as much as their directions, no pole is
-special, and the maps of the zigzag pole row (one direction) are identical.
+is defined on a zigzag grid's pole row (``row_offset = 0``), where
+``(0, 1, 0) x d`` vanishes. Consecutive bases then differ exactly as much as
+their directions, no pole is special, and the maps of a pole row (one
+direction) are identical.
 Compared with the up-vector basis at every map, whose image turns by
 ``dphi * cos(theta)`` between neighbours along a row, this cuts the number
 of segments of a CSM (measured in benchmarks/README.md, the compression
@@ -194,7 +201,8 @@ class ViewSet:
     layout : str
         ``'zigzag'``, ``'hilbert'`` or ``'custom'``.
     params : dict
-        Layout parameters: ``{'theta', 'phi'}`` or ``{'level'}``.
+        Layout parameters: ``{'theta', 'phi', 'row_offset'}`` (no
+        ``row_offset``: 0) or ``{'level'}``.
     """
 
     def __init__(self, directions, bases, layout: str = "custom", params: dict | None = None):
@@ -214,29 +222,40 @@ class ViewSet:
 
     # -- constructors -----------------------------------------------------
     @classmethod
-    def zigzag(cls, theta: int = 64, phi: int = 128) -> "ViewSet":
+    def zigzag(cls, theta: int = 64, phi: int = 128, row_offset: float = 0.5) -> "ViewSet":
         """The thesis grid in zigzag order (thesis 000, Listing 5.1).
 
         Parameters
         ----------
         theta, phi : int
-            Rows (polar angle steps of ``pi/theta``, row 0 on the north pole)
-            and columns (azimuth steps of ``2*pi/phi``); ``D = theta*phi``.
+            Rows (polar angle steps of ``pi/theta``) and columns (azimuth
+            steps of ``2*pi/phi``); ``D = theta*phi``.
+        row_offset : {0.5, 0}, optional
+            Row ``i`` lies at the polar angle ``(i + row_offset)*pi/theta``.
+            0.5 (default): rows centred in their bands, each pole half a
+            step from its nearest row; beyond the first (last) row the
+            nearest maps are that row's, on both sides of the pole, and the
+            lookups' 2 x 2 window takes them (``phi`` even). 0: the thesis's
+            grid, row 0 on the north pole and the south pole a whole step
+            from the last row (CSM files without the parameter).
         """
         theta, phi = int(theta), int(phi)
         if theta < 1 or phi < 1:
             raise ValueError(f"ViewSet.zigzag needs theta >= 1 and phi >= 1, got {theta}x{phi}")
+        row_offset = float(row_offset)
+        if row_offset not in (0.0, 0.5):
+            raise ValueError(f"ViewSet.zigzag needs row_offset 0 or 0.5, got {row_offset}")
         rows = np.repeat(np.arange(theta), phi)
         k = np.tile(np.arange(phi), theta)
         cols = np.where(rows % 2 == 0, k, phi - 1 - k)
-        th = rows * (np.pi / theta)
+        th = (rows + row_offset) * (np.pi / theta)
         ph = cols * (2.0 * np.pi / phi)
         d = polar_direction(th, ph)
         # start from the thesis's basis at the first map (eq. 5.4 written in
         # the grid angles, defined on the pole), then transport it along the order
         u0 = np.array([np.sin(ph[0]), 0.0, -np.cos(ph[0])])
         bases = _transport_bases(d, u0)
-        return cls(d, bases, "zigzag", {"theta": theta, "phi": phi})
+        return cls(d, bases, "zigzag", {"theta": theta, "phi": phi, "row_offset": row_offset})
 
     @classmethod
     def hilbert(cls, level: int = 6, hemispheres: bool = False) -> "ViewSet":
@@ -288,7 +307,7 @@ class ViewSet:
     def from_params(cls, layout: str, params: dict) -> "ViewSet":
         """Rebuild a zigzag or hilbert view set from its layout and parameters."""
         if layout == "zigzag":
-            return cls.zigzag(params["theta"], params["phi"])
+            return cls.zigzag(params["theta"], params["phi"], params.get("row_offset", 0.0))
         if layout == "hilbert":
             return cls.hilbert(params["level"], bool(params.get("hemispheres", False)))
         raise ValueError(f"unknown view-set layout {layout!r}")
@@ -320,8 +339,9 @@ class ViewSet:
         ndarray, shape (N,), int32
             For ``zigzag`` and ``hilbert`` an O(1) lookup per direction: the
             grid cell holding the direction and its neighbours are compared
-            (on the pole row of the zigzag grid, whose maps share one
-            direction, the column of the direction's azimuth is taken). A
+            (on the pole row of a ``row_offset = 0`` zigzag grid, whose maps
+            share one direction, the column of the direction's azimuth is
+            taken). A
             ``custom`` set uses a k-d tree.
         """
         if len(self) == 0:
@@ -383,15 +403,23 @@ class ViewSet:
         return row * P + np.where(row % 2 == 0, col, P - 1 - col)
 
     def _zigzag_window(self, d):
-        """Map indices (N, 4) of the 2 x 2 grid points around each direction."""
+        """Map indices (N, 4) of the 2 x 2 grid points around each direction: rows r0 (the last at or
+        above theta; 0 above the first) and r0 + 1 (the last repeated), or, beyond the first or last
+        of centred rows (row_offset 0.5, phi even), r0 again at the opposite columns across the pole."""
         T, P = self.params["theta"], self.params["phi"]
         theta = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
         phi = np.arctan2(d[:, 2], d[:, 0])
         phi = np.where(phi < 0, phi + 2 * np.pi, phi)
-        r0 = np.clip(np.floor(theta / (np.pi / T)).astype(np.int64), 0, T - 1)
+        off = self.params.get("row_offset", 0.0)
+        rowf = theta / (np.pi / T) - off
+        r0 = np.clip(np.floor(rowf).astype(np.int64), 0, T - 1)
+        across = ((rowf < 0) | (rowf >= T - 1)) & (off == 0.5 and P % 2 == 0)
+        r1 = np.where(across, r0, np.minimum(r0 + 1, T - 1))
         c0 = np.floor(phi / (2 * np.pi / P)).astype(np.int64) % P
-        return np.stack([self._zigzag_index(np.minimum(r0 + dr, T - 1), (c0 + dc) % P)
-                         for dr in (0, 1) for dc in (0, 1)], axis=1)
+        shift = np.where(across, P // 2, 0)
+        return np.stack([self._zigzag_index(r0, c0), self._zigzag_index(r0, (c0 + 1) % P),
+                         self._zigzag_index(r1, (c0 + shift) % P),
+                         self._zigzag_index(r1, (c0 + 1 + shift) % P)], axis=1)
 
     def _nearest_zigzag(self, d):
         cand = self._zigzag_window(d)

@@ -273,7 +273,7 @@ def test_table_structs_match_their_dtypes_on_the_device():
     prg.offsets(_cl.queue(), (1,), None, _cl.empty(256), buf)
     cl.enqueue_copy(_cl.queue(), out, buf)
     assert out.tolist() == want
-    assert tables.CSM_TYPE.itemsize == 72 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
+    assert tables.CSM_TYPE.itemsize == 76 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
 
 
 def test_c_struct_refuses_fields_it_cannot_lay_out_alike():

@@ -231,3 +231,27 @@ def test_box_survives_save_and_load_and_old_files_have_none(tmp_path, small_csm)
         bad = _rewrite(path, tmp_path / f"{label}.csm", edit_header=lambda h, b=box: h.update(box=b))
         with pytest.raises(CSMFormatError, match="box"):
             CoherentShadowMap.load(bad)
+
+
+def test_zigzag_row_offset_survives_save_and_load_and_old_files_are_the_thesis_grid(tmp_path, small_csm):
+    """A zigzag CSM's row offset is saved; a file from before the offset (no ``row_offset``) loads as the
+    thesis's grid (offset 0, row 0 on the north pole); an offset other than 0 or 0.5, or not a number, is
+    refused by name."""
+    assert small_csm.views.layout == "zigzag" and small_csm.views.params["row_offset"] == 0.5
+    path = small_csm.save(tmp_path / "z.csm")
+    back = CoherentShadowMap.load(path)
+    assert back.views.params == small_csm.views.params
+    np.testing.assert_array_equal(back.views.directions, small_csm.views.directions)
+
+    old = CoherentShadowMap.load(_rewrite(path, tmp_path / "old.csm",
+                                          edit_header=lambda h: h["layout_params"].pop("row_offset")))
+    T, P = small_csm.views.params["theta"], small_csm.views.params["phi"]
+    assert old.views.params["row_offset"] == 0.0
+    np.testing.assert_array_equal(old.views.directions[0], [0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(old.views.directions,
+                                  pyshadow.ViewSet.zigzag(T, P, row_offset=0.0).directions)
+    for label, off in (("one", 1.0), ("negative", -1), ("text", "x"), ("two", 2), ("quarter", 0.2)):
+        bad = _rewrite(path, tmp_path / f"{label}.csm",
+                       edit_header=lambda h, o=off: h["layout_params"].update(row_offset=o))
+        with pytest.raises(CSMFormatError, match="row_offset"):
+            CoherentShadowMap.load(bad)

@@ -125,7 +125,9 @@ def test_choice_goes_on_where_verification_misses(torus, monkeypatch):
         out["disagreement"] /= 20
         return out
     monkeypatch.setattr(choose, "predict", optimist)
-    target = 0.01
+    # 0.005: the first candidate (16x32 @ 64^2) measures 0.0091 on these rays (0.01 passed it once the
+    # zigzag rows were centred; before, it measured above 0.01)
+    target = 0.005
     csm, c = choose_csm(torus, target, points=400, samples=8, near=3000)
     built = [t for t in c["tried"] if "measured" in t]
     assert len(built) >= 2 and built[0]["measured"]["disagreement"] > target

@@ -92,11 +92,10 @@ def _check_direction(scene, d, rng, lookup, generic, accept, d_obj=None):
     scaled by the direction's angle to its nearest map over the largest generic one where it is larger.
 
     A lookup's texel misses the ray's path by the angle between the ray and its map times the distance
-    along the ray's chord, so disagreement grows with that angle. A zigzag layout has a map at the +y
-    pole and none at -y: -y lies pi / T from its nearest maps, the largest angle of the layout (22.5
-    deg at 8 x 16 against 11.0 deg for the worst generic direction here). Measured, 4000 rays from
-    1.05 radii, one-texel / vote: -y 0.090 / 0.086 against a generic mean 0.047 / 0.024 (before the
-    chord-midpoint texel of far points: 0.190 / 0.198 against 0.085 / 0.055)."""
+    along the ray's chord, so disagreement grows with that angle. The thesis's zigzag grid
+    (``row_offset=0``) has a map at the +y pole and none at -y, which lies pi / T from its nearest maps,
+    the largest angle of that layout; the default centred rows put both poles half a step from their
+    nearest maps, below the worst generic direction's angle, so the scale is 1 there."""
     P, D = _rays_along(scene, d, 3000, rng)
     be = "csm" if lookup == "nearest" else "csm-vote"
     vis = visibility.visible(scene, P, D, backend=be)
@@ -116,8 +115,10 @@ def _check_direction(scene, d, rng, lookup, generic, accept, d_obj=None):
 @pytest.mark.parametrize("lookup", ["nearest", "vote"])
 @pytest.mark.parametrize("pole", [1.0, -1.0])
 def test_direction_at_pole(bunny_csm, generic_wrong, lookup, pole, rng):
-    """Row 'dir pole +-y': exactly at the pole of the map frame, both lookups."""
+    """Row 'dir pole +-y': exactly at the pole of the map frame, both lookups. With centred rows
+    neither pole lies farther from its maps than the worst generic direction (no angle scale)."""
     d = np.array([0.0, pole, 0.0])
+    assert _map_angle(bunny_csm.views, d) <= generic_wrong["angle"]
     _check_direction(_bunny_scene(bunny_csm), d, rng, lookup, generic_wrong, _nudged(bunny_csm.views, d))
 
 
@@ -144,10 +145,12 @@ def test_direction_on_seam(bunny_csm, generic_wrong, lookup, z, rng):
     _check_direction(_bunny_scene(bunny_csm), d, rng, lookup, generic_wrong, accept)
 
 
-def _between(kind):
+def _between(kind, views):
     T, P = VIEWS
     dth, dph = np.pi / T, 2 * np.pi / P
-    th, ph = {"phi": (2 * dth, 3.5 * dph), "theta": (2.5 * dth, 3 * dph), "four": (2.5 * dth, 3.5 * dph)}[kind]
+    r = 2 + views.params["row_offset"]         # row 2's polar angle, in steps
+    th, ph = {"phi": (r * dth, 3.5 * dph), "theta": ((r + 0.5) * dth, 3 * dph),
+              "four": ((r + 0.5) * dth, 3.5 * dph)}[kind]
     return polar_direction(th, ph)
 
 
@@ -156,7 +159,7 @@ def _between(kind):
 def test_direction_between_maps(bunny_csm, generic_wrong, lookup, kind, rng):
     """Row 'dir between maps': equidistant from two (four) map directions. float32 decides the tie:
     the kernel's answer must be that of one of the tied maps."""
-    d = _between(kind)
+    d = _between(kind, bunny_csm.views)
     accept = _nudged(bunny_csm.views, d)
     _check_direction(_bunny_scene(bunny_csm), d, rng, lookup, generic_wrong, accept)
 

@@ -9,6 +9,7 @@ LAYOUTS = [
     pytest.param(lambda: pyshadow.ViewSet.zigzag(64, 128), id="zigzag64x128"),
     pytest.param(lambda: pyshadow.ViewSet.zigzag(8, 16), id="zigzag8x16"),
     pytest.param(lambda: pyshadow.ViewSet.zigzag(3, 5), id="zigzag3x5"),
+    pytest.param(lambda: pyshadow.ViewSet.zigzag(8, 16, row_offset=0.0), id="zigzag8x16-thesis"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(6), id="hilbert6"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(3), id="hilbert3"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(1), id="hilbert1"),
@@ -114,25 +115,80 @@ def test_bases_are_parallel_transported(make):
     np.testing.assert_allclose(basis_angle, dir_angle, rtol=0, atol=2e-7)
 
 
-def test_zigzag_matches_thesis_listing_5_1():
+@pytest.mark.parametrize("row_offset", [0.0, 0.5])
+def test_zigzag_matches_thesis_listing_5_1(row_offset):
+    # Listing 5.1 is row_offset 0; 0.5 moves every row half a step down, nothing else
     theta_divs, phi_divs = 6, 12
     expected = []
     inc_phi = True
     for i_theta in range(theta_divs):          # Listing 5.1, literally
         for i_phi in range(0 + (not inc_phi), phi_divs + (not inc_phi)):
-            theta = (i_theta / theta_divs) * np.pi
+            theta = ((i_theta + row_offset) / theta_divs) * np.pi
             phi = (i_phi / phi_divs) * 2.0 * np.pi
             if not inc_phi:
                 phi = 2.0 * np.pi - phi
             expected.append([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)])
         inc_phi = not inc_phi
-    views = pyshadow.ViewSet.zigzag(theta_divs, phi_divs)
+    views = pyshadow.ViewSet.zigzag(theta_divs, phi_divs, row_offset=row_offset)
     np.testing.assert_allclose(views.directions, expected, atol=1e-12)
-    assert len(views) == 72
+    assert len(views) == 72 and views.params == {"theta": 6, "phi": 12, "row_offset": row_offset}
+
+
+def test_zigzag_default_centres_rows_so_both_poles_lie_half_a_step_from_a_map(rng):
+    T, P = 16, 32
+    step = np.pi / T
+
+    def angle(views, d):
+        d = np.asarray(d, float).reshape(-1, 3)
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        return np.arccos(np.clip(np.einsum("ij,ij->i", views.directions[views.nearest(d)], d), -1, 1))
+
+    centred, thesis = pyshadow.ViewSet.zigzag(T, P), pyshadow.ViewSet.zigzag(T, P, row_offset=0.0)
+    assert centred.params["row_offset"] == 0.5
+    poles = [[0, 1.0, 0], [0, -1.0, 0]]
+    np.testing.assert_allclose(angle(centred, poles), [step / 2, step / 2], rtol=1e-12)
+    # the thesis's grid: a map on the north pole, the south pole a whole step away
+    np.testing.assert_allclose(angle(thesis, poles), [0.0, step], atol=1e-7)
+    # the centred grid's largest angle (the poles included) is the thesis grid's
+    # largest off the south cap: the cell centre, half a step in theta and in phi
+    d = rng.normal(size=(200_000, 3))
+    worst = angle(centred, np.vstack([d, poles])).max()
+    cell = np.arccos(np.cos(step / 2) * np.cos(step / 2))      # equator, dphi = dtheta
+    assert worst <= cell + 1e-9 and worst >= 0.95 * cell
+    assert angle(thesis, [[0, -1.0, 0]])[0] > 1.4 * worst
+
+
+def test_zigzag_window_at_the_poles_surrounds_the_pole_on_centred_rows():
+    # at a pole every map of the nearest (first or last) centred row lies half a
+    # step away; the window takes two on each side of the pole, equally weighted,
+    # so the vote is not the one-sided mix of a row and the next row's maps
+    T, P = 16, 32
+    views = pyshadow.ViewSet.zigzag(T, P)
+    poles = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
+    maps, w = views.filter_window(poles)
+    np.testing.assert_allclose(w, 0.25, rtol=1e-9)
+    ang = np.arccos(np.clip(np.einsum("ijk,ik->ij", views.directions[maps], poles), -1, 1))
+    np.testing.assert_allclose(ang, np.pi / T / 2, rtol=1e-9)
+    mean = views.directions[maps].mean(axis=1)
+    np.testing.assert_allclose(mean[:, [0, 2]], 0.0, atol=1e-12)     # two on each side
+    assert (maps[0] // P == 0).all() and (maps[1] // P == T - 1).all()
+    # the thesis grid keeps its pole row and the repeated last row
+    thesis = pyshadow.ViewSet.zigzag(T, P, row_offset=0.0)
+    maps0, _ = thesis.filter_window(poles)
+    assert (maps0[0] // P == [0, 0, 1, 1]).all() and (maps0[1] // P == T - 1).all()
+
+
+def test_zigzag_row_offset_out_of_range_is_refused():
+    with pytest.raises(ValueError, match="row_offset"):
+        pyshadow.ViewSet.zigzag(4, 8, row_offset=1.0)
+    with pytest.raises(ValueError, match="row_offset"):
+        pyshadow.ViewSet.zigzag(4, 8, row_offset=-0.1)
+    with pytest.raises(ValueError, match="row_offset"):
+        pyshadow.ViewSet.zigzag(4, 8, row_offset=0.25)
 
 
 def test_zigzag_pole_row_bases_are_defined():
-    views = pyshadow.ViewSet.zigzag(64, 128)
+    views = pyshadow.ViewSet.zigzag(64, 128, row_offset=0.0)
     pole = views.bases[:128]
     np.testing.assert_allclose(pole[:, 2], np.broadcast_to([0, 1, 0], (128, 3)), atol=1e-15)
     assert np.isfinite(pole).all()
@@ -217,18 +273,24 @@ def test_filter_window_maps_and_weights(make, rng):
     far = angle.min(axis=1) > 1e-3             # where arccos itself is accurate
     np.testing.assert_allclose(w[far], (inv / inv.sum(axis=1, keepdims=True))[far], rtol=1e-6)
     if views.layout == "zigzag":
-        # the 2 x 2 grid cell around (theta, phi): rows r0, r0 + 1 (the last
-        # row repeated), columns c0, c0 + 1 (cyclic)
-        T, P = views.params["theta"], views.params["phi"]
+        # the 2 x 2 grid cell around (theta, phi): rows r0, r0 + 1 (row 0 above
+        # the first row, the last row repeated below the last), columns c0, c0 + 1
+        # (cyclic); beyond the first or last of centred rows with P even, the
+        # second pair is r0's opposite columns, across the pole
+        T, P, off = views.params["theta"], views.params["phi"], views.params["row_offset"]
         rows = maps // P
         cols = np.where(rows % 2 == 0, maps % P, P - 1 - maps % P)
         th = np.arccos(np.clip(dirs[:, 1], -1, 1))
         ph = np.mod(np.arctan2(dirs[:, 2], dirs[:, 0]), 2 * np.pi)
+        cap = (th < off * np.pi / T) | (th >= (T - 1 + off) * np.pi / T)
+        across = cap & (off == 0.5) & (P % 2 == 0)
         assert (rows[:, 0] == rows[:, 1]).all() and (rows[:, 2] == rows[:, 3]).all()
-        assert (rows[:, 2] == np.minimum(rows[:, 0] + 1, T - 1)).all()
-        assert (rows[:, 0] * np.pi / T <= th + 1e-9).all()
-        assert ((th < (rows[:, 0] + 1) * np.pi / T + 1e-9) | (rows[:, 0] == T - 1)).all()
-        assert (cols[:, 0] == cols[:, 2]).all() and (cols[:, 1] == (cols[:, 0] + 1) % P).all()
+        assert (rows[:, 2] == np.where(across, rows[:, 0], np.minimum(rows[:, 0] + 1, T - 1))).all()
+        assert (((rows[:, 0] + off) * np.pi / T <= th + 1e-9) | (rows[:, 0] == 0)).all()
+        assert ((th < (rows[:, 0] + 1 + off) * np.pi / T + 1e-9) | (rows[:, 0] == T - 1)).all()
+        shift = np.where(across, P // 2, 0)
+        assert (cols[:, 2] == (cols[:, 0] + shift) % P).all() and (cols[:, 1] == (cols[:, 0] + 1) % P).all()
+        assert (cols[:, 3] == (cols[:, 1] + shift) % P).all()
         assert (np.mod(ph - cols[:, 0] * 2 * np.pi / P + 1e-9, 2 * np.pi) < 2 * np.pi / P + 2e-9).all()
     else:
         # hilbert: the nearest first

@@ -24,6 +24,7 @@ CSM_TYPE = np.dtype([
     ("view_base", "<i4"),       # first row of this type in bases
     ("cell_base", "<i4"),       # first entry of this type in cells (hilbert)
     ("zigzag_steps", "<f4", (4,)),  # cos, sin of pi / theta and of 2 pi / phi (zigzag)
+    ("zigzag_offset", "<f4"),   # zigzag: row i at theta (i + offset) pi / theta (ViewSet.zigzag row_offset)
     ("box_lo", "<f4", (3,)),    # the mesh's bounding box in the normalised frame (CoherentShadowMap.box)
     ("box_hi", "<f4", (3,)),
 ])

@@ -148,7 +148,8 @@ def scene_atlas(types) -> dict:
         steps = ([np.cos(np.pi / p1), np.sin(np.pi / p1), np.cos(2 * np.pi / p2),
                   np.sin(2 * np.pi / p2)] if c.views.layout == "zigzag" else [0.0] * 4)
         box = lookup_box(c)
-        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), box[0], box[1])
+        offset = p.get("row_offset", 0.0) if c.views.layout == "zigzag" else 0.0
+        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), offset, box[0], box[1])
         offs.append(a["offsets"][:-1].astype(np.int64) + seg)
         soffs.append(a["soff"][:-1].astype(np.int64) + blk)
         summ.append(a["summary"].astype(di))

@@ -16,7 +16,9 @@ bytes     content
           mesh_hash, segments, offsets_dtype, writer; optional
           front_margin_texels (default 0), footprint (default
           false), box (the mesh's box in the normalised frame,
-          [[lo x, y, z], [hi x, y, z]]; default none), build_seconds
+          [[lo x, y, z], [hi x, y, z]]; default none), build_seconds;
+          zigzag layout_params may hold row_offset (0 or 0.5;
+          default 0, the thesis's grid)
 aligned   arrays at 64-byte boundaries after the header, in order:
           offsets (R*R+1, uint32 or uint64), iend (S, uint16 when
           D <= 65536 else uint32), depth (S, uint16 or float32)
@@ -209,8 +211,12 @@ def _from_header(cls, path, head, start, size, mmap):
         raise CSMFormatError(f"{path}: radius must be finite and positive, got {radius}")
     try:
         if layout == "zigzag":
-            ok = set(params) == {"theta", "phi"} and all(
-                isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in params)
+            # row_offset: absent in files of the thesis's grid (0)
+            off = params.get("row_offset", 0.0)
+            if isinstance(off, bool) or not isinstance(off, (int, float)) or off not in (0.0, 0.5):
+                raise CSMFormatError(f"{path}: zigzag row_offset must be 0 or 0.5, got {off!r}")
+            ok = set(params) - {"row_offset"} == {"theta", "phi"} and all(
+                isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in ("theta", "phi"))
         else:
             ok = (set(params) in ({"level"}, {"level", "hemispheres"})
                   and isinstance(params["level"], int) and 0 <= params["level"] <= 10

@@ -185,6 +185,22 @@ def test_broken_mesh_builds_and_agrees_with_embree(views, broken, name):
     assert info["disagree"] <= bound
 
 
+def test_non_manifold_edge_costs_nothing(views, broken):
+    """The fin's edge, shared by three faces, against the same surfaces with the fin on its own
+    vertices (every edge manifold): the same CSM, bit for bit. What the fin row measures beyond the
+    clean box is the fin's own surface (benchmarks/README.md, the extremes)."""
+    raw = broken["non-manifold edge (fin)"][0]
+    detached = em.detach_fin(raw)
+    assert len(detached.vertices) == len(raw.vertices) + 2 and len(detached.faces) == len(raw.faces)
+    np.testing.assert_array_equal(detached.triangles, raw.triangles)
+    uses = [np.unique(m.edges_sorted, axis=0, return_counts=True)[1].max() for m in (raw, detached)]
+    assert uses == [3, 2]                   # a non-manifold edge in the raw mesh, none once detached
+    a, b = (pyshadow.CoherentShadowMap.build(m, views, resolution=RES, progress=False) for m in (raw, detached))
+    assert a.layer_rule == b.layer_rule
+    for name in ("offsets", "iend", "depth"):
+        np.testing.assert_array_equal(np.asarray(getattr(a, name)), np.asarray(getattr(b, name)))
+
+
 def test_load_mesh_removes_degenerate_and_duplicate_faces(broken):
     with pytest.warns(pyshadow.MeshCleanupWarning, match="removed 2 degenerate and 0 duplicate faces of 14"):
         m = pyshadow.load_mesh(broken["degenerate triangles"][0])

@@ -25,7 +25,7 @@
  * in the order of views.ViewSet.filter_window. r0 is the last row at or
  * above theta (row 0 above the first row). Beyond the first or the last row
  * the second pair is, on centred rows (off 0.5) with P even, the same row's
- * opposite columns c + P / 2 across the pole (the nearest maps there);
+ * opposite columns c + P / 2 across the pole (nearer than the next row's);
  * otherwise the next row, or the last row repeated. */
 inline void zigzag_window_v(int T, int P, float off, float cst, float sst, float csp, float ssp,
                             fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)

@@ -234,8 +234,9 @@ class ViewSet:
             Row ``i`` lies at the polar angle ``(i + row_offset)*pi/theta``.
             0.5 (default): rows centred in their bands, each pole half a
             step from its nearest row; beyond the first (last) row the
-            nearest maps are that row's, on both sides of the pole, and the
-            lookups' 2 x 2 window takes them (``phi`` even). 0: the thesis's
+            lookups' 2 x 2 window pairs that row's two maps on the
+            direction's side with the two across the pole, which lie nearer
+            than the next row's (``phi`` even). 0: the thesis's
             grid, row 0 on the north pole and the south pole a whole step
             from the last row (CSM files without the parameter).
         """

@@ -153,13 +153,18 @@ def _mirror_mismatch(scene, P, D, ids, vis, backend):
 # ---------------------------------------------------------------------------
 # directions
 # ---------------------------------------------------------------------------
+def _perpendicular_pair(d):
+    """Two unit vectors perpendicular to unit ``d`` and to each other."""
+    a = np.cross(d, [0.3, 0.5, 0.7])
+    a /= np.linalg.norm(a)
+    return a, np.cross(d, a)
+
+
 def _direction_rays(scene, d, n_disk, rng, surface):
     """Rays along world direction ``d``: bunny surface points facing it, and a disk behind it."""
     p, nrm = surface
     keep = nrm @ d > GRAZING_COS
-    a = np.cross(d, [0.3, 0.5, 0.7])
-    a /= np.linalg.norm(a)
-    b = np.cross(d, a)
+    a, b = _perpendicular_pair(d)
     r = 1.1 * np.sqrt(rng.uniform(0.0, 1.0, n_disk))
     ang = rng.uniform(0.0, 2.0 * np.pi, n_disk)
     c = scene.instances[0].world_sphere()[0]
@@ -232,9 +237,7 @@ def _near_ordinary(scene, surface, d, views, n_disk, seed):
     from pyshadow import embree, visibility
 
     rng = np.random.default_rng(seed + 1)            # apart from the rows' own rays
-    a = np.cross(d, [0.3, 0.5, 0.7])
-    a /= np.linalg.norm(a)
-    b = np.cross(d, a)
+    a, b = _perpendicular_pair(d)
     ang = 1.5 * np.pi / views.params["theta"]
     out = {"csm": [], "csm-vote": []}
     for t in rng.uniform(0.0, 2.0 * np.pi, NEAR_ORDINARY):

@@ -43,6 +43,9 @@ from __future__ import annotations
 
 import numpy as np
 
+#: the row offsets of a zigzag grid (ViewSet.zigzag): 0.5 centred rows, 0 the thesis's grid
+ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
+
 #: radians added to the angles of :meth:`ViewSet.filter_window` before they are
 #: inverted (a direction on a map's own axis takes nearly all the weight)
 FILTER_ANGLE_EPS = 1e-4
@@ -244,7 +247,7 @@ class ViewSet:
         if theta < 1 or phi < 1:
             raise ValueError(f"ViewSet.zigzag needs theta >= 1 and phi >= 1, got {theta}x{phi}")
         row_offset = float(row_offset)
-        if row_offset not in (0.0, 0.5):
+        if row_offset not in ZIGZAG_ROW_OFFSETS:
             raise ValueError(f"ViewSet.zigzag needs row_offset 0 or 0.5, got {row_offset}")
         rows = np.repeat(np.arange(theta), phi)
         k = np.tile(np.arange(phi), theta)

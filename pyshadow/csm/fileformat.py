@@ -36,7 +36,7 @@ import numpy as np
 
 from .._files import atomic_path
 from .._version import __version__
-from ..views import ViewSet
+from ..views import ZIGZAG_ROW_OFFSETS, ViewSet
 from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype
 
 __all__ = ["MAGIC", "FORMAT_VERSION", "save", "load"]
@@ -213,7 +213,7 @@ def _from_header(cls, path, head, start, size, mmap):
         if layout == "zigzag":
             # row_offset: absent in files of the thesis's grid (0)
             off = params.get("row_offset", 0.0)
-            if isinstance(off, bool) or not isinstance(off, (int, float)) or off not in (0.0, 0.5):
+            if isinstance(off, bool) or not isinstance(off, (int, float)) or off not in ZIGZAG_ROW_OFFSETS:
                 raise CSMFormatError(f"{path}: zigzag row_offset must be 0 or 0.5, got {off!r}")
             ok = set(params) - {"row_offset"} == {"theta", "phi"} and all(
                 isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in ("theta", "phi"))

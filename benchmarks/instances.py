@@ -5,10 +5,12 @@ stand on a grid of 1 m over the ground plane, centred on the origin (1: one
 body at the origin). The same rays for every count: 25,000 ground points in
 the 4 m x 4 m square around the origin, 16 cosine-weighted directions each
 (400,000 rays), asked through ``Scene.visible`` (one-texel lookup), and the
-same points' AO (16 samples). Each count is timed with the instance tree
-(``INSTANCE_BVH``, the default from 16 casters) and without it (every caster
-visited, as before), interleaved, medians of ``--rounds``; answers must be
-identical. Memory: the instance table (104 bytes a caster) and the tree.
+same points' AO (16 samples). Each count is timed three ways, interleaved,
+medians of ``--rounds``: "grid", the default from 16 casters (the uniform grid
+over the casters' spheres, ``INSTANCE_GRID``, where it is balanced); "tree"
+(the instance tree, ``INSTANCE_BVH``); "flat" (every caster visited; one
+round from 5,000 casters). Answers must be identical. Memory: the instance
+table (104 bytes a caster), the tree and the grid.
 
     python benchmarks/instances.py [--counts 1 100 10000] [--rounds 3] [--json]
 """
@@ -45,6 +47,8 @@ def main(argv=None) -> int:
     import pyshadow
     from pyshadow.visibility import csm as backend
     from pyshadow.visibility.bvh import instance_bvh
+    from pyshadow.visibility.csm import _instance_data
+    from pyshadow.visibility.grid import instance_grid
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--counts", type=int, nargs="+", default=[1, 100, 10000])
@@ -59,16 +63,18 @@ def main(argv=None) -> int:
     D = pyshadow.sample_directions(up, sampling=pyshadow.Sampling(16)).reshape(-1, 3).astype(np.float64)
     P = np.repeat(pts, 16, axis=0)
     default_min = backend.BVH_MIN_INSTANCES
-    rows = []
-    for n in args.counts:
-        s = scene_of(n, csm, mesh)
-        times = {"tree": {"visible": [], "ao": []}, "flat": {"visible": [], "ao": []}}
-        answers = {}
-        for r in range(args.rounds):
-            for mode in ("tree", "flat"):
+    modes = {"grid": (default_min, True), "tree": (default_min, False), "flat": (10 ** 9, True)}
+    scenes = {n: scene_of(n, csm, mesh) for n in args.counts}
+    times = {n: {m: {"visible": [], "ao": []} for m in modes} for n in args.counts}
+    answers = {n: {} for n in args.counts}
+    accel = {n: {} for n in args.counts}
+    for r in range(args.rounds):                         # counts and modes interleaved in every round
+        for n, s in scenes.items():
+            for mode, (least, use_grid) in modes.items():
                 if mode == "flat" and n >= 5000 and r > 0:
-                    continue                             # minutes a round; one is enough to see it
-                backend.BVH_MIN_INSTANCES = default_min if mode == "tree" else 10 ** 9
+                    continue                             # seconds a round; one is enough to see it
+                backend.BVH_MIN_INSTANCES, backend.USE_GRID = least, use_grid
+                accel[n][mode] = backend.instance_accel(s)
                 s.visible(P[:64], D[:64])                # compile outside the timing
                 s.ambient_occlusion(pts[:8], up[:8], sampling=pyshadow.Sampling(16))
                 t0 = time.perf_counter()
@@ -76,37 +82,50 @@ def main(argv=None) -> int:
                 t1 = time.perf_counter()
                 ao = s.ambient_occlusion(pts, up, sampling=pyshadow.Sampling(16))
                 t2 = time.perf_counter()
-                times[mode]["visible"].append(t1 - t0)
-                times[mode]["ao"].append(t2 - t1)
-                answers.setdefault(mode, (v, ao))
-        backend.BVH_MIN_INSTANCES = default_min
-        same = all(np.array_equal(a, b) for a, b in zip(answers["tree"], answers["flat"]))
-        wc = pyshadow.scene_arrays.scene_arrays(s)["world_centre"]
-        nodes, order, depth = instance_bvh(wc, np.full(len(wc), 0.3))
-        med = {m: {q: statistics.median(t) for q, t in d.items()} for m, d in times.items()}
-        rows.append({"instances": n, "tree_used": n >= default_min, "identical": same,
+                times[n][mode]["visible"].append(t1 - t0)
+                times[n][mode]["ao"].append(t2 - t1)
+                answers[n].setdefault(mode, (v, ao))
+            backend.BVH_MIN_INSTANCES, backend.USE_GRID = default_min, True
+        print(f"round {r + 1} done", file=sys.stderr, flush=True)
+    rows = []
+    for n, s in scenes.items():
+        same = all(np.array_equal(a, b) for m in modes for a, b in zip(answers[n][m], answers[n]["flat"]))
+        rows_ = _instance_data(s, s.anchor(), "nearest")[0]
+        nodes, order, depth = instance_bvh(rows_["centre"], rows_["radius"])
+        g = instance_grid(rows_["centre"], rows_["radius"], balanced_only=False)
+        med = {m: {q: statistics.median(t) for q, t in d.items()} for m, d in times[n].items()}
+        rows.append({"instances": n, "accel": accel[n], "identical": same,
                      "visible_ns_per_ray": {m: 1e9 * med[m]["visible"] / len(P) for m in med},
                      "ao_ns_per_sample": {m: 1e9 * med[m]["ao"] / (16 * len(pts)) for m in med},
-                     "visible_fraction": float(answers["tree"][0].mean()),
+                     "visible_fraction": float(answers[n]["grid"][0].mean()),
                      "instance_table_bytes": 104 * n,
-                     "tree_bytes": int(nodes.nbytes + order.nbytes) if n >= default_min else 0, "tree_depth": depth})
-        print(f"{n} instances done", file=sys.stderr, flush=True)
-    one = rows[0]
+                     "tree_bytes": int(nodes.nbytes + order.nbytes) if n >= default_min else 0, "tree_depth": depth,
+                     "grid_bytes": int(sum(a.nbytes for a in g)) if n >= default_min else 0,
+                     "grid_dims": g[0]["dims"][0].tolist(), "grid_cell": float(g[0]["cell"][0])})
+    # the first count's reference time: the median of all its rounds in every mode when it has
+    # fewer than BVH_MIN_INSTANCES casters (then every mode runs the same code)
+    first = args.counts[0]
+    pool = list(modes) if first < default_min else ["grid"]
+    ref = {q: statistics.median([t for m in pool for t in times[first][m][q]]) for q in ("visible", "ao")}
     for r in rows:
-        r["visible_vs_first"] = r["visible_ns_per_ray"]["tree"] / one["visible_ns_per_ray"]["tree"]
-        r["ao_vs_first"] = r["ao_ns_per_sample"]["tree"] / one["ao_ns_per_sample"]["tree"]
-    result = {"benchmark": "instances", **environment(), "rays": len(P), "rows": rows}
+        r["visible_vs_first"] = {m: r["visible_ns_per_ray"][m] * len(P) / 1e9 / ref["visible"] for m in modes}
+        r["ao_vs_first"] = {m: r["ao_ns_per_sample"][m] * 16 * len(pts) / 1e9 / ref["ao"] for m in modes}
+    result = {"benchmark": "instances", **environment(), "rays": len(P), "rows": rows,
+              "first_reference_ns": {"visible": 1e9 * ref["visible"] / len(P), "ao": 1e9 * ref["ao"] / len(P)}}
     if args.json:
         emit(result, True)
         return 0
     print(f"{len(P)} rays (25,000 ground points x 16 directions) among n instances of one CSM; "
-          f"medians of {args.rounds} rounds")
-    print(f"{'n':>6} {'visible ns/ray':>22} {'AO ns/sample':>22} {'vs n=1':>12} {'same':>5} {'tree bytes':>11}")
+          f"medians of {args.rounds} rounds; vs n=1: the default (grid) over n=1 (the median of its rounds in "
+          f"every mode, which run the same code below {default_min} casters)")
+    print(f"{'n':>6} {'visible ns/ray: grid / tree / flat':>36} {'AO ns/sample: grid / tree / flat':>36} "
+          f"{'vs n=1':>12} {'same':>5} {'grid bytes':>11}")
     for r in rows:
         v, a = r["visible_ns_per_ray"], r["ao_ns_per_sample"]
-        print(f"{r['instances']:>6} {v['tree']:>9.1f} (flat {v['flat']:>7.1f}) {a['tree']:>9.1f} "
-              f"(flat {a['flat']:>7.1f}) {r['visible_vs_first']:>5.1f}x/{r['ao_vs_first']:>4.1f}x "
-              f"{str(r['identical']):>5} {r['tree_bytes']:>11}")
+        print(f"{r['instances']:>6} {v['grid']:>10.1f} / {v['tree']:>8.1f} / {v['flat']:>9.1f}   "
+              f"{a['grid']:>10.1f} / {a['tree']:>8.1f} / {a['flat']:>9.1f}   "
+              f"{r['visible_vs_first']['grid']:>5.2f}x/{r['ao_vs_first']['grid']:>5.2f}x "
+              f"{str(r['identical']):>5} {r['grid_bytes']:>11}")
     return 0
 
 

@@ -75,7 +75,8 @@ def workload(n: int, seed: int = 0):
 
 
 def query_defines(scene) -> dict:
-    """``NTYPES``, ``GROUND`` and ``INSTANCE_BVH`` of the visible and AO kernels of ``scene`` (None: no kernel)."""
+    """``NTYPES``, ``GROUND``, ``INSTANCE_BVH`` and ``INSTANCE_GRID`` of the visible and AO kernels of ``scene``
+    (None: no kernel)."""
     from pyshadow.visibility import CSMVisibility
 
     b = CSMVisibility("nearest")
@@ -83,7 +84,7 @@ def query_defines(scene) -> dict:
     for query, kernel, extra in (("visible", "scene_visible", {}),
                                  ("ao", "scene_ao", {"SAMPLES": SAMPLES, "BENT_NORMALS": 0, "TRANSFER": 0})):
         d = b.query_defines(scene, kernel, **extra)
-        out[query] = None if d is None else {k: d[k] for k in ("NTYPES", "GROUND", "INSTANCE_BVH")}
+        out[query] = None if d is None else {k: d[k] for k in ("NTYPES", "GROUND", "INSTANCE_BVH", "INSTANCE_GRID")}
     return out
 
 

@@ -5,10 +5,11 @@
  * LANES), GROUND, SURFACE_NORMALS (0/1: each query's surface normal in
  * nx, ny, nz, for the surface rule of csm_lookup.h), INSTANCE_BVH (0/1:
  * find the casters through the tree over their boxes, BVH_STACK deep;
- * pyshadow.visibility.bvh), FINITE_RAYS (0/1: each query's length in tm,
- * scene_tables.h), NTYPES (0: the scene has no caster; only the
- * ground test is compiled -- no sphere test, tree or lookup), and what
- * csm_lookup.h expects.
+ * pyshadow.visibility.bvh), INSTANCE_GRID (0/1: through the grid over their
+ * spheres, grid.h; pyshadow.visibility.grid; at most one of the two),
+ * FINITE_RAYS (0/1: each query's length in tm, scene_tables.h), NTYPES (0:
+ * the scene has no caster; only the ground test is compiled -- no sphere
+ * test, tree, grid or lookup), and what csm_lookup.h expects.
  */
 #ifndef PYSHADOW_BATCH_H
 #define PYSHADOW_BATCH_H
@@ -16,23 +17,31 @@
 #include "lanes.h"
 #include "scene_tables.h"
 #include "csm_lookup.h"
+#include "grid.h"
 
 /* ---------------------------------------------------------------------
  * A batch of nb <= BATCH queries (private arrays; nb a multiple of LANES):
  * occ[i] != 0 on entry marks queries already decided (padding), on exit
  * the occluded ones. The ground plane is tested for all; then, per caster,
- * only the undecided queries whose ray can meet its bounding sphere are
- * packed into groups of LANES for the CSM lookup -- rays stopped by the
- * ground or missing a body cost no search. With INSTANCE_BVH the casters
- * come from the tree: a node is entered when the ray of any open query of
- * the batch meets its box, so a batch visits the casters its rays can
- * reach, not every caster; each is then asked exactly as without the tree
- * (the same sphere test and lookup; the OR over casters does not depend on
- * their order), so answers are the same bit for bit.
+ * only the undecided queries whose ray can meet its bounding sphere join a
+ * queue of (query, caster) pairs that the CSM lookup answers LANES at a
+ * time -- rays stopped by the ground or missing a body cost no search.
+ * Which casters a query meets:
+ *   - every caster, one after another (neither define);
+ *   - INSTANCE_BVH: those of the tree's leaves its ray reaches: a node is
+ *     entered by the lane groups of the batch that have a ray meeting the
+ *     boxes on the way to it, and its box is tested for those groups only;
+ *   - INSTANCE_GRID: those listed in the grid cells its ray crosses (each
+ *     ray walked on its own), and the few casters wider than a cell.
+ * Each caster is asked exactly as without tree or grid (the same sphere
+ * test and lookup; the OR over casters does not depend on their order), so
+ * answers are the same bit for bit.
  * ------------------------------------------------------------------- */
 #ifndef BATCH
 #error "BATCH (queries per work-item, a multiple of LANES) must be defined by the host"
 #endif
+/* words of a bit set over the batch's lane groups (the tree's traversal) */
+#define BVH_WORDS ((BATCH / LANES + 31) / 32)
 #if SURFACE_NORMALS
 #define BATCH_NORMAL_PARAMS , const float *nx, const float *ny, const float *nz
 #define BATCH_NORMAL_ARGS , nx, ny, nz
@@ -51,31 +60,32 @@
 #endif
 
 #if NTYPES
-/* the open queries of the batch against caster j: its bounding sphere, then
- * the lookup of those whose ray can meet it, packed LANES at a time */
-inline void batch_instance(const scene_t *S, const int j, const float *px, const float *py, const float *pz,
-                           const float *wx, const float *wy, const float *wz, const int *own, int *occ,
-                           const int nb BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+/* The (query, caster) pairs a batch still has to ask, LANES to a lookup:
+ * the sphere tests of every caster append to one queue, and a lookup is
+ * launched whenever LANES pairs wait, whichever casters they belong to (each
+ * lane reads its own instance; instance_v), so that a batch among many
+ * casters, each met by a few of its rays, fills its lanes instead of asking
+ * each caster with mostly empty ones. The pairs of one lookup share a CSM
+ * type: with several types a change of type first asks what waits. A query
+ * stays open until its pairs are asked, and may meet more casters meanwhile;
+ * the answer, an OR over the casters its ray meets, is the same. */
+typedef struct {
+    int n, type;                        /* pairs waiting (< LANES between casters), their CSM type */
+    int q[BATCH + LANES], j[BATCH + LANES];
+} pending_t;
+
+/* ask the first cnt pairs of P (LANES at a time; the last group padded with its last pair) */
+inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, const float *px, const float *py,
+                      const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
+                      int *occ BATCH_NORMAL_PARAMS)
 {
-    LANE_ARRAY int idx[BATCH];
-    int cnt = 0;
-    for (int c = 0; c < nb; c += LANES) {
-        const iv act = ~LANE_LOAD(occ + c)
-                       & sphere_v(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
-                                  LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c) TMAX_LANES(c));
-        LANE_ARRAY int am[LANES];
-        LANE_STORE(act, am);
-        for (int l = 0; l < LANES; ++l) {       /* branch-free packing; cnt <= c + l here */
-            idx[cnt] = c + l;
-            cnt += (am[l] != 0);
-        }
-    }
     for (int g = 0; g < cnt; g += LANES) {
         LANE_ARRAY float a[6 + 3 * SURFACE_NORMALS][LANES];
-        LANE_ARRAY int ow[LANES], gi[LANES];
+        LANE_ARRAY int ow[LANES], gi[LANES], ja[LANES];
         for (int l = 0; l < LANES; ++l) {
-            const int i = idx[min(g + l, cnt - 1)];
+            const int k = min(g + l, cnt - 1), i = P->q[k];
             gi[l] = i;
+            ja[l] = P->j[k];
             a[0][l] = px[i]; a[1][l] = py[i]; a[2][l] = pz[i];
             a[3][l] = wx[i]; a[4][l] = wy[i]; a[5][l] = wz[i];
             ow[l] = own[i];
@@ -84,9 +94,8 @@ inline void batch_instance(const scene_t *S, const int j, const float *px, const
 #endif
         }
         const iv act = MASK((iv)(g) + LANE_IDS < cnt);
-        const iv r = instance_v(S, j, LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
-                                LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]),
-                                LANE_LOAD(ow), act
+        const iv r = instance_v(S, P->type, LANE_LOAD(ja), ja[0], LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
+                                LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]), LANE_LOAD(ow), act
 #if SURFACE_NORMALS
                                 , LANE_LOAD(a[6]), LANE_LOAD(a[7]), LANE_LOAD(a[8])
 #endif
@@ -96,6 +105,124 @@ inline void batch_instance(const scene_t *S, const int j, const float *px, const
         for (int l = 0; l < min(LANES, cnt - g); ++l)
             occ[gi[l]] |= ra[l];
     }
+}
+
+/* the open queries of the lane groups gl[0 .. ng) (offsets into the batch)
+ * against caster j, of those the lanes of lm: those whose ray can meet its
+ * bounding sphere join the queue, and its full groups are asked */
+inline void batch_instance(const scene_t *S, const int j, pending_t *P, const int *gl, const int ng,
+                           const int *lm, const float *px, const float *py, const float *pz, const float *wx,
+                           const float *wy, const float *wz, const int *own, int *occ
+                           BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+{
+#if NTYPES > 1
+    const int t = S->itype[j];
+    if (P->n && t != P->type) {
+        batch_ask(S, P, P->n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+        P->n = 0;
+    }
+    P->type = t;
+#endif
+    int cnt = P->n;
+    for (int e = 0; e < ng; ++e) {
+        const int c = gl[e];
+        const iv act = LANE_LOAD(lm + c) & ~LANE_LOAD(occ + c)
+                       & sphere_v(S, j, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
+                                  LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c) TMAX_LANES(c));
+        LANE_ARRAY int am[LANES];
+        LANE_STORE(act, am);
+        for (int l = 0; l < LANES; ++l) {       /* branch-free packing; cnt < LANES + e LANES + l here */
+            P->q[cnt] = c + l;
+            P->j[cnt] = j;
+            cnt += (am[l] != 0);
+        }
+    }
+#if INSTANCE_BVH || INSTANCE_GRID
+    const int full = cnt - cnt % LANES;
+#else
+    const int full = cnt;                       /* few casters: each asked at once, its own lanes */
+#endif
+    batch_ask(S, P, full, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    for (int k = full; k < cnt; ++k) {          /* the rest waits for the next caster */
+        P->q[k - full] = P->q[k];
+        P->j[k - full] = P->j[k];
+    }
+    P->n = cnt - full;
+}
+#endif
+
+#if NTYPES && INSTANCE_GRID
+#if FINITE_RAYS
+#define TMAX1_ARG(i) , tm[i]
+#else
+#define TMAX1_ARG(i)
+#endif
+/* queue the pair (query i, caster j); ask the queue once it holds LANES pairs */
+inline void pending_push(const scene_t *S, pending_t *P, const int i, const int j, const float *px,
+                         const float *py, const float *pz, const float *wx, const float *wy, const float *wz,
+                         const int *own, int *occ BATCH_NORMAL_PARAMS)
+{
+#if NTYPES > 1
+    const int t = S->itype[j];
+    if (P->n && t != P->type) {
+        batch_ask(S, P, P->n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+        P->n = 0;
+    }
+    P->type = t;
+#endif
+    P->q[P->n] = i;
+    P->j[P->n] = j;
+    if (++P->n == LANES) {
+        batch_ask(S, P, LANES, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+        P->n = 0;
+    }
+}
+
+/* the open queries of the batch against the casters listed in the cells
+ * their rays cross (grid.h), each caster asked once a query (a sphere the
+ * ray meets among the last GRID_SEEN it met is skipped: a sphere lies in up
+ * to 8 cells, which a ray crosses one after another), then the casters
+ * wider than a cell, asked of every ray */
+#define GRID_SEEN 4
+inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int ng, const int *lm,
+                       const float *px, const float *py, const float *pz, const float *wx, const float *wy,
+                       const float *wz, const int *own, int *occ BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+{
+    __global const grid_t *G = S->grid;
+    for (int e = 0; e < ng; ++e) {
+        const int c = gl[e];
+        LANE_ARRAY float ia[3][LANES];          /* 1 / w, a lane vector at a time */
+        LANE_STORE((fv)(1.0f) / LANE_LOAD(wx + c), ia[0]);
+        LANE_STORE((fv)(1.0f) / LANE_LOAD(wy + c), ia[1]);
+        LANE_STORE((fv)(1.0f) / LANE_LOAD(wz + c), ia[2]);
+        for (int l = 0; l < LANES; ++l) {
+            const int i = c + l;
+            if (occ[i])
+                continue;
+            const float p[3] = {px[i], py[i], pz[i]}, w[3] = {wx[i], wy[i], wz[i]};
+            const float inv[3] = {ia[0][l], ia[1][l], ia[2][l]};
+            walk_t W;
+            int seen[GRID_SEEN] = {-1, -1, -1, -1}, walking = grid_start(G, &W, p, w, inv);
+            while (walking && !occ[i]) {
+                const int cid = (W.cell[0] * G->dims[1] + W.cell[1]) * G->dims[2] + W.cell[2];
+                for (uint k = S->gcells[cid]; k < S->gcells[cid + 1]; ++k) {
+                    __global const grid_item_t *it = S->gitems + k;
+                    if (!sphere_1(it, p[0], p[1], p[2], w[0], w[1], w[2] TMAX1_ARG(i)))
+                        continue;
+                    const int j = it->instance;
+                    if (j == seen[0] || j == seen[1] || j == seen[2] || j == seen[3])
+                        continue;               /* met in a cell before */
+                    seen[3] = seen[2]; seen[2] = seen[1]; seen[1] = seen[0]; seen[0] = j;
+                    pending_push(S, P, i, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+                }
+                walking = grid_next(G, &W, p, inv);
+            }
+        }
+    }
+    const uint big = S->gcells[G->dims[0] * G->dims[1] * G->dims[2]];
+    for (int k = 0; k < G->big; ++k)
+        batch_instance(S, S->gitems[big + k].instance, P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ
+                       BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
 }
 #endif
 
@@ -108,6 +235,13 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
         LANE_STORE(LANE_LOAD(occ + c) | ground_v(S, LANE_LOAD(py + c), LANE_LOAD(wy + c) TMAX_LANES(c)),
                    occ + c);
 #endif
+#if NTYPES
+    pending_t P;
+    P.n = 0;
+    P.type = 0;
+    LANE_ARRAY int lm[BATCH];                   /* lanes that may meet the casters asked next */
+    int gl[BATCH / LANES], ng = 0;              /* their lane groups (offsets into the batch) */
+#endif
 #if NTYPES && INSTANCE_BVH
     LANE_ARRAY float ix[BATCH], iy[BATCH], iz[BATCH];
     for (int c = 0; c < nb; c += LANES) {
@@ -115,34 +249,72 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
         LANE_STORE((fv)(1.0f) / LANE_LOAD(wy + c), iy + c);
         LANE_STORE((fv)(1.0f) / LANE_LOAD(wz + c), iz + c);
     }
+    /* gm: the lane groups with a ray that met every box on the way to the
+     * node (bit g: lanes g LANES ...); each stack entry keeps its own */
+    uint gm[BVH_WORDS], held[BVH_STACK][BVH_WORDS];
     int stack[BVH_STACK];
+    for (int w = 0; w < BVH_WORDS; ++w)
+        gm[w] = 0u;
+    for (int g = 0; g < nb / LANES; ++g)
+        gm[g >> 5] |= 1u << (g & 31);
     int sp = 0, node = 0;
     for (;;) {
         __global const bvh_node_t *B = S->nodes + node;
-        iv hit = (iv)(0);
-        for (int c = 0; c < nb; c += LANES)
-            hit |= ~LANE_LOAD(occ + c) & box_v(S, B, LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c),
-                                               LANE_LOAD(ix + c), LANE_LOAD(iy + c), LANE_LOAD(iz + c)
-                                               TMAX_LANES(c));
-        if (VANY(hit)) {
+        uint hm[BVH_WORDS];
+        for (int w = 0; w < BVH_WORDS; ++w)
+            hm[w] = 0u;
+        ng = 0;
+        for (int g = 0; g < nb / LANES; ++g) {
+            if (!((gm[g >> 5] >> (g & 31)) & 1u))
+                continue;
+            const int c = g * LANES;
+            const iv h = ~LANE_LOAD(occ + c) & box_v(S, B, LANE_LOAD(px + c), LANE_LOAD(py + c),
+                                                     LANE_LOAD(pz + c), LANE_LOAD(ix + c), LANE_LOAD(iy + c),
+                                                     LANE_LOAD(iz + c) TMAX_LANES(c));
+            if (VANY(h)) {
+                hm[g >> 5] |= 1u << (g & 31);
+                LANE_STORE(h, lm + c);
+                gl[ng++] = c;
+            }
+        }
+        if (ng) {
             const int a = B->a, b = B->b;
             if (b >= 0) {                       /* inner node: the left child next, the right one later */
-                if (b != a)
+                if (b != a) {
+                    for (int w = 0; w < BVH_WORDS; ++w)
+                        held[sp][w] = hm[w];
                     stack[sp++] = b;
+                }
+                for (int w = 0; w < BVH_WORDS; ++w)
+                    gm[w] = hm[w];
                 node = a;
                 continue;
             }
-            for (int k = a; k < a - b; ++k)     /* leaf: its casters */
-                batch_instance(S, S->order[k], px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS
-                               BATCH_TMAX_ARGS);
+            for (int k = a; k < a - b; ++k)     /* leaf: its casters, for the rays that met its box */
+                batch_instance(S, S->order[k], &P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ
+                               BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
         }
         if (sp == 0)
             break;
         node = stack[--sp];
+        for (int w = 0; w < BVH_WORDS; ++w)
+            gm[w] = held[sp][w];
     }
 #elif NTYPES
+    for (int c = 0; c < nb; c += LANES) {
+        LANE_STORE((iv)(-1), lm + c);
+        gl[ng++] = c;
+    }
+#if INSTANCE_GRID
+    batch_grid(S, &P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
+#else
     for (int j = 0; j < S->ninst; ++j)
-        batch_instance(S, j, px, py, pz, wx, wy, wz, own, occ, nb BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
+        batch_instance(S, j, &P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS
+                       BATCH_TMAX_ARGS);
+#endif
+#endif
+#if NTYPES
+    batch_ask(S, &P, P.n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);   /* what still waits */
 #endif
 }
 

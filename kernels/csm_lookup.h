@@ -104,7 +104,7 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
  * point's own surface a quantum, a share of a texel and the angle a between
  * the query direction and the map's axis; against other casters only
  * bias_other (the quantum) */
-inline fv bias_v(const scene_t *S, int R, int j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
+inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
 {
     const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
     const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
@@ -129,27 +129,28 @@ inline void sort4_heaviest_first(fv *w, iv *x)
 
 #if SURFACE_NORMALS
 /* The surface rule (SURFACE_NORMALS): for the lanes whose point lies on
- * instance j (own == j, or -1: unknown) with a known unit normal (world
- * (mx, my, mz); (ox, oy, oz) in the object frame) and a direction v above
- * its tangent plane (s = v.m > 0) -- the lanes `up`:
- *   - the lookup direction is raised to the elevation I->horizon (sine)
- *     where the ray is lower: every map the lookup may then pick (the
+ * its instance j (own == j, or -1: unknown; rotation rows Rm of LANES
+ * floats each, horizon hs) with a known unit normal (world (mx, my, mz);
+ * (ox, oy, oz) in the object frame) and a direction v above its tangent
+ * plane (s = v.m > 0) -- the lanes `up`:
+ *   - the lookup direction is raised to the elevation hs (sine) where the
+ *     ray is lower: every map the lookup may then pick (the
  *     nearest, or the four of the vote's window) lies above the tangent
  *     plane. A map below the plane looks at the surface from behind, and
  *     the body would shadow every grazing ray over it;
  *   - map_frame_v() lifts the point off its surface where the map is
  *     grazing (NORMAL_LIFT_ARGS).
  * Other lanes are unchanged. */
-inline iv surface_rule_v(__global const instance_t *I, int j, iv own, fv mx, fv my, fv mz,
+inline iv surface_rule_v(const float *Rm, fv hs, iv j, iv own, fv mx, fv my, fv mz,
                          fv *ox, fv *oy, fv *oz, fv *vx, fv *vy, fv *vz)
 {
-    __global const float *Rw = I->rotation;
-    *ox = Rw[0] * mx + Rw[1] * my + Rw[2] * mz;
-    *oy = Rw[3] * mx + Rw[4] * my + Rw[5] * mz;
-    *oz = Rw[6] * mx + Rw[7] * my + Rw[8] * mz;
+#define RW(c) LANE_LOAD(Rm + (c) * LANES)
+    *ox = RW(0) * mx + RW(1) * my + RW(2) * mz;
+    *oy = RW(3) * mx + RW(4) * my + RW(5) * mz;
+    *oz = RW(6) * mx + RW(7) * my + RW(8) * mz;
+#undef RW
     const fv s = *vx * *ox + *vy * *oy + *vz * *oz;
     const iv up = (MASK(own == -1) | MASK(own == j)) & MASK(s > 0.0f);
-    const float hs = I->horizon;
     /* raise: the tangential part scaled to cos(horizon), the normal part sin(horizon) */
     const iv low = up & MASK(s < hs);
     if (!VANY(low)) return up;          /* most rays: none of the lanes is that low */
@@ -168,21 +169,57 @@ inline iv surface_rule_v(__global const instance_t *I, int j, iv own, fv mx, fv 
 #define NORMAL_LIFT_ARGS
 #endif
 
-/* lanes (-1) of act occluded by caster instance j (the CSM lookup); with
+/* lanes (-1) of act occluded by caster instance j (the CSM lookup), each
+ * lane its own instance j[l] (j0: one of them), all of CSM type t; with
  * SURFACE_NORMALS each lane's unit surface normal (mx, my, mz), world frame */
-inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
+inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
                      iv act NORMAL_PARAMS)
 {
-    __global const instance_t *I = S->inst + j;
-    __global const csm_type_t *T = S->types + S->itype[j];
+    __global const csm_type_t *T = S->types + t;
     const int R = T->resolution, layout = T->layout, vbase = T->view_base;
-    __global const float *A = I->to_object, *Rw = I->rotation;
-    fv qx = A[0] * px + A[1] * py + A[2] * pz + I->offset[0];
-    fv qy = A[3] * px + A[4] * py + A[5] * pz + I->offset[1];
-    fv qz = A[6] * px + A[7] * py + A[8] * pz + I->offset[2];
-    fv vx = Rw[0] * wx + Rw[1] * wy + Rw[2] * wz;
-    fv vy = Rw[3] * wx + Rw[4] * wy + Rw[5] * wz;
-    fv vz = Rw[6] * wx + Rw[7] * wy + Rw[8] * wz;
+    /* each lane's instance, rows of m: to_object 0-8, offset 9-11, rotation
+     * 12-20, horizon 21; read from memory where used (22 lane vectors held
+     * in registers would spill) */
+    LANE_ARRAY float m[22][LANES];
+    fv qx, qy, qz, vx, vy, vz;
+#define INSTANCE_FRAME(A, O, Rw)                                                \
+    qx = A(0) * px + A(1) * py + A(2) * pz + O(0);                              \
+    qy = A(3) * px + A(4) * py + A(5) * pz + O(1);                              \
+    qz = A(6) * px + A(7) * py + A(8) * pz + O(2);                              \
+    vx = Rw(0) * wx + Rw(1) * wy + Rw(2) * wz;                                  \
+    vy = Rw(3) * wx + Rw(4) * wy + Rw(5) * wz;                                  \
+    vz = Rw(6) * wx + Rw(7) * wy + Rw(8) * wz
+    if (VALL(MASK(j == (iv)(j0)))) {           /* one instance (most lookups): its scalars */
+        __global const instance_t *I = S->inst + j0;
+#define ONE_A(c) I->to_object[c]
+#define ONE_O(c) I->offset[c]
+#define ONE_R(c) I->rotation[c]
+        INSTANCE_FRAME(ONE_A, ONE_O, ONE_R);
+#if SURFACE_NORMALS
+        for (int c = 0; c < 9; ++c) LANE_STORE((fv)(I->rotation[c]), m[12 + c]);
+        LANE_STORE((fv)(I->horizon), m[21]);
+#endif
+    } else {
+        LANE_ARRAY int ja[LANES];
+        LANE_STORE(j, ja);
+        for (int l = 0; l < LANES; ++l) {
+            __global const instance_t *I = S->inst + ja[l];
+            for (int c = 0; c < 9; ++c) { m[c][l] = I->to_object[c]; m[12 + c][l] = I->rotation[c]; }
+            for (int c = 0; c < 3; ++c) m[9 + c][l] = I->offset[c];
+            m[21][l] = I->horizon;
+        }
+#define LANE_A(c) LANE_LOAD(m[c])
+#define LANE_O(c) LANE_LOAD(m[9 + (c)])
+#define LANE_R(c) LANE_LOAD(m[12 + (c)])
+        INSTANCE_FRAME(LANE_A, LANE_O, LANE_R);
+    }
+#undef INSTANCE_FRAME
+#undef ONE_A
+#undef ONE_O
+#undef ONE_R
+#undef LANE_A
+#undef LANE_O
+#undef LANE_R
     const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
     /* the ray's chord through the caster, inside the bounding sphere (radius
@@ -217,7 +254,7 @@ inline iv instance_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy,
     }
 #if SURFACE_NORMALS
     fv ox, oy, oz;
-    const iv up = surface_rule_v(I, j, own, mx, my, mz, &ox, &oy, &oz, &vx, &vy, &vz);
+    const iv up = surface_rule_v(m[12], LANE_LOAD(m[21]), j, own, mx, my, mz, &ox, &oy, &oz, &vx, &vy, &vz);
 #endif
     LANE_ARRAY int am[LANES];
     LANE_STORE(act, am);

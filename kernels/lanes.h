@@ -12,7 +12,8 @@
  *                       a scalar comparison gives 1, so LANES = 1 negates it.
  *                       Every comparison that is stored in an iv, or meets
  *                       ~, & or |, goes through MASK.
- *   VANY(m), VALL(m)    any / all lanes of a mask
+ *   VANY(m), VALL(m)    any / all lanes of a mask (inline forms with
+ *                       CPU_CLANG)
  *   VSEL(a, b, c)       b where mask c is set, else a (no NaN operands)
  *   VMIN, VMAX          min / max as operators (PoCL calls its vector
  *                       builtins rather than inlining them)
@@ -101,6 +102,42 @@ typedef VTYPE(int) iv;
 #else
 #define CPU_CLANG 0
 #endif
+#endif
+#if CPU_CLANG && LANES > 1
+/* any() / all() of a mask by halving ORs / ANDs down to one lane's sign bit
+ * (the bit any() and all() test): PoCL calls its library's any() for every
+ * use, and the tree's traversal asks it per node and lane group (19 % of
+ * the time of a query among 10,000 casters went to the calls alone) */
+inline int lane_any(iv m)
+{
+#if LANES == 16
+    const int8 a = m.lo | m.hi;
+    const int4 b = a.lo | a.hi;
+#elif LANES == 8
+    const int4 b = m.lo | m.hi;
+#else
+    const int4 b = m;
+#endif
+    const int2 c = b.lo | b.hi;
+    return (c.x | c.y) < 0;
+}
+inline int lane_all(iv m)
+{
+#if LANES == 16
+    const int8 a = m.lo & m.hi;
+    const int4 b = a.lo & a.hi;
+#elif LANES == 8
+    const int4 b = m.lo & m.hi;
+#else
+    const int4 b = m;
+#endif
+    const int2 c = b.lo & b.hi;
+    return (c.x & c.y) < 0;
+}
+#undef VANY
+#undef VALL
+#define VANY(m) lane_any(m)
+#define VALL(m) lane_all(m)
 #endif
 /* private lane arrays: aligned to a whole lane vector, moved as whole
  * vectors (the type follows the array, so one macro serves float, int and

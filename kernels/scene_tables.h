@@ -19,7 +19,7 @@
  * before the end", and otherwise it lies wholly beyond), a box only where
  * the segment reaches it.
  * Expects: LANES (lanes.h), DEPTH_BITS, IEND_T, PAIR_WIDE, SEARCH_BLOCK
- * (csm_search.h: pair_t), NTYPES, GROUND, INSTANCE_BVH, FINITE_RAYS (0/1).
+ * (csm_search.h: pair_t), NTYPES, GROUND, INSTANCE_BVH, INSTANCE_GRID, FINITE_RAYS (0/1).
  */
 #ifndef PYSHADOW_SCENE_TABLES_H
 #define PYSHADOW_SCENE_TABLES_H
@@ -44,6 +44,9 @@ typedef struct {
     __global const bvh_node_t *nodes;   /* INSTANCE_BVH: the tree over the casters, root first */
     __global const int *order;          /* its leaves' instances */
     float bvh_pad;                      /* margin around every box (pyshadow.visibility.bvh.box_pad) */
+    __global const grid_t *grid;        /* INSTANCE_GRID: the grid over the casters (grid.h) */
+    __global const uint *gcells;        /* its cells' lists */
+    __global const grid_item_t *gitems;
 } scene_t;
 
 #define SCENE_ARGS __global const csm_type_t *types, __global const uint *offsets,    \
@@ -55,12 +58,13 @@ typedef struct {
                    const float bias_abs,                                                 \
                    const float bias_texels, const float bias_tan, const float bias_other,  \
                    __global const bvh_node_t *nodes, __global const int *order,         \
-                   const float bvh_pad
+                   const float bvh_pad, __global const grid_t *grid,                    \
+                   __global const uint *gcells, __global const grid_item_t *gitems
 
 #define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
                                 inst, itype,                                            \
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
-                                bias_other, nodes, order, bvh_pad}
+                                bias_other, nodes, order, bvh_pad, grid, gcells, gitems}
 
 #if FINITE_RAYS
 #define TMAX_PARAM , fv tm

@@ -76,8 +76,10 @@
  * Macros
  *   DEPTH_BITS, IEND_T, PAIR_WIDE   storage of the atlas (csm_common.h)
  *   NTYPES               number of CSM types (>= 0); 0 (no caster): no
- *                        sphere test, instance tree or CSM lookup is
- *                        compiled (csm_lookup.h, batch.h)
+ *                        sphere test, instance tree or grid, or CSM lookup
+ *                        is compiled (csm_lookup.h, batch.h)
+ *   INSTANCE_BVH, INSTANCE_GRID  how the casters a ray can meet are found
+ *                        (batch.h)
  *   GROUND               1: infinite ground plane y = ground_y (0: no
  *                        ground test is compiled)
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)

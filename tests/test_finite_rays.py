@@ -168,8 +168,9 @@ def test_ground_blocks_only_segments_that_cross_it(backend):
 
 
 def test_instance_tree_with_finite_rays(monkeypatch):
-    """Many casters (the instance tree; its boxes skipped where they begin beyond a ray's end):
-    the same answers bit for bit as visiting every caster, and as the float64 mirror up to ties."""
+    """Many casters (the instance grid, and the tree, whose boxes are skipped where they begin
+    beyond a ray's end): the same answers bit for bit as visiting every caster, and as the
+    float64 mirror up to ties."""
     from test_instance_bvh import _scene
 
     from pyshadow.visibility import csm as csm_backend
@@ -186,11 +187,15 @@ def test_instance_tree_with_finite_rays(monkeypatch):
     keep = np.setdiff1d(np.arange(m), rows)
     assert len(keep) > m // 3
     P, D, T = P[keep], D[keep], T[keep]
+    assert csm_backend.instance_accel(s) == "grid"
+    by_grid = [s.visible(P, D, lookup=lk, max_distance=T) for lk in ("nearest", "vote")]
+    monkeypatch.setattr(csm_backend, "USE_GRID", False)
     tree = [s.visible(P, D, lookup=lk, max_distance=T) for lk in ("nearest", "vote")]
     monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
     flat = [s.visible(P, D, lookup=lk, max_distance=T) for lk in ("nearest", "vote")]
-    for a, b in zip(tree, flat):
-        np.testing.assert_array_equal(a, b)
+    for a, b, c in zip(by_grid, tree, flat):
+        np.testing.assert_array_equal(a, c)
+        np.testing.assert_array_equal(b, c)
     assert (tree[0] == visible_reference(s, P, D, max_distance=T)).mean() >= 0.995
     inf = s.visible(P, D)
     assert 0.05 < tree[0].mean() < 0.98 and (tree[0] >= inf).all() and (tree[0] > inf).any()

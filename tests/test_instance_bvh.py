@@ -76,6 +76,7 @@ def test_tree_answers_bit_identical_to_visiting_every_caster(monkeypatch):
     N = rng.normal(size=(m, 3))
     N /= np.linalg.norm(N, axis=1, keepdims=True)
     ids = rng.integers(-1, 60, m)
+    monkeypatch.setattr(csm_backend, "USE_GRID", False)                  # the tree, not the grid
     tree = _answers(s, P, D, N, ids)
     monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)       # every caster, one after another
     flat = _answers(s, P, D, N, ids)
@@ -84,8 +85,11 @@ def test_tree_answers_bit_identical_to_visiting_every_caster(monkeypatch):
     assert 0.05 < tree[0].mean() < 0.95 and 0.05 < tree[2].mean() < 0.95   # both outcomes occur
 
 
-def test_tree_scene_agrees_with_the_numpy_mirror():
+@pytest.mark.parametrize("use_grid", [False, True])
+def test_tree_scene_agrees_with_the_numpy_mirror(use_grid, monkeypatch):
     from pyshadow.visibility.mirror import visible_reference
+
+    monkeypatch.setattr(csm_backend, "USE_GRID", use_grid)
 
     rng = np.random.default_rng(5)
     s, k = _scene(24, rng, ground=None)
@@ -93,6 +97,7 @@ def test_tree_scene_agrees_with_the_numpy_mirror():
     P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
     D = rng.normal(size=(m, 3))
     assert len(s.casters) >= bvh.BVH_MIN_INSTANCES
+    assert csm_backend.instance_accel(s) == ("grid" if use_grid else "tree")
     got = s.visible(P, D)
     want = visible_reference(s, P, D)
     assert (got == want).mean() >= 0.995                  # float32 kernel vs float64 mirror: ties at texel edges

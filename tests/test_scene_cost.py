@@ -144,7 +144,8 @@ def test_receivers_on_the_ground_compile_no_lookup(backend, rng, spy):
     np.testing.assert_array_equal(ao, ambient_occlusion_reference(scene, P[:300], D[:300], sampling=s))
     assert [name for name, _ in spy.built] == ["scene_visible", "scene_ao"] and spy.launches == 2
     for _, d in spy.built:
-        assert (d["NTYPES"], d["GROUND"], d["INSTANCE_BVH"], d["LAYOUT_ZIGZAG"], d["LAYOUT_HILBERT"]) == (0, 1, 0, 0, 0)
+        assert (d["NTYPES"], d["GROUND"], d["INSTANCE_BVH"], d["INSTANCE_GRID"], d["LAYOUT_ZIGZAG"],
+                d["LAYOUT_HILBERT"]) == (0, 1, 0, 0, 0, 0)
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
@@ -210,8 +211,9 @@ def test_unused_features_cost_nothing():
     rays, calls of 2 ms, such load swung them to 1.75: hence the size.)"""
     sc = scene_cost.scenes()
     assert [scene_cost.query_defines(s)["visible"] for s in sc.values()] == [
-        None, {"NTYPES": 0, "GROUND": 1, "INSTANCE_BVH": 0}, {"NTYPES": 1, "GROUND": 0, "INSTANCE_BVH": 0},
-        {"NTYPES": 1, "GROUND": 1, "INSTANCE_BVH": 0}]
+        None, {"NTYPES": 0, "GROUND": 1, "INSTANCE_BVH": 0, "INSTANCE_GRID": 0},
+        {"NTYPES": 1, "GROUND": 0, "INSTANCE_BVH": 0, "INSTANCE_GRID": 0},
+        {"NTYPES": 1, "GROUND": 1, "INSTANCE_BVH": 0, "INSTANCE_GRID": 0}]
     P, D, pts, nrm = scene_cost.workload(1_000_000)
     times = scene_cost.measure(sc, P, D, pts, nrm, rounds=7)      # raises unless every scene answers alike
     r = scene_cost.ratios(times)

@@ -9,6 +9,11 @@ reach. The tree only decides which instances are asked; each is still asked
 through its sphere test and its CSM exactly as without the tree, so answers
 are bit-identical (an OR over the same instances, in another order).
 
+Where the uniform grid over the spheres is balanced (:mod:`.grid`; casters
+spread evenly, as over a ground plane) the kernels walk that instead; the
+tree serves the other scenes (dense clusters, many casters wider than a
+cell): :func:`pyshadow.visibility.csm.instance_accel` chooses.
+
 Build (vectorised, no Python loop over instances): instances sorted by the
 30-bit Morton code of their sphere centres, leaves of :data:`LEAF` instances
 in that order, then each level pairs neighbouring nodes of the level below

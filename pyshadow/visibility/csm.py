@@ -25,7 +25,7 @@ Rays that leave a caster's own surface at a known normal (AO always;
 shadowed by that face.
 
 Unused features cost nothing: a scene without casters compiles with
-``NTYPES=0`` (no sphere test, instance tree or CSM lookup in the kernel), one
+``NTYPES=0`` (no sphere test, instance tree or grid, or CSM lookup in the kernel), one
 without a ground plane with ``GROUND=0`` (no ground test). With neither, no
 kernel is launched where the answer is known: ``visible`` is all True and
 AO all 1; only bent normals and the SH transfer still launch the AO kernel,
@@ -42,7 +42,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl import launch
-from .._cl.tables import BVH_NODE, INSTANCE
+from .._cl.tables import BVH_NODE, GRID, GRID_ITEM, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -56,8 +56,39 @@ from .base import register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
+from .grid import grid_margin, instance_grid
 
-__all__ = ["CSMVisibility", "lane_table"]
+__all__ = ["CSMVisibility", "lane_table", "instance_accel"]
+
+#: Whether scenes of at least BVH_MIN_INSTANCES casters may take the grid (pyshadow.visibility.grid)
+#: where it is balanced; False: always the tree (tests and benchmarks compare the two).
+USE_GRID = True
+
+
+def instance_accel(scene) -> str:
+    """How the kernels find the casters of ``scene`` a ray can meet.
+
+    Returns
+    -------
+    {'none', 'all', 'tree', 'grid'}
+        'none': no caster. 'all': every caster's sphere is tested (fewer than
+        ``BVH_MIN_INSTANCES``). 'grid': the uniform grid over the casters'
+        spheres (:mod:`pyshadow.visibility.grid`), where it is balanced;
+        'tree' otherwise (:mod:`pyshadow.visibility.bvh`).
+    """
+    held = scene_arrays(scene)
+    ninst = int(held["casts"].sum())
+    if ninst == 0:
+        return "none"
+    if ninst < BVH_MIN_INSTANCES:
+        return "all"
+    if not USE_GRID:
+        return "tree"
+    if "instance_accel" not in held:
+        c = held["casts"]
+        held["instance_accel"] = "grid" if instance_grid(held["world_centre"][c], held["world_radius"][c]) \
+            is not None else "tree"
+    return held["instance_accel"]
 
 
 def lane_table(table):
@@ -95,9 +126,19 @@ def _instance_data(scene, anchor, lookup="nearest"):
 
     Computed for all casters at once from :func:`pyshadow.scene_arrays.scene_arrays`, with
     the operations of :meth:`pyshadow.scene.Instance.world_sphere` (bit-identical to
-    computing them instance by instance).
+    computing them instance by instance), and kept with those arrays per anchor and
+    lookup until the scene changes (read-only).
     """
     arr = scene_arrays(scene)
+    if not arr["casts"].any():              # an empty scene's anchor follows its points: nothing kept
+        return _instance_rows(arr, np.asarray(anchor, np.float64), lookup)
+    key = ("instance_data", np.asarray(anchor, np.float64).tobytes(), lookup)
+    if key not in arr:
+        arr[key] = _instance_rows(arr, np.asarray(anchor, np.float64), lookup)
+    return arr[key]
+
+
+def _instance_rows(arr, anchor, lookup):
     sel = np.flatnonzero(arr["casts"])
     n = len(sel)
     rows = np.zeros(max(1, n), INSTANCE)
@@ -116,7 +157,32 @@ def _instance_data(scene, anchor, lookup="nearest"):
         itype[:] = arr["itype"][sel]          # the type order of scene.caster_types(), as the atlas
         horizon = np.array([surface_horizon(csm, lookup) for csm in arr["types"]], np.float64)
         rows["horizon"] = horizon[itype]
+    rows.flags.writeable = False
+    itype.flags.writeable = False
     return rows, itype, n
+
+
+def _accel_tables(scene, rows, anchor, points_extent):
+    """The kernels' tables of :func:`instance_accel`: the tree (nodes, order, box margin) and the
+    grid (header, cells, items); one-record placeholders for the one not used. Both are kept
+    with the scene's arrays (per anchor, and the grid per margin) until the scene changes."""
+    accel = instance_accel(scene)
+    held = scene_arrays(scene)
+    nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0
+    grid, gcells, gitems = np.zeros(1, GRID), np.zeros(1, np.uint32), np.zeros(1, GRID_ITEM)
+    if accel == "tree":
+        key = ("instance_bvh", np.asarray(anchor, np.float64).tobytes())
+        if key not in held:
+            held[key] = instance_bvh(rows["centre"], rows["radius"])
+        nodes, order, _ = held[key]
+        pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
+    elif accel == "grid":
+        margin = grid_margin(points_extent, float(np.abs(rows["centre"]).max() + rows["radius"].max()))
+        key = ("instance_grid", np.asarray(anchor, np.float64).tobytes(), margin)
+        if key not in held:
+            held[key] = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
+        grid, gcells, gitems = held[key]
+    return nodes, order, pad, grid, gcells, gitems
 
 
 def _open_sky(scene) -> bool:
@@ -217,7 +283,7 @@ class CSMVisibility(_SampledSky):
         return bias, 0.0, 0.0, bias
 
     def _defines(self, scene, atlas, **extra):
-        ninst = int(scene_arrays(scene)["casts"].sum())
+        accel = instance_accel(scene)
         d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
              "SEARCH_BLOCK": SEARCH_BLOCK,
              "NTYPES": atlas["ntypes"],
@@ -227,7 +293,7 @@ class CSMVisibility(_SampledSky):
              "BATCH": launch.shape().query_batch,
              "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
              "TRANSFER": 0, "SURFACE_NORMALS": 0, "FINITE_RAYS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
-             "INSTANCE_BVH": int(ninst >= BVH_MIN_INSTANCES), "BVH_STACK": BVH_STACK}
+             "INSTANCE_BVH": int(accel == "tree"), "INSTANCE_GRID": int(accel == "grid"), "BVH_STACK": BVH_STACK}
         d.update(extra)
         return d
 
@@ -263,24 +329,18 @@ class CSMVisibility(_SampledSky):
 
     def _scene_args(self, scene, anchor, bias, points_extent=0.0):
         """Kernel arguments of the scene tables; ``points_extent``: largest |coordinate| of the
-        queries' anchor-relative points (it sizes the margin of the instance tree's boxes)."""
+        queries' anchor-relative points (it sizes the margins of the instance tree's boxes and of the
+        grid's spheres)."""
         atlas, _ = _device_atlas(scene)
         rows, itype, ninst = _instance_data(scene, anchor, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
-        if ninst >= BVH_MIN_INSTANCES:          # kept with the scene's arrays until the scene changes
-            held = scene_arrays(scene)
-            key = ("instance_bvh", np.asarray(anchor, np.float64).tobytes())
-            if key not in held:
-                held[key] = instance_bvh(rows["centre"], rows["radius"])
-            nodes, order, _ = held[key]
-            pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
-        else:                               # no tree: the kernels loop over the casters
-            nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0
+        nodes, order, pad, grid, gcells, gitems = _accel_tables(scene, rows, anchor, points_extent)
         args = [*atlas["buffers"], _cl.to_device(rows), _cl.to_device(itype), np.int32(ninst), np.float32(gy),
                 np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),
-                _cl.to_device(nodes), _cl.to_device(order), np.float32(pad)]
+                _cl.to_device(nodes), _cl.to_device(order), np.float32(pad), _cl.to_device(grid),
+                _cl.to_device(gcells), _cl.to_device(gitems)]
         return atlas, args
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,

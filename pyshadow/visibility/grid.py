@@ -1,0 +1,140 @@
+"""A uniform grid over the casters' bounding spheres, for scenes of many instances spread evenly.
+
+The instance tree (:mod:`.bvh`) lets a work-item's batch of rays enter a node
+when any of its rays meets the node's box. Among casters spread over a
+ground plane every box of the tree spans the same thin layer, so a ray from
+the ground starts inside the boxes of all the nodes above its point, and
+visits tens of them to meet the two or three spheres near it. A grid of cells
+about one caster wide answers the same question by walking each ray through
+the few cells it crosses (a 3D-DDA, ``kernels/grid.h``): a cell lists the
+casters whose sphere, grown by a margin, overlaps it.
+
+As with the tree, the grid only decides which instances are asked; each is
+still asked through its sphere test and its CSM exactly as without it, so
+answers are bit-identical (an OR over the same instances, in another order).
+The margin covers the float32 rounding of the walk: a ray that meets a
+sphere passes, within the rounding, through a cell listing it.
+
+The cell size follows the scene: about two cells per caster over the
+spheres' bounding box, and no smaller than the median diameter, so a
+typical sphere overlaps at most two cells per axis. A sphere is listed in
+the cells it meets (grown by the margin), not in every cell of its box. A sphere wider than a
+cell would fill many cells; such casters (``big``) are asked by every ray
+instead, as without an acceleration structure. :func:`instance_grid`
+declines (returns None) when the grid would be unbalanced -- more than
+:data:`MAX_BIG` big casters, or a cell listing more than :data:`MAX_CELL`
+-- and the tree is used instead.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._cl.tables import GRID, GRID_ITEM
+
+__all__ = ["CELLS_PER_CASTER", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin"]
+
+#: Cells per caster the grid aims at (the cell's edge: the cube root of the spheres' box volume over this many).
+CELLS_PER_CASTER = 2.0
+#: Upper bound on cells per caster (plus 64): a larger count widens the cells.
+MAX_CELLS_PER_CASTER = 8
+#: Casters wider than a cell that the grid leaves to every ray; with more, the tree is used.
+MAX_BIG = 16
+#: Most casters one cell may list; with more, the tree is used.
+MAX_CELL = 64
+
+
+def grid_margin(points_extent: float, boxes_extent: float) -> float:
+    """Margin (world units) by which each sphere is grown before it is listed in cells.
+
+    The walk's float32 rounding (relative 1.2e-7 of the coordinates involved,
+    a few operations deep) stays far inside ``1e-5 * (largest |coordinate| of
+    the points + of the spheres' box)``, the rule of :func:`.bvh.box_pad`;
+    rounded up to a power of two, so that grids can be kept per margin.
+    """
+    m = 1e-5 * (float(points_extent) + float(boxes_extent))
+    return float(2.0 ** np.ceil(np.log2(m))) if m > 0 else 0.0
+
+
+def _cell_size(lo: np.ndarray, hi: np.ndarray, r: np.ndarray) -> float:
+    n = len(r)
+    ext = np.maximum(hi - lo, 1e-30)
+    h = max(float(np.cbrt(np.prod(ext) / (CELLS_PER_CASTER * n))), 2.0 * float(np.median(r)))
+    cap = MAX_CELLS_PER_CASTER * n + 64
+    while np.prod(np.maximum(np.ceil(ext / h), 1.0)) > cap:     # flat or spread scenes: fewer, wider cells
+        h *= 1.25
+    return h
+
+
+def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = True):
+    """The grid over spheres (anchor-relative centres, radii) as the kernels read it, or None.
+
+    Parameters
+    ----------
+    centres : ndarray, shape (N, 3)
+    radii : ndarray, shape (N,)
+        N >= 1; world units, anchor-relative (float32 rows of the instance table).
+    margin : float
+        Growth of every sphere before listing (:func:`grid_margin`).
+    balanced_only : bool
+        False: the grid even where it is unbalanced (the caller has decided).
+
+    Returns
+    -------
+    header : ndarray of GRID, shape (1,)
+        ``origin`` (the grid's low corner), ``cell`` (edge), ``inv_cell``,
+        ``dims`` (cells per axis), ``big`` (casters asked by every ray).
+    cells : ndarray, uint32, shape (prod(dims) + 1,)
+        Cell ``(x * dims[1] + y) * dims[2] + z`` lists ``items[cells[k] :
+        cells[k + 1]]``; the big casters follow at ``items[cells[-1]:]``.
+    items : ndarray of GRID_ITEM
+        Instance indices, each with its sphere (``centres``, ``radii`` as float32).
+    None
+        When the grid would be unbalanced (see the module's notes).
+    """
+    c = np.asarray(centres, np.float64).reshape(-1, 3)
+    r = np.asarray(radii, np.float64).reshape(-1)
+    n = len(c)
+    if n < 1 or len(r) != n:
+        raise ValueError(f"instance_grid: {n} centres and {len(r)} radii")
+    lo = (c - r[:, None]).min(axis=0) - 2.0 * margin
+    hi = (c + r[:, None]).max(axis=0) + 2.0 * margin
+    h = _cell_size(lo, hi, r)
+    origin = lo.astype(np.float32)
+    origin = np.where(origin > lo, np.nextafter(origin, np.float32(-np.inf)), origin)     # at or below lo
+    h32, inv32 = np.float32(h), np.float32(1.0 / h)
+    h = float(h32)
+    dims = np.maximum(np.ceil((hi - origin) / h).astype(np.int64), 1)
+    big = np.flatnonzero(r > h)
+    if len(big) > MAX_BIG and balanced_only:
+        return None
+    small = np.flatnonzero(r <= h)
+    a = np.clip(np.floor((c[small] - r[small, None] - margin - origin) / h).astype(np.int64), 0, dims - 1)
+    b = np.clip(np.floor((c[small] + r[small, None] + margin - origin) / h).astype(np.int64), 0, dims - 1)
+    span = b - a + 1                                        # cells per axis of each sphere (1 to 3)
+    count = span.prod(axis=1)
+    inst = np.repeat(small, count)
+    k = np.arange(len(inst)) - np.repeat(np.cumsum(count) - count, count)     # index within the sphere's block
+    sp = np.repeat(span, count, axis=0)
+    off = np.stack([k // (sp[:, 1] * sp[:, 2]), (k // sp[:, 2]) % sp[:, 1], k % sp[:, 2]], axis=1)
+    cell = np.repeat(a, count, axis=0) + off
+    # keep the cells the grown sphere meets (not only its box): the corner cells of its box often miss it
+    lo_c = origin + cell * h
+    gap = np.maximum(np.maximum(lo_c - c[inst], c[inst] - (lo_c + h)), 0.0)
+    keep = (gap * gap).sum(axis=1) <= (r[inst] + margin) ** 2
+    inst, cell = inst[keep], cell[keep]
+    cid = (cell[:, 0] * dims[1] + cell[:, 1]) * dims[2] + cell[:, 2]
+    ncells = int(np.prod(dims))
+    per = np.bincount(cid, minlength=ncells)
+    if per.max(initial=0) > MAX_CELL and balanced_only:
+        return None
+    order = np.argsort(cid, kind="stable")                  # within a cell: ascending instance (inst is)
+    cells = np.zeros(ncells + 1, np.uint32)
+    cells[1:] = np.cumsum(per)
+    which = np.concatenate([inst[order], big])
+    items = np.zeros(len(which), GRID_ITEM)
+    items["instance"] = which
+    items["centre"], items["radius"] = c[which].astype(np.float32), r[which].astype(np.float32)
+    header = np.zeros(1, GRID)
+    header["origin"], header["cell"], header["inv_cell"] = origin, h32, inv32
+    header["dims"], header["big"] = dims.astype(np.int32), len(big)
+    return header, cells, items

@@ -1,0 +1,139 @@
+"""The uniform grid over the casters' bounding spheres (pyshadow.visibility.grid, INSTANCE_GRID
+in kernels/batch.h and kernels/grid.h): its cells, when it declines, and answers bit-identical
+to the instance tree and to visiting every caster."""
+import numpy as np
+import pytest
+from test_instance_bvh import _answers, _scene
+
+import pyshadow
+from pyshadow.scene_arrays import scene_arrays
+from pyshadow.visibility import csm as csm_backend, grid
+
+
+@pytest.mark.parametrize("n, spread, margin", [(17, 1.0, 0.0), (400, 30.0, 1e-3), (2000, 1e4, 0.5)])
+def test_grid_lists_every_sphere_in_every_cell_it_overlaps(n, spread, margin):
+    rng = np.random.default_rng(n)
+    c = rng.uniform(-spread, spread, (n, 3)) * [1.0, 0.05, 1.0]
+    r = rng.uniform(0.2, 1.0, n) * spread / np.sqrt(n)
+    r[:3] *= 30.0                                          # wider than a cell: asked of every ray
+    header, cells, items = grid.instance_grid(c, r, margin)
+    h, o, dims = float(header["cell"][0]), header["origin"][0].astype(float), header["dims"][0]
+    ncells = int(np.prod(dims))
+    assert len(cells) == ncells + 1 and cells[-1] + header["big"][0] == len(items)
+    big = items["instance"][cells[-1]:]
+    assert sorted(big.tolist()) == np.flatnonzero(r > h).tolist()
+    assert (o <= (c - r[:, None]).min(axis=0)).all() and (o + dims * h >= (c + r[:, None]).max(axis=0)).all()
+    listed = {}
+    for k in range(ncells):
+        for it in items[cells[k]:cells[k + 1]]:
+            listed.setdefault(int(it["instance"]), set()).add(k)
+            j = int(it["instance"])
+            assert (it["centre"] == c[j].astype(np.float32)).all() and it["radius"] == np.float32(r[j])
+    ids = np.stack(np.meshgrid(*[np.arange(d) for d in dims], indexing="ij"), -1).reshape(-1, 3)
+    lo, hi = o + ids * h, o + (ids + 1) * h
+    for j in np.flatnonzero(r <= h):
+        # the cells whose box the sphere grown by the margin meets, and no others
+        gap = np.maximum(np.maximum(lo - c[j], c[j] - hi), 0.0)
+        d = np.sqrt((gap * gap).sum(axis=1))
+        clipped = (c[j] + r[j] + margin > o + dims * h) | (c[j] - r[j] - margin < o)
+        want = set(np.flatnonzero(d <= (r[j] + margin) * (1 + 1e-9)).tolist())
+        if not clipped.any():
+            assert listed[j] >= set(np.flatnonzero(d < (r[j] + margin) * (1 - 1e-9)).tolist())
+        assert listed[j] <= want and len(listed[j]) <= 27
+
+
+def test_grid_declines_where_it_would_be_unbalanced():
+    c = np.zeros((200, 3))
+    assert grid.instance_grid(c, np.full(200, 0.5)) is None                    # 200 in one cell
+    assert grid.instance_grid(c, np.full(200, 0.5), balanced_only=False) is not None
+    rng = np.random.default_rng(0)
+    c = rng.uniform(-50, 50, (300, 3))
+    r = np.full(300, 0.2)
+    r[:grid.MAX_BIG + 1] = 40.0                                                # too many wide casters
+    assert grid.instance_grid(c, r) is None
+    r[grid.MAX_BIG:] = 0.2
+    assert grid.instance_grid(c, r)[0]["big"][0] == grid.MAX_BIG
+
+
+def test_grid_margin_is_a_power_of_two_above_the_rounding_bound():
+    for pe, be in [(1.0, 2.0), (5e3, 30.0), (1e-3, 1e-3)]:
+        m = grid.grid_margin(pe, be)
+        assert 1e-5 * (pe + be) <= m < 2e-5 * (pe + be) and np.log2(m) == np.round(np.log2(m))
+
+
+def _rays(s, k, rng, m=4000):
+    P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
+    D = rng.normal(size=(m, 3))
+    D[::5, rng.integers(0, 3)] = 0.0                      # rays parallel to the cells' faces
+    D[::7, :2] = 0.0
+    D[::7, 2] = 1.0
+    n = len(s.instances)
+    P[::11] = scene_arrays(s)["world_centre"][rng.integers(0, n, len(P[::11]))] + [0.0, 0.0, 3.0]
+    P[::13, 0] = 5e3                                       # far away: the margin grows with it
+    D[::13] = [-1.0, 0.0, 0.0]
+    # rays on the cells' faces, along them: the grid's origin and edge, in world units
+    rows, _, _ = csm_backend._instance_data(s, s.anchor(), "nearest")
+    header, _, _ = grid.instance_grid(rows["centre"], rows["radius"])
+    o = header["origin"][0].astype(float) + s.anchor()
+    h = float(header["cell"][0])
+    sel = np.arange(3, m, 17)
+    P[sel, 0] = o[0] + h * rng.integers(0, header["dims"][0][0], len(sel))
+    D[sel] = [0.0, 0.1, 1.0]
+    N = rng.normal(size=(m, 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    return P, D, N, rng.integers(-1, n, m)
+
+
+def test_grid_answers_bit_identical_to_the_tree_and_to_every_caster(monkeypatch):
+    rng = np.random.default_rng(3)
+    s, k = _scene(60, rng)
+    assert csm_backend.instance_accel(s) == "grid"
+    P, D, N, ids = _rays(s, k, rng)
+    by_grid = _answers(s, P, D, N, ids)
+    monkeypatch.setattr(csm_backend, "USE_GRID", False)
+    assert csm_backend.instance_accel(s) == "tree"
+    by_tree = _answers(s, P, D, N, ids)
+    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
+    assert csm_backend.instance_accel(s) == "all"
+    every = _answers(s, P, D, N, ids)
+    for a, b, c in zip(by_grid, by_tree, every):
+        np.testing.assert_array_equal(a, c)
+        np.testing.assert_array_equal(b, c)
+    assert 0.05 < by_grid[0].mean() < 0.95 and 0.05 < by_grid[2].mean() < 0.95   # both outcomes occur
+
+
+def test_grid_with_a_wide_caster_answers_as_every_caster(monkeypatch):
+    """One body far wider than the cells (asked of every ray, not listed in cells) among small ones."""
+    rng = np.random.default_rng(11)
+    s, k = _scene(40, rng)
+    big = pyshadow.CoherentShadowMap.build(pyshadow.data.mesh("spot"), pyshadow.ViewSet.zigzag(8, 16),
+                                           resolution=32, progress=False)
+    T = np.eye(4)
+    T[:3, :3] *= 4.0
+    T[:3, 3] = [0.0, -3.0, 0.0]
+    s.add(big, T, mesh=pyshadow.data.mesh("spot"))
+    rows, _, _ = csm_backend._instance_data(s, s.anchor(), "nearest")
+    assert grid.instance_grid(rows["centre"], rows["radius"])[0]["big"][0] == 1
+    assert csm_backend.instance_accel(s) == "grid"
+    P, D, N, ids = _rays(s, k, rng, 2500)
+    by_grid = _answers(s, P, D, N, ids)
+    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
+    every = _answers(s, P, D, N, ids)
+    for a, b in zip(by_grid, every):
+        np.testing.assert_array_equal(a, b)
+    assert 0.05 < by_grid[0].mean() < 0.95
+
+
+def test_scene_of_co_located_casters_takes_the_tree():
+    spot = pyshadow.data.mesh("spot")
+    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
+    s = pyshadow.Scene(ground=0.0)
+    for i in range(grid.MAX_CELL + 1):
+        s.add(a, np.eye(4), mesh=spot)
+    assert csm_backend.instance_accel(s) == "tree"
+    assert csm_backend.CSMVisibility().query_defines(s)["INSTANCE_BVH"] == 1
+    s2 = pyshadow.Scene(ground=0.0)
+    s2.add(a, np.eye(4), mesh=spot)
+    assert csm_backend.instance_accel(s2) == "all"
+    d = csm_backend.CSMVisibility().query_defines(s2)
+    assert (d["INSTANCE_BVH"], d["INSTANCE_GRID"]) == (0, 0)

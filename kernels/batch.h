@@ -107,13 +107,11 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, const
     }
 }
 
-/* the open queries of the lane groups gl[0 .. ng) (offsets into the batch)
- * against caster j, of those the lanes of lm: those whose ray can meet its
- * bounding sphere join the queue, and its full groups are asked */
-inline void batch_instance(const scene_t *S, const int j, pending_t *P, const int *gl, const int ng,
-                           const int *lm, const float *px, const float *py, const float *pz, const float *wx,
-                           const float *wy, const float *wz, const int *own, int *occ
-                           BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+/* the queue holds pairs of one CSM type: before a pair of caster j joins,
+ * what waits of another type is asked */
+inline void pending_type(const scene_t *S, pending_t *P, const int j, const float *px, const float *py,
+                         const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
+                         int *occ BATCH_NORMAL_PARAMS)
 {
 #if NTYPES > 1
     const int t = S->itype[j];
@@ -123,6 +121,17 @@ inline void batch_instance(const scene_t *S, const int j, pending_t *P, const in
     }
     P->type = t;
 #endif
+}
+
+/* the open queries of the lane groups gl[0 .. ng) (offsets into the batch)
+ * against caster j, of those the lanes of lm: those whose ray can meet its
+ * bounding sphere join the queue, and its full groups are asked */
+inline void batch_instance(const scene_t *S, const int j, pending_t *P, const int *gl, const int ng,
+                           const int *lm, const float *px, const float *py, const float *pz, const float *wx,
+                           const float *wy, const float *wz, const int *own, int *occ
+                           BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+{
+    pending_type(S, P, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
     int cnt = P->n;
     for (int e = 0; e < ng; ++e) {
         const int c = gl[e];
@@ -162,14 +171,7 @@ inline void pending_push(const scene_t *S, pending_t *P, const int i, const int 
                          const float *py, const float *pz, const float *wx, const float *wy, const float *wz,
                          const int *own, int *occ BATCH_NORMAL_PARAMS)
 {
-#if NTYPES > 1
-    const int t = S->itype[j];
-    if (P->n && t != P->type) {
-        batch_ask(S, P, P->n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
-        P->n = 0;
-    }
-    P->type = t;
-#endif
+    pending_type(S, P, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
     P->q[P->n] = i;
     P->j[P->n] = j;
     if (++P->n == LANES) {

@@ -42,15 +42,11 @@ typedef struct {
 __attribute__((always_inline)) inline int sphere_1(__global const grid_item_t *I, float px, float py, float pz, float wx, float wy, float wz
                     TMAX1_PARAM)
 {
-    const float ox = I->centre[0] - px, oy = I->centre[1] - py, oz = I->centre[2] - pz;
-    const float tca = ox * wx + oy * wy + oz * wz;
-    const float oc2 = ox * ox + oy * oy + oz * oz;
-    const float ex = ox - tca * wx, ey = oy - tca * wy, ez = oz - tca * wz;
-    const float r2 = I->radius * I->radius;
+    SPHERE_TERMS(float, I, px, py, pz, wx, wy, wz);
 #if FINITE_RAYS
-    return !(oc2 > r2 && (tca < 0.0f || ex * ex + ey * ey + ez * ez > r2)) && tca < tm;
+    return !(oc2 > r2 && (tca < 0.0f || e2 > r2)) && tca < tm;
 #else
-    return !(oc2 > r2 && (tca < 0.0f || ex * ex + ey * ey + ez * ez > r2));
+    return !(oc2 > r2 && (tca < 0.0f || e2 > r2));
 #endif
 }
 

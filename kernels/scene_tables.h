@@ -93,18 +93,25 @@ inline iv ground_v(const scene_t *S, fv py, fv wy TMAX_PARAM)
  * j's bounding sphere. The ray's squared distance from the centre is that
  * of o - (o.w) w, not |o|^2 - (o.w)^2: far from the sphere the difference of
  * squares loses every digit (at 5000 radii float32 leaves it +-1.5 r^2). */
+/* the test's terms for rays of float type T against sphere I (a record with
+ * centre and radius): tca, oc2, e2 (the ray's squared distance from the
+ * centre) and r2 -- one text for the lanes here and for grid.h's one ray,
+ * so that both give the same answer */
+#define SPHERE_TERMS(T, I, px, py, pz, wx, wy, wz)                                                  \
+    const T ox = (I)->centre[0] - (px), oy = (I)->centre[1] - (py), oz = (I)->centre[2] - (pz);   \
+    const T tca = ox * (wx) + oy * (wy) + oz * (wz);                                              \
+    const T oc2 = ox * ox + oy * oy + oz * oz;                                                    \
+    const T ex = ox - tca * (wx), ey = oy - tca * (wy), ez = oz - tca * (wz);                     \
+    const T e2 = ex * ex + ey * ey + ez * ez;                                                     \
+    const float r2 = (I)->radius * (I)->radius
 inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz TMAX_PARAM)
 {
     __global const instance_t *I = S->inst + j;
-    const fv ox = I->centre[0] - px, oy = I->centre[1] - py, oz = I->centre[2] - pz;
-    const fv tca = ox * wx + oy * wy + oz * wz;
-    const fv oc2 = ox * ox + oy * oy + oz * oz;
-    const fv ex = ox - tca * wx, ey = oy - tca * wy, ez = oz - tca * wz;
-    const float r2 = I->radius * I->radius;
+    SPHERE_TERMS(fv, I, px, py, pz, wx, wy, wz);
 #if FINITE_RAYS
-    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(ex * ex + ey * ey + ez * ez > r2))) & MASK(tca < tm);
+    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(e2 > r2))) & MASK(tca < tm);
 #else
-    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(ex * ex + ey * ey + ez * ez > r2)));
+    return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(e2 > r2)));
 #endif
 }
 #endif

@@ -181,10 +181,11 @@ inline void pending_push(const scene_t *S, pending_t *P, const int i, const int 
 }
 
 /* the open queries of the batch against the casters listed in the cells
- * their rays cross (grid.h), each caster asked once a query (a sphere the
- * ray meets among the last GRID_SEEN it met is skipped: a sphere lies in up
- * to 8 cells, which a ray crosses one after another), then the casters
- * wider than a cell, asked of every ray */
+ * their rays cross (grid.h), then the casters wider than a cell, asked of
+ * every ray. A sphere lies in up to 8 cells, which a ray crosses one after
+ * another: one the ray meets that is among the last GRID_SEEN it met is not
+ * queued again (one met again after more is asked twice, with the same
+ * answer) */
 #define GRID_SEEN 4
 inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int ng, const int *lm,
                        const float *px, const float *py, const float *pz, const float *wx, const float *wy,

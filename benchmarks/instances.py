@@ -10,7 +10,9 @@ medians of ``--rounds``: "grid", the default from 16 casters (the uniform grid
 over the casters' spheres, ``INSTANCE_GRID``, where it is balanced); "tree"
 (the instance tree, ``INSTANCE_BVH``); "flat" (every caster visited; one
 round from 5,000 casters). Answers must be identical. Memory: the instance
-table (104 bytes a caster), the tree and the grid.
+table (104 bytes a caster), the tree and the grid. And what a ray's walk of
+the grid meets (a NumPy walk of every 64th ray): cells, listed spheres, and
+distinct spheres met (the CSM lookups it asks).
 
     python benchmarks/instances.py [--counts 1 100 10000] [--rounds 3] [--json]
 """
@@ -41,6 +43,47 @@ def scene_of(n, csm, mesh):
         T[:3, 3] = [x + rng.uniform(-0.2, 0.2) * (n > 1), lift, z + rng.uniform(-0.2, 0.2) * (n > 1)]
         s.add(csm, T, mesh=mesh)
     return s
+
+
+def walk_counts(header, cells, items, P, D):
+    """What the grid's walk meets, per ray (means): cells crossed, listed spheres tested, spheres met.
+
+    A NumPy walk (float64) of the grid's cells along each ray from its point,
+    the same 3D-DDA as ``kernels/grid.h``; "met": distinct listed casters whose
+    sphere the ray meets (each then asks one CSM lookup, unless the ray is
+    decided before).
+    """
+    o, h, dims = header["origin"][0].astype(np.float64), float(header["cell"][0]), header["dims"][0]
+    ncross = nlisted = nmet = 0
+    for p, w in zip(P, D):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            inv = 1.0 / w
+            ta, tb = (o - p) * inv, (o + dims * h - p) * inv
+        t0, t1 = max(0.0, np.nanmax(np.minimum(ta, tb))), np.nanmin(np.maximum(ta, tb))
+        if not t0 <= t1:
+            continue
+        cell = np.clip(np.floor((p + t0 * w - o) / h), 0, dims - 1).astype(int)
+        step = np.sign(w).astype(int)
+        with np.errstate(invalid="ignore"):
+            nxt = np.where(step == 0, np.inf, ((cell + (step > 0)) * h + o - p) * inv)
+        met = set()
+        while True:
+            k = (cell[0] * dims[1] + cell[1]) * dims[2] + cell[2]
+            lst = items[cells[k]:cells[k + 1]]
+            ncross += 1
+            nlisted += len(lst)
+            oc = lst["centre"].astype(np.float64) - p
+            tca = oc @ w
+            e2 = (oc * oc).sum(axis=1) - tca * tca
+            r2 = lst["radius"].astype(np.float64) ** 2
+            met.update(lst["instance"][((oc * oc).sum(axis=1) <= r2) | ((tca >= 0) & (e2 <= r2))].tolist())
+            a = int(np.argmin(nxt))
+            cell[a] += step[a]
+            if not (0 <= cell[a] < dims[a]) or step[a] == 0:
+                break
+            nxt[a] = ((cell[a] + (step[a] > 0)) * h + o[a] - p[a]) * inv[a]
+        nmet += len(met)
+    return ncross / len(P), nlisted / len(P), nmet / len(P)
 
 
 def main(argv=None) -> int:
@@ -102,6 +145,10 @@ def main(argv=None) -> int:
                      "tree_bytes": int(nodes.nbytes + order.nbytes) if n >= default_min else 0, "tree_depth": depth,
                      "grid_bytes": int(sum(a.nbytes for a in g)) if n >= default_min else 0,
                      "grid_dims": g[0]["dims"][0].tolist(), "grid_cell": float(g[0]["cell"][0])})
+        if n >= default_min:                             # the walk over every 64th ray (anchor-relative)
+            sub = slice(0, len(P), 64)
+            c, t, m = walk_counts(*g, P[sub] - s.anchor(), D[sub])
+            rows[-1]["walk_per_ray"] = {"rays": len(P[sub]), "cells": c, "listed": t, "met": m}
     # the first count's reference time: the median of all its rounds in every mode when it has
     # fewer than BVH_MIN_INSTANCES casters (then every mode runs the same code)
     first = args.counts[0]

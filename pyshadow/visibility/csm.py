@@ -84,11 +84,26 @@ def instance_accel(scene) -> str:
         return "all"
     if not USE_GRID:
         return "tree"
-    if "instance_accel" not in held:
-        c = held["casts"]
-        held["instance_accel"] = "grid" if instance_grid(held["world_centre"][c], held["world_radius"][c]) \
-            is not None else "tree"
+    if "instance_accel" not in held:           # the grid of queries near the scene decides (and is kept)
+        anchor = scene.anchor()
+        rows = _instance_data(scene, anchor, "nearest")[0]
+        margin = _grid_margin(rows, 0.0)
+        g = instance_grid(rows["centre"], rows["radius"], margin)
+        if g is not None:
+            held[_grid_key(anchor, margin)] = g
+        held["instance_accel"] = "tree" if g is None else "grid"
     return held["instance_accel"]
+
+
+def _grid_margin(rows, points_extent):
+    """The grid's margin for queries within ``points_extent`` of the anchor: at least that of
+    queries within the spheres' own extent, so that queries near the scene share one grid."""
+    spheres = float(np.abs(rows["centre"]).max() + rows["radius"].max())
+    return grid_margin(max(points_extent, spheres), spheres)
+
+
+def _grid_key(anchor, margin):
+    return ("instance_grid", np.asarray(anchor, np.float64).tobytes(), margin)
 
 
 def lane_table(table):
@@ -177,8 +192,8 @@ def _accel_tables(scene, rows, anchor, points_extent):
         nodes, order, _ = held[key]
         pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
     elif accel == "grid":
-        margin = grid_margin(points_extent, float(np.abs(rows["centre"]).max() + rows["radius"].max()))
-        key = ("instance_grid", np.asarray(anchor, np.float64).tobytes(), margin)
+        margin = _grid_margin(rows, points_extent)
+        key = _grid_key(anchor, margin)
         if key not in held:
             held[key] = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
         grid, gcells, gitems = held[key]

@@ -50,10 +50,13 @@ __attribute__((always_inline)) inline int sphere_1(__global const grid_item_t *I
 #endif
 }
 
-/* the face of cell index k on the ray's side along axis a, as the ray's t */
+/* the face of cell index k on the ray's side along axis a, as the ray's t;
+ * +inf for an axis the (unit) ray is parallel to, or so nearly that 1 / w
+ * overflows (a face at the point itself would give 0 x inf, a NaN) */
 __attribute__((always_inline)) inline float grid_face(__global const grid_t *G, int a, int k, int step, float p, float inv)
 {
-    return step == 0 ? INFINITY : ((float)(k + (step > 0)) * G->cell + G->origin[a] - p) * inv;
+    return (step == 0 || !(inv < INFINITY && inv > -INFINITY)) ? INFINITY
+                                                  : ((float)(k + (step > 0)) * G->cell + G->origin[a] - p) * inv;
 }
 
 /* whether the ray p + t w, t >= 0, meets the grid's box; if so W holds its first cell (inv = 1 / w):

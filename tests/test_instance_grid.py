@@ -121,7 +121,7 @@ def test_grid_with_a_wide_caster_answers_as_every_caster(monkeypatch):
     every = _answers(s, P, D, N, ids)
     for a, b in zip(by_grid, every):
         np.testing.assert_array_equal(a, b)
-    assert 0.05 < by_grid[0].mean() < 0.95
+    assert (~by_grid[0]).sum() >= 30 and by_grid[0].sum() >= 30        # casters block some, not all
 
 
 def test_scene_of_co_located_casters_takes_the_tree():
@@ -137,3 +137,27 @@ def test_scene_of_co_located_casters_takes_the_tree():
     assert csm_backend.instance_accel(s2) == "all"
     d = csm_backend.CSMVisibility().query_defines(s2)
     assert (d["INSTANCE_BVH"], d["INSTANCE_GRID"]) == (0, 0)
+
+
+def test_grid_rays_almost_parallel_to_a_face_they_lie_on(monkeypatch):
+    """A direction component so small that 1 / w overflows float32, from a point on a cell face:
+    the face's t would be 0 x inf, a NaN; the walk treats the axis as parallel and answers as
+    every caster does."""
+    rng = np.random.default_rng(13)
+    s, k = _scene(40, rng)
+    rows, _, _ = csm_backend._instance_data(s, s.anchor(), "nearest")
+    header, _, _ = grid.instance_grid(rows["centre"], rows["radius"])
+    o = header["origin"][0].astype(float) + s.anchor()
+    h = float(header["cell"][0])
+    m = 1500
+    P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
+    P[:, 0] = o[0] + h * rng.integers(0, header["dims"][0][0], m)
+    D = np.c_[np.where(rng.random(m) < 0.5, -1e-39, 1e-39), rng.uniform(0.0, 0.15, m), rng.normal(size=m)]
+    D /= np.linalg.norm(D, axis=1, keepdims=True)
+    assert csm_backend.instance_accel(s) == "grid"
+    by_grid = [s.visible(P, D, lookup=lk) for lk in ("nearest", "vote")]
+    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
+    every = [s.visible(P, D, lookup=lk) for lk in ("nearest", "vote")]
+    for a, b in zip(by_grid, every):
+        np.testing.assert_array_equal(a, b)
+    assert (~by_grid[0]).sum() >= 30 and by_grid[0].sum() >= 30        # casters block some, not all

@@ -15,9 +15,11 @@
    ``max_error=0.01``: agreement on each body's AO rays in the scene, and
    the bytes of the chosen CSMs against both at the bunny's parameters.
 
-    python benchmarks/error_model.py [--quick] [--json]
+    python benchmarks/error_model.py [--quick] [--meshes NAME ...] [--targets E ...] [--meshes-only] [--json]
 
-``--quick``: 2 % and 1 % only, four meshes.
+``--quick``: 2 % and 1 % only, four meshes. ``--meshes`` and ``--targets``
+choose the rows of part 1 (and the targets of part 2); ``--meshes-only``
+skips parts 2 and 3.
 """
 from __future__ import annotations
 
@@ -94,29 +96,16 @@ def scene_study(scene, mesh_of, seed=21, lookup="nearest"):
     return out
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true")
-    ap.add_argument("--json", action="store_true")
-    args = ap.parse_args(argv)
-    t0 = time.perf_counter()
-    targets = TARGETS[:2] if args.quick else TARGETS
-    names = ("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick else pyshadow.data.MESHES
-    meshes = {n: pyshadow.data.mesh(n) for n in set(names) | {"stanford-bunny.obj", "fandisk.obj", "torus.STL"}}
+def _mesh_name(name):
+    """The entry of ``pyshadow.data.MESHES`` that ``name`` means (file name or stem)."""
+    for full in pyshadow.data.MESHES:
+        if name.lower() in (full.lower(), full.rsplit(".", 1)[0].lower()):
+            return full
+    raise SystemExit(f"no bundled mesh {name!r}; available: {', '.join(pyshadow.data.MESHES)}")
 
-    rows, chosen = [], {}
-    for name in names:
-        for target in targets:
-            csm, row = mesh_row(name, meshes[name], target)
-            chosen[name, target] = csm
-            rows.append(row)
-            if not args.json:
-                print(f"{name:20s} {target:.3f} {row['choice']:16s} {row['lookup']:7s} own {row['predicted_own']:.4f}/"
-                      f"{row['measured_own']:.4f} near {row['predicted_near']:.4f}/{row['measured_near']:.4f} "
-                      f"ratio {row['ratio'] if row['ratio'] is None else round(row['ratio'], 2)} met {row['met']} "
-                      f"{row['bytes'] / 1e6:.2f} MB  model {row['model_seconds']:.1f} s build "
-                      f"{row['build_seconds']:.1f} s", flush=True)
 
+def scenes(meshes, chosen, targets, quiet):
+    """Parts 2 and 3: the two-object scene at each target, the mixed scene at 1 %."""
     bunny, fandisk, torus = (meshes[n] for n in ("stanford-bunny.obj", "fandisk.obj", "torus.STL"))
     import trimesh
     rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
@@ -133,7 +122,7 @@ def main(argv=None):
                            for n in ("stanford-bunny.obj", "fandisk.obj")) else "nearest"
         two[target] = scene_study(s, {0: bunny, 1: fandisk}, lookup=lk)
         two[target]["lookup"] = lk
-        if not args.json:
+        if not quiet:
             a = two[target]["all"]
             print(f"two-object scene {target:.3f}: predicted {a['predicted']:.4f} measured {a['measured']:.4f} "
                   f"ratio {a['ratio']:.2f}", flush=True)
@@ -159,6 +148,40 @@ def main(argv=None):
                             for i, (n, c) in enumerate(zip(parts, csms))},
                  "bytes_chosen": sum(c.stats["bytes"] for c in csms), "bytes_at_detailed_parameters": sum(same),
                  "study": study}
+    return two, mixed_out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--meshes", nargs="+", metavar="NAME", help="bundled meshes (file name or stem)")
+    ap.add_argument("--targets", nargs="+", type=float, metavar="E")
+    ap.add_argument("--meshes-only", action="store_true", help="part 1 only")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
+    names = ("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick else pyshadow.data.MESHES
+    if args.meshes:
+        names = tuple(_mesh_name(n) for n in args.meshes)
+    meshes = {n: pyshadow.data.mesh(n) for n in set(names) | {"stanford-bunny.obj", "fandisk.obj", "torus.STL"}}
+
+    rows, chosen = [], {}
+    for name in names:
+        for target in targets:
+            csm, row = mesh_row(name, meshes[name], target)
+            chosen[name, target] = csm
+            rows.append(row)
+            if not args.json:
+                print(f"{name:20s} {target:.3f} {row['choice']:16s} {row['lookup']:7s} own {row['predicted_own']:.4f}/"
+                      f"{row['measured_own']:.4f} near {row['predicted_near']:.4f}/{row['measured_near']:.4f} "
+                      f"ratio {row['ratio'] if row['ratio'] is None else round(row['ratio'], 2)} met {row['met']} "
+                      f"{row['bytes'] / 1e6:.2f} MB  model {row['model_seconds']:.1f} s build "
+                      f"{row['build_seconds']:.1f} s", flush=True)
+
+    two, mixed_out = {}, None
+    if not args.meshes_only:
+        two, mixed_out = scenes(meshes, chosen, targets, args.json)
     res = {"benchmark": "error_model", **environment(), "model_ratio": MODEL_RATIO, "targets": targets,
            "meshes": rows, "two_objects": {str(k): v for k, v in two.items()}, "mixed": mixed_out,
            "all_within_1_5": all(r["within_1_5"] for r in rows) and all(
@@ -168,10 +191,11 @@ def main(argv=None):
         ratios = [r["ratio"] for r in rows if r["ratio"] is not None]
         print(f"measured / predicted over {len(ratios)} mesh rows: {min(ratios):.2f} .. {max(ratios):.2f} "
               f"(median {np.median(ratios):.2f}); all within 1.5x: {res['all_within_1_5']}; all met: {res['all_met']}")
-        for n, b in mixed_out["bodies"].items():
+        for n, b in (mixed_out or {"bodies": {}})["bodies"].items():
             print(f"mixed scene at 1 %: {n} {b['choice']} {b['lookup']} {b['bytes'] / 1e6:.2f} MB, agreement {b['agreement']:.4%}")
-        print(f"mixed scene bytes {mixed_out['bytes_chosen'] / 1e6:.2f} MB against "
-              f"{mixed_out['bytes_at_detailed_parameters'] / 1e6:.2f} MB at the detailed body's parameters")
+        if mixed_out:
+            print(f"mixed scene bytes {mixed_out['bytes_chosen'] / 1e6:.2f} MB against "
+                  f"{mixed_out['bytes_at_detailed_parameters'] / 1e6:.2f} MB at the detailed body's parameters")
         print(f"total {res['seconds']:.0f} s")
     emit(res, args.json)
 

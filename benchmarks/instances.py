@@ -53,7 +53,7 @@ def walk_counts(header, cells, items, P, D):
     sphere the ray meets (each then asks one CSM lookup, unless the ray is
     decided before).
     """
-    o, h, dims = header["origin"][0].astype(np.float64), float(header["cell"][0]), header["dims"][0]
+    o, h, dims = header["origin"][0].astype(np.float64), header["cell"][0].astype(np.float64), header["dims"][0]
     ncross = nlisted = nmet = 0
     for p, w in zip(P, D):
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -81,7 +81,7 @@ def walk_counts(header, cells, items, P, D):
             cell[a] += step[a]
             if not (0 <= cell[a] < dims[a]) or step[a] == 0:
                 break
-            nxt[a] = ((cell[a] + (step[a] > 0)) * h + o[a] - p[a]) * inv[a]
+            nxt[a] = ((cell[a] + (step[a] > 0)) * h[a] + o[a] - p[a]) * inv[a]
         nmet += len(met)
     return ncross / len(P), nlisted / len(P), nmet / len(P)
 
@@ -91,7 +91,7 @@ def main(argv=None) -> int:
     from pyshadow.visibility import csm as backend
     from pyshadow.visibility.bvh import instance_bvh
     from pyshadow.visibility.csm import _instance_data
-    from pyshadow.visibility.grid import instance_grid
+    from pyshadow.visibility.grid import grid_packets, instance_grid
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--counts", type=int, nargs="+", default=[1, 100, 10000])
@@ -143,8 +143,9 @@ def main(argv=None) -> int:
                      "visible_fraction": float(answers[n]["grid"][0].mean()),
                      "instance_table_bytes": 104 * n,
                      "tree_bytes": int(nodes.nbytes + order.nbytes) if n >= default_min else 0, "tree_depth": depth,
-                     "grid_bytes": int(sum(a.nbytes for a in g)) if n >= default_min else 0,
-                     "grid_dims": g[0]["dims"][0].tolist(), "grid_cell": float(g[0]["cell"][0])})
+                     "grid_bytes": int(g[0].nbytes + grid_packets(g[0]["dims"][0], g[1], g[2]).nbytes)
+                     if n >= default_min else 0,
+                     "grid_dims": g[0]["dims"][0].tolist(), "grid_cell": g[0]["cell"][0].tolist()})
         if n >= default_min:                             # the walk over every 64th ray (anchor-relative)
             sub = slice(0, len(P), 64)
             c, t, m = walk_counts(*g, P[sub] - s.anchor(), D[sub])

@@ -31,8 +31,9 @@
  *   - INSTANCE_BVH: those of the tree's leaves its ray reaches: a node is
  *     entered by the lane groups of the batch that have a ray meeting the
  *     boxes on the way to it, and its box is tested for those groups only;
- *   - INSTANCE_GRID: those listed in the grid cells its ray crosses (each
- *     ray walked on its own), and the few casters wider than a cell.
+ *   - INSTANCE_GRID: those listed in the grid cells its ray crosses (the
+ *     rays of a lane group walked side by side), and the few casters wider
+ *     than a cell.
  * Each caster is asked exactly as without tree or grid (the same sphere
  * test and lookup; the OR over casters does not depend on their order), so
  * answers are the same bit for bit.
@@ -123,6 +124,23 @@ inline void pending_type(const scene_t *S, pending_t *P, const int j, const floa
 #endif
 }
 
+#if INSTANCE_BVH || INSTANCE_GRID
+/* ask the full lane groups of the first cnt pairs; the rest (fewer than
+ * LANES) waits at the front of the queue */
+inline void pending_drain(const scene_t *S, pending_t *P, const int cnt, const float *px, const float *py,
+                          const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
+                          int *occ BATCH_NORMAL_PARAMS)
+{
+    const int full = cnt - cnt % LANES;
+    batch_ask(S, P, full, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    for (int k = full; k < cnt; ++k) {
+        P->q[k - full] = P->q[k];
+        P->j[k - full] = P->j[k];
+    }
+    P->n = cnt - full;
+}
+#endif
+
 /* the open queries of the lane groups gl[0 .. ng) (offsets into the batch)
  * against caster j, of those the lanes of lm: those whose ray can meet its
  * bounding sphere join the queue, and its full groups are asked */
@@ -147,16 +165,11 @@ inline void batch_instance(const scene_t *S, const int j, pending_t *P, const in
         }
     }
 #if INSTANCE_BVH || INSTANCE_GRID
-    const int full = cnt - cnt % LANES;
+    pending_drain(S, P, cnt, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
 #else
-    const int full = cnt;                       /* few casters: each asked at once, its own lanes */
+    batch_ask(S, P, cnt, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);   /* few casters: each asked at once */
+    P->n = 0;
 #endif
-    batch_ask(S, P, full, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
-    for (int k = full; k < cnt; ++k) {          /* the rest waits for the next caster */
-        P->q[k - full] = P->q[k];
-        P->j[k - full] = P->j[k];
-    }
-    P->n = cnt - full;
 }
 #endif
 
@@ -166,65 +179,128 @@ inline void batch_instance(const scene_t *S, const int j, pending_t *P, const in
 #else
 #define TMAX1_ARG(i)
 #endif
-/* queue the pair (query i, caster j); ask the queue once it holds LANES pairs */
-inline void pending_push(const scene_t *S, pending_t *P, const int i, const int j, const float *px,
-                         const float *py, const float *pz, const float *wx, const float *wy, const float *wz,
-                         const int *own, int *occ BATCH_NORMAL_PARAMS)
+#define GRID_ARGS px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS
+#define GRID_PARAMS const float *px, const float *py, const float *pz, const float *wx, const float *wy, \
+                    const float *wz, const int *own, int *occ BATCH_NORMAL_PARAMS     /* the batch's queries */
+/* queue the pair (query i, caster j); the queue is asked when it is full
+ * (BATCH pairs), and at the end of the walks (batch_grid): the walks run
+ * without lookups in between, and the lookups run LANES pairs at a time */
+__attribute__((always_inline)) inline void pending_push(const scene_t *S, pending_t *P, const int i, const int j,
+                                                        GRID_PARAMS)
 {
-    pending_type(S, P, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+#if NTYPES > 1
+    if (S->itype[j] != P->type)
+        pending_type(S, P, j, GRID_ARGS);
+#endif
     P->q[P->n] = i;
     P->j[P->n] = j;
-    if (++P->n == LANES) {
-        batch_ask(S, P, LANES, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    if (++P->n == BATCH) {
+        batch_ask(S, P, BATCH, GRID_ARGS);
         P->n = 0;
     }
 }
 
-/* the open queries of the batch against the casters listed in the cells
- * their rays cross (grid.h), then the casters wider than a cell, asked of
- * every ray. A sphere lies in up to 8 cells, which a ray crosses one after
- * another: one the ray meets that is among the last GRID_SEEN it met is not
- * queued again (one met again after more is asked twice, with the same
- * answer) */
+/* A sphere lies in up to 8 cells, which a ray crosses one after another:
+ * one the ray meets that is among the last GRID_SEEN it met (sn, per lane)
+ * is not queued again (one met again after more is asked twice, with the
+ * same answer) */
 #define GRID_SEEN 4
+__attribute__((always_inline)) inline void grid_met(const scene_t *S, pending_t *P, int *sn, const int i,
+                                                    const int j, GRID_PARAMS)
+{
+    if (j == sn[0] || j == sn[1] || j == sn[2] || j == sn[3])
+        return;
+    sn[3] = sn[2]; sn[2] = sn[1]; sn[1] = sn[0]; sn[0] = j;
+    pending_push(S, P, i, j, GRID_ARGS);
+}
+
+/* the walking lanes of group c all in the cell of packet K (rays from one
+ * point, as AO's): its spheres against the lane vector, one at a time */
+__attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pending_t *P,
+                                                            __global const grid_packet_t *K, const int c,
+                                                            const fv *p, const fv *w, const iv walking,
+                                                            int (*seen)[GRID_SEEN], GRID_PARAMS BATCH_TMAX_PARAMS)
+{
+    for (;; K = S->gpackets + (-2 - K->instance[3])) {
+        for (int q = 0; q < 4; ++q) {
+            const int j = K->instance[q];
+            const iv met = (j >= 0 ? walking : (iv)(0)) & sphere_slot_v(K, q, p, w TMAX_LANES(c));
+            if (!VANY(met))
+                continue;                       /* missed, or an unused slot or the link */
+            LANE_ARRAY int ma[LANES];
+            LANE_STORE(met, ma);
+            for (int l = 0; l < LANES; ++l)
+                if (ma[l])
+                    grid_met(S, P, seen[l], c + l, j, GRID_ARGS);
+        }
+        if (K->instance[3] >= -1)               /* < -1: the list goes on in packet -2 - link */
+            break;
+    }
+}
+
+/* query i's ray against the list of its cell, from packet K, four spheres at a time */
+__attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pending_t *P,
+                                                         __global const grid_packet_t *K, const int i, int *sn,
+                                                         GRID_PARAMS BATCH_TMAX_PARAMS)
+{
+    for (;; K = S->gpackets + (-2 - K->instance[3])) {
+        const int4 met = sphere_4(K, px[i], py[i], pz[i], wx[i], wy[i], wz[i] TMAX1_ARG(i));
+        if (met.x | met.y | met.z | met.w) {
+            const int hit[4] = {met.x, met.y, met.z, met.w};
+            for (int q = 0; q < 4; ++q)
+                if (hit[q])
+                    grid_met(S, P, sn, i, K->instance[q], GRID_ARGS);
+        }
+        if (K->instance[3] >= -1)
+            break;
+    }
+}
+
+/* the open queries of the batch against the casters listed in the cells
+ * their rays cross (grid.h; the lanes of a group walk side by side), then
+ * the casters wider than a cell, asked of every ray */
 inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int ng, const int *lm,
-                       const float *px, const float *py, const float *pz, const float *wx, const float *wy,
-                       const float *wz, const int *own, int *occ BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+                       GRID_PARAMS BATCH_TMAX_PARAMS)
 {
     __global const grid_t *G = S->grid;
     for (int e = 0; e < ng; ++e) {
         const int c = gl[e];
-        LANE_ARRAY float ia[3][LANES];          /* 1 / w, a lane vector at a time */
-        LANE_STORE((fv)(1.0f) / LANE_LOAD(wx + c), ia[0]);
-        LANE_STORE((fv)(1.0f) / LANE_LOAD(wy + c), ia[1]);
-        LANE_STORE((fv)(1.0f) / LANE_LOAD(wz + c), ia[2]);
-        for (int l = 0; l < LANES; ++l) {
-            const int i = c + l;
-            if (occ[i])
-                continue;
-            const float p[3] = {px[i], py[i], pz[i]}, w[3] = {wx[i], wy[i], wz[i]};
-            const float inv[3] = {ia[0][l], ia[1][l], ia[2][l]};
-            walk_t W;
-            int seen[GRID_SEEN] = {-1, -1, -1, -1}, walking = grid_start(G, &W, p, w, inv);
-            while (walking && !occ[i]) {
-                const int cid = (W.cell[0] * G->dims[1] + W.cell[1]) * G->dims[2] + W.cell[2];
-                for (uint k = S->gcells[cid]; k < S->gcells[cid + 1]; ++k) {
-                    __global const grid_item_t *it = S->gitems + k;
-                    if (!sphere_1(it, p[0], p[1], p[2], w[0], w[1], w[2] TMAX1_ARG(i)))
-                        continue;
-                    const int j = it->instance;
-                    if (j == seen[0] || j == seen[1] || j == seen[2] || j == seen[3])
-                        continue;               /* met in a cell before */
-                    seen[3] = seen[2]; seen[2] = seen[1]; seen[1] = seen[0]; seen[0] = j;
-                    pending_push(S, P, i, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+        const fv p[3] = {LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c)};
+        const fv w[3] = {LANE_LOAD(wx + c), LANE_LOAD(wy + c), LANE_LOAD(wz + c)};
+        const fv inv[3] = {(fv)(1.0f) / w[0], (fv)(1.0f) / w[1], (fv)(1.0f) / w[2]};
+        walk_v_t W;
+        grid_start_v(G, &W, p, w, inv, MASK(LANE_LOAD(occ + c) == 0));
+        int seen[LANES][GRID_SEEN];
+        for (int l = 0; l < LANES; ++l)
+            for (int q = 0; q < GRID_SEEN; ++q)
+                seen[l][q] = -1;
+        while (VANY(W.walking)) {
+            LANE_ARRAY int ca[LANES], wa[LANES];
+            LANE_STORE(W.cid, ca);
+            LANE_STORE(W.walking, wa);
+            int f = 0;
+            while (!wa[f])                      /* the first walking lane */
+                ++f;
+            if (VALL(~W.walking | MASK(W.cid == ca[f]))) {
+                grid_cell_shared(S, P, S->gpackets + ca[f], c, p, w, W.walking, seen, GRID_ARGS BATCH_TMAX_ARGS);
+            } else {
+                int act[LANES], na = 0;         /* the walking lanes, packed without branches */
+                for (int l = 0; l < LANES; ++l) {
+                    act[na] = l;
+                    na += wa[l] != 0;
                 }
-                walking = grid_next(G, &W, p, inv);
+                for (int m = 0; m < na; ++m)
+                    grid_cell_one(S, P, S->gpackets + ca[act[m]], c + act[m], seen[act[m]], GRID_ARGS
+                                  BATCH_TMAX_ARGS);
             }
+            grid_next_v(G, &W, p, inv);
+            W.walking &= MASK(LANE_LOAD(occ + c) == 0);
         }
     }
-    const uint big = S->gcells[G->dims[0] * G->dims[1] * G->dims[2]];
+    pending_drain(S, P, P->n, GRID_ARGS);       /* batch_instance: fewer than LANES wait */
+    const int big = G->dims[0] * G->dims[1] * G->dims[2];       /* the big casters' packets follow the cells' */
     for (int k = 0; k < G->big; ++k)
-        batch_instance(S, S->gitems[big + k].instance, P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ
+        batch_instance(S, S->gpackets[big + k / 4].instance[k % 4], P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ
                        BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
 }
 #endif

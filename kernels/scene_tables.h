@@ -45,8 +45,7 @@ typedef struct {
     __global const int *order;          /* its leaves' instances */
     float bvh_pad;                      /* margin around every box (pyshadow.visibility.bvh.box_pad) */
     __global const grid_t *grid;        /* INSTANCE_GRID: the grid over the casters (grid.h) */
-    __global const uint *gcells;        /* its cells' lists */
-    __global const grid_item_t *gitems;
+    __global const grid_packet_t *gpackets;  /* its cells' lists, four spheres to a packet */
 } scene_t;
 
 #define SCENE_ARGS __global const csm_type_t *types, __global const uint *offsets,    \
@@ -59,12 +58,12 @@ typedef struct {
                    const float bias_texels, const float bias_tan, const float bias_other,  \
                    __global const bvh_node_t *nodes, __global const int *order,         \
                    const float bvh_pad, __global const grid_t *grid,                    \
-                   __global const uint *gcells, __global const grid_item_t *gitems
+                   __global const grid_packet_t *gpackets
 
 #define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
                                 inst, itype,                                            \
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
-                                bias_other, nodes, order, bvh_pad, grid, gcells, gitems}
+                                bias_other, nodes, order, bvh_pad, grid, gpackets}
 
 #if FINITE_RAYS
 #define TMAX_PARAM , fv tm
@@ -93,21 +92,22 @@ inline iv ground_v(const scene_t *S, fv py, fv wy TMAX_PARAM)
  * j's bounding sphere. The ray's squared distance from the centre is that
  * of o - (o.w) w, not |o|^2 - (o.w)^2: far from the sphere the difference of
  * squares loses every digit (at 5000 radii float32 leaves it +-1.5 r^2). */
-/* the test's terms for rays of float type T against sphere I (a record with
- * centre and radius): tca, oc2, e2 (the ray's squared distance from the
- * centre) and r2 -- one text for the lanes here and for grid.h's one ray,
- * so that both give the same answer */
-#define SPHERE_TERMS(T, I, px, py, pz, wx, wy, wz)                                                  \
-    const T ox = (I)->centre[0] - (px), oy = (I)->centre[1] - (py), oz = (I)->centre[2] - (pz);   \
+/* the test's terms for rays of float type T against spheres of centre
+ * (cx, cy, cz) and radius rad (type R): tca, oc2, e2 (the ray's squared
+ * distance from the centre) and r2 -- one text for the lanes here and for
+ * grid.h's tests (one ray, four spheres; lanes, one sphere), so that all
+ * give the same answer */
+#define SPHERE_TERMS(T, R, cx, cy, cz, rad, px, py, pz, wx, wy, wz)                                \
+    const T ox = (cx) - (px), oy = (cy) - (py), oz = (cz) - (pz);                                 \
     const T tca = ox * (wx) + oy * (wy) + oz * (wz);                                              \
     const T oc2 = ox * ox + oy * oy + oz * oz;                                                    \
     const T ex = ox - tca * (wx), ey = oy - tca * (wy), ez = oz - tca * (wz);                     \
     const T e2 = ex * ex + ey * ey + ez * ez;                                                     \
-    const float r2 = (I)->radius * (I)->radius
+    const R r2 = (rad) * (rad)
 inline iv sphere_v(const scene_t *S, int j, fv px, fv py, fv pz, fv wx, fv wy, fv wz TMAX_PARAM)
 {
     __global const instance_t *I = S->inst + j;
-    SPHERE_TERMS(fv, I, px, py, pz, wx, wy, wz);
+    SPHERE_TERMS(fv, float, I->centre[0], I->centre[1], I->centre[2], I->radius, px, py, pz, wx, wy, wz);
 #if FINITE_RAYS
     return ~(MASK(oc2 > r2) & (MASK(tca < 0.0f) | MASK(e2 > r2))) & MASK(tca < tm);
 #else

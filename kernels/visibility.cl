@@ -4,7 +4,7 @@
  * Kernels
  *   scene_visible   one work-item per BATCH (point, direction) queries: 1 if
  *                   the ray from the point along the direction is unoccluded.
- *   scene_ao        one work-item per point: SAMPLES cosine-weighted
+ *   scene_ao        per point (AO_POINTS a work-item): SAMPLES cosine-weighted
  *                   directions from pattern pidx[i] (sampling.h), with
  *                   FINITE_RAYS of length tmax[i]; writes the
  *                   unoccluded fraction and, with BENT_NORMALS, the
@@ -83,7 +83,7 @@
  *   GROUND               1: infinite ground plane y = ground_y (0: no
  *                        ground test is compiled)
  *   LAYOUT_ZIGZAG, LAYOUT_HILBERT  which nearest-map codes to compile (0/1)
- *   SAMPLES, BENT_NORMALS  (scene_ao only)
+ *   SAMPLES, BENT_NORMALS, AO_POINTS  (scene_ao only; AO_POINTS: below)
  *   TRANSFER             1: scene_ao also writes the shadowed SH transfer
  *                        (N, 9) float, pi / SAMPLES x the sum of the 9 basis
  *                        functions over the unoccluded directions
@@ -135,6 +135,9 @@
 #include "batch.h"
 #if SKY_SAMPLED
 #include "envmap.h"
+#endif
+#if TRANSFER
+#include "sh9.h"
 #endif
 
 /* Inputs of scene_visible: (N, 3) rows of POINT_T and DIR_T (float or, with
@@ -284,28 +287,15 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
 }
 
 #ifdef SAMPLES
-#if TRANSFER
-/* adds the 9 real SH basis functions of order 3 at unit (x, y, z) to t, in
- * pyshadow.lighting.sh's y-up convention (k = l (l + 1) + m, no
- * Condon-Shortley phase) */
-inline void sh9_accumulate(float x, float y, float z, float *t)
-{
-    t[0] += 0.28209479177387814f;
-    t[1] += 0.4886025119029199f * z;
-    t[2] += 0.4886025119029199f * y;
-    t[3] += 0.4886025119029199f * x;
-    t[4] += 1.0925484305920792f * x * z;
-    t[5] += 1.0925484305920792f * y * z;
-    t[6] += 0.31539156525252005f * (3.0f * y * y - 1.0f);
-    t[7] += 1.0925484305920792f * x * y;
-    t[8] += 0.5462742152960396f * (x * x - z * z);
-}
-#endif
-/* one work-item per point; its SAMPLES directions LANES at a time. table:
- * local directions per pattern as (M, 3, SPAD) structure of arrays, SPAD =
- * SAMPLES rounded up to LANES (padding lanes are masked out). */
+/* one work-item per AO_POINTS points (the host's choice: as many as fill a
+ * batch of BATCH queries with their samples, or 1); their SAMPLES directions
+ * LANES at a time, AO_SLICE of each point's per batch_occluded(), whose queue
+ * of lookups the points share. table: local directions per pattern as (M,
+ * 3, SPAD) structure of arrays, SPAD = SAMPLES rounded up to LANES (padding
+ * lanes are masked out). */
 #define SPAD (((SAMPLES + LANES - 1) / LANES) * LANES)
-#define AO_BATCH (SPAD < BATCH ? SPAD : BATCH)     /* samples per batch_occluded() */
+#define AO_SLICE (SPAD < BATCH ? SPAD : BATCH)     /* samples of a point per batch_occluded() */
+#define AO_BATCH (AO_POINTS * AO_SLICE)
 __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                        __global const float *normals, __global const int *pidx,
                        __global const int *owner,
@@ -319,78 +309,92 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
 #endif
                        )
 {
-    const int i = get_global_id(0);
-    if (i >= n) return;
+    const int i0 = get_global_id(0) * AO_POINTS;
+    if (i0 >= n) return;
     SCENE_INIT;
-    const float3 p = vload3(i, points);
-    const float3 nrm = vload3(i, normals);
-    const iv own = (iv)(owner[i]);
-    float3 t, b;
-    hemisphere_frame(nrm, &t, &b);
-    __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
-    int open = 0;
-    float3 sum = (float3)(0.0f);
+    const int np = min(AO_POINTS, n - i0);             /* points of this work-item */
+    int open[AO_POINTS] = {0};                          /* per point, zero-initialised */
+    float3 sum[AO_POINTS] = {(float3)(0.0f)};
 #if TRANSFER
-    float tr[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+    float tr[AO_POINTS][9] = {{0.0f}};
 #endif
 #if SKY_SAMPLED
-    float3 sky_sum = (float3)(0.0f);
+    float3 sky_sum[AO_POINTS] = {(float3)(0.0f)};
 #endif
-    for (int s0 = 0; s0 < SPAD; s0 += AO_BATCH) {
+    for (int s0 = 0; s0 < SPAD; s0 += AO_SLICE) {
         LANE_ARRAY float px[AO_BATCH], py[AO_BATCH], pz[AO_BATCH], wx[AO_BATCH], wy[AO_BATCH],
                          wz[AO_BATCH];
         LANE_ARRAY int ow[AO_BATCH], occ[AO_BATCH];
 #if SURFACE_NORMALS
         LANE_ARRAY float nx[AO_BATCH], ny[AO_BATCH], nz[AO_BATCH];
-        for (int l = 0; l < AO_BATCH; ++l) { nx[l] = nrm.x; ny[l] = nrm.y; nz[l] = nrm.z; }
 #endif
 #if FINITE_RAYS
-        LANE_ARRAY float tm[AO_BATCH];            /* the point's length, validated on the host */
-        for (int l = 0; l < AO_BATCH; ++l) tm[l] = tmax[i];
+        LANE_ARRAY float tm[AO_BATCH];            /* the points' lengths, validated on the host */
 #endif
-        for (int c = 0; c < AO_BATCH; c += LANES) {
-            const int s = min(s0 + c, SPAD - LANES);
-            const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
-                     lz = LOADU(fvu_t, pat + 2 * SPAD + s, 0);
-            /* cosine_direction() of sampling.h, per lane, same operations */
-            LANE_STORE((lx * t.x + ly * nrm.x) + lz * b.x, wx + c);
-            LANE_STORE((lx * t.y + ly * nrm.y) + lz * b.y, wy + c);
-            LANE_STORE((lx * t.z + ly * nrm.z) + lz * b.z, wz + c);
-            LANE_STORE((fv)(p.x), px + c); LANE_STORE((fv)(p.y), py + c); LANE_STORE((fv)(p.z), pz + c);
-            LANE_STORE(own, ow + c);
-            LANE_STORE(MASK((iv)(s0 + c) + LANE_IDS >= SAMPLES), occ + c);   /* padding: decided */
+        for (int k = 0; k < AO_POINTS; ++k) {
+            const int i = i0 + min(k, np - 1), q0 = k * AO_SLICE;   /* past the last point: its copy, decided */
+            const float3 p = vload3(i, points);
+            const float3 nrm = vload3(i, normals);
+            float3 t, b;
+            hemisphere_frame(nrm, &t, &b);
+            __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
+#if SURFACE_NORMALS
+            for (int l = q0; l < q0 + AO_SLICE; ++l) { nx[l] = nrm.x; ny[l] = nrm.y; nz[l] = nrm.z; }
+#endif
+#if FINITE_RAYS
+            for (int l = q0; l < q0 + AO_SLICE; ++l) tm[l] = tmax[i];
+#endif
+            for (int c = 0; c < AO_SLICE; c += LANES) {
+                const int s = min(s0 + c, SPAD - LANES);
+                const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
+                         lz = LOADU(fvu_t, pat + 2 * SPAD + s, 0);
+                /* cosine_direction() of sampling.h, per lane, same operations */
+                LANE_STORE((lx * t.x + ly * nrm.x) + lz * b.x, wx + q0 + c);
+                LANE_STORE((lx * t.y + ly * nrm.y) + lz * b.y, wy + q0 + c);
+                LANE_STORE((lx * t.z + ly * nrm.z) + lz * b.z, wz + q0 + c);
+                LANE_STORE((fv)(p.x), px + q0 + c); LANE_STORE((fv)(p.y), py + q0 + c);
+                LANE_STORE((fv)(p.z), pz + q0 + c);
+                LANE_STORE((iv)(owner[i]), ow + q0 + c);
+                LANE_STORE(MASK((iv)(s0 + c) + LANE_IDS >= SAMPLES) | (k < np ? (iv)(0) : (iv)(-1)),
+                           occ + q0 + c);         /* padding: decided */
+            }
         }
 #if SURFACE_NORMALS
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH, nx, ny, nz BATCH_TMAX_ARGS);
 #else
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH BATCH_TMAX_ARGS);
 #endif
-        for (int l = 0; l < min(AO_BATCH, SAMPLES - s0); ++l) {
-            if (occ[l]) continue;
-            ++open;
+        for (int k = 0; k < np; ++k) {
+            for (int l = k * AO_SLICE; l < k * AO_SLICE + min(AO_SLICE, SAMPLES - s0); ++l) {
+                if (occ[l]) continue;
+                ++open[k];
 #if BENT_NORMALS
-            sum += (float3)(wx[l], wy[l], wz[l]);
+                sum[k] += (float3)(wx[l], wy[l], wz[l]);
 #endif
 #if TRANSFER
-            sh9_accumulate(wx[l], wy[l], wz[l], tr);
+                sh9_accumulate(wx[l], wy[l], wz[l], tr[k]);
 #endif
 #if SKY_SAMPLED
-            sky_sum += envmap_latlong(env, env_h, env_w, wx[l], wy[l], wz[l]);
+                sky_sum[k] += envmap_latlong(env, env_h, env_w, wx[l], wy[l], wz[l]);
 #endif
+            }
         }
     }
-    ao[i] = (float)open / (float)SAMPLES;
+    for (int k = 0; k < np; ++k) {
+        const int i = i0 + k;
+        ao[i] = (float)open[k] / (float)SAMPLES;
 #if BENT_NORMALS
-    const float len = length(sum);
-    vstore3(len > 0.0f ? sum / len : nrm, i, bent);
+        const float len = length(sum[k]);
+        vstore3(len > 0.0f ? sum[k] / len : vload3(i, normals), i, bent);
 #endif
 #if TRANSFER
-    /* cosine-weighted samples (pdf cos / pi): pi / SAMPLES x the sum is the
-     * shadowed transfer integral of V Y_k cos */
-    for (int k = 0; k < 9; ++k) transfer[9 * (size_t)i + k] = tr[k] * (M_PI_F / (float)SAMPLES);
+        /* cosine-weighted samples (pdf cos / pi): pi / SAMPLES x the sum is
+         * the shadowed transfer integral of V Y_k cos */
+        for (int c = 0; c < 9; ++c) transfer[9 * (size_t)i + c] = tr[k][c] * (M_PI_F / (float)SAMPLES);
 #endif
 #if SKY_SAMPLED
-    vstore3(sky_sum / (float)SAMPLES, i, sky);         /* mean radiance of the open samples */
+        vstore3(sky_sum[k] / (float)SAMPLES, i, sky);  /* mean radiance of the open samples */
 #endif
+    }
 }
 #endif

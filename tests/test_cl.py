@@ -252,7 +252,7 @@ def test_launch_shape_follows_the_device_kind():
 def test_table_structs_match_their_dtypes_on_the_device():
     """The generated C structs have every field at the dtype's byte offset."""
     fields = [("csm_type_t", tables.CSM_TYPE), ("instance_t", tables.INSTANCE), ("bvh_node_t", tables.BVH_NODE),
-              ("grid_t", tables.GRID), ("grid_item_t", tables.GRID_ITEM)]
+              ("grid_t", tables.GRID), ("grid_packet_t", tables.GRID_PACKET)]
     lines = []
     for cname, dt in fields:
         lines.append(f"    {{ __global const {cname} *r = (__global const {cname} *)base;")
@@ -275,7 +275,7 @@ def test_table_structs_match_their_dtypes_on_the_device():
     cl.enqueue_copy(_cl.queue(), out, buf)
     assert out.tolist() == want
     assert tables.CSM_TYPE.itemsize == 76 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
-    assert tables.GRID.itemsize == 36 and tables.GRID_ITEM.itemsize == 20
+    assert tables.GRID.itemsize == 52 and tables.GRID_PACKET.itemsize == 80
 
 
 def test_c_struct_refuses_fields_it_cannot_lay_out_alike():

@@ -215,3 +215,22 @@ def test_auto_lookup_takes_the_vote_only_where_one_texel_cannot(torus):
     assert [t["predicted"]["lookup"] for t in c["tried"]] == ["nearest", "vote"]
     assert c["lookup"] == "vote" and "measured" not in c["tried"][0]
     assert c["met"] == (c["measured"]["disagreement"] <= tight)
+
+
+def test_large_candidates_only_after_every_smaller_one_with_every_lookup(torus, monkeypatch):
+    """Layouts above LARGE_WORK maps x texels (the cow's 0.5 % needs 128x256 @ 512^2, 462 MB) are
+    tried, whatever their predicted size, only once every smaller candidate missed with both lookups."""
+    from pyshadow.csm import choose as choose_mod
+    cands = ((4, 8, 16), (8, 16, 16), (4, 8, 32))        # work 8,192, 32,768 and 32,768
+    monkeypatch.setattr(choose_mod, "LARGE_WORK", 10_000)
+    with pytest.warns(UserWarning, match="no candidate CSM meets"):
+        csm, c = choose_csm(torus, 1e-6, lookup="auto", points=200, samples=4, near=1000, candidates=cands)
+    seen = [(tuple(t["predicted"]["maps"]), t["predicted"]["resolution"], t["predicted"]["lookup"])
+            for t in c["tried"]]
+    assert seen[:2] == [((4, 8), 16, "nearest"), ((4, 8), 16, "vote")]
+    assert [s[2] for s in seen[2:]] == ["nearest", "nearest", "vote", "vote"]
+    assert sorted(s[:2] for s in seen[2:4]) == [((4, 8), 32), ((8, 16), 16)]
+    monkeypatch.setattr(choose_mod, "LARGE_WORK", 10 ** 9)     # no large tier: by predicted size, per lookup
+    with pytest.warns(UserWarning, match="no candidate CSM meets"):
+        csm, c = choose_csm(torus, 1e-6, lookup="auto", points=200, samples=4, near=1000, candidates=cands)
+    assert [t["predicted"]["lookup"] for t in c["tried"]] == ["nearest"] * 3 + ["vote"] * 3

@@ -386,6 +386,34 @@ def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng):
         q.check()
 
 
+@pytest.mark.parametrize("samples", [7, 16])
+def test_ao_points_sharing_a_work_item_answer_as_one_point_each(bunny_scene, samples):
+    """scene_ao runs launch.ao_points() points a work-item, whose samples share one queue of
+    lookups: with the last work-item part-filled, AO, bent normals and the SH transfer are those
+    of one point a work-item, bit for bit."""
+    from pyshadow.lighting.transfer import sh_transfer
+    pts, nrm = bunny_scene.vertex_points(0)
+    pts, nrm = pts[:1237], nrm[:1237]
+
+    def answers():
+        ao, bent = bunny_scene.ambient_occlusion(pts, nrm, sampling=Sampling(samples), surface_ids=0,
+                                                 return_bent_normals=True)
+        return (ao, bent, *sh_transfer(bunny_scene, pts, nrm, sampling=Sampling(samples), surface_ids=0))
+    s = launch.shape()
+    k = launch.ao_points(samples)
+    assert k == max(1, s.query_batch // (-(-samples // s.lanes) * s.lanes))
+    if k == 1:
+        pytest.skip("this device's batch holds one point's samples")
+    assert len(pts) % k
+    want = answers()
+    with launch.override(query_batch=s.lanes):
+        assert launch.ao_points(samples) == 1
+        got = answers()
+    for a, b in zip(got, want):
+        np.testing.assert_array_equal(a, b)
+    assert 0.2 < want[0].mean() < 0.95 and (want[0] < 1).sum() > 100
+
+
 def test_gpu_launch_shape_agrees(bunny_scene, rng, monkeypatch):
     """What a GPU runs -- one lane, one query per work-item, groups of 128,
     the kernels' portable OpenCL forms -- gives this device's answers."""

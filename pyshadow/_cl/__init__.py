@@ -348,7 +348,7 @@ def _probe_job(dev) -> dict:
              "SURFACE_LIFT_TEXELS": "0.5f"}
     builds = [("raster.cl", {"RES": 64, "LAYERS": 3, "FACING": 1}),
               ("visibility.cl", {**scene, "FILTERED": 0, "POINTS_F64": fp64, "DIRS_F64": fp64,
-                                 "SAMPLES": 36, "BENT_NORMALS": 1, "TRANSFER": 1}),
+                                 "SAMPLES": 36, "AO_POINTS": 3, "BENT_NORMALS": 1, "TRANSFER": 1}),
               ("visibility.cl", {**scene, "FILTERED": 1, "POINTS_F64": 0, "DIRS_F64": 0})]
     return {"probe": kernel_source("probe.cl"),
             "builds": [{"label": f, "source": kernel_source(f), "options": list(_options(d))}

@@ -132,6 +132,18 @@ def _device_shape() -> LaunchShape:
     )
 
 
+def ao_points(samples: int, s: LaunchShape | None = None) -> int:
+    """Points per work-item of ``scene_ao`` (``-DAO_POINTS``): as many as fill one batch
+    (``query_batch`` queries) with their ``samples`` each (rounded up to the lane width), at least 1.
+
+    The points of a work-item share its queue of CSM lookups, which then asks
+    whole lane groups where one point's samples would leave most lanes empty.
+    """
+    s = shape() if s is None else s
+    padded = -(-int(samples) // s.lanes) * s.lanes
+    return max(1, s.query_batch // padded)
+
+
 def grid(items: int, group: int):
     """Global and local sizes covering ``items`` work-items in groups of ``group``."""
     return (-(-int(items) // group) * group,), (group,)

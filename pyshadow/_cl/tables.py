@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CSM_TYPE", "INSTANCE", "BVH_NODE", "GRID", "GRID_ITEM", "c_struct", "GENERATED_HEADERS"]
+__all__ = ["CSM_TYPE", "INSTANCE", "BVH_NODE", "GRID", "GRID_PACKET", "c_struct", "GENERATED_HEADERS"]
 
 # one record per CSM type of a scene's atlas (pyshadow.csm.device.scene_atlas)
 CSM_TYPE = np.dtype([
@@ -52,19 +52,23 @@ BVH_NODE = np.dtype([
 # the uniform grid over the casters' bounding spheres (pyshadow.visibility.grid): one record
 GRID = np.dtype([
     ("origin", "<f4", (3,)),      # low corner, anchor-relative world
-    ("cell", "<f4"),              # cell edge (world units)
-    ("inv_cell", "<f4"),          # 1 / cell, rounded to float32
+    ("cell", "<f4", (3,)),        # cell edge per axis (world units)
+    ("inv_cell", "<f4", (3,)),    # 1 / cell, rounded to float32
     ("dims", "<i4", (3,)),        # cells per axis
-    ("big", "<i4"),               # casters wider than a cell, listed after the cells' lists
+    ("big", "<i4"),               # casters wider than a cell, their packets after the cells' own
 ])
 
-# one entry of a grid cell's list: the caster and a copy of its sphere (the
-# instance record's centre and radius, the same float32 values), so that a
-# ray's walk reads its cells' spheres in a row
-GRID_ITEM = np.dtype([
-    ("centre", "<f4", (3,)),
-    ("radius", "<f4"),
-    ("instance", "<i4"),
+# the grid's cells' lists as the kernels read them: four spheres to a packet
+# (copies of the instance records' centres and radii, the same float32
+# values), one sphere test of four (kernels/grid.h); an unused slot has
+# instance -1, and slot 3 of a packet whose list goes on -2 - the next
+# packet's index (pyshadow.visibility.grid.grid_packets)
+GRID_PACKET = np.dtype([
+    ("cx", "<f4", (4,)),
+    ("cy", "<f4", (4,)),
+    ("cz", "<f4", (4,)),
+    ("radius", "<f4", (4,)),
+    ("instance", "<i4", (4,)),
 ])
 
 _C_TYPES = {np.dtype("<i4"): "int", np.dtype("<u4"): "uint", np.dtype("<f4"): "float"}
@@ -100,7 +104,7 @@ def _header() -> str:
         c_struct(INSTANCE, "instance_t"),
         c_struct(BVH_NODE, "bvh_node_t"),
         c_struct(GRID, "grid_t"),
-        c_struct(GRID_ITEM, "grid_item_t"),
+        c_struct(GRID_PACKET, "grid_packet_t"),
         "#endif",
     ])
 

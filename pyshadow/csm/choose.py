@@ -23,12 +23,17 @@ import warnings
 
 import numpy as np
 
-from .error_model import CANDIDATES, MODEL_RATIO, _count, predict, rays_for
+from .error_model import CANDIDATES, LARGE_WORK, MODEL_RATIO, _count, predict, rays_for
 
 __all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model", "PILOTS"]
 
 #: the pilot builds of :func:`size_model`: (theta, phi, resolution)
 PILOTS = ((16, 32, 64), (32, 64, 64), (16, 32, 128))
+
+
+def _work(cand) -> int:
+    """Build work of candidate ``(theta, phi, resolution)``: maps times texels."""
+    return cand[0] * cand[1] * cand[2] ** 2
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -127,7 +132,9 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         with ``seed``, the verification's with ``seed + 1``).
     progress : bool
     candidates : sequence of (theta, phi, resolution)
-        Tried by increasing predicted size (:func:`size_model`).
+        Tried by increasing predicted size (:func:`size_model`); those above
+        :data:`~pyshadow.csm.error_model.LARGE_WORK` maps x texels only after
+        every other candidate has missed with every lookup.
 
     Returns
     -------
@@ -155,7 +162,10 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     built = {}
     size, size_info = size_model(mesh, depth_bits, layers, built)
     lookups = ("nearest", "vote") if lookup == "auto" else (lookup,)
-    order = [(c, lk) for lk in lookups for c in sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))]
+    # by predicted size, every lookup's; a layout above LARGE_WORK only after every smaller one of every lookup
+    ranked = sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))
+    tiers = ([c for c in ranked if _work(c) <= LARGE_WORK], [c for c in ranked if _work(c) > LARGE_WORK])
+    order = [(c, lk) for tier in tiers for lk in lookups for c in tier]
     # with the check, the central prediction decides what to build first (a miss costs a build, the
     # check catches it); without, the prediction widened by the model's measured range
     need = dict.fromkeys(lookups, max_error / (1.0 if verify else MODEL_RATIO[1]))

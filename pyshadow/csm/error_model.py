@@ -36,16 +36,21 @@ from ..views import ViewSet
 from .core import DEPTH_Q
 from .reference import shadow_taps
 
-__all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "traced_vote", "truth_visible", "model_visible",
+__all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "LARGE_WORK", "traced_vote", "truth_visible", "model_visible",
            "ao_rays", "near_rays", "rays_for", "predict", "wilson"]
 
 #: measured / predicted disagreement on the shared meshes (benchmarks/error_model.py):
 #: the range a prediction is stated with; an unverified choice aims at ``target / MODEL_RATIO[1]``
 MODEL_RATIO = (0.8, 1.3)
 
-#: the candidates a choice considers, by build work (maps x texels): (theta, phi, resolution)
+#: build work (maps x texels) above which a candidate is a last resort: 64x128 maps @ 512^2
+LARGE_WORK = 64 * 128 * 512 ** 2
+
+#: the candidates a choice considers, by build work (maps x texels): (theta, phi, resolution); the
+#: last, 128x256 @ 512^2 (twice :data:`LARGE_WORK`: 462 MB and 4.5 min for the cow), is tried only
+#: once every smaller one has missed with every lookup (:func:`pyshadow.csm.choose.choose_csm`)
 CANDIDATES = tuple(sorted(((t, 2 * t, r) for t in (16, 32, 64, 128) for r in (64, 128, 256, 512)
-                           if t * r <= 64 * 512), key=lambda c: (c[0] * c[1] * c[2] ** 2, c[2])))
+                           if t * r <= 128 * 512), key=lambda c: (c[0] * c[1] * c[2] ** 2, c[2])))
 
 
 @dataclasses.dataclass(frozen=True)

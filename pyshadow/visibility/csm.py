@@ -42,7 +42,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl import launch
-from .._cl.tables import BVH_NODE, GRID, GRID_ITEM, INSTANCE
+from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -56,7 +56,7 @@ from .base import register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
-from .grid import grid_margin, instance_grid
+from .grid import grid_margin, grid_packets, instance_grid
 
 __all__ = ["CSMVisibility", "lane_table", "instance_accel"]
 
@@ -90,7 +90,7 @@ def instance_accel(scene) -> str:
         margin = _grid_margin(rows, 0.0)
         g = instance_grid(rows["centre"], rows["radius"], margin)
         if g is not None:
-            held[_grid_key(anchor, margin)] = g
+            held[_grid_key(anchor, margin)] = (g[0], grid_packets(g[0]["dims"][0], g[1], g[2]))
         held["instance_accel"] = "tree" if g is None else "grid"
     return held["instance_accel"]
 
@@ -184,7 +184,7 @@ def _accel_tables(scene, rows, anchor, points_extent):
     accel = instance_accel(scene)
     held = scene_arrays(scene)
     nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0
-    grid, gcells, gitems = np.zeros(1, GRID), np.zeros(1, np.uint32), np.zeros(1, GRID_ITEM)
+    grid, packets = np.zeros(1, GRID), np.zeros(1, GRID_PACKET)
     if accel == "tree":
         key = ("instance_bvh", np.asarray(anchor, np.float64).tobytes())
         if key not in held:
@@ -195,9 +195,10 @@ def _accel_tables(scene, rows, anchor, points_extent):
         margin = _grid_margin(rows, points_extent)
         key = _grid_key(anchor, margin)
         if key not in held:
-            held[key] = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
-        grid, gcells, gitems = held[key]
-    return nodes, order, pad, grid, gcells, gitems
+            g = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
+            held[key] = (g[0], grid_packets(g[0]["dims"][0], g[1], g[2]))
+        grid, packets = held[key]
+    return nodes, order, pad, grid, packets
 
 
 def _open_sky(scene) -> bool:
@@ -310,6 +311,8 @@ class CSMVisibility(_SampledSky):
              "TRANSFER": 0, "SURFACE_NORMALS": 0, "FINITE_RAYS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
              "INSTANCE_BVH": int(accel == "tree"), "INSTANCE_GRID": int(accel == "grid"), "BVH_STACK": BVH_STACK}
         d.update(extra)
+        if "SAMPLES" in extra:                  # scene_ao: points per work-item
+            d.setdefault("AO_POINTS", launch.ao_points(int(extra["SAMPLES"])))
         return d
 
     def query_defines(self, scene, kernel: str = "scene_visible", **extra) -> dict | None:
@@ -351,11 +354,11 @@ class CSMVisibility(_SampledSky):
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
-        nodes, order, pad, grid, gcells, gitems = _accel_tables(scene, rows, anchor, points_extent)
+        nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
         args = [*atlas["buffers"], _cl.to_device(rows), _cl.to_device(itype), np.int32(ninst), np.float32(gy),
                 np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),
                 _cl.to_device(nodes), _cl.to_device(order), np.float32(pad), _cl.to_device(grid),
-                _cl.to_device(gcells), _cl.to_device(gitems)]
+                _cl.to_device(packets)]
         return atlas, args
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
@@ -545,7 +548,7 @@ class CSMVisibility(_SampledSky):
                 ao_buf = _cl.empty(4 * (e - s))
                 bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
                 tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
-                k(q, *launch.grid(e - s, shape.query_group), *args, np.int32(e - s),
+                k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group), *args, np.int32(e - s),
                   _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
                   _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
                   *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,

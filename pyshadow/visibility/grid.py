@@ -5,9 +5,10 @@ when any of its rays meets the node's box. Among casters spread over a
 ground plane every box of the tree spans the same thin layer, so a ray from
 the ground starts inside the boxes of all the nodes above its point, and
 visits tens of them to meet the two or three spheres near it. A grid of cells
-about one caster wide answers the same question by walking each ray through
-the few cells it crosses (a 3D-DDA, ``kernels/grid.h``): a cell lists the
-casters whose sphere, grown by a margin, overlaps it.
+about two casters wide answers the same question by walking each ray through
+the few cells it crosses (a 3D-DDA, ``kernels/grid.h``, the rays of a lane
+group side by side): a cell lists the casters whose sphere, grown by a
+margin, overlaps it.
 
 As with the tree, the grid only decides which instances are asked; each is
 still asked through its sphere test and its CSM exactly as without it, so
@@ -15,10 +16,14 @@ answers are bit-identical (an OR over the same instances, in another order).
 The margin covers the float32 rounding of the walk: a ray that meets a
 sphere passes, within the rounding, through a cell listing it.
 
-The cell size follows the scene: about two cells per caster over the
-spheres' bounding box, and no smaller than the median diameter, so a
-typical sphere overlaps at most two cells per axis. A sphere is listed in
-the cells it meets (grown by the margin), not in every cell of its box. A sphere wider than a
+The cell size follows the scene: one cell for every two casters over the
+spheres' bounding box, and no smaller than the median diameter. The kernels
+read a cell's list four spheres at a time (:func:`grid_packets`: one test
+of four), so a cell listing three or four spheres costs a ray little more
+than one listing a single sphere, while every cell crossed costs a step of
+the walk and a test: cells of about two casters each (a typical sphere
+overlapping two to four of them) keep both few. A sphere is listed in the
+cells it meets (grown by the margin), not in every cell of its box. A sphere wider than a
 cell would fill many cells; such casters (``big``) are asked by every ray
 instead, as without an acceleration structure. :func:`instance_grid`
 declines (returns None) when the grid would be unbalanced -- more than
@@ -29,12 +34,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._cl.tables import GRID, GRID_ITEM
+from .._cl.tables import GRID, GRID_PACKET
 
-__all__ = ["CELLS_PER_CASTER", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin"]
+__all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin", "grid_packets"]
 
-#: Cells per caster the grid aims at (the cell's edge: the cube root of the spheres' box volume over this many).
-CELLS_PER_CASTER = 2.0
+#: One entry of a cell's list as :func:`instance_grid` gives it: the caster and a copy of its
+#: sphere (the instance record's float32 centre and radius); :func:`grid_packets` packs them.
+GRID_ITEM = np.dtype([("centre", "<f4", (3,)), ("radius", "<f4"), ("instance", "<i4")])
+
+#: Cells per caster the grid aims at (the cell's edge: the cube root of the spheres' box volume over this
+#: many; 0.5: a cell for every two casters, its list about one packet of four).
+CELLS_PER_CASTER = 0.5
 #: Upper bound on cells per caster (plus 64): a larger count widens the cells.
 MAX_CELLS_PER_CASTER = 8
 #: Casters wider than a cell that the grid leaves to every ray; with more, the tree is used.
@@ -66,7 +76,9 @@ def _cell_size(lo: np.ndarray, hi: np.ndarray, r: np.ndarray) -> float:
 
 
 def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = True):
-    """The grid over spheres (anchor-relative centres, radii) as the kernels read it, or None.
+    """The grid over spheres (anchor-relative centres, radii), or None.
+
+    :func:`grid_packets` packs its lists as the kernels read them.
 
     Parameters
     ----------
@@ -81,8 +93,9 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
     Returns
     -------
     header : ndarray of GRID, shape (1,)
-        ``origin`` (the grid's low corner), ``cell`` (edge), ``inv_cell``,
-        ``dims`` (cells per axis), ``big`` (casters asked by every ray).
+        ``origin`` (the grid's low corner), ``cell`` (edge per axis),
+        ``inv_cell``, ``dims`` (cells per axis), ``big`` (casters asked by
+        every ray: radius above the target edge).
     cells : ndarray, uint32, shape (prod(dims) + 1,)
         Cell ``(x * dims[1] + y) * dims[2] + z`` lists ``items[cells[k] :
         cells[k + 1]]``; the big casters follow at ``items[cells[-1]:]``.
@@ -98,19 +111,23 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
         raise ValueError(f"instance_grid: {n} centres and {len(r)} radii")
     lo = (c - r[:, None]).min(axis=0) - 2.0 * margin
     hi = (c + r[:, None]).max(axis=0) + 2.0 * margin
-    h = _cell_size(lo, hi, r)
+    target = _cell_size(lo, hi, r)
     origin = lo.astype(np.float32)
     origin = np.where(origin > lo, np.nextafter(origin, np.float32(-np.inf)), origin)     # at or below lo
-    h32, inv32 = np.float32(h), np.float32(1.0 / h)
-    h = float(h32)
-    dims = np.maximum(np.ceil((hi - origin) / h).astype(np.int64), 1)
-    big = np.flatnonzero(r > h)
+    # cells of about the target edge, each axis's fitted to the box: a thin layer of casters gets one
+    # layer of cells as thick as it is, so that a ray leaves the cells where it leaves the layer
+    dims = np.maximum(np.ceil((hi - origin) / target).astype(np.int64), 1)
+    h32 = ((hi - origin) / dims).astype(np.float32)
+    h32 = np.where(origin + dims * h32.astype(np.float64) < hi, np.nextafter(h32, np.float32(np.inf)), h32)
+    h32 = np.maximum(h32, np.float32(np.finfo(np.float32).tiny))
+    h, inv32 = h32.astype(np.float64), (1.0 / h32.astype(np.float64)).astype(np.float32)
+    big = np.flatnonzero(r > target)
     if len(big) > MAX_BIG and balanced_only:
         return None
-    small = np.flatnonzero(r <= h)
+    small = np.flatnonzero(r <= target)
     a = np.clip(np.floor((c[small] - r[small, None] - margin - origin) / h).astype(np.int64), 0, dims - 1)
     b = np.clip(np.floor((c[small] + r[small, None] + margin - origin) / h).astype(np.int64), 0, dims - 1)
-    span = b - a + 1                                        # cells per axis of each sphere (1 to 3)
+    span = b - a + 1                                        # cells per axis of each sphere (1 to 5)
     count = span.prod(axis=1)
     inst = np.repeat(small, count)
     k = np.arange(len(inst)) - np.repeat(np.cumsum(count) - count, count)     # index within the sphere's block
@@ -138,3 +155,58 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
     header["origin"], header["cell"], header["inv_cell"] = origin, h32, inv32
     header["dims"], header["big"] = dims.astype(np.int32), len(big)
     return header, cells, items
+
+
+def grid_packets(dims, cells, items):
+    """The cells' lists as the kernels read them: spheres four to a packet (``GRID_PACKET``).
+
+    Cell ``k``'s list starts in ``packets[k]``, so that a ray's walk finds
+    it from the cell's number alone. A packet holds up to four entries,
+    unused slots marked by instance -1; a list longer than four fills three
+    slots of each packet but its last, whose slot 3 holds ``-2 - i`` (no
+    sphere), ``i`` the index of the packet that goes on. The big casters
+    follow the cells' packets, four to a packet from ``packets[prod(dims)]``;
+    the lists' continuations come after them. A ray's walk tests the spheres
+    of a packet at once (``kernels/grid.h``).
+
+    Parameters
+    ----------
+    dims : sequence of 3 int
+        The grid's cells per axis (``header["dims"][0]`` of :func:`instance_grid`).
+    cells, items
+        As :func:`instance_grid` returns them.
+
+    Returns
+    -------
+    packets : ndarray of GRID_PACKET, shape (prod(dims) + ceil(big / 4) + continuations,)
+    """
+    cells = np.asarray(cells, np.int64)
+    ncells = int(np.prod(dims))
+    if len(cells) != ncells + 1:
+        raise ValueError(f"grid_packets: {len(cells) - 1} lists for {ncells} cells")
+    per = np.diff(cells)
+    nbig = len(items) - int(cells[-1])
+    chain = np.maximum(1, (per + 1) // 3)                    # packets of a list of n: ceil((n - 1) / 3), at least 1
+    more = np.zeros(ncells + 1, np.int64)                   # its continuations, from ncells + ceil(nbig / 4) + more[k]
+    more[1:] = np.cumsum(chain - 1)
+    start = ncells + (nbig + 3) // 4
+    packets = np.zeros(start + int(more[-1]), GRID_PACKET)
+    packets["instance"] = -1
+    owner = np.repeat(np.arange(ncells), per)
+    t = np.arange(int(cells[-1])) - cells[owner]            # place within its cell's list
+    link = np.minimum(t // 3, chain[owner] - 1)             # which packet of the chain: the last takes 4
+    lane = t - 3 * link
+
+    def packet(k, j):                                        # index of packet j (0: the cell's own) of cell k's chain
+        return np.where(j == 0, k, start + more[k] + j - 1)
+
+    pk = np.concatenate([packet(owner, link), ncells + np.arange(nbig) // 4])
+    lane = np.concatenate([lane, np.arange(nbig) % 4])
+    for k, field in enumerate(("cx", "cy", "cz")):
+        packets[field][pk, lane] = items["centre"][:, k]
+    packets["radius"][pk, lane] = items["radius"]
+    packets["instance"][pk, lane] = items["instance"]
+    for j in range(1, int(chain.max(initial=1))):            # slot 3 of packet j - 1 of each longer chain: the link
+        k = np.flatnonzero(chain > j)
+        packets["instance"][packet(k, j - 1), 3] = -2 - packet(k, j)
+    return packets

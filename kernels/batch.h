@@ -50,6 +50,11 @@
 #define BATCH_NORMAL_PARAMS
 #define BATCH_NORMAL_ARGS
 #endif
+/* a batch's queries as its functions pass them on: points, unit directions,
+ * owners, the decided mask (and normals) */
+#define QUERY_PARAMS const float *px, const float *py, const float *pz, const float *wx, const float *wy, \
+                     const float *wz, const int *own, int *occ BATCH_NORMAL_PARAMS
+#define QUERY_ARGS px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS
 #if FINITE_RAYS         /* each query's length tm (world units; scene_tables.h) */
 #define BATCH_TMAX_PARAMS , const float *tm
 #define BATCH_TMAX_ARGS , tm
@@ -62,23 +67,22 @@
 
 #if NTYPES
 /* The (query, caster) pairs a batch still has to ask, LANES to a lookup:
- * the sphere tests of every caster append to one queue, and a lookup is
- * launched whenever LANES pairs wait, whichever casters they belong to (each
- * lane reads its own instance; instance_v), so that a batch among many
+ * the sphere tests of every caster append to one queue, whose full lane
+ * groups are asked (after each caster with the tree; when the queue is full
+ * and after the walks with the grid), whichever casters the pairs belong to
+ * (each lane reads its own instance; instance_v), so that a batch among many
  * casters, each met by a few of its rays, fills its lanes instead of asking
  * each caster with mostly empty ones. The pairs of one lookup share a CSM
  * type: with several types a change of type first asks what waits. A query
  * stays open until its pairs are asked, and may meet more casters meanwhile;
  * the answer, an OR over the casters its ray meets, is the same. */
 typedef struct {
-    int n, type;                        /* pairs waiting (< LANES between casters), their CSM type */
+    int n, type;                        /* pairs waiting, their CSM type */
     int q[BATCH + LANES], j[BATCH + LANES];
 } pending_t;
 
 /* ask the first cnt pairs of P (LANES at a time; the last group padded with its last pair) */
-inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, const float *px, const float *py,
-                      const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
-                      int *occ BATCH_NORMAL_PARAMS)
+inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY_PARAMS)
 {
     for (int g = 0; g < cnt; g += LANES) {
         LANE_ARRAY float a[6 + 3 * SURFACE_NORMALS][LANES];
@@ -110,14 +114,12 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, const
 
 /* the queue holds pairs of one CSM type: before a pair of caster j joins,
  * what waits of another type is asked */
-inline void pending_type(const scene_t *S, pending_t *P, const int j, const float *px, const float *py,
-                         const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
-                         int *occ BATCH_NORMAL_PARAMS)
+inline void pending_type(const scene_t *S, pending_t *P, const int j, QUERY_PARAMS)
 {
 #if NTYPES > 1
     const int t = S->itype[j];
     if (P->n && t != P->type) {
-        batch_ask(S, P, P->n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+        batch_ask(S, P, P->n, QUERY_ARGS);
         P->n = 0;
     }
     P->type = t;
@@ -127,12 +129,10 @@ inline void pending_type(const scene_t *S, pending_t *P, const int j, const floa
 #if INSTANCE_BVH || INSTANCE_GRID
 /* ask the full lane groups of the first cnt pairs; the rest (fewer than
  * LANES) waits at the front of the queue */
-inline void pending_drain(const scene_t *S, pending_t *P, const int cnt, const float *px, const float *py,
-                          const float *pz, const float *wx, const float *wy, const float *wz, const int *own,
-                          int *occ BATCH_NORMAL_PARAMS)
+inline void pending_drain(const scene_t *S, pending_t *P, const int cnt, QUERY_PARAMS)
 {
     const int full = cnt - cnt % LANES;
-    batch_ask(S, P, full, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    batch_ask(S, P, full, QUERY_ARGS);
     for (int k = full; k < cnt; ++k) {
         P->q[k - full] = P->q[k];
         P->j[k - full] = P->j[k];
@@ -145,11 +145,9 @@ inline void pending_drain(const scene_t *S, pending_t *P, const int cnt, const f
  * against caster j, of those the lanes of lm: those whose ray can meet its
  * bounding sphere join the queue, and its full groups are asked */
 inline void batch_instance(const scene_t *S, const int j, pending_t *P, const int *gl, const int ng,
-                           const int *lm, const float *px, const float *py, const float *pz, const float *wx,
-                           const float *wy, const float *wz, const int *own, int *occ
-                           BATCH_NORMAL_PARAMS BATCH_TMAX_PARAMS)
+                           const int *lm, QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
-    pending_type(S, P, j, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    pending_type(S, P, j, QUERY_ARGS);
     int cnt = P->n;
     for (int e = 0; e < ng; ++e) {
         const int c = gl[e];
@@ -165,9 +163,9 @@ inline void batch_instance(const scene_t *S, const int j, pending_t *P, const in
         }
     }
 #if INSTANCE_BVH || INSTANCE_GRID
-    pending_drain(S, P, cnt, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);
+    pending_drain(S, P, cnt, QUERY_ARGS);
 #else
-    batch_ask(S, P, cnt, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);   /* few casters: each asked at once */
+    batch_ask(S, P, cnt, QUERY_ARGS);   /* few casters: each asked at once */
     P->n = 0;
 #endif
 }
@@ -179,23 +177,20 @@ inline void batch_instance(const scene_t *S, const int j, pending_t *P, const in
 #else
 #define TMAX1_ARG(i)
 #endif
-#define GRID_ARGS px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS
-#define GRID_PARAMS const float *px, const float *py, const float *pz, const float *wx, const float *wy, \
-                    const float *wz, const int *own, int *occ BATCH_NORMAL_PARAMS     /* the batch's queries */
 /* queue the pair (query i, caster j); the queue is asked when it is full
  * (BATCH pairs), and at the end of the walks (batch_grid): the walks run
  * without lookups in between, and the lookups run LANES pairs at a time */
 __attribute__((always_inline)) inline void pending_push(const scene_t *S, pending_t *P, const int i, const int j,
-                                                        GRID_PARAMS)
+                                                        QUERY_PARAMS)
 {
 #if NTYPES > 1
     if (S->itype[j] != P->type)
-        pending_type(S, P, j, GRID_ARGS);
+        pending_type(S, P, j, QUERY_ARGS);
 #endif
     P->q[P->n] = i;
     P->j[P->n] = j;
     if (++P->n == BATCH) {
-        batch_ask(S, P, BATCH, GRID_ARGS);
+        batch_ask(S, P, BATCH, QUERY_ARGS);
         P->n = 0;
     }
 }
@@ -206,12 +201,12 @@ __attribute__((always_inline)) inline void pending_push(const scene_t *S, pendin
  * same answer) */
 #define GRID_SEEN 4
 __attribute__((always_inline)) inline void grid_met(const scene_t *S, pending_t *P, int *sn, const int i,
-                                                    const int j, GRID_PARAMS)
+                                                    const int j, QUERY_PARAMS)
 {
     if (j == sn[0] || j == sn[1] || j == sn[2] || j == sn[3])
         return;
     sn[3] = sn[2]; sn[2] = sn[1]; sn[1] = sn[0]; sn[0] = j;
-    pending_push(S, P, i, j, GRID_ARGS);
+    pending_push(S, P, i, j, QUERY_ARGS);
 }
 
 /* the walking lanes of group c all in the cell of packet K (rays from one
@@ -219,7 +214,7 @@ __attribute__((always_inline)) inline void grid_met(const scene_t *S, pending_t 
 __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pending_t *P,
                                                             __global const grid_packet_t *K, const int c,
                                                             const fv *p, const fv *w, const iv walking,
-                                                            int (*seen)[GRID_SEEN], GRID_PARAMS BATCH_TMAX_PARAMS)
+                                                            int (*seen)[GRID_SEEN], QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
     for (;; K = S->gpackets + (-2 - K->instance[3])) {
         for (int q = 0; q < 4; ++q) {
@@ -231,7 +226,7 @@ __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pe
             LANE_STORE(met, ma);
             for (int l = 0; l < LANES; ++l)
                 if (ma[l])
-                    grid_met(S, P, seen[l], c + l, j, GRID_ARGS);
+                    grid_met(S, P, seen[l], c + l, j, QUERY_ARGS);
         }
         if (K->instance[3] >= -1)               /* < -1: the list goes on in packet -2 - link */
             break;
@@ -241,7 +236,7 @@ __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pe
 /* query i's ray against the list of its cell, from packet K, four spheres at a time */
 __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pending_t *P,
                                                          __global const grid_packet_t *K, const int i, int *sn,
-                                                         GRID_PARAMS BATCH_TMAX_PARAMS)
+                                                         QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
     for (;; K = S->gpackets + (-2 - K->instance[3])) {
         const int4 met = sphere_4(K, px[i], py[i], pz[i], wx[i], wy[i], wz[i] TMAX1_ARG(i));
@@ -249,7 +244,7 @@ __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pendi
             const int hit[4] = {met.x, met.y, met.z, met.w};
             for (int q = 0; q < 4; ++q)
                 if (hit[q])
-                    grid_met(S, P, sn, i, K->instance[q], GRID_ARGS);
+                    grid_met(S, P, sn, i, K->instance[q], QUERY_ARGS);
         }
         if (K->instance[3] >= -1)
             break;
@@ -260,7 +255,7 @@ __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pendi
  * their rays cross (grid.h; the lanes of a group walk side by side), then
  * the casters wider than a cell, asked of every ray */
 inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int ng, const int *lm,
-                       GRID_PARAMS BATCH_TMAX_PARAMS)
+                       QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
     __global const grid_t *G = S->grid;
     for (int e = 0; e < ng; ++e) {
@@ -282,7 +277,7 @@ inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int 
             while (!wa[f])                      /* the first walking lane */
                 ++f;
             if (VALL(~W.walking | MASK(W.cid == ca[f]))) {
-                grid_cell_shared(S, P, S->gpackets + ca[f], c, p, w, W.walking, seen, GRID_ARGS BATCH_TMAX_ARGS);
+                grid_cell_shared(S, P, S->gpackets + ca[f], c, p, w, W.walking, seen, QUERY_ARGS BATCH_TMAX_ARGS);
             } else {
                 int act[LANES], na = 0;         /* the walking lanes, packed without branches */
                 for (int l = 0; l < LANES; ++l) {
@@ -290,14 +285,14 @@ inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int 
                     na += wa[l] != 0;
                 }
                 for (int m = 0; m < na; ++m)
-                    grid_cell_one(S, P, S->gpackets + ca[act[m]], c + act[m], seen[act[m]], GRID_ARGS
+                    grid_cell_one(S, P, S->gpackets + ca[act[m]], c + act[m], seen[act[m]], QUERY_ARGS
                                   BATCH_TMAX_ARGS);
             }
             grid_next_v(G, &W, p, inv);
             W.walking &= MASK(LANE_LOAD(occ + c) == 0);
         }
     }
-    pending_drain(S, P, P->n, GRID_ARGS);       /* batch_instance: fewer than LANES wait */
+    pending_drain(S, P, P->n, QUERY_ARGS);       /* batch_instance: fewer than LANES wait */
     const int big = G->dims[0] * G->dims[1] * G->dims[2];       /* the big casters' packets follow the cells' */
     for (int k = 0; k < G->big; ++k)
         batch_instance(S, S->gpackets[big + k / 4].instance[k % 4], P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ
@@ -385,15 +380,15 @@ inline void batch_occluded(const scene_t *S, const float *px, const float *py, c
         gl[ng++] = c;
     }
 #if INSTANCE_GRID
-    batch_grid(S, &P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
+    batch_grid(S, &P, gl, ng, lm, QUERY_ARGS BATCH_TMAX_ARGS);
 #else
     for (int j = 0; j < S->ninst; ++j)
-        batch_instance(S, j, &P, gl, ng, lm, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS
+        batch_instance(S, j, &P, gl, ng, lm, QUERY_ARGS
                        BATCH_TMAX_ARGS);
 #endif
 #endif
 #if NTYPES
-    batch_ask(S, &P, P.n, px, py, pz, wx, wy, wz, own, occ BATCH_NORMAL_ARGS);   /* what still waits */
+    batch_ask(S, &P, P.n, QUERY_ARGS);   /* what still waits */
 #endif
 }
 

@@ -81,33 +81,38 @@ typedef struct {
     int q[BATCH + LANES], j[BATCH + LANES];
 } pending_t;
 
-/* ask the first cnt pairs of P (LANES at a time; the last group padded with its last pair) */
+/* ask the first cnt pairs of P, LANES at a time, passing over the pairs of
+ * queries an earlier group (or the ground) has found occluded: a query's
+ * answer is the OR over its pairs */
 inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY_PARAMS)
 {
-    for (int g = 0; g < cnt; g += LANES) {
-        LANE_ARRAY float a[6 + 3 * SURFACE_NORMALS][LANES];
-        LANE_ARRAY int ow[LANES], gi[LANES], ja[LANES];
-        for (int l = 0; l < LANES; ++l) {
-            const int k = min(g + l, cnt - 1), i = P->q[k];
-            gi[l] = i;
-            ja[l] = P->j[k];
-            a[0][l] = px[i]; a[1][l] = py[i]; a[2][l] = pz[i];
-            a[3][l] = wx[i]; a[4][l] = wy[i]; a[5][l] = wz[i];
-            ow[l] = own[i];
-#if SURFACE_NORMALS
-            a[6][l] = nx[i]; a[7][l] = ny[i]; a[8][l] = nz[i];
-#endif
+    for (int k = 0; k < cnt;) {
+        int gi[LANES], ja[LANES], n = 0;
+        for (; k < cnt && n < LANES; ++k) {     /* the next pairs whose query is open, without branches */
+            gi[n] = P->q[k];
+            ja[n] = P->j[k];
+            n += occ[gi[n]] == 0;
         }
-        const iv act = MASK((iv)(g) + LANE_IDS < cnt);
-        const iv r = instance_v(S, P->type, LANE_LOAD(ja), ja[0], LANE_LOAD(a[0]), LANE_LOAD(a[1]), LANE_LOAD(a[2]),
-                                LANE_LOAD(a[3]), LANE_LOAD(a[4]), LANE_LOAD(a[5]), LANE_LOAD(ow), act
+        if (n == 0)
+            break;
+        for (int l = n; l < LANES; ++l)         /* padding: the last pair again, masked off */
+            gi[l] = gi[n - 1], ja[l] = ja[n - 1];
+#define PAIR_Q(l, a) a[gi[l]]                   /* pair l's query's value in array a */
+#define PAIR_J(l, u) ja[l]
+        const iv act = MASK(LANE_IDS < n);
+        const iv r = instance_v(S, P->type, LANE_GATHER(iv, PAIR_J, 0), ja[0], LANE_GATHER(fv, PAIR_Q, px),
+                                LANE_GATHER(fv, PAIR_Q, py), LANE_GATHER(fv, PAIR_Q, pz), LANE_GATHER(fv, PAIR_Q, wx),
+                                LANE_GATHER(fv, PAIR_Q, wy), LANE_GATHER(fv, PAIR_Q, wz), LANE_GATHER(iv, PAIR_Q, own),
+                                act
 #if SURFACE_NORMALS
-                                , LANE_LOAD(a[6]), LANE_LOAD(a[7]), LANE_LOAD(a[8])
+                                , LANE_GATHER(fv, PAIR_Q, nx), LANE_GATHER(fv, PAIR_Q, ny), LANE_GATHER(fv, PAIR_Q, nz)
 #endif
                                 );
+#undef PAIR_Q
+#undef PAIR_J
         LANE_ARRAY int ra[LANES];
         LANE_STORE(r, ra);
-        for (int l = 0; l < min(LANES, cnt - g); ++l)
+        for (int l = 0; l < n; ++l)
             occ[gi[l]] |= ra[l];
     }
 }
@@ -133,10 +138,8 @@ inline void pending_drain(const scene_t *S, pending_t *P, const int cnt, QUERY_P
 {
     const int full = cnt - cnt % LANES;
     batch_ask(S, P, full, QUERY_ARGS);
-    for (int k = full; k < cnt; ++k) {
-        P->q[k - full] = P->q[k];
-        P->j[k - full] = P->j[k];
-    }
+    for (int k = full; k < cnt; ++k)
+        P->q[k - full] = P->q[k], P->j[k - full] = P->j[k];
     P->n = cnt - full;
 }
 #endif
@@ -219,9 +222,11 @@ __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pe
     for (;; K = S->gpackets + (-2 - K->instance[3])) {
         for (int q = 0; q < 4; ++q) {
             const int j = K->instance[q];
+            if (j == -1)
+                break;                          /* unused slots: the rest of the list's last packet */
             const iv met = (j >= 0 ? walking : (iv)(0)) & sphere_slot_v(K, q, p, w TMAX_LANES(c));
             if (!VANY(met))
-                continue;                       /* missed, or an unused slot or the link */
+                continue;                       /* missed, or the link */
             LANE_ARRAY int ma[LANES];
             LANE_STORE(met, ma);
             for (int l = 0; l < LANES; ++l)

@@ -69,20 +69,18 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
                       fv tx, fv ty, fv tz,
                       fv *dx, fv *dy, fv *dz, fv *depth, fv *fx, fv *fy NORMAL_LIFT_PARAMS)
 {
-    LANE_ARRAY float bu[3][LANES], bv[3][LANES], bd[3][LANES];
-    for (int l = 0; l < LANES; ++l) {
-        __global const float *B = bases + 9 * ka[l];
-        bu[0][l] = B[0]; bu[1][l] = B[1]; bu[2][l] = B[2];
-        bv[0][l] = B[3]; bv[1][l] = B[4]; bv[2][l] = B[5];
-        bd[0][l] = B[6]; bd[1][l] = B[7]; bd[2][l] = B[8];
-    }
-    *dx = LANE_LOAD(bd[0]); *dy = LANE_LOAD(bd[1]); *dz = LANE_LOAD(bd[2]);
-    const fv ux = LANE_LOAD(bu[0]), uy = LANE_LOAD(bu[1]), uz = LANE_LOAD(bu[2]);
-    const fv vx = LANE_LOAD(bv[0]), vy = LANE_LOAD(bv[1]), vz = LANE_LOAD(bv[2]);
+    __global const float *B[LANES];             /* each lane's map: rows u, v, d */
+    for (int l = 0; l < LANES; ++l)
+        B[l] = bases + 9 * ka[l];
+#define BASIS(l, c) B[l][c]
+    *dx = LANE_GATHER(fv, BASIS, 6); *dy = LANE_GATHER(fv, BASIS, 7); *dz = LANE_GATHER(fv, BASIS, 8);
+    const fv ux = LANE_GATHER(fv, BASIS, 0), uy = LANE_GATHER(fv, BASIS, 1), uz = LANE_GATHER(fv, BASIS, 2);
+    const fv vx = LANE_GATHER(fv, BASIS, 3), vy = LANE_GATHER(fv, BASIS, 4), vz = LANE_GATHER(fv, BASIS, 5);
+#undef BASIS
 #if SURFACE_NORMALS
     {
         const fv sd = ox * *dx + oy * *dy + oz * *dz;
-        const fv lt = fabs(ox * ux + oy * uy + oz * uz) + fabs(ox * vx + oy * vy + oz * vz);
+        const fv lt = VABS(ox * ux + oy * uy + oz * uz) + VABS(ox * vx + oy * vy + oz * vz);
         const fv h = VMAX((fv)(SURFACE_LIFT_TEXELS) * lt - btex * sd, (fv)(0.0f)) * (2.0f / (float)R);
         const iv lift = up & MASK(sd > 0.0f);
         qx = VSEL(qx, qx + h * ox, lift);
@@ -107,7 +105,7 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
 inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
 {
     const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
-    const fv tan_a = sqrt(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
+    const fv tan_a = VSQRT(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
     const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
     return VSEL((fv)(S->bias_other), bias_self, MASK(own == -1) | MASK(own == j));
 }
@@ -129,10 +127,10 @@ inline void sort4_heaviest_first(fv *w, iv *x)
 
 #if SURFACE_NORMALS
 /* The surface rule (SURFACE_NORMALS): for the lanes whose point lies on
- * its instance j (own == j, or -1: unknown; rotation rows Rm of LANES
- * floats each, horizon hs) with a known unit normal (world (mx, my, mz);
- * (ox, oy, oz) in the object frame) and a direction v above its tangent
- * plane (s = v.m > 0) -- the lanes `up`:
+ * its instance j (own == j, or -1: unknown; horizon hs) with a known unit
+ * normal ((ox, oy, oz) in the object frame: instance_v turns the world
+ * normal) and a direction v above its tangent plane (s = v.o > 0) -- the
+ * lanes `up`:
  *   - the lookup direction is raised to the elevation hs (sine) where the
  *     ray is lower: every map the lookup may then pick (the
  *     nearest, or the four of the vote's window) lies above the tangent
@@ -141,22 +139,16 @@ inline void sort4_heaviest_first(fv *w, iv *x)
  *   - map_frame_v() lifts the point off its surface where the map is
  *     grazing (NORMAL_LIFT_ARGS).
  * Other lanes are unchanged. */
-inline iv surface_rule_v(const float *Rm, fv hs, iv j, iv own, fv mx, fv my, fv mz,
-                         fv *ox, fv *oy, fv *oz, fv *vx, fv *vy, fv *vz)
+inline iv surface_rule_v(fv hs, iv j, iv own, const fv *ox, const fv *oy, const fv *oz, fv *vx, fv *vy, fv *vz)
 {
-#define RW(c) LANE_LOAD(Rm + (c) * LANES)
-    *ox = RW(0) * mx + RW(1) * my + RW(2) * mz;
-    *oy = RW(3) * mx + RW(4) * my + RW(5) * mz;
-    *oz = RW(6) * mx + RW(7) * my + RW(8) * mz;
-#undef RW
     const fv s = *vx * *ox + *vy * *oy + *vz * *oz;
     const iv up = (MASK(own == -1) | MASK(own == j)) & MASK(s > 0.0f);
     /* raise: the tangential part scaled to cos(horizon), the normal part sin(horizon) */
     const iv low = up & MASK(s < hs);
     if (!VANY(low)) return up;          /* most rays: none of the lanes is that low */
     const fv tx = *vx - s * *ox, ty = *vy - s * *oy, tz = *vz - s * *oz;
-    const fv tl = sqrt(tx * tx + ty * ty + tz * tz);
-    const fv k = VSEL((fv)(0.0f), sqrt(1.0f - hs * hs) / VMAX(tl, (fv)(1e-30f)), low);
+    const fv tl = VSQRT(tx * tx + ty * ty + tz * tz);
+    const fv k = VSEL((fv)(0.0f), VSQRT(1.0f - hs * hs) / VMAX(tl, (fv)(1e-30f)), low);
     *vx = VSEL(*vx, k * tx + hs * *ox, low);
     *vy = VSEL(*vy, k * ty + hs * *oy, low);
     *vz = VSEL(*vz, k * tz + hs * *oz, low);
@@ -177,50 +169,60 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
 {
     __global const csm_type_t *T = S->types + t;
     const int R = T->resolution, layout = T->layout, vbase = T->view_base;
-    /* each lane's instance, rows of m: to_object 0-8, offset 9-11, rotation
-     * 12-20, horizon 21; read from memory where used (22 lane vectors held
-     * in registers would spill) */
-    LANE_ARRAY float m[22][LANES];
+    /* the lanes' frames: point q = A p + offset, direction v = Rw w (and the
+     * normal o = Rw m), from each lane's instance record (to_object A,
+     * offset, rotation Rw, horizon), its fields gathered into lane vectors */
     fv qx, qy, qz, vx, vy, vz;
-#define INSTANCE_FRAME(A, O, Rw)                                                \
+#if SURFACE_NORMALS
+    fv ox, oy, oz, hs;
+#define NORMAL_FRAME(Rw, H)                                                     \
+    ox = Rw(0) * mx + Rw(1) * my + Rw(2) * mz;                                  \
+    oy = Rw(3) * mx + Rw(4) * my + Rw(5) * mz;                                  \
+    oz = Rw(6) * mx + Rw(7) * my + Rw(8) * mz;                                  \
+    hs = H
+#else
+#define NORMAL_FRAME(Rw, H)
+#endif
+#define INSTANCE_FRAME(A, O, Rw, H)                                             \
     qx = A(0) * px + A(1) * py + A(2) * pz + O(0);                              \
     qy = A(3) * px + A(4) * py + A(5) * pz + O(1);                              \
     qz = A(6) * px + A(7) * py + A(8) * pz + O(2);                              \
     vx = Rw(0) * wx + Rw(1) * wy + Rw(2) * wz;                                  \
     vy = Rw(3) * wx + Rw(4) * wy + Rw(5) * wz;                                  \
-    vz = Rw(6) * wx + Rw(7) * wy + Rw(8) * wz
+    vz = Rw(6) * wx + Rw(7) * wy + Rw(8) * wz;                                  \
+    NORMAL_FRAME(Rw, H)
     if (VALL(MASK(j == (iv)(j0)))) {           /* one instance (most lookups): its scalars */
         __global const instance_t *I = S->inst + j0;
 #define ONE_A(c) I->to_object[c]
 #define ONE_O(c) I->offset[c]
 #define ONE_R(c) I->rotation[c]
-        INSTANCE_FRAME(ONE_A, ONE_O, ONE_R);
-#if SURFACE_NORMALS
-        for (int c = 0; c < 9; ++c) LANE_STORE((fv)(I->rotation[c]), m[12 + c]);
-        LANE_STORE((fv)(I->horizon), m[21]);
-#endif
+        INSTANCE_FRAME(ONE_A, ONE_O, ONE_R, (fv)(I->horizon));
     } else {
+        /* each lane's record I[l], its fields gathered into lane vectors (LANE_GATHER, lanes.h) */
         LANE_ARRAY int ja[LANES];
         LANE_STORE(j, ja);
-        for (int l = 0; l < LANES; ++l) {
-            __global const instance_t *I = S->inst + ja[l];
-            for (int c = 0; c < 9; ++c) { m[c][l] = I->to_object[c]; m[12 + c][l] = I->rotation[c]; }
-            for (int c = 0; c < 3; ++c) m[9 + c][l] = I->offset[c];
-            m[21][l] = I->horizon;
-        }
-#define LANE_A(c) LANE_LOAD(m[c])
-#define LANE_O(c) LANE_LOAD(m[9 + (c)])
-#define LANE_R(c) LANE_LOAD(m[12 + (c)])
-        INSTANCE_FRAME(LANE_A, LANE_O, LANE_R);
+        __global const instance_t *I[LANES];
+        for (int l = 0; l < LANES; ++l)
+            I[l] = S->inst + ja[l];
+#define LANE_FIELD(l, f) I[l]->f
+#define LANE_A(c) LANE_GATHER(fv, LANE_FIELD, to_object[c])
+#define LANE_O(c) LANE_GATHER(fv, LANE_FIELD, offset[c])
+        fv rw[9];
+        for (int c = 0; c < 9; ++c)
+            rw[c] = LANE_GATHER(fv, LANE_FIELD, rotation[c]);
+#define LANE_R(c) rw[c]
+        INSTANCE_FRAME(LANE_A, LANE_O, LANE_R, LANE_GATHER(fv, LANE_FIELD, horizon));
     }
+#undef NORMAL_FRAME
 #undef INSTANCE_FRAME
 #undef ONE_A
 #undef ONE_O
 #undef ONE_R
+#undef LANE_FIELD
 #undef LANE_A
 #undef LANE_O
 #undef LANE_R
-    const fv inv = 1.0f / sqrt(vx * vx + vy * vy + vz * vz);
+    const fv inv = 1.0f / VSQRT(vx * vx + vy * vy + vz * vz);
     vx *= inv; vy *= inv; vz *= inv;
     /* the ray's chord through the caster, inside the bounding sphere (radius
      * 1 here) and the mesh's box (T->box_lo, box_hi): u in [u0, u1] along v
@@ -233,11 +235,11 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     {
         const fv b = qx * vx + qy * vy + qz * vz;
         const fv sx = qx - b * vx, sy = qy - b * vy, sz = qz - b * vz;
-        const fv h2 = 1.0f - (sx * sx + sy * sy + sz * sz), e = sqrt(VMAX(h2, (fv)(0.0f)));
+        const fv h2 = 1.0f - (sx * sx + sy * sy + sz * sz), e = VSQRT(VMAX(h2, (fv)(0.0f)));
         fv u0 = -e, u1 = e;
         const fv sv[3] = {sx, sy, sz}, vv[3] = {vx, vy, vz};
         for (int a = 0; a < 3; ++a) {
-            const fv r = 1.0f / VSEL(vv[a], (fv)(1e-30f), MASK(fabs(vv[a]) < 1e-30f));
+            const fv r = 1.0f / VSEL(vv[a], (fv)(1e-30f), MASK(VABS(vv[a]) < 1e-30f));
             const fv ua = (T->box_lo[a] - sv[a]) * r, ub = (T->box_hi[a] - sv[a]) * r;
             u0 = VMAX(u0, VMIN(ua, ub));
             u1 = VMIN(u1, VMAX(ua, ub));
@@ -253,8 +255,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         cqz = VSEL(qz, sz + um * vz, far);
     }
 #if SURFACE_NORMALS
-    fv ox, oy, oz;
-    const iv up = surface_rule_v(m[12], LANE_LOAD(m[21]), j, own, mx, my, mz, &ox, &oy, &oz, &vx, &vy, &vz);
+    const iv up = surface_rule_v(hs, j, own, &ox, &oy, &oz, &vx, &vy, &vz);
 #endif
     LANE_ARRAY int am[LANES];
     LANE_STORE(act, am);
@@ -275,7 +276,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         fv wsum = (fv)(0.0f), wt[4];
         for (int m = 0; m < 4; ++m) {
             const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];
-            const fv chord = sqrt(ex * ex + ey * ey + ez * ez);
+            const fv chord = VSQRT(ex * ex + ey * ey + ez * ez);
             wt[m] = 1.0f / (2.0f * asin(VMIN(0.5f * chord, (fv)(1.0f))) + FILTER_ANGLE_EPS);
             wsum += wt[m];
         }
@@ -352,7 +353,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     iv k = (iv)(0);
 #if LAYOUT_ZIGZAG
 #if PROFILE_SKIP_NEAREST
-    if (layout == 0) k = clamp(CONVERT(int, fabs(vx) * (float)(T->maps - 1)), 0, T->maps - 1);
+    if (layout == 0) k = clamp(CONVERT(int, VABS(vx) * (float)(T->maps - 1)), 0, T->maps - 1);
 #else
     if (layout == 0) k = nearest_zigzag_v(T->p1, T->p2, T->zigzag_offset, T->zigzag_steps[0],
                                           T->zigzag_steps[1], T->zigzag_steps[2], T->zigzag_steps[3],

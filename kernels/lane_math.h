@@ -18,15 +18,15 @@
 /* acos to 5e-5 rad (Abramowitz & Stegun 4.4.45) */
 inline fv acos_v(fv x)
 {
-    const fv a = fabs(x);
-    const fv r = sqrt(1.0f - a) * (1.5707288f + a * (-0.2121144f + a * (0.0742610f - 0.0187293f * a)));
+    const fv a = VABS(x);
+    const fv r = VSQRT(1.0f - a) * (1.5707288f + a * (-0.2121144f + a * (0.0742610f - 0.0187293f * a)));
     return VSEL(r, PI_F - r, MASK(x < 0.0f));
 }
 
 /* atan2 in [0, 2 pi) to 1e-5 rad (A&S 4.4.49 after octant reduction) */
 inline fv atan2_pos_v(fv y, fv x)
 {
-    const fv ax = fabs(x), ay = fabs(y);
+    const fv ax = VABS(x), ay = VABS(y);
     const fv mx = VMAX(ax, ay);
     const fv t = VMIN(ax, ay) / VSEL(mx, (fv)(1.0f), MASK(mx == 0.0f));
     const fv t2 = t * t;

@@ -17,12 +17,20 @@
  *   VSEL(a, b, c)       b where mask c is set, else a (no NaN operands)
  *   VMIN, VMAX          min / max as operators (PoCL calls its vector
  *                       builtins rather than inlining them)
+ *   VABS, VSQRT         fabs / sqrt of lane vectors, inline on CPU_CLANG
+ *                       targets that have them (below)
+ *   IMIN(a, b)          the smaller int (PoCL calls min(int, int))
  *   VLOAD(i, p), VSTORE(v, i, p)   vloadN / vstoreN (plain element access
  *                       for LANES = 1)
  *   CONVERT(T, x)       convert_TN(x) (convert_int16, convert_float8, ...) with
  *                       its default rounding
  *   VTYPE(T)            the lane vector of scalar type T (double16, uchar8)
  *   LANE_IDS            (0, 1, ..., LANES - 1)
+ *   LANE_GATHER(V, F, f)  the lane vector of type V (fv, iv) of F(l, f) for
+ *                       l = 0 .. LANES - 1 (F a macro reading lane l's value
+ *                       f, as I[l]->f): built in registers -- not stored lane
+ *                       by lane and read back as a vector, which stalls the
+ *                       read until the stores retire
  * Lane memory (private arrays of queries, moved a lane vector at a time):
  *   LANE_ARRAY          alignment of a private array to a whole lane vector
  *   LANE_LOAD(a), LANE_STORE(v, a)  the lane vector at a: a LANE_ARRAY, or
@@ -61,6 +69,17 @@
 #define LANE_IDS ((iv)(0))
 #else
 #error "LANES must be 1, 4, 8 or 16"
+#endif
+
+#if LANES == 16
+#define LANE_GATHER(V, F, f) ((V)(F(0, f), F(1, f), F(2, f), F(3, f), F(4, f), F(5, f), F(6, f), F(7, f), \
+                                  F(8, f), F(9, f), F(10, f), F(11, f), F(12, f), F(13, f), F(14, f), F(15, f)))
+#elif LANES == 8
+#define LANE_GATHER(V, F, f) ((V)(F(0, f), F(1, f), F(2, f), F(3, f), F(4, f), F(5, f), F(6, f), F(7, f)))
+#elif LANES == 4
+#define LANE_GATHER(V, F, f) ((V)(F(0, f), F(1, f), F(2, f), F(3, f)))
+#else
+#define LANE_GATHER(V, F, f) (F(0, f))
 #endif
 
 #define VTYPE(T) LANE_CAT(T, LANE_SFX)
@@ -139,6 +158,29 @@ inline int lane_all(iv m)
 #define VANY(m) lane_any(m)
 #define VALL(m) lane_all(m)
 #endif
+/* |x| and sqrt(x) of lane vectors, and the smaller of two ints: PoCL calls
+ * its builtins fabs, sqrt and min, and a call in the lookup's arithmetic
+ * makes the compiler save every live vector register around it (all are
+ * caller-saved), so CPU targets of clang take the compiler's own forms where
+ * it has them -- the same values (|x| clears the sign; vsqrtps and sqrtps
+ * round correctly, as PoCL's sqrt does with them) */
+#if CPU_CLANG && LANES > 1 && defined(__has_builtin)
+#if __has_builtin(__builtin_elementwise_abs)
+#define VABS(x) __builtin_elementwise_abs(x)
+#endif
+#if LANES == 8 && defined(__AVX__) && __has_builtin(__builtin_ia32_sqrtps256)
+#define VSQRT(x) __builtin_ia32_sqrtps256(x)
+#elif LANES == 4 && defined(__SSE__) && __has_builtin(__builtin_ia32_sqrtps)
+#define VSQRT(x) __builtin_ia32_sqrtps(x)
+#endif
+#endif
+#ifndef VABS
+#define VABS(x) fabs(x)
+#endif
+#ifndef VSQRT
+#define VSQRT(x) sqrt(x)
+#endif
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
 /* private lane arrays: aligned to a whole lane vector, moved as whole
  * vectors (the type follows the array, so one macro serves float, int and
  * uint arrays) */

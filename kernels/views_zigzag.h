@@ -46,7 +46,7 @@ inline void zigzag_window_v(int T, int P, float off, float cst, float sst, float
     /* the candidate grid directions by angle addition from the query's own
      * (cos, sin) of theta and phi: rotate back by the small offsets to the
      * grid lines, then forward by one grid step */
-    const fv rho = sqrt(wx * wx + wz * wz);
+    const fv rho = VSQRT(wx * wx + wz * wz);
     const iv pole = MASK(rho == 0.0f);
     const fv cph = VSEL(wx / rho, (fv)(1.0f), pole), sph = VSEL(wz / rho, (fv)(0.0f), pole);
     const fv cth = wy, sth = rho;

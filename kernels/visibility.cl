@@ -206,7 +206,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
     SCENE_INIT;
     LANE_ARRAY float px[BATCH], py[BATCH], pz[BATCH], wx[BATCH], wy[BATCH], wz[BATCH];
     LANE_ARRAY int ow[BATCH], occ[BATCH];
-    const int m = min(BATCH, n - base);
+    const int m = IMIN(BATCH, n - base);
     {   /* the next work-item's rows (the same thread's, in PoCL's loop over
          * a work-group): start their transfer now, under this batch's work */
         __global const uchar *np_ = (__global const uchar *)(points + 3 * (base + BATCH));
@@ -242,7 +242,7 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
             }
         }
         for (int l = c; l < c + LANES; ++l) {          /* the batch's tail, or rescaling */
-            const int i = base + min(l, m - 1);
+            const int i = base + IMIN(l, m - 1);
             px[l] = (float)((wide_t)points[3 * i] - ax);
             py[l] = (float)((wide_t)points[3 * i + 1] - ay);
             pz[l] = (float)((wide_t)points[3 * i + 2] - az);
@@ -262,19 +262,19 @@ __kernel void scene_visible(SCENE_ARGS, const int n, __global const point_t *poi
     }
     for (int c = 0; c < BATCH; c += LANES) {
         fv x = LANE_LOAD(wx + c), y = LANE_LOAD(wy + c), z = LANE_LOAD(wz + c);
-        const fv inv = 1.0f / sqrt(x * x + y * y + z * z);
+        const fv inv = 1.0f / VSQRT(x * x + y * y + z * z);
         LANE_STORE(x * inv, wx + c); LANE_STORE(y * inv, wy + c); LANE_STORE(z * inv, wz + c);
     }
 #if SURFACE_NORMALS
     LANE_ARRAY float nx[BATCH], ny[BATCH], nz[BATCH];
     for (int l = 0; l < BATCH; ++l) {              /* unit normals, validated on the host */
-        const int i = base + min(l, m - 1);
+        const int i = base + IMIN(l, m - 1);
         nx[l] = normals[3 * i]; ny[l] = normals[3 * i + 1]; nz[l] = normals[3 * i + 2];
     }
 #endif
 #if FINITE_RAYS
     LANE_ARRAY float tm[BATCH];                    /* lengths, validated on the host */
-    for (int l = 0; l < BATCH; ++l) tm[l] = tmax[base + min(l, m - 1)];
+    for (int l = 0; l < BATCH; ++l) tm[l] = tmax[base + IMIN(l, m - 1)];
 #endif
     batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, BATCH BATCH_NORMAL_ARGS BATCH_TMAX_ARGS);
     for (int c = 0; c < m; c += LANES) {
@@ -312,7 +312,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
     const int i0 = get_global_id(0) * AO_POINTS;
     if (i0 >= n) return;
     SCENE_INIT;
-    const int np = min(AO_POINTS, n - i0);             /* points of this work-item */
+    const int np = IMIN(AO_POINTS, n - i0);             /* points of this work-item */
     int open[AO_POINTS] = {0};                          /* per point, zero-initialised */
     float3 sum[AO_POINTS] = {(float3)(0.0f)};
 #if TRANSFER
@@ -332,7 +332,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         LANE_ARRAY float tm[AO_BATCH];            /* the points' lengths, validated on the host */
 #endif
         for (int k = 0; k < AO_POINTS; ++k) {
-            const int i = i0 + min(k, np - 1), q0 = k * AO_SLICE;   /* past the last point: its copy, decided */
+            const int i = i0 + IMIN(k, np - 1), q0 = k * AO_SLICE;   /* past the last point: its copy, decided */
             const float3 p = vload3(i, points);
             const float3 nrm = vload3(i, normals);
             float3 t, b;
@@ -345,7 +345,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
             for (int l = q0; l < q0 + AO_SLICE; ++l) tm[l] = tmax[i];
 #endif
             for (int c = 0; c < AO_SLICE; c += LANES) {
-                const int s = min(s0 + c, SPAD - LANES);
+                const int s = IMIN(s0 + c, SPAD - LANES);
                 const fv lx = LOADU(fvu_t, pat + s, 0), ly = LOADU(fvu_t, pat + SPAD + s, 0),
                          lz = LOADU(fvu_t, pat + 2 * SPAD + s, 0);
                 /* cosine_direction() of sampling.h, per lane, same operations */
@@ -365,7 +365,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH BATCH_TMAX_ARGS);
 #endif
         for (int k = 0; k < np; ++k) {
-            for (int l = k * AO_SLICE; l < k * AO_SLICE + min(AO_SLICE, SAMPLES - s0); ++l) {
+            for (int l = k * AO_SLICE; l < k * AO_SLICE + IMIN(AO_SLICE, SAMPLES - s0); ++l) {
                 if (occ[l]) continue;
                 ++open[k];
 #if BENT_NORMALS

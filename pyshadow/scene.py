@@ -208,7 +208,10 @@ class Scene:
         for an empty scene).
         """
         if self.instances:
-            return np.mean(scene_arrays(self)["world_centre"], axis=0)
+            held = scene_arrays(self)           # kept with the scene's arrays until it changes
+            if "anchor" not in held:
+                held["anchor"] = np.mean(held["world_centre"], axis=0)
+            return held["anchor"].copy()
         if points is not None and len(points):
             return points.mean(axis=0)
         return np.zeros(3)

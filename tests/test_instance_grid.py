@@ -245,3 +245,49 @@ def test_grid_rays_almost_parallel_to_a_face_they_lie_on(monkeypatch):
     for a, b in zip(by_grid, every):
         np.testing.assert_array_equal(a, b)
     assert (~by_grid[0]).sum() >= 30 and by_grid[0].sum() >= 30        # casters block some, not all
+
+
+def test_kept_device_tables_follow_set_transform():
+    """A scene's instance table, grid and anchor are copied to the device once and kept while the
+    scene is unchanged; a moved caster gives answers bit-identical to a scene built with it there."""
+    rng = np.random.default_rng(11)
+    s, k = _scene(60, rng)
+    assert csm_backend.instance_accel(s) == "grid"
+    P, D, N, ids = _rays(s, k, rng, m=1500)
+    i = s.casters[3]
+    c, r = s.instances[i].world_sphere()
+    ring = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)      # ground points around caster i
+    G = c + 1.1 * r * np.c_[np.cos(ring), np.zeros(64), np.sin(ring)]
+    G[:, 1] = 1e-3
+    up = np.tile([0.0, 1.0, 0.0], (64, 1))
+
+    def answers(scene):
+        return [*_answers(scene, P, D, N, ids), scene.ambient_occlusion(G, up, sampling=pyshadow.Sampling(64))]
+
+    before = answers(s)
+    fan = c + [100.0, 0.0, 0.0] + 0.3 * r * np.c_[np.zeros(9), np.linspace(-1.0, 1.0, 9), np.zeros(9)]
+    open_before = s.visible(fan + [0.0, 0.0, 1.2 * r], np.tile([0.0, 0.0, -1.0], (9, 1)))
+    held = scene_arrays(s)
+    rows = csm_backend._instance_data(s, s.anchor(), "nearest")[0]
+    buf = csm_backend._on_device(held, rows)
+    assert csm_backend._on_device(held, rows) is buf          # kept: no copy per query
+    for a, b in zip(answers(s), before):
+        np.testing.assert_array_equal(a, b)
+    T = s.transform(i)
+    T[:3, 3] += [100.0, 0.0, 0.0]                             # out of the grid's box: a new grid
+    s.set_transform(i, T)
+    assert scene_arrays(s) is not held                        # the kept copies went with the old arrays
+    moved = answers(s)
+    assert (moved[-1] > before[-1]).mean() > 0.5              # the ground around its old place opens up
+    # rays through its new place, from beside it: nothing was there; now most meet it
+    assert (~s.visible(fan + [0.0, 0.0, 1.2 * r], np.tile([0.0, 0.0, -1.0], (9, 1)))).mean() >= 0.5
+    assert open_before.all()
+    fresh = pyshadow.Scene(ground=s.ground)
+    for inst in s.instances:
+        if inst.casts:
+            fresh.add(inst.csm, inst.transform, mesh=inst.mesh)
+        else:
+            fresh.add(inst.mesh, inst.transform, casts=False)
+    np.testing.assert_array_equal(s.anchor(), fresh.anchor())
+    for a, b in zip(moved, answers(fresh)):
+        np.testing.assert_array_equal(a, b)

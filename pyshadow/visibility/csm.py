@@ -95,11 +95,35 @@ def instance_accel(scene) -> str:
     return held["instance_accel"]
 
 
-def _grid_margin(rows, points_extent):
+def _spheres_extent(rows) -> float:
+    """The largest |coordinate| of the casters' spheres (anchor-relative INSTANCE rows)."""
+    return float(np.abs(rows["centre"]).max() + rows["radius"].max())
+
+
+def _grid_margin(rows, points_extent, spheres=None):
     """The grid's margin for queries within ``points_extent`` of the anchor: at least that of
-    queries within the spheres' own extent, so that queries near the scene share one grid."""
-    spheres = float(np.abs(rows["centre"]).max() + rows["radius"].max())
+    queries within the spheres' own extent (``spheres``: :func:`_spheres_extent` of ``rows``
+    when not given), so that queries near the scene share one grid."""
+    if spheres is None:
+        spheres = _spheres_extent(rows)
     return grid_margin(max(points_extent, spheres), spheres)
+
+
+def _kept(held, key, make):
+    """``held[key]``, made by ``make()`` the first time (``held``: a scene's arrays, dropped when it changes)."""
+    if key not in held:
+        held[key] = make()
+    return held[key]
+
+
+def _on_device(held, array):
+    """The device copy of a read-only table that ``held`` keeps (or a module constant), made once
+    per OpenCL context and kept with it: a query among many casters copies no table per call."""
+    key = ("device", id(_cl.context()), id(array))
+    got = held.get(key)
+    if got is None or got[0] is not array:      # (the array is kept with its copy: its id is not reused)
+        got = held[key] = (array, _cl.to_device(array))
+    return got[1]
 
 
 def _grid_key(anchor, margin):
@@ -177,22 +201,33 @@ def _instance_rows(arr, anchor, lookup):
     return rows, itype, n
 
 
+def _read_only(a):
+    a.flags.writeable = False
+    return a
+
+
+# the one-record tables of the structure a scene does not use
+_NO_NODES, _NO_ORDER = _read_only(np.zeros(1, BVH_NODE)), _read_only(np.zeros(1, np.int32))
+_NO_GRID, _NO_PACKETS = _read_only(np.zeros(1, GRID)), _read_only(np.zeros(1, GRID_PACKET))
+
+
 def _accel_tables(scene, rows, anchor, points_extent):
     """The kernels' tables of :func:`instance_accel`: the tree (nodes, order, box margin) and the
     grid (header, cells, items); one-record placeholders for the one not used. Both are kept
     with the scene's arrays (per anchor, and the grid per margin) until the scene changes."""
     accel = instance_accel(scene)
     held = scene_arrays(scene)
-    nodes, order, pad = np.zeros(1, BVH_NODE), np.zeros(1, np.int32), 0.0
-    grid, packets = np.zeros(1, GRID), np.zeros(1, GRID_PACKET)
+    nodes, order, pad, grid, packets = _NO_NODES, _NO_ORDER, 0.0, _NO_GRID, _NO_PACKETS
+    at = np.asarray(anchor, np.float64).tobytes()
     if accel == "tree":
-        key = ("instance_bvh", np.asarray(anchor, np.float64).tobytes())
+        key = ("instance_bvh", at)
         if key not in held:
             held[key] = instance_bvh(rows["centre"], rows["radius"])
         nodes, order, _ = held[key]
-        pad = box_pad(points_extent, np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max())
+        pad = box_pad(points_extent, _kept(held, ("bvh_extent", at),
+                                           lambda: np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max()))
     elif accel == "grid":
-        margin = _grid_margin(rows, points_extent)
+        margin = _grid_margin(rows, points_extent, _kept(held, ("spheres_extent", at), lambda: _spheres_extent(rows)))
         key = _grid_key(anchor, margin)
         if key not in held:
             g = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
@@ -355,10 +390,12 @@ class CSMVisibility(_SampledSky):
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = 1e-5 * scene.scale()
         nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
-        args = [*atlas["buffers"], _cl.to_device(rows), _cl.to_device(itype), np.int32(ninst), np.float32(gy),
+        # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points)
+        held = scene_arrays(scene)
+        dev = (lambda a: _on_device(held, a)) if ninst else _cl.to_device
+        args = [*atlas["buffers"], dev(rows), dev(itype), np.int32(ninst), np.float32(gy),
                 np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),
-                _cl.to_device(nodes), _cl.to_device(order), np.float32(pad), _cl.to_device(grid),
-                _cl.to_device(packets)]
+                dev(nodes), dev(order), np.float32(pad), dev(grid), dev(packets)]
         return atlas, args
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,

@@ -414,6 +414,16 @@ def test_ao_points_sharing_a_work_item_answer_as_one_point_each(bunny_scene, sam
     assert 0.2 < want[0].mean() < 0.95 and (want[0] < 1).sum() > 100
 
 
+def test_ao_points_beyond_the_batch_are_refused(bunny_scene, monkeypatch):
+    """scene_ao's private arrays hold one batch of queries: more points a work-item than its samples
+    fill (launch.ao_points changed) are refused on the host with the limit, not overrun."""
+    pts, nrm = bunny_scene.vertex_points(0)
+    k = launch.ao_points(16)
+    monkeypatch.setattr(launch, "ao_points", lambda samples, s=None: 2 * k)
+    with pytest.raises(ValueError, match=rf"AO_POINTS {2 * k} x .* exceeds the batch of {launch.shape().query_batch}"):
+        bunny_scene.ambient_occlusion(pts[:100], nrm[:100], sampling=Sampling(16), surface_ids=0)
+
+
 def test_gpu_launch_shape_agrees(bunny_scene, rng, monkeypatch):
     """What a GPU runs -- one lane, one query per work-item, groups of 128,
     the kernels' portable OpenCL forms -- gives this device's answers."""

@@ -214,26 +214,23 @@ _NO_GRID, _NO_PACKETS = _read_only(np.zeros(1, GRID)), _read_only(np.zeros(1, GR
 
 def _accel_tables(scene, rows, anchor, points_extent):
     """The kernels' tables of :func:`instance_accel`: the tree (nodes, order, box margin) and the
-    grid (header, cells, items); one-record placeholders for the one not used. Both are kept
-    with the scene's arrays (per anchor, and the grid per margin) until the scene changes."""
+    grid (header, packets); one-record placeholders for the one not used. Both are kept with the
+    scene's arrays (per anchor, and the grid per margin) until the scene changes."""
     accel = instance_accel(scene)
     held = scene_arrays(scene)
     nodes, order, pad, grid, packets = _NO_NODES, _NO_ORDER, 0.0, _NO_GRID, _NO_PACKETS
     at = np.asarray(anchor, np.float64).tobytes()
     if accel == "tree":
-        key = ("instance_bvh", at)
-        if key not in held:
-            held[key] = instance_bvh(rows["centre"], rows["radius"])
-        nodes, order, _ = held[key]
+        nodes, order, _ = _kept(held, ("instance_bvh", at), lambda: instance_bvh(rows["centre"], rows["radius"]))
         pad = box_pad(points_extent, _kept(held, ("bvh_extent", at),
                                            lambda: np.abs(np.concatenate([nodes["lo"], nodes["hi"]])).max()))
     elif accel == "grid":
         margin = _grid_margin(rows, points_extent, _kept(held, ("spheres_extent", at), lambda: _spheres_extent(rows)))
-        key = _grid_key(anchor, margin)
-        if key not in held:
+
+        def packed():
             g = instance_grid(rows["centre"], rows["radius"], margin, balanced_only=False)
-            held[key] = (g[0], grid_packets(g[0]["dims"][0], g[1], g[2]))
-        grid, packets = held[key]
+            return g[0], grid_packets(g[0]["dims"][0], g[1], g[2])
+        grid, packets = _kept(held, _grid_key(anchor, margin), packed)
     return nodes, order, pad, grid, packets
 
 

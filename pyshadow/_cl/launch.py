@@ -132,6 +132,12 @@ def _device_shape() -> LaunchShape:
     )
 
 
+def padded_samples(samples: int, s: LaunchShape | None = None) -> int:
+    """``samples`` rounded up to the lane width: a point's lanes in ``scene_ao`` (its ``SPAD``)."""
+    s = shape() if s is None else s
+    return -(-int(samples) // s.lanes) * s.lanes
+
+
 def ao_points(samples: int, s: LaunchShape | None = None) -> int:
     """Points per work-item of ``scene_ao`` (``-DAO_POINTS``): as many as fill one batch
     (``query_batch`` queries) with their ``samples`` each (rounded up to the lane width), at least 1.
@@ -140,8 +146,7 @@ def ao_points(samples: int, s: LaunchShape | None = None) -> int:
     whole lane groups where one point's samples would leave most lanes empty.
     """
     s = shape() if s is None else s
-    padded = -(-int(samples) // s.lanes) * s.lanes
-    return max(1, s.query_batch // padded)
+    return max(1, s.query_batch // padded_samples(samples, s))
 
 
 def grid(items: int, group: int):

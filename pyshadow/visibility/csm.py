@@ -137,8 +137,7 @@ def lane_table(table):
     Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
     """
     M, S, _ = table.shape
-    lanes = launch.shape().lanes
-    spad = -(-S // lanes) * lanes
+    spad = launch.padded_samples(S)
     out = np.zeros((M, 3, spad), np.float32)
     out[:, 1, :] = 1.0
     out[:, :, :S] = table.transpose(0, 2, 1)
@@ -237,8 +236,7 @@ def _accel_tables(scene, rows, anchor, points_extent):
 def _ao_points(samples, batch) -> int:
     """``launch.ao_points``, checked: ``scene_ao``'s arrays hold ``batch`` queries, its points' samples
     (rounded up to the lanes, at most ``batch`` a point) must fit."""
-    points, lanes = launch.ao_points(samples), launch.shape().lanes
-    per = min(-(-samples // lanes) * lanes, batch)
+    points, per = launch.ao_points(samples), min(launch.padded_samples(samples), batch)
     if points * per > batch:
         raise ValueError(f"AO_POINTS {points} x {per} samples exceeds the batch of {batch} queries")
     return points

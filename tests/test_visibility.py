@@ -307,6 +307,26 @@ def test_check_values_matches_the_exact_definition(dtype):
     assert 100 < raised < 2900                      # both outcomes were exercised
 
 
+def test_unit_normals_of_tiny_and_huge_rows():
+    """Normals are divided by their length: ordinary rows exactly as by
+    np.linalg.norm, rows whose squared length underflows or overflows after
+    scaling by their largest component (they used to come out nan or zero),
+    and rows of zeros are refused."""
+    from pyshadow._validate import unit_normals
+
+    rng = np.random.default_rng(5)
+    m = np.concatenate([rng.normal(size=(5000, 3)), rng.normal(size=(50, 3)) * 1e-100,
+                        np.repeat([[0.0, 1.0, 0.0]], 50, axis=0)])
+    assert np.array_equal(unit_normals(m, len(m)), m / np.linalg.norm(m, axis=1, keepdims=True))
+    odd = np.array([[1e-170, 0.0, 0.0], [0.0, -1e200, 1e200], [3e-200, 4e-200, 0.0], [5e-324, 0.0, 0.0],
+                    [1.5e308, 1.5e308, 1.5e308]])
+    h = 0.5 ** 0.5
+    expect = np.array([[1.0, 0, 0], [0, -h, h], [0.6, 0.8, 0], [1.0, 0, 0], [3 ** -0.5] * 3])
+    np.testing.assert_allclose(unit_normals(odd, len(odd)), expect, rtol=1e-15, atol=0)
+    with pytest.raises(ValueError, match="normals: 1 rows are zero vectors"):
+        unit_normals(np.array([[0.0, 0.0, 0.0], [1e-300, 0.0, 0.0]]), 2)
+
+
 # ---------------------------------------------------------------------------
 # dtypes, batch sizes, launch shapes, the portable code path
 # ---------------------------------------------------------------------------

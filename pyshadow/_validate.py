@@ -9,7 +9,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["rows3", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
+__all__ = ["rows3", "squared_lengths", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
            "check_transform", "check_indices"]
 
 
@@ -137,6 +137,19 @@ def check_indices(indices, n: int, name: str = "indices") -> np.ndarray:
     return idx
 
 
+def squared_lengths(a: np.ndarray) -> np.ndarray:
+    """``(x x + y y) + z z`` of each 3-vector along the last axis of ``a`` (shape ``a.shape[:-1]``).
+
+    The sum ``np.linalg.norm(a, axis=-1) ** 2`` takes, in its order, so that
+    ``np.sqrt`` of it equals that norm bit for bit; taken by components, it
+    is about three times faster on millions of rows. Overflow and underflow
+    give inf and 0 without a warning (the callers handle them).
+    """
+    x, y, z = (a[..., k] for k in range(3))
+    with np.errstate(over="ignore", under="ignore"):
+        return (x * x + y * y) + z * z
+
+
 def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
     """(n, 3) finite, non-zero normals, normalised to unit length (float64).
 
@@ -148,8 +161,7 @@ def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
     unit vector; a row of zeros is refused.
     """
     m = rows3(normals, name, n)
-    with np.errstate(over="ignore", under="ignore"):
-        ss = (m[:, 0] * m[:, 0] + m[:, 1] * m[:, 1]) + m[:, 2] * m[:, 2]
+    ss = squared_lengths(m)
     odd = np.flatnonzero(~(ss > 0.0) | (ss == np.inf))
     if len(odd):
         big = np.abs(m[odd]).max(axis=1)

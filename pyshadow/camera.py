@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._validate import squared_lengths
+
 __all__ = ["Camera"]
 
 
@@ -85,7 +87,7 @@ class Camera:
         x = (2.0 * (np.arange(W) + 0.5) / W - 1.0) * self.tan_half * self.aspect
         y = (1.0 - 2.0 * (np.arange(H) + 0.5) / H) * self.tan_half
         d = (self.forward + x[None, :, None] * self.right + y[:, None, None] * self.up)
-        return d / np.linalg.norm(d, axis=-1, keepdims=True)
+        return d / np.sqrt(squared_lengths(d))[..., None]
 
     def __repr__(self) -> str:
         return (f"Camera(eye={self.eye.tolist()}, target={self.target.tolist()}, "

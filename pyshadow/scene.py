@@ -69,6 +69,7 @@ class Instance:
     mesh: trimesh.Trimesh | None = None
     # mesh data derived once (object frame)
     _normals: np.ndarray | None = field(default=None, repr=False)
+    _sphere: tuple | None = field(default=None, repr=False)
 
     @property
     def scale(self) -> float:
@@ -81,7 +82,9 @@ class Instance:
     def object_sphere(self):
         if self.csm is not None:
             return self.csm.centre, self.csm.radius
-        return bounding_sphere(self.mesh)
+        if self._sphere is None:                # a receiver: its mesh's sphere, found once (a convex hull)
+            self._sphere = bounding_sphere(self.mesh)
+        return self._sphere
 
     def world_sphere(self):
         c, r = self.object_sphere()

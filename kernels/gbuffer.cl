@@ -3,14 +3,18 @@
  * then the attributes per pixel).
  *
  * Kernels
- *   gbuffer_raster   one work-item per triangle; walks the pixel centres in
- *                    its screen bounding box. pass 0: atomic_min of the
+ *   gbuffer_raster   one work-item per triangle (but the wide ones); walks
+ *                    the pixel centres in its screen bounding box. pass 0: atomic_min of the
  *                    view-space depth (as uint; positive floats order like
  *                    their bit patterns) into zbuf. pass 1: where the
  *                    triangle's depth equals zbuf, atomic_min of its index
  *                    into idbuf (ties go to the lower index). Both passes run
  *                    the same code, so the depth they compute is bit-identical.
- *   gbuffer_resolve  one work-item per pixel: distance t along the unit eye
+ *   gbuffer_raster_rows  the same for the triangles the host marks wide (a
+ *                    screen box of many pixels), one work-item per row of
+ *                    each: a triangle filling the image is not left to one
+ *                    core. Both run per pass; the order of the atomics does
+ *                    not change what wins. *   gbuffer_resolve  one work-item per pixel: distance t along the unit eye
  *                    ray to the plane of the winning triangle and its unit
  *                    normal, turned to face the camera.
  *
@@ -22,6 +26,8 @@
  *
  * Buffers
  *   tris   float (T, 9)  camera-space corners a, b, c; read
+ *   wide   uchar (T)     1: the triangle is rasterised by gbuffer_raster_rows
+ *   rows   int2  (n)     (triangle, row) of the wide triangles' rows
  *   zbuf   uint  (H*W)   pass 0 writes (start at 0xffffffff), pass 1 reads
  *   idbuf  int   (H*W)   pass 1 writes (start at INT_MAX); resolve reads
  *   t_out  float (H*W)   resolve writes (inf where no triangle)
@@ -35,42 +41,99 @@ inline float2 to_screen(float3 p, float fx, float fy, int W, int H)
     return (float2)(p.x / p.z * fx + (0.5f * W - 0.5f), (0.5f * H - 0.5f) - p.y / p.z * fy);
 }
 
-__kernel void gbuffer_raster(__global const float *tris, const int n_tris,
+/* triangle t's screen corners p[3], doubled signed area, 1 / z of its
+ * corners and pixel box (rows r[0]..r[1], columns c[0]..c[1]); 0 where it
+ * covers no pixel centre's box */
+inline int raster_setup(__global const float *tris, int t, int W, int H, float fx, float fy, float2 *p,
+                        float *area, float3 *iz, int *r, int *c)
+{
+    const float3 a = vload3(3 * t, tris), b = vload3(3 * t + 1, tris), d = vload3(3 * t + 2, tris);
+    p[0] = to_screen(a, fx, fy, W, H);
+    p[1] = to_screen(b, fx, fy, W, H);
+    p[2] = to_screen(d, fx, fy, W, H);
+    *area = edge_fn(p[0], p[1], p[2]);
+    if (*area == 0.0f || !isfinite(*area)) return 0;
+    /* the box tested against the image in float first: a triangle wholly off it (screen
+       coordinates beyond int's range near the near plane) never reaches a float-to-int conversion */
+    const float x0 = ceil(fmin(p[0].x, fmin(p[1].x, p[2].x))), x1 = floor(fmax(p[0].x, fmax(p[1].x, p[2].x)));
+    const float y0 = ceil(fmin(p[0].y, fmin(p[1].y, p[2].y))), y1 = floor(fmax(p[0].y, fmax(p[1].y, p[2].y)));
+    if (!(x0 <= (float)(W - 1) && x1 >= 0.0f && y0 <= (float)(H - 1) && y1 >= 0.0f)) return 0;
+    c[0] = (int)fmax(x0, 0.0f); c[1] = (int)fmin(x1, (float)(W - 1));
+    r[0] = (int)fmax(y0, 0.0f); r[1] = (int)fmin(y1, (float)(H - 1));
+    *iz = (float3)(1.0f / a.z, 1.0f / b.z, 1.0f / d.z);
+    return 1;
+}
+
+/* the pixel centres of row r, columns c0..c1, that triangle t covers: pass 0
+ * its depth into zbuf, pass 1 its index into idbuf where that depth won */
+inline void raster_row(int t, const float2 *p, float area, float3 iz, int r, int c0, int c1, int W, int pass,
+                       __global volatile uint *zbuf, __global volatile int *idbuf)
+{
+    for (int col = c0; col <= c1; ++col) {
+        float3 w;
+        if (!tri_covers(p[0], p[1], p[2], area, (float2)((float)col, (float)r), &w)) continue;
+        const float z = 1.0f / (w.x * iz.x + w.y * iz.y + w.z * iz.z);
+        if (!(z > 0.0f)) continue;
+        const uint key = as_uint(z);
+        const int pix = r * W + col;
+        if (pass == 0) {
+            atomic_min(&zbuf[pix], key);
+        } else if (zbuf[pix] == key) {
+            atomic_min(&idbuf[pix], t);
+        }
+    }
+}
+
+/* one work-item per triangle, but those marked wide (gbuffer_raster_rows) */
+__kernel void gbuffer_raster(__global const float *tris, const int n_tris, __global const uchar *wide,
                              const int W, const int H, const float fx, const float fy,
                              const int pass,
                              __global volatile uint *zbuf, __global volatile int *idbuf)
 {
     const int t = get_global_id(0);
-    if (t >= n_tris) return;
-    const float3 a = vload3(3 * t, tris), b = vload3(3 * t + 1, tris), c = vload3(3 * t + 2, tris);
-    const float2 p0 = to_screen(a, fx, fy, W, H);
-    const float2 p1 = to_screen(b, fx, fy, W, H);
-    const float2 p2 = to_screen(c, fx, fy, W, H);
-    const float area = edge_fn(p0, p1, p2);
-    if (area == 0.0f || !isfinite(area)) return;
-    /* the box tested against the image in float first: a triangle wholly off it (screen
-       coordinates beyond int's range near the near plane) never reaches a float-to-int conversion */
-    const float x0 = ceil(fmin(p0.x, fmin(p1.x, p2.x))), x1 = floor(fmax(p0.x, fmax(p1.x, p2.x)));
-    const float y0 = ceil(fmin(p0.y, fmin(p1.y, p2.y))), y1 = floor(fmax(p0.y, fmax(p1.y, p2.y)));
-    if (!(x0 <= (float)(W - 1) && x1 >= 0.0f && y0 <= (float)(H - 1) && y1 >= 0.0f)) return;
-    const int c0 = (int)fmax(x0, 0.0f), c1 = (int)fmin(x1, (float)(W - 1));
-    const int r0 = (int)fmax(y0, 0.0f), r1 = (int)fmin(y1, (float)(H - 1));
-    const float3 iz = (float3)(1.0f / a.z, 1.0f / b.z, 1.0f / c.z);
-    for (int r = r0; r <= r1; ++r) {
-        for (int col = c0; col <= c1; ++col) {
-            float3 w;
-            if (!tri_covers(p0, p1, p2, area, (float2)((float)col, (float)r), &w)) continue;
-            const float z = 1.0f / (w.x * iz.x + w.y * iz.y + w.z * iz.z);
-            if (!(z > 0.0f)) continue;
-            const uint key = as_uint(z);
-            const int pix = r * W + col;
-            if (pass == 0) {
-                atomic_min(&zbuf[pix], key);
-            } else if (zbuf[pix] == key) {
-                atomic_min(&idbuf[pix], t);
-            }
-        }
+    if (t >= n_tris || wide[t]) return;
+    float2 p[3];
+    float area;
+    float3 iz;
+    int r[2], c[2];
+    if (!raster_setup(tris, t, W, H, fx, fy, p, &area, &iz, r, c)) return;
+    for (int row = r[0]; row <= r[1]; ++row)
+        raster_row(t, p, area, iz, row, c[0], c[1], W, pass, zbuf, idbuf);
+}
+
+/* one work-item per (triangle, row) of the wide triangles: rows[i] = (t, row),
+ * a row outside the triangle's own box is passed over (the host lists more) */
+__kernel void gbuffer_raster_rows(__global const float *tris, __global const int2 *rows, const int n_rows,
+                                  const int W, const int H, const float fx, const float fy,
+                                  const int pass,
+                                  __global volatile uint *zbuf, __global volatile int *idbuf)
+{
+    const int i = get_global_id(0);
+    if (i >= n_rows) return;
+    const int2 tr = rows[i];
+    float2 p[3];
+    float area;
+    float3 iz;
+    int r[2], c[2];
+    if (!raster_setup(tris, tr.x, W, H, fx, fy, p, &area, &iz, r, c) || tr.y < r[0] || tr.y > r[1]) return;
+    /* the row's columns between the triangle's edges (where each edge line
+     * crosses it), widened by two pixels and the rounding of the corners'
+     * magnitude: tri_covers() still decides every pixel within */
+    const float y = (float)tr.y, big = fmax(fmax(fabs(p[0].x), fabs(p[1].x)), fmax(fabs(p[2].x), fabs(p[0].y))),
+                margin = 2.0f + 1e-5f * fmax(big, fmax(fabs(p[1].y), fabs(p[2].y)));
+    float lo = -INFINITY, hi = INFINITY;
+    for (int e = 0; e < 3; ++e) {
+        const float2 a = p[e], b = p[(e + 1) % 3];
+        const float dy = b.y - a.y;
+        if (!(fabs(dy) > 0.0f)) continue;                   /* a row-parallel edge bounds no column */
+        const float x = a.x + (b.x - a.x) * ((y - a.y) / dy);
+        if ((dy > 0.0f) == (area > 0.0f)) hi = fmin(hi, x);  /* inside: left of an edge going down the rows */
+        else lo = fmax(lo, x);
     }
+    if (!(lo - margin <= hi + margin)) return;
+    const int cl = (int)fmax((float)c[0], fmin(ceil(lo - margin), (float)c[1] + 1.0f)),
+              ch = (int)fmin((float)c[1], fmax(floor(hi + margin), (float)c[0] - 1.0f));
+    raster_row(tr.x, p, area, iz, tr.y, cl, ch, W, pass, zbuf, idbuf);
 }
 
 __kernel void gbuffer_resolve(__global const float *tris, const int W, const int H,

@@ -83,11 +83,29 @@ class Camera:
 
     def ray_directions(self) -> np.ndarray:
         """Unit world directions of every pixel's ray; (H, W, 3) float64."""
-        W, H = self.width, self.height
-        x = (2.0 * (np.arange(W) + 0.5) / W - 1.0) * self.tan_half * self.aspect
-        y = (1.0 - 2.0 * (np.arange(H) + 0.5) / H) * self.tan_half
-        d = (self.forward + x[None, :, None] * self.right + y[:, None, None] * self.up)
-        return d / np.sqrt(squared_lengths(d))[..., None]
+        return self._rays().copy()
+
+    def _rays(self) -> np.ndarray:
+        """:meth:`ray_directions`, read-only, kept while the camera's frame, field of view and size
+        stay the same (a frame's G-buffer and surface points both ask for them)."""
+        key = (self.forward.tobytes(), self.right.tobytes(), self.up.tobytes(), self.fov_y, self.width,
+               self.height)
+        held = self.__dict__.get("_held_rays")
+        if held is None or held[0] != key:
+            W, H = self.width, self.height
+            x = (2.0 * (np.arange(W) + 0.5) / W - 1.0) * self.tan_half * self.aspect
+            y = (1.0 - 2.0 * (np.arange(H) + 0.5) / H) * self.tan_half
+            d = (self.forward + x[None, :, None] * self.right + y[:, None, None] * self.up)
+            d /= np.sqrt(squared_lengths(d))[..., None]
+            d.setflags(write=False)
+            held = self._held_rays = (key, d)
+        return held[1]
+
+    def __getstate__(self) -> dict:
+        """The camera without its kept rays (copies sent to other processes stay small)."""
+        state = dict(self.__dict__)
+        state.pop("_held_rays", None)
+        return state
 
     def __repr__(self) -> str:
         return (f"Camera(eye={self.eye.tolist()}, target={self.target.tolist()}, "

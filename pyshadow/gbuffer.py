@@ -21,12 +21,20 @@ from .mesh import load_mesh
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
 
 
+def _all3(m: np.ndarray) -> np.ndarray:
+    """``m.all(axis=1)`` of an (N, 3) boolean array, by columns (NumPy's reduction over an axis of
+    three is several times slower on the triangles of a mesh)."""
+    return m[:, 0] & m[:, 1] & m[:, 2]
+
+
 def _clip_near(tri: np.ndarray, near: float):
     """Clip camera-space triangles (N, 3, 3) to z >= near; returns (M, 3, 3) and source index."""
     z = tri[:, :, 2]
     inside = z >= near
-    full = inside.all(axis=1)
-    part = inside.any(axis=1) & ~full
+    full = _all3(inside)
+    if full.all():                                  # nothing crosses the near plane
+        return tri, np.arange(len(tri))
+    part = (inside[:, 0] | inside[:, 1] | inside[:, 2]) & ~full
     out = [tri[full]]
     src = [np.flatnonzero(full)]
     for i in np.flatnonzero(part):
@@ -78,7 +86,7 @@ def gbuffer_triangles(items, camera: Camera):
         v = np.asarray(mesh.vertices, dtype=np.float64)
         w = v @ T[:3, :3].T + T[:3, 3]
         c = (w - camera.eye) @ R.T
-        tri = c[np.asarray(mesh.faces)]
+        tri = np.take(c, np.asarray(mesh.faces), axis=0)     # c[faces], three times faster
         far = max(far, float(np.abs(c).max()) if len(c) else 0.0)
         per.append((tri, oid))
     near = max(far * 1e-6, 1e-30)
@@ -90,11 +98,11 @@ def gbuffer_triangles(items, camera: Camera):
         z = tri[:, :, 2]
         tx = camera.tan_half * camera.aspect
         ty = camera.tan_half
-        out = (z < near).all(1)
-        out |= (tri[:, :, 0] > tx * z).all(1) | (tri[:, :, 0] < -tx * z).all(1)
-        out |= (tri[:, :, 1] > ty * z).all(1) | (tri[:, :, 1] < -ty * z).all(1)
+        out = _all3(z < near)
+        out |= _all3(tri[:, :, 0] > tx * z) | _all3(tri[:, :, 0] < -tx * z)
+        out |= _all3(tri[:, :, 1] > ty * z) | _all3(tri[:, :, 1] < -ty * z)
         keep = np.flatnonzero(~out)
-        clipped, src = _clip_near(tri[keep], near)
+        clipped, src = _clip_near(tri if len(keep) == len(tri) else tri[keep], near)
         all_tri.append(clipped)
         all_obj.append(np.full(len(clipped), oid, dtype=np.int32))
         all_face.append(keep[src])
@@ -109,7 +117,7 @@ def _finish(camera, t, n_cam, obj, face):
     hit = np.isfinite(t)
     obj = np.asarray(obj).reshape(H, W)
     face = np.asarray(face).reshape(H, W)
-    dirs = camera.ray_directions()
+    dirs = camera._rays()
     pos = camera.eye + np.where(hit, t, 0.0)[..., None] * dirs
     pos[~hit] = np.nan
     normal = n_cam @ camera.rotation
@@ -121,6 +129,42 @@ def _finish(camera, t, n_cam, obj, face):
         "face": np.where(hit, face, -1).astype(np.int32).reshape(H, W),
         "depth": np.where(hit, t, np.inf).astype(np.float32),
     }
+
+
+#: Triangles whose screen box holds more pixels than this are rasterised a row to a work-item
+#: (``gbuffer_raster_rows``): one such triangle (a ground plane, a wall) covers as many pixel
+#: centres as thousands of a mesh's small triangles, and would leave one core to walk them all.
+WIDE_PIXELS = 4096
+
+
+def _wide_rows(tris, W: int, H: int, fx: float, fy: float):
+    """Which of ``tris`` (camera space, (T, 3, 3)) are wide, as uint8 (T,), and their rows as int32 (n, 2)
+    pairs (triangle, row): each wide triangle's screen box in float64, grown by two pixels (the kernel
+    passes over the rows outside its own float32 box), the whole image along an axis where a corner's
+    screen coordinate is too large for float32 to place within a pixel (beyond 2^20)."""
+    x, y, z = (tris[:, :, k] for k in range(3))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sx = x / z * fx + (0.5 * W - 0.5)
+        sy = (0.5 * H - 0.5) - y / z * fy
+
+    def span(s, n):                     # by corners: NumPy's reductions over an axis of 3 are slow
+        a, b, c = s[:, 0], s[:, 1], s[:, 2]
+        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
+        rough = ~((lo >= -2.0 ** 20) & (hi <= 2.0 ** 20))
+        on = rough | ((hi >= -2) & (lo <= n + 1))
+        lo = np.where(rough, 0, np.clip(np.floor(lo) - 2, 0, n - 1))
+        hi = np.where(rough, n - 1, np.clip(np.ceil(hi) + 2, 0, n - 1))
+        return lo.astype(np.int64), hi.astype(np.int64), on
+
+    c0, c1, on_x = span(sx, W)
+    r0, r1, on_y = span(sy, H)
+    wide = on_x & on_y & ((r1 - r0 + 1) * (c1 - c0 + 1) > WIDE_PIXELS)
+    t = np.flatnonzero(wide)
+    n = r1[t] - r0[t] + 1
+    rows = np.empty((int(n.sum()), 2), np.int32)
+    rows[:, 0] = np.repeat(t, n)
+    rows[:, 1] = np.repeat(r0[t], n) + np.arange(len(rows)) - np.repeat(np.cumsum(n) - n, n)
+    return wide.astype(np.uint8), rows
 
 
 def render_gbuffer(items, camera: Camera) -> dict:
@@ -169,10 +213,17 @@ def render_gbuffer(items, camera: Camera) -> dict:
         cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
         fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
         fy = np.float32(H / (2.0 * camera.tan_half))
+        wide, rows = _wide_rows(tris, W, H, float(fx), float(fy))
+        wb = _cl.to_device(wide)
         k = _cl.kernel("gbuffer.cl", "gbuffer_raster")
+        kr = _cl.kernel("gbuffer.cl", "gbuffer_raster_rows") if len(rows) else None
+        rb = _cl.to_device(rows) if len(rows) else None
         for p in (0, 1):
-            k(q, (len(tris),), None, tb, np.int32(len(tris)), np.int32(W), np.int32(H),
+            k(q, (len(tris),), None, tb, np.int32(len(tris)), wb, np.int32(W), np.int32(H),
               fx, fy, np.int32(p), zbuf, idbuf)
+            if kr is not None:
+                kr(q, (len(rows),), None, tb, rb, np.int32(len(rows)), np.int32(W), np.int32(H),
+                   fx, fy, np.int32(p), zbuf, idbuf)
         t_buf = _cl.empty(4 * npix)
         n_buf = _cl.empty(12 * npix)
         _cl.kernel("gbuffer.cl", "gbuffer_resolve")(

@@ -229,7 +229,7 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
         sub = np.zeros((H, W), bool)
         sub[::ao_scale, ::ao_scale] = True
         sel = np.flatnonzero((hit & sub).reshape(-1))
-    dirs = camera.ray_directions().reshape(-1, 3)
+    dirs = camera._rays().reshape(-1, 3)
     pos = camera.eye + gbuffer["depth"].reshape(-1)[sel, None].astype(np.float64) * dirs[sel]
     return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel, points=pos,
                          normals=gbuffer["normal"].reshape(-1, 3)[sel], surface_ids=object_id.reshape(-1)[sel])

@@ -65,6 +65,34 @@ def test_gbuffer_matches_numpy_reference():
     assert np.isnan(g["position"][~hit]).all() and np.isinf(g["depth"][~hit]).all()
 
 
+@pytest.mark.parametrize("scene", ["two objects", "camera on the floor", "far off-screen corners"])
+def test_gbuffer_wide_triangles_by_rows_are_bit_identical(scene, monkeypatch):
+    """Triangles marked wide are rasterised a row to a work-item, each row between its edges (widened):
+    every G-buffer array equals, bit for bit, the one-work-item-per-triangle rasteriser's, whatever
+    the threshold (0: every triangle by rows; 64; none)."""
+    from pyshadow import gbuffer
+
+    if scene == "two objects":
+        items, cam = two_objects_on_ground()
+    else:
+        h = 100.0 if scene == "camera on the floor" else 1e4
+        floor = trimesh.Trimesh([[-h, 0, -h], [h, 0, -h], [h, 0, h], [-h, 0, h]], [[0, 2, 1], [0, 3, 2]])
+        wall = trimesh.Trimesh([[-3, 0, -6], [3, 0, -6], [3, 4, -6], [-3, 4, -6]], [[0, 1, 2], [0, 2, 3]])
+        items = [(floor, np.eye(4)), (wall, np.eye(4))]
+        cam = pyshadow.Camera([0.3, 0.5, 0], [0, 0.2, -5], width=160, height=120, fov_y=90)
+    out = {}
+    for wide in (10 ** 9, 64, 0):
+        monkeypatch.setattr(gbuffer, "WIDE_PIXELS", wide)
+        if wide < 10 ** 9:
+            tris, *_ = gbuffer.gbuffer_triangles(items, cam)
+            assert gbuffer._wide_rows(tris, cam.width, cam.height, 1.0, 1.0)[0].any()
+        out[wide] = pyshadow.render_gbuffer(items, cam)
+    assert (out[10 ** 9]["object_id"] >= 0).mean() > 0.3
+    for wide in (64, 0):
+        for k, v in out[10 ** 9].items():
+            np.testing.assert_array_equal(out[wide][k], v, err_msg=f"{k} at WIDE_PIXELS={wide}")
+
+
 def test_gbuffer_normals_face_the_camera_and_are_unit():
     items, cam = two_objects_on_ground()
     g = pyshadow.render_gbuffer(items, cam)
@@ -97,6 +125,29 @@ def test_camera_pixel_convention():
     assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0      # row 0 is the top, column 0 the left
     assert d[1, 3, 0] > 0 and d[1, 3, 1] < 0
     np.testing.assert_allclose(d[..., 2].min(), -1 / np.linalg.norm([0.5, 0.5, 1]), rtol=1e-12)
+
+
+def _rays_by_formula(cam):
+    """The Camera docstring's pixel rays, normalised by np.linalg.norm."""
+    x = (2 * (np.arange(cam.width) + 0.5) / cam.width - 1) * cam.tan_half * cam.aspect
+    y = (1 - 2 * (np.arange(cam.height) + 0.5) / cam.height) * cam.tan_half
+    d = cam.forward + x[None, :, None] * cam.right + y[:, None, None] * cam.up
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def test_camera_rays_are_kept_until_the_camera_changes():
+    """The kept rays equal the formula bit for bit, are shared read-only within the package, and are
+    recomputed when the size or field of view changes; ray_directions() hands out a writable copy."""
+    cam = pyshadow.Camera([1.0, 2.0, 3.0], [0.0, 0.5, 0.0], width=40, height=30)
+    kept = cam._rays()
+    assert cam._rays() is kept and not kept.flags.writeable
+    np.testing.assert_array_equal(kept, _rays_by_formula(cam))
+    mine = cam.ray_directions()
+    mine[:] = 0.0                                   # the caller's copy, not the kept rays
+    np.testing.assert_array_equal(cam._rays(), _rays_by_formula(cam))
+    cam.fov_y, cam.width = 30.0, 24
+    assert cam._rays().shape == (30, 24, 3)
+    np.testing.assert_array_equal(cam._rays(), _rays_by_formula(cam))
 
 
 @pytest.mark.parametrize("kwargs, match", [

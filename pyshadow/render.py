@@ -230,9 +230,11 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
         sub[::ao_scale, ::ao_scale] = True
         sel = np.flatnonzero((hit & sub).reshape(-1))
     dirs = camera._rays().reshape(-1, 3)
-    pos = camera.eye + gbuffer["depth"].reshape(-1)[sel, None].astype(np.float64) * dirs[sel]
+    # np.take: the rows of sel, several times faster than indexing with it
+    pos = camera.eye + np.take(gbuffer["depth"].reshape(-1), sel)[:, None].astype(np.float64) * np.take(dirs, sel, axis=0)
     return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel, points=pos,
-                         normals=gbuffer["normal"].reshape(-1, 3)[sel], surface_ids=object_id.reshape(-1)[sel])
+                         normals=np.take(np.asarray(gbuffer["normal"]).reshape(-1, 3), sel, axis=0),
+                         surface_ids=np.take(object_id.reshape(-1), sel))
 
 
 def _check_render_options(denoise, ao_scale, sampling):

@@ -141,9 +141,9 @@ def squared_lengths(a: np.ndarray) -> np.ndarray:
     """``(x x + y y) + z z`` of each 3-vector along the last axis of ``a`` (shape ``a.shape[:-1]``).
 
     The sum ``np.linalg.norm(a, axis=-1) ** 2`` takes, in its order, so that
-    ``np.sqrt`` of it equals that norm bit for bit; taken by components, it
-    is about three times faster on millions of rows. Overflow and underflow
-    give inf and 0 without a warning (the callers handle them).
+    ``np.sqrt`` of it equals that norm bit for bit; taken by components, not
+    by NumPy's slower reduction over an axis of three. Overflow and
+    underflow give inf and 0 without a warning (the callers handle them).
     """
     x, y, z = (a[..., k] for k in range(3))
     with np.errstate(over="ignore", under="ignore"):
@@ -153,9 +153,9 @@ def squared_lengths(a: np.ndarray) -> np.ndarray:
 def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
     """(n, 3) finite, non-zero normals, normalised to unit length (float64).
 
-    Each row is divided by its length ``sqrt((x x + y y) + z z)`` (the value
-    ``np.linalg.norm(m, axis=1)`` gives, taken by columns: three times
-    faster on millions of rows). A row whose squared length underflows to
+    Each row is divided by its length ``sqrt((x x + y y) + z z)``
+    (:func:`squared_lengths`: the value ``np.linalg.norm(m, axis=1)``
+    gives). A row whose squared length underflows to
     zero or overflows (components below about 1e-154 or above 1e154) is
     first scaled by its largest component, so that it still comes out a
     unit vector; a row of zeros is refused.

@@ -32,9 +32,22 @@
  *   idbuf  int   (H*W)   pass 1 writes (start at INT_MAX); resolve reads
  *   t_out  float (H*W)   resolve writes (inf where no triangle)
  *   n_out  float (H*W,3) resolve writes (0 where no triangle)
- * Macros: none (sizes are arguments, so one build serves every image size).
+ * Macros: GBUFFER_ATOMIC64 (0/1; the host sets 1 where the device has
+ * cl_khr_int64_extended_atomics): one raster pass, atom_min of the pair
+ * (depth bits << 32 | triangle index) into zbuf read as ulong -- the least
+ * depth, then the lower index, as the two passes find -- and gbuffer_ids to
+ * split the winners off (sizes are arguments, so one build serves every
+ * image size).
  */
 #include "raster_common.h"
+
+#ifndef GBUFFER_ATOMIC64
+#define GBUFFER_ATOMIC64 0
+#endif
+#if GBUFFER_ATOMIC64
+#pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
+#pragma OPENCL EXTENSION cl_khr_int64_extended_atomics : enable
+#endif
 
 inline float2 to_screen(float3 p, float fx, float fy, int W, int H)
 {
@@ -76,11 +89,16 @@ inline void raster_row(int t, const float2 *p, float area, float3 iz, int r, int
         if (!(z > 0.0f)) continue;
         const uint key = as_uint(z);
         const int pix = r * W + col;
+#if GBUFFER_ATOMIC64
+        /* one pass: the least (depth, index) pair, zbuf read as (H*W) ulong */
+        atom_min((__global volatile ulong *)zbuf + pix, ((ulong)key << 32) | (ulong)(uint)t);
+#else
         if (pass == 0) {
             atomic_min(&zbuf[pix], key);
         } else if (zbuf[pix] == key) {
             atomic_min(&idbuf[pix], t);
         }
+#endif
     }
 }
 
@@ -135,6 +153,18 @@ __kernel void gbuffer_raster_rows(__global const float *tris, __global const int
               ch = (int)fmin((float)c[1], fmax(floor(hi + margin), (float)c[0] - 1.0f));
     raster_row(tr.x, p, area, iz, tr.y, cl, ch, W, pass, zbuf, idbuf);
 }
+
+#if GBUFFER_ATOMIC64
+/* the one pass's winners as gbuffer_resolve reads them: the index half of
+ * each pixel's (depth, index) pair, INT_MAX where no triangle covers it */
+__kernel void gbuffer_ids(__global const ulong *zid, const int n, __global int *idbuf)
+{
+    const int pix = get_global_id(0);
+    if (pix >= n) return;
+    const ulong v = zid[pix];
+    idbuf[pix] = v == ~(ulong)0 ? INT_MAX : (int)(uint)(v & 0xffffffffUL);
+}
+#endif
 
 __kernel void gbuffer_resolve(__global const float *tris, const int W, const int H,
                               const float tan_x, const float tan_y,

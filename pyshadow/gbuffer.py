@@ -167,6 +167,16 @@ def _wide_rows(tris, W: int, H: int, fx: float, fy: float):
     return wide.astype(np.uint8), rows
 
 
+#: Whether the G-buffer may rasterise in one pass where the device has 64-bit atomics (False: the
+#: two passes everywhere; the tests compare the two).
+ONE_PASS = True
+
+
+def _one_pass() -> bool:
+    """One raster pass (``GBUFFER_ATOMIC64``): the device has ``cl_khr_int64_extended_atomics``."""
+    return ONE_PASS and "cl_khr_int64_extended_atomics" in _cl.device().extensions.split()
+
+
 def render_gbuffer(items, camera: Camera) -> dict:
     """Rasterise a scene of rigidly placed meshes into a G-buffer.
 
@@ -207,26 +217,31 @@ def render_gbuffer(items, camera: Camera) -> dict:
             raise ValueError("too many triangles for one G-buffer")
         q = _cl.queue()
         tb = _cl.to_device(tris.reshape(-1, 9), np.float32)
-        zbuf = _cl.empty(4 * npix)
+        one_pass = _one_pass()
+        defines = {"GBUFFER_ATOMIC64": int(one_pass)}
+        zbuf = _cl.empty((8 if one_pass else 4) * npix)
         idbuf = _cl.empty(4 * npix)
-        cl.enqueue_fill_buffer(q, zbuf, np.uint32(0xFFFFFFFF), 0, 4 * npix)
-        cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
+        cl.enqueue_fill_buffer(q, zbuf, np.uint32(0xFFFFFFFF), 0, (8 if one_pass else 4) * npix)
+        if not one_pass:
+            cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
         fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
         fy = np.float32(H / (2.0 * camera.tan_half))
         wide, rows = _wide_rows(tris, W, H, float(fx), float(fy))
         wb = _cl.to_device(wide)
-        k = _cl.kernel("gbuffer.cl", "gbuffer_raster")
-        kr = _cl.kernel("gbuffer.cl", "gbuffer_raster_rows") if len(rows) else None
+        k = _cl.kernel("gbuffer.cl", "gbuffer_raster", defines)
+        kr = _cl.kernel("gbuffer.cl", "gbuffer_raster_rows", defines) if len(rows) else None
         rb = _cl.to_device(rows) if len(rows) else None
-        for p in (0, 1):
+        for p in (0,) if one_pass else (0, 1):
             k(q, (len(tris),), None, tb, np.int32(len(tris)), wb, np.int32(W), np.int32(H),
               fx, fy, np.int32(p), zbuf, idbuf)
             if kr is not None:
                 kr(q, (len(rows),), None, tb, rb, np.int32(len(rows)), np.int32(W), np.int32(H),
                    fx, fy, np.int32(p), zbuf, idbuf)
+        if one_pass:
+            _cl.kernel("gbuffer.cl", "gbuffer_ids", defines)(q, (npix,), None, zbuf, np.int32(npix), idbuf)
         t_buf = _cl.empty(4 * npix)
         n_buf = _cl.empty(12 * npix)
-        _cl.kernel("gbuffer.cl", "gbuffer_resolve")(
+        _cl.kernel("gbuffer.cl", "gbuffer_resolve", defines)(
             q, (npix,), None, tb, np.int32(W), np.int32(H),
             np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half),
             idbuf, t_buf, n_buf)

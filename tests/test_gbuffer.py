@@ -66,11 +66,12 @@ def test_gbuffer_matches_numpy_reference():
 
 
 @pytest.mark.parametrize("scene", ["two objects", "camera on the floor", "far off-screen corners"])
-def test_gbuffer_wide_triangles_by_rows_are_bit_identical(scene, monkeypatch):
-    """Triangles marked wide are rasterised a row to a work-item, each row between its edges (widened):
-    every G-buffer array equals, bit for bit, the one-work-item-per-triangle rasteriser's, whatever
-    the threshold (0: every triangle by rows; 64; none)."""
-    from pyshadow import gbuffer
+def test_gbuffer_rasterisers_are_bit_identical(scene, monkeypatch):
+    """Every way of rasterising gives every G-buffer array bit for bit: two passes (depth, then the
+    index of its winner) or one pass of 64-bit atomics on (depth, index) where the device has them;
+    wide triangles a row to a work-item, each row between its edges (widened), whatever the
+    threshold (0: every triangle by rows; 64; none)."""
+    from pyshadow import _cl, gbuffer
 
     if scene == "two objects":
         items, cam = two_objects_on_ground()
@@ -80,51 +81,22 @@ def test_gbuffer_wide_triangles_by_rows_are_bit_identical(scene, monkeypatch):
         wall = trimesh.Trimesh([[-3, 0, -6], [3, 0, -6], [3, 4, -6], [-3, 4, -6]], [[0, 1, 2], [0, 2, 3]])
         items = [(floor, np.eye(4)), (wall, np.eye(4))]
         cam = pyshadow.Camera([0.3, 0.5, 0], [0, 0.2, -5], width=160, height=120, fov_y=90)
+    passes = (False, True) if "cl_khr_int64_extended_atomics" in _cl.device().extensions.split() else (False,)
     out = {}
-    for wide in (10 ** 9, 64, 0):
-        monkeypatch.setattr(gbuffer, "WIDE_PIXELS", wide)
-        if wide < 10 ** 9:
-            tris, *_ = gbuffer.gbuffer_triangles(items, cam)
-            assert gbuffer._wide_rows(tris, cam.width, cam.height, 1.0, 1.0)[0].any()
-        out[wide] = pyshadow.render_gbuffer(items, cam)
-    assert (out[10 ** 9]["object_id"] >= 0).mean() > 0.3
-    for wide in (64, 0):
-        for k, v in out[10 ** 9].items():
-            np.testing.assert_array_equal(out[wide][k], v, err_msg=f"{k} at WIDE_PIXELS={wide}")
-
-
-def test_gbuffer_normals_face_the_camera_and_are_unit():
-    items, cam = two_objects_on_ground()
-    g = pyshadow.render_gbuffer(items, cam)
-    hit = g["object_id"] >= 0
-    n = g["normal"][hit]
-    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5)
-    view = g["position"][hit] - cam.eye
-    assert (np.einsum("ij,ij->i", n, view) <= 0).all()
-    # the ground plane's normal is +y from above
-    ground = g["object_id"] == 2
-    np.testing.assert_allclose(g["normal"][ground], np.broadcast_to([0, 1, 0], (ground.sum(), 3)), atol=1e-6)
-
-
-def test_gbuffer_camera_inside_geometry_clips_near_plane():
-    # the camera stands on a huge floor that crosses the near plane
-    floor = trimesh.Trimesh([[-100, 0, -100], [100, 0, -100], [100, 0, 100], [-100, 0, 100]],
-                            [[0, 2, 1], [0, 3, 2]])
-    cam = pyshadow.Camera([0, 0.5, 0], [0, 0, -5], width=80, height=60)
-    g = pyshadow.render_gbuffer([(floor, np.eye(4))], cam)
-    e = embree.gbuffer([(floor, np.eye(4))], cam)
-    np.testing.assert_array_equal(g["object_id"], e["object_id"])
-    hit = e["object_id"] == 0
-    np.testing.assert_allclose(g["position"][hit], e["position"][hit], atol=1e-3)
-
-
-def test_camera_pixel_convention():
-    cam = pyshadow.Camera([0, 0, 0], [0, 0, -1], fov_y=90.0, width=4, height=2)
-    d = cam.ray_directions()
-    assert d.shape == (2, 4, 3)
-    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0      # row 0 is the top, column 0 the left
-    assert d[1, 3, 0] > 0 and d[1, 3, 1] < 0
-    np.testing.assert_allclose(d[..., 2].min(), -1 / np.linalg.norm([0.5, 0.5, 1]), rtol=1e-12)
+    for one_pass in passes:
+        for wide in (10 ** 9, 64, 0):
+            monkeypatch.setattr(gbuffer, "ONE_PASS", one_pass)
+            monkeypatch.setattr(gbuffer, "WIDE_PIXELS", wide)
+            assert gbuffer._one_pass() == one_pass
+            if wide < 10 ** 9:
+                tris, *_ = gbuffer.gbuffer_triangles(items, cam)
+                assert gbuffer._wide_rows(tris, cam.width, cam.height, 1.0, 1.0)[0].any()
+            out[one_pass, wide] = pyshadow.render_gbuffer(items, cam)
+    base = out[False, 10 ** 9]
+    assert (base["object_id"] >= 0).mean() > 0.3
+    for key, g in out.items():
+        for k, v in base.items():
+            np.testing.assert_array_equal(g[k], v, err_msg=f"{k} with (one pass, WIDE_PIXELS) = {key}")
 
 
 def _rays_by_formula(cam):

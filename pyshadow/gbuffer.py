@@ -118,16 +118,18 @@ def _finish(camera, t, n_cam, obj, face):
     obj = np.asarray(obj).reshape(H, W)
     face = np.asarray(face).reshape(H, W)
     dirs = camera._rays()
-    pos = camera.eye + np.where(hit, t, 0.0)[..., None] * dirs
-    pos[~hit] = np.nan
+    every = bool(hit.all())                 # a surface behind every pixel: nothing to mask
+    pos = camera.eye + (t if every else np.where(hit, t, 0.0))[..., None] * dirs
     normal = n_cam @ camera.rotation
-    normal[~hit] = 0.0
+    if not every:
+        pos[~hit] = np.nan
+        normal[~hit] = 0.0
     return {
         "position": pos.astype(np.float32),
         "normal": normal.astype(np.float32),
-        "object_id": np.where(hit, obj, -1).astype(np.int32).reshape(H, W),
-        "face": np.where(hit, face, -1).astype(np.int32).reshape(H, W),
-        "depth": np.where(hit, t, np.inf).astype(np.float32),
+        "object_id": (obj if every else np.where(hit, obj, -1)).astype(np.int32).reshape(H, W),
+        "face": (face if every else np.where(hit, face, -1)).astype(np.int32).reshape(H, W),
+        "depth": (t if every else np.where(hit, t, np.inf)).astype(np.float32),
     }
 
 

@@ -99,6 +99,40 @@ def test_gbuffer_rasterisers_are_bit_identical(scene, monkeypatch):
             np.testing.assert_array_equal(g[k], v, err_msg=f"{k} with (one pass, WIDE_PIXELS) = {key}")
 
 
+def test_gbuffer_normals_face_the_camera_and_are_unit():
+    items, cam = two_objects_on_ground()
+    g = pyshadow.render_gbuffer(items, cam)
+    hit = g["object_id"] >= 0
+    n = g["normal"][hit]
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1, atol=1e-5)
+    view = g["position"][hit] - cam.eye
+    assert (np.einsum("ij,ij->i", n, view) <= 0).all()
+    # the ground plane's normal is +y from above
+    ground = g["object_id"] == 2
+    np.testing.assert_allclose(g["normal"][ground], np.broadcast_to([0, 1, 0], (ground.sum(), 3)), atol=1e-6)
+
+
+def test_gbuffer_camera_inside_geometry_clips_near_plane():
+    # the camera stands on a huge floor that crosses the near plane
+    floor = trimesh.Trimesh([[-100, 0, -100], [100, 0, -100], [100, 0, 100], [-100, 0, 100]],
+                            [[0, 2, 1], [0, 3, 2]])
+    cam = pyshadow.Camera([0, 0.5, 0], [0, 0, -5], width=80, height=60)
+    g = pyshadow.render_gbuffer([(floor, np.eye(4))], cam)
+    e = embree.gbuffer([(floor, np.eye(4))], cam)
+    np.testing.assert_array_equal(g["object_id"], e["object_id"])
+    hit = e["object_id"] == 0
+    np.testing.assert_allclose(g["position"][hit], e["position"][hit], atol=1e-3)
+
+
+def test_camera_pixel_convention():
+    cam = pyshadow.Camera([0, 0, 0], [0, 0, -1], fov_y=90.0, width=4, height=2)
+    d = cam.ray_directions()
+    assert d.shape == (2, 4, 3)
+    assert d[0, 0, 0] < 0 and d[0, 0, 1] > 0      # row 0 is the top, column 0 the left
+    assert d[1, 3, 0] > 0 and d[1, 3, 1] < 0
+    np.testing.assert_allclose(d[..., 2].min(), -1 / np.linalg.norm([0.5, 0.5, 1]), rtol=1e-12)
+
+
 def _rays_by_formula(cam):
     """The Camera docstring's pixel rays, normalised by np.linalg.norm."""
     x = (2 * (np.arange(cam.width) + 0.5) / cam.width - 1) * cam.tan_half * cam.aspect

@@ -137,8 +137,10 @@ __kernel void gbuffer_raster_rows(__global const float *tris, __global const int
     /* the row's columns between the triangle's edges (where each edge line
      * crosses it), widened by two pixels and the rounding of the corners'
      * magnitude: tri_covers() still decides every pixel within */
-    const float y = (float)tr.y, big = fmax(fmax(fabs(p[0].x), fabs(p[1].x)), fmax(fabs(p[2].x), fabs(p[0].y))),
-                margin = 2.0f + 1e-5f * fmax(big, fmax(fabs(p[1].y), fabs(p[2].y)));
+    float big = 0.0f;                                       /* the corners' largest |coordinate| */
+    for (int k = 0; k < 3; ++k)
+        big = fmax(big, fmax(fabs(p[k].x), fabs(p[k].y)));
+    const float y = (float)tr.y, margin = 2.0f + 1e-5f * big;
     float lo = -INFINITY, hi = INFINITY;
     for (int e = 0; e < 3; ++e) {
         const float2 a = p[e], b = p[(e + 1) % 3];

@@ -139,15 +139,20 @@ def _finish(camera, t, n_cam, obj, face):
 WIDE_PIXELS = 4096
 
 
+def _screen(tri, W: int, H: int, fx: float, fy: float):
+    """Screen coordinates (column, row; pixel centres at integers) of camera-space corners
+    ``tri[..., 3]``: ``x/z fx + W/2 - 1/2`` and ``H/2 - 1/2 - y/z fy``, as ``kernels/gbuffer.cl``'s
+    ``to_screen`` (in float64 here)."""
+    return tri[..., 0] / tri[..., 2] * fx + (0.5 * W - 0.5), (0.5 * H - 0.5) - tri[..., 1] / tri[..., 2] * fy
+
+
 def _wide_rows(tris, W: int, H: int, fx: float, fy: float):
     """Which of ``tris`` (camera space, (T, 3, 3)) are wide, as uint8 (T,), and their rows as int32 (n, 2)
     pairs (triangle, row): each wide triangle's screen box in float64, grown by two pixels (the kernel
     passes over the rows outside its own float32 box), the whole image along an axis where a corner's
     screen coordinate is too large for float32 to place within a pixel (beyond 2^20)."""
-    x, y, z = (tris[:, :, k] for k in range(3))
     with np.errstate(divide="ignore", invalid="ignore"):
-        sx = x / z * fx + (0.5 * W - 0.5)
-        sy = (0.5 * H - 0.5) - y / z * fy
+        sx, sy = _screen(tris, W, H, fx, fy)
 
     def span(s, n):                     # by corners: NumPy's reductions over an axis of 3 are slow
         a, b, c = s[:, 0], s[:, 1], s[:, 2]
@@ -275,8 +280,7 @@ def render_gbuffer_reference(items, camera: Camera) -> dict:
     zbest = np.full((H, W), np.inf)
     win = np.full((H, W), -1, np.int64)
     for i, tri in enumerate(tris):
-        s = np.stack([tri[:, 0] / tri[:, 2] * fx + (0.5 * W - 0.5),
-                      (0.5 * H - 0.5) - tri[:, 1] / tri[:, 2] * fy], axis=1)
+        s = np.stack(_screen(tri, W, H, fx, fy), axis=1)
         p0, p1, p2 = s
         lo = np.maximum(np.ceil(s.min(0)).astype(int), 0)
         hi = np.minimum(np.floor(s.max(0)).astype(int), [W - 1, H - 1])

@@ -13,18 +13,24 @@
 #include "scene_tables.h"
 
 #if NTYPES
+#ifndef BATCH
+#error "BATCH (queries per work-item, a multiple of LANES) must be defined by the host"
+#endif
+/* the most lanes one stored_v() asks: a batch's queue (batch.h) */
+#define STORED_MAX (BATCH + LANES)
+
 /* za[l]: the stored depth of (map ka[l], texel ta[l]) of CSM type T for
- * every lane with va[l] != 0, +inf for the others. The search of csm_find()
- * (csm_search.h) for every lane: first the list's block summary, then the
- * block. */
+ * every lane l < n (a multiple of LANES, at most STORED_MAX) with va[l] !=
+ * 0, +inf for the others. The search of csm_find() (csm_search.h) for every
+ * lane: first the list's block summary, then the block. */
 __attribute__((always_inline))
 inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *ka, const int *ta,
-                     const int *va, float *za)
+                     const int *va, float *za, const int n)
 {
     __global const uint *off = S->offsets + T->texel_base;
     __global const uint *sof = S->soff + T->texel_base;
-    LANE_ARRAY uint lo[LANES], hi[LANES], base[LANES];
-    for (int l = 0; l < LANES; ++l) {
+    LANE_ARRAY uint lo[STORED_MAX], hi[STORED_MAX], base[STORED_MAX];
+    for (int l = 0; l < n; ++l) {
         const uint t = va[l] ? (uint)ta[l] : 0u;
         base[l] = off[t];
         lo[l] = sof[t];
@@ -42,22 +48,22 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
      * SEARCH_BLOCK pairs at an aligned start. First every lane's block is
      * found and its first pair read (the lanes' cache misses are in flight
      * together), then the blocks are counted. */
-    LANE_ARRAY uint b0a[LANES];
-    LANE_ARRAY pair_t first[LANES];
-    for (int l = 0; l < LANES; ++l) {
+    LANE_ARRAY uint b0a[STORED_MAX];
+    LANE_ARRAY pair_t first[STORED_MAX];
+    for (int l = 0; l < n; ++l) {
         const uint k = (uint)ka[l];
         uint c = 0u;
         for (uint j = lo[l]; j < hi[l]; ++j) c += ((uint)S->summary[j] < k);
         b0a[l] = base[l] + SEARCH_BLOCK * c;
         PREFETCH(S->pairs + b0a[l]);
     }
-    for (int l = 0; l < LANES; ++l) {
+    for (int l = 0; l < n; ++l) {
         const uint k = (uint)ka[l], b0 = b0a[l];
         uint c2 = 0u;
         for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
         first[l] = S->pairs[b0 + c2];
     }
-    for (int l = 0; l < LANES; ++l)
+    for (int l = 0; l < n; ++l)
         za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
 }
 

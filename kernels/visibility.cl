@@ -365,11 +365,15 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         batch_occluded(&S, px, py, pz, wx, wy, wz, ow, occ, AO_BATCH BATCH_TMAX_ARGS);
 #endif
         for (int k = 0; k < np; ++k) {
+            /* the point's sums in registers (summed in the arrays, each add waited
+             * on the store of the one before) */
+            int o = open[k];
+            float3 acc = sum[k];
             for (int l = k * AO_SLICE; l < k * AO_SLICE + IMIN(AO_SLICE, SAMPLES - s0); ++l) {
                 if (occ[l]) continue;
-                ++open[k];
+                ++o;
 #if BENT_NORMALS
-                sum[k] += (float3)(wx[l], wy[l], wz[l]);
+                acc += (float3)(wx[l], wy[l], wz[l]);
 #endif
 #if TRANSFER
                 sh9_accumulate(wx[l], wy[l], wz[l], tr[k]);
@@ -378,6 +382,8 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
                 sky_sum[k] += envmap_latlong(env, env_h, env_w, wx[l], wy[l], wz[l]);
 #endif
             }
+            open[k] = o;
+            sum[k] = acc;
         }
     }
     for (int k = 0; k < np; ++k) {

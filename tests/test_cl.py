@@ -237,7 +237,7 @@ def test_launch_shape_follows_the_device_kind():
     s = launch.shape()
     assert s.lanes == _cl.lanes()
     if _cl.device().type & cl.device_type.CPU:
-        assert (s.kind, s.raster_group, s.query_batch) == ("CPU", 1, 128)
+        assert (s.kind, s.raster_group, s.query_batch) == ("CPU", 1, 512)
     else:
         assert s.query_batch == s.lanes and s.query_group <= _cl.device().max_work_group_size
     with launch.override(query_chunk=1000):

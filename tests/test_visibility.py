@@ -399,7 +399,7 @@ def portable_kernels(monkeypatch):
 
 def test_query_kernels_agree_for_every_batch_size(bunny_scene, rng):
     """A batch of one lane vector (as on GPUs at 16 lanes) gives the CPU's
-    answers (128 queries): packing the undecided rays of a batch changes
+    answers (512 queries): packing the undecided rays of a batch changes
     nothing but speed."""
     q = QueryAnswers(bunny_scene, rng)
     with launch.override(query_batch=launch.shape().lanes):

@@ -97,11 +97,13 @@ def _device_shape() -> LaunchShape:
         return LaunchShape(
             kind="CPU",
             lanes=width,
-            # 128 queries a work-item: the per-caster packing of
-            # batch_occluded fills its lane groups from 128 candidates (the
-            # fuller the groups, the fewer half-empty searches); a multiple
-            # of every width
-            query_batch=128,
+            # 512 queries a work-item: the per-caster packing of
+            # batch_occluded fills its lane groups from 512 candidates (the
+            # fuller the groups, the fewer half-empty searches), and one ask
+            # of the queue searches all its groups' lists together, their
+            # cache misses in flight at once (benchmarks/README.md, "Frame
+            # time: the lookups' cache misses"); a multiple of every width
+            query_batch=512,
             # 16 work-items a group: each holds query_batch queries in private
             # arrays, which PoCL keeps together per group on its stack
             # (thousands of them overflow it)

@@ -370,10 +370,16 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
             int o = open[k];
             float3 acc = sum[k];
             for (int l = k * AO_SLICE; l < k * AO_SLICE + IMIN(AO_SLICE, SAMPLES - s0); ++l) {
-                if (occ[l]) continue;
-                ++o;
+                /* without a branch (open or not is a coin toss to the predictor): an
+                 * occluded sample adds +0 (its bits masked off), which leaves the sum
+                 * as it was (a sum from +0 is never -0) */
+                const int is_open = occ[l] == 0;
+                o += is_open;
 #if BENT_NORMALS
-                acc += (float3)(wx[l], wy[l], wz[l]);
+                acc += as_float3(as_int3((float3)(wx[l], wy[l], wz[l])) & (int3)(-is_open));
+#endif
+#if TRANSFER || SKY_SAMPLED
+                if (!is_open) continue;
 #endif
 #if TRANSFER
                 sh9_accumulate(wx[l], wy[l], wz[l], tr[k]);

@@ -119,13 +119,19 @@ def _finish(camera, t, n_cam, obj, face):
     face = np.asarray(face).reshape(H, W)
     dirs = camera._rays()
     every = bool(hit.all())                 # a surface behind every pixel: nothing to mask
-    pos = camera.eye + (t if every else np.where(hit, t, 0.0))[..., None] * dirs
+    tt = t if every else np.where(hit, t, 0.0)
+    pos = np.empty((H, W, 3), np.float32)       # eye + t dirs in float64, by columns, rounded once
+    tmp = np.empty((H, W))
+    for j in range(3):
+        np.multiply(tt, dirs[..., j], out=tmp)
+        tmp += camera.eye[j]
+        pos[..., j] = tmp
     normal = n_cam @ camera.rotation
     if not every:
         pos[~hit] = np.nan
         normal[~hit] = 0.0
     return {
-        "position": pos.astype(np.float32),
+        "position": pos,
         "normal": normal.astype(np.float32),
         "object_id": (obj if every else np.where(hit, obj, -1)).astype(np.int32).reshape(H, W),
         "face": (face if every else np.where(hit, face, -1)).astype(np.int32).reshape(H, W),

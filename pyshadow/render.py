@@ -229,12 +229,39 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
         sub = np.zeros((H, W), bool)
         sub[::ao_scale, ::ao_scale] = True
         sel = np.flatnonzero((hit & sub).reshape(-1))
-    dirs = camera._rays().reshape(-1, 3)
-    depth = np.take(gbuffer["depth"].reshape(-1), sel)[:, None].astype(np.float64)
-    pos = camera.eye + depth * np.take(dirs, sel, axis=0)       # np.take: indexing by sel is slower
+    every = len(sel) == H * W                   # no background: sel is every pixel, in order
+
+    def pick(a, k, copy=True):                  # a's values at sel, rows of k (np.take: indexing is slower)
+        a = np.asarray(a).reshape(H * W, k) if k > 1 else np.asarray(a).reshape(-1)
+        return (a.copy() if copy else a) if every else np.take(a, sel, axis=0)
+
+    dirs = pick(camera._rays(), 3, copy=False)
+    depth = pick(gbuffer["depth"], 1, copy=False).astype(np.float64)
+    pos = np.empty((len(sel), 3))
+    for j in range(3):                          # eye + depth dirs, by columns (as fast as NumPy goes)
+        np.multiply(depth, dirs[:, j], out=pos[:, j])
+        pos[:, j] += camera.eye[j]
     return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel, points=pos,
-                         normals=np.take(np.asarray(gbuffer["normal"]).reshape(-1, 3), sel, axis=0),
-                         surface_ids=np.take(object_id.reshape(-1), sel))
+                         normals=pick(gbuffer["normal"], 3), surface_ids=pick(object_id, 1))
+
+
+def _put_pixels(image, index, values) -> None:
+    """``image.reshape(H * W, -1)[index] = values`` for an (H, W) or (H, W, k) image and the
+    sorted, distinct flat pixel indices ``index`` (:attr:`SurfacePoints.index`).
+
+    One copy where ``index`` is every pixel (a frame without background), whole rows moved as
+    bytes otherwise (NumPy's indexing by rows is slower); the values are cast to the image's
+    dtype as the assignment casts them.
+    """
+    if not image.flags.c_contiguous:
+        raise ValueError("_put_pixels writes into a C-contiguous image")
+    flat = image.reshape(image.shape[0] * image.shape[1], -1)
+    vals = np.asarray(values, dtype=image.dtype).reshape(len(index), flat.shape[1])
+    if len(index) == len(flat):             # sorted and distinct: every pixel, in order
+        flat[...] = vals
+        return
+    row = np.dtype((np.void, flat.shape[1] * flat.itemsize))
+    flat.view(row).reshape(-1)[index] = np.ascontiguousarray(vals).view(row).reshape(-1)
 
 
 def _check_render_options(denoise, ao_scale, sampling):
@@ -361,8 +388,8 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
             a, b = vis.ambient_occlusion(scene, sp.points, sp.normals, backend=visibility, sampling=sampling,
                                          return_bent_normals=True, bias=bias, indices=sp.index,
                                          surface_ids=sp.surface_ids)
-        ao.reshape(-1)[sp.index] = a
-        bent.reshape(-1, 3)[sp.index] = b
+        _put_pixels(ao, sp.index, a)
+        _put_pixels(bent, sp.index, b)
     frame = Frame(ao=ao, bent_normal=bent, depth=g["depth"], normal=g["normal"], object_id=sp.object_id,
                   position=g["position"], geometric_normal=g.get("geometric_normal") if smooth else None)
     if ao_scale != 1 or denoise is not None:

@@ -49,6 +49,12 @@
 #pragma OPENCL EXTENSION cl_khr_int64_extended_atomics : enable
 #endif
 
+/* row k of an (n, 3) float array (vload3 is a call into PoCL's library, not inlined) */
+inline float3 row3(__global const float *a, int k)
+{
+    return (float3)(a[3 * k], a[3 * k + 1], a[3 * k + 2]);
+}
+
 inline float2 to_screen(float3 p, float fx, float fy, int W, int H)
 {
     return (float2)(p.x / p.z * fx + (0.5f * W - 0.5f), (0.5f * H - 0.5f) - p.y / p.z * fy);
@@ -60,7 +66,7 @@ inline float2 to_screen(float3 p, float fx, float fy, int W, int H)
 inline int raster_setup(__global const float *tris, int t, int W, int H, float fx, float fy, float2 *p,
                         float *area, float3 *iz, int *r, int *c)
 {
-    const float3 a = vload3(3 * t, tris), b = vload3(3 * t + 1, tris), d = vload3(3 * t + 2, tris);
+    const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), d = row3(tris, 3 * t + 2);
     p[0] = to_screen(a, fx, fy, W, H);
     p[1] = to_screen(b, fx, fy, W, H);
     p[2] = to_screen(d, fx, fy, W, H);
@@ -179,14 +185,17 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
     const int r = pix / W, col = pix - r * W;
     if (t == INT_MAX) {
         t_out[pix] = INFINITY;
-        vstore3((float3)(0.0f), pix, n_out);
+        n_out[3 * pix] = n_out[3 * pix + 1] = n_out[3 * pix + 2] = 0.0f;
         return;
     }
-    const float3 a = vload3(3 * t, tris), b = vload3(3 * t + 1, tris), c = vload3(3 * t + 2, tris);
+    const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), c = row3(tris, 3 * t + 2);
     const float3 dir = normalize((float3)((2.0f * (col + 0.5f) / W - 1.0f) * tan_x,
                                           (1.0f - 2.0f * (r + 0.5f) / H) * tan_y, 1.0f));
     float3 n = normalize(cross(b - a, c - a));
     const float dn = dot(n, dir);
     t_out[pix] = dot(n, a) / dn;
-    vstore3(dn > 0.0f ? -n : n, pix, n_out);
+    const float3 m = dn > 0.0f ? -n : n;
+    n_out[3 * pix] = m.x;
+    n_out[3 * pix + 1] = m.y;
+    n_out[3 * pix + 2] = m.z;
 }

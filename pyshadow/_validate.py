@@ -150,15 +150,16 @@ def squared_lengths(a: np.ndarray) -> np.ndarray:
         return (x * x + y * y) + z * z
 
 
-def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
-    """(n, 3) finite, non-zero normals, normalised to unit length (float64).
+def unit_normals(normals, n: int, name: str = "normals", dtype=np.float64) -> np.ndarray:
+    """(n, 3) finite, non-zero normals, normalised to unit length (as ``dtype``).
 
     Each row is divided by its length ``sqrt((x x + y y) + z z)``
     (:func:`squared_lengths`: the value ``np.linalg.norm(m, axis=1)``
-    gives). A row whose squared length underflows to
-    zero or overflows (components below about 1e-154 or above 1e154) is
-    first scaled by its largest component, so that it still comes out a
-    unit vector; a row of zeros is refused.
+    gives), in float64 whatever ``dtype``, which gets the rounded quotients
+    (the values of the float64 result cast to it). A row whose squared
+    length underflows to zero or overflows (components below about 1e-154
+    or above 1e154) is first scaled by its largest component, so that it
+    still comes out a unit vector; a row of zeros is refused.
     """
     m = rows3(normals, name, n)
     ss = squared_lengths(m)
@@ -170,4 +171,8 @@ def unit_normals(normals, n: int, name: str = "normals") -> np.ndarray:
         m = m.copy()
         m[odd] /= big[:, None]
         ss[odd] = (m[odd] * m[odd]).sum(axis=1)
-    return m / np.sqrt(ss)[:, None]
+    r = np.sqrt(ss)
+    out = np.empty(m.shape, dtype)
+    for k in range(3):                  # by columns (faster than dividing by r[:, None])
+        np.divide(m[:, k], r, out=out[:, k])
+    return out

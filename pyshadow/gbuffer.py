@@ -263,8 +263,8 @@ def render_gbuffer(items, camera: Camera) -> dict:
         cl.enqueue_copy(q, n_cam, n_buf)
     hit = ids != np.iinfo(np.int32).max
     tri_idx = np.where(hit, ids, 0)
-    o = obj[tri_idx] if len(obj) else np.zeros(npix, np.int32)
-    f = face[tri_idx] if len(face) else np.zeros(npix, np.int64)
+    o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
+    f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
     t64 = np.where(hit, t.astype(np.float64), np.inf).reshape(H, W)
     return _finish(camera, t64, n_cam.astype(np.float64).reshape(H, W, 3), o, f)
 

@@ -513,7 +513,7 @@ class CSMVisibility(_SampledSky):
         """The AO kernel (``tmax``: float32 (N,) lengths, compiled with ``FINITE_RAYS=1``, or None; ``sky_env``:
         the map's arguments (:meth:`sampled_sky`), ``SKY_SAMPLED=1``: (sky, ao, bent), not (ao, bent, transfer))."""
         p = rows3(points, "points")
-        n = unit_normals(normals, len(p))
+        n = unit_normals(normals, len(p), dtype=np.float32)     # what the kernel reads
         N, S = len(p), int(sampling.samples)
         idx = check_indices(indices, N)
         own = scene.caster_slots(surface_ids, N)
@@ -534,6 +534,8 @@ class CSMVisibility(_SampledSky):
             table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)
+            rel = np.empty(p.shape, np.float32)
+            np.subtract(p, anchor, out=rel)     # anchor-relative in float64, rounded once
             q = _cl.queue()
             shape = launch.shape()
             chunk = max(1, shape.ao_chunk_samples // S)
@@ -543,7 +545,7 @@ class CSMVisibility(_SampledSky):
                 bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
                 tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
                 k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group), *args, np.int32(e - s),
-                  _cl.to_device(p[s:e] - anchor, np.float32), _cl.to_device(n[s:e], np.float32),
+                  _cl.to_device(rel[s:e]), _cl.to_device(n[s:e]),
                   _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
                   *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,
                   *([] if sky_env is None else [*sky_env, sky_buf := _cl.empty(12 * (e - s))]))

@@ -141,24 +141,34 @@ __kernel void gbuffer_raster_rows(__global const float *tris, __global const int
     int r[2], c[2];
     if (!raster_setup(tris, tr.x, W, H, fx, fy, p, &area, &iz, r, c) || tr.y < r[0] || tr.y > r[1]) return;
     /* the row's columns between the triangle's edges (where each edge line
-     * crosses it), widened by two pixels and the rounding of the corners'
-     * magnitude: tri_covers() still decides every pixel within */
+     * crosses it), each widened by two pixels and by a bound on how far
+     * tri_covers() may place a pixel's side of that edge from the crossing
+     * computed here, both in float32: an edge function from corner o errs,
+     * in columns, by at most about 4 u (|dx| |y - o.y| / |dy| + |x - o.x|)
+     * (u = FLT_EPSILON / 2; two products and their difference, each rounded
+     * once, o either corner as edge_fn() picks), and the crossing by less;
+     * twice the sum over both corners, capped at the corners' largest
+     * magnitude times 1e-5 (the margin before this rule). tri_covers() still
+     * decides every pixel within. */
     float big = 0.0f;                                       /* the corners' largest |coordinate| */
     for (int k = 0; k < 3; ++k)
         big = fmax(big, fmax(fabs(p[k].x), fabs(p[k].y)));
-    const float y = (float)tr.y, margin = 2.0f + 1e-5f * big;
+    const float y = (float)tr.y;
     float lo = -INFINITY, hi = INFINITY;
     for (int e = 0; e < 3; ++e) {
         const float2 a = p[e], b = p[(e + 1) % 3];
-        const float dy = b.y - a.y;
+        const float dx = b.x - a.x, dy = b.y - a.y;
         if (!(fabs(dy) > 0.0f)) continue;                   /* a row-parallel edge bounds no column */
-        const float x = a.x + (b.x - a.x) * ((y - a.y) / dy);
-        if ((dy > 0.0f) == (area > 0.0f)) hi = fmin(hi, x);  /* inside: left of an edge going down the rows */
-        else lo = fmax(lo, x);
+        const float x = a.x + dx * ((y - a.y) / dy);
+        const float err = 4.0f * FLT_EPSILON * (fabs(dx) * ((fabs(y - a.y) + fabs(y - b.y)) / fabs(dy))
+                                                 + fabs(x - a.x) + fabs(x - b.x));
+        const float m = 2.0f + fmin(err, 1e-5f * big);
+        if ((dy > 0.0f) == (area > 0.0f)) hi = fmin(hi, x + m);  /* inside: left of an edge going down the rows */
+        else lo = fmax(lo, x - m);
     }
-    if (!(lo - margin <= hi + margin)) return;
-    const int cl = (int)fmax((float)c[0], fmin(ceil(lo - margin), (float)c[1] + 1.0f)),
-              ch = (int)fmin((float)c[1], fmax(floor(hi + margin), (float)c[0] - 1.0f));
+    if (!(lo <= hi)) return;
+    const int cl = (int)fmax((float)c[0], fmin(ceil(lo), (float)c[1] + 1.0f)),
+              ch = (int)fmin((float)c[1], fmax(floor(hi), (float)c[0] - 1.0f));
     raster_row(tr.x, p, area, iz, tr.y, cl, ch, W, pass, zbuf, idbuf);
 }
 

@@ -99,6 +99,36 @@ def test_gbuffer_rasterisers_are_bit_identical(scene, monkeypatch):
             np.testing.assert_array_equal(g[k], v, err_msg=f"{k} with (one pass, WIDE_PIXELS) = {key}")
 
 
+def test_gbuffer_row_spans_hold_every_covered_pixel_of_far_flung_triangles(monkeypatch):
+    """Wide triangles by rows find every pixel the per-triangle rasteriser finds, bit for bit, for
+    planes in many orientations that pass the camera closely: near-clipped, their corners land
+    far off the image (beyond 1e6 pixels), where each row's span rests on the float32 error bound
+    of its edges' crossings (gbuffer_raster_rows)."""
+    from pyshadow import gbuffer
+
+    rng = np.random.default_rng(7)
+    cam = pyshadow.Camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], width=96, height=72, fov_y=80)
+    fy = cam.height / (2.0 * cam.tan_half)
+    far_flung = 0
+    for _ in range(24):
+        h = 10.0 ** rng.uniform(2, 5)
+        quad = trimesh.Trimesh([[-h, 0, -h], [h, 0, -h], [h, 0, h], [-h, 0, h]], [[0, 2, 1], [0, 3, 2]])
+        T = trimesh.transformations.random_rotation_matrix(rng.random(3))
+        T[:3, 3] = rng.normal(size=3) * 0.3 + [0.0, 0.0, -rng.uniform(0.5, 20.0)]
+        items = [(quad, T)]
+        tris, *_ = gbuffer.gbuffer_triangles(items, cam)
+        sx, sy = gbuffer._screen(tris, cam.width, cam.height, fy, fy)
+        out = {}
+        for wide in (10 ** 9, 0):
+            monkeypatch.setattr(gbuffer, "WIDE_PIXELS", wide)
+            out[wide] = pyshadow.render_gbuffer(items, cam)
+        for k, v in out[10 ** 9].items():
+            np.testing.assert_array_equal(out[0][k], v, err_msg=k)
+        far_flung += bool(np.nanmax(np.abs(np.r_[sx.ravel(), sy.ravel()])) > 1e6
+                          and 0.2 < (out[0]["object_id"] >= 0).mean() < 1)
+    assert far_flung >= 8                               # planes with an edge across the image, corners far off
+
+
 def test_gbuffer_normals_face_the_camera_and_are_unit():
     items, cam = two_objects_on_ground()
     g = pyshadow.render_gbuffer(items, cam)

@@ -53,6 +53,24 @@ def test_render_embree_visibility_on_embree_gbuffer_is_embree_render(small_scene
     assert (got.object_id == GROUND_ID).any() and (got.object_id == 0).any() and (got.object_id == -1).any()
 
 
+@pytest.mark.parametrize("shape", [(6, 5), (6, 5, 3)])
+def test_put_pixels_is_the_indexed_assignment(shape):
+    """render._put_pixels writes the covered pixels' values as ``image.reshape(H * W, -1)[index] =
+    values`` does, bit for bit, cast to the image's dtype: for some pixels (whole rows moved as
+    bytes) and for every pixel (one copy)."""
+    rng = np.random.default_rng(3)
+    k = shape[2] if len(shape) == 3 else 1
+    for index in (np.sort(rng.choice(30, 17, replace=False)), np.arange(30)):
+        values = rng.normal(size=(len(index), k) if k > 1 else len(index))         # float64 in
+        want = np.full(shape, -7.0, np.float32)
+        want.reshape(30, -1)[index] = values.reshape(len(index), -1)
+        got = np.full(shape, -7.0, np.float32)
+        render_stage._put_pixels(got, index, values)
+        assert np.array_equal(got, want)
+    with pytest.raises(ValueError, match="C-contiguous"):
+        render_stage._put_pixels(np.zeros((5, 6), np.float32).T, np.arange(3), np.zeros(3))
+
+
 def test_scene_render_is_the_render_stage(small_scene):
     """Scene.render is pyshadow.render.render with its lookup as the CSM backend."""
     cam = small_camera()

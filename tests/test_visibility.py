@@ -325,6 +325,11 @@ def test_unit_normals_of_tiny_and_huge_rows():
     np.testing.assert_allclose(unit_normals(odd, len(odd)), expect, rtol=1e-15, atol=0)
     with pytest.raises(ValueError, match="normals: 1 rows are zero vectors"):
         unit_normals(np.array([[0.0, 0.0, 0.0], [1e-300, 0.0, 0.0]]), 2)
+    # float32 out (what the AO kernel reads): the float64 quotients rounded once, ordinary and odd rows
+    both = np.concatenate([m, odd])
+    want = unit_normals(both, len(both)).astype(np.float32)
+    got = unit_normals(both, len(both), dtype=np.float32)
+    assert got.dtype == np.float32 and np.array_equal(got, want)
 
 
 # ---------------------------------------------------------------------------

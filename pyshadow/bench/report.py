@@ -48,7 +48,9 @@ def format_table(r: dict) -> str:
         ("CSM build", build),
         ("CSM size, ratio", f"{f['csm_size']:.2f} MB, {f['csm_ratio']:.1f}:1"),
         ("AO", f"{num(f['ao_throughput'], '.2f')} Msamples/s; frame {f['frame_time'] * 1e3:.0f} ms "
-               f"(AO {f['ao_time'] * 1e3:.0f} ms; {f['covered_pixels']} px)"),
+               f"(AO {f['ao_time'] * 1e3:.0f} ms; {f['covered_pixels']} px)"
+               + ("" if f.get("frame_time_interleaved") is None else
+                  f"; {f['frame_time_interleaved'] * 1e3:.0f} ms a frame between Embree's timings")),
         (f"Embree, same rays ({env['embree_threads']} thr)",
          f"{num(f['embree_ray_rate'], '.2f')} Mrays/s ({num(f['embree_throughput'], '.2f')} Msamples/s)"),
         ("pyshadow / Embree", f"{num(f['speedup'], '.2f')}x"),

@@ -93,7 +93,8 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
 #if !FILTERED
     LANE_ARRAY int ka[STORED_MAX], ta[STORED_MAX], va[STORED_MAX], qa[STORED_MAX];
     LANE_ARRAY float dz[STORED_MAX], bz[STORED_MAX], za[STORED_MAX];
-    int m = 0;                                  /* lanes asked: whole groups */
+    int m = 0;      /* lanes asked, whole groups: every group but the last is full, so m is at most cnt
+                     * (a queue's length, <= BATCH + LANES) rounded up to LANES: STORED_MAX */
 #endif
     for (int k = 0; k < cnt;) {
         int gi[LANES], ja[LANES], n = 0;

@@ -52,9 +52,9 @@
  * SURFACE_NORMALS each lane's unit surface normal (mx, my, mz), world frame.
  * FILTERED: the lanes (-1) occluded. Otherwise its first half: the lanes
  * (-1) whose point lies in the square of its map, with that map ka[l], the
- * texel ta[l], the point's depth dz[l] and the bias bz[l] (lane arrays) --
- * the lane is occluded when dz > stored + bz, the stored depth of
- * stored_v(), which the caller asks for many lane groups at once
+ * texel ta[l], the point's depth dz_out[l] and its bias bz_out[l] (lane
+ * arrays) -- the lane is occluded when depth > stored + bias, the stored
+ * depth of stored_v(), which the caller asks for many lane groups at once
  * (batch_ask): their cache misses overlap. */
 #if FILTERED
 #define LOOKUP_OUT_PARAMS

@@ -46,10 +46,9 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
      * padded to whole blocks (search_arrays(padded=True)) with copies of
      * their last pair (i_end = D - 1, never below the map), so every block is
      * SEARCH_BLOCK pairs at an aligned start. First every lane's block is
-     * found and its first pair read (the lanes' cache misses are in flight
-     * together), then the blocks are counted. */
+     * found and prefetched (the lanes' cache misses are in flight together),
+     * then the blocks are counted and the segment's depth read. */
     LANE_ARRAY uint b0a[STORED_MAX];
-    LANE_ARRAY pair_t first[STORED_MAX];
     for (int l = 0; l < n; ++l) {
         const uint k = (uint)ka[l];
         uint c = 0u;
@@ -61,10 +60,8 @@ inline void stored_v(const scene_t *S, __global const csm_type_t *T, const int *
         const uint k = (uint)ka[l], b0 = b0a[l];
         uint c2 = 0u;
         for (uint j = 0; j < SEARCH_BLOCK; ++j) c2 += ((uint)PAIR_IEND(S->pairs[b0 + j]) < k);
-        first[l] = S->pairs[b0 + c2];
+        za[l] = va[l] ? stored_depth(PAIR_STORED(S->pairs[b0 + c2])) : INFINITY;
     }
-    for (int l = 0; l < n; ++l)
-        za[l] = va[l] ? stored_depth(PAIR_STORED(first[l])) : INFINITY;
 }
 
 #endif  /* NTYPES */

@@ -15,7 +15,7 @@ import trimesh
 
 from . import _cl
 from ._validate import check_transform
-from .camera import Camera
+from .camera import Camera, points_on_rays
 from .mesh import load_mesh
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
@@ -119,13 +119,7 @@ def _finish(camera, t, n_cam, obj, face):
     face = np.asarray(face).reshape(H, W)
     dirs = camera._rays()
     every = bool(hit.all())                 # a surface behind every pixel: nothing to mask
-    tt = t if every else np.where(hit, t, 0.0)
-    pos = np.empty((H, W, 3), np.float32)       # eye + t dirs in float64, by columns, rounded once
-    tmp = np.empty((H, W))
-    for j in range(3):
-        np.multiply(tt, dirs[..., j], out=tmp)
-        tmp += camera.eye[j]
-        pos[..., j] = tmp
+    pos = points_on_rays(camera.eye, t if every else np.where(hit, t, 0.0), dirs, np.float32)
     normal = n_cam @ camera.rotation
     if not every:
         pos[~hit] = np.nan

@@ -14,6 +14,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .camera import points_on_rays
 from .materials import visual_of
 from .sampling import Sampling
 from .shading_normals import DEFAULT_CREASE_ANGLE, NORMAL_MODES, check_crease_angle
@@ -237,11 +238,8 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
 
     dirs = pick(camera._rays(), 3, copy=False)
     depth = pick(gbuffer["depth"], 1, copy=False).astype(np.float64)
-    pos = np.empty((len(sel), 3))
-    for j in range(3):                          # eye + depth dirs, by columns (as fast as NumPy goes)
-        np.multiply(depth, dirs[:, j], out=pos[:, j])
-        pos[:, j] += camera.eye[j]
-    return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel, points=pos,
+    return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel,
+                         points=points_on_rays(camera.eye, depth, dirs),
                          normals=pick(gbuffer["normal"], 3), surface_ids=pick(object_id, 1))
 
 

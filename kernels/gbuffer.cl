@@ -40,6 +40,7 @@
  * image size).
  */
 #include "raster_common.h"
+#include "vec3.h"
 
 #ifndef GBUFFER_ATOMIC64
 #define GBUFFER_ATOMIC64 0
@@ -48,12 +49,6 @@
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
 #pragma OPENCL EXTENSION cl_khr_int64_extended_atomics : enable
 #endif
-
-/* row k of an (n, 3) float array (vload3 is a call into PoCL's library, not inlined) */
-inline float3 row3(__global const float *a, int k)
-{
-    return (float3)(a[3 * k], a[3 * k + 1], a[3 * k + 2]);
-}
 
 inline float2 to_screen(float3 p, float fx, float fy, int W, int H)
 {
@@ -199,11 +194,11 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
         return;
     }
     const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), c = row3(tris, 3 * t + 2);
-    const float3 dir = normalize((float3)((2.0f * (col + 0.5f) / W - 1.0f) * tan_x,
-                                          (1.0f - 2.0f * (r + 0.5f) / H) * tan_y, 1.0f));
-    float3 n = normalize(cross(b - a, c - a));
-    const float dn = dot(n, dir);
-    t_out[pix] = dot(n, a) / dn;
+    const float3 dir = normalize3((float3)((2.0f * (col + 0.5f) / W - 1.0f) * tan_x,
+                                           (1.0f - 2.0f * (r + 0.5f) / H) * tan_y, 1.0f));
+    float3 n = normalize3(cross3(b - a, c - a));
+    const float dn = dot3(n, dir);
+    t_out[pix] = dot3(n, a) / dn;
     const float3 m = dn > 0.0f ? -n : n;
     n_out[3 * pix] = m.x;
     n_out[3 * pix + 1] = m.y;

@@ -113,15 +113,10 @@ typedef VTYPE(int) iv;
 #define VMIN(a, b) (((b) < (a)) ? (b) : (a))
 #define VMAX(a, b) (((b) > (a)) ? (b) : (a))
 
-/* CPU targets of clang (PoCL): builtins PoCL would call rather than inline
- * get inline forms below; other compilers use the standard builtins */
-#ifndef CPU_CLANG                /* the host may set it (tests: 0 on PoCL too) */
-#if defined(__clang__) && (defined(__x86_64__) || defined(__aarch64__))
-#define CPU_CLANG 1
-#else
-#define CPU_CLANG 0
-#endif
-#endif
+/* CPU targets of clang (PoCL, cpu_clang.h): builtins PoCL would call rather
+ * than inline get inline forms below; other compilers use the standard
+ * builtins */
+#include "cpu_clang.h"
 #if CPU_CLANG && LANES > 1
 /* any() / all() of a mask by halving ORs / ANDs down to one lane's sign bit
  * (the bit any() and all() test): PoCL calls its library's any() for every

@@ -39,8 +39,10 @@ inline int edge_owns(float2 a, float2 b)
 }
 
 /* Sample p inside triangle (p0, p1, p2) of signed doubled area `area` (!= 0)?
- * On success *w holds barycentric weights (sum 1) of p0, p1, p2. */
-inline int tri_covers(float2 p0, float2 p1, float2 p2, float area, float2 p, float3 *w)
+ * On success *w holds barycentric weights (sum 1) of p0, p1, p2. (Inlined:
+ * the rasterisers ask it per sample, and a call passes its vectors through
+ * memory.) */
+__attribute__((always_inline)) inline int tri_covers(float2 p0, float2 p1, float2 p2, float area, float2 p, float3 *w)
 {
     float e0 = edge_fn(p1, p2, p);   /* opposite p0 */
     float e1 = edge_fn(p2, p0, p);   /* opposite p1 */

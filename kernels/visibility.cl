@@ -123,7 +123,8 @@
  * (scene_t, the kernels' scene parameters, ground and bounding spheres),
  * csm_lookup.h (one instance's CSM lookup), batch.h (a batch of queries
  * against the whole scene), visibility_rows.h (scene_visible's input rows,
- * read as lane vectors). This file: the kernels.
+ * read as lane vectors), vec3.h (rows of (n, 3) arrays, and a length, inline).
+ * This file: the kernels.
  */
 #include "csm_search.h"
 #include "sampling.h"
@@ -135,6 +136,7 @@
 #include "csm_lookup.h"
 #include "batch.h"
 #include "visibility_rows.h"
+#include "vec3.h"
 #if SKY_SAMPLED
 #include "envmap.h"
 #endif
@@ -287,8 +289,8 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
 #endif
         for (int k = 0; k < AO_POINTS; ++k) {
             const int i = i0 + IMIN(k, np - 1), q0 = k * AO_SLICE;   /* past the last point: its copy, decided */
-            const float3 p = vload3(i, points);
-            const float3 nrm = vload3(i, normals);
+            const float3 p = row3(points, i);
+            const float3 nrm = row3(normals, i);
             float3 t, b;
             hemisphere_frame(nrm, &t, &b);
             __global const float *pat = table + (size_t)pidx[i] * 3 * SPAD;
@@ -350,8 +352,8 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         const int i = i0 + k;
         ao[i] = (float)open[k] / (float)SAMPLES;
 #if BENT_NORMALS
-        const float len = length(sum[k]);
-        vstore3(len > 0.0f ? sum[k] / len : vload3(i, normals), i, bent);
+        const float len = length3(sum[k]);
+        store_row3(len > 0.0f ? sum[k] / len : row3(normals, i), bent, i);
 #endif
 #if TRANSFER
         /* cosine-weighted samples (pdf cos / pi): pi / SAMPLES x the sum is

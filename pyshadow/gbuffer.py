@@ -86,23 +86,26 @@ def gbuffer_triangles(items, camera: Camera):
         v = np.asarray(mesh.vertices, dtype=np.float64)
         w = v @ T[:3, :3].T + T[:3, 3]
         c = (w - camera.eye) @ R.T
-        tri = np.take(c, np.asarray(mesh.faces), axis=0)     # c[faces]; indexing is slower
         far = max(far, float(np.abs(c).max()) if len(c) else 0.0)
-        per.append((tri, oid))
+        per.append((c, np.asarray(mesh.faces), oid))
     near = max(far * 1e-6, 1e-30)
+    tx = camera.tan_half * camera.aspect
+    ty = camera.tan_half
     all_tri, all_obj, all_face = [], [], []
-    for tri, oid in per:
-        if len(tri) == 0:
+    for c, faces, oid in per:
+        if len(faces) == 0:
             continue
-        # drop triangles entirely outside one side of the view frustum
-        z = tri[:, :, 2]
-        tx = camera.tan_half * camera.aspect
-        ty = camera.tan_half
-        out = _all3(z < near)
-        out |= _all3(tri[:, :, 0] > tx * z) | _all3(tri[:, :, 0] < -tx * z)
-        out |= _all3(tri[:, :, 1] > ty * z) | _all3(tri[:, :, 1] < -ty * z)
-        keep = np.flatnonzero(~out)
-        clipped, src = _clip_near(tri if len(keep) == len(tri) else tri[keep], near)
+        # drop triangles entirely outside one side of the view frustum: each corner's side
+        # tests as bits of its vertex (the same comparisons of the same values as corner by
+        # corner), a triangle out where its three corners share a bit
+        x, y, z = c[:, 0], c[:, 1], c[:, 2]
+        side = (z < near).astype(np.uint8)
+        for bit, test in enumerate((x > tx * z, x < -tx * z, y > ty * z, y < -ty * z), 1):
+            side |= test.astype(np.uint8) << bit
+        corner = np.take(side, faces)                      # (F, 3); indexing is slower
+        keep = np.flatnonzero((corner[:, 0] & corner[:, 1] & corner[:, 2]) == 0)
+        tri = np.take(c, faces if len(keep) == len(faces) else np.take(faces, keep, axis=0), axis=0)
+        clipped, src = _clip_near(tri, near)
         all_tri.append(clipped)
         all_obj.append(np.full(len(clipped), oid, dtype=np.int32))
         all_face.append(keep[src])

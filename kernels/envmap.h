@@ -14,6 +14,8 @@
 #ifndef PYSHADOW_ENVMAP_H
 #define PYSHADOW_ENVMAP_H
 
+#include "vec3.h"
+
 inline float3 envmap_latlong(__global const float *env, int h, int w, float x, float y, float z)
 {
     const float inv = 1.0f / sqrt(x * x + y * y + z * z);
@@ -23,7 +25,7 @@ inline float3 envmap_latlong(__global const float *env, int h, int w, float x, f
     if (ph < 0.0f) ph += 2.0f * M_PI_F;
     const int i = clamp((int)floor(th * ((float)h / M_PI_F)), 0, h - 1);
     const int j = ((int)floor(ph * ((float)w / (2.0f * M_PI_F)))) % w;
-    return vload3((size_t)i * w + j, env);
+    return row3(env, (size_t)i * w + j);
 }
 
 #endif

@@ -123,7 +123,8 @@
  * (scene_t, the kernels' scene parameters, ground and bounding spheres),
  * csm_lookup.h (one instance's CSM lookup), batch.h (a batch of queries
  * against the whole scene), visibility_rows.h (scene_visible's input rows,
- * read as lane vectors), vec3.h (rows of (n, 3) arrays, and a length, inline).
+ * read as lane vectors), vec3.h (rows of (n, 3) arrays, and a length, inline;
+ * views_common.h and envmap.h read their rows with it).
  * This file: the kernels.
  */
 #include "csm_search.h"
@@ -361,7 +362,7 @@ __kernel void scene_ao(SCENE_ARGS, const int n, __global const float *points,
         for (int c = 0; c < 9; ++c) transfer[9 * (size_t)i + c] = tr[k][c] * (M_PI_F / (float)SAMPLES);
 #endif
 #if SKY_SAMPLED
-        vstore3(sky_sum[k] / (float)SAMPLES, i, sky);  /* mean radiance of the open samples */
+        store_row3(sky_sum[k] / (float)SAMPLES, sky, i);  /* mean radiance of the open samples */
 #endif
     }
 }

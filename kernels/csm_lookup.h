@@ -169,7 +169,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         iv k[4];
         fv cx[4], cy[4], cz[4];
         zigzag_window_v(T->p1, T->p2, T->zigzag_offset, T->zigzag_steps[0], T->zigzag_steps[1],
-                        T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz, k, cx, cy, cz);
+                        T->zigzag_steps[2], T->zigzag_steps[3], vx, vy, vz, 1, k, cx, cy, cz);
         fv wsum = (fv)(0.0f), wt[4];
         for (int m = 0; m < 4; ++m) {
             const fv ex = vx - cx[m], ey = vy - cy[m], ez = vz - cz[m];

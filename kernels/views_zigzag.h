@@ -26,9 +26,13 @@
  * above theta (row 0 above the first row). Beyond the first or the last row
  * the second pair is, on centred rows (off 0.5) with P even, the same row's
  * opposite columns c + P / 2 across the pole (nearer than the next row's);
- * otherwise the next row, or the last row repeated. */
-inline void zigzag_window_v(int T, int P, float off, float cst, float sst, float csp, float ssp,
-                            fv wx, fv wy, fv wz, iv *k, fv *cx, fv *cy, fv *cz)
+ * otherwise the next row, or the last row repeated. With cap (the vote's
+ * window) and P a multiple of 4, beyond the first or last centred row the
+ * four are that row's columns a quarter turn apart, from the nearer of c0,
+ * c0 + 1: four sides of the pole (views.ViewSet._zigzag_window). */
+__attribute__((always_inline)) inline void zigzag_window_v(int T, int P, float off, float cst, float sst,
+                                                           float csp, float ssp, fv wx, fv wy, fv wz,
+                                                           const int cap, iv *k, fv *cx, fv *cy, fv *cz)
 {
     const fv th = acos_v(VMIN(VMAX(wy, (fv)(-1.0f)), (fv)(1.0f)));
     const fv ph = atan2_pos_v(wz, wx);
@@ -79,10 +83,28 @@ inline void zigzag_window_v(int T, int P, float off, float cst, float sst, float
 #define ZZ_CANDIDATE(I, R, C, CT, ST, CP, SP)                                        \
     k[I] = (R) * P + VSEL((C), (iv)(P - 1) - (C), MASK(((R) & 1) != 0));              \
     cx[I] = (ST) * (CP); cy[I] = (CT); cz[I] = (ST) * (SP);
-    ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
-    ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
-    ZZ_CANDIDATE(2, r1, a0, ct1, st1, cp0, sp0)
-    ZZ_CANDIDATE(3, r1, a1, ct1, st1, cp1, sp1)
+    if (cap && off == 0.5f && (P & 3) == 0) {
+        /* across: the nearer column cn and its quarter turns (phi + pi / 2:
+         * (cos, sin) -> (-sin, cos)), all on row r0 */
+        const iv n1 = across & MASK(dcol > 0.5f * dph);
+        const iv cn = VSEL(c0, c1, n1);
+        const fv cpn = VSEL(cp0, cp1, n1), spn = VSEL(sp0, sp1, n1);
+        iv q1 = cn + P / 4, q2 = cn + P / 2, q3 = cn + 3 * (P / 4);
+        q1 = VSEL(q1, q1 - P, MASK(q1 >= P));
+        q2 = VSEL(q2, q2 - P, MASK(q2 >= P));
+        q3 = VSEL(q3, q3 - P, MASK(q3 >= P));
+        ZZ_CANDIDATE(0, r0, VSEL(c0, cn, across), ct0, st0, VSEL(cp0, cpn, across), VSEL(sp0, spn, across))
+        ZZ_CANDIDATE(1, r0, VSEL(c1, q1, across), ct0, st0, VSEL(cp1, -spn, across), VSEL(sp1, cpn, across))
+        ZZ_CANDIDATE(2, r1, VSEL(a0, q2, across), VSEL(ct1, ct0, across), VSEL(st1, st0, across),
+                     VSEL(cp0, -cpn, across), VSEL(sp0, -spn, across))
+        ZZ_CANDIDATE(3, r1, VSEL(a1, q3, across), VSEL(ct1, ct0, across), VSEL(st1, st0, across),
+                     VSEL(cp1, spn, across), VSEL(sp1, -cpn, across))
+    } else {
+        ZZ_CANDIDATE(0, r0, c0, ct0, st0, cp0, sp0)
+        ZZ_CANDIDATE(1, r0, c1, ct0, st0, cp1, sp1)
+        ZZ_CANDIDATE(2, r1, a0, ct1, st1, cp0, sp0)
+        ZZ_CANDIDATE(3, r1, a1, ct1, st1, cp1, sp1)
+    }
 #undef ZZ_CANDIDATE
 }
 
@@ -96,7 +118,7 @@ inline iv nearest_zigzag_v(int T, int P, float off, float cst, float sst, float 
 {
     iv k[4];
     fv cx[4], cy[4], cz[4];
-    zigzag_window_v(T, P, off, cst, sst, csp, ssp, wx, wy, wz, k, cx, cy, cz);
+    zigzag_window_v(T, P, off, cst, sst, csp, ssp, wx, wy, wz, 0, k, cx, cy, cz);
     fv best_d = (fv)(-2.0f);
     iv best = (iv)(0);
     for (int c = 0; c < 4; ++c) {

@@ -378,7 +378,12 @@ class ViewSet:
             ``zigzag``: the 2 x 2 grid points around the direction's
             ``(theta, phi)`` -- rows ``r0, r0 + 1`` (the last row repeated
             below it), columns ``c0, c0 + 1`` (cyclic), in that order; the
-            candidates of :meth:`nearest`. ``hilbert``: the four of the 3 x 3
+            candidates of :meth:`nearest`. On centred rows (``row_offset``
+            0.5) with ``phi`` a multiple of 4, a direction beyond the first
+            or last row (within half a row step of a pole) gets four maps of
+            that row a quarter turn apart, from the one nearest it: the four
+            sides of the pole (the row's neighbours lie ``2 pi / phi`` apart
+            in ``phi``, nearly one direction each). ``hilbert``: the four of the 3 x 3
             cells around the direction's cell whose directions are nearest
             it, nearest first (ties: the earlier cell of the 3 x 3 scan). A
             map may appear twice (the repeated row, folded cells).
@@ -389,7 +394,7 @@ class ViewSet:
         """
         d = _unit_rows(dirs, "filter_window")
         if self.layout == "zigzag":
-            maps = self._zigzag_window(d)
+            maps = self._zigzag_window(d, cap=True)
         elif self.layout == "hilbert":
             cand = self._hilbert_candidates(d)
             dot = np.einsum("ijk,ik->ij", self.directions[cand], d)
@@ -406,10 +411,16 @@ class ViewSet:
         P = self.params["phi"]
         return row * P + np.where(row % 2 == 0, col, P - 1 - col)
 
-    def _zigzag_window(self, d):
+    def _zigzag_window(self, d, cap=False):
         """Map indices (N, 4) of the 2 x 2 grid points around each direction: rows r0 (the last at or
         above theta; 0 above the first) and r0 + 1 (the last repeated), or, beyond the first or last
-        of centred rows (row_offset 0.5, phi even), r0 again at the opposite columns across the pole."""
+        of centred rows (row_offset 0.5, phi even), r0 again at the opposite columns across the pole.
+
+        ``cap`` (the vote's window, :meth:`filter_window`): beyond the first or last of centred rows
+        with phi a multiple of 4, the four maps of r0 a quarter turn apart around the pole, from the
+        column nearest the direction's phi (so the nearest map stays in the window): the four sides
+        of the pole instead of two pairs of maps 2 pi / phi apart (at the pole itself the pairs are
+        nearly one direction each, and the vote would weigh two views, not four)."""
         T, P = self.params["theta"], self.params["phi"]
         theta = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
         phi = np.arctan2(d[:, 2], d[:, 0])
@@ -419,11 +430,15 @@ class ViewSet:
         r0 = np.clip(np.floor(rowf).astype(np.int64), 0, T - 1)
         across = ((rowf < 0) | (rowf >= T - 1)) & (off == 0.5 and P % 2 == 0)
         r1 = np.where(across, r0, np.minimum(r0 + 1, T - 1))
-        c0 = np.floor(phi / (2 * np.pi / P)).astype(np.int64) % P
+        col = phi / (2 * np.pi / P)
+        c0 = np.floor(col).astype(np.int64) % P
         shift = np.where(across, P // 2, 0)
-        return np.stack([self._zigzag_index(r0, c0), self._zigzag_index(r0, (c0 + 1) % P),
-                         self._zigzag_index(r1, (c0 + shift) % P),
-                         self._zigzag_index(r1, (c0 + 1 + shift) % P)], axis=1)
+        cols = [c0, (c0 + 1) % P, (c0 + shift) % P, (c0 + 1 + shift) % P]
+        if cap and P % 4 == 0:
+            # the nearer of c0, c0 + 1 (the kernel's test: the offset from c0 beyond half a column)
+            cn = np.where(col - np.floor(col) > 0.5, c0 + 1, c0)
+            cols = [np.where(across, (cn + q * P // 4) % P, c) for q, c in enumerate(cols)]
+        return np.stack([self._zigzag_index(r, c) for r, c in zip((r0, r0, r1, r1), cols)], axis=1)
 
     def _nearest_zigzag(self, d):
         cand = self._zigzag_window(d)

@@ -9,6 +9,7 @@ LAYOUTS = [
     pytest.param(lambda: pyshadow.ViewSet.zigzag(64, 128), id="zigzag64x128"),
     pytest.param(lambda: pyshadow.ViewSet.zigzag(8, 16), id="zigzag8x16"),
     pytest.param(lambda: pyshadow.ViewSet.zigzag(3, 5), id="zigzag3x5"),
+    pytest.param(lambda: pyshadow.ViewSet.zigzag(4, 6), id="zigzag4x6"),
     pytest.param(lambda: pyshadow.ViewSet.zigzag(8, 16, row_offset=0.0), id="zigzag8x16-thesis"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(6), id="hilbert6"),
     pytest.param(lambda: pyshadow.ViewSet.hilbert(3), id="hilbert3"),
@@ -160,8 +161,9 @@ def test_zigzag_default_centres_rows_so_both_poles_lie_half_a_step_from_a_map(rn
 
 def test_zigzag_window_at_the_poles_surrounds_the_pole_on_centred_rows():
     # at a pole every map of the nearest (first or last) centred row lies half a
-    # step away; the window takes two on each side of the pole, equally weighted,
-    # so the vote is not the one-sided mix of a row and the next row's maps
+    # step away; the window takes four of them a quarter turn apart, equally
+    # weighted, so the vote is neither the one-sided mix of a row and the next
+    # row's maps nor two pairs of nearly one direction each
     T, P = 16, 32
     views = pyshadow.ViewSet.zigzag(T, P)
     poles = np.array([[0.0, 1.0, 0.0], [0.0, -1.0, 0.0]])
@@ -170,7 +172,10 @@ def test_zigzag_window_at_the_poles_surrounds_the_pole_on_centred_rows():
     ang = np.arccos(np.clip(np.einsum("ijk,ik->ij", views.directions[maps], poles), -1, 1))
     np.testing.assert_allclose(ang, np.pi / T / 2, rtol=1e-9)
     mean = views.directions[maps].mean(axis=1)
-    np.testing.assert_allclose(mean[:, [0, 2]], 0.0, atol=1e-12)     # two on each side
+    np.testing.assert_allclose(mean[:, [0, 2]], 0.0, atol=1e-12)     # around the pole
+    side = views.directions[maps][:, :, [0, 2]]
+    turn = np.einsum("ijk,ijk->ij", side[:, :1], side) / np.einsum("ijk,ijk->ij", side[:, :1], side[:, :1])
+    np.testing.assert_allclose(turn, [[1, 0, -1, 0]] * 2, atol=1e-9)  # quarter turns apart
     assert (maps[0] // P == 0).all() and (maps[1] // P == T - 1).all()
     # the thesis grid keeps its pole row and the repeated last row
     thesis = pyshadow.ViewSet.zigzag(T, P, row_offset=0.0)
@@ -288,10 +293,22 @@ def test_filter_window_maps_and_weights(make, rng):
         assert (rows[:, 2] == np.where(across, rows[:, 0], np.minimum(rows[:, 0] + 1, T - 1))).all()
         assert (((rows[:, 0] + off) * np.pi / T <= th + 1e-9) | (rows[:, 0] == 0)).all()
         assert ((th < (rows[:, 0] + 1 + off) * np.pi / T + 1e-9) | (rows[:, 0] == T - 1)).all()
-        shift = np.where(across, P // 2, 0)
-        assert (cols[:, 2] == (cols[:, 0] + shift) % P).all() and (cols[:, 1] == (cols[:, 0] + 1) % P).all()
-        assert (cols[:, 3] == (cols[:, 1] + shift) % P).all()
-        assert (np.mod(ph - cols[:, 0] * 2 * np.pi / P + 1e-9, 2 * np.pi) < 2 * np.pi / P + 2e-9).all()
+        if P % 4 == 0:
+            # across the pole: the four sides of the pole, a quarter turn apart, from the
+            # column nearest phi (round: within half a column of it)
+            q = np.where(across[:, None], np.arange(4) * (P // 4), 0)
+            assert (cols[across] == (cols[across, :1] + q[across]) % P).all()
+            near = np.abs(np.mod(ph - cols[:, 0] * 2 * np.pi / P + np.pi, 2 * np.pi) - np.pi)
+            assert (near[across] <= np.pi / P + 1e-9).all()
+        else:
+            shift = np.where(across, P // 2, 0)
+            assert (cols[across, 2] == (cols[across, 0] + shift[across]) % P).all()
+            assert (cols[across, 3] == (cols[across, 1] + shift[across]) % P).all()
+            assert (cols[across, 1] == (cols[across, 0] + 1) % P).all()
+        rest = ~across
+        assert (cols[rest, 2] == cols[rest, 0]).all() and (cols[rest, 3] == cols[rest, 1]).all()
+        assert (cols[rest, 1] == (cols[rest, 0] + 1) % P).all()
+        assert (np.mod(ph[rest] - cols[rest, 0] * 2 * np.pi / P + 1e-9, 2 * np.pi) < 2 * np.pi / P + 2e-9).all()
     else:
         # hilbert: the nearest first
         assert (np.diff(dots, axis=1) <= 1e-15).all()

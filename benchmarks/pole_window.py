@@ -107,7 +107,8 @@ def main(argv=None) -> int:
               "directions": args.directions, "rows": rows}, True)
         return 0
     print(f"vote lookup, {T}x{P} maps @ {args.resolution}^2: rays disagreeing with Embree, %")
-    print(f"{'mesh':<16} {'poles: two pairs -> quarter turns (kernel)':>44} {'caps: two pairs -> quarter turns (kernel)':>44}")
+    heads = [f"{g}: two pairs -> quarter turns (kernel)" for g in ("poles", "caps")]
+    print(f"{'mesh':<16} " + " ".join(f"{h:>44}" for h in heads))
     for r in rows:
         cells = [f"{100 * r[f'{g} two pairs']:.3f} -> {100 * r[f'{g} quarter turns']:.3f} "
                  f"({100 * r[f'{g} kernel']:.3f})" for g in ("poles", "cap")]

@@ -190,7 +190,7 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
     const int r = pix / W, col = pix - r * W;
     if (t == INT_MAX) {
         t_out[pix] = INFINITY;
-        n_out[3 * pix] = n_out[3 * pix + 1] = n_out[3 * pix + 2] = 0.0f;
+        store_row3((float3)(0.0f), n_out, pix);
         return;
     }
     const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), c = row3(tris, 3 * t + 2);
@@ -199,8 +199,5 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
     float3 n = normalize3(cross3(b - a, c - a));
     const float dn = dot3(n, dir);
     t_out[pix] = dot3(n, a) / dn;
-    const float3 m = dn > 0.0f ? -n : n;
-    n_out[3 * pix] = m.x;
-    n_out[3 * pix + 1] = m.y;
-    n_out[3 * pix + 2] = m.z;
+    store_row3(dn > 0.0f ? -n : n, n_out, pix);
 }

@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
+from . import pocl_cpu as _pocl_cpu
 from . import probe as _probe
 from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
@@ -153,6 +154,7 @@ def kernel_source(name: str) -> str:
 # --------------------------------------------------------------------------
 def _all_devices():
     found = []
+    _pocl_cpu.apply()       # before PoCL reads the host's CPU name (a CPU its LLVM does not know)
     try:
         platforms = cl.get_platforms()
     except cl.Error as exc:  # pragma: no cover - no ICD at all
@@ -440,6 +442,7 @@ def device_info() -> dict:
         "lanes_reason": choice["reason"],
         "lanes_supported": choice["supported"],
         "launch": shape().as_dict(),
+        "pocl_cpu": _pocl_cpu.applied(),
     }
 
 

@@ -21,6 +21,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from . import pocl_cpu
+
 __all__ = ["LANE_WIDTHS", "PROBE_TIMEOUT_S", "DeviceNotSupportedError", "parse_override",
            "verdicts", "cache_file"]
 
@@ -65,7 +67,7 @@ def cache_file() -> Path:
 def _key(platform, device, job: dict) -> str:
     h = hashlib.sha256()
     for part in (platform.version, device.name, device.driver_version, json.dumps(job),
-                 _CHILD.read_text(), str(LANE_WIDTHS)):
+                 _CHILD.read_text(), str(LANE_WIDTHS), str(pocl_cpu.applied())):
         h.update(part.strip().encode() + b"\0")
     return h.hexdigest()[:24]
 
@@ -91,6 +93,14 @@ def _write_cache(key: str, entry: dict) -> None:
         pass            # a read-only cache only costs the probe again next time
 
 
+def _child_env() -> dict:
+    """The child's environment: this process's, with the CPU name given to PoCL here (:mod:`.pocl_cpu`)."""
+    env = {**os.environ, "PYOPENCL_COMPILER_OUTPUT": "0"}
+    if pocl_cpu.applied():
+        env[pocl_cpu.ENV] = pocl_cpu.applied()
+    return env
+
+
 def run_probe(platform_index: int, device_index: int, job: dict,
               widths=LANE_WIDTHS, timeout: float = PROBE_TIMEOUT_S,
               command=None) -> dict[int, dict]:
@@ -109,7 +119,7 @@ def run_probe(platform_index: int, device_index: int, job: dict,
                                               str(device_index), str(w), str(src)]
             procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                         stderr=subprocess.PIPE, text=True,
-                                        env={**os.environ, "PYOPENCL_COMPILER_OUTPUT": "0"})
+                                        env=_child_env())
         return _collect(procs, timeout)
 
 

@@ -10,9 +10,11 @@ fails the width. Prints one JSON
 line ``{"ok": bool, "why": str}`` and exits 0; a compiler that crashes or
 hangs takes only this process down (the parent sees the signal or its
 timeout). Imports nothing from pyshadow, so a broken device cannot break the
-import either.
+import either (it loads ``pocl_cpu.py`` by its path: the standard library only).
 """
+import importlib.util
 import json
+import os
 import sys
 
 import numpy as np
@@ -56,6 +58,11 @@ def main():
     pi, di, lanes = (int(a) for a in sys.argv[1:4])
     with open(sys.argv[4]) as f:
         job = json.load(f)
+    # the CPU name the parent gave PoCL (pocl_cpu.py, a file of the standard library only)
+    spec = importlib.util.spec_from_file_location("pocl_cpu", os.path.join(os.path.dirname(__file__), "pocl_cpu.py"))
+    pocl_cpu = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(pocl_cpu)
+    pocl_cpu.apply()
     dev = cl.get_platforms()[pi].get_devices()[di]
     ctx = cl.Context([dev])
     q = cl.CommandQueue(ctx)

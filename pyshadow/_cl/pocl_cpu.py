@@ -1,0 +1,145 @@
+"""PoCL 3.0's target CPU on processors its LLVM 14 does not know.
+
+The PoCL of pip (pocl-binary-distribution 3.0, bundled in pyopencl's wheel
+as a 3.0-rc2 build on LLVM 14) names the CPU it compiles for by LLVM's
+detection of the host. A processor newer than LLVM 14 (seen: AMD family 1Ah,
+Zen 5) comes out as ``"generic"``, which that clang refuses (``error:
+unknown target CPU 'generic'``): no kernel builds at all, not even a one-line
+one. That PoCL has no setting for the name (later ones read
+``POCL_LLVM_CPU_NAME``), so :func:`apply`, run before the first OpenCL
+call, asks the loaded PoCL for it and, only when it is ``"generic"``,
+replaces the exported function that returns it
+(``pocl_get_llvm_cpu_name``) with one that returns the most capable CPU
+LLVM 14 knows whose instruction sets the host has (``/proc/cpuinfo``). The
+lane-width probe (:mod:`.probe`) then tests the kernels on that target as on
+any other.
+
+``PYSHADOW_POCL_CPU``: a CPU name to use instead (it is used whatever PoCL
+detects), or ``off`` to leave PoCL alone. Imports only the standard
+library: the probe's child process loads this file too.
+"""
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import platform
+import struct
+import sys
+
+__all__ = ["ENV", "TARGETS", "choose_target", "apply", "applied"]
+
+ENV = "PYSHADOW_POCL_CPU"
+
+# LLVM 14 CPU names, most capable first, each with the /proc/cpuinfo flags of
+# the instruction sets its code generation may use
+_AVX2 = {"avx", "avx2", "fma", "bmi1", "bmi2", "f16c", "movbe", "abm", "popcnt", "sse4_1", "sse4_2", "ssse3"}
+TARGETS = (
+    ("skylake-avx512", _AVX2 | {"adx", "avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"}),
+    ("haswell", _AVX2),
+    ("sandybridge", {"avx", "popcnt", "sse4_1", "sse4_2", "ssse3"}),
+    ("nehalem", {"popcnt", "sse4_1", "sse4_2", "ssse3"}),
+    ("x86-64", set()),
+)
+
+_state: dict = {}
+
+
+def choose_target(flags) -> str:
+    """The first name of :data:`TARGETS` whose instruction sets are all among ``flags``."""
+    have = set(flags)
+    return next(name for name, need in TARGETS if need <= have)
+
+
+def _cpu_flags() -> set:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    return set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return set()
+
+
+def _bundled_pocl():
+    """Path of the PoCL library in pyopencl's wheel, or None (a PoCL of the system: left alone)."""
+    try:
+        import pyopencl
+    except ImportError:
+        return None
+    found = sorted(glob.glob(os.path.join(os.path.dirname(pyopencl.__file__), ".libs", "libpocl*.so*")))
+    return found[0] if found else None
+
+
+def _redirect(func_addr: int, target_addr: int) -> bool:
+    """Overwrite the entry of the function at ``func_addr`` with a jump to ``target_addr`` (x86-64)."""
+    libc = ctypes.CDLL(None)
+    libc.mprotect.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
+    page = os.sysconf("SC_PAGE_SIZE")
+    start = func_addr & ~(page - 1)
+    code = b"\x48\xb8" + struct.pack("<Q", target_addr) + b"\xff\xe0"      # movabs rax, target; jmp rax
+    span = func_addr + len(code) - start
+    if libc.mprotect(start, span, 7) != 0:          # read, write, execute
+        return False
+    ctypes.memmove(func_addr, code, len(code))
+    libc.mprotect(start, span, 5)                    # read, execute
+    return True
+
+
+def _apply() -> str | None:
+    want = os.environ.get(ENV, "").strip()
+    if want.lower() == "off" or not sys.platform.startswith("linux") \
+            or platform.machine().lower() not in ("x86_64", "amd64"):
+        return None
+    path = _bundled_pocl()
+    if path is None:
+        return None
+    lib = ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
+    try:
+        get = lib.pocl_get_llvm_cpu_name
+    except AttributeError:
+        return None
+    get.restype, get.argtypes = ctypes.c_void_p, []
+    libc = ctypes.CDLL(None)
+    libc.free.argtypes = [ctypes.c_void_p]
+    libc.strdup.restype, libc.strdup.argtypes = ctypes.c_void_p, [ctypes.c_char_p]
+    ptr = get()
+    detected = ctypes.string_at(ptr).decode() if ptr else ""
+    if ptr:
+        libc.free(ptr)
+    if not want and detected not in ("", "generic"):
+        return None
+    name = want or choose_target(_cpu_flags())
+    encoded = name.encode()
+    # PoCL frees the name it is given: a copy from the C library's allocator on every call
+    replacement = ctypes.CFUNCTYPE(ctypes.c_void_p)(lambda: libc.strdup(encoded))
+    if not _redirect(ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(replacement, ctypes.c_void_p).value):
+        return None
+    _state["keep"] = (lib, replacement)             # the jump's target must live as long as the process
+    return name
+
+
+def apply() -> str | None:
+    """Give the bundled PoCL a CPU name its compiler knows, if it detects none (once per process).
+
+    Returns
+    -------
+    str or None
+        The CPU name PoCL now compiles for, or None where nothing was
+        changed (PoCL knows the CPU, not the bundled PoCL, not Linux on
+        x86-64, ``PYSHADOW_POCL_CPU=off``, or the change was refused).
+        Call it before the first OpenCL call of the process; afterwards
+        PoCL has read the name already.
+    """
+    if "name" not in _state:
+        try:
+            _state["name"] = _apply()
+        except Exception:           # a failed attempt leaves PoCL as it was: its own error follows
+            _state["name"] = None
+    return _state["name"]
+
+
+def applied() -> str | None:
+    """What :func:`apply` returned in this process (None if not called or nothing changed)."""
+    return _state.get("name")

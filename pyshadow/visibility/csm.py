@@ -47,6 +47,7 @@ from .._validate import check_both, check_indices, kernel_rows, rows3, unit_norm
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
+from ..contact import contact_mask, occlude_contacts
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
@@ -375,14 +376,21 @@ class CSMVisibility(_SampledSky):
                                  lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
         return self._visible(scene, p, w, own, m, bias, None)
 
-    def _visible(self, scene, p, w, own, m, bias, tmax, coherent=True):
+    def _visible(self, scene, p, w, own, m, bias, tmax):
+        """The kernel's answers for validated rows, rays entering a body resting on the ground closed
+        (:mod:`pyshadow.contact`)."""
+        out = self._visible_kernel(scene, p, w, own, m, bias, tmax)
+        return occlude_contacts(scene, p, w, out)
+
+    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True):
         """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`)."""
         n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
         if coherent and order.enabled(n) and self.query_defines(scene, "scene_visible") is not None:
-            return order.reordered(lambda *r: self._visible(scene, *r[:4], bias, r[4], False), p, w, own, m, tmax)
+            return order.reordered(lambda *r: self._visible_kernel(scene, *r[:4], bias, r[4], False),
+                                   p, w, own, m, tmax)
         fp64 = _cl.has_fp64()
         # float64 inputs are read as such where the device has doubles (else the host rounds them below)
         defines = self.query_defines(scene, "scene_visible", HAVE_FP64=int(fp64),
@@ -556,6 +564,12 @@ class CSMVisibility(_SampledSky):
                     cl.enqueue_copy(q, bent[s:e], bent_buf)
                 if transfer:
                     cl.enqueue_copy(q, tr[s:e], tr_buf)
+        closed = contact_mask(scene, p) if N else None
+        if closed is not None and closed.any():     # points under a body resting on the ground: no open sample
+            ao[closed], bent[closed] = 0.0, n[closed]
+            for out in (tr, sky if sky_env is not None else None):
+                if out is not None:
+                    out[closed] = 0.0
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import check_indices, nonzero, rows3, unit_normals
+from ..contact import occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
@@ -70,7 +71,7 @@ def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
         occ |= caster_occludes(inst.csm, inst.world_sphere(), inst.rotation, inst.scale,
                                inst.transform[:3, 3], p, w, m, own_rows, ~occ, lookup=lookup, bias=bias,
                                quantum=quantum, vote=shadow_vote, tmax=tmax)
-    return ~occ
+    return occlude_contacts(scene, p, w, ~occ)
 
 
 def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows, ask, *, lookup, bias,

@@ -1,0 +1,166 @@
+"""Closed bodies resting on the ground plane: the footprint whose rays enter the body.
+
+A point of the ground under a closed body that lies on it (the faces of its
+underside within the ground's tolerance of the plane) is inside the body's
+footprint: every ray leaving it upwards enters the body at once and must
+leave it through its surface, so it is occluded; downwards the ground
+occludes it. The CSM cannot answer this near the footprint's edge: a ray
+leaving such a point outwards at a low elevation crosses a sliver of the body
+thinner than a texel (the silhouette's limit; ``benchmarks/README.md``, "The
+extremes"). The footprint is known exactly from the mesh and its pose, so
+the CSM backends answer those points from it (:func:`contact_mask`).
+
+The tolerance is the ground plane's own: a point within ``1e-5`` of the
+scene's scale (:meth:`pyshadow.Scene.scale`) of the plane counts as on it in
+the kernels, and a face that close to it lies on it here. A point counts as
+inside the footprint when it lies in one of the contact faces (seen from
+above) and farther than that tolerance from the footprint's outline, so the
+points of the body's sides just above the ground stay the CSM's.
+
+Only casters added with their mesh (:meth:`pyshadow.Scene.add` from a mesh,
+or a CSM with ``mesh=``) whose mesh is closed (watertight, consistently
+wound) have a footprint; an open mesh lying on the ground encloses nothing.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .scene_arrays import scene_arrays
+
+__all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts"]
+
+#: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
+_CHUNK = 1 << 16
+
+
+def ground_tolerance(scene) -> float:
+    """Distance to the ground plane within which a point or a face lies on it: ``1e-5 * scene.scale()``."""
+    return 1e-5 * scene.scale()
+
+
+def _closed(mesh) -> bool:
+    return bool(mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0)
+
+
+def _footprint(inst, ground, tol):
+    """(triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z) of one instance, or None."""
+    mesh = inst.mesh
+    if mesh is None or not inst.casts or len(mesh.faces) == 0:
+        return None
+    T = inst.transform
+    v = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
+    low = np.abs(v[:, 1] - ground) <= tol
+    f = np.asarray(mesh.faces)
+    on = low[f].all(axis=1)
+    if not on.any() or not _closed(mesh):
+        return None
+    f = f[on]
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    down = np.cross(b - a, c - a)[:, 1] < 0.0          # the underside: outward normal into the ground
+    f = f[down]
+    if not len(f):
+        return None
+    xz = v[:, [0, 2]]
+    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    outline = uniq[count == 1]                             # edges of one contact face: the outline
+    return xz[f], xz[outline]
+
+
+def footprints(scene) -> list:
+    """The contact footprints of ``scene``'s closed casters on its ground, in the ground's (x, z).
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        Per instance in contact: float64 triangles (K, 3, 2) of its faces
+        lying on the ground (world x, z), and the footprint's outline
+        segments (E, 2, 2). Empty without a ground plane. Kept with the
+        scene's arrays until the scene changes.
+    """
+    if scene.ground is None or not scene.instances:
+        return []
+    held = scene_arrays(scene)
+    key = ("contact", float(scene.ground))
+    if key not in held:
+        tol = ground_tolerance(scene)
+        lowest = held["world_centre"][:, 1] - held["world_radius"]
+        near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
+        found = [_footprint(scene.instances[i], scene.ground, tol) for i in near]
+        held[key] = [x for x in found if x is not None]
+    return held[key]
+
+
+def _in_triangles(q, tri):
+    """(n,) bool: points ``q`` (n, 2) inside or on one of the triangles ``tri`` (K, 3, 2)."""
+    a, b, c = tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]
+    x = q[:, None, :]
+
+    def side(u, v):
+        return (v[..., 0] - u[..., 0]) * (x[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (x[..., 0] - u[..., 0])
+
+    s0, s1, s2 = side(a, b), side(b, c), side(c, a)
+    inside = ((s0 >= 0) & (s1 >= 0) & (s2 >= 0)) | ((s0 <= 0) & (s1 <= 0) & (s2 <= 0))
+    return inside.any(axis=1)
+
+
+def _far_from(q, seg, tol):
+    """(n,) bool: points ``q`` (n, 2) farther than ``tol`` from every segment ``seg`` (E, 2, 2)."""
+    a, d = seg[None, :, 0], seg[None, :, 1] - seg[None, :, 0]
+    x = q[:, None, :] - a
+    t = np.clip(np.sum(x * d, axis=2) / np.maximum(np.sum(d * d, axis=2), 1e-300), 0.0, 1.0)
+    r = x - t[..., None] * d
+    return (np.sum(r * r, axis=2) > tol * tol).all(axis=1)
+
+
+def contact_mask(scene, points):
+    """Which points lie on the ground inside a closed body's footprint (all their rays are occluded).
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : ndarray, shape (N, 3)
+        World points (float32 or float64).
+
+    Returns
+    -------
+    ndarray of bool, shape (N,), or None
+        True where the point lies within :func:`ground_tolerance` of the
+        ground plane, inside one of the contact faces seen from above and
+        farther than that tolerance from the footprint's outline. None when
+        the scene has no footprint (nothing to test).
+    """
+    fps = footprints(scene)
+    if not fps:
+        return None
+    tol = ground_tolerance(scene)
+    p = np.asarray(points)
+    mask = np.zeros(len(p), bool)
+    cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= tol)
+    if not len(cand):
+        return mask
+    q_all = p[cand][:, [0, 2]].astype(np.float64)
+    for tri, outline in fps:
+        lo, hi = tri.reshape(-1, 2).min(axis=0), tri.reshape(-1, 2).max(axis=0)
+        box = np.flatnonzero(np.all((q_all >= lo) & (q_all <= hi), axis=1))
+        step = max(1, _CHUNK // max(len(tri), len(outline)))
+        for s in range(0, len(box), step):
+            k = box[s:s + step]
+            q = q_all[k]
+            hit = _in_triangles(q, tri)
+            if hit.any():
+                hit[hit] = _far_from(q[hit], outline, tol)
+            mask[cand[k[hit]]] = True
+    return mask
+
+
+def occlude_contacts(scene, points, directions, visible):
+    """``visible`` (N,) bool with the rays that leave a footprint's point upwards set occluded (in place).
+
+    The points of :func:`contact_mask`; a ray along the ground (``w_y = 0``)
+    or downwards keeps its answer (the ground plane's).
+    """
+    mask = contact_mask(scene, points)
+    if mask is not None:
+        visible[mask & (np.asarray(directions)[:, 1] > 0)] = False
+    return visible

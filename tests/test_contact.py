@@ -1,0 +1,145 @@
+"""Closed bodies resting on the ground: the footprint's points are closed in (pyshadow/contact.py).
+
+A point of the ground inside the footprint of a closed body lying on it is
+occluded in every direction (Embree: AO exactly 0); the CSM alone leaks light
+on rays that leave such a point outwards near the footprint's edge (thinner
+than a texel). These tests hold the exact answer for both lookups and the
+float64 mirror, and check the points that must stay the CSM's: the body's
+sides just above the ground, a body lifted off the ground, open and tilted
+bodies.
+"""
+import numpy as np
+import pytest
+import trimesh
+
+import pyshadow
+from pyshadow import contact, embree
+from pyshadow.scene_arrays import scene_arrays
+
+VIEWS = pyshadow.ViewSet.zigzag(16, 32)
+RES = 64
+
+
+def _box(size=(1.0, 1.0, 1.0), lift=0.0, turn=0.0, at=(0.0, 0.0, 0.0)):
+    m = trimesh.creation.box(size)
+    T = trimesh.transformations.rotation_matrix(turn, [0, 1, 0])
+    T[:3, 3] = [at[0], size[1] / 2 + lift + at[1], at[2]]
+    return m, T
+
+
+def _scene(*bodies, ground=0.0):
+    scene = pyshadow.Scene(ground=ground, views=VIEWS, resolution=RES)
+    for m, T in bodies:
+        scene.add(m, T)
+    return scene
+
+
+def _under(n, half, seed, ground=0.0, edge=None):
+    """``n`` ground points in the square |x|, |z| < half (or within ``edge`` of its border)."""
+    rng = np.random.default_rng(seed)
+    p = rng.uniform(-half, half, (n, 2))
+    if edge is not None:            # push one coordinate to within `edge` of the border
+        k = rng.integers(0, 2, n)
+        p[np.arange(n), k] = np.sign(p[np.arange(n), k]) * (half - rng.uniform(0, edge, n))
+    return np.column_stack([p[:, 0], np.full(n, ground), p[:, 1]])
+
+
+@pytest.fixture(scope="module")
+def resting():
+    return _scene(_box())
+
+
+@pytest.mark.parametrize("lookup", ["nearest", "vote"])
+def test_the_ground_under_a_resting_box_is_closed_in_to_the_footprints_edge(resting, lookup):
+    p = np.concatenate([_under(600, 0.5, 1), _under(600, 0.5, 2, edge=0.01)])      # 600 within 1 cm of the edge
+    up = np.tile([0.0, 1.0, 0.0], (len(p), 1))
+    s = pyshadow.Sampling(32)
+    assert embree.ambient_occlusion(resting, p, up, sampling=s).max() == 0.0
+    ao, bent = resting.ambient_occlusion(p, up, sampling=s, surface_ids=-2, lookup=lookup, return_bent_normals=True)
+    assert ao.max() == 0.0
+    np.testing.assert_array_equal(bent, up.astype(np.float32))     # no open sample: the normal, as the kernel gives
+    # without the footprint the CSM leaks light near the edge (what this rule fixes)
+    held = scene_arrays(resting)
+    key = ("contact", 0.0)
+    saved = held.pop(key)
+    try:
+        held[key] = []
+        leak = resting.ambient_occlusion(p, up, sampling=s, surface_ids=-2, lookup=lookup)
+    finally:
+        held[key] = saved
+    assert leak.max() > 0.0
+
+
+def test_rays_from_the_footprint_the_kernel_and_the_mirror(resting):
+    rng = np.random.default_rng(3)
+    p = _under(300, 0.5, 4, edge=0.02)
+    d = rng.normal(size=(300, 3))
+    for backend in ("csm", "csm-vote", "numpy"):
+        v = pyshadow.visibility.visible(resting, p, d, backend=backend, surface_ids=-2)
+        assert not v.any(), backend           # up: into the box; down: the ground
+    assert not embree.visible(resting, p, d).any()
+
+
+def test_the_bottom_face_is_closed_in_and_the_sides_just_above_the_ground_are_not(resting):
+    rng = np.random.default_rng(5)
+    bottom = np.column_stack([rng.uniform(-0.49, 0.49, 200), np.zeros(200), rng.uniform(-0.49, 0.49, 200)])
+    down = np.tile([0.0, -1.0, 0.0], (200, 1))
+    assert resting.ambient_occlusion(bottom, down, sampling=pyshadow.Sampling(16), surface_ids=0).max() == 0.0
+    # points of the +x side within the ground's tolerance of it, and on its bottom edge: not in the footprint
+    side = np.column_stack([np.full(200, 0.5), rng.uniform(0.0, 5e-6, 200), rng.uniform(-0.45, 0.45, 200)])
+    assert not contact.contact_mask(resting, side).any()
+    ao = resting.ambient_occlusion(side, np.tile([1.0, 0.0, 0.0], (200, 1)), sampling=pyshadow.Sampling(32),
+                                   surface_ids=0)
+    ref = embree.ambient_occlusion(resting, side, np.tile([1.0, 0.0, 0.0], (200, 1)), sampling=pyshadow.Sampling(32))
+    assert abs(ao.mean() - ref.mean()) < 0.02 and ao.mean() > 0.3
+
+
+def test_a_turned_box_closes_its_own_footprint_only():
+    scene = _scene(_box(turn=np.pi / 5, at=(3.0, 0.0, -1.0)))
+    R = trimesh.transformations.rotation_matrix(np.pi / 5, [0, 1, 0])[:3, :3]
+    rng = np.random.default_rng(6)
+    local = np.column_stack([rng.uniform(-0.499, 0.499, 500), np.zeros(500), rng.uniform(-0.499, 0.499, 500)])
+    inside = local @ R.T + [3.0, 0.0, -1.0]
+    outside = np.column_stack([rng.uniform(-0.7, 0.7, 2000), np.zeros(2000), rng.uniform(-0.7, 0.7, 2000)])
+    a = np.abs(outside[:, [0, 2]]).max(axis=1) > 0.501
+    outside = outside[a] @ R.T + [3.0, 0.0, -1.0]
+    assert contact.contact_mask(scene, inside).all()
+    assert not contact.contact_mask(scene, outside).any()
+
+
+@pytest.mark.parametrize("case", ["lifted 1 mm", "tilted on an edge", "open (no top)", "no ground"])
+def test_no_footprint_where_the_body_does_not_close_the_ground(case):
+    m, T = _box(lift=1e-3 if case == "lifted 1 mm" else 0.0)
+    if case == "tilted on an edge":
+        T = trimesh.transformations.rotation_matrix(np.pi / 4, [0, 0, 1])
+        T[:3, 3] = [0.0, np.sqrt(0.5), 0.0]
+    if case == "open (no top)":             # its floor lies on the ground, but it encloses nothing
+        keep = m.face_normals[:, 1] < 0.5
+        m = trimesh.Trimesh(m.vertices, m.faces[keep], process=False)
+    scene = _scene((m, T), ground=None if case == "no ground" else 0.0)
+    assert contact.footprints(scene) == []
+    assert contact.contact_mask(scene, _under(10, 0.4, 7)) is None
+
+
+def test_lifting_a_body_opens_the_ground_under_it_to_the_csm(resting):
+    scene = _scene(_box())
+    p = _under(400, 0.5, 8, edge=0.005)
+    up = np.tile([0.0, 1.0, 0.0], (len(p), 1))
+    assert scene.ambient_occlusion(p, up, sampling=pyshadow.Sampling(32), surface_ids=-2).max() == 0.0
+    scene.set_transform(0, trimesh.transformations.translation_matrix([0, 0.5 + 0.05, 0]))     # 5 cm up
+    assert contact.footprints(scene) == []
+    ao = scene.ambient_occlusion(p, up, sampling=pyshadow.Sampling(32), surface_ids=-2)
+    ref = embree.ambient_occlusion(scene, p, up, sampling=pyshadow.Sampling(32))
+    assert ref.mean() > 0.1 and abs(ao.mean() - ref.mean()) < 0.05
+
+
+def test_a_csm_placed_without_its_mesh_has_no_footprint():
+    m, T = _box()
+    csm = pyshadow.CoherentShadowMap.build(m, VIEWS, resolution=RES, progress=False)
+    scene = pyshadow.Scene(ground=0.0)
+    scene.add(csm, T)
+    assert contact.footprints(scene) == []
+    scene.add(csm, T @ trimesh.transformations.translation_matrix([3.0, 0, 0]), mesh=m)
+    fp = contact.footprints(scene)
+    assert len(fp) == 1 and len(fp[0][0]) == 2 and len(fp[0][1]) == 4       # two triangles, four outline edges
+    assert np.allclose(np.sort(fp[0][0].reshape(-1, 2)[:, 0]), np.repeat([2.5, 3.5], 3))

@@ -86,9 +86,27 @@ def footprints(scene) -> list:
         tol = ground_tolerance(scene)
         lowest = held["world_centre"][:, 1] - held["world_radius"]
         near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
+        near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
         found = [_footprint(scene.instances[i], scene.ground, tol) for i in near]
         held[key] = [x for x in found if x is not None]
     return held[key]
+
+
+def _box_bottom(scene, held, ids):
+    """(n,) lowest world height of the instances' meshes' object-frame boxes (-inf without a mesh): the
+    exact test, which moves every vertex, runs only where the box reaches the ground."""
+    meshes = [scene.instances[i].mesh for i in ids]
+    # instances share meshes: each mesh's box read once
+    _, first, back = np.unique(np.array([id(m) for m in meshes], np.int64), return_index=True, return_inverse=True)
+    none = np.array([[-np.inf] * 3, [np.inf] * 3])
+    boxes = np.array([none if meshes[j] is None or not len(meshes[j].vertices) else meshes[j].bounds
+                      for j in first]).reshape(-1, 2, 3)
+    lo, hi = boxes[back.ravel(), 0], boxes[back.ravel(), 1]
+    T = held["transform"][ids]
+    row = T[:, 1, :3]                                   # world y = row . v + t_y (scale included)
+    with np.errstate(invalid="ignore"):
+        low = np.nan_to_num(np.minimum(row * lo, row * hi), nan=0.0).sum(axis=1)
+    return low + T[:, 1, 3]
 
 
 def _in_triangles(q, tri):

@@ -8,11 +8,12 @@ unknown target CPU 'generic'``): no kernel builds at all, not even a one-line
 one. That PoCL has no setting for the name (later ones read
 ``POCL_LLVM_CPU_NAME``), so :func:`apply`, run before the first OpenCL
 call, asks the loaded PoCL for it and, only when it is ``"generic"``,
-replaces the exported function that returns it
-(``pocl_get_llvm_cpu_name``) with one that returns the most capable CPU
-LLVM 14 knows whose instruction sets the host has (``/proc/cpuinfo``). The
-lane-width probe (:mod:`.probe`) then tests the kernels on that target as on
-any other.
+rewrites the entry of the exported function that returns it
+(``pocl_get_llvm_cpu_name``, x86-64 machine code: a tail call of the C
+library's ``strdup``, no Python, so any PoCL thread may call it) to return
+the most capable CPU LLVM 14 knows whose instruction sets the host has
+(``/proc/cpuinfo``). The lane-width probe (:mod:`.probe`) then tests the
+kernels on that target as on any other.
 
 ``PYSHADOW_POCL_CPU``: a CPU name to use instead (it is used whatever PoCL
 detects), or ``off`` to leave PoCL alone. Imports only the standard
@@ -72,13 +73,17 @@ def _bundled_pocl():
     return found[0] if found else None
 
 
-def _redirect(func_addr: int, target_addr: int) -> bool:
-    """Overwrite the entry of the function at ``func_addr`` with a jump to ``target_addr`` (x86-64)."""
+def _returning_copy(func_addr: int, text_addr: int, strdup_addr: int) -> bool:
+    """Overwrite the entry of the function at ``func_addr`` (x86-64) so that it returns
+    ``strdup(text)``: a tail call of the C library's ``strdup`` with ``text_addr`` as its argument.
+    Machine code only, no Python: PoCL may call it from any thread."""
     libc = ctypes.CDLL(None)
     libc.mprotect.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
+    code = (b"\x48\xbf" + struct.pack("<Q", text_addr)       # movabs rdi, text
+            + b"\x48\xb8" + struct.pack("<Q", strdup_addr)   # movabs rax, strdup
+            + b"\xff\xe0")                                   # jmp rax
     page = os.sysconf("SC_PAGE_SIZE")
     start = func_addr & ~(page - 1)
-    code = b"\x48\xb8" + struct.pack("<Q", target_addr) + b"\xff\xe0"      # movabs rax, target; jmp rax
     span = func_addr + len(code) - start
     if libc.mprotect(start, span, 7) != 0:          # read, write, execute
         return False
@@ -111,12 +116,12 @@ def _apply() -> str | None:
     if not want and detected not in ("", "generic"):
         return None
     name = want or choose_target(_cpu_flags())
-    encoded = name.encode()
+    text = ctypes.create_string_buffer(name.encode())
     # PoCL frees the name it is given: a copy from the C library's allocator on every call
-    replacement = ctypes.CFUNCTYPE(ctypes.c_void_p)(lambda: libc.strdup(encoded))
-    if not _redirect(ctypes.cast(get, ctypes.c_void_p).value, ctypes.cast(replacement, ctypes.c_void_p).value):
+    if not _returning_copy(ctypes.cast(get, ctypes.c_void_p).value, ctypes.addressof(text),
+                           ctypes.cast(libc.strdup, ctypes.c_void_p).value):
         return None
-    _state["keep"] = (lib, replacement)             # the jump's target must live as long as the process
+    _state["keep"] = (lib, text)                    # the name must live as long as the process
     return name
 
 

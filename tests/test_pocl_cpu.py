@@ -76,3 +76,25 @@ def test_a_forced_cpu_name_is_given_to_pocl_and_its_kernels_answer_the_same(tmp_
     a, b = np.array(runs["x86-64"]["visible"]), np.array(runs[None]["visible"])
     assert 0.2 < a.mean() < 0.99
     assert np.array_equal(a, b)
+
+
+def test_a_cpu_name_pocl_refuses_is_named_in_the_error(tmp_path):
+    """A name PoCL's clang does not know (``PYSHADOW_POCL_CPU=no-such-cpu``): every width fails the
+    probe, and the error names the setting and how to mend it."""
+    import pyshadow
+
+    if pyshadow.device_info()["platform"] != "Portable Computing Language" or pocl_cpu._bundled_pocl() is None:
+        pytest.skip("the device is not the PoCL bundled with pyopencl")
+    script = textwrap.dedent("""
+        import pyshadow
+        try:
+            pyshadow.device_info()
+        except pyshadow.DeviceNotSupportedError as exc:
+            print("REFUSED", exc)
+    """)
+    env = {**os.environ, "PYSHADOW_CACHE": str(tmp_path), pocl_cpu.ENV: "no-such-cpu"}
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    msg = out.stdout
+    assert "REFUSED" in msg and "unknown target CPU 'no-such-cpu'" in msg
+    assert "PYSHADOW_POCL_CPU=no-such-cpu" in msg and "x86-64" in msg

@@ -318,9 +318,14 @@ def _probe_choice(st) -> dict:
     name = dev.name.strip()
     why = "; ".join(f"{w}: {v['why']}" for w, v in sorted(found.items(), reverse=True))
     if not ok:
+        hint = ""
+        if "unknown target CPU" in why:        # PoCL's LLVM does not know this CPU (pocl_cpu.py)
+            hint = (f" PoCL's compiler does not know this CPU ({_pocl_cpu.ENV}="
+                    f"{os.environ.get(_pocl_cpu.ENV, '') or 'unset'}); set {_pocl_cpu.ENV} to a CPU name "
+                    "it knows, e.g. x86-64, or unset it to let pyshadow choose.")
         raise DeviceNotSupportedError(
             f"OpenCL device {name!r} ({plat.name.strip()}, driver {dev.driver_version.strip()}) "
-            f"cannot run pyshadow's kernels at any lane width ({why}). Choose another device "
+            f"cannot run pyshadow's kernels at any lane width ({why}).{hint} Choose another device "
             f"with PYSHADOW_DEVICE (available: {_describe(_all_devices())})")
     gpu = bool(dev.type & cl.device_type.GPU)
     preferred = 1 if gpu else LANE_WIDTHS[0]

@@ -143,3 +143,22 @@ def test_a_csm_placed_without_its_mesh_has_no_footprint():
     fp = contact.footprints(scene)
     assert len(fp) == 1 and len(fp[0][0]) == 2 and len(fp[0][1]) == 4       # two triangles, four outline edges
     assert np.allclose(np.sort(fp[0][0].reshape(-1, 2)[:, 0]), np.repeat([2.5, 3.5], 3))
+
+
+def test_transfer_and_sampled_sky_of_the_footprint_are_zero(resting):
+    """The AO kernel's other outputs for footprint points: no open sample, so the shadowed SH transfer
+    and the sampled sky are 0 (the same points beside the box keep theirs)."""
+    from pyshadow.visibility import get_backend
+
+    inside = _under(200, 0.5, 9, edge=0.01)
+    beside = inside + [1.5, 0.0, 0.0]
+    P = np.concatenate([inside, beside])
+    up = np.tile([0.0, 1.0, 0.0], (len(P), 1))
+    csm = get_backend("csm")
+    ao, bent, tr = csm.sh_transfer(resting, P, up, sampling=pyshadow.Sampling(32), surface_ids=-2)
+    assert (ao[:200] == 0).all() and (tr[:200] == 0).all()
+    assert (ao[200:] > 0).all() and (np.abs(tr[200:]).sum(axis=1) > 0).all()
+    env = np.ones((16, 32, 3), np.float32)
+    sky, ao2, _ = csm.sampled_sky(resting, P, up, env, sampling=pyshadow.Sampling(32), surface_ids=-2)
+    assert (sky[:200] == 0).all() and (ao2[:200] == 0).all()
+    np.testing.assert_allclose(sky[200:, 0], ao2[200:], rtol=1e-6)     # a white sky: the open fraction

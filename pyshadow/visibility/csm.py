@@ -44,10 +44,10 @@ from .. import _cl
 from .._cl import launch
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
+from ..contact import contact_mask, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
-from ..contact import contact_mask, occlude_contacts
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import scene_arrays
@@ -567,9 +567,10 @@ class CSMVisibility(_SampledSky):
         closed = contact_mask(scene, p) if N else None
         if closed is not None and closed.any():     # points under a body resting on the ground: no open sample
             ao[closed], bent[closed] = 0.0, n[closed]
-            for out in (tr, sky if sky_env is not None else None):
-                if out is not None:
-                    out[closed] = 0.0
+            if transfer:
+                tr[closed] = 0.0
+            if sky_env is not None:
+                sky[closed] = 0.0
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
 
 

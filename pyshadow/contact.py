@@ -18,8 +18,11 @@ above) and farther than that tolerance from the footprint's outline, so the
 points of the body's sides just above the ground stay the CSM's.
 
 Only casters added with their mesh (:meth:`pyshadow.Scene.add` from a mesh,
-or a CSM with ``mesh=``) whose mesh is closed (watertight, consistently
-wound) have a footprint; an open mesh lying on the ground encloses nothing.
+or a CSM with ``mesh=``) whose surface is closed have a footprint (every edge
+of its distinct faces shared by two, vertices of equal coordinates merged,
+whatever the faces' winding: duplicate, reversed and zero-area faces do not
+open it); an open mesh lying on the ground encloses nothing, and a body sunk
+below the plane does not rest on it.
 """
 from __future__ import annotations
 
@@ -38,33 +41,51 @@ def ground_tolerance(scene) -> float:
     return 1e-5 * scene.scale()
 
 
-def _closed(mesh) -> bool:
-    return bool(mesh.is_watertight and mesh.is_winding_consistent and mesh.volume > 0)
+def _distinct_faces(v, faces):
+    """The distinct vertices (U, 3) of ``v`` (equal coordinates merged) and the faces over them, each
+    face once whatever its winding (sorted indices), zero-area faces dropped: (F, 3) int."""
+    u, merged = np.unique(v, axis=0, return_inverse=True)
+    f = np.sort(merged.reshape(-1)[faces], axis=1)
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
+    f = f[(area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])]
+    return u, np.unique(f, axis=0)
+
+
+def _edges(f):
+    """Edges (sorted index pairs) of faces with sorted rows, and how many faces share each."""
+    return np.unique(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [0, 2]]]), axis=0, return_counts=True)
 
 
 def _footprint(inst, ground, tol):
-    """(triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z) of one instance, or None."""
+    """(triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z) of one instance, or None.
+
+    The body must rest on the ground (no vertex below it by more than ``tol``: the side above its
+    faces on the plane is its inside) and its surface must be closed (every edge of its distinct
+    faces shared by two), whatever its winding: every ray leaving such a face upwards meets the
+    surface again."""
     mesh = inst.mesh
     if mesh is None or not inst.casts or len(mesh.faces) == 0:
         return None
     T = inst.transform
     v = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
-    low = np.abs(v[:, 1] - ground) <= tol
-    f = np.asarray(mesh.faces)
-    on = low[f].all(axis=1)
-    if not on.any() or not _closed(mesh):
+    h = v[:, 1] - ground
+    if h.min() < -tol:
+        return None                                     # sunk into the ground: not resting on it
+    faces = np.asarray(mesh.faces)
+    if not (h <= tol)[faces].all(axis=1).any():
         return None
-    f = f[on]
-    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
-    down = np.cross(b - a, c - a)[:, 1] < 0.0          # the underside: outward normal into the ground
-    f = f[down]
+    u, f = _distinct_faces(v, faces)
+    _, count = _edges(f)
+    if not len(f) or not (count == 2).all():
+        return None                                     # open: it encloses nothing
+    f = f[(u[:, 1] - ground <= tol)[f].all(axis=1)]
     if not len(f):
         return None
-    xz = v[:, [0, 2]]
-    edges = np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(edges, axis=0, return_counts=True)
-    outline = uniq[count == 1]                             # edges of one contact face: the outline
-    return xz[f], xz[outline]
+    edges, count = _edges(f)
+    xz = u[:, [0, 2]]
+    return xz[f], xz[edges[count == 1]]                 # edges of one contact face: the outline
 
 
 def footprints(scene) -> list:

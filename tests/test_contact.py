@@ -35,12 +35,13 @@ def _scene(*bodies, ground=0.0):
 
 
 def _under(n, half, seed, ground=0.0, edge=None):
-    """``n`` ground points in the square |x|, |z| < half (or within ``edge`` of its border)."""
+    """``n`` ground points in the square |x|, |z| < half (or within ``edge`` of its border, but farther
+    than 1e-4, ten times the ground's tolerance at these scenes' scale: nearer, a point is the CSM's)."""
     rng = np.random.default_rng(seed)
     p = rng.uniform(-half, half, (n, 2))
     if edge is not None:            # push one coordinate to within `edge` of the border
         k = rng.integers(0, 2, n)
-        p[np.arange(n), k] = np.sign(p[np.arange(n), k]) * (half - rng.uniform(0, edge, n))
+        p[np.arange(n), k] = np.sign(p[np.arange(n), k]) * (half - rng.uniform(1e-4, edge, n))
     return np.column_stack([p[:, 0], np.full(n, ground), p[:, 1]])
 
 
@@ -162,3 +163,48 @@ def test_transfer_and_sampled_sky_of_the_footprint_are_zero(resting):
     sky, ao2, _ = csm.sampled_sky(resting, P, up, env, sampling=pyshadow.Sampling(32), surface_ids=-2)
     assert (sky[:200] == 0).all() and (ao2[:200] == 0).all()
     np.testing.assert_allclose(sky[200:, 0], ao2[200:], rtol=1e-6)     # a white sky: the open fraction
+
+
+def _variant(name):
+    """A unit box on the ground as a mesh of another make: the same closed surface."""
+    m, _ = _box()
+    v, f = np.asarray(m.vertices) + [0, 0.5, 0], np.asarray(m.faces)
+    if name == "shuffled vertices":
+        perm = np.random.default_rng(11).permutation(len(v))
+        v, f = v[perm], np.argsort(perm)[f]
+    elif name == "inverted winding":
+        f = f[:, ::-1]
+    elif name == "inconsistent winding":
+        f = f.copy()
+        f[::2] = f[::2, ::-1]
+    elif name == "duplicate and reversed faces":
+        f = np.vstack([f, f[:4], f[4:6, ::-1]])
+    elif name == "unmerged vertices":             # every face on vertices of its own, as a raw STL
+        v, f = v[f.reshape(-1)], np.arange(3 * len(f)).reshape(-1, 3)
+    elif name == "zero-area faces":
+        v = np.vstack([v, 0.5 * (v[f[0, 0]] + v[f[0, 1]])])
+        f = np.vstack([f, [[f[0, 0], f[0, 0], f[0, 1]], [f[0, 0], len(v) - 1, f[0, 1]]]])
+    return trimesh.Trimesh(v, f, process=False)
+
+
+@pytest.mark.parametrize("name", ["shuffled vertices", "inverted winding", "inconsistent winding",
+                                  "duplicate and reversed faces", "unmerged vertices", "zero-area faces"])
+def test_any_closed_surface_on_the_ground_has_its_footprint(name):
+    """Closedness is the surface's, not its winding's or its vertex list's: each variant has the
+    clean box's footprint (area 1, four outline edges) and closes the same points."""
+    mesh = _variant(name)
+    scene = _scene((mesh, np.eye(4)))
+    (tri, outline), = contact.footprints(scene)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    assert np.isclose(np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() / 2, 1.0)
+    assert len(outline) == 4
+    p = _under(300, 0.5, 12, edge=0.01)
+    assert contact.contact_mask(scene, p).all()
+    assert not contact.contact_mask(scene, p + [1.2, 0.0, 0.0]).any()
+
+
+def test_a_box_sunk_to_its_top_does_not_close_the_ground_over_it():
+    """Its top face lies on the plane, but the body is below it: the rays from there are open."""
+    m, _ = _box(at=(0.0, -1.0, 0.0))               # y from -1 to 0
+    scene = _scene((m, trimesh.transformations.translation_matrix([0, -0.5, 0])))
+    assert contact.footprints(scene) == []

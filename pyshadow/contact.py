@@ -30,7 +30,7 @@ import numpy as np
 
 from .scene_arrays import scene_arrays
 
-__all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts"]
+__all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts"]
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
 _CHUNK = 1 << 16
@@ -203,3 +203,19 @@ def occlude_contacts(scene, points, directions, visible):
     if mask is not None:
         visible[mask & (np.asarray(directions)[:, 1] > 0)] = False
     return visible
+
+
+def close_contacts(scene, points, normals, ao, bent, *zero):
+    """The AO kernel's outputs of the footprint's points set to "no open sample" (in place).
+
+    ``ao`` (N,) 0, ``bent`` (N, 3) the ``normals`` (what the kernel gives
+    a point with no open sample), every array of ``zero`` (None: skipped)
+    0 on those rows (the shadowed SH transfer, the sampled sky).
+    """
+    mask = contact_mask(scene, points) if len(points) else None
+    if mask is None or not mask.any():
+        return
+    ao[mask], bent[mask] = 0.0, normals[mask]
+    for out in zero:
+        if out is not None:
+            out[mask] = 0.0

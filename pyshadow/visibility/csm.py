@@ -44,7 +44,7 @@ from .. import _cl
 from .._cl import launch
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
-from ..contact import contact_mask, occlude_contacts
+from ..contact import close_contacts, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
@@ -377,10 +377,8 @@ class CSMVisibility(_SampledSky):
         return self._visible(scene, p, w, own, m, bias, None)
 
     def _visible(self, scene, p, w, own, m, bias, tmax):
-        """The kernel's answers for validated rows, rays entering a body resting on the ground closed
-        (:mod:`pyshadow.contact`)."""
-        out = self._visible_kernel(scene, p, w, own, m, bias, tmax)
-        return occlude_contacts(scene, p, w, out)
+        """:meth:`_visible_kernel`, then the footprints of bodies resting on the ground (:mod:`pyshadow.contact`)."""
+        return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax))
 
     def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True):
         """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`)."""
@@ -438,75 +436,11 @@ class CSMVisibility(_SampledSky):
         two, the kernel of before (compiled with ``FINITE_RAYS=0``).
         """
         if max_distance is not None or obscurance is not None:
-            return self._distance_ao(scene, points, normals, sampling, bool(return_bent_normals), bias, indices,
+            return _distance_ao(self, scene, points, normals, sampling, bool(return_bent_normals), bias, indices,
                                      surface_ids, max_distance, *check_ao_options(obscurance, quadrature, straddle))
         ao, bent, _ = self._ao(scene, points, normals, sampling, bool(return_bent_normals), False, bias, indices,
                                surface_ids)
         return (ao, bent) if return_bent_normals else ao
-
-    def _distance_ao(self, scene, points, normals, sampling, bent, bias, indices, surface_ids, max_distance, tau,
-                     Q, straddle):
-        """Distance-limited (one node) or -weighted (Q nodes) AO (:mod:`pyshadow.visibility.finite`).
-
-        Per distinct node length: the points whose rays cannot end inside a
-        caster's bounding sphere (:func:`finite.shell_clear`) run the AO
-        kernel with ``FINITE_RAYS=1``; the others go ray by ray through the
-        visibility kernel (``sample_directions``' directions) and the
-        straddle rule of :func:`finite.answer_finite_ao`. Bent normals of
-        weighted AO take the ray-by-ray path for every point and node.
-        """
-        p = rows3(points, "points")
-        n = unit_normals(normals, len(p))
-        N = len(p)
-        idx = check_indices(indices, N)
-        own = scene.caster_slots(surface_ids, N)
-        tmax = check_max_distance(np.inf if max_distance is None else max_distance, N)
-        sid = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (N,))
-        nodes = ao_nodes(tmax, tau, Q)
-        out_bent = np.zeros((N, 3), np.float32)
-        S = int(sampling.samples)
-
-        def by_rays(rows, cols):
-            """AO (and bent normals) of points ``rows`` at node lengths ``cols`` (K, q), ray by ray."""
-            res_ao, res_bent = np.empty(len(rows)), np.empty((len(rows), 3), np.float32)
-            step = max(1, (1 << 20) // (S * cols.shape[1]))
-            for s in range(0, len(rows), step):
-                sel = rows[s:s + step]
-                dirs = sampling.directions(n[sel], indices=idx[sel])
-                P, W = np.repeat(p[sel], S, axis=0), dirs.reshape(-1, 3)
-                own_r, m_r = np.repeat(own[sel], S), np.repeat(n[sel].astype(np.float32), S, axis=0)
-
-                def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r):
-                    return self._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
-
-                weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer)
-                res = ao_from_samples(dirs.astype(np.float64), weights, n[sel], True)
-                res_ao[s:s + step], res_bent[s:s + step] = res
-            return res_ao, res_bent
-
-        if bent and nodes.shape[1] > 1:
-            ao, out_bent = by_rays(np.arange(N), nodes)
-            return ao.astype(np.float32), out_bent
-        acc = np.zeros(N)
-        last = held = None
-        for j in range(nodes.shape[1]):
-            t = nodes[:, j]
-            if last is not None and np.array_equal(t, last):     # the same lengths: the same answers
-                acc += held
-                continue
-            held, last = np.zeros(N), t
-            clear = shell_clear(scene, p, t)
-            c, r = np.flatnonzero(clear), np.flatnonzero(~clear)
-            if len(c):
-                a, b, _ = self._ao(scene, p[c], n[c], sampling, bent, False, bias, idx[c],
-                                   None if sid is None else sid[c], tmax=_float32_lengths(t[c]))
-                held[c] = a
-                out_bent[c] = b
-            if len(r):
-                held[r], out_bent[r] = by_rays(r, t[r, None])
-            acc += held
-        ao = (acc / nodes.shape[1]).astype(np.float32)
-        return (ao, out_bent) if bent else ao
 
     def sh_transfer(self, scene, points, normals, *, sampling, bias=None, indices=None, surface_ids=None):
         """AO, bent normals and the shadowed SH transfer of each point, from one pass of the AO kernel.
@@ -564,14 +498,74 @@ class CSMVisibility(_SampledSky):
                     cl.enqueue_copy(q, bent[s:e], bent_buf)
                 if transfer:
                     cl.enqueue_copy(q, tr[s:e], tr_buf)
-        closed = contact_mask(scene, p) if N else None
-        if closed is not None and closed.any():     # points under a body resting on the ground: no open sample
-            ao[closed], bent[closed] = 0.0, n[closed]
-            if transfer:
-                tr[closed] = 0.0
-            if sky_env is not None:
-                sky[closed] = 0.0
+        close_contacts(scene, p, n, ao, bent, tr, sky if sky_env is not None else None)
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
+
+
+def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices, surface_ids, max_distance, tau,
+                 Q, straddle):
+    """Distance-limited (one node) or -weighted (Q nodes) AO of ``backend`` (a :class:`CSMVisibility`;
+    :mod:`pyshadow.visibility.finite`).
+
+    Per distinct node length: the points whose rays cannot end inside a
+    caster's bounding sphere (:func:`finite.shell_clear`) run the AO
+    kernel with ``FINITE_RAYS=1``; the others go ray by ray through the
+    visibility kernel (``sample_directions``' directions) and the
+    straddle rule of :func:`finite.answer_finite_ao`. Bent normals of
+    weighted AO take the ray-by-ray path for every point and node.
+    """
+    p = rows3(points, "points")
+    n = unit_normals(normals, len(p))
+    N = len(p)
+    idx = check_indices(indices, N)
+    own = scene.caster_slots(surface_ids, N)
+    tmax = check_max_distance(np.inf if max_distance is None else max_distance, N)
+    sid = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (N,))
+    nodes = ao_nodes(tmax, tau, Q)
+    out_bent = np.zeros((N, 3), np.float32)
+    S = int(sampling.samples)
+
+    def by_rays(rows, cols):
+        """AO (and bent normals) of points ``rows`` at node lengths ``cols`` (K, q), ray by ray."""
+        res_ao, res_bent = np.empty(len(rows)), np.empty((len(rows), 3), np.float32)
+        step = max(1, (1 << 20) // (S * cols.shape[1]))
+        for s in range(0, len(rows), step):
+            sel = rows[s:s + step]
+            dirs = sampling.directions(n[sel], indices=idx[sel])
+            P, W = np.repeat(p[sel], S, axis=0), dirs.reshape(-1, 3)
+            own_r, m_r = np.repeat(own[sel], S), np.repeat(n[sel].astype(np.float32), S, axis=0)
+
+            def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r):
+                return backend._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
+
+            weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer)
+            res = ao_from_samples(dirs.astype(np.float64), weights, n[sel], True)
+            res_ao[s:s + step], res_bent[s:s + step] = res
+        return res_ao, res_bent
+
+    if bent and nodes.shape[1] > 1:
+        ao, out_bent = by_rays(np.arange(N), nodes)
+        return ao.astype(np.float32), out_bent
+    acc = np.zeros(N)
+    last = held = None
+    for j in range(nodes.shape[1]):
+        t = nodes[:, j]
+        if last is not None and np.array_equal(t, last):     # the same lengths: the same answers
+            acc += held
+            continue
+        held, last = np.zeros(N), t
+        clear = shell_clear(scene, p, t)
+        c, r = np.flatnonzero(clear), np.flatnonzero(~clear)
+        if len(c):
+            a, b, _ = backend._ao(scene, p[c], n[c], sampling, bent, False, bias, idx[c],
+                               None if sid is None else sid[c], tmax=_float32_lengths(t[c]))
+            held[c] = a
+            out_bent[c] = b
+        if len(r):
+            held[r], out_bent[r] = by_rays(r, t[r, None])
+        acc += held
+    ao = (acc / nodes.shape[1]).astype(np.float32)
+    return (ao, out_bent) if bent else ao
 
 
 register("csm", CSMVisibility("nearest"))

@@ -69,8 +69,12 @@ def _bundled_pocl():
         import pyopencl
     except ImportError:
         return None
-    found = sorted(glob.glob(os.path.join(os.path.dirname(pyopencl.__file__), ".libs", "libpocl*.so*")))
-    return found[0] if found else None
+    here = os.path.dirname(pyopencl.__file__)
+    for libs in (os.path.join(here, ".libs"), here + ".libs"):     # pyopencl/.libs, or auditwheel's pyopencl.libs
+        found = sorted(glob.glob(os.path.join(libs, "libpocl*.so*")))
+        if found:
+            return found[0]
+    return None
 
 
 def _returning_copy(func_addr: int, text_addr: int, strdup_addr: int) -> bool:

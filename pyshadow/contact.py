@@ -26,6 +26,8 @@ below the plane does not rest on it.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from .scene_arrays import scene_arrays
@@ -34,23 +36,37 @@ __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts",
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
 _CHUNK = 1 << 16
+# mesh -> its closed surface's distinct vertices and faces, or (None, None) where it is open (a mesh
+# changed in place hashes differently and misses)
+_SURFACES = weakref.WeakKeyDictionary()
 
 
 def ground_tolerance(scene) -> float:
-    """Distance to the ground plane within which a point or a face lies on it: ``1e-5 * scene.scale()``."""
+    """Distance to the ground plane within which a point or a face lies on it: ``1e-5 * scene.scale()``.
+
+    The one definition: the kernels' ground test (``ground_eps``), the float64 mirror, Embree's ground
+    test, the shadow maps' and the footprints all read it.
+    """
     return 1e-5 * scene.scale()
 
 
-def _distinct_faces(v, faces):
-    """The distinct vertices (U, 3) of ``v`` (equal coordinates merged) and the faces over them, each
-    face once whatever its winding (sorted indices), zero-area faces dropped: (F, 3) int."""
-    u, merged = np.unique(v, axis=0, return_inverse=True)
-    f = np.sort(merged.reshape(-1)[faces], axis=1)
-    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
-    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
-    f = f[(area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])]
-    return u, np.unique(f, axis=0)
+def _closed_surface(mesh):
+    """The mesh's distinct vertices (U, 3) (equal coordinates merged) and its distinct faces over them
+    (F, 3), each once whatever its winding (sorted indices), zero-area faces dropped; None where the
+    surface is open (an edge not shared by exactly two of them). Object frame, found once per mesh
+    (:data:`_SURFACES`)."""
+    got = _SURFACES.get(mesh)
+    if got is None:
+        v, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces)
+        u, merged = np.unique(v, axis=0, return_inverse=True)
+        f = np.sort(merged.reshape(-1)[faces], axis=1)
+        a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+        area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+        scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
+        f = np.unique(f[(area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])], axis=0)
+        _, count = _edges(f)
+        got = _SURFACES[mesh] = (u, f) if len(f) and (count == 2).all() else (None, None)
+    return None if got[0] is None else got
 
 
 def _edges(f):
@@ -68,19 +84,16 @@ def _footprint(inst, ground, tol):
     mesh = inst.mesh
     if mesh is None or not inst.casts or len(mesh.faces) == 0:
         return None
+    surface = _closed_surface(mesh)
+    if surface is None:
+        return None                                     # open: it encloses nothing
+    u, f = surface
     T = inst.transform
-    v = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
-    h = v[:, 1] - ground
+    u = u @ T[:3, :3].T + T[:3, 3]
+    h = u[:, 1] - ground
     if h.min() < -tol:
         return None                                     # sunk into the ground: not resting on it
-    faces = np.asarray(mesh.faces)
-    if not (h <= tol)[faces].all(axis=1).any():
-        return None
-    u, f = _distinct_faces(v, faces)
-    _, count = _edges(f)
-    if not len(f) or not (count == 2).all():
-        return None                                     # open: it encloses nothing
-    f = f[(u[:, 1] - ground <= tol)[f].all(axis=1)]
+    f = f[(h <= tol)[f].all(axis=1)]
     if not len(f):
         return None
     edges, count = _edges(f)

@@ -13,6 +13,7 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
+from .contact import ground_tolerance
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
 
@@ -235,7 +236,7 @@ def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.nda
     level = scene.ground - (0.0 if anchor is None else anchor[1])
     from .visibility.finite import ground_blocks
 
-    return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, 1e-5 * scene.scale())
+    return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, ground_tolerance(scene))
 
 
 def surface_epsilon(scene, points=None):
@@ -356,7 +357,7 @@ def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
     if scene.ground is not None:        # the plane's distance, by the rule of finite.ground_blocks
         h = np.repeat(p[:, 1] - scene.ground, S)
         wy = flat[:, 1].astype(np.float64)
-        eps = 1e-5 * scene.scale()
+        eps = ground_tolerance(scene)
         with np.errstate(divide="ignore", invalid="ignore"):
             down = (h >= -eps) & (wy < 0)
             up = (h < -eps) & (wy > 0)

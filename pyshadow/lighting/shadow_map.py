@@ -70,6 +70,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._validate import check_both, check_values, kernel_rows
+from ..contact import ground_tolerance
 from ..scene_arrays import scene_arrays
 
 __all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
@@ -363,7 +364,7 @@ class ShadowMapVisibility:
         frac = self._lookup(sm, p, m, 0.0 if b is None else b)
         if scene.ground is not None:
             blocked = ground_blocks(p[:, 1] - scene.ground, w[:, 1], None if kind == "directional" else tmax,
-                                    1e-5 * scene.scale())
+                                    ground_tolerance(scene))
             frac[blocked] = 0.0
         return frac
 

@@ -44,7 +44,7 @@ from .. import _cl
 from .._cl import launch
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
-from ..contact import close_contacts, occlude_contacts
+from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
@@ -346,7 +346,7 @@ class CSMVisibility(_SampledSky):
         rows, itype, ninst = _instance_data(scene, anchor, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
-        g_eps = 1e-5 * scene.scale()
+        g_eps = ground_tolerance(scene)
         nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
         # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points)
         held = scene_arrays(scene)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import check_indices, nonzero, rows3, unit_normals
-from ..contact import occlude_contacts
+from ..contact import ground_tolerance, occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
@@ -61,7 +61,7 @@ def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
     """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None)."""
     occ = np.zeros(len(p), bool)
     if scene.ground is not None:
-        occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, 1e-5 * scene.scale())
+        occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, ground_tolerance(scene))
     types, _ = scene.caster_types()
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7

@@ -7,6 +7,7 @@
  *   grid_start_v()  their first cells: where each ray enters the grid
  *   grid_next_v()   their next cells (a 3D-DDA: per lane, the axis whose
  *                   cell face the ray reaches first)
+ *   grid_at_v()     the walks' state from their cells (a walk taken up again)
  *   sphere_4()      sphere_v() of scene_tables.h for one ray and the four
  *                   spheres of a packet (copies of the instance table's)
  *   sphere_slot_v() sphere_v() for the lane vector and one sphere of a packet
@@ -83,6 +84,23 @@ __attribute__((always_inline)) inline fv grid_face_v(__global const grid_t *G, i
     return VSEL(face, (fv)(INFINITY), MASK(step == 0) | ~(MASK(inv < INFINITY) & MASK(inv > -INFINITY)));
 }
 
+/* the rest of the walks' state from their cells W->cell: steps, next
+ * faces, cell numbers -- each a function of the cell and the ray, so a walk
+ * set down (its cells kept) and taken up again here goes on as it would
+ * have (batch_grid's spilled walks) */
+__attribute__((always_inline)) inline void grid_at_v(__global const grid_t *G, walk_v_t *W, const fv *p,
+                                                     const fv *w, const fv *inv)
+{
+    for (int a = 0; a < 3; ++a) {
+        W->step[a] = VSEL(VSEL((iv)(0), (iv)(-1), MASK(w[a] < 0.0f)), (iv)(1), MASK(w[a] > 0.0f));
+        W->next[a] = grid_face_v(G, a, W->cell[a], W->step[a], p[a], inv[a]);
+    }
+    W->cid = (W->cell[0] * G->dims[1] + W->cell[1]) * G->dims[2] + W->cell[2];
+    W->dcid[0] = W->step[0] * (G->dims[1] * G->dims[2]);
+    W->dcid[1] = W->step[1] * G->dims[2];
+    W->dcid[2] = W->step[2];
+}
+
 /* the first cells of the lanes of open whose ray p + t w, t >= 0, meets the
  * grid's box (inv = 1 / w): that of p where p lies in the box, else that of
  * the ray's entry (the slab test); W->walking: those lanes */
@@ -106,13 +124,8 @@ __attribute__((always_inline)) inline void grid_start_v(__global const grid_t *G
         const iv k = CONVERT(int, VMIN(VMAX((p[a] + t0 * w[a] - G->origin[a]) * G->inv_cell[a], (fv)(0.0f)),
                                        (fv)((float)(G->dims[a] - 1))));
         W->cell[a] = VSEL(k, (iv)(0), MASK(k < 0));
-        W->step[a] = VSEL(VSEL((iv)(0), (iv)(-1), MASK(w[a] < 0.0f)), (iv)(1), MASK(w[a] > 0.0f));
-        W->next[a] = grid_face_v(G, a, W->cell[a], W->step[a], p[a], inv[a]);
     }
-    W->cid = (W->cell[0] * G->dims[1] + W->cell[1]) * G->dims[2] + W->cell[2];
-    W->dcid[0] = W->step[0] * (G->dims[1] * G->dims[2]);
-    W->dcid[1] = W->step[1] * G->dims[2];
-    W->dcid[2] = W->step[2];
+    grid_at_v(G, W, p, w, inv);
 }
 
 /* each lane one cell on, along the axis whose face its ray reaches first

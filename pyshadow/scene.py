@@ -445,11 +445,15 @@ def _caster_slots(scene, surface_ids, n):
     if not ok.all():
         raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); "
                          f"got {int(ids[~ok][0])}")
-    slot = np.full(len(scene.instances) + 2, -2, np.int32)     # receivers: -2
-    casters = scene.casters
-    slot[casters] = np.arange(len(casters), dtype=np.int32)
-    slot[-1] = -1                                            # index -1: unknown
-    slot[-2] = -2                                            # index -2: ground
+    held = scene_arrays(scene)
+    slot = held.get("caster_slot")          # kept with the scene's arrays until it changes
+    if slot is None:
+        casts = held["casts"]
+        slot = np.full(len(casts) + 2, -2, np.int32)         # receivers: -2
+        slot[np.flatnonzero(casts)] = np.arange(int(casts.sum()), dtype=np.int32)
+        slot[-1] = -1                                        # index -1: unknown
+        slot[-2] = -2                                        # index -2: ground
+        held["caster_slot"] = slot
     return slot[ids]
 
 

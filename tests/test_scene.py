@@ -110,6 +110,10 @@ def test_caster_slots():
             scene.caster_slots(bad, 2)
     with pytest.raises(TypeError, match="surface_ids must be integers"):
         scene.caster_slots([0.0, 1.0], 2)
+    # the slot table is kept with the scene's arrays: instances added later get theirs
+    scene.add(box, casts=False)                               # receiver, id 3
+    scene.add(box, trimesh.transformations.translation_matrix([0, 0, 3]))   # caster, id 4, slot 2
+    np.testing.assert_array_equal(scene.caster_slots([4, 3, 2, -1, GROUND_ID], 5), [2, -2, 1, -1, -2])
     # every instance casts: int32 ids are the slots and pass through unmapped
     casters = pyshadow.Scene(ground=0.0)
     casters.add(scene.instances[0].csm, mesh=box)

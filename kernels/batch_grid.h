@@ -136,6 +136,7 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
     W.walking = (iv)(0);
     for (int l = 0; l < LANES; ++l)
         lq[l] = 0;                              /* lanes never taken: query 0, not walking */
+#define LANE_Q(l, a) a[lq[l]]                   /* lane l's query's value in array a */
     for (int h = 0;;) {
         LANE_STORE(W.walking, wa);
         if (h < R->n) {                         /* the lanes whose walk has ended take up the next */
@@ -155,7 +156,6 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
                 took = 1;
             }
             if (took) {
-#define LANE_Q(l, a) a[lq[l]]
                 p[0] = LANE_GATHER(fv, LANE_Q, px); p[1] = LANE_GATHER(fv, LANE_Q, py);
                 p[2] = LANE_GATHER(fv, LANE_Q, pz);
                 w[0] = LANE_GATHER(fv, LANE_Q, wx); w[1] = LANE_GATHER(fv, LANE_Q, wy);
@@ -176,8 +176,8 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
                 grid_cell_one(S, P, S->gpackets + ca[l], lq[l], seen[l], QUERY_ARGS BATCH_TMAX_ARGS);
         grid_next_v(G, &W, p, inv);
         W.walking &= MASK(LANE_GATHER(iv, LANE_Q, occ) == 0);
-#undef LANE_Q
     }
+#undef LANE_Q
 }
 #endif
 

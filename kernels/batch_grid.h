@@ -57,13 +57,10 @@ __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pe
             if (j == -1)
                 break;                          /* unused slots: the rest of the list's last packet */
             const iv met = (j >= 0 ? walking : (iv)(0)) & sphere_slot_v(K, q, p, w TMAX_LANES(c));
-            if (!VANY(met))
-                continue;                       /* missed, or the link */
-            LANE_ARRAY int ma[LANES];
-            LANE_STORE(met, ma);
-            for (int l = 0; l < LANES; ++l)
-                if (ma[l])
-                    grid_met(S, P, seen[l], c + l, j, QUERY_ARGS);
+            for (int bits = LANE_BITS(met); bits; bits &= bits - 1) {  /* the lanes met, in order */
+                const int l = BIT_LOW(bits);
+                grid_met(S, P, seen[l], c + l, j, QUERY_ARGS);
+            }
         }
         if (K->instance[3] >= -1)               /* < -1: the list goes on in packet -2 - link */
             break;

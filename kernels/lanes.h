@@ -176,6 +176,44 @@ inline int lane_all(iv m)
 #define VSQRT(x) sqrt(x)
 #endif
 #define IMIN(a, b) ((a) < (b) ? (a) : (b))
+/* LANE_BITS(m): the lanes of mask m as the bits of an int (bit l: lane l);
+ * BIT_LOW(b): the number of b's lowest set bit (b != 0) -- to visit the set
+ * lanes of a sparse mask one after another, without a branch per lane */
+#if LANES == 16
+#define LANE_BITS(m) lane_bits(m)
+inline int lane_bits(iv m)
+{
+    const iv b = m & (iv)(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768);
+    const int8 x = b.lo | b.hi;
+    const int4 y = x.lo | x.hi;
+    const int2 z = y.lo | y.hi;
+    return z.x | z.y;
+}
+#elif LANES == 8
+#define LANE_BITS(m) lane_bits(m)
+inline int lane_bits(iv m)
+{
+    const iv b = m & (iv)(1, 2, 4, 8, 16, 32, 64, 128);
+    const int4 y = b.lo | b.hi;
+    const int2 z = y.lo | y.hi;
+    return z.x | z.y;
+}
+#elif LANES == 4
+#define LANE_BITS(m) lane_bits(m)
+inline int lane_bits(iv m)
+{
+    const iv b = m & (iv)(1, 2, 4, 8);
+    const int2 z = b.lo | b.hi;
+    return z.x | z.y;
+}
+#else
+#define LANE_BITS(m) ((m) != 0)
+#endif
+#if CPU_CLANG
+#define BIT_LOW(b) __builtin_ctz((uint)(b))
+#else
+#define BIT_LOW(b) (31 - clz((b) & -(b)))
+#endif
 /* private lane arrays: aligned to a whole lane vector, moved as whole
  * vectors (the type follows the array, so one macro serves float, int and
  * uint arrays) */

@@ -117,12 +117,9 @@ typedef VTYPE(int) iv;
  * than inline get inline forms below; other compilers use the standard
  * builtins */
 #include "cpu_clang.h"
-#if CPU_CLANG && LANES > 1
-/* any() / all() of a mask by halving ORs / ANDs down to one lane's sign bit
- * (the bit any() and all() test): PoCL calls its library's any() for every
- * use, and the tree's traversal asks it per node and lane group (19 % of
- * the time of a query among 10,000 casters went to the calls alone) */
-inline int lane_any(iv m)
+#if LANES > 1
+/* the OR of a lane vector's lanes, by halving ORs */
+__attribute__((always_inline)) inline int lane_or(iv m)
 {
 #if LANES == 16
     const int8 a = m.lo | m.hi;
@@ -133,7 +130,17 @@ inline int lane_any(iv m)
     const int4 b = m;
 #endif
     const int2 c = b.lo | b.hi;
-    return (c.x | c.y) < 0;
+    return c.x | c.y;
+}
+#endif
+#if CPU_CLANG && LANES > 1
+/* any() / all() of a mask by halving ORs / ANDs down to one lane's sign bit
+ * (the bit any() and all() test): PoCL calls its library's any() for every
+ * use, and the tree's traversal asks it per node and lane group (19 % of
+ * the time of a query among 10,000 casters went to the calls alone) */
+inline int lane_any(iv m)
+{
+    return lane_or(m) < 0;
 }
 inline int lane_all(iv m)
 {
@@ -179,33 +186,8 @@ inline int lane_all(iv m)
 /* LANE_BITS(m): the lanes of mask m as the bits of an int (bit l: lane l);
  * BIT_LOW(b): the number of b's lowest set bit (b != 0) -- to visit the set
  * lanes of a sparse mask one after another, without a branch per lane */
-#if LANES == 16
-#define LANE_BITS(m) lane_bits(m)
-inline int lane_bits(iv m)
-{
-    const iv b = m & (iv)(1, 2, 4, 8, 16, 32, 64, 128, 256, 512, 1024, 2048, 4096, 8192, 16384, 32768);
-    const int8 x = b.lo | b.hi;
-    const int4 y = x.lo | x.hi;
-    const int2 z = y.lo | y.hi;
-    return z.x | z.y;
-}
-#elif LANES == 8
-#define LANE_BITS(m) lane_bits(m)
-inline int lane_bits(iv m)
-{
-    const iv b = m & (iv)(1, 2, 4, 8, 16, 32, 64, 128);
-    const int4 y = b.lo | b.hi;
-    const int2 z = y.lo | y.hi;
-    return z.x | z.y;
-}
-#elif LANES == 4
-#define LANE_BITS(m) lane_bits(m)
-inline int lane_bits(iv m)
-{
-    const iv b = m & (iv)(1, 2, 4, 8);
-    const int2 z = b.lo | b.hi;
-    return z.x | z.y;
-}
+#if LANES > 1
+#define LANE_BITS(m) lane_or((m) & ((iv)(1) << LANE_IDS))
 #else
 #define LANE_BITS(m) ((m) != 0)
 #endif

@@ -462,6 +462,7 @@ class CSMVisibility(_SampledSky):
         ao = np.empty(N, np.float32)
         bent = np.empty((N, 3), np.float32)
         tr = np.empty((N, 9), np.float32) if transfer else None
+        sky = None
         finite_def = {} if tmax is None else {"FINITE_RAYS": 1}
         if sky_env is not None:       # bent normals asked too: the kernel runs even where nothing occludes
             finite_def["SKY_SAMPLED"], sky = 1, np.zeros((N, 3), np.float32)
@@ -498,7 +499,7 @@ class CSMVisibility(_SampledSky):
                     cl.enqueue_copy(q, bent[s:e], bent_buf)
                 if transfer:
                     cl.enqueue_copy(q, tr[s:e], tr_buf)
-        close_contacts(scene, p, n, ao, bent, tr, sky if sky_env is not None else None)
+        close_contacts(scene, p, n, ao, bent, tr, sky)
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
 
 
@@ -558,7 +559,7 @@ def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices,
         c, r = np.flatnonzero(clear), np.flatnonzero(~clear)
         if len(c):
             a, b, _ = backend._ao(scene, p[c], n[c], sampling, bent, False, bias, idx[c],
-                               None if sid is None else sid[c], tmax=_float32_lengths(t[c]))
+                                  None if sid is None else sid[c], tmax=_float32_lengths(t[c]))
             held[c] = a
             out_bent[c] = b
         if len(r):

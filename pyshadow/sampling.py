@@ -23,6 +23,7 @@ Strategies
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -197,8 +198,29 @@ def local_directions(points) -> np.ndarray:
 
 def direction_table(samples: int, strategy: str = "hammersley", patterns: int = 256,
                     seed: int = 0) -> np.ndarray:
-    """Local directions of every pattern, (patterns, samples, 3) float32, as the kernels read them."""
-    return local_directions(sample_patterns(samples, strategy, patterns, seed)).astype(np.float32)
+    """Local directions of every pattern, (patterns, samples, 3) float32, as the kernels read them.
+
+    The array is read-only. Every AO call reads its sampling's table, so
+    tables of at most ``_TABLE_CACHE_ENTRIES`` directions (samples times
+    patterns) are kept, the last eight asked.
+    """
+    check_sampling(samples, strategy, patterns)
+    key = (int(samples), str(strategy), int(patterns), int(seed))
+    if key[0] * key[2] <= _TABLE_CACHE_ENTRIES:
+        return _kept_direction_table(*key)
+    return _direction_table(*key)
+
+
+_TABLE_CACHE_ENTRIES = 1 << 16      # directions: 768 KiB a table at most
+
+
+def _direction_table(samples, strategy, patterns, seed):
+    table = local_directions(sample_patterns(samples, strategy, patterns, seed)).astype(np.float32)
+    table.setflags(write=False)
+    return table
+
+
+_kept_direction_table = lru_cache(maxsize=8)(_direction_table)
 
 
 _ORDER = ("samples", "strategy", "patterns", "seed")

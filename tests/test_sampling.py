@@ -123,3 +123,18 @@ def test_sample_functions_reject_bad_values(kwargs, exc, match):
         sampling.sample_patterns(**args)
     with pytest.raises(exc, match=match):
         sampling.direction_table(**args)
+
+
+def test_direction_table_is_kept_read_only_and_equals_the_patterns_directions():
+    """Every AO call reads its sampling's table: small ones are kept (the same array, read-only), and a
+    kept table holds the directions of sample_patterns; a large one is built each time, read-only too."""
+    for args in [(16, "hammersley", 256, 0), (36, "stratified", 64, 7), (4096, "random", 64, 3)]:
+        t = sampling.direction_table(*args)
+        want = sampling.local_directions(sampling.sample_patterns(*args)).astype(np.float32)
+        np.testing.assert_array_equal(t, want)
+        assert not t.flags.writeable
+        with pytest.raises(ValueError, match="read-only"):
+            t[0, 0, 0] = 0.0
+        kept = args[0] * args[2] <= sampling._TABLE_CACHE_ENTRIES
+        assert (sampling.direction_table(*args) is t) == kept
+    assert sampling.direction_table(16, "hammersley", 256, 1) is not sampling.direction_table(16, "hammersley", 256, 0)

@@ -5,12 +5,15 @@ bounding radius, 64x128 maps @ 128^2 (``--maps``, ``--resolution``):
 
 1. visibility agreement with Embree on AO rays (4000 points uniform on its
    faces, 16 cosine directions of their face normals) for both lookups,
-   asked without the normals (the lookup before the rule, bit-identical) and
-   with them (the rule, as AO asks); false shadow and false light beside;
+   asked without the normals (the lookup before the rule, bit-identical),
+   with them (the rule, as AO asks) and with them but the constant
+   self-bias alone (``-const``: ``pyshadow.visibility.csm.PLANE_BIAS =
+   False``, the code before the plane's bias); false shadow and false light
+   beside;
 2. per-point AO (3000 points, 64 samples) against Embree on the identical
-   directions, mean |dAO| and mean signed dAO (AO always applies the rule:
-   run this script on the code before it, with ``PYTHONPATH``, for the other
-   column).
+   directions, mean |dAO| and mean signed dAO, with the plane's bias and
+   without (AO always applies the rule: run this script on the code before
+   it, with ``PYTHONPATH``, for that column).
 
     python benchmarks/surface_rule.py [--meshes stanford-bunny.obj,cow.obj] [--json]
 """
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from contextlib import contextmanager
 
 import numpy as np
 import trimesh
@@ -50,10 +54,11 @@ def mesh_row(name, views, resolution, samples=16, points=4000, ao_points=3000, a
     truth = embree.visible(scene, P, d)
     has_rule = "normals" in visibility.visible.__code__.co_varnames
     for backend in ("csm", "csm-vote"):
-        for rule in ((False, True) if has_rule else (False,)):
+        for rule, plane in (((False, None), (True, False), (True, True)) if has_rule else ((False, None),)):
             extra = {"normals": N} if rule else {}
-            vis = visibility.visible(scene, P, d, backend=backend, surface_ids=0, **extra)
-            key = f"{backend}{'+rule' if rule else ''}"
+            with _plane_bias(plane):
+                vis = visibility.visible(scene, P, d, backend=backend, surface_ids=0, **extra)
+            key = f"{backend}{'+rule' if rule else ''}{'-const' if plane is False else ''}"
             row[key] = {"agreement": float(np.mean(vis == truth)), "false_shadow": float(np.mean(truth & ~vis)),
                         "false_light": float(np.mean(vis & ~truth))}
     pts, face = trimesh.sample.sample_surface(mesh, ao_points, seed=7)
@@ -61,9 +66,27 @@ def mesh_row(name, views, resolution, samples=16, points=4000, ao_points=3000, a
     s = pyshadow.Sampling(ao_samples)
     ref = embree.ambient_occlusion(scene, pts, nrm, sampling=s)
     for lookup in ("nearest", "vote"):
-        ao = scene.ambient_occlusion(pts, nrm, sampling=s, surface_ids=0, lookup=lookup)
-        row[f"ao-{lookup}"] = {"mean_abs": float(np.abs(ao - ref).mean()), "mean": float((ao - ref).mean())}
+        for plane in (False, True):
+            with _plane_bias(plane):
+                ao = scene.ambient_occlusion(pts, nrm, sampling=s, surface_ids=0, lookup=lookup)
+            key = f"ao-{lookup}{'-const' if plane is False else ''}"
+            row[key] = {"mean_abs": float(np.abs(ao - ref).mean()), "mean": float((ao - ref).mean())}
     return row
+
+
+@contextmanager
+def _plane_bias(on):
+    """The plane's bias switched on or off (``None``: as it is; code before it: no switch, no change)."""
+    from pyshadow.visibility import csm as backend
+
+    was = getattr(backend, "PLANE_BIAS", None)
+    if on is not None and was is not None:
+        backend.PLANE_BIAS = on
+    try:
+        yield
+    finally:
+        if was is not None:
+            backend.PLANE_BIAS = was
 
 
 def main(argv=None) -> int:

@@ -217,7 +217,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
             open &= MASK(vote + rest > 0.5f - 1e-5f);
             continue;
         }
-        const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz);
+        const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS);
         const fv gx = VSEL((fv)(0.0f), fx - 0.5f, inside), gy = VSEL((fv)(0.0f), fy - 0.5f, inside);
         const fv x0f = floor(gx), y0f = floor(gy);
         const fv tx = gx - x0f, ty = gy - y0f;
@@ -280,7 +280,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     }
     LANE_STORE(VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1)), ta);
     LANE_STORE(depth, dz_out);
-    LANE_STORE(bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz), bz_out);
+    LANE_STORE(bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS), bz_out);
     return valid;
 #endif
 }

@@ -1,7 +1,8 @@
 /* csm_map.h -- a lookup's arithmetic against one map (csm_lookup.h):
  *
  *   map_frame_v()    a point seen from a map: axis, depth, texel coordinates
- *   bias_v()         the depth tolerance of a lane against a map
+ *   bias_v()         the depth tolerance of a lane against a map (with
+ *                    SURFACE_NORMALS, at most the plane's within a texel)
  *   sort4_heaviest_first()  the vote's ordering of maps and taps (FILTERED)
  *   surface_rule_v() rays leaving their own body's surface (SURFACE_NORMALS)
  *
@@ -15,9 +16,17 @@
 
 #if NTYPES
 #if SURFACE_NORMALS
+#ifndef PLANE_BIAS
+#error "PLANE_BIAS (0/1: the plane's bias of bias_v) must be defined by the host"
+#endif
+#if PLANE_BIAS && (!defined(PLANE_BIAS_SLOPE) || !defined(PLANE_BIAS_TEXELS))
+#error "PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS (pyshadow.csm.core) must be defined by the host"
+#endif
 #define NORMAL_LIFT_PARAMS , iv up, fv ox, fv oy, fv oz, float btex
+#define NORMAL_BIAS_PARAMS , iv up, fv ox, fv oy, fv oz
 #else
 #define NORMAL_LIFT_PARAMS
+#define NORMAL_BIAS_PARAMS
 #endif
 
 /* each lane's point (qx, qy, qz) seen from its map ka[l] (bases: the CSM
@@ -70,12 +79,24 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
 /* depth tolerance of each lane for map axis (dx, dy, dz): against the
  * point's own surface a quantum, a share of a texel and the angle a between
  * the query direction and the map's axis; against other casters only
- * bias_other (the quantum) */
-inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz)
+ * bias_other (the quantum). With SURFACE_NORMALS and PLANE_BIAS, the lanes of `up` (on
+ * their own surface, unit normal (ox, oy, oz), object frame) take no more
+ * than their surface's depth can differ within the point's texel: the
+ * quantum plus PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan(n) texels (n the
+ * angle between normal and axis; pyshadow.csm.core gives the derivation),
+ * plus the same term in a -- so a wall a texel or two beside the point is
+ * seen where its own surface faces the map */
+inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz NORMAL_BIAS_PARAMS)
 {
     const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
     const fv tan_a = VSQRT(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
-    const fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+    fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
+#if SURFACE_NORMALS && PLANE_BIAS
+    const fv cn = VMIN(VMAX(ox * dx + oy * dy + oz * dz, (fv)(1e-3f)), (fv)(1.0f));
+    const fv tan_n = VSQRT(VMAX(1.0f - cn * cn, (fv)(0.0f))) / cn;
+    const fv plane = S->bias_abs + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * tan_n + S->bias_tan * tan_a) / (float)R;
+    bias_self = VSEL(bias_self, VMIN(bias_self, plane), up);
+#endif
     return VSEL((fv)(S->bias_other), bias_self, MASK(own == -1) | MASK(own == j));
 }
 
@@ -125,9 +146,11 @@ inline iv surface_rule_v(fv hs, iv j, iv own, const fv *ox, const fv *oy, const 
 }
 #define NORMAL_PARAMS , fv mx, fv my, fv mz
 #define NORMAL_LIFT_ARGS , up, ox, oy, oz, S->bias_texels
+#define NORMAL_BIAS_ARGS , up, ox, oy, oz
 #else
 #define NORMAL_PARAMS
 #define NORMAL_LIFT_ARGS
+#define NORMAL_BIAS_ARGS
 #endif
 
 #endif  /* NTYPES */

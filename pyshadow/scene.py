@@ -236,7 +236,8 @@ class Scene:
         :func:`pyshadow.visibility.visible` on this scene, which documents
         every parameter: ``points``, ``directions`` (N, 3) world positions
         and directions (normalised there); ``bias``; ``surface_ids``;
-        ``normals`` (grazing rays over a flat face are not shadowed by it);
+        ``normals`` (grazing rays over a flat face are not shadowed by it, and
+        a wall a texel or two beside the point is seen);
         ``max_distance`` (float or (N,), world units: finite rays, e.g.
         towards a point light; :mod:`pyshadow.visibility.finite`) and
         ``straddle`` (``'error'`` or ``'embree'``: rays ending inside a

@@ -16,6 +16,7 @@ from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
            "FRONT_MARGIN_TEXELS", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN", "VOTE_BIAS_TEXELS",
+           "PLANE_BIAS_SLOPE", "PLANE_BIAS_TEXELS",
            "front_margin", "SLOPE_SLACK_QUANTA", "slope_slack", "BOX_PAD", "lookup_box"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
@@ -38,6 +39,16 @@ _LAYOUTS = ("zigzag", "hilbert")
 DEFAULT_BIAS_TEXELS = 1.5
 DEFAULT_BIAS_TAN = 0.5
 VOTE_BIAS_TEXELS = 1.0      # the same for the vote lookup
+# ... but a point whose normal is known (the surface rule's rays) takes at
+# most quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan n + DEFAULT_BIAS_TAN
+# tan a) / R, n the angle between its normal and the map's axis. Derived, not
+# tuned: the texel's centre lies within sqrt(1/2) texel of the point, so its
+# own surface, a plane there, lies within sqrt(1/2) tan n texels of depth of
+# it at the centre, and a surface curving towards the map with a radius of
+# one texel within 1/4 texel more; every stored depth lies at or behind the
+# centre's first surface (benchmarks/README.md, "The plane's bias")
+PLANE_BIAS_SLOPE = 0.5 ** 0.5
+PLANE_BIAS_TEXELS = 0.25
 
 
 # the lookup's box (lookup_box) lies this far (normalised units) outside the

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .build import footprint_scale
-from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, front_margin, slope_slack
+from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS, front_margin, slope_slack
 from .surface_rule import SURFACE_LIFT_TEXELS
 
 __all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",
@@ -371,6 +371,11 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
             ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
             tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
             b = np.where(self_, quantum + (bias_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
+            if normals is not None:     # the rows of the surface rule: at most the plane's bias
+                cn = np.clip(np.einsum("ij,ij->i", normals, B[:, 2]), 1e-3, 1.0)
+                tan_n = np.sqrt(np.maximum(1.0 - cn * cn, 0.0)) / cn
+                plane = quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * tan_n + DEFAULT_BIAS_TAN * tan_a) / R
+                b = np.where(lift, np.minimum(b, plane), b)
         else:
             b = float(bias)
         gx, gy = (fx - 0.5, fy - 0.5) if texels == 4 else (fx, fy)

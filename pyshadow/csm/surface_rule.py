@@ -19,7 +19,14 @@ body (``v . m > 0``)
    map it asks (``u, v, d`` the map's rows, ``b`` the self-bias in texels):
    the least lift after which the centre ray of the point's texel passes
    above a flat face by more than the bias covers. None for a map that
-   sees the face steeply; up to 0.7 texel for a grazing one.
+   sees the face steeply; up to 0.7 texel for a grazing one;
+3. takes as its self-bias at most what a plane with normal ``m`` through
+   the point needs in the point's texel: the quantum plus
+   ``PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan n + DEFAULT_BIAS_TAN tan a``
+   texels (:mod:`pyshadow.csm.core`; ``n`` the angle between ``m`` and the
+   map's axis, ``a`` between ray and axis) where that is below the constant
+   self-bias. A wall a texel or two beside the point (an inside corner) is
+   then seen where the face looks at the map; the constant 1.5 texels hid it.
 
 What it costs: self-occluders in the band between the ray's elevation and
 the covering angle are answered as at the covering angle (the map spacing

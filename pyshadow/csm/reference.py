@@ -262,6 +262,12 @@ def segment_index_reference(csm, map_index, rows, cols) -> np.ndarray:
     return out
 
 
+def _tan_to_axis(v, axis):
+    """tan of the angle between unit rows ``v`` and ``axis``, its cosine clamped to [1e-3, 1] (``bias_v``)."""
+    c = np.clip(np.einsum("ij,ij->i", v, axis), 1e-3, 1.0)
+    return np.sqrt(np.maximum(1.0 - c * c, 0.0)) / c
+
+
 def _lift(normals, rows, B, R, bias, bias_texels):
     """The surface rule's lift of each row in the maps with bases ``B`` (normalised units)."""
     b = 0.0 if bias is not None else bias_texels
@@ -368,13 +374,11 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
         fy = (np.einsum("ij,ij->i", qt, B[:, 1]) + 1.0) * 0.5 * R
         inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)
         if bias is None:
-            ca = np.clip(np.einsum("ij,ij->i", wn, B[:, 2]), 1e-3, 1.0)
-            tan_a = np.sqrt(np.maximum(1.0 - ca * ca, 0.0)) / ca
+            tan_a = _tan_to_axis(wn, B[:, 2])
             b = np.where(self_, quantum + (bias_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
             if normals is not None:     # the rows of the surface rule: at most the plane's bias
-                cn = np.clip(np.einsum("ij,ij->i", normals, B[:, 2]), 1e-3, 1.0)
-                tan_n = np.sqrt(np.maximum(1.0 - cn * cn, 0.0)) / cn
-                plane = quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * tan_n + DEFAULT_BIAS_TAN * tan_a) / R
+                plane = quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * _tan_to_axis(normals, B[:, 2])
+                                   + DEFAULT_BIAS_TAN * tan_a) / R
                 b = np.where(lift, np.minimum(b, plane), b)
         else:
             b = float(bias)

@@ -23,6 +23,11 @@ of its distinct faces shared by two, vertices of equal coordinates merged,
 whatever the faces' winding: duplicate, reversed and zero-area faces do not
 open it); an open mesh lying on the ground encloses nothing, and a body sunk
 below the plane does not rest on it.
+
+An open caster's faces that lie on the ground (the floor of a box without a
+lid, a sheet) coincide with the ground under them instead: a point of the
+ground there is a point of the caster's surface, asked as one
+(:func:`ground_sheet_slots`, through :meth:`pyshadow.Scene.caster_slots`).
 """
 from __future__ import annotations
 
@@ -32,7 +37,8 @@ import numpy as np
 
 from .scene_arrays import scene_arrays
 
-__all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts"]
+__all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
+           "ground_sheet_slots"]
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
 _CHUNK = 1 << 16
@@ -118,12 +124,118 @@ def footprints(scene) -> list:
     key = ("contact", float(scene.ground))
     if key not in held:
         tol = ground_tolerance(scene)
-        lowest = held["world_centre"][:, 1] - held["world_radius"]
-        near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
-        near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
-        found = [_footprint(scene.instances[i], scene.ground, tol) for i in near]
+        found = [_footprint(scene.instances[i], scene.ground, tol) for i in _reaching_ground(scene, held, tol)]
         held[key] = [x for x in found if x is not None]
     return held[key]
+
+
+def _reaching_ground(scene, held, tol):
+    """Indices of the casters whose mesh's box reaches down to the ground plane (within ``tol``)."""
+    lowest = held["world_centre"][:, 1] - held["world_radius"]
+    near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
+    return near[_box_bottom(scene, held, near) <= scene.ground + tol]
+
+
+def _sheet(inst, ground, tol):
+    """Triangles (K, 3, 2) in the ground's (x, z) of an open caster's faces lying on the ground whose
+    upper side is open to the sky (the vertical ray from the face's centroid meets no other face of the
+    body above it), or None. A closed caster's are its footprint; an open one that still covers the
+    face (a box whose edges are not all shared, say) encloses the ground there: not a sheet."""
+    mesh = inst.mesh
+    if mesh is None or not inst.casts or len(mesh.faces) == 0 or _closed_surface(mesh) is not None:
+        return None
+    T = inst.transform
+    v = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
+    faces = np.asarray(mesh.faces)
+    f = faces[(np.abs(v[:, 1] - ground) <= tol)[faces].all(axis=1)]
+    if len(f):
+        f = f[~_covered(v[f].mean(axis=1), v[faces], ground + tol)]
+    return v[:, [0, 2]][f] if len(f) else None
+
+
+def _covered(c, tri, above):
+    """(n,) bool: whether the vertical line through each point ``c`` (n, 3) crosses one of the triangles
+    ``tri`` (F, 3, 3) higher than ``above`` (world y)."""
+    out = np.zeros(len(c), bool)
+    a, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    det = e1[:, 0] * e2[:, 2] - e1[:, 2] * e2[:, 0]             # the triangle's signed area in (x, z), x2
+    ok = np.abs(det) > 1e-300
+    a, e1, e2, det = a[ok], e1[ok], e2[ok], det[ok]
+    step = max(1, _CHUNK // max(len(a), 1))
+    for s in range(0, len(c), step):
+        d = c[s:s + step, None, :] - a[None]
+        u = (d[..., 0] * e2[:, 2] - d[..., 2] * e2[:, 0]) / det
+        w = (e1[:, 0] * d[..., 2] - e1[:, 2] * d[..., 0]) / det
+        y = a[:, 1] + u * e1[:, 1] + w * e2[:, 1]
+        out[s:s + step] = ((u >= 0) & (w >= 0) & (u + w <= 1) & (y > above)).any(axis=1)
+    return out
+
+
+def sheets(scene) -> list:
+    """The faces of ``scene``'s open casters that lie on its ground, in the ground's (x, z).
+
+    Returns
+    -------
+    list of (int, ndarray)
+        Per open caster with such faces: its caster slot (position in
+        :attr:`pyshadow.Scene.casters`) and float64 triangles (K, 3, 2) of
+        those faces (world x, z). Empty without a ground plane. Kept with
+        the scene's arrays until the scene changes.
+    """
+    if scene.ground is None or not scene.instances:
+        return []
+    held = scene_arrays(scene)
+    key = ("sheets", float(scene.ground))
+    if key not in held:
+        tol = ground_tolerance(scene)
+        slot = np.cumsum(held["casts"]) - 1
+        found = [(int(slot[i]), _sheet(scene.instances[i], scene.ground, tol))
+                 for i in _reaching_ground(scene, held, tol)]
+        held[key] = [(s, t) for s, t in found if t is not None]
+    return held[key]
+
+
+def ground_sheet_slots(scene, points, own):
+    """Caster slots ``own`` (N,) with the ground's points on an open caster's face on the ground made its.
+
+    A face of an open body lying on the ground (the floor of a box without
+    a lid, a sheet) coincides with the ground under it: a point there is a
+    point of that body's surface, and its rays leave through the face as
+    from the body's own side (Embree's do). Asked as the ground, with no
+    self-bias against the body, the coincident face shadowed about half of
+    them. A point whose slot is the ground's or a receiver's (-2), within
+    :func:`ground_tolerance` of the plane and inside (or on) such a face
+    seen from above takes that caster's slot.
+
+    Returns
+    -------
+    ndarray of int32, shape (N,)
+        ``own`` itself where no point changes, else a changed copy.
+    """
+    found = sheets(scene) if len(own) else []
+    if not found:
+        return own
+    p = np.asarray(points)
+    cand = np.flatnonzero((np.asarray(own) == -2)
+                          & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= ground_tolerance(scene)))
+    out = own
+    q_all = p[cand][:, [0, 2]].astype(np.float64)
+    for slot, tri in found:
+        for k, hit in _in_chunks(q_all, tri):
+            if hit.any():
+                out = own.copy() if out is own else out
+                out[cand[k[hit]]] = slot
+    return out
+
+
+def _in_chunks(q_all, tri, extra=1):
+    """(indices into ``q_all``, inside ``tri``) for the points in the triangles' box, a chunk at a time."""
+    lo, hi = tri.reshape(-1, 2).min(axis=0), tri.reshape(-1, 2).max(axis=0)
+    box = np.flatnonzero(np.all((q_all >= lo) & (q_all <= hi), axis=1))
+    step = max(1, _CHUNK // max(len(tri), extra))
+    for s in range(0, len(box), step):
+        k = box[s:s + step]
+        yield k, _in_triangles(q_all[k], tri)
 
 
 def _box_bottom(scene, held, ids):
@@ -193,15 +305,9 @@ def contact_mask(scene, points):
         return mask
     q_all = p[cand][:, [0, 2]].astype(np.float64)
     for tri, outline in fps:
-        lo, hi = tri.reshape(-1, 2).min(axis=0), tri.reshape(-1, 2).max(axis=0)
-        box = np.flatnonzero(np.all((q_all >= lo) & (q_all <= hi), axis=1))
-        step = max(1, _CHUNK // max(len(tri), len(outline)))
-        for s in range(0, len(box), step):
-            k = box[s:s + step]
-            q = q_all[k]
-            hit = _in_triangles(q, tri)
+        for k, hit in _in_chunks(q_all, tri, len(outline)):
             if hit.any():
-                hit[hit] = _far_from(q[hit], outline, tol)
+                hit[hit] = _far_from(q_all[k][hit], outline, tol)
             mask[cand[k[hit]]] = True
     return mask
 

@@ -18,6 +18,7 @@ import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
 from ._validate import check_transform
+from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, load_mesh, mesh_hash
@@ -196,13 +197,17 @@ class Scene:
         a = scene_arrays(self)
         return list(a["types"]), dict(a["type_index"])
 
-    def caster_slots(self, surface_ids, n):
+    def caster_slots(self, surface_ids, n, points=None):
         """Caster slot of each point's surface, (n,) int32: -1 unknown, -2 not a caster.
 
         ``surface_ids`` are instance ids (or -1 unknown, ``GROUND_ID``); a
-        caster's slot is its position in :attr:`casters`.
+        caster's slot is its position in :attr:`casters`. With ``points``
+        ((n, 3) world), a point of the ground (or of a receiver) that lies
+        on a face of an open caster lying on the ground takes that caster's
+        slot (:func:`pyshadow.contact.ground_sheet_slots`).
         """
-        return _caster_slots(self, surface_ids, n)
+        slots = _caster_slots(self, surface_ids, n)
+        return slots if points is None or surface_ids is None else ground_sheet_slots(self, points, slots)
 
     def anchor(self, points=None) -> np.ndarray:
         """A world point near the scene, (3,) float64; device coordinates are relative to it.

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from .build import footprint_scale
-from .core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS, front_margin, slope_slack
+from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS, front_margin,
+                   slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
 __all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",

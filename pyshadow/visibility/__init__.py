@@ -57,7 +57,10 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         means unknown (the self-bias then applies against every caster),
         ``pyshadow.scene.GROUND_ID`` (-2) the ground plane. Points on
         receivers and the ground need no self-bias, so contact shadows stay
-        sharp.
+        sharp. A ground (or receiver) point that lies on a face of an open
+        caster lying on the ground (the floor of a box without a lid) is
+        that caster's surface there and is asked as it
+        (:func:`pyshadow.contact.ground_sheet_slots`).
     normals : array_like, shape (N, 3), optional
         World normal of the surface each point lies on (normalised here;
         zero or non-finite rows are an error). With them, a ray leaving a

@@ -373,7 +373,7 @@ class CSMVisibility(_SampledSky):
         w = kernel_rows(directions, "directions", len(p))
         check_both(p, "points", w, "directions")
         n = len(p)
-        own = scene.caster_slots(surface_ids, n)
+        own = scene.caster_slots(surface_ids, n, p)
         m = None if normals is None else unit_normals(normals, n).astype(np.float32)
         tmax = check_max_distance(max_distance, n)
         if tmax is not None and n:
@@ -464,7 +464,7 @@ class CSMVisibility(_SampledSky):
         n = unit_normals(normals, len(p), dtype=np.float32)     # what the kernel reads
         N, S = len(p), int(sampling.samples)
         idx = check_indices(indices, N)
-        own = scene.caster_slots(surface_ids, N)
+        own = scene.caster_slots(surface_ids, N, p)
         ao = np.empty(N, np.float32)
         bent = np.empty((N, 3), np.float32)
         tr = np.empty((N, 9), np.float32) if transfer else None
@@ -525,7 +525,7 @@ def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices,
     n = unit_normals(normals, len(p))
     N = len(p)
     idx = check_indices(indices, N)
-    own = scene.caster_slots(surface_ids, N)
+    own = scene.caster_slots(surface_ids, N, p)
     tmax = check_max_distance(np.inf if max_distance is None else max_distance, N)
     sid = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (N,))
     nodes = ao_nodes(tmax, tau, Q)

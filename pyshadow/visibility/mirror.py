@@ -47,7 +47,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     p = rows3(points, "points")
     w = nonzero(rows3(directions, "directions", len(p)), "directions")
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
-    own = scene.caster_slots(surface_ids, len(p))
+    own = scene.caster_slots(surface_ids, len(p), p)
     m = None if normals is None else unit_normals(normals, len(p))
     tmax = check_max_distance(max_distance, len(p))
     if tmax is None or not len(p):
@@ -200,7 +200,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     if max_distance is not None or obscurance is not None:
         tau, Q, straddle = check_ao_options(obscurance, quadrature, straddle)
         tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
-        own = np.repeat(scene.caster_slots(surface_ids, len(p)), S)
+        own = np.repeat(scene.caster_slots(surface_ids, len(p), p), S)
         dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
         P, W, M = np.repeat(p, S, axis=0), dirs.reshape(-1, 3), np.repeat(n, S, axis=0)
 

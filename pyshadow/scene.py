@@ -200,14 +200,9 @@ class Scene:
     def caster_slots(self, surface_ids, n, points=None):
         """Caster slot of each point's surface, (n,) int32: -1 unknown, -2 not a caster.
 
-        ``surface_ids`` are instance ids (or -1 unknown, ``GROUND_ID``); a
-        caster's slot is its position in :attr:`casters`. With ``points``
-        ((n, 3) world), a point of the ground (or of a receiver) that lies
-        on a face of an open caster lying on the ground takes that caster's
-        slot (:func:`pyshadow.contact.ground_sheet_slots`).
-        """
-        slots = _caster_slots(self, surface_ids, n)
-        return slots if points is None or surface_ids is None else ground_sheet_slots(self, points, slots)
+        ``surface_ids`` are instance ids (or -1 unknown, ``GROUND_ID``); a caster's slot is its position
+        in :attr:`casters`. ``points`` ((n, 3) world): :func:`pyshadow.contact.ground_sheet_slots`."""
+        return _caster_slots(self, surface_ids, n, points)
 
     def anchor(self, points=None) -> np.ndarray:
         """A world point near the scene, (3,) float64; device coordinates are relative to it.
@@ -435,10 +430,17 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
     return inst
 
 
-def _caster_slots(scene, surface_ids, n):
-    """:meth:`Scene.caster_slots`."""
+def _caster_slots(scene, surface_ids, n, points=None):
+    """:meth:`Scene.caster_slots`: with ``points``, the ground's points on an open caster's face lying on
+    the ground take that caster's slot (:func:`pyshadow.contact.ground_sheet_slots`)."""
     if surface_ids is None:
         return np.full(n, -1, np.int32)
+    slots = _slots_of_ids(scene, surface_ids, n)
+    return slots if points is None else ground_sheet_slots(scene, points, slots)
+
+
+def _slots_of_ids(scene, surface_ids, n):
+    """Caster slots of the instance ids ``surface_ids`` (not None), validated."""
     ids = np.asarray(surface_ids)
     if not np.issubdtype(ids.dtype, np.integer):
         raise TypeError(f"surface_ids must be integers, got {ids.dtype}")

@@ -86,14 +86,18 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
  * angle between normal and axis; pyshadow.csm.core gives the derivation),
  * plus the same term in a -- so a wall a texel or two beside the point is
  * seen where its own surface faces the map */
+__attribute__((always_inline)) inline fv tan_of_cos_v(fv c)    /* the cosine clamped to [1e-3, 1] */
+{
+    c = VMIN(VMAX(c, (fv)(1e-3f)), (fv)(1.0f));
+    return VSQRT(VMAX(1.0f - c * c, (fv)(0.0f))) / c;
+}
+
 inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv dx, fv dy, fv dz NORMAL_BIAS_PARAMS)
 {
-    const fv ca = VMIN(VMAX(vx * dx + vy * dy + vz * dz, (fv)(1e-3f)), (fv)(1.0f));
-    const fv tan_a = VSQRT(VMAX(1.0f - ca * ca, (fv)(0.0f))) / ca;
+    const fv tan_a = tan_of_cos_v(vx * dx + vy * dy + vz * dz);
     fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
 #if SURFACE_NORMALS && PLANE_BIAS
-    const fv cn = VMIN(VMAX(ox * dx + oy * dy + oz * dz, (fv)(1e-3f)), (fv)(1.0f));
-    const fv tan_n = VSQRT(VMAX(1.0f - cn * cn, (fv)(0.0f))) / cn;
+    const fv tan_n = tan_of_cos_v(ox * dx + oy * dy + oz * dz);
     const fv plane = S->bias_abs + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * tan_n + S->bias_tan * tan_a) / (float)R;
     bias_self = VSEL(bias_self, VMIN(bias_self, plane), up);
 #endif

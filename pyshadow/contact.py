@@ -118,22 +118,24 @@ def footprints(scene) -> list:
         segments (E, 2, 2). Empty without a ground plane. Kept with the
         scene's arrays until the scene changes.
     """
+    return [x for _, x in _on_ground(scene, "contact", _footprint)]
+
+
+def _on_ground(scene, name, make):
+    """``[(i, make(instance i, ground, tol))]`` over the casters ``i`` whose mesh's box reaches down to
+    the ground plane (within its tolerance), where not None; kept with the scene's arrays as ``name``."""
     if scene.ground is None or not scene.instances:
         return []
     held = scene_arrays(scene)
-    key = ("contact", float(scene.ground))
+    key = (name, float(scene.ground))
     if key not in held:
         tol = ground_tolerance(scene)
-        found = [_footprint(scene.instances[i], scene.ground, tol) for i in _reaching_ground(scene, held, tol)]
-        held[key] = [x for x in found if x is not None]
+        lowest = held["world_centre"][:, 1] - held["world_radius"]
+        near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
+        near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
+        found = [(int(i), make(scene.instances[i], scene.ground, tol)) for i in near]
+        held[key] = [(i, x) for i, x in found if x is not None]
     return held[key]
-
-
-def _reaching_ground(scene, held, tol):
-    """Indices of the casters whose mesh's box reaches down to the ground plane (within ``tol``)."""
-    lowest = held["world_centre"][:, 1] - held["world_radius"]
-    near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
-    return near[_box_bottom(scene, held, near) <= scene.ground + tol]
 
 
 def _sheet(inst, ground, tol):
@@ -182,17 +184,11 @@ def sheets(scene) -> list:
         those faces (world x, z). Empty without a ground plane. Kept with
         the scene's arrays until the scene changes.
     """
-    if scene.ground is None or not scene.instances:
+    found = _on_ground(scene, "sheets", _sheet)
+    if not found:
         return []
-    held = scene_arrays(scene)
-    key = ("sheets", float(scene.ground))
-    if key not in held:
-        tol = ground_tolerance(scene)
-        slot = np.cumsum(held["casts"]) - 1
-        found = [(int(slot[i]), _sheet(scene.instances[i], scene.ground, tol))
-                 for i in _reaching_ground(scene, held, tol)]
-        held[key] = [(s, t) for s, t in found if t is not None]
-    return held[key]
+    slot = np.cumsum(scene_arrays(scene)["casts"]) - 1
+    return [(int(slot[i]), tri) for i, tri in found]
 
 
 def ground_sheet_slots(scene, points, own):

@@ -122,7 +122,7 @@ def footprints(scene) -> list:
 
 
 def _on_ground(scene, name, make):
-    """``[(i, make(instance i, ground, tol))]`` over the casters ``i`` whose mesh's box reaches down to
+    """``[(caster slot, make(instance, ground, tol))]`` over the casters whose mesh's box reaches down to
     the ground plane (within its tolerance), where not None; kept with the scene's arrays as ``name``."""
     if scene.ground is None or not scene.instances:
         return []
@@ -133,8 +133,9 @@ def _on_ground(scene, name, make):
         lowest = held["world_centre"][:, 1] - held["world_radius"]
         near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
         near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
-        found = [(int(i), make(scene.instances[i], scene.ground, tol)) for i in near]
-        held[key] = [(i, x) for i, x in found if x is not None]
+        slot = np.cumsum(held["casts"]) - 1            # a caster's position in Scene.casters
+        found = [(int(slot[i]), make(scene.instances[i], scene.ground, tol)) for i in near]
+        held[key] = [(k, x) for k, x in found if x is not None]
     return held[key]
 
 
@@ -184,11 +185,7 @@ def sheets(scene) -> list:
         those faces (world x, z). Empty without a ground plane. Kept with
         the scene's arrays until the scene changes.
     """
-    found = _on_ground(scene, "sheets", _sheet)
-    if not found:
-        return []
-    slot = np.cumsum(scene_arrays(scene)["casts"]) - 1
-    return [(int(slot[i]), tri) for i, tri in found]
+    return _on_ground(scene, "sheets", _sheet)
 
 
 def ground_sheet_slots(scene, points, own):
@@ -290,7 +287,7 @@ def contact_mask(scene, points):
         farther than that tolerance from the footprint's outline. None when
         the scene has no footprint (nothing to test).
     """
-    fps = footprints(scene)
+    fps = _on_ground(scene, "contact", _footprint)     # footprints(scene), with the casters' slots
     if not fps:
         return None
     tol = ground_tolerance(scene)
@@ -300,7 +297,7 @@ def contact_mask(scene, points):
     if not len(cand):
         return mask
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    for tri, outline in fps:
+    for _, (tri, outline) in fps:
         for k, hit in _in_chunks(q_all, tri, len(outline)):
             if hit.any():
                 hit[hit] = _far_from(q_all[k][hit], outline, tol)

@@ -179,7 +179,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         }
         /* heaviest map first (a sorting network of the four), so that the
          * vote below is decided early */
-        sort4_heaviest_first(wt, k);
+        sort4_heaviest_first(wt, k, 0);
         for (int m = 0; m < 4; ++m) {
             LANE_STORE(k[m], kw[m]);
             LANE_STORE(wt[m] / wsum, mw[m]);
@@ -209,6 +209,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     iv open = act;
     for (int m = 0; m < 4 && VANY(open); ++m) {
         fv dx, dy, dz, depth, fx, fy;
+        NORMAL_PLANE_DECL
         const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz, cqx, cqy, cqz,
                                              &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
         const fv wm = LANE_LOAD(mw[m]);
@@ -225,13 +226,22 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         LANE_ARRAY int ta[LANES], va[LANES];
         LANE_ARRAY float za[LANES];
         iv tt[4];
-        fv tw[4];
+        fv tw[4], tb[4];
         for (int c = 0; c < 4; ++c) {
             const int ddy = c >> 1, ddx = c & 1;
             tt[c] = VMIN(VMAX(y0 + ddy, (iv)(0)), (iv)(R - 1)) * R + VMIN(VMAX(x0 + ddx, (iv)(0)), (iv)(R - 1));
             tw[c] = wm * (ddy ? ty : 1.0f - ty) * (ddx ? tx : 1.0f - tx);
+#if SURFACE_NORMALS && PLANE_BIAS           /* the tap's centre lies (ddx - tx, ddy - ty) texels from the point */
+            tb[c] = tap_bias_v(S, R, bias, pu, pv, pe, (float)ddx - tx, (float)ddy - ty);
+#else
+            tb[c] = bias;
+#endif
         }
-        sort4_heaviest_first(tw, tt);       /* texels heaviest first, too */
+#if SURFACE_NORMALS && PLANE_BIAS
+        sort4_heaviest_first(tw, tt, tb);   /* texels heaviest first, too */
+#else
+        sort4_heaviest_first(tw, tt, 0);
+#endif
         for (int c = 0; c < 4; ++c) {
             const iv tex = tt[c];
             const fv w = tw[c];
@@ -239,7 +249,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
             LANE_STORE(tex, ta);
             LANE_STORE(ask, va);
             stored_v(S, T, kw[m], ta, va, za, LANES);
-            vote += VSEL((fv)(0.0f), w, ask & MASK(depth > LANE_LOAD(za) + bias));
+            vote += VSEL((fv)(0.0f), w, ask & MASK(depth > LANE_LOAD(za) + tb[c]));
             rest -= w;
             open &= MASK(vote <= 0.5f) & MASK(vote + rest > 0.5f - 1e-5f);
             if (!VANY(open)) break;
@@ -270,6 +280,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         LANE_STORE(k, ka);
     }
     fv dx, dy, dz, depth, fx, fy;
+    NORMAL_PLANE_DECL
     const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz, cqx, cqy, cqz,
                                        &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
     if (!VANY(valid)) {
@@ -280,7 +291,12 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     }
     LANE_STORE(VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1)), ta);
     LANE_STORE(depth, dz_out);
-    LANE_STORE(bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS), bz_out);
+    const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS);
+#if SURFACE_NORMALS && PLANE_BIAS           /* the texel's centre lies (floor(f) + 1/2 - f) texels from the point */
+    LANE_STORE(tap_bias_v(S, R, bias, pu, pv, pe, floor(fx) + 0.5f - fx, floor(fy) + 0.5f - fy), bz_out);
+#else
+    LANE_STORE(bias, bz_out);
+#endif
     return valid;
 #endif
 }

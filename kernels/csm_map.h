@@ -2,7 +2,8 @@
  *
  *   map_frame_v()    a point seen from a map: axis, depth, texel coordinates
  *   bias_v()         the depth tolerance of a lane against a map (with
- *                    SURFACE_NORMALS, at most the plane's within a texel)
+ *                    SURFACE_NORMALS and PLANE_BIAS, the receiver's plane's
+ *                    at each tap: tap_bias_v())
  *   sort4_heaviest_first()  the vote's ordering of maps and taps (FILTERED)
  *   surface_rule_v() rays leaving their own body's surface (SURFACE_NORMALS)
  *
@@ -19,11 +20,11 @@
 #ifndef PLANE_BIAS
 #error "PLANE_BIAS (0/1: the plane's bias of bias_v) must be defined by the host"
 #endif
-#if PLANE_BIAS && (!defined(PLANE_BIAS_SLOPE) || !defined(PLANE_BIAS_TEXELS))
-#error "PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS (pyshadow.csm.core) must be defined by the host"
+#if PLANE_BIAS && !defined(PLANE_BIAS_TEXELS)
+#error "PLANE_BIAS_TEXELS (pyshadow.csm.core) must be defined by the host"
 #endif
-#define NORMAL_LIFT_PARAMS , iv up, fv ox, fv oy, fv oz, float btex
-#define NORMAL_BIAS_PARAMS , iv up, fv ox, fv oy, fv oz
+#define NORMAL_LIFT_PARAMS , iv up, fv ox, fv oy, fv oz, float btex, fv *pu, fv *pv, fv *pe
+#define NORMAL_BIAS_PARAMS , iv up, float btex
 #else
 #define NORMAL_LIFT_PARAMS
 #define NORMAL_BIAS_PARAMS
@@ -41,7 +42,11 @@
  * (u, v, d the map's rows): the least lift after which the texel centres
  * within SURFACE_LIFT_TEXELS of the point on each map axis pass above the
  * tangent plane by more than the depth bias btex covers -- none for a map
- * that looks at the surface steeply, up to about 0.7 texel for a grazing one. */
+ * that looks at the surface steeply, up to about 0.7 texel for a grazing one.
+ * With PLANE_BIAS and the default bias (btex > 0) they are not lifted: the
+ * receiver's plane through the point instead, whose depth grows by
+ * (pu dx + pv dy + pe) / R at (dx, dy) texels from the texel point
+ * (pe: the texel point's offset from the point, finite rays); tap_bias_v(). */
 __attribute__((always_inline))
 inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, fv qy, fv qz,
                       fv tx, fv ty, fv tz,
@@ -56,8 +61,19 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
     const fv vx = LANE_GATHER(fv, BASIS, 3), vy = LANE_GATHER(fv, BASIS, 4), vz = LANE_GATHER(fv, BASIS, 5);
 #undef BASIS
 #if SURFACE_NORMALS
-    {
-        const fv sd = ox * *dx + oy * *dy + oz * *dz;
+    const fv sd = ox * *dx + oy * *dy + oz * *dz;
+#if PLANE_BIAS
+    const int plane = btex > 0.0f;
+#else
+    const int plane = 0;
+#endif
+    if (plane) {
+        const fv od = VMIN(VMAX(sd, (fv)(1e-3f)), (fv)(1.0f));
+        *pu = VSEL((fv)(0.0f), (ox * ux + oy * uy + oz * uz) / od, up);
+        *pv = VSEL((fv)(0.0f), (ox * vx + oy * vy + oz * vz) / od, up);
+        *pe = -(*pu * ((qx - tx) * ux + (qy - ty) * uy + (qz - tz) * uz)
+                + *pv * ((qx - tx) * vx + (qy - ty) * vy + (qz - tz) * vz)) * (0.5f * (float)R);
+    } else {
         const fv lt = VABS(ox * ux + oy * uy + oz * uz) + VABS(ox * vx + oy * vy + oz * vz);
         const fv h = VMAX((fv)(SURFACE_LIFT_TEXELS) * lt - btex * sd, (fv)(0.0f)) * (2.0f / (float)R);
         const iv lift = up & MASK(sd > 0.0f);
@@ -67,6 +83,7 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
         tx = VSEL(tx, tx + h * ox, lift);
         ty = VSEL(ty, ty + h * oy, lift);
         tz = VSEL(tz, tz + h * oz, lift);
+        *pu = *pv = *pe = (fv)(0.0f);
     }
 #endif
     *depth = (1.0f - (qx * *dx + qy * *dy + qz * *dz)) * 0.5f;
@@ -79,13 +96,12 @@ inline iv map_frame_v(__global const float *bases, const int *ka, int R, fv qx, 
 /* depth tolerance of each lane for map axis (dx, dy, dz): against the
  * point's own surface a quantum, a share of a texel and the angle a between
  * the query direction and the map's axis; against other casters only
- * bias_other (the quantum). With SURFACE_NORMALS and PLANE_BIAS, the lanes of `up` (on
- * their own surface, unit normal (ox, oy, oz), object frame) take no more
- * than their surface's depth can differ within the point's texel: the
- * quantum plus PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan(n) texels (n the
- * angle between normal and axis; pyshadow.csm.core gives the derivation),
- * plus the same term in a -- so a wall a texel or two beside the point is
- * seen where its own surface faces the map */
+ * bias_other (the quantum). With SURFACE_NORMALS and PLANE_BIAS and the
+ * default bias (btex > 0), the lanes of `up` (on their own surface, unit
+ * normal known) take the quantum plus PLANE_BIAS_TEXELS and the same term
+ * in a, to which tap_bias_v() adds their plane's depth at each tap's centre
+ * (pyshadow.csm.core gives the derivation): a wall beside the point is seen
+ * wherever it rises above the point's plane */
 __attribute__((always_inline)) inline fv tan_of_cos_v(fv c)    /* the cosine clamped to [1e-3, 1] */
 {
     c = VMIN(VMAX(c, (fv)(1e-3f)), (fv)(1.0f));
@@ -97,16 +113,27 @@ inline fv bias_v(const scene_t *S, int R, iv j, iv own, fv vx, fv vy, fv vz, fv 
     const fv tan_a = tan_of_cos_v(vx * dx + vy * dy + vz * dz);
     fv bias_self = S->bias_abs + (S->bias_texels + S->bias_tan * tan_a) / (float)R;
 #if SURFACE_NORMALS && PLANE_BIAS
-    const fv tan_n = tan_of_cos_v(ox * dx + oy * dy + oz * dz);
-    const fv plane = S->bias_abs + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * tan_n + S->bias_tan * tan_a) / (float)R;
-    bias_self = VSEL(bias_self, VMIN(bias_self, plane), up);
+    if (btex > 0.0f)
+        bias_self = VSEL(bias_self, S->bias_abs + (PLANE_BIAS_TEXELS + S->bias_tan * tan_a) / (float)R, up);
 #endif
     return VSEL((fv)(S->bias_other), bias_self, MASK(own == -1) | MASK(own == j));
 }
 
+#if SURFACE_NORMALS && PLANE_BIAS
+/* the bias b of a tap whose texel centre lies (cx, cy) texels from the
+ * texel point: b less the plane's rise there (map_frame_v's pu, pv, pe),
+ * at least the quantum. The lanes without a plane (pu = pv = pe = 0) keep b. */
+__attribute__((always_inline))
+inline fv tap_bias_v(const scene_t *S, int R, fv b, fv pu, fv pv, fv pe, fv cx, fv cy)
+{
+    return VMAX(b - (pu * cx + pv * cy + pe) / (float)R, (fv)(S->bias_abs));
+}
+#endif
+
 #if FILTERED
-/* sort four (weight w[i], item x[i]) lane vectors by weight, heaviest first (a sorting network) */
-inline void sort4_heaviest_first(fv *w, iv *x)
+/* sort four (weight w[i], item x[i], and z[i] unless z is 0) lane vectors by
+ * weight, heaviest first (a sorting network) */
+inline void sort4_heaviest_first(fv *w, iv *x, fv *z)
 {
     const int pairs[5][2] = {{0, 1}, {2, 3}, {0, 2}, {1, 3}, {1, 2}};
     for (int p = 0; p < 5; ++p) {
@@ -115,6 +142,10 @@ inline void sort4_heaviest_first(fv *w, iv *x)
         const fv wa = VSEL(w[a], w[b], swap), wb = VSEL(w[b], w[a], swap);
         const iv xa = VSEL(x[a], x[b], swap), xb = VSEL(x[b], x[a], swap);
         w[a] = wa; w[b] = wb; x[a] = xa; x[b] = xb;
+        if (z) {
+            const fv za = VSEL(z[a], z[b], swap), zb = VSEL(z[b], z[a], swap);
+            z[a] = za; z[b] = zb;
+        }
     }
 }
 #endif
@@ -149,12 +180,14 @@ inline iv surface_rule_v(fv hs, iv j, iv own, const fv *ox, const fv *oy, const 
     return up;
 }
 #define NORMAL_PARAMS , fv mx, fv my, fv mz
-#define NORMAL_LIFT_ARGS , up, ox, oy, oz, S->bias_texels
-#define NORMAL_BIAS_ARGS , up, ox, oy, oz
+#define NORMAL_LIFT_ARGS , up, ox, oy, oz, S->bias_texels, &pu, &pv, &pe
+#define NORMAL_BIAS_ARGS , up, S->bias_texels
+#define NORMAL_PLANE_DECL fv pu, pv, pe;
 #else
 #define NORMAL_PARAMS
 #define NORMAL_LIFT_ARGS
 #define NORMAL_BIAS_ARGS
+#define NORMAL_PLANE_DECL
 #endif
 
 #endif  /* NTYPES */

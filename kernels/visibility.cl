@@ -30,9 +30,11 @@
  *     passes normals), a ray leaving the surface of instance j itself
  *     (w'.m' > 0, m' its normal in the frame) follows the surface rule of
  *     csm_lookup.h: its lookup direction is raised to the view set's
- *     covering angle above the tangent plane where it is lower, and the
- *     point is lifted off the surface where the map sees it obliquely
- *     (pyshadow.csm.surface_rule gives the reasons).
+ *     covering angle above the tangent plane where it is lower, and each
+ *     tap compares with the point's own plane at the tap's texel centre
+ *     (PLANE_BIAS with the default bias; else the point is lifted off the
+ *     surface where the map sees it obliquely; pyshadow.csm.surface_rule
+ *     gives the reasons).
  *   A point before its ray's chord through the instance (inside its sphere
  *   and its mesh's box) is asked there (csm_lookup.h, instance_v); a ray
  *   whose chord is empty or behind it, points outside map k's square or in
@@ -95,7 +97,9 @@
  *   SURFACE_NORMALS      1: every query carries its surface's unit normal
  *                        (scene_visible: normals float (N, 3); scene_ao:
  *                        the point's normal) for the surface rule
- *   SURFACE_LIFT_TEXELS  float: the surface rule's lift (csm_lookup.h)
+ *   SURFACE_LIFT_TEXELS  float: the surface rule's lift (csm_map.h)
+ *   PLANE_BIAS           1: the receiver's plane with SURFACE_NORMALS;
+ *   PLANE_BIAS_TEXELS    float: its curvature allowance (csm_map.h)
  *   FINITE_RAYS          1: each query carries its length tmax float (N),
  *                        world units, > 0 (+inf = unbounded); occluders
  *                        beyond it do not count (scene_tables.h). In

@@ -25,10 +25,11 @@ def bunny():
 def test_traced_taps_answer_as_the_built_csm(bunny, lookup):
     # The model asks Embree the question each tap asks of the tables. Rays from off the body: the same
     # answer ray for ray (float64 against float32 and the rasteriser's coverage at triangle edges decide
-    # the rest). Rays from its own surface: the compression may store any depth in [z1, z2) of a run of
-    # maps, never one nearer than z1, so the built CSM can only light a point the model shadows (a point
-    # within a texel of its own sloping surface) -- never the reverse -- and does so for a minority of the
-    # model's flips (16-22 % on the shared meshes at these sizes).
+    # the rest). Rays from its own surface: where the traced ray meets the mesh, the tables hold a depth
+    # inside the first solid layer, not its front; the model keeps one map's (the layer's middle,
+    # error_model._stored_depth), the compression narrows it over runs of maps. Measured here: model and
+    # kernel differ on 13-16 % as many own rays as the model flips against Embree (both lookups), on
+    # 0.24 / 0.20 % of the rays the model shadowing and on 0.12 / 0.12 % the kernel.
     csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False)
     rays = rays_for(bunny, points=600, samples=16, near=4000, seed=3)
     L = Layout(csm.views, csm.resolution, csm.depth_bits, csm.centre, csm.radius, csm.box)
@@ -41,9 +42,8 @@ def test_traced_taps_answer_as_the_built_csm(bunny, lookup):
         kernel = scene.visible(r["p"], r["d"], surface_ids=ids, normals=r["n"] if own else None, lookup=lookup)
         flips = np.mean(model != r["truth"])
         assert flips > 0.005                                          # there is something to predict
-        assert np.mean(model & ~kernel) <= 0.0005, name
         if own:
-            assert np.mean(~model & kernel) <= 0.3 * flips
+            assert np.mean(model != kernel) <= 0.2 * flips
         else:
             assert np.mean(model != kernel) <= 0.0005
 

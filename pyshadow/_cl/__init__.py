@@ -352,8 +352,7 @@ def _probe_job(dev) -> dict:
     scene = {"DEPTH_BITS": 16, "IEND_T": "ushort", "PAIR_WIDE": 0, "SEARCH_BLOCK": 16,
              "NTYPES": 1, "GROUND": 1, "LAYOUT_ZIGZAG": 1, "LAYOUT_HILBERT": 1,
              "FILTER_ANGLE_EPS": "1e-4f", "HAVE_FP64": fp64, "BATCH": 128, "SURFACE_NORMALS": 1,
-             "SURFACE_LIFT_TEXELS": "0.5f", "PLANE_BIAS": 1, "PLANE_BIAS_SLOPE": "0.70710677f",
-             "PLANE_BIAS_TEXELS": "0.25f"}
+             "SURFACE_LIFT_TEXELS": "0.5f", "PLANE_BIAS": 1, "PLANE_BIAS_TEXELS": "0.25f"}
     builds = [("raster.cl", {"RES": 64, "LAYERS": 3, "FACING": 1}),
               ("visibility.cl", {**scene, "FILTERED": 0, "POINTS_F64": fp64, "DIRS_F64": fp64,
                                  "SAMPLES": 36, "AO_POINTS": 3, "BENT_NORMALS": 1, "TRANSFER": 1}),

@@ -16,7 +16,7 @@ from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
            "FRONT_MARGIN_TEXELS", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN", "VOTE_BIAS_TEXELS",
-           "PLANE_BIAS_SLOPE", "PLANE_BIAS_TEXELS",
+           "PLANE_BIAS_TEXELS",
            "front_margin", "SLOPE_SLACK_QUANTA", "slope_slack", "BOX_PAD", "lookup_box"]
 
 DEPTH_Q = 65534          # 16-bit depth k means k / DEPTH_Q
@@ -39,15 +39,16 @@ _LAYOUTS = ("zigzag", "hilbert")
 DEFAULT_BIAS_TEXELS = 1.5
 DEFAULT_BIAS_TAN = 0.5
 VOTE_BIAS_TEXELS = 1.0      # the same for the vote lookup
-# ... but a point whose normal is known (the surface rule's rays) takes at
-# most quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan n + DEFAULT_BIAS_TAN
-# tan a) / R, n the angle between its normal and the map's axis. Derived, not
-# tuned: the texel's centre lies within sqrt(1/2) texel of the point, so its
-# own surface, a plane there, lies within sqrt(1/2) tan n texels of depth of
-# it at the centre, and a surface curving towards the map with a radius of
-# one texel within 1/4 texel more; every stored depth lies at or behind the
-# centre's first surface (benchmarks/README.md, "The plane's bias")
-PLANE_BIAS_SLOPE = 0.5 ** 0.5
+# ... but a point whose normal m is known (the surface rule's rays) is
+# compared at each tap with its own surface, the plane through it with normal
+# m, at the tap's texel centre: bias max(quantum, quantum + (PLANE_BIAS_TEXELS
+# + DEFAULT_BIAS_TAN tan a - rise) / R), where the plane lies `rise` texels of
+# depth behind the point at the centre, rise = (m.u dx + m.v dy) / (m.d) for a
+# centre (dx, dy) texels from the point (u, v, d the map's rows; m.d clamped
+# to at least 1e-3). Derived, not tuned: every stored depth lies at or behind
+# the centre's first surface, which for a plane is the plane itself; the
+# quarter texel covers a surface curving towards the map with a radius of one
+# texel (benchmarks/README.md, "Inside corners: the receiver's plane")
 PLANE_BIAS_TEXELS = 0.25
 
 

@@ -17,9 +17,12 @@ feature size, thin parts, silhouettes and openness are what make the
 substituted ray differ -- so nothing is fitted to a mesh; the cost is one
 Embree pass per tap, independent of map count and resolution.
 
-What it leaves out: the compression (exact for every point outside the
-object, :mod:`pyshadow.csm`), the rasteriser's coverage rule at triangle
-edges against Embree's, and the footprint option. How far its predictions
+Where the traced ray meets the mesh, the model keeps what the compression
+stores there: a depth in the first solid layer the centre ray crosses (its
+middle, as one map's interval would give), against which a point on that
+layer's own surface is never behind. What it leaves out: how runs of maps
+narrow that interval, the rasteriser's coverage rule at triangle edges
+against Embree's, and the footprint option. How far its predictions
 lie from measured CSMs on the shared meshes is measured by
 ``benchmarks/error_model.py`` and stated as :data:`MODEL_RATIO` (the range of
 measured / predicted); the sampling uncertainty of each prediction is the
@@ -33,7 +36,7 @@ import math
 import numpy as np
 
 from ..views import ViewSet
-from .core import DEPTH_Q
+from .core import DEPTH_Q, front_margin
 from .reference import shadow_taps
 
 __all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "LARGE_WORK", "traced_vote", "truth_visible", "model_visible",
@@ -128,7 +131,9 @@ def traced_vote(tracer):
     callable
         ``vote(layout, pn, wn, maps, map_weights, **taps)``: the summed
         weights of the taps whose texel-centre ray, from the point's depth
-        plus the bias towards the light along the map's axis, meets the mesh.
+        plus the bias towards the light along the map's axis, meets the mesh
+        where the depth the compression keeps (:func:`_stored_depth`) lies
+        before the point's, less the bias.
     """
     def vote(layout, pn, wn, maps, map_weights, **kw):
         R = layout.resolution
@@ -142,9 +147,27 @@ def traced_vote(tracer):
             hit = np.zeros(len(pn), bool)
             if len(ask):
                 hit[ask] = tracer.occluded(o[ask], B[ask, 2])
+            met = np.flatnonzero(hit)
+            if len(met):        # the compression's depth: the middle of the first solid layer
+                hit[met] = _stored_depth(tracer, o[met] + B[met, 2] * (1.0 - start[met])[:, None], B[met, 2],
+                                         front_margin(R)) < depth[met] - (b[met] if np.ndim(b) else b)
             out += weight * hit
         return out
     return vote
+
+
+def _stored_depth(tracer, front, axis, margin):
+    """The depth a CSM keeps where the centre ray from ``front`` (depth 0) along ``-axis`` meets the mesh:
+    the middle of its first solid layer ``[z1, z2)``, the layer's far end drawn in by the front margin
+    (``margin``, normalised depth; the most z2's slope term takes) and at least ``z1``; ``z1`` where the ray
+    meets one surface only (:func:`pyshadow.csm.reference.compress_reference`: one map's interval, the
+    middle of its keys)."""
+    t1 = tracer.intersect(front, -axis)[0]
+    step = t1 + 1e-5
+    t2 = step + tracer.intersect(front - axis * step[:, None], -axis)[0]
+    z1 = 0.5 * t1
+    z2 = np.maximum(0.5 * t2 - margin, z1)                  # inf - margin: inf
+    return np.where(np.isfinite(z2), 0.5 * (z1 + z2), z1)
 
 
 def _frame(bodies):

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .build import footprint_scale
-from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS, front_margin,
+from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin,
                    slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
@@ -278,6 +278,18 @@ def _lift(normals, rows, B, R, bias, bias_texels):
     return np.where(rows & (sd > 0), h, 0.0)
 
 
+def _plane_slopes(normals, B, shift, R):
+    """The receiver's plane in maps with bases ``B``: its depth grows by ``(pu dx + pv dy + pe) / R``
+    (normalised depth) at ``(dx, dy)`` texels from the texel point, whose offset from the point is
+    ``shift`` (normalised units; zero but for finite rays). The normal's cosine to the axis is clamped to
+    [1e-3, 1] (``map_frame_v``)."""
+    od = np.clip(np.einsum("ij,ij->i", normals, B[:, 2]), 1e-3, 1.0)
+    pu = np.einsum("ij,ij->i", normals, B[:, 0]) / od
+    pv = np.einsum("ij,ij->i", normals, B[:, 1]) / od
+    pe = -(pu * np.einsum("ij,ij->i", shift, B[:, 0]) + pv * np.einsum("ij,ij->i", shift, B[:, 1])) * (0.5 * R)
+    return pu, pv, pe
+
+
 def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
                 self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS,
                 normals=None, lift=None, texel_points=None) -> np.ndarray:
@@ -361,11 +373,14 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
         taps = [(0, 0, lambda tx, ty: 1.0)]
     else:
         raise ValueError(f"texels must be 1 or 4, got {texels!r}")
+    # the receiver's plane (rows `lift` with the default bias): each tap's tolerance is that of the plane
+    # through the point with its normal, at the tap's texel centre; the other rows are lifted instead
+    plane = normals is not None and bias is None
     for m in range(maps.shape[1]):
         k = maps[:, m]
         B = views.bases[k]
         pt = pn if texel_points is None else texel_points
-        if normals is None:
+        if normals is None or plane:
             q, qt = pn, pt
         else:
             h = _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
@@ -377,16 +392,19 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
         if bias is None:
             tan_a = _tan_to_axis(wn, B[:, 2])
             b = np.where(self_, quantum + (bias_texels + DEFAULT_BIAS_TAN * tan_a) / R, quantum)
-            if normals is not None:     # the rows of the surface rule: at most the plane's bias
-                plane = quantum + (PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE * _tan_to_axis(normals, B[:, 2])
-                                   + DEFAULT_BIAS_TAN * tan_a) / R
-                b = np.where(lift, np.minimum(b, plane), b)
         else:
             b = float(bias)
+        if plane:
+            pu, pv, pe = _plane_slopes(normals, B, q - qt, R)
+            base = quantum + (PLANE_BIAS_TEXELS + DEFAULT_BIAS_TAN * tan_a) / R
         gx, gy = (fx - 0.5, fy - 0.5) if texels == 4 else (fx, fy)
         x0, y0 = np.floor(gx), np.floor(gy)
         tx, ty = gx - x0, gy - y0
         for dy, dx, weight in taps:
             col = np.clip(x0.astype(np.int64) + dx, 0, R - 1)
             row = np.clip(y0.astype(np.int64) + dy, 0, R - 1)
-            yield k, row * R + col, col, row, depth, b, inside, map_weights[:, m] * weight(tx, ty)
+            bt = b
+            if plane:       # the plane's depth at the tap's centre (cx - fx, cy - fy texels from the point)
+                rise = (pu * (x0 + dx + 0.5 - fx) + pv * (y0 + dy + 0.5 - fy) + pe) / R
+                bt = np.where(lift, np.maximum(base - rise, quantum), b)
+            yield k, row * R + col, col, row, depth, bt, inside, map_weights[:, m] * weight(tx, ty)

@@ -14,26 +14,30 @@ body (``v . m > 0``)
 1. raises the lookup direction to the elevation :func:`covering_angle` of
    the view set where the ray is lower, so that every map the lookup may
    pick lies above the tangent plane, and
-2. lifts the point off the surface along ``m`` by
-   ``max(0, SURFACE_LIFT_TEXELS (|m.u| + |m.v|) - b (m.d))`` texels in each
-   map it asks (``u, v, d`` the map's rows, ``b`` the self-bias in texels):
-   the least lift after which the centre ray of the point's texel passes
-   above a flat face by more than the bias covers. None for a map that
-   sees the face steeply; up to 0.7 texel for a grazing one;
-3. takes as its self-bias at most what a plane with normal ``m`` through
-   the point needs in the point's texel: the quantum plus
-   ``PLANE_BIAS_TEXELS + PLANE_BIAS_SLOPE tan n + DEFAULT_BIAS_TAN tan a``
-   texels (:mod:`pyshadow.csm.core`; ``n`` the angle between ``m`` and the
-   map's axis, ``a`` between ray and axis) where that is below the constant
-   self-bias. A wall a texel or two beside the point (an inside corner) is
-   then seen where the face looks at the map; the constant 1.5 texels hid it.
+2. compares the point, at each tap, with its own surface: the plane
+   through it with normal ``m``, whose depth at the tap's texel centre
+   follows from ``m`` (:mod:`pyshadow.csm.core`, ``PLANE_BIAS_TEXELS``). Its
+   self-bias is the quantum plus ``PLANE_BIAS_TEXELS + DEFAULT_BIAS_TAN tan
+   a`` texels (``a`` between ray and map axis) less the depth by which the
+   plane lies behind the point at the centre, and at least the quantum. A
+   flat face is never its own occluder, however obliquely the map sees it,
+   and a wall rising above the plane beside the point (an inside corner) is
+   seen; the constant 1.5 texels hid one within about a texel and a half.
+   With a bias given by the caller (``bias=``), or with
+   ``pyshadow.visibility.csm.PLANE_BIAS = False``, the rule instead lifts
+   the point off the surface along ``m`` by ``max(0, SURFACE_LIFT_TEXELS
+   (|m.u| + |m.v|) - b (m.d))`` texels in each map it asks (``u, v, d`` the
+   map's rows, ``b`` the self-bias in texels): the least lift after which
+   the centre ray of the point's texel passes above a flat face by more
+   than the bias covers.
 
 What it costs: self-occluders in the band between the ray's elevation and
 the covering angle are answered as at the covering angle (the map spacing
 already limits what a CSM resolves there), and occluders rising less than
-the lift above the tangent plane are not seen by points on that surface (a
-CSM does not resolve them either). Points on other bodies or the ground are
-unchanged: their contact shadows stay sharp.
+a quarter texel of depth above the tangent plane are not seen by points on
+that surface (a CSM does not resolve them either). The plane is that of the
+normal passed: a shading normal far from its face's tilts it. Points on
+other bodies or the ground are unchanged: their contact shadows stay sharp.
 """
 from __future__ import annotations
 

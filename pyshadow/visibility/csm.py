@@ -46,8 +46,7 @@ from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
 from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
-from ..csm.core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_SLOPE, PLANE_BIAS_TEXELS,
-                        VOTE_BIAS_TEXELS)
+from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import ao_from_samples, direction_table, pattern_indices
@@ -66,8 +65,9 @@ __all__ = ["CSMVisibility", "lane_table", "instance_accel"]
 #: Whether scenes of at least BVH_MIN_INSTANCES casters may take the grid (pyshadow.visibility.grid)
 #: where it is balanced; False: always the tree (tests and benchmarks compare the two).
 USE_GRID = True
-#: Whether rays asked with their surface normals take the plane's bias (pyshadow.csm.core.PLANE_BIAS_SLOPE) where
-#: it is below the constant self-bias; False: the constant alone (benchmarks/surface_rule.py measures both).
+#: Whether rays asked with their surface normals and the default bias take the receiver's plane's bias at each tap
+#: (pyshadow.csm.core.PLANE_BIAS_TEXELS) and no lift; False: the constant self-bias and the surface rule's lift
+#: alone, the code before the plane's bias (benchmarks/surface_rule.py measures both).
 PLANE_BIAS = True
 
 
@@ -306,8 +306,7 @@ class CSMVisibility(_SampledSky):
              "BATCH": launch.shape().query_batch,
              "FILTERED": int(self._vote), "FILTER_ANGLE_EPS": f"{FILTER_ANGLE_EPS!r}f",
              "TRANSFER": 0, "SURFACE_NORMALS": 0, "FINITE_RAYS": 0, "SURFACE_LIFT_TEXELS": f"{float(SURFACE_LIFT_TEXELS)!r}f",
-             "PLANE_BIAS": int(PLANE_BIAS), "PLANE_BIAS_SLOPE": f"{float(PLANE_BIAS_SLOPE)!r}f",
-             "PLANE_BIAS_TEXELS": f"{float(PLANE_BIAS_TEXELS)!r}f",
+             "PLANE_BIAS": int(PLANE_BIAS), "PLANE_BIAS_TEXELS": f"{float(PLANE_BIAS_TEXELS)!r}f",
              "INSTANCE_BVH": int(accel == "tree"), "INSTANCE_GRID": int(accel == "grid"), "BVH_STACK": BVH_STACK}
         d.update(extra)
         if "SAMPLES" in extra:                  # scene_ao: points per work-item

@@ -321,9 +321,13 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         One fixed bias for every tap instead.
     bias_texels : float, optional
     normals : ndarray, shape (N, 3), optional
-        Unit surface normals in the CSM's frame, for the surface rule's lift
-        (:mod:`pyshadow.csm.surface_rule`) of the rows where ``lift`` is True.
+        Unit surface normals in the CSM's frame, for the surface rule
+        (:mod:`pyshadow.csm.surface_rule`) of the rows where ``lift`` is True:
+        with the default bias (``bias`` None) each tap's bias follows the
+        plane through the point with its normal (the receiver's plane), else
+        the point is lifted off the surface.
     lift : ndarray of bool, shape (N,), optional
+        The rows of the surface rule.
     texel_points : ndarray, shape (N, 3), optional
         Where each point's texel is taken, normalised frame (default ``pn``;
         a point before its chord through the caster: the chord's midpoint,

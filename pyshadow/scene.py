@@ -237,7 +237,7 @@ class Scene:
         every parameter: ``points``, ``directions`` (N, 3) world positions
         and directions (normalised there); ``bias``; ``surface_ids``;
         ``normals`` (grazing rays over a flat face are not shadowed by it, and
-        a wall a texel or two beside the point is seen);
+        a wall rising beside the point is seen);
         ``max_distance`` (float or (N,), world units: finite rays, e.g.
         towards a point light; :mod:`pyshadow.visibility.finite`) and
         ``straddle`` (``'error'`` or ``'embree'``: rays ending inside a

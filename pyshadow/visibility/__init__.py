@@ -66,9 +66,11 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         zero or non-finite rows are an error). With them, a ray leaving a
         caster's own surface is answered by the surface rule
         (:mod:`pyshadow.csm.surface_rule`): grazing rays over a flat face
-        are not shadowed by the face itself, and its self-bias shrinks to
-        what a plane with that normal needs in the point's texel, so a
-        wall a texel or two beside the point is seen. ``ambient_occlusion``
+        are not shadowed by the face itself, and each tap compares the
+        stored depth with the plane through the point with that normal at
+        the tap's texel centre (the default bias; with ``bias=`` the point
+        is lifted off the surface instead), so a wall rising beside the
+        point is seen. ``ambient_occlusion``
         always applies it. Backends that need no normals (``"embree"``) ignore them.
     max_distance : float or array_like, shape (N,), optional
         Finite shadow rays: the length of each ray, world units (> 0;

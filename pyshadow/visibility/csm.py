@@ -22,7 +22,9 @@ depth). A given ``bias`` applies to every caster instead.
 Rays that leave a caster's own surface at a known normal (AO always;
 ``visible(..., normals=...)``) follow the surface rule of
 :mod:`pyshadow.csm.surface_rule`: grazing rays over a flat face are not
-shadowed by that face.
+shadowed by that face, and with the default bias each tap's tolerance is
+that of the plane through the point at the tap's texel centre
+(``PLANE_BIAS``; the receiver's plane).
 
 Unused features cost nothing: a scene without casters compiles with
 ``NTYPES=0`` (no sphere test, instance tree or grid, or CSM lookup in the kernel), one

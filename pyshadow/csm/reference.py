@@ -269,12 +269,12 @@ def _tan_to_axis(v, axis):
     return np.sqrt(np.maximum(1.0 - c * c, 0.0)) / c
 
 
-def _lift(normals, rows, B, R, bias, bias_texels):
-    """The surface rule's lift of each row in the maps with bases ``B`` (normalised units)."""
-    b = 0.0 if bias is not None else bias_texels
+def _lift(normals, rows, B, R):
+    """The surface rule's lift of each row in the maps with bases ``B`` (normalised units), for a bias
+    given by the caller (no self-bias texels: with the default bias the receiver's plane applies instead)."""
     sd = np.einsum("ij,ij->i", normals, B[:, 2])
     lt = np.abs(np.einsum("ij,ij->i", normals, B[:, 0])) + np.abs(np.einsum("ij,ij->i", normals, B[:, 1]))
-    h = np.maximum(SURFACE_LIFT_TEXELS * lt - b * sd, 0.0) * (2.0 / R)
+    h = SURFACE_LIFT_TEXELS * lt * (2.0 / R)
     return np.where(rows & (sd > 0), h, 0.0)
 
 
@@ -387,7 +387,7 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
         if normals is None or plane:
             q, qt = pn, pt
         else:
-            h = _lift(normals, lift, B, R, bias, bias_texels)[:, None] * normals
+            h = _lift(normals, lift, B, R)[:, None] * normals
             q, qt = pn + h, pt + h
         depth = (1.0 - np.einsum("ij,ij->i", q, B[:, 2])) * 0.5
         fx = (np.einsum("ij,ij->i", qt, B[:, 0]) + 1.0) * 0.5 * R

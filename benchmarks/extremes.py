@@ -16,7 +16,8 @@ file:
 - ``translation``: the bundled scene moved 1e5 and 1e7 from the origin:
   visibility agreement with Embree on AO rays, and AO, against the scene at
   the origin (bounds: 0.1 points of agreement, 0.005 mean absolute AO).
-- ``scale``: the bundled scene scaled by 1e-3 and 1e4: agreement against the
+- ``scale``: the bundled scene scaled by 1e-3, 1e4, 1e-20 and 1e20 (the last
+  two beyond float32's products of three coordinates): agreement against the
   scene at scale 1 (bound: 0.1 points).
 
 and those of ``extremes_geometry.py`` (size, position, thin plate, 4 cm
@@ -154,7 +155,7 @@ def invariance_rows(kind: str, views, resolution: int) -> list[dict]:
     from pyshadow.data import default_scene
 
     base, camera = default_scene(views=views, resolution=resolution, width=160, height=120)
-    cases = ((1e5, 1.0), (1e7, 1.0)) if kind == "translation" else ((0.0, 1e-3), (0.0, 1e4))
+    cases = ((1e5, 1.0), (1e7, 1.0)) if kind == "translation" else ((0.0, 1e-3), (0.0, 1e4), (0.0, 1e-20), (0.0, 1e20))
     results = {}
     for offset, scale in ((0.0, 1.0),) + cases:
         shift = np.array([offset, 0.5 * offset, -offset])

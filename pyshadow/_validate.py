@@ -10,7 +10,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 __all__ = ["rows3", "squared_lengths", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
-           "check_transform", "check_indices"]
+           "check_transform", "check_indices", "FLOAT32_MAX", "check_float32_points", "check_float32_instances"]
 
 
 def rows3(a, name, n=None, dtype=np.float64):
@@ -176,3 +176,33 @@ def unit_normals(normals, n: int, name: str = "normals", dtype=np.float64) -> np
     for k in range(3):                  # by columns (faster than dividing by r[:, None])
         np.divide(m[:, k], r, out=out[:, k])
     return out
+
+
+#: The largest float32: the kernels read points relative to the scene's anchor, and the instance table
+#: (1 / world radius, anchor-relative centres), in float32.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def check_float32_points(p, anchor) -> float:
+    """The largest |coordinate| of points ``p`` (N, 3) relative to ``anchor``; ValueError naming the rows
+    that lie beyond float32's range from it (the kernels would read infinities)."""
+    rel = np.abs(np.asarray(p, np.float64) - anchor).max(axis=1)
+    bad = ~(rel <= FLOAT32_MAX)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"points: {int(bad.sum())} rows lie beyond float32's range from the scene's anchor "
+                         f"{np.asarray(anchor).tolist()} (row {i}: {np.asarray(p[i], np.float64).tolist()}, "
+                         f"|p - anchor| up to {float(rel[i]):.3g}; the kernels need at most {FLOAT32_MAX:.3g})")
+    return float(rel.max()) if len(rel) else 0.0
+
+
+def check_float32_instances(name, value, ids, radii, centres):
+    """ValueError naming the first instance (of ``ids``) whose field ``name`` of the kernels' instance
+    table, ``value`` (n, ...) float64, float32 cannot hold (world ``radii``, anchor-relative ``centres``)."""
+    bad = ~(np.abs(value.reshape(len(value), -1)) <= FLOAT32_MAX).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"instance {int(ids[k])}: its placement lies beyond float32's range ({name}: world radius "
+                         f"{float(radii[k]):.3g}, centre {np.asarray(centres[k]).tolist()} from the scene's "
+                         f"anchor): the kernels need 1 / radius and the anchor-relative centre within "
+                         f"{FLOAT32_MAX:.3g}")

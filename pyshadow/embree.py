@@ -14,7 +14,7 @@ import trimesh
 
 from ._compat import keyword_only
 from .contact import ground_tolerance
-from .mesh import bounding_sphere, load_mesh
+from .mesh import bounding_sphere, float32_unit, load_mesh
 from .views import ViewSet
 
 __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuffer", "ground_occludes",
@@ -24,27 +24,41 @@ __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuff
 def ray_epsilon(scale) -> np.ndarray:
     """Offset along a ray that safely leaves a surface at coordinates of size ``scale``.
 
-    64 float32 ulps of ``max(scale, 1e-30)``: large enough to step over the
+    64 float32 ulps of ``max(scale, 1.2e-38)`` (float32's smallest normal number):
+    large enough to step over the
     intersection error of a float32 ray tracer, small against any feature.
     """
-    scale = np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), 1e-30)
+    scale = np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), float(np.finfo(np.float32).tiny))
     return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
 
 
 class EmbreeScene:
     """An embreex scene of triangle soups with float64 helpers.
 
+    Embree tests rays against triangles in float32, whose products of three
+    coordinates overflow beyond about 7e12 and leave the normal range below
+    about 2e-13: there rays pass through triangles. Triangles whose largest
+    coordinate lies outside ``[2**-20, 2**20]`` are therefore given to Embree
+    scaled by a power of two (:func:`pyshadow.mesh.float32_unit`, the
+    attribute ``unit``), and so are the rays' origins and lengths; distances
+    come back in the caller's units. A power of two changes no significand:
+    the answers are those of the same scene at unit size, and within the band
+    those of the coordinates as given, bit for bit.
+
     Parameters
     ----------
     triangles : ndarray, shape (T, 3, 3)
-        World-space triangle corners (converted to float32 for Embree).
+        Triangle corners, any units (converted to float32 for Embree).
     """
 
     def __init__(self, triangles):
         from embreex import rtcore_scene as rtcs
         from embreex.mesh_construction import TriangleMesh
 
-        tri = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
+        tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+        # coordinates of any size: Embree sees them scaled by a power of two (1 near unit size)
+        self.unit = float32_unit(np.abs(tri).max()) if len(tri) else 1.0
+        tri = np.ascontiguousarray(tri * self.unit, dtype=np.float32)
         self.n_triangles = len(tri)
         self._scene = rtcs.EmbreeScene()
         if len(tri):
@@ -52,28 +66,32 @@ class EmbreeScene:
 
     def intersect(self, origins, directions, tfar=None):
         """Closest hits: (t float64 (N,) with inf for misses, primID int (N,), Ng (N,3))."""
-        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
-        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
+        o, d, kw = self._rays(origins, directions, tfar)
         if len(o) == 0 or self.n_triangles == 0:
             n = len(o)
             return np.full(n, np.inf), np.full(n, -1, np.int32), np.zeros((n, 3))
+        res = self._scene.run(o, d, output=1, **kw)
+        prim = np.asarray(res["primID"], dtype=np.int64)
+        t = np.where(prim >= 0, np.asarray(res["tfar"], dtype=np.float64), np.inf) / self.unit
+        return t, prim, np.asarray(res["Ng"], dtype=np.float64) / self.unit ** 2
+
+    def _rays(self, origins, directions, tfar):
+        """float32 origins and directions and embreex's keywords (``dists``: ``tfar``), in Embree's units."""
+        if self.unit != 1.0:        # exact in float64: a power of two
+            origins = np.asarray(origins, dtype=np.float64) * self.unit
+            tfar = None if tfar is None else np.asarray(tfar, dtype=np.float64) * self.unit
+        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
+        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
         kw = {}
         if tfar is not None:
             kw["dists"] = np.array(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)    # a writable copy
-        res = self._scene.run(o, d, output=1, **kw)
-        prim = np.asarray(res["primID"], dtype=np.int64)
-        t = np.where(prim >= 0, np.asarray(res["tfar"], dtype=np.float64), np.inf)
-        return t, prim, np.asarray(res["Ng"], dtype=np.float64)
+        return o, d, kw
 
     def occluded(self, origins, directions, tfar=None) -> np.ndarray:
         """Any hit along each ray within ``tfar`` (default: unbounded); bool (N,)."""
-        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
-        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
+        o, d, kw = self._rays(origins, directions, tfar)
         if len(o) == 0 or self.n_triangles == 0:
             return np.zeros(len(o), dtype=bool)
-        kw = {}
-        if tfar is not None:
-            kw["dists"] = np.array(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)    # a writable copy
         res = self._scene.run(o, d, query="OCCLUDED", **kw)
         return np.asarray(res) >= 0
 

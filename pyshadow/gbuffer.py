@@ -16,7 +16,7 @@ import trimesh
 from . import _cl
 from ._validate import check_transform
 from .camera import Camera, points_on_rays
-from .mesh import load_mesh
+from .mesh import float32_unit, load_mesh
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
 
@@ -219,6 +219,7 @@ def render_gbuffer(items, camera: Camera) -> dict:
     tris, obj, face, _near = gbuffer_triangles(items, camera)
     H, W = camera.height, camera.width
     npix = H * W
+    unit = 1.0
     t = np.full(npix, np.inf, np.float32)
     n_cam = np.zeros((npix, 3), np.float32)
     ids = np.full(npix, np.iinfo(np.int32).max, np.int32)
@@ -226,7 +227,10 @@ def render_gbuffer(items, camera: Camera) -> dict:
         if len(tris) >= 2**31 - 1:
             raise ValueError("too many triangles for one G-buffer")
         q = _cl.queue()
-        tb = _cl.to_device(tris.reshape(-1, 9), np.float32)
+        # the kernels multiply up to three coordinates: a scene of any size is rasterised scaled by a
+        # power of two (float32_unit; 1 near unit size), which moves no pixel; distances scale back below
+        unit = float32_unit(np.abs(tris).max())
+        tb = _cl.to_device((tris if unit == 1.0 else tris * unit).reshape(-1, 9), np.float32)
         one_pass = _one_pass()
         defines = {"GBUFFER_ATOMIC64": int(one_pass)}
         zbuf = _cl.empty((8 if one_pass else 4) * npix)
@@ -262,7 +266,7 @@ def render_gbuffer(items, camera: Camera) -> dict:
     tri_idx = np.where(hit, ids, 0)
     o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
     f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
-    t64 = np.where(hit, t.astype(np.float64), np.inf).reshape(H, W)
+    t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
     return _finish(camera, t64, n_cam.astype(np.float64).reshape(H, W, 3), o, f)
 
 

@@ -25,7 +25,12 @@ __all__ = [
     "mesh_hash",
     "normalised_vertices",
     "normalised_bounds",
+    "float32_unit",
 ]
+
+#: Coordinates whose largest magnitude lies in [2**-UNIT_BAND, 2**UNIT_BAND] are used as they are by
+#: the float32 ray tracer and the sphere fit; outside, they are scaled by :func:`float32_unit`.
+UNIT_BAND = 20
 
 
 class MeshCleanupWarning(UserWarning):
@@ -255,6 +260,35 @@ def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     return out
 
 
+def float32_unit(magnitude) -> float:
+    """A power of two that brings coordinates of size ``magnitude`` near 1, or 1 where they are already.
+
+    A float32 triangle test multiplies up to three coordinates together: beyond
+    about 7e12 (the cube root of float32's largest number) its products
+    overflow, below about 2e-13 they leave float32's normal range, and rays
+    pass through triangles (Embree, measured: every ray near a unit box scaled
+    by 1e13 or 1e-15 answers differently). Scaling by a power of two changes
+    no significand, so the answers of coordinates scaled by it are those of
+    the scene at size 1, and within ``2**+-UNIT_BAND`` of 1 nothing is scaled:
+    the answers there are bit for bit those of the coordinates themselves.
+
+    Parameters
+    ----------
+    magnitude : float
+        The largest absolute coordinate, any unit; 0 or not finite: 1 is returned.
+
+    Returns
+    -------
+    float
+        1.0, or ``2**-round(log2(magnitude))`` where ``magnitude`` lies outside
+        ``[2**-UNIT_BAND, 2**UNIT_BAND]``.
+    """
+    m = float(magnitude)
+    if not (np.isfinite(m) and m > 0.0) or 2.0 ** -UNIT_BAND <= m <= 2.0 ** UNIT_BAND:
+        return 1.0
+    return float(2.0 ** -np.round(np.log2(m)))
+
+
 def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     """Minimal sphere around the mesh's vertices: the object's normalised frame.
 
@@ -279,15 +313,25 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     verts = np.asarray(mesh.vertices, dtype=np.float64)
     if len(verts) == 0:
         raise ValueError("bounding_sphere: the mesh has no vertices")
+    bad = ~np.isfinite(verts).all(axis=1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"bounding_sphere: {int(bad.sum())} of {len(bad)} vertices are not finite (NaN or inf), "
+                         f"e.g. vertex {i} = {verts[i]}")
+    # the fit (qhull) on a mesh of extent near 1: scaled by an exact power of two (float32_unit) where
+    # its extent is not; a flat or degenerate hull falls back to the box's centre below
+    unit = float32_unit(np.ptp(verts, axis=0).max())
+    fit = mesh if unit == 1.0 else trimesh.Trimesh(verts * unit, np.asarray(mesh.faces), process=False)
     try:
-        centre, _ = trimesh.nsphere.minimum_nsphere(mesh)
-        centre = np.asarray(centre, dtype=np.float64)
+        with np.errstate(all="ignore"):
+            centre, _ = trimesh.nsphere.minimum_nsphere(fit)
+        centre = np.asarray(centre, dtype=np.float64) / unit
         if not np.isfinite(centre).all():
             raise ValueError
     except Exception:
         lo, hi = verts.min(axis=0), verts.max(axis=0)
         centre = 0.5 * (lo + hi)
-    radius = float(np.sqrt(((verts - centre) ** 2).sum(axis=1).max()))
+    radius = float(np.sqrt((((verts - centre) * unit) ** 2).sum(axis=1).max())) / unit
     if not radius > 0:
         raise ValueError("bounding_sphere: all vertices coincide (radius 0)")
     return centre, radius * (1.0 + 1e-9)

@@ -46,6 +46,31 @@ def _trace(tracer, points, normals, sel):
     return occ, hit
 
 
+@pytest.mark.parametrize("k", [-60, 60])
+def test_embree_scene_answers_at_any_size_as_at_unit_size(k):
+    """Embree's float32 triangle test fails beyond about 7e12 and below about 2e-13 (products of three
+    coordinates); triangles, origins and lengths scaled by 2**k reach it scaled back by a power of
+    two: the same hits, and distances scaled exactly."""
+    import trimesh
+
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    rng = np.random.default_rng(4)
+    o = np.c_[rng.uniform(-2, 2, 3000), np.full(3000, 0.3), rng.uniform(-2, 2, 3000)]
+    d = rng.normal(size=(3000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    f = 2.0 ** k
+    base, scaled = embree.EmbreeScene(box.triangles), embree.EmbreeScene(box.triangles * f)
+    assert base.unit == 1.0 and scaled.unit == 2.0 / f              # the largest coordinate, f / 2, to 1
+    hit = base.occluded(o, d)
+    assert 0.1 < hit.mean() < 0.5
+    np.testing.assert_array_equal(scaled.occluded(o * f, d), hit)
+    np.testing.assert_array_equal(scaled.occluded(o * f, d, tfar=0.5 * f), base.occluded(o, d, tfar=0.5))
+    t0, p0, _ = base.intersect(o, d)
+    t1, p1, _ = scaled.intersect(o * f, d)
+    np.testing.assert_array_equal(p1, p0)
+    np.testing.assert_array_equal(t1, t0 * f)
+
+
 def test_embree_tracer_matches_ambient_occlusion(covered):
     """The threaded rays are ambient_occlusion's, bit for bit."""
     scene, points, normals, sel = covered

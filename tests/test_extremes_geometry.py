@@ -55,6 +55,56 @@ def test_mesh_size_1e_3_and_1e4_answer_as_size_1(views):
     assert out[1.0]["disagree"] <= SMALL_BOUND
 
 
+@pytest.mark.parametrize("k", [-66, 66])
+def test_scene_scaled_by_a_power_of_two_answers_bit_for_bit(views, k):
+    """Transforms, ground and camera scaled by 2**k (beyond the sizes where float32 products of
+    three coordinates overflow or leave the normal range: G-buffer, Embree): every answer is that of
+    the scene at unit size, bit for bit -- the rendered image, the surface points (scaled), the
+    kernel's visibility and Embree's on the identical rays."""
+    parts = eg._pair_parts(1.0, np.zeros(3))
+    base = eg.scene_of([(m, None) for m in parts], views, RES)
+    cam = eg._pair_views(1.0, np.zeros(3))
+    cam = pyshadow.Camera(cam.eye, cam.target, fov_y=45.0, width=48, height=36)
+    f = 2.0 ** k
+    scaled = pyshadow.Scene(ground=base.ground * f)
+    for inst in base.instances:
+        scaled.add(inst.csm, np.diag([f, f, f, 1.0]) @ inst.transform, mesh=inst.mesh)
+    far = pyshadow.Camera(cam.eye * f, cam.target * f, fov_y=45.0, width=48, height=36)
+    ref, got = (s.render(c, sampling=pyshadow.Sampling(8)) for s, c in ((base, cam), (scaled, far)))
+    np.testing.assert_array_equal(got.object_id, ref.object_id)
+    np.testing.assert_array_equal(got.ao, ref.ao)
+    assert (ref.object_id >= 0).mean() > 0.1 and (ref.object_id == -2).mean() > 0.5     # bodies, ground
+    g0, g1 = (pyshadow.render_gbuffer([(i.mesh, i.transform) for i in s.instances], c)
+              for s, c in ((base, cam), (scaled, far)))
+    hit = g0["object_id"] >= 0
+    np.testing.assert_array_equal(g1["position"][hit], g0["position"][hit] * np.float32(f))
+    p = g0["position"][hit].astype(np.float64)
+    n = g0["normal"][hit].astype(np.float64)
+    P, D = eg.ao_rays(p, n, 4)
+    sid = np.repeat(g0["object_id"][hit], 4).astype(np.int32)
+    for got_, ref_ in ((scaled.visible(P * f, D, surface_ids=sid), base.visible(P, D, surface_ids=sid)),
+                       (embree.visible(scaled, P * f, D), embree.visible(base, P, D))):
+        np.testing.assert_array_equal(got_, ref_)
+
+
+def test_placements_beyond_float32_are_refused(views):
+    """A caster whose 1 / radius, or points whose distance from the scene's anchor, float32 cannot
+    hold: a ValueError naming the limit, not an answer from infinities."""
+    box = eg._box_at((1, 1, 1), (0, 0.5, 0))
+    csm = eg._build(box, views, 16)
+    tiny = pyshadow.Scene(ground=0.0)
+    tiny.add(csm, np.diag([1e-40, 1e-40, 1e-40, 1.0]), mesh=box)
+    with pytest.raises(ValueError, match=r"instance 0: its placement lies beyond float32's range .*1 / radius"):
+        tiny.visible(np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]))
+    scene = pyshadow.Scene(ground=0.0)
+    scene.add(csm, mesh=box)
+    with pytest.raises(ValueError, match=r"points: 1 rows lie beyond float32's range .*3.4e\+38"):
+        scene.visible(np.array([[0.0, 0.5, 0.0], [1e39, 0.5, 0.0]]), np.array([[0.0, 1.0, 0.0]] * 2))
+    with pytest.raises(ValueError, match=r"points: 1 rows lie beyond float32's range"):
+        scene.ambient_occlusion(np.array([[0.0, 0.0, 2.0], [0.0, 0.0, -1e39]]), np.array([[0.0, 1.0, 0.0]] * 2),
+                                sampling=pyshadow.Sampling(4))
+
+
 @pytest.mark.parametrize("offset", [1e5, 1e7])
 def test_scene_far_from_the_origin_renders_the_same_ao(views, offset):
     """Casters placed 1e5 / 1e7 away by their transforms, camera too: the same AO image."""

@@ -33,7 +33,8 @@ def two_objects_on_ground(offset=0.0, scale=1.0):
     return items, pyshadow.Camera(eye, target, width=320, height=240)
 
 
-@pytest.mark.parametrize("offset, scale", [(0.0, 1.0), (1e5, 1.0), (0.0, 1e-3), (0.0, 1e4), (1e5, 1e3)])
+@pytest.mark.parametrize("offset, scale", [(0.0, 1.0), (1e5, 1.0), (0.0, 1e-3), (0.0, 1e4), (1e5, 1e3),
+                                           (0.0, 1e-20), (0.0, 1e20)])
 def test_gbuffer_positions_agree_with_embree(offset, scale):
     items, cam = two_objects_on_ground(offset, scale)
     g = pyshadow.render_gbuffer(items, cam)

@@ -6,7 +6,7 @@ import pytest
 import trimesh
 
 import pyshadow
-from pyshadow.mesh import mesh_hash
+from pyshadow.mesh import float32_unit, mesh_hash
 
 from conftest import load, mesh_path
 
@@ -141,7 +141,7 @@ def test_bounding_sphere_of_box_is_half_diagonal():
     np.testing.assert_allclose(r, np.sqrt(1 + 4 + 9), rtol=1e-7)
 
 
-@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5)])
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e-20, 0.0), (1e20, 0.0)])
 def test_normalised_frame_is_scale_and_position_invariant(scale, offset):
     m = load("fandisk.obj")
     moved = trimesh.Trimesh(m.vertices * scale + offset, m.faces, process=False)
@@ -151,6 +151,36 @@ def test_normalised_frame_is_scale_and_position_invariant(scale, offset):
     p0 = (m.vertices - c0) / r0
     p1 = (moved.vertices - c1) / r1
     np.testing.assert_allclose(p1, p0, atol=1e-6)
+
+
+@pytest.mark.parametrize("k", [-70, -21, 21, 70])
+def test_bounding_sphere_of_a_mesh_scaled_by_a_power_of_two_is_scaled_exactly(k):
+    """Outside the unit band the fit runs on the mesh scaled back near unit size by a power of two:
+    centre and radius are those of the unscaled mesh times 2**k, bit for bit (trimesh's own fit
+    fails on hulls of such sizes: no warning escapes either)."""
+    m = load("fandisk.obj")
+    c0, r0 = pyshadow.bounding_sphere(m)
+    c1, r1 = pyshadow.bounding_sphere(trimesh.Trimesh(m.vertices * 2.0 ** k, m.faces, process=False))
+    np.testing.assert_array_equal(c1, c0 * 2.0 ** k)
+    assert r1 == r0 * 2.0 ** k
+
+
+def test_bounding_sphere_names_vertices_that_are_not_finite():
+    box = trimesh.creation.box()
+    v = box.vertices.copy()
+    v[3, 1] = np.inf
+    with pytest.raises(ValueError, match=r"bounding_sphere: 1 of 8 vertices are not finite .*vertex 3"):
+        pyshadow.bounding_sphere(trimesh.Trimesh(v, box.faces, process=False))
+
+
+def test_float32_unit_is_one_inside_the_band_and_a_power_of_two_outside():
+    from pyshadow.mesh import UNIT_BAND
+
+    for m in (1.0, 2.0 ** UNIT_BAND, 2.0 ** -UNIT_BAND, 3.7, 0.0, np.inf, np.nan):
+        assert float32_unit(m) == 1.0
+    for m in (2.0 ** (UNIT_BAND + 1), 3e30, 2.0 ** -(UNIT_BAND + 1), 7e-25):
+        u = float32_unit(m)
+        assert np.frexp(u)[0] == 0.5 and 0.5 <= m * u <= 2.0     # a power of two bringing m near 1
 
 
 def test_mesh_hash_changes_with_geometry():

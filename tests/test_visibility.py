@@ -174,7 +174,8 @@ def test_open_plane_receiver_has_ao_one():
     np.testing.assert_array_equal(ao, 1.0)
 
 
-@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e3, 1e5)])
+@pytest.mark.parametrize("scale, offset", [(1e-3, 0.0), (1e4, 0.0), (1.0, 1e5), (1e3, 1e5), (1e-20, 0.0),
+                                           (1e20, 0.0)])
 def test_visibility_at_extreme_scales_and_positions(scale, offset, rng):
     bunny = load("stanford-bunny.obj")
     csm = pyshadow.CoherentShadowMap.build(bunny, pyshadow.ViewSet.zigzag(32, 64), resolution=64,

@@ -45,7 +45,8 @@ import pyopencl as cl
 from .. import _cl
 from .._cl import launch
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
-from .._validate import check_both, check_indices, kernel_rows, rows3, unit_normals
+from .._validate import (FLOAT32_MAX, check_both, check_float32_instances, check_float32_points, check_indices,
+                         kernel_rows, rows3, unit_normals)
 from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -195,11 +196,13 @@ def _instance_rows(arr, anchor, lookup):
         RT = (T[:, :3, :3] / s[:, None, None]).transpose(0, 2, 1)        # rotation^T
         c, r = arr["object_centre"][sel], arr["object_radius"][sel]
         sr = (s * r)[:, None]
-        rows["to_object"] = (RT / sr[:, :, None]).reshape(n, 9)         # A
-        rows["offset"] = np.matmul(RT, (anchor - T[:, :3, 3])[:, :, None])[:, :, 0] / sr - c / r[:, None]
+        fields = {"to_object": (RT / sr[:, :, None]).reshape(n, 9),                         # A
+                  "offset": np.matmul(RT, (anchor - T[:, :3, 3])[:, :, None])[:, :, 0] / sr - c / r[:, None],
+                  "centre": arr["world_centre"][sel] - anchor, "radius": arr["world_radius"][sel] * (1 + 1e-6)}
+        for name, value in fields.items():
+            check_float32_instances(name, value, sel, arr["world_radius"][sel], fields["centre"])
+            rows[name] = value
         rows["rotation"] = RT.reshape(n, 9)                             # Rw
-        rows["centre"] = arr["world_centre"][sel] - anchor
-        rows["radius"] = arr["world_radius"][sel] * (1 + 1e-6)
         itype[:] = arr["itype"][sel]          # the type order of scene.caster_types(), as the atlas
         horizon = np.array([surface_horizon(csm, lookup) for csm in arr["types"]], np.float64)
         rows["horizon"] = horizon[itype]
@@ -255,8 +258,10 @@ def _open_sky(scene) -> bool:
 
 
 def _extent(p, anchor) -> float:
-    """A bound on the largest |coordinate| of the points relative to the anchor (no temporaries)."""
-    return max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
+    """A bound on the largest |coordinate| of the points relative to the anchor (no temporaries but
+    where the bound exceeds float32's range: then the points beyond it are refused, named)."""
+    bound = max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
+    return bound if bound <= FLOAT32_MAX else check_float32_points(p, anchor)
 
 
 def _float32_lengths(tmax):

@@ -5,7 +5,8 @@ Every row builds its CSMs, asks pyshadow (``"csm"``) and Embree identical
 (point, direction) pairs and reports a figure, its bound and pass/fail.
 Groups: ``size`` (mesh vertices at 1e-3, 1, 1e4: agreement and the rendered
 AO image against size 1), ``position`` (mesh vertices, and the bundled
-scene by its transforms, 1e5 and 1e7 from the origin, camera too),
+scene by its transforms, 1e5 and 1e7 from the origin, camera too; the pair
+beside a copy of itself 1e7 and 1e12 away),
 ``thin-plate`` (3 mm on 1 m; grazing rays are extremes.py's), ``small-large``
 (4 cm beside 4 m), ``contact`` (touching, resting, interpenetrating),
 ``ground-contact`` (on the ground, 1e-6 above), ``on-surface`` (points on
@@ -141,8 +142,9 @@ def _sampling(samples, seed=0):
     return pyshadow.Sampling(samples, seed=seed)
 
 
-def _pair_agreement(scene, scale, offset, n=1500, seed=5):
-    parts = [inst.mesh for inst in scene.instances]
+def _pair_agreement(scene, scale, offset, n=1500, seed=5, instances=None):
+    """Agreement on points of the first ``instances`` (default all) bodies' meshes, untransformed, and the ground."""
+    parts = [inst.mesh for inst in scene.instances[:instances]]
     P, N, S = [], [], []
     for i, m in enumerate(parts):
         p, nn = surface_samples(m, None, n, seed + i)
@@ -184,7 +186,8 @@ def size_rows(views, resolution) -> list[dict]:
 
 
 def position_rows(views, resolution) -> list[dict]:
-    """Mesh vertices 1e5 and 1e7 from the origin, and the bundled scene moved there (render level)."""
+    """Mesh vertices 1e5 and 1e7 from the origin, the bundled scene moved there (render level), and the pair
+    beside a copy of itself 1e7 and 1e12 away (the anchor halfway)."""
     from pyshadow.data import default_scene
 
     rows = []
@@ -218,6 +221,25 @@ def position_rows(views, resolution) -> list[dict]:
                               width=camera.width, height=camera.height)
         rows.append(_image_rows(f"bundled scene at {off:g}", moved.render(cam, sampling=_sampling(SAMPLES)),
                                 ref, "the origin"))
+    # a copy of the pair far away: the scene's anchor lies halfway, the points near the first pair
+    parts = _pair_parts(1.0, np.zeros(3))
+    cam = _pair_views(1.0, np.zeros(3))
+    alone = scene_of([(m, None) for m in parts], views, resolution)
+    ref_a = _pair_agreement(alone, 1.0, np.zeros(3))
+    for far in (1e7, 1e12):
+        T = np.eye(4)
+        T[0, 3] = far
+        spread = scene_of([(m, None) for m in parts] + [(m, T) for m in parts], views, resolution)
+        a = _pair_agreement(spread, 1.0, np.zeros(3), instances=len(parts))
+        d = 100.0 * abs(a["disagree"] - ref_a["disagree"])
+        rows.append(_row(f"a copy of the scene {far:g} away: agreement", d, AGREEMENT_POINTS, d <= AGREEMENT_POINTS,
+                         unit="points of agreement from the scene alone", disagree=a["disagree"]))
+        try:        # documented behaviour: the drawn ground spans both copies, the near plane would cut the first
+            spread.render(cam, sampling=_sampling(SAMPLES))
+            rows.append(_row(f"a copy of the scene {far:g} away: render", 0.0, None, None, unit="rendered"))
+        except ValueError as exc:
+            rows.append(_row(f"a copy of the scene {far:g} away: render", float("nan"), None, None, unit="refused",
+                             error=str(exc)))
     return rows
 
 

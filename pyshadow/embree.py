@@ -15,6 +15,7 @@ import trimesh
 from ._compat import keyword_only
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, float32_unit, load_mesh
+from .scene_arrays import anchor_groups
 from .views import ViewSet
 
 __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuffer", "ground_occludes",
@@ -192,13 +193,16 @@ def gbuffer(items, camera) -> dict:
 # ---------------------------------------------------------------------------
 # scenes: visibility and ambient occlusion by ray tracing
 # ---------------------------------------------------------------------------
-def caster_scene(scene) -> tuple[EmbreeScene, np.ndarray]:
+def caster_scene(scene, anchor=None) -> tuple[EmbreeScene, np.ndarray]:
     """Embree scene of every caster of a :class:`pyshadow.Scene`, for rays of one's own.
 
     Parameters
     ----------
     scene : pyshadow.Scene
         Every instance added with ``casts=True`` must carry its mesh.
+    anchor : array_like, shape (3,), optional
+        World point to subtract (default: the scene's, :meth:`pyshadow.Scene.anchor`;
+        :func:`pyshadow.scene_arrays.anchor_groups` gives others for points far from it).
 
     Returns
     -------
@@ -209,7 +213,7 @@ def caster_scene(scene) -> tuple[EmbreeScene, np.ndarray]:
         World point subtracted from the triangles: rays must be given
         relative to it.
     """
-    anchor = scene.anchor()
+    anchor = scene.anchor() if anchor is None else np.asarray(anchor, np.float64)
     tris = []
     for i, inst in enumerate(scene.instances):
         if not inst.casts:
@@ -257,12 +261,12 @@ def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.nda
     return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, ground_tolerance(scene))
 
 
-def surface_epsilon(scene, points=None):
+def surface_epsilon(scene, points=None, anchor=None):
     """Offset that lifts a ray origin off a surface, world units.
 
     2e-5 of the scene's largest radius, and at least 64 float32 ulps
     (:func:`ray_epsilon`) of the coordinates Embree sees: relative to the
-    casters' anchor (:func:`caster_scene`), those of each point when
+    casters' anchor (:func:`caster_scene`; or ``anchor``), those of each point when
     ``points`` (world, (N, 3)) are given -- a float (N,) array then -- else
     of the farthest caster, a float. Far from the anchor a float32 ray
     tracer's intersection error grows with the coordinates, not with the
@@ -270,7 +274,7 @@ def surface_epsilon(scene, points=None):
     offset let rays restart behind their own surface.
     """
     floor = 2e-5 * scene.scale()
-    anchor = scene.anchor()
+    anchor = scene.anchor() if anchor is None else anchor
     if points is None:
         extent = max([np.linalg.norm(inst.world_sphere()[0] - anchor) + inst.world_sphere()[1]
                       for inst in scene.instances if inst.casts] or [scene.scale()])
@@ -295,12 +299,23 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
     tmax = check_max_distance(max_distance, len(p))
-    rays, anchor = caster_scene(scene)
+    groups = anchor_groups(scene, p)
+    if len(groups) > 1:         # points far apart: each group's rays relative to an anchor of its own
+        out = np.empty(len(p), bool)
+        for rows, a in groups:
+            out[rows] = _visible(scene, p[rows], w[rows], None if tmax is None else tmax[rows], a)
+        return out
+    return _visible(scene, p, w, tmax, groups[0][1])
+
+
+def _visible(scene, p, w, tmax, anchor):
+    """:func:`visible` of validated rows, relative to ``anchor``."""
+    rays, anchor = caster_scene(scene, anchor)
     rel = p - anchor
     occ = ground_occludes(scene, rel, w, anchor, tmax)
     todo = np.flatnonzero(~occ)
     if len(todo):
-        eps = surface_epsilon(scene, p[todo])
+        eps = surface_epsilon(scene, p[todo], anchor)
         tfar = None if tmax is None else np.maximum(tmax[todo] - eps, 0.0)
         if tfar is not None:            # beyond float32's range: unbounded
             tfar = np.where(tfar > np.finfo(np.float32).max, np.inf, tfar)
@@ -347,28 +362,42 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
         tau = check_ao_options(obscurance, 1, "error")[0]
         tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
     dirs = sample_directions(n, sampling=sampling, indices=indices).astype(np.float64)
-    rays, anchor = caster_scene(scene)
+    N, S = dirs.shape[:2]
+    if distance:
+        weights = np.empty((N, S))
+        for rows, a in anchor_groups(scene, p):  # one group but where points lie far apart
+            rows = slice(None) if rows is None else rows
+            weights[rows] = _distance_weights(scene, a, p[rows], n[rows], dirs[rows], tmax[rows], tau)
+        return ao_from_samples(dirs, weights, n, bent_normals)
+    occ = np.empty((N, S), bool)
+    for rows, a in anchor_groups(scene, p):
+        rows = slice(None) if rows is None else rows
+        occ[rows] = _occluded_samples(scene, a, p[rows], n[rows], dirs[rows])
+    return ao_from_samples(dirs, ~occ, n, bent_normals)
+
+
+def _occluded_samples(scene, anchor, p, n, dirs):
+    """(N, S) bool: which of the AO sample rays ``dirs`` (N, S, 3) from ``p`` an occluder stops (relative to ``anchor``)."""
+    rays, anchor = caster_scene(scene, anchor)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
-    if distance:
-        return _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals)
     # the ground is tested at the point itself, as the kernel does
     occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
-    origins = np.repeat(p - anchor + surface_epsilon(scene, p)[:, None] * n, S, axis=0)
+    origins = np.repeat(p - anchor + surface_epsilon(scene, p, anchor)[:, None] * n, S, axis=0)
     todo = np.flatnonzero(~occ)
     chunk = 1 << 21
     for s in range(0, len(todo), chunk):
         sel = todo[s:s + chunk]
         occ[sel] = rays.occluded(origins[sel], flat[sel])
-    vis = ~occ.reshape(N, S)
-    return ao_from_samples(dirs, vis, n, bent_normals)
+    return occ.reshape(N, S)
 
 
-def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
-    """:func:`ambient_occlusion`'s distance AO from first-hit distances (float64 until the result)."""
-    from .sampling import ao_from_samples
+def _distance_weights(scene, anchor, p, n, dirs, tmax, tau):
+    """:func:`ambient_occlusion`'s distance AO weights (N, S) from first-hit distances (float64), relative to
+    ``anchor``."""
     from .visibility.finite import obscurance_weight
 
+    rays, anchor = caster_scene(scene, anchor)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
     L = np.full(N * S, np.inf)
@@ -381,13 +410,12 @@ def _distance_ao(scene, rays, anchor, p, n, dirs, tmax, tau, bent_normals):
             up = (h < -eps) & (wy > 0)
             L = np.where(down, np.maximum(h, 0.0) / -wy, L)
             L = np.where(up, -h / wy, L)
-    origins = np.repeat(p - anchor + surface_epsilon(scene, p)[:, None] * n, S, axis=0)
+    origins = np.repeat(p - anchor + surface_epsilon(scene, p, anchor)[:, None] * n, S, axis=0)
     chunk = 1 << 21
     for s in range(0, N * S, chunk):
         t, _, _ = rays.intersect(origins[s:s + chunk], flat[s:s + chunk])
         L[s:s + chunk] = np.minimum(L[s:s + chunk], t)
-    weights = obscurance_weight(L, np.repeat(tmax, S), tau).reshape(N, S)
-    return ao_from_samples(dirs.astype(np.float64), weights, n, bent_normals)
+    return obscurance_weight(L, np.repeat(tmax, S), tau).reshape(N, S)
 
 
 class EmbreeTracer:

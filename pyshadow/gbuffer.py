@@ -55,6 +55,14 @@ def _clip_near(tri: np.ndarray, near: float):
     return np.concatenate(out), np.concatenate(src)
 
 
+def _outside_view(c, tx, ty) -> bool:
+    """Whether camera-space points ``c`` (N, 3) all lie behind the eye or all beyond one side of the view
+    (half-widths ``tx``, ``ty`` at unit depth): a body there covers no pixel."""
+    x, y, z = c[:, 0], c[:, 1], c[:, 2]
+    return bool((z <= 0).all() or (x > tx * z).all() or (x < -tx * z).all() or (y > ty * z).all()
+                or (y < -ty * z).all())
+
+
 def gbuffer_triangles(items, camera: Camera):
     """Camera-space, near-clipped triangles of ``items``.
 
@@ -73,6 +81,8 @@ def gbuffer_triangles(items, camera: Camera):
         raise TypeError(f"camera must be a pyshadow.Camera, got {type(camera).__name__}")
     items = list(items)
     R = camera.rotation
+    tx = camera.tan_half * camera.aspect
+    ty = camera.tan_half
     per = []
     far = 0.0
     for oid, item in enumerate(items):
@@ -86,11 +96,18 @@ def gbuffer_triangles(items, camera: Camera):
         v = np.asarray(mesh.vertices, dtype=np.float64)
         w = v @ T[:3, :3].T + T[:3, 3]
         c = (w - camera.eye) @ R.T
-        far = max(far, float(np.abs(c).max()) if len(c) else 0.0)
+        if len(c) and not _outside_view(c, tx, ty):    # an item wholly outside the view sets no near plane
+            far = max(far, float(np.abs(c).max()))
         per.append((c, np.asarray(mesh.faces), oid))
     near = max(far * 1e-6, 1e-30)
-    tx = camera.tan_half * camera.aspect
-    ty = camera.tan_half
+    for c, _, oid in per:       # a vertex in view nearer than the near plane: its triangles would be cut
+        z = c[:, 2]
+        cut = (z > 0) & (z < near) & (np.abs(c[:, 0]) <= tx * z) & (np.abs(c[:, 1]) <= ty * z)
+        if cut.any():
+            raise ValueError(f"render_gbuffer: item {oid} has a vertex in view {float(z[cut].min()):.3g} from the eye, "
+                             f"nearer than the near plane {near:.3g} (1e-6 of the farthest geometry in view, "
+                             f"{far:.3g}: the depth range float32's rasteriser places in one view); draw the bodies "
+                             "near the camera as a scene of their own")
     all_tri, all_obj, all_face = [], [], []
     for c, faces, oid in per:
         if len(faces) == 0:

@@ -14,7 +14,9 @@ import weakref
 
 import numpy as np
 
-__all__ = ["scene_arrays"]
+from ._validate import FLOAT32_MAX, check_float32_points
+
+__all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "points_bound"]
 
 _HELD = weakref.WeakKeyDictionary()
 
@@ -61,3 +63,65 @@ def scene_arrays(scene) -> dict:
             v.flags.writeable = False
     _HELD[scene] = out
     return out
+
+
+#: How far from its anchor a query point may lie, in radii of the scene's smallest caster, before it
+#: is given an anchor of its own: float32 rounds a coordinate at distance d by up to d 2**-24, which
+#: stays below the 16-bit depth quantum of that caster (2 r / 65534) up to d = 512 r.
+ANCHOR_REACH_RADII = 512.0
+
+
+def points_bound(points) -> float:
+    """The largest |coordinate| of ``points`` (two passes, no temporaries)."""
+    return max(abs(float(points.max())), abs(float(points.min())))
+
+
+def anchor_groups(scene, points, bound=None):
+    """The anchors the queries of ``points`` are asked relative to, and the rows of each.
+
+    The device reads points relative to an anchor in float32. The scene's
+    anchor (:meth:`pyshadow.Scene.anchor`) serves every point within
+    :data:`ANCHOR_REACH_RADII` radii of its smallest caster; the points
+    beyond (a scene whose bodies lie far apart, asked near one of them) are
+    grouped by cubes of a power-of-two side at most that reach, each asked
+    relative to its cube's centre, so that no point loses more precision
+    than within the reach.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    points : ndarray, shape (N, 3), float64
+        World points.
+    bound : float, optional
+        :func:`points_bound` of ``points``, where the caller has it.
+
+    Returns
+    -------
+    list of (ndarray or None, ndarray)
+        ``(rows, anchor)``: the row indices (int64) of each group, or None
+        for all rows (the common case, one group: the scene's anchor), and
+        its world anchor (3,) float64.
+    """
+    anchor = scene.anchor(points)
+    arr = scene_arrays(scene) if scene.instances else None
+    if arr is None or not arr["casts"].any() or not len(points):
+        return [(None, anchor)]
+    reach = ANCHOR_REACH_RADII * float(arr["world_radius"][arr["casts"]].min())
+    bound = (points_bound(points) if bound is None else bound) + float(np.abs(anchor).max())
+    if bound <= reach:
+        return [(None, anchor)]                 # the cheap bound: every point within reach
+    if bound > FLOAT32_MAX:                     # points float32 cannot place from the scene: refused, named
+        check_float32_points(points, anchor)
+    far = np.abs(np.asarray(points, np.float64) - anchor).max(axis=1) > reach
+    if not far.any():
+        return [(None, anchor)]
+    side = 2.0 ** np.floor(np.log2(reach))      # a cube's half diagonal: 0.87 side <= the reach
+    rows = np.flatnonzero(far)
+    cells = np.floor(points[rows] / side)
+    keys, inverse = np.unique(cells, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(len(keys) + 1))
+    groups = [(np.flatnonzero(~far), anchor)] if (~far).any() else []
+    groups += [(rows[order[bounds[k]:bounds[k + 1]]], (keys[k] + 0.5) * side) for k in range(len(keys))]
+    return groups

@@ -140,6 +140,21 @@ def padded_samples(samples: int, s: LaunchShape | None = None) -> int:
     return -(-int(samples) // s.lanes) * s.lanes
 
 
+def lane_table(table):
+    """(M, S, 3) local directions -> (M, 3, S padded to the lane width) for the lane kernels.
+
+    Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
+    """
+    import numpy as np
+
+    M, S, _ = table.shape
+    spad = padded_samples(S)
+    out = np.zeros((M, 3, spad), np.float32)
+    out[:, 1, :] = 1.0
+    out[:, :, :S] = table.transpose(0, 2, 1)
+    return out
+
+
 def ao_points(samples: int, s: LaunchShape | None = None) -> int:
     """Points per work-item of ``scene_ao`` (``-DAO_POINTS``): as many as fill one batch
     (``query_batch`` queries) with their ``samples`` each (rounded up to the lane width), at least 1.

@@ -44,6 +44,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl import launch
+from .._cl.launch import lane_table
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import (FLOAT32_MAX, check_both, check_float32_instances, check_float32_points, check_indices,
                          kernel_rows, rows3, unit_normals)
@@ -53,7 +54,7 @@ from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS,
 from ..csm.device import scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import ao_from_samples, direction_table, pattern_indices
-from ..scene_arrays import scene_arrays
+from ..scene_arrays import anchor_groups, points_bound, scene_arrays
 from ..views import FILTER_ANGLE_EPS
 from . import order
 from .base import register
@@ -137,19 +138,6 @@ def _on_device(held, array):
 
 def _grid_key(anchor, margin):
     return ("instance_grid", np.asarray(anchor, np.float64).tobytes(), margin)
-
-
-def lane_table(table):
-    """(M, S, 3) local directions -> (M, 3, S padded to the lane width) for the lane kernels.
-
-    Padding directions are (0, 1, 0) (along the normal); the kernel masks them out.
-    """
-    M, S, _ = table.shape
-    spad = launch.padded_samples(S)
-    out = np.zeros((M, 3, spad), np.float32)
-    out[:, 1, :] = 1.0
-    out[:, :, :S] = table.transpose(0, 2, 1)
-    return out
 
 
 # scene -> (key, atlas): the packed CSMs of its caster types on the current context
@@ -257,10 +245,10 @@ def _open_sky(scene) -> bool:
     return scene.ground is None and not scene_arrays(scene)["casts"].any()
 
 
-def _extent(p, anchor) -> float:
-    """A bound on the largest |coordinate| of the points relative to the anchor (no temporaries but
-    where the bound exceeds float32's range: then the points beyond it are refused, named)."""
-    bound = max(abs(float(p.max())), abs(float(p.min()))) + float(np.abs(anchor).max())
+def _extent(p, anchor, bound=None) -> float:
+    """A bound on the largest |coordinate| of the points relative to the anchor (``bound``: ``points_bound(p)``
+    if known); beyond float32's range the points beyond it are refused, named."""
+    bound = (points_bound(p) if bound is None else bound) + float(np.abs(anchor).max())
     return bound if bound <= FLOAT32_MAX else check_float32_points(p, anchor)
 
 
@@ -392,8 +380,9 @@ class CSMVisibility(_SampledSky):
         """:meth:`_visible_kernel`, then the footprints of bodies resting on the ground (:mod:`pyshadow.contact`)."""
         return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax))
 
-    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True):
-        """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`)."""
+    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True, anchor=None):
+        """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`;
+        ``anchor``: the rows' anchor, or None: :func:`~pyshadow.scene_arrays.anchor_groups`'s)."""
         n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
@@ -410,7 +399,16 @@ class CSMVisibility(_SampledSky):
         if defines is None:             # nothing occludes: no kernel
             out[:] = True
             return out
-        anchor = scene.anchor(p)
+        pb = None
+        if anchor is None:
+            pb = points_bound(p)
+            groups = anchor_groups(scene, p, pb)
+            if len(groups) > 1:             # points far apart: each group relative to an anchor of its own
+                for rows, a in groups:
+                    out[rows] = self._visible_kernel(scene, p[rows], w[rows], own[rows], None if m is None else m[rows],
+                                                     bias, None if tmax is None else tmax[rows], False, a)
+                return out
+            anchor = groups[0][1]
         if not fp64:
             # float-only device: the host does what the kernel does in double
             # elsewhere, with the same roundings: points relative to the
@@ -420,7 +418,7 @@ class CSMVisibility(_SampledSky):
             p = (p - anchor).astype(np.float32)
             if w.dtype == np.float64:
                 w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
-        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
+        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb if fp64 else None))
         k = _cl.kernel("visibility.cl", "scene_visible", defines)
         # what the kernel subtracts from the points (the host already did on float-only devices)
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
@@ -483,36 +481,53 @@ class CSMVisibility(_SampledSky):
         if N and defines is None:       # nothing occludes and only AO is asked: every sample is open
             ao[:] = 1.0
         elif N:
-            anchor = scene.anchor(p)
-            _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor))
             k = _cl.kernel("visibility.cl", "scene_ao", defines)
             table = _cl.to_device(lane_table(direction_table(S, sampling.strategy, sampling.patterns,
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)
-            rel = np.empty(p.shape, np.float32)
-            np.subtract(p, anchor, out=rel)     # anchor-relative in float64, rounded once
-            q = _cl.queue()
-            shape = launch.shape()
-            chunk = max(1, shape.ao_chunk_samples // S)
-            for s in range(0, N, chunk):
-                e = min(N, s + chunk)
-                ao_buf = _cl.empty(4 * (e - s))
-                bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
-                tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
-                k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group), *args, np.int32(e - s),
-                  _cl.to_device(rel[s:e]), _cl.to_device(n[s:e]),
-                  _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
-                  *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,
-                  *([] if sky_env is None else [*sky_env, sky_buf := _cl.empty(12 * (e - s))]))
-                cl.enqueue_copy(q, ao[s:e], ao_buf)
-                if sky_env is not None:
-                    cl.enqueue_copy(q, sky[s:e], sky_buf)
-                if bent_normals:
-                    cl.enqueue_copy(q, bent[s:e], bent_buf)
-                if transfer:
-                    cl.enqueue_copy(q, tr[s:e], tr_buf)
+            pb = points_bound(p)
+            for rows, anchor in anchor_groups(scene, p, pb):   # one group but where points lie far apart
+                pick = (lambda a: a) if rows is None else (lambda a: None if a is None else a[rows])
+                outs = tuple(None if a is None else (a if rows is None else np.empty_like(a[rows]))
+                             for a in (ao, bent, tr, sky))
+                self._ao_launch(scene, k, defines, table, anchor, bias, pick(p), pick(n), pick(pidx), pick(own),
+                                pick(tmax), sky_env, outs, bent_normals, transfer, pb if rows is None else None)
+                for a, got in zip((ao, bent, tr, sky), outs if rows is not None else ()):
+                    if a is not None:
+                        a[rows] = got
         close_contacts(scene, p, n, ao, bent, tr, sky)
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
+
+
+    def _ao_launch(self, scene, k, defines, table, anchor, bias, p, n, pidx, own, tmax, sky_env, outs, bent_normals,
+                   transfer, pb):
+        """The AO kernel over points ``p`` (``points_bound``: ``pb`` or None) relative to ``anchor``, in chunks, into
+        ``outs`` (ao, bent, tr, sky)."""
+        ao, bent, tr, sky = outs
+        N, S = len(p), int(defines["SAMPLES"])
+        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb))
+        rel = np.empty(p.shape, np.float32)
+        np.subtract(p, anchor, out=rel)     # anchor-relative in float64, rounded once
+        q = _cl.queue()
+        shape = launch.shape()
+        chunk = max(1, shape.ao_chunk_samples // S)
+        for s in range(0, N, chunk):
+            e = min(N, s + chunk)
+            ao_buf = _cl.empty(4 * (e - s))
+            bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
+            tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
+            k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group), *args, np.int32(e - s),
+              _cl.to_device(rel[s:e]), _cl.to_device(n[s:e]),
+              _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
+              *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,
+              *([] if sky_env is None else [*sky_env, sky_buf := _cl.empty(12 * (e - s))]))
+            cl.enqueue_copy(q, ao[s:e], ao_buf)
+            if sky_env is not None:
+                cl.enqueue_copy(q, sky[s:e], sky_buf)
+            if bent_normals:
+                cl.enqueue_copy(q, bent[s:e], bent_buf)
+            if transfer:
+                cl.enqueue_copy(q, tr[s:e], tr_buf)
 
 
 def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices, surface_ids, max_distance, tau,

@@ -246,7 +246,7 @@ def render_gbuffer(items, camera: Camera) -> dict:
         q = _cl.queue()
         # the kernels multiply up to three coordinates: a scene of any size is rasterised scaled by a
         # power of two (float32_unit; 1 near unit size), which moves no pixel; distances scale back below
-        unit = float32_unit(np.abs(tris).max())
+        unit = float32_unit(max(abs(float(tris.max())), abs(float(tris.min()))))
         tb = _cl.to_device((tris if unit == 1.0 else tris * unit).reshape(-1, 9), np.float32)
         one_pass = _one_pass()
         defines = {"GBUFFER_ATOMIC64": int(one_pass)}

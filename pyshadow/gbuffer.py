@@ -5,7 +5,10 @@ moved into camera space on the host in float64 (relative to the eye, so a
 scene far from the world origin keeps its precision), clipped against the
 near plane, then rasterised by ``kernels/gbuffer.cl``: nearest depth, then
 the id of the triangle holding it, then the exact distance along each eye
-ray to that triangle's plane.
+ray to that triangle's plane. A scene far from unit size is rasterised
+scaled by a power of two (:func:`pyshadow.mesh.float32_unit`), which moves
+no pixel; the near plane is 1e-6 of the farthest geometry in view, and a
+vertex in view nearer than that is refused rather than cut away.
 """
 from __future__ import annotations
 

@@ -6,7 +6,9 @@ than the query. :func:`scene_arrays` stacks them once per change of the
 scene (``Scene.add`` and ``Scene.set_transform`` advance its version) and
 computes the world spheres for all instances at once, with the same
 operations, in the same order, as :meth:`pyshadow.scene.Instance.world_sphere`
-(so the results are bit-identical to it).
+(so the results are bit-identical to it). :func:`anchor_groups` gives the
+anchors query points are asked relative to (one, the scene's, but where they
+lie far from it).
 """
 from __future__ import annotations
 

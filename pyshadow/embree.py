@@ -15,7 +15,7 @@ import trimesh
 from ._compat import keyword_only
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, float32_unit, load_mesh
-from .scene_arrays import anchor_groups
+from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
 from .views import ViewSet
 
 __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuffer", "ground_occludes",
@@ -531,6 +531,10 @@ class EmbreeTracer:
             Those rays, ready for :meth:`occluded`.
         """
         S = int(samples)
+        if anchor_groups(self.scene, points)[0][0] is not None:      # not one group at the scene's anchor
+            raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of the smallest caster "
+                             "from the scene's anchor, where its one anchor loses float32 precision; "
+                             "pyshadow.embree.ambient_occlusion asks them relative to anchors of their own")
         rel = points - self.anchor
         ground = ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
         origins = np.repeat((rel + self.eps * normals).astype(np.float32), S, axis=0)

@@ -71,6 +71,18 @@ def test_embree_scene_answers_at_any_size_as_at_unit_size(k):
     np.testing.assert_array_equal(t1, t0 * f)
 
 
+def test_embree_tracer_refuses_points_beyond_its_anchor_s_reach(covered):
+    """The tracer keeps the scene's one anchor: points where that loses float32 precision are refused,
+    named (embree.ambient_occlusion asks them relative to anchors of their own)."""
+    scene, points, normals, _ = covered
+    far = points[:4] + [1e9, 0.0, 0.0]
+    dirs = pyshadow.sample_directions(normals[:4], sampling=pyshadow.Sampling(SAMPLES)).reshape(-1, 3)
+    with EmbreeTracer(scene, threads=1) as tracer:
+        tracer.prepare(points[:4], normals[:4], dirs.astype(np.float32), SAMPLES)
+        with pytest.raises(ValueError, match=r"EmbreeTracer: points lie beyond 512 radii"):
+            tracer.prepare(far, normals[:4], dirs.astype(np.float32), SAMPLES)
+
+
 def test_embree_tracer_matches_ambient_occlusion(covered):
     """The threaded rays are ambient_occlusion's, bit for bit."""
     scene, points, normals, sel = covered

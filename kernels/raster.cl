@@ -22,13 +22,17 @@
  * texel centres are the integers.
  *
  * Buffers
- *   tris   float  (9, tpad)  corner coordinates a.x a.y a.z b.x ... c.z as
- *                            rows, tpad a multiple of LANES; read
+ *   tris   float  (9 + FACING, tpad)  corner coordinates a.x a.y a.z b.x ...
+ *                            c.z as rows, tpad a multiple of LANES; with
+ *                            FACING a tenth row, nonzero where the triangle
+ *                            faces the light from both sides (its back is
+ *                            open to the outside: pyshadow.csm.exposure); read
  *   bases  float  (D, 9)     rows u, v, d of each view of the launch; read
  *   depth  float  (D, LAYERS, RES, RES)   written; must hold +inf on entry
  *   front  uchar  (D, LAYERS, RES, RES)   FACING only: 1 where that layer's
  *                            triangle faces the light (positive screen-space
- *                            area, i.e. winding normal along +d); written,
+ *                            area, i.e. winding normal along +d, or the
+ *                            tenth row of tris nonzero); written,
  *                            must hold 0 on entry. Unused without FACING.
  * Scalars
  *   n_tris  triangles in use (<= tpad); tpad  row stride of tris
@@ -165,7 +169,8 @@ __kernel void render_depth_layers(__global const float *tris,
         VSTORE(CONVERT(int, c0), 0, cpos);
         VSTORE(CONVERT(int, r0), 0, rpos);
 #if FACING
-        VSTORE(pos, 0, fpos);
+        const iv both = MASK(VLOAD(0, tris + 9 * (size_t)tpad + base) != 0.0f);
+        VSTORE(pos | both, 0, fpos);
 #endif
         const int any_multi = VANY(multi);
         if (any_multi) {
@@ -191,11 +196,16 @@ __kernel void render_depth_layers(__global const float *tris,
             const int cc1 = (int)fmin(floor(fmax(p0.x, fmax(p1.x, p2.x))), last);
             const int rr1 = (int)fmin(floor(fmax(p0.y, fmax(p1.y, p2.y))), last);
             const float z0 = sz0[i], z1 = sz1[i], z2 = sz2[i];
+#if FACING
+            const int bothf = tris[9 * (size_t)tpad + base + i] != 0.0f;
+#else
+            const int bothf = 0;
+#endif
             for (int r = rr0; r <= rr1; ++r) {
                 for (int col = cc0; col <= cc1; ++col) {
                     float3 w;
                     if (!tri_covers(p0, p1, p2, ar, (float2)((float)col, (float)r), &w)) continue;
-                    INSERT((size_t)r * RES + col, w.x * z0 + w.y * z1 + w.z * z2, ar > 0.0f);
+                    INSERT((size_t)r * RES + col, w.x * z0 + w.y * z1 + w.z * z2, ar > 0.0f || bothf);
                 }
             }
         }

@@ -62,17 +62,20 @@ def _code_digest() -> str:
     str
         SHA-256 hex digest of pyshadow's version, the CSM builder's front
         margin (``pyshadow.csm.FRONT_MARGIN_TEXELS``), the mesh's box (CSMs
-        carry it since the box-cut chord) and the source of the
+        carry it since the box-cut chord), the rays of the exposed-face test
+        (``pyshadow.csm.exposure.EXPOSURE_DIRECTIONS``) and the source of the
         build kernels ``csm.cl`` and ``raster.cl`` (a kernel that cannot be
         read contributes its name only).
     """
     from . import _cl
     from ._version import __version__
     from .csm import FRONT_MARGIN_TEXELS
+    from .csm.exposure import EXPOSURE_DIRECTIONS
 
     h = hashlib.sha256(__version__.encode())
     h.update(repr(FRONT_MARGIN_TEXELS).encode())
     h.update(b"box")                    # CSMs carry their mesh's box (older cached files lack it)
+    h.update(f"exposed back faces {EXPOSURE_DIRECTIONS}".encode())     # two_sided='auto', the default
     for name in ("csm.cl", "raster.cl"):
         try:
             h.update(_cl.kernel_source(name).encode())

@@ -46,6 +46,16 @@ def _check_resolution_layers(resolution, layers):
         raise ValueError(f"layers must be 1, 2 or 3, got {layers!r}")
 
 
+def _both_sides(both_sides, n_faces: int, facing: bool) -> np.ndarray:
+    """``both_sides`` checked: bool (n_faces,), given with ``facing``."""
+    if not facing:
+        raise ValueError("both_sides needs facing=True: it marks faces in the facing flags")
+    flags = np.asarray(both_sides)
+    if flags.dtype != bool or flags.shape != (n_faces,):
+        raise ValueError(f"both_sides must be a bool array of shape ({n_faces},), got {flags.dtype} {flags.shape}")
+    return flags
+
+
 def _prepare_mesh(mesh, frame):
     if not isinstance(mesh, trimesh.Trimesh):
         mesh = load_mesh(mesh)
@@ -105,9 +115,13 @@ class DepthRenderer:
     facing : bool, optional
         Also record, per layer, whether the surface faces the map's light
         (see :meth:`render`).
+    both_sides : ndarray, shape (F,), bool, optional
+        With ``facing``: faces recorded as facing the light from either side
+        (:func:`pyshadow.csm.exposure.exposed_back_faces`). Default none.
     """
 
-    def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None, facing: bool = False):
+    def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None, facing: bool = False,
+                 both_sides=None):
         _check_resolution_layers(resolution, layers)
         self.resolution = int(resolution)
         self.layers = int(layers)
@@ -116,8 +130,10 @@ class DepthRenderer:
         self.n_faces = len(faces)
         pad = launch.TRIANGLE_PAD
         tpad = -(-len(faces) // pad) * pad
-        soa = np.zeros((9, tpad), dtype=np.float32)
-        soa[:, : len(faces)] = verts.astype(np.float32)[faces].reshape(len(faces), 9).T
+        soa = np.zeros((9 + self.facing, tpad), dtype=np.float32)
+        soa[:9, : len(faces)] = verts.astype(np.float32)[faces].reshape(len(faces), 9).T
+        if both_sides is not None:
+            soa[9, : len(faces)] = _both_sides(both_sides, len(faces), self.facing)
         self._tpad = tpad
         self._tris = _cl.to_device(soa)
         self._kernel = _cl.kernel(
@@ -140,8 +156,9 @@ class DepthRenderer:
         With ``facing=True``, ``front`` (a device buffer of at least B *
         :attr:`facing_bytes_per_map` bytes) receives (B, layers, R, R) uint8:
         1 where the layer's surface faces the light (its normal, from the
-        triangle's winding, has a positive component along the map's ``d``),
-        else 0 (also where there is no surface).
+        triangle's winding, has a positive component along the map's ``d``,
+        or it is one of ``both_sides``), else 0 (also where there is no
+        surface).
         """
         bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
         n = len(bases)
@@ -172,7 +189,8 @@ class DepthRenderer:
 
 @keyword_only("pyshadow.render_depth", old=2)
 def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2,
-                 frame=None, block: int | None = None, progress: bool = False, facing: bool = False):
+                 frame=None, block: int | None = None, progress: bool = False, facing: bool = False,
+                 both_sides=None):
     """Layered depth maps of ``mesh`` for every view of ``views``.
 
     Parameters
@@ -193,6 +211,8 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
         Show a progress bar over the blocks.
     facing : bool, optional
         Also return which surfaces face the light.
+    both_sides : ndarray, shape (F,), bool, optional
+        With ``facing``: faces that face the light from either side.
 
     Returns
     -------
@@ -204,7 +224,8 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
         Only with ``facing=True``: the surface of that layer faces the light
         (the map's ``d``): its normal, by the triangle's winding
         (counter-clockwise seen from the side it points to), has a positive
-        component along ``d``. False where there is no surface.
+        component along ``d``, or it is one of ``both_sides``. False where
+        there is no surface.
 
     Raises
     ------
@@ -220,7 +241,7 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     (8, 2, 8, 8)
     """
     _check_args(views, resolution, layers)
-    renderer = DepthRenderer(mesh, resolution, layers, frame=frame, facing=facing)
+    renderer = DepthRenderer(mesh, resolution, layers, frame=frame, facing=facing, both_sides=both_sides)
     D = len(views)
     if block is None:
         block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
@@ -291,7 +312,7 @@ def covered_samples(p0, p1, p2, lo, hi):
 
 @keyword_only("pyshadow.raster.render_depth_reference", old=2)
 def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers: int = 2,
-                           frame=None, facing: bool = False):
+                           frame=None, facing: bool = False, both_sides=None):
     """NumPy version of :func:`render_depth` (same rules, float64; slow).
 
     For each view and each triangle the texel centres inside the triangle's
@@ -299,10 +320,12 @@ def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers
     top-left rule as the kernel; every covered texel collects the depth, and
     the ``layers`` smallest depths per texel are kept. With ``facing`` also
     the flags of :func:`render_depth`: a triangle faces the light when its
-    screen-space area (counter-clockwise positive) is positive.
+    screen-space area (counter-clockwise positive) is positive, or it is one
+    of ``both_sides`` (:class:`DepthRenderer`).
     """
     _check_args(views, resolution, layers)
     verts, faces = _prepare_mesh(mesh, frame)
+    both = np.zeros(len(faces), bool) if both_sides is None else _both_sides(both_sides, len(faces), facing)
     R = int(resolution)
     out = np.full((len(views), layers, R, R), np.inf)
     front = np.zeros(out.shape, bool)
@@ -310,7 +333,7 @@ def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers
         scr = (verts @ B[:2].T + 1.0) * (0.5 * R) - 0.5  # (V, 2) screen coords
         z = (1.0 - verts @ B[2]) * 0.5
         hits = [[[] for _ in range(R)] for _ in range(R)]
-        for f in faces:
+        for f, two in zip(faces, both):
             p0, p1, p2 = scr[f[0]], scr[f[1]], scr[f[2]]
             lo = np.ceil(np.minimum(np.minimum(p0, p1), p2)).astype(int)
             hi = np.floor(np.maximum(np.maximum(p0, p1), p2)).astype(int)
@@ -323,7 +346,7 @@ def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers
                 continue
             rows, cols, w = cov
             zz = w[0] * z[f[0]] + w[1] * z[f[1]] + w[2] * z[f[2]]
-            faces_light = _edge(p0, p1, p2) > 0
+            faces_light = _edge(p0, p1, p2) > 0 or two
             for r, c, d in zip(rows, cols, zz):
                 hits[r][c].append((d, faces_light))
         for r in range(R):

@@ -16,9 +16,10 @@ test along the texel's ray:
   at most ``FRONT_MARGIN_TEXELS`` texels nearer over half a texel (a flat
   ``z2``: maps more than atan(sqrt(2)/6) = 13.3 degrees above it; lower
   ones may light it); where the surface at ``z2`` faces the light (a second
-  sheet of an open mesh, in the first one's shadow; every ``z2`` with
-  ``two_sided=True``, for open sheets seen from both sides such as an open
-  box's inner floor: 1.4-1.7x the bytes on the bundled open meshes) a margin of
+  sheet of an open mesh, in the first one's shadow; by default also where
+  it is the back of a face open to the outside, such as an open box's inner
+  floor (:mod:`.exposure`: 1.0-1.07x the bytes on the bundled open meshes;
+  every ``z2`` with ``two_sided=True``: 1.4-1.5x) a margin of
   ``FRONT_MARGIN_TEXELS`` texels more; just ``z1`` when that leaves
   nothing; with ``layers=3`` up to ``z3`` less the margin
   where the ray leaves the object at ``z2`` and re-enters at ``z3``, see
@@ -77,8 +78,9 @@ arrays and their decoding), :mod:`.build` (the streaming builder),
 :mod:`.device` (search arrays and the scene atlas of the kernels),
 :mod:`.fileformat` (``.csm`` save, load, validation), :mod:`.reference`
 (NumPy mirrors of the kernels), :mod:`.error_model` (a CSM's disagreement
-with a ray tracer, predicted before it is built) and :mod:`.choose`
-(parameters from the accuracy asked for, or the most accurate within a size).
+with a ray tracer, predicted before it is built), :mod:`.choose`
+(parameters from the accuracy asked for, or the most accurate within a size),
+:mod:`.exposure` (the faces whose back side the build keeps in shadow too).
 """
 from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, SLOPE_SLACK_QUANTA, CoherentShadowMap,
                    CSMFormatError, front_margin, slope_slack)
@@ -86,11 +88,12 @@ from .build import corner_frame, footprint_corners, footprint_scale
 from .fileformat import FORMAT_VERSION, MAGIC
 from .reference import compress_reference, footprint_interval, second_bound, second_slope, shadow_vote
 from .choose import choose_csm, choose_within
-from . import build, choose, core, device, error_model, fileformat, reference
+from .exposure import exposed_back_faces
+from . import build, choose, core, device, error_model, exposure, fileformat, reference
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
            "SLOPE_SLACK_QUANTA", "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "slope_slack",
            "second_bound", "second_slope", "corner_frame",
            "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
-           "choose_csm", "choose_within",
-           "build", "choose", "core", "device", "error_model", "fileformat", "reference"]
+           "choose_csm", "choose_within", "exposed_back_faces",
+           "build", "choose", "core", "device", "error_model", "exposure", "fileformat", "reference"]

@@ -18,6 +18,7 @@ from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
+from .exposure import exposed_back_faces
 
 __all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
 
@@ -91,7 +92,7 @@ def _check_frame(mesh, frame):
 
 def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False, two_sided: bool = False):
+              frame=None, footprint: bool = False, two_sided="auto"):
     """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
     t0 = time.perf_counter()
     if not isinstance(views, ViewSet):
@@ -121,8 +122,11 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if not isinstance(footprint, (bool, np.bool_)):
         raise TypeError(f"footprint must be True or False, got {footprint!r}")
     footprint = bool(footprint)
-    if not isinstance(two_sided, (bool, np.bool_)):
-        raise TypeError(f"two_sided must be True or False, got {two_sided!r}")
+    if not (isinstance(two_sided, (bool, np.bool_)) or (isinstance(two_sided, str) and two_sided == "auto")):
+        raise TypeError(f"two_sided must be True, False or 'auto', got {two_sided!r}")
+    auto = isinstance(two_sided, str)
+    if auto:
+        two_sided = False
     if two_sided and rule == 3:
         raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:
@@ -140,12 +144,15 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         raise ValueError(f"block must be >= 1, got {block}")
     block = min(block, D)
 
-    renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True)
+    # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
+    both = exposed_back_faces(mesh, (centre, radius)) if auto and rule == 2 else None
+    renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
     defs = _defines(R, rule, rule, block, depth_bits, dtype_i, two_sided)
     corner_args = ()
     if footprint:
         scale = footprint_scale(R)
-        corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True)
+        corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True,
+                                both_sides=both)
         cdepth_buf = _cl.empty(block * corners.bytes_per_map)
         cfront_buf = _cl.empty(block * corners.facing_bytes_per_map)
         corner_args = (cdepth_buf, cfront_buf, scale)

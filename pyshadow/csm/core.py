@@ -163,7 +163,7 @@ class CoherentShadowMap:
     @keyword_only("CoherentShadowMap.build")
     def build(cls, mesh, views: ViewSet | None = None, *, resolution: int | None = None, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False, two_sided: bool = False,
+              frame=None, footprint: bool = False, two_sided="auto",
               max_error: float | None = None, max_bytes: int | None = None, lookup: str = "nearest",
               verify: bool = True) -> "CoherentShadowMap":
         """Render and compress the depth maps of ``mesh`` for ``views``, or for the accuracy asked.
@@ -208,8 +208,13 @@ class CoherentShadowMap:
             surface nearest the light stays lit without a larger self-bias.
             More segments, twice the rasterisation (benchmarks/README.md,
             ``accuracy.py`` section 7). ``R <= 4095``.
-        two_sided : bool, optional
-            ``m`` before every ``z2``: open sheets seen from both sides (an open box). ``layers=2`` only.
+        two_sided : {'auto', True, False}, optional
+            ``m`` before every ``z2`` that faces away from the light too.
+            ``'auto'`` (the default): before the faces whose back side a ray
+            from outside can reach (the inner floor and walls of an open box;
+            :func:`pyshadow.csm.exposure.exposed_back_faces`), so that points
+            there stay in shadow; none on a closed mesh. ``True``: before
+            every ``z2`` (``layers=2`` only); ``False``: before none.
         max_error : float, optional
             Choose views and resolution instead: the smallest CSM whose
             disagreement with Embree, predicted by the error model and checked

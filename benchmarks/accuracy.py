@@ -42,7 +42,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import Sampling, embree
-from pyshadow.csm import DEPTH_Q, compress_reference, footprint_corners
+from pyshadow.csm import DEPTH_Q, both_sided_faces, compress_reference, footprint_corners
 from pyshadow.csm.core import DEFAULT_BIAS_TEXELS
 from pyshadow.csm.reference import shadow_vote
 from pyshadow.visibility import visible_reference
@@ -171,6 +171,7 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
     eps = embree.surface_epsilon(scene)
     blocker, n_wrong, n_grazing, n_rays = [], 0, 0, 0
     total = np.zeros(2)
+    both = both_sided_faces(mesh, (csm.centre, csm.radius), csm.layer_rule)     # the build's (two_sided='auto')
     for w in fibonacci_sphere(n_dirs):
         wl = w @ inst.rotation                       # the direction in the mesh's frame
         cos = n_local @ wl
@@ -179,8 +180,8 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
             continue
         one = pyshadow.ViewSet(wl[None], map_basis(wl)[None])
         layers, front = pyshadow.render_depth(mesh, one, resolution=csm.resolution, layers=csm.layer_rule,
-                                              frame=(csm.centre, csm.radius), facing=True)
-        corners, cfront = footprint_corners(mesh, one, R, csm.layer_rule, (csm.centre, csm.radius))
+                                              frame=(csm.centre, csm.radius), facing=True, both_sides=both)
+        corners, cfront = footprint_corners(mesh, one, R, csm.layer_rule, (csm.centre, csm.radius), both)
         k = int(m.sum())
         W = np.broadcast_to(w, (k, 3))
         truth = embree.visible(scene, P[m], W)

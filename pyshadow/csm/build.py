@@ -18,7 +18,7 @@ from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
-from .exposure import exposed_back_faces
+from .exposure import both_sided_faces
 
 __all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
 
@@ -59,17 +59,18 @@ def corner_frame(frame, resolution):
     return centre, radius * (R + 1) / R
 
 
-def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame):
+def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame, both_sides=None):
     """The corner maps a footprint build folds in, for :func:`compress_reference`.
 
     ``render_depth(mesh, views, R + 1, layers, frame=corner_frame(frame, R),
-    facing=True)``: depth (D, layers, R+1, R+1) float32 in the corner frame,
-    and the facing flags.
+    facing=True, both_sides=both_sides)``: depth (D, layers, R+1, R+1)
+    float32 in the corner frame, and the facing flags (``both_sides``: the
+    build's, :func:`pyshadow.csm.exposure.both_sided_faces`).
     """
     from ..raster import render_depth
 
     return render_depth(mesh, views, resolution=int(resolution) + 1, layers=layers,
-                        frame=corner_frame(frame, resolution), facing=True)
+                        frame=corner_frame(frame, resolution), facing=True, both_sides=both_sides)
 
 
 def _check_frame(mesh, frame):
@@ -124,10 +125,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     footprint = bool(footprint)
     if not (isinstance(two_sided, (bool, np.bool_)) or (isinstance(two_sided, str) and two_sided == "auto")):
         raise TypeError(f"two_sided must be True, False or 'auto', got {two_sided!r}")
-    auto = isinstance(two_sided, str)
-    if auto:
-        two_sided = False
-    if two_sided and rule == 3:
+    both_every = not isinstance(two_sided, str) and bool(two_sided)     # True: the fold's TWO_SIDED
+    if both_every and rule == 3:
         raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
@@ -145,9 +144,9 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     block = min(block, D)
 
     # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
-    both = exposed_back_faces(mesh, (centre, radius)) if auto and rule == 2 else None
+    both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
     renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
-    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, two_sided)
+    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every)
     corner_args = ()
     if footprint:
         scale = footprint_scale(R)

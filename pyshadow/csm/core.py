@@ -209,12 +209,8 @@ class CoherentShadowMap:
             More segments, twice the rasterisation (benchmarks/README.md,
             ``accuracy.py`` section 7). ``R <= 4095``.
         two_sided : {'auto', True, False}, optional
-            ``m`` before every ``z2`` that faces away from the light too.
-            ``'auto'`` (the default): before the faces whose back side a ray
-            from outside can reach (the inner floor and walls of an open box;
-            :func:`pyshadow.csm.exposure.exposed_back_faces`), so that points
-            there stay in shadow; none on a closed mesh. ``True``: before
-            every ``z2`` (``layers=2`` only); ``False``: before none.
+            ``m`` also before a ``z2`` facing away: ``'auto'`` on backs open to the outside (an open box's
+            inside; :func:`pyshadow.csm.exposed_back_faces`), ``True`` on every one (``layers=2``), ``False`` none.
         max_error : float, optional
             Choose views and resolution instead: the smallest CSM whose
             disagreement with Embree, predicted by the error model and checked
@@ -226,9 +222,8 @@ class CoherentShadowMap:
             With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with
             (``'auto'``, ``max_error`` only: one-texel where it can meet it, else the vote).
         verify : bool, optional
-            With ``max_error``: measure the built CSM against Embree on
-            independent rays, and go on to the next candidate where it misses;
-            with ``max_bytes``: measure it (reported).
+            With ``max_error``: measure the built CSM against Embree on independent rays, and go on to the
+            next candidate where it misses; with ``max_bytes``: measure it (reported).
 
         Returns
         -------

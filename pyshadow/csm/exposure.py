@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["exposed_back_faces", "EXPOSURE_DIRECTIONS"]
+__all__ = ["exposed_back_faces", "both_sided_faces", "EXPOSURE_DIRECTIONS"]
 
 #: directions of the sphere tried from each face's back side (about half of
 #: them lie in its back hemisphere)
@@ -77,3 +77,30 @@ def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np
         if len(ask):
             out[ask] = ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
     return out
+
+
+def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
+    """The faces a build marks as facing the light from both sides, or None (none marked).
+
+    What :meth:`pyshadow.CoherentShadowMap.build` passes to the rasteriser
+    (``both_sides`` of :class:`pyshadow.raster.DepthRenderer`): with
+    ``two_sided='auto'`` and ``layers=2`` the faces of
+    :func:`exposed_back_faces`; otherwise none (``True`` keeps the margin
+    before every ``z2`` in the fold instead; a closed mesh's backs are never
+    asked). The NumPy mirror of a build is
+    ``compress_reference(*render_depth(..., facing=True, both_sides=both_sided_faces(...)), ...)``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    frame : (centre, radius)
+        The CSM's normalised frame (``csm.centre``, ``csm.radius``).
+    layer_rule : {2, 3}
+    two_sided : {'auto', True, False}, optional
+
+    Returns
+    -------
+    ndarray, shape (F,), bool, or None
+    """
+    auto = isinstance(two_sided, str) and two_sided == "auto"
+    return exposed_back_faces(mesh, frame) if auto and int(layer_rule) == 2 else None

@@ -18,7 +18,7 @@ from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
-from .exposure import both_sided_faces
+from .exposure import both_sided_faces, is_auto
 
 __all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
 
@@ -123,9 +123,9 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if not isinstance(footprint, (bool, np.bool_)):
         raise TypeError(f"footprint must be True or False, got {footprint!r}")
     footprint = bool(footprint)
-    if not (isinstance(two_sided, (bool, np.bool_)) or (isinstance(two_sided, str) and two_sided == "auto")):
+    if not (isinstance(two_sided, (bool, np.bool_)) or is_auto(two_sided)):
         raise TypeError(f"two_sided must be True, False or 'auto', got {two_sided!r}")
-    both_every = not isinstance(two_sided, str) and bool(two_sided)     # True: the fold's TWO_SIDED
+    both_every = not is_auto(two_sided) and bool(two_sided)     # True: the fold's TWO_SIDED
     if both_every and rule == 3:
         raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:

@@ -269,9 +269,9 @@ def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_er
                  layers, verify, progress):
     """:meth:`CoherentShadowMap.build` with ``max_error`` or ``max_bytes``: the chosen CSM, ``choice`` set."""
     from ..mesh import load_mesh
+    from .exposure import is_auto
 
-    given = not (isinstance(two_sided, str) and two_sided == "auto")
-    if views is not None or resolution is not None or frame is not None or footprint or given:
+    if views is not None or resolution is not None or frame is not None or footprint or not is_auto(two_sided):
         raise TypeError("CoherentShadowMap.build: max_error and max_bytes choose views and resolution; "
                         "leave out views, resolution, frame, footprint and two_sided")
     if max_error is not None and max_bytes is not None:

@@ -16,20 +16,18 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["exposed_back_faces", "both_sided_faces", "EXPOSURE_DIRECTIONS"]
+from .surface_rule import _fibonacci_sphere
+
+__all__ = ["exposed_back_faces", "both_sided_faces", "is_auto", "EXPOSURE_DIRECTIONS"]
 
 #: directions of the sphere tried from each face's back side (about half of
 #: them lie in its back hemisphere)
 EXPOSURE_DIRECTIONS = 64
 
 
-def _sphere_directions(n: int) -> np.ndarray:
-    """``n`` unit vectors spread evenly over the sphere (a Fibonacci lattice), float64 (n, 3)."""
-    k = np.arange(n) + 0.5
-    y = 1.0 - 2.0 * k / n
-    phi = np.pi * (3.0 - np.sqrt(5.0)) * k
-    r = np.sqrt(np.maximum(0.0, 1.0 - y * y))
-    return np.stack([r * np.cos(phi), y, r * np.sin(phi)], axis=1)
+def is_auto(two_sided) -> bool:
+    """Whether ``two_sided`` is ``'auto'`` (a string compared only as a string: NumPy bools never are)."""
+    return isinstance(two_sided, str) and two_sided == "auto"
 
 
 def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np.ndarray:
@@ -72,7 +70,7 @@ def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np
     # behind the face by more than the float32 intersection error at the frame's size (1)
     o = c - n * float(ray_epsilon(1.0)) * 4.0
     scene = EmbreeScene(tri)
-    for d in _sphere_directions(int(directions)):
+    for d in _fibonacci_sphere(int(directions)):
         ask = np.flatnonzero(live & ~out & (n @ d < 0.0))
         if len(ask):
             out[ask] = ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
@@ -102,5 +100,4 @@ def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
     -------
     ndarray, shape (F,), bool, or None
     """
-    auto = isinstance(two_sided, str) and two_sided == "auto"
-    return exposed_back_faces(mesh, frame) if auto and int(layer_rule) == 2 else None
+    return exposed_back_faces(mesh, frame) if is_auto(two_sided) and int(layer_rule) == 2 else None

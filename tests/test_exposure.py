@@ -5,7 +5,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import CoherentShadowMap
-from pyshadow.csm import compress_reference, exposed_back_faces
+from pyshadow.csm import compress_reference, escape_fractions, exposed_back_faces
 from pyshadow.raster import render_depth_reference
 
 
@@ -45,6 +45,31 @@ def test_exposed_back_faces_follow_the_geometry():
     far.apply_scale(1e-4)
     far.apply_translation([1e3, -2e3, 5e2])
     np.testing.assert_array_equal(exposed_back_faces(far, _frame(far)), got)
+
+
+def test_escape_fractions_count_the_rays_that_leave():
+    """Sealed backs 0, backs facing open space 1, the open box's inside between; a face is exposed at a
+    lattice exactly where some ray of that lattice leaves (the teapot, open at its lid and spout)."""
+    closed = _box()
+    assert (escape_fractions(closed, _frame(closed), 256) == 0.0).all()
+    inverted = trimesh.Trimesh(np.asarray(closed.vertices), np.asarray(closed.faces)[:, ::-1], process=False)
+    assert (escape_fractions(inverted, _frame(inverted), 256) == 1.0).all()
+    ob = _open_box()
+    f = escape_fractions(ob, _frame(ob), 1024)
+    assert ((f > 0) & (f < 1)).all()
+    # a floor triangle's centroid sees the unit-square opening one unit up over the solid angle of a
+    # rectangle above a point (the sum of atan(x z / (h sqrt(x^2 + z^2 + h^2))) over its corners, signed),
+    # 0.1218 of the hemisphere; the lattice's 512 back directions count it within 5 directions
+    floor = ob.face_normals[:, 1] < -0.5
+    for share, (px, py, pz) in zip(f[floor], ob.triangles_center[floor]):
+        h = 1.0 - py
+        omega = sum(sx * sz * np.arctan(x * z / (h * np.sqrt(x * x + z * z + h * h)))
+                    for sx, x in ((1, 0.5 - px), (-1, -0.5 - px)) for sz, z in ((1, 0.5 - pz), (-1, -0.5 - pz)))
+        assert abs(share - omega / (2 * np.pi)) < 0.01
+    teapot = pyshadow.data.mesh("teapot")
+    fr = _frame(teapot)
+    for d in (32, 64):
+        np.testing.assert_array_equal(escape_fractions(teapot, fr, d) > 0, exposed_back_faces(teapot, fr, d))
 
 
 def test_a_zero_area_face_is_not_exposed():

@@ -88,12 +88,12 @@ from .build import corner_frame, footprint_corners, footprint_scale
 from .fileformat import FORMAT_VERSION, MAGIC
 from .reference import compress_reference, footprint_interval, second_bound, second_slope, shadow_vote
 from .choose import choose_csm, choose_within
-from .exposure import both_sided_faces, exposed_back_faces
+from .exposure import both_sided_faces, escape_fractions, exposed_back_faces
 from . import build, choose, core, device, error_model, exposure, fileformat, reference
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
            "SLOPE_SLACK_QUANTA", "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "slope_slack",
            "second_bound", "second_slope", "corner_frame",
            "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
-           "choose_csm", "choose_within", "both_sided_faces", "exposed_back_faces",
+           "choose_csm", "choose_within", "both_sided_faces", "escape_fractions", "exposed_back_faces",
            "build", "choose", "core", "device", "error_model", "exposure", "fileformat", "reference"]

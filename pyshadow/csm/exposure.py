@@ -18,7 +18,7 @@ import numpy as np
 
 from .surface_rule import _fibonacci_sphere
 
-__all__ = ["exposed_back_faces", "both_sided_faces", "is_auto", "EXPOSURE_DIRECTIONS"]
+__all__ = ["exposed_back_faces", "escape_fractions", "both_sided_faces", "is_auto", "EXPOSURE_DIRECTIONS"]
 
 #: directions of the sphere tried from each face's back side (about half of
 #: them lie in its back hemisphere)
@@ -30,6 +30,23 @@ def is_auto(two_sided) -> bool:
     return isinstance(two_sided, str) and two_sided == "auto"
 
 
+def _back_rays(mesh, frame):
+    """What the rays from behind the faces need: the faces' unit winding normals (F, 3), the rays'
+    origin behind each centroid (F, 3), the faces of non-zero area (F,) and the Embree scene, all in
+    the normalised frame ``frame`` (centre, radius)."""
+    from ..embree import EmbreeScene, ray_epsilon
+
+    centre, radius = frame
+    tri = (np.asarray(mesh.triangles, dtype=np.float64) - np.asarray(centre, dtype=np.float64)) / float(radius)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    live = length > 0.0
+    n[live] /= length[live, None]
+    # behind the face by more than the float32 intersection error at the frame's size (1)
+    o = tri.mean(axis=1) - n * float(ray_epsilon(1.0)) * 4.0
+    return n, o, live, (EmbreeScene(tri) if len(tri) else None)
+
+
 def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np.ndarray:
     """Faces whose back side (against their winding normal) a ray from outside the mesh can reach.
 
@@ -38,7 +55,11 @@ def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np
     a face is exposed when one of them meets no face of the mesh (Embree).
     On a closed mesh wound outwards none is. A face exposed only away from its
     centroid, or only through an opening narrower than the lattice's spacing
-    (about 25 degrees at 64 directions) seen from its centroid, is not found.
+    (about 25 degrees at 64 directions) seen from its centroid, is not found:
+    where the inside of an open mesh is seen only through small holes (the
+    bunny's base) the count grows with the lattice and has not converged at
+    1024 directions (:func:`escape_fractions`; benchmarks/README.md,
+    ``exposure.py``).
 
     Parameters
     ----------
@@ -55,26 +76,44 @@ def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np
         True where the face's back side is open to the outside; False for
         faces of zero area.
     """
-    from ..embree import EmbreeScene, ray_epsilon
-
-    centre, radius = frame
-    tri = (np.asarray(mesh.triangles, dtype=np.float64) - np.asarray(centre, dtype=np.float64)) / float(radius)
-    out = np.zeros(len(tri), bool)
-    if len(tri) == 0:
-        return out
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(n, axis=1)
-    live = length > 0.0
-    n[live] /= length[live, None]
-    c = tri.mean(axis=1)
-    # behind the face by more than the float32 intersection error at the frame's size (1)
-    o = c - n * float(ray_epsilon(1.0)) * 4.0
-    scene = EmbreeScene(tri)
-    for d in _fibonacci_sphere(int(directions)):
+    n, o, live, scene = _back_rays(mesh, frame)
+    out = np.zeros(len(n), bool)
+    for d in _fibonacci_sphere(int(directions)) if scene is not None else ():
         ask = np.flatnonzero(live & ~out & (n @ d < 0.0))
         if len(ask):
             out[ask] = ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
     return out
+
+
+def escape_fractions(mesh, frame, directions: int = 1024) -> np.ndarray:
+    """For each face, the share of its back hemisphere's lattice directions along which a ray from just
+    behind its centroid leaves the mesh (the rays of :func:`exposed_back_faces`, every one traced).
+
+    A diagnostic of an open mesh: 0 where the face's back is sealed (as far
+    as the lattice sees), small where it sees the outside only through a
+    narrow opening, near 1 where it faces open space.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    frame : (centre, radius)
+        The normalised frame (world units), as for :func:`exposed_back_faces`.
+    directions : int, optional
+        Lattice directions over the whole sphere.
+
+    Returns
+    -------
+    ndarray, shape (F,), float64
+        In [0, 1]; 0 for faces of zero area.
+    """
+    n, o, live, scene = _back_rays(mesh, frame)
+    escaped, asked = np.zeros(len(n)), np.zeros(len(n))
+    for d in _fibonacci_sphere(int(directions)) if scene is not None else ():
+        ask = np.flatnonzero(live & (n @ d < 0.0))
+        if len(ask):
+            escaped[ask] += ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
+            asked[ask] += 1.0
+    return escaped / np.maximum(asked, 1.0)
 
 
 def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):

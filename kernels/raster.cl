@@ -169,6 +169,8 @@ __kernel void render_depth_layers(__global const float *tris,
         VSTORE(CONVERT(int, c0), 0, cpos);
         VSTORE(CONVERT(int, r0), 0, rpos);
 #if FACING
+        /* the facing flag of both paths below: area > 0 (edge_v: the scalar path's edge_fn value),
+         * or the triangle faces the light from both sides */
         const iv both = MASK(VLOAD(0, tris + 9 * (size_t)tpad + base) != 0.0f);
         VSTORE(pos | both, 0, fpos);
 #endif
@@ -196,16 +198,11 @@ __kernel void render_depth_layers(__global const float *tris,
             const int cc1 = (int)fmin(floor(fmax(p0.x, fmax(p1.x, p2.x))), last);
             const int rr1 = (int)fmin(floor(fmax(p0.y, fmax(p1.y, p2.y))), last);
             const float z0 = sz0[i], z1 = sz1[i], z2 = sz2[i];
-#if FACING
-            const int bothf = tris[9 * (size_t)tpad + base + i] != 0.0f;
-#else
-            const int bothf = 0;
-#endif
             for (int r = rr0; r <= rr1; ++r) {
                 for (int col = cc0; col <= cc1; ++col) {
                     float3 w;
                     if (!tri_covers(p0, p1, p2, ar, (float2)((float)col, (float)r), &w)) continue;
-                    INSERT((size_t)r * RES + col, w.x * z0 + w.y * z1 + w.z * z2, ar > 0.0f || bothf);
+                    INSERT((size_t)r * RES + col, w.x * z0 + w.y * z1 + w.z * z2, fpos[i] != 0);
                 }
             }
         }

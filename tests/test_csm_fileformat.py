@@ -255,3 +255,25 @@ def test_zigzag_row_offset_survives_save_and_load_and_old_files_are_the_thesis_g
                        edit_header=lambda h, o=off: h["layout_params"].update(row_offset=o))
         with pytest.raises(CSMFormatError, match="row_offset"):
             CoherentShadowMap.load(bad)
+
+
+def test_two_sided_record_survives_save_and_load_and_old_files_have_none(tmp_path, small_csm):
+    """The build's two_sided and its count of faces kept from either side are saved; a file from before
+    the record loads with None for both; a record that is not 'auto'/true/false with a count >= 0 (or
+    neither) is refused by name."""
+    n = small_csm.both_sided_faces                     # the bunny is open: its bottom's inside is exposed
+    assert small_csm.two_sided == "auto" and n >= 1000
+    path = small_csm.save(tmp_path / "t.csm")
+    back = CoherentShadowMap.load(path)
+    assert (back.two_sided, back.both_sided_faces) == ("auto", n)
+    assert (back.stats["two_sided"], back.stats["both_sided_faces"]) == ("auto", n)
+    old = CoherentShadowMap.load(_rewrite(path, tmp_path / "old.csm",
+                                          edit_header=lambda h: [h.pop("two_sided"), h.pop("both_sided_faces")]))
+    assert old.two_sided is None and old.both_sided_faces is None
+    assert old.depth.tobytes() == small_csm.depth.tobytes()
+    for label, rec in (("word", ("yes", 3)), ("int", (1, 3)), ("count", ("auto", -1)), ("bool", (True, True)),
+                       ("half", ("auto", None)), ("float", (False, 2.0))):
+        bad = _rewrite(path, tmp_path / f"{label}.csm",
+                       edit_header=lambda h, r=rec: h.update(two_sided=r[0], both_sided_faces=r[1]))
+        with pytest.raises(CSMFormatError, match="two_sided"):
+            CoherentShadowMap.load(bad)

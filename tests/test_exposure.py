@@ -124,6 +124,11 @@ def test_auto_build_equals_the_reference_with_the_exposed_faces(bits):
     csm = CoherentShadowMap.build(both, views, resolution=24, depth_bits=bits, layers=2, progress=False)
     flags = exposed_back_faces(both, pyshadow.bounding_sphere(both))
     assert 0 < flags.sum() < len(flags)
+    assert (csm.stats["two_sided"], csm.stats["both_sided_faces"]) == ("auto", int(flags.sum()))
+    for m, kw, want in ((ob, {}, len(ob.faces)), (ob, {"two_sided": True}, len(ob.faces)), (closed, {}, 0),
+                        (both, {"two_sided": False}, 0)):     # the open box: every face exposed
+        c = CoherentShadowMap.build(m, views, resolution=8, layers=2, progress=False, **kw)
+        assert (c.two_sided, c.both_sided_faces) == (kw.get("two_sided", "auto"), want)
     layer_maps, front = pyshadow.render_depth(both, views, resolution=24, layers=2, facing=True, both_sides=flags)
     offsets, iend, depth = compress_reference(layer_maps, front, 2, bits)
     np.testing.assert_array_equal(csm.offsets.astype(np.int64), offsets)

@@ -145,6 +145,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
 
     # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
     both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
+    n_both = len(mesh.faces) if both_every else 0 if both is None else int(np.count_nonzero(both))
     renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
     defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every)
     corner_args = ()
@@ -233,4 +234,5 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
                centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
                front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint,
-               box=normalised_bounds(mesh, centre, radius))
+               box=normalised_bounds(mesh, centre, radius),
+               two_sided="auto" if is_auto(two_sided) else bool(two_sided), both_sided_faces=n_both)

@@ -133,13 +133,16 @@ class CoherentShadowMap:
     box : ndarray, shape (2, 3), float64, or None
         The mesh's bounding box ``(lo, hi)``, normalised frame: the lookup cuts each ray's
         chord to it (:func:`lookup_box`); None in files from before boxes (the sphere alone).
+    two_sided : {'auto', True, False} or None
+        The build's ``two_sided``; ``both_sided_faces``: how many faces it kept the margin before
+        from either side (``True``: all). Both None in files from before the record.
     stats : dict
         See :attr:`stats`.
     """
 
     def __init__(self, *, views, resolution, depth_bits, layer_rule, centre, radius, mesh_hash,
                  offsets, iend, depth, build_seconds=float("nan"), peak_bytes=0, front_margin_texels=0.0,
-                 footprint=False, box=None):
+                 footprint=False, box=None, two_sided=None, both_sided_faces=None):
         self.views = views
         self.resolution = int(resolution)
         self.depth_bits = int(depth_bits)
@@ -147,6 +150,7 @@ class CoherentShadowMap:
         self.front_margin_texels = float(front_margin_texels)
         self.footprint = bool(footprint)
         self.box = None if box is None else np.array(box, dtype=np.float64).reshape(2, 3)
+        self.two_sided, self.both_sided_faces = two_sided, both_sided_faces
         self.centre = np.asarray(centre, dtype=np.float64)
         self.radius = float(radius)
         self.mesh_hash = str(mesh_hash)
@@ -263,28 +267,18 @@ class CoherentShadowMap:
             (``D * R^2 * depth_bits / 8``), ``ratio`` (uncompressed / bytes),
             ``build_seconds``, ``peak_bytes`` (device and host working set of
             the build), ``depth_bits``, ``layer_rule``, ``front_margin_texels``,
-            ``footprint``, ``layout``, ``choice`` (how ``build(max_error=...)``
-            chose the parameters, with the error model's prediction and the
-            check; None otherwise).
+            ``footprint``, ``layout``, ``two_sided``, ``both_sided_faces``,
+            ``choice`` (how ``build(max_error=...)`` chose the parameters, with
+            the error model's prediction and the check; None otherwise).
         """
         nbytes = int(self.depth.nbytes + self.iend.nbytes + self.offsets.nbytes)
         unc = self.maps * self.resolution**2 * self.depth_bits // 8
-        return {
-            "maps": self.maps,
-            "resolution": self.resolution,
-            "segments": self.segments,
-            "bytes": nbytes,
-            "uncompressed_bytes": unc,
-            "ratio": unc / nbytes,
-            "build_seconds": self._build_seconds,
-            "peak_bytes": self._peak_bytes,
-            "depth_bits": self.depth_bits,
-            "layer_rule": self.layer_rule,
-            "front_margin_texels": self.front_margin_texels,
-            "footprint": self.footprint,
-            "layout": self.views.layout,
-            "choice": self.choice,
-        }
+        return {"maps": self.maps, "resolution": self.resolution, "segments": self.segments, "bytes": nbytes,
+                "uncompressed_bytes": unc, "ratio": unc / nbytes, "build_seconds": self._build_seconds,
+                "peak_bytes": self._peak_bytes, "depth_bits": self.depth_bits, "layer_rule": self.layer_rule,
+                "front_margin_texels": self.front_margin_texels, "footprint": self.footprint,
+                "layout": self.views.layout, "two_sided": self.two_sided,
+                "both_sided_faces": self.both_sided_faces, "choice": self.choice}
 
     def texel_segment_counts(self) -> np.ndarray:
         """Segments per texel, (R, R) int64, indexed ``[row, col]``."""

@@ -16,7 +16,9 @@ bytes     content
           mesh_hash, segments, offsets_dtype, writer; optional
           front_margin_texels (default 0), footprint (default
           false), box (the mesh's box in the normalised frame,
-          [[lo x, y, z], [hi x, y, z]]; default none), build_seconds;
+          [[lo x, y, z], [hi x, y, z]]; default none), two_sided
+          ("auto", true or false) and both_sided_faces (an integer
+          >= 0; both default none), build_seconds;
           zigzag layout_params may hold row_offset (0 or 0.5;
           default 0, the thesis's grid)
 aligned   arrays at 64-byte boundaries after the header, in order:
@@ -63,6 +65,8 @@ def header(csm, reproducible: bool = False) -> dict:
         "front_margin_texels": csm.front_margin_texels,
         "footprint": csm.footprint,
         "box": None if csm.box is None else csm.box.tolist(),
+        "two_sided": csm.two_sided,
+        "both_sided_faces": csm.both_sided_faces,
         "mesh_hash": csm.mesh_hash,
         "segments": csm.segments,
         "offsets_dtype": csm.offsets.dtype.str,
@@ -201,6 +205,12 @@ def _from_header(cls, path, head, start, size, mmap):
         if not ok:
             raise CSMFormatError(f"{path}: box must be [[lo x, y, z], [hi x, y, z]] with lo <= hi inside "
                                  f"[-1, 1] (the normalised frame), got {head.get('box')!r}")
+    two_sided, n_both = head.get("two_sided"), head.get("both_sided_faces")     # absent before the record
+    if not (two_sided is None or isinstance(two_sided, bool) or two_sided == "auto") or (
+            two_sided is None) != (n_both is None) or not (
+            n_both is None or (isinstance(n_both, int) and not isinstance(n_both, bool) and n_both >= 0)):
+        raise CSMFormatError(f"{path}: two_sided must be \"auto\", true or false with both_sided_faces an "
+                             f"integer >= 0 (or neither), got {two_sided!r} and {n_both!r}")
     if layout not in _LAYOUTS:
         raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
     if odt not in ("<u4", "<u8"):
@@ -252,7 +262,7 @@ def _from_header(cls, path, head, start, size, mmap):
                centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
                offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
                build_seconds=head.get("build_seconds") or float("nan"), front_margin_texels=margin,
-               footprint=footprint, box=box)
+               footprint=footprint, box=box, two_sided=two_sided, both_sided_faces=n_both)
 
 
 def _validate_arrays(path, data, R, D, S, bits):

@@ -228,9 +228,27 @@ def test_probe_verdicts_are_cached_per_device(tmp_path, monkeypatch):
     assert first == second
     assert first[1]["ok"], first[1]                   # the real child, at one lane, passes
     data = json.loads((tmp_path / "lanes.json").read_text())
-    (entry,) = data.values()
+    assert (data["format"], data["version"]) == ("pyshadow-lanes", 1)
+    (entry,) = data["entries"].values()
     assert entry["device"] == st["device"].name.strip()
     assert entry["driver"] == st["device"].driver_version.strip()
+    # edited by hand (the checksum no longer matches), of the old unversioned form, or not JSON: probed again
+    good = (tmp_path / "lanes.json").read_text()
+    for text in (good.replace('"ok": false', '"ok": true').replace('"ok": true', '"ok": 1'),
+                 json.dumps(data["entries"]), "{", "[]"):
+        (tmp_path / "lanes.json").write_text(text)
+        again, src = lanes_mod.verdicts(*st["index"], st["platform"], st["device"], job)
+        assert src == "probe" and again == first
+    # a forged checksum over an entry of the wrong form is not trusted either
+    key = next(iter(data["entries"]))
+    for bad in ({"verdicts": {"16": "x", "8": first[8], "4": first[4], "1": first[1]}},
+                {"verdicts": {str(w): {"ok": "yes", "why": ""} for w in lanes_mod.LANE_WIDTHS}}):
+        entries = {key: bad}
+        (tmp_path / "lanes.json").write_text(json.dumps({**data, "entries": entries,
+                                                         "sha256": lanes_mod._entries_digest(entries)}))
+        again, src = lanes_mod.verdicts(*st["index"], st["platform"], st["device"], job)
+        assert src == "probe" and again == first
+    assert len(calls) == 7
 
 
 def test_launch_shape_follows_the_device_kind():

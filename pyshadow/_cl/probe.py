@@ -72,12 +72,36 @@ def _key(platform, device, job: dict) -> str:
     return h.hexdigest()[:24]
 
 
+#: lanes.json: {"format": "pyshadow-lanes", "version": 1, "entries": {key: entry}, "sha256": of the
+#: entries' canonical JSON}; a file of another version, or whose checksum does not match, is read as empty
+_CACHE_FORMAT, _CACHE_VERSION = "pyshadow-lanes", 1
+
+
+def _entries_digest(entries: dict) -> str:
+    return hashlib.sha256(json.dumps(entries, sort_keys=True).encode()).hexdigest()
+
+
 def _read_cache() -> dict:
+    """The cached entries, {} where the file is missing, unreadable, of another version or altered."""
     try:
         data = json.loads(cache_file().read_text())
-        return data if isinstance(data, dict) else {}
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return {}
+    if not (isinstance(data, dict) and data.get("format") == _CACHE_FORMAT
+            and data.get("version") == _CACHE_VERSION and isinstance(data.get("entries"), dict)
+            and data.get("sha256") == _entries_digest(data["entries"])):
+        return {}
+    return data["entries"]
+
+
+def _cached_verdicts(entry) -> dict | None:
+    """An entry's verdicts {width: {"ok": bool, "why": str}} when it holds one for every width, else None."""
+    v = entry.get("verdicts") if isinstance(entry, dict) else None
+    if not (isinstance(v, dict) and set(v) == {str(w) for w in LANE_WIDTHS} and all(
+            isinstance(x, dict) and isinstance(x.get("ok"), bool) and isinstance(x.get("why"), str)
+            for x in v.values())):
+        return None
+    return {int(w): {"ok": x["ok"], "why": x["why"]} for w, x in v.items()}
 
 
 def _write_cache(key: str, entry: dict) -> None:
@@ -86,8 +110,9 @@ def _write_cache(key: str, entry: dict) -> None:
     path = cache_file()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        data = _read_cache()
-        data[key] = entry
+        entries = {**_read_cache(), key: entry}
+        data = {"format": _CACHE_FORMAT, "version": _CACHE_VERSION, "entries": entries,
+                "sha256": _entries_digest(entries)}
         write_bytes_atomic(path, json.dumps(data, indent=1, sort_keys=True).encode())
     except OSError:
         pass            # a read-only cache only costs the probe again next time
@@ -165,9 +190,9 @@ def verdicts(platform_index, device_index, platform, device, job, *, refresh=Fal
     """
     key = _key(platform, device, job)
     if not refresh:
-        entry = _read_cache().get(key)
-        if entry and set(entry.get("verdicts", {})) == {str(w) for w in LANE_WIDTHS}:
-            return {int(w): v for w, v in entry["verdicts"].items()}, "cache"
+        cached = _cached_verdicts(_read_cache().get(key))
+        if cached is not None:
+            return cached, "cache"
     found = run_probe(platform_index, device_index, job)
     _write_cache(key, {"device": device.name.strip(), "platform": platform.version.strip(),
                        "driver": device.driver_version.strip(),

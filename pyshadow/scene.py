@@ -21,7 +21,7 @@ from ._validate import check_transform
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
-from .mesh import bounding_sphere, load_mesh, mesh_hash
+from .mesh import bounding_sphere, load_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
 from .views import ViewSet
@@ -405,6 +405,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
                 mesh = load_mesh(mesh)
             if mesh_hash(mesh) != obj.mesh_hash:
                 raise ValueError("mesh does not match the CSM (different mesh hash)")
+            _check_csm_frame(obj, mesh)
         inst = Instance(T, True, csm=obj, mesh=mesh)
     else:
         if mesh is not None:
@@ -428,6 +429,20 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             raise ValueError("max_error= chooses a caster's CSM; a receiver (casts=False) has none")
         inst = Instance(T, bool(casts), csm=csm, mesh=obj)
     return inst
+
+
+def _check_csm_frame(csm, mesh):
+    """The CSM's sphere holds its mesh and its box is the mesh's: the mesh hash does not cover them, so
+    a file edited there (and its checksum made good) would shadow from the wrong place."""
+    from .csm.build import _check_frame
+
+    try:
+        _check_frame(mesh, (csm.centre, csm.radius))
+    except ValueError as e:
+        raise ValueError(f"the CSM's frame does not hold its mesh ({e}): an edited file?") from None
+    if csm.box is not None and not np.allclose(csm.box, normalised_bounds(mesh, csm.centre, csm.radius),
+                                               rtol=0.0, atol=1e-9):
+        raise ValueError("the CSM's box is not its mesh's box in its frame: an edited file?")
 
 
 def _caster_slots(scene, surface_ids, n, points=None):

@@ -143,3 +143,25 @@ def test_scene_rejects_bad_instances(small_scene):
         small_scene.add(small_scene.instances[0].csm, casts=False)
     with pytest.raises(ValueError, match="does not match"):
         small_scene.add(small_scene.instances[0].csm, mesh=trimesh.creation.icosphere())
+
+
+def test_scene_refuses_a_csm_whose_frame_is_not_its_meshs(tmp_path):
+    """With its mesh given, a CSM (its file's checksum made good after an edit) whose sphere or box does not
+    fit that mesh is refused: the mesh hash does not cover them. The file as written is accepted."""
+    mesh = load("spot.obj")
+    path = pyshadow.CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=8,
+                                            progress=False).save(tmp_path / "s.csm")
+    pyshadow.Scene().add(pyshadow.CoherentShadowMap.load(path), np.eye(4), mesh=mesh)       # as written
+    moved = pyshadow.CoherentShadowMap.load(path)
+    moved.centre = moved.centre + [0.0, 0.3 * moved.radius, 0.0]
+    with pytest.raises(ValueError, match="frame does not hold its mesh"):
+        pyshadow.Scene().add(moved, np.eye(4), mesh=mesh)
+    nudged = pyshadow.CoherentShadowMap.load(path)      # inside the sphere still, but the box moves
+    nudged.centre = nudged.centre + [0.0, 1e-3 * nudged.radius, 0.0]
+    nudged.radius *= 1.01
+    with pytest.raises(ValueError, match="box is not its mesh's"):
+        pyshadow.Scene().add(nudged, np.eye(4), mesh=mesh)
+    shrunk = pyshadow.CoherentShadowMap.load(path)
+    shrunk.box = shrunk.box * 0.9
+    with pytest.raises(ValueError, match="box is not its mesh's"):
+        pyshadow.Scene().add(shrunk, np.eye(4), mesh=mesh)

@@ -54,34 +54,53 @@ def default_cache_dir() -> Path:
     return Path(platformdirs.user_cache_dir("pyshadow"))
 
 
-def _code_digest() -> str:
-    """Hash of the code a CSM depends on.
+#: the package's modules whose code decides a built CSM's bytes (the functions a build runs, found by
+#: tests/test_cache.py; besides them only the device and launch choice of ``_cl``, whose answers are
+#: the same bit for bit at every width, and ``_compat``'s keyword checks run)
+BUILD_SOURCES = ("csm/build.py", "csm/core.py", "csm/exposure.py", "csm/fileformat.py", "csm/surface_rule.py",
+                 "embree.py", "mesh.py", "raster.py", "views.py")
+
+
+def source_digest(paths=None, kernels=None) -> str:
+    """SHA-256 (hex) of pyshadow's version, the text of its modules ``paths`` and of ``kernels``.
+
+    Parameters
+    ----------
+    paths : iterable of str, optional
+        Module files relative to the package folder (``"csm/build.py"``);
+        default: every ``.py`` file of the package.
+    kernels : iterable of str, optional
+        Kernel files (``"csm.cl"``), hashed with their includes inlined;
+        default: every ``.cl`` and ``.h`` file of the kernels.
 
     Returns
     -------
     str
-        SHA-256 hex digest of pyshadow's version, the CSM builder's front
-        margin (``pyshadow.csm.FRONT_MARGIN_TEXELS``), the mesh's box (CSMs
-        carry it since the box-cut chord), the rays of the exposed-face test
-        (``pyshadow.csm.exposure.EXPOSURE_DIRECTIONS``) and the source of the
-        build kernels ``csm.cl`` and ``raster.cl`` (a kernel that cannot be
-        read contributes its name only).
+        A change of pyshadow's version or of one of those files changes it
+        (a file that cannot be read contributes its name only).
     """
     from . import _cl
     from ._version import __version__
-    from .csm import FRONT_MARGIN_TEXELS
-    from .csm.exposure import EXPOSURE_DIRECTIONS
 
+    pkg = Path(__file__).resolve().parent
+    texts = [(p, lambda p=p: (pkg / p).read_bytes()) for p in paths] if paths is not None else [
+        (str(f.relative_to(pkg)), f.read_bytes) for f in sorted(pkg.rglob("*.py"))]
+    texts += [(k, lambda k=k: _cl.kernel_source(k).encode()) for k in kernels] if kernels is not None else [
+        (f.name, f.read_bytes) for f in sorted(_cl.kernel_dir().glob("*")) if f.suffix in (".cl", ".h")]
     h = hashlib.sha256(__version__.encode())
-    h.update(repr(FRONT_MARGIN_TEXELS).encode())
-    h.update(b"box")                    # CSMs carry their mesh's box (older cached files lack it)
-    h.update(f"exposed back faces {EXPOSURE_DIRECTIONS}".encode())     # two_sided='auto', the default
-    for name in ("csm.cl", "raster.cl"):
+    for name, read in texts:
+        h.update(name.encode() + b"\0")
         try:
-            h.update(_cl.kernel_source(name).encode())
-        except (OSError, FileNotFoundError):
-            h.update(b"?" + name.encode())
+            h.update(read())
+        except OSError:
+            h.update(b"?")
     return h.hexdigest()
+
+
+def _code_digest() -> str:
+    """Hash of the code a CSM depends on: :func:`source_digest` of :data:`BUILD_SOURCES` and the build
+    kernels ``csm.cl`` and ``raster.cl``."""
+    return source_digest(BUILD_SOURCES, ("csm.cl", "raster.cl"))
 
 
 def _quiet(msg: str) -> None:
@@ -103,9 +122,9 @@ class CSMCache:
     The key of a CSM (:meth:`csm_key`) hashes the mesh hash
     (:func:`pyshadow.mesh.mesh_hash`), the view set (layout, parameters and
     number of maps), resolution, depth bits, layer rule, the CSM file
-    format version and :func:`_code_digest` (pyshadow's version and the
-    source of the build kernels): a change of any of them makes a new entry,
-    never a stale hit.
+    format version and :func:`_code_digest` (pyshadow's version, the modules
+    that build a CSM and the kernels): a change of any of them makes a new
+    entry, never a stale hit.
 
     Every file is written atomically (temporary file, flush, rename). A file
     that fails to load (checksum, truncation, format) or holds a CSM that

@@ -122,6 +122,42 @@ def test_code_digest_depends_on_the_build_kernels(monkeypatch):
     assert _code_digest() != d
 
 
+def test_code_digest_covers_every_module_a_build_runs(mesh, monkeypatch):
+    """Every module of the package whose functions run in a build (zigzag and Hilbert views, closed and
+    open meshes, footprint, 'auto' backs: traced with sys.setprofile) is in BUILD_SOURCES, but for the
+    device and launch choice (_cl, answers the same at every lane width) and the keyword checks
+    (_compat); and a change to the text of one of them changes the digest."""
+    import sys
+
+    from pyshadow import cache as cache_module
+
+    pkg = Path(pyshadow.__file__).resolve().parent
+    ran = set()
+
+    def note(frame, event, arg):
+        if event == "call":
+            f = Path(frame.f_code.co_filename)
+            if f.is_relative_to(pkg):
+                ran.add(f.relative_to(pkg).as_posix())
+
+    meshes = (mesh, load("teapot.obj"))
+    sys.setprofile(note)
+    try:
+        for m in meshes:
+            pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=False)
+            pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.hilbert(0), resolution=8, footprint=True,
+                                             progress=False)
+    finally:
+        sys.setprofile(None)
+    launch_only = {f for f in ran if f.startswith("_cl/") or f == "_compat.py"}
+    assert {"csm/build.py", "raster.py", "csm/exposure.py"} <= ran
+    assert ran - launch_only <= set(cache_module.BUILD_SOURCES), ran - launch_only
+    d = cache_module._code_digest()
+    real = Path.read_bytes
+    monkeypatch.setattr(Path, "read_bytes", lambda p: real(p) + (b"#" if p.name == "views.py" else b""))
+    assert cache_module._code_digest() != d
+
+
 def test_csm_cache_corrupt_file_rebuilt(tmp_path, mesh, views):
     cache = CSMCache(tmp_path)
     csm1, info = cache.csm("spot", mesh, views, RES, BITS)

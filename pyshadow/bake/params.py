@@ -88,22 +88,16 @@ class AssetParams:
 
 
 def code_digest() -> str:
-    """SHA-256 (hex) of pyshadow's version and every kernel source it ships.
+    """SHA-256 (hex) of pyshadow's version, every module of the package and every kernel source.
 
-    A baked output depends on the CSM builder and on the AO kernels; hashing
-    all of ``kernels/`` (with includes inlined) and the version makes a code
-    change produce new keys, so a rerun redoes the assets instead of keeping
-    stale ones.
+    A baked output depends on the CSM builder, the AO kernels and the host
+    code around them; hashing all of it (:func:`pyshadow.cache.source_digest`)
+    makes a code change produce new keys, so a rerun redoes the assets
+    instead of keeping stale ones.
     """
-    from .. import _cl
-    from .._version import __version__
+    from ..cache import source_digest
 
-    h = hashlib.sha256(__version__.encode())
-    for path in sorted(_cl.kernel_dir().glob("*")):
-        if path.suffix in (".cl", ".h"):
-            h.update(path.name.encode())
-            h.update(path.read_bytes())
-    return h.hexdigest()
+    return source_digest()
 
 
 def asset_key(source_sha256: str, params: AssetParams, code: str) -> str:

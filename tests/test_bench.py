@@ -203,6 +203,46 @@ def test_bench_corrupt_cache_file_rebuilt(tmp_path, first, cache_dir):
         first[0]["figures"]["visibility_agreement"]["value"], rel=1e-9)
 
 
+def test_bench_impossible_cached_reference_recomputed(tmp_path, first, cache_dir):
+    """A reference/*.npz with a valid checksum but NaN (or AO > 1) is a miss: traced again, rewritten."""
+    import shutil
+
+    from pyshadow.cache import CSMCache
+
+    cache = tmp_path / "cache"
+    shutil.copytree(cache_dir, cache)
+    (victim,) = sorted((cache / "reference").glob("*.npz"))      # the converged reference
+    good = CSMCache(cache).array(victim.stem)
+    for bad in (np.full_like(good, np.nan), good + 1.5):
+        CSMCache(cache).put_array(victim.stem, bad)            # checksummed like a good file
+        p = bench(*TINY, "--out", tmp_path / "out", "--json", cache=cache)
+        r = json.loads(p.stdout)
+        assert r["converged_source"] == "computed"
+        assert f"cache: reference/{victim.name} is not a possible AO of {good.size} pixels (" in p.stderr
+        assert np.array_equal(CSMCache(cache).array(victim.stem), good)    # rewritten, as first computed
+        for k in ("ao_rmse_converged", "ao_mae_converged", "reference_noise_rmse"):
+            assert r["figures"][k]["value"] == pytest.approx(first[0]["figures"][k]["value"], rel=1e-9), k
+
+
+def test_format_table_prints_missing_figures_as_na(first):
+    from pyshadow.bench import format_table
+
+    r = json.loads(json.dumps(first[0]))
+    rmse_i = r["figures"]["ao_rmse_identical"]["value"]
+    for k in ("ao_rmse_converged", "ao_mae_converged"):         # what a NaN reference made of them
+        r["figures"][k]["value"] = None
+    table = format_table(r)
+    assert "RMSE n/a  MAE n/a  (Embree 8 spp itself: RMSE " in table
+    assert f"RMSE {rmse_i:.4f}  MAE " in table
+    for fig in [r["figures"]] + r["surfaces"]:                 # every figure missing
+        for v in fig.values():
+            if isinstance(v, dict):
+                v["value"] = None
+    table = format_table(r)
+    assert "RMSE n/a  MAE n/a  (Embree 8 spp itself: RMSE n/a)" in table
+    assert "n/a px  agreement n/a %  bias n/a  RMSE n/a (same dirs) n/a (converged)" in table
+
+
 def test_bench_table_on_stdout_without_json(tmp_path, cache_dir, first):
     p = bench(*TINY, "--out", tmp_path, "--quiet", cache=cache_dir)
     assert "visibility agreement" in p.stdout and "CSM build" in p.stdout

@@ -195,3 +195,32 @@ def test_default_has_no_methods():
     assert a.method is None and a.ao_distance is None
     a = build_parser().parse_args(["--method", "embree,ssao", "--method", "ssao,csm-vote"])
     assert selected_methods(a.method) == ["csm-vote", "ssao", "embree"]
+
+
+def test_limited_reference_recomputes_an_impossible_cached_array(tiny_scene, tmp_path):
+    """A cached distance-limited reference holding NaN (valid checksum) is traced again and replaced."""
+    from pyshadow.bench.methods import limited_reference
+    from pyshadow.cache import CSMCache
+    from pyshadow.embree import EmbreeTracer
+
+    scene, _, gb = tiny_scene
+    cache, notes, D = CSMCache(tmp_path), [], 0.5
+    fresh, _ = _limited_ao(scene, gb, 8, D)
+    tracer = EmbreeTracer(scene, 1)
+    try:
+        def ref():
+            return limited_reference(cache, tracer, scene, gb, D, 8, "hammersley", 0, 256, notes.append)
+
+        ao, _, source = ref()
+        assert source == "computed" and np.array_equal(ao, fresh)
+        (path,) = (tmp_path / "reference").glob("*.npz")
+        cache.put_array(path.stem, np.full(gb.n, np.nan, np.float32))    # poisoned, checksum valid
+        notes.clear()
+        ao, seconds, source = ref()
+        assert source == "computed" and seconds is not None and np.array_equal(ao, fresh)
+        assert notes[0] == (f"cache: reference/{path.name} is not a possible AO of {gb.n} pixels "
+                            f"({gb.n} of {gb.n} values are not finite); recomputing it")
+        assert np.array_equal(cache.array(path.stem), fresh)                 # rewritten
+        assert ref()[2] == "cached"
+    finally:
+        tracer.close()

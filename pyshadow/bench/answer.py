@@ -57,7 +57,7 @@ import numpy as np
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..sampling import Sampling
-from .common import _fig, environment
+from .common import _fig, cached_ao, environment
 from .config import Config, _config_of
 from .measure import GBuffer, _errors, _reference_key, converged_reference
 from .scenes import SceneFactory, _csm_summary
@@ -320,8 +320,8 @@ def choose_within_time(preds: list[dict], budget: float, time_scale: float = 1.0
 def _reference(cache, scene, gb, args, log):
     """(ao, seconds, source) of the converged reference; Embree is started only when not cached."""
     key = _reference_key(scene, gb, args.reference_samples, args.strategy, args.seed, args.patterns)
-    ao = cache.array(key)
-    if ao is not None and ao.shape == (gb.n,):
+    ao = cached_ao(cache, key, gb.n)          # no note: converged_reference reads it again and says why
+    if ao is not None:
         return ao, None, "cached"
     tracer = EmbreeTracer(scene, args.threads)
     try:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -150,14 +151,47 @@ def _emit(obj, path: Path | None, as_json: bool):
         sys.stdout.flush()
 
 
+#: Exit status after Ctrl-C (SIGINT): 128 + 2, as a shell reports a command SIGINT ended.
+EXIT_INTERRUPTED = 130
+
+
 def main(argv=None) -> int:
     """Run ``pyshadow-bench`` with the arguments ``argv`` (default ``sys.argv[1:]``).
+
+    Ctrl-C (``KeyboardInterrupt``) at any point ends the run with the one
+    line "pyshadow-bench: interrupted" on stderr and status
+    :data:`EXIT_INTERRUPTED`. Every output file is written atomically
+    (a temporary file renamed over the target), so an interrupted run leaves
+    no partly written file: each output is either complete or not there (or
+    still the previous run's).
 
     Returns
     -------
     int
-        0 on success; argument errors exit with status 2 (``SystemExit``).
+        0 on success, :data:`EXIT_INTERRUPTED` after Ctrl-C; argument
+        errors exit with status 2 (``SystemExit``).
     """
+    try:
+        return _run(argv)
+    except KeyboardInterrupt:
+        # leaving this clause frees the interrupted run's objects; one that Ctrl-C caught half
+        # built (pyopencl's kernel cache, say) may fail in its __del__: not worth a traceback
+        hook, sys.unraisablehook = sys.unraisablehook, _ignore_unraisable
+    try:
+        gc.collect()
+    finally:
+        sys.unraisablehook = hook
+    sys.stderr.write("pyshadow-bench: interrupted\n")
+    sys.stderr.flush()
+    return EXIT_INTERRUPTED
+
+
+def _ignore_unraisable(unraisable) -> None:
+    """A ``sys.unraisablehook`` that drops the error (while an interrupted run is freed)."""
+
+
+def _run(argv) -> int:
+    """The run of :func:`main`, which adds the Ctrl-C handling."""
     ap = build_parser()
     args = ap.parse_args(argv)
     log = _Log(args.quiet)

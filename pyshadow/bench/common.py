@@ -1,4 +1,5 @@
-"""Helpers every part of pyshadow-bench uses: progress on stderr, figure records, environment."""
+"""Helpers every part of pyshadow-bench uses: progress on stderr, figure records, environment,
+and the check of AO arrays read back from the cache."""
 from __future__ import annotations
 
 import math
@@ -38,6 +39,74 @@ def _fig(value, unit: str, label: str) -> dict:
     if isinstance(value, float) and not math.isfinite(value):
         value = None
     return {"value": value, "unit": unit, "label": label}
+
+
+def ao_defect(a, n: int) -> str | None:
+    """Why ``a`` cannot be the AO of ``n`` pixels, or None when it can.
+
+    AO is a fraction of unoccluded directions: a finite value in [0, 1] per
+    pixel, one dimension of length ``n``.
+
+    Parameters
+    ----------
+    a : ndarray
+        The array to check.
+    n : int
+        The number of pixels it should hold.
+
+    Returns
+    -------
+    str or None
+        A short reason (wrong shape, values not finite, values outside
+        [0, 1]); None when ``a`` is a possible AO array.
+    """
+    a = np.asarray(a)
+    if a.shape != (n,):
+        return f"shape {a.shape}, expected ({n},)"
+    bad = int(np.count_nonzero(~np.isfinite(a)))
+    if bad:
+        return f"{bad} of {n} values are not finite"
+    out = int(np.count_nonzero((a < 0.0) | (a > 1.0)))
+    if out:
+        return f"{out} of {n} values are outside [0, 1] (min {float(a.min()):.6g}, max {float(a.max()):.6g})"
+    return None
+
+
+def cached_ao(cache, key: str, n: int, log=None):
+    """The AO of ``n`` pixels cached under ``key``, or None when absent or impossible.
+
+    :meth:`pyshadow.cache.CSMCache.array` checks the file (zip, checksum),
+    not what it holds: an array that is not a possible AO of ``n`` pixels
+    (:func:`ao_defect`: wrong shape, non-finite values, values outside
+    [0, 1]) is treated like a missing one, so the caller recomputes it and
+    its :meth:`~pyshadow.cache.CSMCache.put_array` replaces the file.
+
+    Parameters
+    ----------
+    cache : pyshadow.cache.CSMCache
+        The cache (disabled: always None).
+    key : str
+        The array's cache key.
+    n : int
+        The number of pixels the AO should have.
+    log : callable, optional
+        ``log(message)`` receives a one-line note when a cached array is
+        refused; None: no note.
+
+    Returns
+    -------
+    ndarray, shape (n,), float32, or None
+    """
+    a = cache.array(key)
+    if a is None:
+        return None
+    why = ao_defect(a, n)
+    if why is None:
+        return a
+    if log is not None:
+        log(f"cache: reference/{key[:40]}.npz is not a possible AO of {n} pixels ({why}); "
+            "recomputing it")
+    return None
 
 
 def environment(threads: int) -> dict:

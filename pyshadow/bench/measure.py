@@ -12,7 +12,7 @@ import numpy as np
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..render import covered_pixels
-from .common import _bar, _fig
+from .common import _bar, _fig, cached_ao
 
 
 @dataclasses.dataclass
@@ -275,6 +275,10 @@ def converged_reference(cache: CSMCache, tracer, scene, gb, samples, strategy, s
     sampling, the ground, the surface epsilon, pyshadow's version and every
     caster's mesh hash and transform.
 
+    A cached array that is not a possible AO of the pixels
+    (:func:`pyshadow.bench.common.cached_ao`) is traced again and replaced,
+    with a note through ``log``.
+
     Returns
     -------
     ao : ndarray, shape (N,), float32
@@ -284,8 +288,8 @@ def converged_reference(cache: CSMCache, tracer, scene, gb, samples, strategy, s
         'cached' or 'computed'.
     """
     key = _reference_key(scene, gb, samples, strategy, seed, patterns)
-    ao = cache.array(key)
-    if ao is not None and ao.shape == (gb.n,):
+    ao = cached_ao(cache, key, gb.n, log)
+    if ao is not None:
         return ao, None, "cached"
     log(f"tracing the converged Embree reference: {samples} samples x {gb.n} pixels "
         f"({gb.n * samples / 1e6:.0f} M rays, {tracer.threads} threads)")

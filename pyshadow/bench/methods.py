@@ -55,7 +55,7 @@ import time
 
 import numpy as np
 
-from .common import _fig
+from .common import _fig, cached_ao
 from .config import positive_number
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
 
@@ -164,13 +164,14 @@ def limited_pass(tracer, gb: GBuffer, samples, strategy, seed, patterns, D, keep
 def limited_reference(cache, tracer, scene, gb, D, samples, strategy, seed, patterns, log):
     """The converged distance-limited Embree AO: from ``cache``, or traced and stored.
 
-    Keyed like :func:`pyshadow.bench.measure.converged_reference`, plus ``D``.
+    Keyed like :func:`pyshadow.bench.measure.converged_reference`, plus ``D``
+    (and checked like it: an impossible cached array is traced again).
     Returns ``(ao (N,) float32, seconds or None, 'cached' | 'computed')``.
     """
     key = hashlib.sha256((_reference_key(scene, gb, samples, strategy, seed, patterns)
                           + f" limited {float(D)!r}").encode()).hexdigest()
-    ao = cache.array(key)
-    if ao is not None and ao.shape == (gb.n,):
+    ao = cached_ao(cache, key, gb.n, log)
+    if ao is not None:
         return ao, None, "cached"
     log(f"tracing the distance-limited Embree reference (D = {D:.3g}): {samples} samples x {gb.n} pixels")
     t0 = time.perf_counter()

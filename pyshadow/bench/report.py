@@ -27,51 +27,61 @@ def difference_rgb(diff, covered, vmax=None):
     return np.ascontiguousarray(rgb, dtype=np.uint8), vmax
 
 
+def _num(x, fmt: str, scale: float = 1.0) -> str:
+    """``x * scale`` formatted with ``fmt``; "n/a" for a missing figure (None: nan or inf in results.json)."""
+    return "n/a" if x is None else format(x if scale == 1.0 else x * scale, fmt)
+
+
 def format_table(r: dict) -> str:
-    """The table of a single benchmark's ``results.json`` record, as printed (no final newline)."""
+    """The table of a single benchmark's ``results.json`` record, as printed (no final newline).
+
+    A figure whose value is missing (``null`` in results.json: it was not
+    finite, or not measured) prints as "n/a".
+    """
     f = {k: v["value"] for k, v in r["figures"].items()}
     c, env = r["config"], r["environment"]
-
-    def num(x, fmt):
-        return "n/a" if x is None else format(x, fmt)
+    num = _num
 
     if r["csm"]["source"] == "cached":
-        build = "cached (loaded in %.2f s%s)" % (
-            f["csm_time"], "" if f["csm_build_time"] is None else f"; built in {f['csm_build_time']:.1f} s")
+        build = "cached (loaded in %s s%s)" % (
+            num(f["csm_time"], ".2f"),
+            "" if f["csm_build_time"] is None else f"; built in {num(f['csm_build_time'], '.1f')} s")
     else:
-        build = f"{f['csm_time']:.1f} s ({r['csm']['source']})"
+        build = f"{num(f['csm_time'], '.1f')} s ({r['csm']['source']})"
     rs = c["reference_samples"]
-    conv_t = "cached" if r["converged_source"] == "cached" else f"{f['converged_time']:.1f} s"
+    conv_t = "cached" if r["converged_source"] == "cached" else f"{num(f['converged_time'], '.1f')} s"
     rows = [
         ("device", f"{env['device']} ({env['platform']}, {env['device_type']}, "
                    f"{env['compute_units']} compute units)"),
         ("CSM build", build),
-        ("CSM size, ratio", f"{f['csm_size']:.2f} MB, {f['csm_ratio']:.1f}:1"),
-        ("AO", f"{num(f['ao_throughput'], '.2f')} Msamples/s; frame {f['frame_time'] * 1e3:.0f} ms "
-               f"(AO {f['ao_time'] * 1e3:.0f} ms; {f['covered_pixels']} px)"
+        ("CSM size, ratio", f"{num(f['csm_size'], '.2f')} MB, {num(f['csm_ratio'], '.1f')}:1"),
+        ("AO", f"{num(f['ao_throughput'], '.2f')} Msamples/s; frame {num(f['frame_time'], '.0f', 1e3)} ms "
+               f"(AO {num(f['ao_time'], '.0f', 1e3)} ms; {num(f['covered_pixels'], 'd')} px)"
                + ("" if f.get("frame_time_interleaved") is None else
-                  f"; {f['frame_time_interleaved'] * 1e3:.0f} ms a frame between Embree's timings")),
+                  f"; {num(f['frame_time_interleaved'], '.0f', 1e3)} ms a frame between Embree's timings")),
         (f"Embree, same rays ({env['embree_threads']} thr)",
          f"{num(f['embree_ray_rate'], '.2f')} Mrays/s ({num(f['embree_throughput'], '.2f')} Msamples/s)"),
         ("pyshadow / Embree", f"{num(f['speedup'], '.2f')}x"),
-        ("visibility agreement", f"{100 * f['visibility_agreement']:.3f} % "
-                                 f"({100 * f['false_visible']:.3f} % too open, "
-                                 f"{100 * f['false_occluded']:.3f} % too shadowed)"),
-        (f"AO vs Embree, same {c['samples']} dirs", f"RMSE {f['ao_rmse_identical']:.4f}  "
-                                                    f"MAE {f['ao_mae_identical']:.4f}"),
-        (f"AO vs Embree {rs} spp", f"RMSE {f['ao_rmse_converged']:.4f}  MAE {f['ao_mae_converged']:.4f}"
+        ("visibility agreement", f"{num(f['visibility_agreement'], '.3f', 100)} % "
+                                 f"({num(f['false_visible'], '.3f', 100)} % too open, "
+                                 f"{num(f['false_occluded'], '.3f', 100)} % too shadowed)"),
+        (f"AO vs Embree, same {c['samples']} dirs", f"RMSE {num(f['ao_rmse_identical'], '.4f')}  "
+                                                    f"MAE {num(f['ao_mae_identical'], '.4f')}"),
+        (f"AO vs Embree {rs} spp", f"RMSE {num(f['ao_rmse_converged'], '.4f')}  "
+                                   f"MAE {num(f['ao_mae_converged'], '.4f')}"
                                    f"  (Embree {c['samples']} spp itself: RMSE "
-                                   f"{f['reference_noise_rmse']:.4f})"),
+                                   f"{num(f['reference_noise_rmse'], '.4f')})"),
         ("converged reference", conv_t),
-        ("total", f"{f['total_time']:.1f} s"),
+        ("total", f"{num(f['total_time'], '.1f')} s"),
         ("by surface", "pixels, ray agreement, AO bias and RMSE (pyshadow - Embree)"),
     ]
     for srf in r.get("surfaces", []):
         g = {k: v["value"] for k, v in srf.items() if isinstance(v, dict)}
-        rows.append((f"  {srf['surface']}", f"{g['pixels']:>7} px  agreement "
-                     f"{100 * g['visibility_agreement']:7.3f} %  bias {g['ao_bias_identical']:+.4f}  "
-                     f"RMSE {g['ao_rmse_identical']:.4f} (same dirs) {g['ao_rmse_converged']:.4f} "
-                     f"(converged)"))
+        rows.append((f"  {srf['surface']}", f"{num(g['pixels'], '>7')} px  agreement "
+                     f"{num(g['visibility_agreement'], '7.3f', 100)} %  "
+                     f"bias {num(g['ao_bias_identical'], '+.4f')}  "
+                     f"RMSE {num(g['ao_rmse_identical'], '.4f')} (same dirs) "
+                     f"{num(g['ao_rmse_converged'], '.4f')} (converged)"))
     if "lighting" in r:
         from .lit import format_lighting
 

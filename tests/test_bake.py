@@ -417,3 +417,130 @@ def test_max_error_is_the_error_models_choice():
     assert {k: v for k, v in direct["predicted"].items() if k != "seconds"} == \
         {k: v for k, v in c["predicted"].items() if k != "seconds"}
     json.dumps(c)                                            # the manifest can hold it
+
+
+# ---------------------------------------------------------------- Ctrl-C while the executor closes, CLI checks
+class _CloseInterrupted:
+    """A serial executor that a Ctrl-C cuts short while it closes (as it can a Dask cluster's seconds-long close)."""
+
+    def __init__(self):
+        from pyshadow.bake.runner import _Serial
+
+        self._ex, self.kind, self.workers, self.threads = _Serial(), "serial", 1, None
+
+    def run(self, *args, **kwargs):
+        return self._ex.run(*args, **kwargs)
+
+    def close(self):
+        raise KeyboardInterrupt
+
+
+def test_interrupt_while_the_executor_closes_still_writes_the_manifest(tmp_path, monkeypatch, capsys):
+    from pyshadow.bake import frames as fr
+    from pyshadow.bake import library
+    from pyshadow.bake.cli import main
+
+    src, out = tmp_path / "src", tmp_path / "out"
+    src.mkdir()
+    out.mkdir()
+    pyshadow.data.mesh_file("suzanne.ply", src)
+    (out / "manifest.json").write_text('{"stale": true}')           # an earlier run's
+    monkeypatch.setattr(library, "open_executor", lambda *a, **k: _CloseInterrupted())
+    rc = main(["assets", str(src), "-o", str(out), "--maps", "8x16", "--resolution", "32", "--samples", "4",
+               "--quiet"])
+    assert rc == 130
+    assert capsys.readouterr().err == ("interrupted: finished outputs are kept, nothing half-written; "
+                                       "rerun to continue\n")
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["schema"] == library.MANIFEST_SCHEMA and m["executor"]["kind"] == "serial"
+    assert m["summary"] == {"baked": 1, "skipped": 0, "failed": 0, "interrupted": 0}
+    assert [p.name for p in _done_marks(out)] == ["suzanne.json"] and _temporaries(out) == []
+    # the same for frames
+    frames = tmp_path / "frames"
+    frames.mkdir()
+    (frames / "manifest.json").write_text('{"stale": true}')
+    monkeypatch.setattr(fr, "open_executor", lambda *a, **k: _CloseInterrupted())
+    T, _ = default_motion(2)
+    parts = [(n, m, c) for n, m, _, c in pyshadow.data.default_parts()]
+    cam = pyshadow.Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], width=32, height=24)
+
+    def csm_for(name, mesh):
+        return pyshadow.CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(8, 16), resolution=32,
+                                                progress=False)
+
+    with pytest.raises(KeyboardInterrupt):
+        bake_frames(frames, parts, cam, T, samples=4, csm_for=csm_for, progress=False)
+    m = json.loads((frames / "manifest.json").read_text())
+    assert m["schema"] == fr.FRAMES_SCHEMA
+    assert m["summary"] == {"rendered": 2, "skipped": 0, "failed": 0, "interrupted": 0}
+    assert sorted(p.name for p in (frames / "png").iterdir()) == ["frame_0000.png", "frame_0001.png"]
+
+
+def test_dask_close_interrupted_still_closes_the_cluster():
+    from pyshadow.bake import runner
+
+    closed = []
+
+    class Client:
+        def close(self):
+            closed.append("client")
+            raise KeyboardInterrupt
+
+    class Cluster:
+        def close(self):
+            closed.append("cluster")
+
+    ex = object.__new__(runner._Dask)
+    ex.client, ex.cluster, ex._futures = Client(), Cluster(), []
+    assert isinstance(runner.close_executor(ex), KeyboardInterrupt)
+    assert closed == ["client", "cluster"]
+    assert runner.close_executor(None) is None
+    assert runner.close_executor(runner._Serial()) is None
+
+
+def test_cli_rejects_an_unusable_out_folder(tmp_path, capsys):
+    from pyshadow.bake.cli import main
+
+    src = tmp_path / "src"
+    src.mkdir()
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    for cmd in (["assets", str(src)], ["frames"]):
+        for out, why in ((afile, "exists and is not a directory"),
+                         (afile / "x", "cannot write there (Not a directory)")):
+            with pytest.raises(SystemExit) as e:
+                main(cmd + ["-o", str(out), "--quiet"])
+            assert e.value.code == 2
+            assert capsys.readouterr().err.splitlines()[-1] == f"pyshadow-bake: error: -o {out}: {why}"
+    assert afile.read_text() == "x" and sorted(tmp_path.iterdir()) == [afile, src]
+    # a usable folder is made and left without the probe file
+    rc = main(["assets", str(src), "-o", str(tmp_path / "new" / "out"), "--executor", "serial", "--quiet"])
+    assert rc == 0 and list((tmp_path / "new" / "out").rglob(".pyshadow-bake-*")) == []
+
+
+def test_cli_rejects_non_finite_numbers(tmp_path, capsys):
+    from pyshadow.bake.cli import main
+
+    out = tmp_path / "out"
+    for opt, text, msg in (("--ground", "nan", "must be a finite number, got 'nan'"),
+                           ("--ground", "inf", "must be a finite number, got 'inf'"),
+                           ("--ground", "-inf", "must be a finite number, got '-inf'"),
+                           ("--ground", "y", "expected a number, got 'y'")):
+        with pytest.raises(SystemExit) as e:
+            main(["frames", "-o", str(out), f"{opt}={text}"])
+        assert e.value.code == 2
+        assert capsys.readouterr().err.splitlines()[-1] == f"pyshadow-bake frames: error: argument {opt}: {msg}"
+    for text in ("nan", "inf"):
+        with pytest.raises(SystemExit) as e:
+            main(["assets", str(tmp_path), "-o", str(out), f"--max-error={text}"])
+        assert e.value.code == 2
+        assert capsys.readouterr().err.splitlines()[-1] == \
+            f"pyshadow-bake assets: error: argument --max-error: must be a positive finite number, got {text!r}"
+    assert not out.exists()                               # rejected before anything is made
+    built = []
+    parts = [(n, m, c) for n, m, _, c in pyshadow.data.default_parts()]
+    for ground in (float("nan"), float("inf"), "0", True):
+        with pytest.raises(ValueError, match="ground must be a finite number or None"):
+            bake_frames(out, parts, pyshadow.Camera([0, 1, 4], [0, 0, 0]), default_motion(1)[0], ground=ground,
+                        csm_for=lambda name, mesh: built.append(name))
+    assert built == [] and not out.exists()

@@ -14,12 +14,48 @@ bad arguments, 130 when interrupted (Ctrl-C).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+import tempfile
 import warnings
+from pathlib import Path
 
 from ..bench.config import _int_range, _maps, _positive_float, _size
 from .params import AssetParams
 from .runner import EXECUTORS
+
+
+def _finite_float(text: str) -> float:
+    """argparse type: a finite number (``nan`` and ``inf`` are errors, as a value that is not a number)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return v
+
+
+def _check_out(ap, out) -> None:
+    """Create the output folder ``out`` and probe that a file can be written there.
+
+    Parameters
+    ----------
+    ap : argparse.ArgumentParser
+        Reports a folder that is a file, lies under a file or cannot be
+        created or written to as a usage error (exit status 2).
+    out : str or path-like
+        The ``-o`` folder (``~`` expanded, as the bake does).
+    """
+    out = Path(out).expanduser()
+    if out.exists() and not out.is_dir():
+        ap.error(f"-o {out}: exists and is not a directory")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".pyshadow-bake-", suffix=".probe"):
+            pass
+    except OSError as e:
+        ap.error(f"-o {out}: cannot write there ({e.strerror or e})")
 
 
 def _executor_options(p):
@@ -81,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--samples", type=_int_range(1, 65536, "--samples"), default=36,
                    help="AO samples per pixel (default 36)")
     f.add_argument("--denoise", choices=("bilateral", "separable", "box"), default=None)
-    f.add_argument("--ground", type=float, default=0.0, metavar="Y", help="ground plane height (default 0)")
+    f.add_argument("--ground", type=_finite_float, default=0.0, metavar="Y", help="ground plane height (default 0)")
     f.add_argument("--no-ground", action="store_true", help="no ground plane")
     f.add_argument("--chunk", type=_int_range(1, 10_000, "--chunk"), default=4, help="frames per task (default 4)")
     f.add_argument("--cache-dir", metavar="DIR",
@@ -185,6 +221,8 @@ def main(argv=None) -> int:
     """Entry point of ``pyshadow-bake``; returns the exit status."""
     ap = build_parser()
     args = ap.parse_args(argv)
+    if args.command in ("assets", "frames"):
+        _check_out(ap, args.out)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")       # mesh cleanup notes go to the manifest

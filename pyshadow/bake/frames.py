@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import numbers
 import os
 import tempfile
 import time
@@ -30,7 +31,7 @@ from .._version import __version__
 from .assets import csm_file_bytes
 from .params import code_digest
 from .records import done, store
-from .runner import executor_info, open_executor, sweep_temporaries
+from .runner import close_executor, executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
@@ -168,7 +169,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     transforms : ndarray, shape (F, N, 4, 4)
         Per-frame object-to-world transforms (:func:`pyshadow.bake.read_motion`).
     ground : float or None
-        Ground plane height (None: no ground).
+        Ground plane height, finite (None: no ground).
     samples, lookup, denoise :
         As :meth:`pyshadow.Scene.render` (``Sampling(samples)``).
     csm_for : callable, optional
@@ -187,6 +188,16 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         'failed' or 'interrupted', ``outputs``, ``seconds``, ``error``),
         ``summary``, ``seconds`` (wall), ``frames_per_minute``, ``csm``
         (file per caster), ``executor``.
+
+    Raises
+    ------
+    ValueError
+        ``transforms`` of the wrong shape, ``chunk`` not a positive int or
+        ``ground`` not a finite number: before any CSM is built.
+    KeyboardInterrupt
+        After the manifest is written (the frames not finished marked
+        'interrupted'), also for one that lands while the executor shuts
+        down.
     """
     from tqdm.auto import tqdm
 
@@ -198,6 +209,9 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                          f"got {T.shape}")
     if isinstance(chunk, bool) or int(chunk) < 1:
         raise ValueError(f"chunk must be a positive int, got {chunk!r}")
+    if ground is not None and (isinstance(ground, bool) or not isinstance(ground, numbers.Real)
+                               or not math.isfinite(ground)):
+        raise ValueError(f"ground must be a finite number or None, got {ground!r}")
     out = Path(out_dir).expanduser()
     out.mkdir(parents=True, exist_ok=True)
     sweep_temporaries(out)
@@ -252,8 +266,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                 bar.update(len(frames))
     finally:
         bar.close()
-        if ex is not None:
-            ex.close()
+        stopped = close_executor(ex)        # a Ctrl-C while it closes: raised once the manifest is written
         sweep_temporaries(out)
         for f, key in todo:
             entries.setdefault(f, {"frame": f, "key": key, "status": "failed", "action": "interrupted",
@@ -271,6 +284,8 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
             "frames": [entries[f] for f in sorted(entries)],
         }
         write_bytes_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True).encode())
+        if stopped is not None:
+            raise stopped
     return manifest
 
 

@@ -25,7 +25,7 @@ from .._version import __version__
 from .assets import bake_asset
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
-from .runner import executor_info, open_executor, sweep_temporaries
+from .runner import close_executor, executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
 
@@ -147,9 +147,10 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     changed, new, failed or damaged asset (an output missing or altered)
     is baked again. A failed asset (unreadable, empty, not a mesh) is
     reported in the manifest and does not stop the others. On
-    ``KeyboardInterrupt`` the tasks are cancelled, temporary files removed
-    and the manifest written (the assets not finished marked
-    'interrupted') before the interrupt propagates.
+    ``KeyboardInterrupt`` (while tasks run, or while the executor shuts
+    down) the tasks are cancelled, temporary files removed and the
+    manifest written (the assets not finished marked 'interrupted') before
+    the interrupt propagates.
     """
     from tqdm.auto import tqdm
 
@@ -202,8 +203,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
                 bar.set_postfix_str(f"{name}: {entries[name]['action']}")
     finally:
         bar.close()
-        if ex is not None:
-            ex.close()
+        stopped = close_executor(ex)        # a Ctrl-C while it closes: raised once the manifest is written
         for p in sweep_temporaries(out):
             log(f"removed a temporary file: {p}")
         for name, path, key in todo:
@@ -211,6 +211,8 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
                                           action="interrupted"))
         manifest = _manifest(params, code, ex, executor, ignored, entries, time.perf_counter() - t_start)
         write_bytes_atomic(out / "manifest.json", json.dumps(manifest, indent=1, sort_keys=True).encode())
+        if stopped is not None:
+            raise stopped
     return manifest
 
 

@@ -21,7 +21,8 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing import get_context
 from pathlib import Path
 
-__all__ = ["EXECUTORS", "open_executor", "executor_info", "thread_env", "sweep_temporaries", "dask_available"]
+__all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
+           "dask_available"]
 
 EXECUTORS = ("dask", "process", "serial")
 
@@ -177,11 +178,40 @@ class _Dask:
         self._futures = list(pending)
 
     def close(self):
-        for fut in self._futures:
-            fut.cancel()
-        self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        try:
+            for fut in self._futures:
+                fut.cancel()
+            self.client.close()
+        finally:                             # a Ctrl-C while the client closes still stops the local workers
+            if self.cluster is not None:
+                self.cluster.close()
+
+
+def close_executor(ex):
+    """Close ``ex`` and return the ``KeyboardInterrupt`` that cut the closing short, if one did.
+
+    Closing a Dask cluster takes seconds, and a Ctrl-C that lands then
+    must not skip what the driver still has to do (remove temporary files,
+    write the manifest): the driver finishes that, then raises the returned
+    interrupt, as it does for one that lands while tasks run.
+
+    Parameters
+    ----------
+    ex : executor or None
+        From :func:`open_executor`; None when none was opened.
+
+    Returns
+    -------
+    KeyboardInterrupt or None
+        None when ``ex`` closed (or was None).
+    """
+    if ex is None:
+        return None
+    try:
+        ex.close()
+    except KeyboardInterrupt as e:
+        return e
+    return None
 
 
 def executor_info(ex, kind=None) -> dict:

@@ -13,6 +13,7 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
+from ._validate import check_both, check_values, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
@@ -283,6 +284,14 @@ def surface_epsilon(scene, points=None, anchor=None):
     return np.maximum(floor, ray_epsilon(np.maximum(rel, scene.scale())))
 
 
+def _rays64(points, directions):
+    """(N, 3) points and non-zero directions, finite, as float64: refused as the kernels refuse them."""
+    p = kernel_rows(points, "points")
+    w = kernel_rows(directions, "directions", len(p))
+    check_both(p, "points", w, "directions")
+    return np.asarray(p, np.float64), np.asarray(w, np.float64)
+
+
 def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     """Ground-truth :meth:`pyshadow.Scene.visible`: Embree occlusion rays.
 
@@ -295,8 +304,7 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     """
     from .visibility.finite import check_max_distance
 
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    p, w = _rays64(points, directions)
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
     tmax = check_max_distance(max_distance, len(p))
     groups = anchor_groups(scene, p)
@@ -352,9 +360,9 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
                                       old, Sampling())
     bent_normals = bool(extra.get("bent_normals", return_bent_normals))
 
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    p = np.asarray(kernel_rows(points, "points"), np.float64)
+    check_values(p, "points")
+    n = unit_normals(normals, len(p))
     distance = max_distance is not None or obscurance is not None
     if distance:                        # checked before anything is launched
         from .visibility.finite import check_ao_options, check_max_distance

@@ -63,6 +63,25 @@ def _as_trimesh(source, label: str) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
     )
 
 
+def check_mesh(mesh: trimesh.Trimesh, label: str = "mesh") -> None:
+    """Raise ValueError unless ``mesh`` has triangles, finite vertices and faces that index them.
+
+    What every mesh pyshadow is given must hold, cleaned or not (:func:`load_mesh` cleans and checks;
+    a mesh object handed to :meth:`pyshadow.Scene.add` or :meth:`pyshadow.CoherentShadowMap.build`
+    is used as it is, and checked here).
+    """
+    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
+        raise ValueError(f"{label}: the mesh has no triangles (empty mesh)")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():
+        raise ValueError(
+            f"{label}: {int(bad.sum())} of {len(bad)} vertices are not finite "
+            "(NaN or inf), e.g. vertex %d = %s" % (int(np.argmax(bad)), mesh.vertices[np.argmax(bad)])
+        )
+    if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
+        raise ValueError(f"{label}: a face refers to a vertex that does not exist")
+
+
 def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     """Load and validate a triangle mesh.
 
@@ -139,16 +158,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
         raise ValueError(f"{label}: the file holds no geometry (empty mesh)")
     mesh, source = _as_trimesh(raw, label)
-    if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
-        raise ValueError(f"{label}: the mesh has no triangles (empty mesh)")
-    bad = ~np.isfinite(mesh.vertices).all(axis=1)
-    if bad.any():
-        raise ValueError(
-            f"{label}: {int(bad.sum())} of {len(bad)} vertices are not finite "
-            "(NaN or inf), e.g. vertex %d = %s" % (int(np.argmax(bad)), mesh.vertices[np.argmax(bad)])
-        )
-    if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
-        raise ValueError(f"{label}: a face refers to a vertex that does not exist")
+    check_mesh(mesh, label)
 
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     faces = np.asarray(mesh.faces)

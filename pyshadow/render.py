@@ -140,6 +140,9 @@ def ground_quad(scene, size: float | None = None):
         reach = max([np.linalg.norm(c - anchor) + r for c, r in
                      (inst.world_sphere() for inst in scene.instances)] or [1.0])
         size = 16.0 * reach
+    if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) or not (
+            np.isfinite(size) and size > 0):
+        raise ValueError(f"ground_size must be a finite number > 0 (world units), got {size!r}")
     h = 0.5 * float(size)
     cx, cz = anchor[0], anchor[2]
     v = np.array([[cx - h, scene.ground, cz - h], [cx + h, scene.ground, cz - h],

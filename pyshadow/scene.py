@@ -21,7 +21,7 @@ from ._validate import check_transform
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
-from .mesh import bounding_sphere, load_mesh, mesh_hash, normalised_bounds
+from .mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
 from .views import ViewSet
@@ -412,6 +412,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
         if not isinstance(obj, trimesh.Trimesh):
             obj = load_mesh(obj)
+        check_mesh(obj, "Scene.add")            # a mesh object is used as it is: checked, not cleaned
         csm = None
         if casts:
             key = id(obj) if max_error is None else (id(obj), float(max_error), lookup)

@@ -136,3 +136,26 @@ def test_reference_is_a_deprecated_alias_of_embree(monkeypatch):
     assert reference.visible is embree.visible
     assert reference.ambient_occlusion is embree.ambient_occlusion
     assert set(reference.__all__) == set(embree.__all__)
+
+
+def test_the_embree_backend_refuses_what_the_kernels_refuse(small_scene):
+    """The ground truth checks its input as the CSM backend does: a NaN point, a zero direction or normal,
+    a direction short of a row, an (N, 2) array -- each the CSM backend's error, not an answer."""
+    p, d, n = np.array([[0.0, 2, 0], [0.1, 2, 0]]), np.array([[0.0, -1, 0]] * 2), np.array([[0.0, 1, 0]] * 2)
+    s = pyshadow.Sampling(8)
+    cases = [((np.array([[np.nan, 2, 0], [0, 2, 0]]), d), "points: 1 rows are not finite"),
+             ((p, np.array([[0.0, 0, 0], [0, -1, 0]])), "directions: 1 rows are zero vectors"),
+             ((p, d[:1]), "directions has 1 rows but points has 2"),
+             ((p[:, :2], d), r"points must have shape \(N, 3\)")]
+    for args, match in cases:
+        for backend in ("csm", "embree"):
+            with pytest.raises(ValueError, match=match):
+                small_scene.visible(*args, backend=backend)
+    for args, match in (((np.array([[np.nan, 0, 0], [0, 2, 0]]), n), "points: 1 rows are not finite"),
+                        ((p, np.array([[0.0, 0, 0], [0, 1, 0]])), "normals: 1 rows are zero vectors")):
+        for backend in ("csm", "embree"):
+            with pytest.raises(ValueError, match=match):
+                small_scene.ambient_occlusion(*args, backend=backend, sampling=s)
+    # valid rays: the box stands on the ground at the origin, so a ray down from above it is shadowed
+    np.testing.assert_array_equal(small_scene.visible(p, d, backend="embree"), [False, False])
+    np.testing.assert_array_equal(small_scene.visible(p, -d, backend="embree"), [True, True])

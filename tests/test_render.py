@@ -191,3 +191,11 @@ def test_render_refuses_a_gbuffer_that_does_not_fit(small_scene, no_launch, chan
     change(g)
     with pytest.raises(exc, match=match):
         render_stage.render(small_scene, cam, gbuffer=g, ground_size=30.0)
+
+
+@pytest.mark.parametrize("size", [0.0, -1.0, float("nan"), float("inf"), "8", True])
+def test_ground_quad_refuses_a_size_that_is_no_length(small_scene, size):
+    """ground_size must be a finite length > 0: 0, NaN and inf drew no ground, -1 one facing down."""
+    with pytest.raises(ValueError, match="ground_size must be a finite number > 0"):
+        render_stage.ground_quad(small_scene, size)
+    assert np.ptp(render_stage.ground_quad(small_scene, 30.0).vertices[:, 0]) == 30.0

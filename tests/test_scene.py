@@ -165,3 +165,20 @@ def test_scene_refuses_a_csm_whose_frame_is_not_its_meshs(tmp_path):
     shrunk.box = shrunk.box * 0.9
     with pytest.raises(ValueError, match="box is not its mesh's"):
         pyshadow.Scene().add(shrunk, np.eye(4), mesh=mesh)
+
+
+@pytest.mark.parametrize("vertices, faces, match", [
+    ([[0, 0, 0], [1, 0, 0], [np.nan, 0, 1], [0, 0, 1]], [[0, 1, 2], [0, 1, 3]], "vertices are not finite"),
+    ([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 5]], "a face refers to a vertex that does not exist"),
+    (np.zeros((0, 3)), np.zeros((0, 3), int), "no triangles"),
+])
+def test_scene_add_checks_a_mesh_object_as_load_mesh_does(vertices, faces, match):
+    """A receiver (or caster) handed over as a mesh object is used as it is, but checked: refused at add,
+    not by every later query of the scene."""
+    bad = trimesh.Trimesh(vertices, faces, process=False)
+    scene = pyshadow.Scene(ground=0.0)
+    with pytest.raises(ValueError, match=match):
+        scene.add(bad, casts=False)
+    with pytest.raises(ValueError, match=match):
+        scene.add(bad)
+    assert scene.instances == []

@@ -12,7 +12,7 @@ import pyopencl as cl
 import trimesh
 
 from .. import _cl
-from ..mesh import bounding_sphere, load_mesh, mesh_hash, normalised_bounds
+from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from ..raster import DepthRenderer, _check_resolution_layers
 from ..views import ViewSet
 from . import core
@@ -109,6 +109,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     _check_resolution_layers(resolution, 2)
     if not isinstance(mesh, trimesh.Trimesh):
         mesh = load_mesh(mesh)
+    check_mesh(mesh, "CoherentShadowMap.build")
     if layers == "auto":
         rule = 3 if mesh.is_watertight else 2
     elif layers in (2, 3) and not isinstance(layers, bool):

@@ -104,7 +104,10 @@ def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.nd
     With ``rigid=True`` only rotation, translation and uniform positive scale
     are accepted (the transforms a CSM instance may have).
     """
-    T = np.asarray(T, dtype=np.float64)
+    T = np.asarray(T)
+    if T.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {T.dtype}")
+    T = T.astype(np.float64)
     if T.shape != (4, 4):
         raise ValueError(f"{name} must be a 4x4 matrix, got shape {T.shape}")
     if not np.isfinite(T).all():

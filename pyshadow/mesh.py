@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from ._validate import check_transform
 from .materials import VISUAL_KEY, mesh_visual, visual_of
 
 __all__ = [
@@ -368,14 +369,23 @@ def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=
     -------
     ndarray, shape (4, 4), float64
     """
-    if not radius > 0:
-        raise ValueError(f"stand_on_ground: radius must be positive, got {radius}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"stand_on_ground: radius must be finite and positive, got {radius}")
+    pos = np.asarray(position, dtype=np.float64)
+    if pos.shape != (2,) or not np.isfinite(pos).all() or not np.isfinite(ground):
+        raise ValueError(f"stand_on_ground: position must be 2 finite numbers (x, z) and ground finite, "
+                         f"got {position!r} and {ground!r}")
     c, r = bounding_sphere(mesh)
-    Rm = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)[:3, :3]
+    Rm = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
+    if Rm.shape not in ((3, 3), (4, 4)):
+        raise ValueError(f"stand_on_ground: rotation must be 3x3 or 4x4, got shape {Rm.shape}")
+    Rm = Rm[:3, :3]
+    check_transform(np.block([[Rm, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]), rigid=True,
+                    name="stand_on_ground: rotation")
     s = float(radius) / r
     T = np.eye(4)
     T[:3, :3] = s * Rm
-    x, z = (float(v) for v in position)
+    x, z = (float(v) for v in pos)
     T[:3, 3] = np.array([x, 0.0, z]) - T[:3, :3] @ c
     low = (np.asarray(mesh.vertices) @ T[:3, :3].T + T[:3, 3])[:, 1].min()
     T[1, 3] += float(ground) - low

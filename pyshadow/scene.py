@@ -169,6 +169,10 @@ class Scene:
             that does not match the CSM.
         """
         T = check_transform(np.eye(4) if transform is None else transform, rigid=True, name="transform").copy()
+        if not isinstance(casts, (bool, np.bool_)):
+            raise TypeError(f"casts must be True or False, got {casts!r}")
+        if lookup not in ("nearest", "vote", "auto"):
+            raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
         self.instances.append(_new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
@@ -464,6 +468,8 @@ def _slots_of_ids(scene, surface_ids, n):
             and scene_arrays(scene)["casts"].all()
             and ids.min() >= GROUND_ID and ids.max() < len(scene.instances)):
         return ids          # every instance casts: ids are the slots (-1, -2 included)
+    if ids.shape not in ((), (1,), (n,)):
+        raise ValueError(f"surface_ids must be one id or {n} (one a query), got shape {ids.shape}")
     ids = np.broadcast_to(ids, (n,)).astype(np.int64)
     ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(scene.instances)))
     if not ok.all():

@@ -182,3 +182,38 @@ def test_scene_add_checks_a_mesh_object_as_load_mesh_does(vertices, faces, match
     with pytest.raises(ValueError, match=match):
         scene.add(bad)
     assert scene.instances == []
+
+
+def test_scene_add_and_queries_refuse_loose_arguments(small_scene):
+    """casts must be a bool (a truthy string cast), lookup one of the three names (it was ignored), a
+    complex transform is refused (its imaginary part was dropped with a warning), and surface_ids of the
+    wrong length is named (a NumPy broadcast error before)."""
+    csm = small_scene.instances[0].csm
+    with pytest.raises(TypeError, match="casts must be True or False"):
+        pyshadow.Scene().add(trimesh.creation.box(), casts="no")
+    with pytest.raises(ValueError, match="lookup must be 'nearest', 'vote' or 'auto'"):
+        pyshadow.Scene().add(csm, lookup="x")
+    with pytest.raises(TypeError, match="transform must hold real numbers"):
+        pyshadow.Scene().add(csm, np.eye(4) + 0j)
+    p, d = np.array([[0.0, 3, 0]] * 3), np.array([[0.0, 1, 0]] * 3)
+    with pytest.raises(ValueError, match=r"surface_ids must be one id or 3 \(one a query\), got shape \(2,\)"):
+        small_scene.visible(p, d, surface_ids=[0, 0])
+    np.testing.assert_array_equal(small_scene.visible(p, d, surface_ids=[0]), small_scene.visible(p, d))
+
+
+def test_stand_on_ground_refuses_what_is_no_placement():
+    mesh = load("spot.obj")
+    for kw, match in ((dict(position=(np.nan, 0)), "position must be 2 finite numbers"),
+                      (dict(position=(1, 2, 3)), "position must be 2 finite numbers"),
+                      (dict(ground=np.inf), "ground finite"),
+                      (dict(radius=np.inf), "radius must be finite and positive"),
+                      (dict(rotation=np.nan), "rotation must be 3x3 or 4x4"),
+                      (dict(rotation=np.diag([1.0, 1, -1])), "mirrors")):
+        with pytest.raises(ValueError, match=match):
+            pyshadow.stand_on_ground(mesh, **kw)
+    T = pyshadow.stand_on_ground(mesh, radius=2.0, position=(1.0, 2.0), ground=0.5)
+    v = mesh.vertices @ T[:3, :3].T + T[:3, 3]
+    assert v[:, 1].min() == pytest.approx(0.5, abs=1e-12)
+    c, r = pyshadow.bounding_sphere(mesh)
+    np.testing.assert_allclose((T[:3, :3] @ c + T[:3, 3])[[0, 2]], [1.0, 2.0], atol=1e-12)
+    assert np.cbrt(np.linalg.det(T[:3, :3])) * r == pytest.approx(2.0)

@@ -169,10 +169,6 @@ class Scene:
             that does not match the CSM.
         """
         T = check_transform(np.eye(4) if transform is None else transform, rigid=True, name="transform").copy()
-        if not isinstance(casts, (bool, np.bool_)):
-            raise TypeError(f"casts must be True or False, got {casts!r}")
-        if lookup not in ("nearest", "vote", "auto"):
-            raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
         self.instances.append(_new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
@@ -399,6 +395,10 @@ class Scene:
 
 def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:
     """The :class:`Instance` that :meth:`Scene.add` places (building a caster's CSM once per mesh)."""
+    if not isinstance(casts, (bool, np.bool_)):
+        raise TypeError(f"casts must be True or False, got {casts!r}")
+    if lookup not in ("nearest", "vote", "auto"):
+        raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
     if isinstance(obj, CoherentShadowMap):
         if not casts:
             raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")

@@ -1,6 +1,7 @@
 """Atomic file writes: a temporary file beside the target, then a rename."""
 from __future__ import annotations
 
+import errno
 import os
 import secrets
 from contextlib import contextmanager
@@ -15,18 +16,30 @@ def atomic_path(path):
 
     The temporary name keeps ``path``'s extension (so format-guessing writers
     such as OpenImageIO pick the right one). On any exception the temporary
-    file is removed and the existing ``path`` is left untouched.
+    file is removed and the existing ``path`` is left untouched; an OSError
+    about the temporary file names ``path`` instead. A missing folder is a
+    FileNotFoundError naming it, before anything is written. A symbolic link
+    is written through (the file it names is replaced); a path that exists
+    but is no regular file (a folder, a device, a FIFO) is a FileExistsError.
     """
     path = Path(os.fspath(path))
+    if path.is_symlink():               # write through the link: the file it names is replaced, not the link
+        path = path.resolve()
+    if path.exists() and not path.is_file():
+        raise FileExistsError(errno.EEXIST, "not a regular file, which a write would replace", str(path))
+    if not path.parent.is_dir():
+        raise FileNotFoundError(errno.ENOENT, f"no folder {str(path.parent)!r} to write into", str(path))
     tmp = path.parent / f".{path.stem}.{secrets.token_hex(6)}.tmp{path.suffix}"
     try:
         yield tmp
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as e:
         try:
             os.unlink(tmp)
-        except FileNotFoundError:
+        except OSError:
             pass
+        if isinstance(e, OSError) and e.filename in (str(tmp), tmp):    # name the file asked for
+            e.filename = str(path)
         raise
 
 

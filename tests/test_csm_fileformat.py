@@ -1,5 +1,6 @@
 """The .csm file format (pyshadow.csm.fileformat): round trips, atomic writes, fuzzing, and
 validation of everything the kernels trust."""
+import hashlib
 import json
 import os
 
@@ -101,11 +102,17 @@ def _rewrite(path, out, edit_header=None, edit_arrays=None):
     if edit_arrays:
         body = edit_arrays(head, bytearray(body), 16 + hlen)
     hb = json.dumps(head, sort_keys=True).encode()
-    pad = b""
-    if len(hb) != hlen:                  # keep the arrays where they were
-        assert len(hb) < hlen
+    if len(hb) <= hlen:                  # keep the arrays where they were
         hb = hb + b" " * (hlen - len(hb))
-    data = bytes(raw[:12]) + np.uint32(len(hb)).tobytes() + hb + pad + bytes(body)
+    else:                                # a longer header: the arrays move to the next 64-byte boundaries
+        old = json.loads(raw[16:16 + hlen])
+        moved = bytearray()
+        for (_, dt, n, a), (_, _, _, b) in zip(*(fileformat.array_layout(
+                st, old["resolution"], old["maps"], old["segments"], old["depth_bits"], old["offsets_dtype"])[0]
+                for st in (16 + hlen, 16 + len(hb)))):
+            moved += b"\0" * (b - 16 - len(hb) - len(moved)) + body[a - 16 - hlen:a - 16 - hlen + dt.itemsize * n]
+        body = moved
+    data = bytes(raw[:12]) + np.uint32(len(hb)).tobytes() + hb + bytes(body)
     out.write_bytes(data + hashlib.sha256(data).digest())
     return out
 
@@ -162,6 +169,14 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         ("margin nan", dict(edit_header=lambda h: h.update(front_margin_texels=float("nan"))), "front_margin"),
         ("margin type", dict(edit_header=lambda h: h.update(front_margin_texels="x")), "front_margin"),
         ("footprint type", dict(edit_header=lambda h: h.update(footprint=1)), "footprint"),
+        # numbers beyond float64 (JSON integers) and float32, and a header that is no object
+        ("radius bigint", dict(edit_header=lambda h: h.update(radius=10 ** 400)), "radius"),
+        ("radius float32", dict(edit_header=lambda h: h.update(radius=1e300)), "radius"),
+        ("centre bigint", dict(edit_header=lambda h: h.update(centre=[0, 10 ** 400, 0])), "centre"),
+        ("margin bigint", dict(edit_header=lambda h: h.update(front_margin_texels=10 ** 400)), "front_margin"),
+        ("seconds text", dict(edit_header=lambda h: h.update(build_seconds="abc")), "build_seconds"),
+        ("seconds list", dict(edit_header=lambda h: h.update(build_seconds=[1])), "build_seconds"),
+        ("wide offsets", dict(edit_header=lambda h: h.update(offsets_dtype="<u8")), "offsets dtype"),
         ("offset past end", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, S + 10))), "offset"),
         ("offsets decrease", dict(edit_arrays=poke("offsets", lambda a: a.__setitem__(5, a[4]))), "empty or offsets decrease"),
         ("iend beyond D", dict(edit_arrays=poke("iend", lambda a: a.__setitem__(0, 60000))), "beyond the last map"),
@@ -175,6 +190,55 @@ def test_csm_load_validates_what_kernels_trust(tmp_path, small_csm):
         bad = _rewrite(good, tmp_path / f"{label}.csm", **kw)
         with pytest.raises(CSMFormatError, match=match):
             CoherentShadowMap.load(bad)
+
+
+def test_csm_load_refuses_headers_that_are_not_objects(tmp_path, small_csm):
+    """A header that parses but is no JSON object (a list, a number), or nests past Python's recursion
+    limit, is a CSMFormatError, which the cache takes for a bad file (not an AttributeError or a
+    RecursionError)."""
+    good = small_csm.save(tmp_path / "g.csm")
+    raw = good.read_bytes()
+    hlen = int(np.frombuffer(raw[12:16], "<u4")[0])
+    for label, text, match in (("list", b"[]", "not a JSON object"), ("number", b"7", "not a JSON object"),
+                               ("deep", b"[" * 100000, "unreadable header")):
+        body = raw[:12] + np.uint32(len(text)).tobytes() + text + raw[16 + hlen:-32]
+        bad = tmp_path / f"{label}.csm"
+        bad.write_bytes(body + hashlib.sha256(body).digest())
+        with pytest.raises(CSMFormatError, match=match):
+            CoherentShadowMap.load(bad)
+
+
+def test_a_file_changed_after_load_never_reaches_a_kernel(tmp_path, small_csm):
+    """What load checked is what the device gets. Read into memory (the default), a CSM keeps its answers
+    when its file is then written over in place; mapped (``mmap=True``), the arrays a device upload takes
+    are checked again, so a list emptied in place since is refused by name, not searched out of bounds."""
+    path = small_csm.save(tmp_path / "c.csm")
+    rng = np.random.default_rng(3)
+    m = rng.integers(0, small_csm.maps, 500)
+    r, c = rng.integers(0, 32, 500), rng.integers(0, 32, 500)
+    want = small_csm.segment_index(m, r, c)
+    in_memory, mapped = CoherentShadowMap.load(path), CoherentShadowMap.load(path, mmap=True)
+    emptied = _rewrite(path, tmp_path / "emptied.csm", edit_arrays=_empty_first_list)
+    with open(path, "r+b") as f:                    # in place, as cp does: same inode, same size
+        f.write(emptied.read_bytes())
+    np.testing.assert_array_equal(in_memory.segment_index(m, r, c), want)
+    with pytest.raises(CSMFormatError, match="changed since it was loaded"):
+        mapped.segment_index(m, r, c)
+    scene = pyshadow.Scene()
+    scene.add(mapped, np.eye(4))
+    with pytest.raises(CSMFormatError, match="changed since it was loaded"):
+        scene.visible(np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]))
+
+
+def _empty_first_list(head, body, start):
+    """offsets[1] = 0: texel 0's list empty (the checksum made valid by _rewrite)."""
+    layout, _ = fileformat.array_layout(start, head["resolution"], head["maps"], head["segments"],
+                                        head["depth_bits"], head["offsets_dtype"])
+    _, dt, n, off = layout[0]
+    a = np.frombuffer(bytes(body[off - start:off - start + dt.itemsize * n]), dt).copy()
+    a[1] = 0
+    body[off - start:off - start + dt.itemsize * n] = a.tobytes()
+    return body
 
 
 def test_footprint_flag_survives_save_and_load(tmp_path):
@@ -277,3 +341,36 @@ def test_two_sided_record_survives_save_and_load_and_old_files_have_none(tmp_pat
                        edit_header=lambda h, r=rec: h.update(two_sided=r[0], both_sided_faces=r[1]))
         with pytest.raises(CSMFormatError, match="two_sided"):
             CoherentShadowMap.load(bad)
+
+
+def test_save_errors_name_the_path_asked_for(tmp_path, small_csm, monkeypatch):
+    """A missing folder is named before anything is written; an error on the hidden temporary file (here a
+    refused open) names the file asked for, not the temporary one, and leaves nothing behind."""
+    with pytest.raises(FileNotFoundError, match="no folder") as e:
+        small_csm.save(tmp_path / "nodir" / "x.csm")
+    assert e.value.filename == str(tmp_path / "nodir" / "x.csm")
+
+    def refuse(file, *args, **kw):
+        raise PermissionError(13, "Permission denied", str(file))
+    monkeypatch.setattr(fileformat, "open", refuse, raising=False)
+    with pytest.raises(PermissionError) as e:
+        small_csm.save(tmp_path / "x.csm")
+    assert e.value.filename == str(tmp_path / "x.csm") and ".tmp" not in str(e.value)
+    assert os.listdir(tmp_path) == []
+
+
+def test_save_writes_through_links_and_refuses_what_is_no_file(tmp_path, small_csm):
+    """A symbolic link is written through (its target gets the CSM, the link stays a link); a folder or a
+    FIFO at the path is refused, not replaced by a file."""
+    target = tmp_path / "target.csm"
+    target.write_bytes(b"old")
+    link = tmp_path / "link.csm"
+    link.symlink_to(target)
+    small_csm.save(link)
+    assert link.is_symlink() and CoherentShadowMap.load(target).depth.tobytes() == small_csm.depth.tobytes()
+    (tmp_path / "folder.csm").mkdir()
+    os.mkfifo(tmp_path / "fifo.csm")
+    for name in ("folder.csm", "fifo.csm"):
+        with pytest.raises(FileExistsError, match="not a regular file"):
+            small_csm.save(tmp_path / name)
+    assert (tmp_path / "folder.csm").is_dir() and not (tmp_path / "fifo.csm").is_file()

@@ -365,14 +365,16 @@ class CoherentShadowMap:
         return save(self, path, reproducible=reproducible)
 
     @classmethod
-    def load(cls, path, mmap: bool = True) -> "CoherentShadowMap":
+    def load(cls, path, mmap: bool = False) -> "CoherentShadowMap":
         """Read and validate a .csm file written by :meth:`save`.
 
         Parameters
         ----------
         path : str or os.PathLike
         mmap : bool, optional
-            Map the arrays from the file instead of reading them into memory.
+            Map the arrays from the file instead of reading them into memory (the file must then not
+            change while mapped: :meth:`save` replaces files whole, which keeps a mapped one, but a copy
+            written over it in place is read from then on; a device upload checks the arrays again).
 
         Raises
         ------

@@ -47,8 +47,8 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
     wide = csm.pair_wide if wide is None else bool(wide)
     if csm.offsets.dtype != np.uint32:
         raise ValueError("CSMs with 2^32 or more segments are not supported on the device")
-    off = np.asarray(csm.offsets, dtype=np.int64)
-    iend = np.asarray(csm.iend)
+    offsets, iend, depth = _resident(csm)
+    off = offsets.astype(np.int64)
     lens = np.diff(off)
     nblocks = -(-lens // SEARCH_BLOCK)
     soff = np.zeros(len(off), np.int64)
@@ -68,12 +68,25 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
     if wide:
         pairs = np.empty((len(segment), 2), np.uint32)
         pairs[:, 0] = iend[segment]
-        depth = np.asarray(csm.depth)[segment]
-        pairs[:, 1] = depth.view(np.uint32) if csm.depth_bits == 32 else depth
+        pairs[:, 1] = depth[segment].view(np.uint32) if csm.depth_bits == 32 else depth[segment]
     else:
-        pairs = ((np.asarray(csm.depth, np.uint32) << 16) | np.asarray(iend, np.uint32))[segment]
+        pairs = ((depth.astype(np.uint32) << 16) | iend.astype(np.uint32))[segment]
     return {"offsets": off.astype(np.uint32), "soff": soff.astype(np.uint32),
             "summary": summary, "pairs": pairs, "segment": segment}
+
+
+def _resident(csm):
+    """``csm``'s offsets, iend and depth, in memory: those of a mapped file (``load(mmap=True)``), which
+    may have changed since it was checked, copied and checked again, so that the device gets what was
+    checked."""
+    arrays = {"offsets": csm.offsets, "iend": csm.iend, "depth": csm.depth}
+    if any(isinstance(a, np.memmap) for a in arrays.values()):
+        from .fileformat import _validate_arrays
+
+        arrays = {k: np.array(a) for k, a in arrays.items()}
+        _validate_arrays("a mapped CSM file (changed since it was loaded)", arrays, csm.resolution, csm.maps,
+                         len(arrays["depth"]), csm.depth_bits)
+    return tuple(np.asarray(arrays[k]) for k in ("offsets", "iend", "depth"))
 
 
 def device_buffers(csm):
@@ -155,7 +168,7 @@ def scene_atlas(types) -> dict:
         summ.append(a["summary"].astype(di))
         pr = a["pairs"]
         if bits == 32 and c.depth_bits == 16:     # a 32-bit atlas stores float depths
-            pr[:, 1] = c.stored_to_depth(c.depth[a["segment"]]).astype(np.float32).view(np.uint32)
+            pr[:, 1] = c.stored_to_depth(pr[:, 1]).astype(np.float32).view(np.uint32)   # from the 16-bit
         pairs.append(pr)
         bases.append(c.views.bases.reshape(-1, 9).astype(np.float32))
         seg += len(a["pairs"])

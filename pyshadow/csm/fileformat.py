@@ -39,7 +39,7 @@ import numpy as np
 from .._files import atomic_path
 from .._version import __version__
 from ..views import ZIGZAG_ROW_OFFSETS, ViewSet
-from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype
+from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype, _offsets_dtype
 
 __all__ = ["MAGIC", "FORMAT_VERSION", "save", "load"]
 
@@ -118,46 +118,51 @@ def save(csm, path, reproducible: bool = False) -> Path:
     return path
 
 
-def load(cls, path, mmap: bool = True):
-    """:meth:`CoherentShadowMap.load` (which documents it) for the class ``cls``."""
+def load(cls, path, mmap: bool = False):
+    """:meth:`CoherentShadowMap.load` (which documents it) for the class ``cls``.
+
+    The bytes checksummed are the bytes parsed: read once into memory, or
+    mapped once (``mmap``), never read again from the path.
+    """
     path = Path(path)
-    size = path.stat().st_size
-    if size < 16 + 32:
-        raise CSMFormatError(f"{path}: {size} bytes is too short for a CSM file")
-    with open(path, "rb") as f:
-        pre = f.read(16)
-        if pre[:8] != MAGIC:
-            raise CSMFormatError(f"{path}: not a pyshadow CSM file (magic {pre[:8]!r})")
-        version = int(np.frombuffer(pre[8:12], "<u4")[0])
-        if version != FORMAT_VERSION:
-            raise CSMFormatError(f"{path}: format version {version} is not supported "
-                                 f"(this pyshadow reads version {FORMAT_VERSION})")
-        hlen = int(np.frombuffer(pre[12:16], "<u4")[0])
-        if 16 + hlen + 32 > size:
-            raise CSMFormatError(f"{path}: header length {hlen} runs past the end of the file")
-        # checksum over everything but the trailing digest
-        h = hashlib.sha256(pre)
-        remaining = size - 32 - 16
-        while remaining > 0:
-            chunk = f.read(min(remaining, 1 << 24))
-            if not chunk:
-                raise CSMFormatError(f"{path}: truncated")
-            h.update(chunk)
-            remaining -= len(chunk)
-        digest = f.read(32)
-    if digest != h.digest():
+    if (n := path.stat().st_size) < 16 + 32:
+        raise CSMFormatError(f"{path}: {n} bytes is too short for a CSM file")
+    raw = np.memmap(path, dtype=np.uint8, mode="r") if mmap else np.frombuffer(path.read_bytes(), np.uint8)
+    size = len(raw)
+    pre = raw[:16].tobytes()
+    if pre[:8] != MAGIC:
+        raise CSMFormatError(f"{path}: not a pyshadow CSM file (magic {pre[:8]!r})")
+    version = int(np.frombuffer(pre[8:12], "<u4")[0])
+    if version != FORMAT_VERSION:
+        raise CSMFormatError(f"{path}: format version {version} is not supported "
+                             f"(this pyshadow reads version {FORMAT_VERSION})")
+    hlen = int(np.frombuffer(pre[12:16], "<u4")[0])
+    if 16 + hlen + 32 > size:
+        raise CSMFormatError(f"{path}: header length {hlen} runs past the end of the file")
+    # checksum over everything but the trailing digest
+    if hashlib.sha256(memoryview(raw[:size - 32])).digest() != raw[size - 32:].tobytes():
         raise CSMFormatError(f"{path}: checksum mismatch (corrupted or truncated file)")
-    with open(path, "rb") as f:
-        f.seek(16)
-        head_bytes = f.read(hlen)
     try:
-        head = json.loads(head_bytes.decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise CSMFormatError(f"{path}: unreadable header ({exc})") from None
-    return _from_header(cls, path, head, 16 + hlen, size, mmap)
+        head = json.loads(raw[16:16 + hlen].tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise CSMFormatError(f"{path}: unreadable header ({type(exc).__name__})") from None
+    if not isinstance(head, dict):
+        raise CSMFormatError(f"{path}: the header is not a JSON object")
+    return _from_header(cls, path, head, 16 + hlen, raw)
 
 
-def _from_header(cls, path, head, start, size, mmap):
+def _number(x, lo=-np.inf, hi=np.inf) -> bool:
+    """Whether a header value is a number (not a bool) within float32's range and [lo, hi]."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return False
+    try:
+        v = float(x)
+    except OverflowError:               # an integer beyond float64
+        return False
+    return abs(v) <= float(np.finfo(np.float32).max) and lo <= v <= hi
+
+
+def _from_header(cls, path, head, start, raw):
     def need(key, kind):
         if not isinstance(head, dict) or key not in head:
             raise CSMFormatError(f"{path}: header lacks {key!r}")
@@ -188,8 +193,7 @@ def _from_header(cls, path, head, start, size, mmap):
     if rule not in (2, 3):
         raise CSMFormatError(f"{path}: layer_rule {rule} is not 2 or 3")
     margin = head.get("front_margin_texels", 0.0)       # absent in files from before the margin
-    if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not (
-            np.isfinite(margin) and margin >= 0):
+    if not _number(margin, 0.0):
         raise CSMFormatError(f"{path}: front_margin_texels must be a finite number >= 0, got {margin!r}")
     footprint = head.get("footprint", False)             # absent in files from before the option
     if not isinstance(footprint, bool):
@@ -200,7 +204,7 @@ def _from_header(cls, path, head, start, size, mmap):
             box = np.array(box, dtype=np.float64)
             ok = box.shape == (2, 3) and bool(np.isfinite(box).all()) and bool((box[0] <= box[1]).all()) \
                 and bool((np.abs(box) <= 1.0 + 1e-6).all())
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             ok = False
         if not ok:
             raise CSMFormatError(f"{path}: box must be [[lo x, y, z], [hi x, y, z]] with lo <= hi inside "
@@ -213,12 +217,16 @@ def _from_header(cls, path, head, start, size, mmap):
                              f"integer >= 0 (or neither), got {two_sided!r} and {n_both!r}")
     if layout not in _LAYOUTS:
         raise CSMFormatError(f"{path}: unknown view layout {layout!r}")
-    if odt not in ("<u4", "<u8"):
-        raise CSMFormatError(f"{path}: offsets dtype {odt!r} not supported")
-    if len(centre) != 3 or not all(isinstance(x, (int, float)) and np.isfinite(x) for x in centre):
-        raise CSMFormatError(f"{path}: centre must be 3 finite numbers")
-    if not (np.isfinite(radius) and radius > 0):
-        raise CSMFormatError(f"{path}: radius must be finite and positive, got {radius}")
+    if odt != _offsets_dtype(S).newbyteorder("<").str:      # what save writes for S segments
+        raise CSMFormatError(f"{path}: offsets dtype {odt!r} for {S} segments (pyshadow writes "
+                             f"{_offsets_dtype(S).newbyteorder('<').str!r})")
+    if len(centre) != 3 or not all(_number(x) for x in centre):
+        raise CSMFormatError(f"{path}: centre must be 3 finite numbers within float32's range")
+    if not (_number(radius) and radius > 0):
+        raise CSMFormatError(f"{path}: radius must be positive and finite within float32's range, got {radius}")
+    seconds = head.get("build_seconds")
+    if not (seconds is None or _number(seconds, 0.0)):
+        raise CSMFormatError(f"{path}: build_seconds must be a number >= 0 or null, got {seconds!r}")
     try:
         if layout == "zigzag":
             # row_offset: absent in files of the thesis's grid (0)
@@ -245,23 +253,16 @@ def _from_header(cls, path, head, start, size, mmap):
     if S < R * R:
         raise CSMFormatError(f"{path}: {S} segments for {R * R} texels (every texel needs one)")
     arrays, end = array_layout(start, R, D, S, bits, odt)
-    if end + 32 != size:
+    if end + 32 != (size := len(raw)):
         raise CSMFormatError(f"{path}: size {size} bytes does not match the header "
                              f"({end + 32} expected)")
     views = ViewSet.from_params(layout, params)
-    data = {}
-    for name, dt, n, off in arrays:
-        if mmap:
-            data[name] = np.memmap(path, dtype=dt, mode="r", offset=off, shape=(n,))
-        else:
-            with open(path, "rb") as f:
-                f.seek(off)
-                data[name] = np.frombuffer(f.read(dt.itemsize * n), dtype=dt).copy()
+    data = {name: raw[off:off + dt.itemsize * n].view(dt) for name, dt, n, off in arrays}
     _validate_arrays(path, data, R, D, S, bits)
     return cls(views=views, resolution=R, depth_bits=bits, layer_rule=rule,
                centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
                offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
-               build_seconds=head.get("build_seconds") or float("nan"), front_margin_texels=margin,
+               build_seconds=float("nan") if seconds is None else seconds, front_margin_texels=margin,
                footprint=footprint, box=box, two_sided=two_sided, both_sided_faces=n_both)
 
 

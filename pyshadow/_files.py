@@ -4,10 +4,11 @@ from __future__ import annotations
 import errno
 import os
 import secrets
+import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path", "write_bytes_atomic"]
+__all__ = ["atomic_path", "write_bytes_atomic", "writable_folder"]
 
 
 @contextmanager
@@ -50,3 +51,21 @@ def write_bytes_atomic(path, data: bytes) -> None:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
+
+
+def writable_folder(path, probe_prefix: str = ".pyshadow-") -> None:
+    """Create the folder ``path`` (and its parents) and probe that a file can be written there.
+
+    Raises ValueError with the reason ("exists and is not a directory",
+    "cannot write there (...)"), for a command line to report as a usage
+    error before any work starts; the probe file is removed.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ValueError("exists and is not a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path, prefix=probe_prefix, suffix=".probe"):
+            pass
+    except OSError as e:
+        raise ValueError(f"cannot write there ({e.strerror or e})") from None

@@ -16,10 +16,10 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import tempfile
 import warnings
 from pathlib import Path
 
+from .._files import writable_folder
 from ..bench.config import _int_range, _maps, _positive_float, _size
 from .params import AssetParams
 from .runner import EXECUTORS
@@ -48,14 +48,10 @@ def _check_out(ap, out) -> None:
         The ``-o`` folder (``~`` expanded, as the bake does).
     """
     out = Path(out).expanduser()
-    if out.exists() and not out.is_dir():
-        ap.error(f"-o {out}: exists and is not a directory")
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".pyshadow-bake-", suffix=".probe"):
-            pass
-    except OSError as e:
-        ap.error(f"-o {out}: cannot write there ({e.strerror or e})")
+        writable_folder(out, ".pyshadow-bake-")
+    except ValueError as e:
+        ap.error(f"-o {out}: {e}")
 
 
 def _executor_options(p):

@@ -6,10 +6,9 @@ import gc
 import json
 import os
 import sys
-import tempfile
 from pathlib import Path
 
-from .._files import write_bytes_atomic
+from .._files import writable_folder, write_bytes_atomic
 from ..cache import CSMCache, default_cache_dir
 from .answer import answer_text, run_max_error
 from .common import _PROGRESS, _Log
@@ -131,14 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _check_out(ap, out: Path):
     """Create ``out`` and probe that it is writable; a parser error (exit 2) otherwise."""
-    if out.exists() and not out.is_dir():
-        ap.error(f"--out {out}: exists and is not a directory")
     try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".pyshadow-bench-", suffix=".probe"):
-            pass
-    except OSError as e:
-        ap.error(f"--out {out}: cannot write there ({e.strerror or e})")
+        writable_folder(out, ".pyshadow-bench-")
+    except ValueError as e:
+        ap.error(f"--out {out}: {e}")
 
 
 def _emit(obj, path: Path | None, as_json: bool):

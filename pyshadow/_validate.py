@@ -5,12 +5,14 @@ and what is wrong; none copies a valid array it does not have to.
 """
 from __future__ import annotations
 
+import numbers
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 __all__ = ["rows3", "squared_lengths", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
-           "check_transform", "check_indices", "FLOAT32_MAX", "check_float32_points", "check_float32_instances"]
+           "check_transform", "check_indices", "check_int", "FLOAT32_MAX", "check_float32_points",
+           "check_float32_instances"]
 
 
 def rows3(a, name, n=None, dtype=np.float64):
@@ -138,6 +140,23 @@ def check_indices(indices, n: int, name: str = "indices") -> np.ndarray:
     if idx.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {idx.shape}")
     return idx
+
+
+def check_int(value, name: str, lo: int, hi: int | None = None, why: str = "") -> int:
+    """``value`` as a Python int: an integer (Python or NumPy, not a bool) in ``lo .. hi``
+    (``hi`` None: no upper bound).
+
+    A float (even ``2.0``), a string or a bool raises TypeError, a value out
+    of range ValueError; ``why``, if given, is added to the latter's message
+    in parentheses (the reason for the range).
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise TypeError(f"{name} must be an int, got {value!r}")
+    v = int(value)
+    if v < lo or (hi is not None and v > hi):
+        bound = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise ValueError(f"{name} must be {bound}{f' ({why})' if why else ''}, got {v}")
+    return v
 
 
 def squared_lengths(a: np.ndarray) -> np.ndarray:

@@ -29,6 +29,7 @@ import numpy as np
 
 from . import _cl
 from ._compat import legacy_sampling
+from ._validate import check_int, unit_normals
 
 __all__ = ["Sampling", "STRATEGIES", "ao_from_samples", "sample_patterns", "pattern_indices", "sample_directions",
            "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
@@ -37,6 +38,8 @@ STRATEGIES = ("random", "stratified", "latin_hypercube", "halton", "hammersley")
 _CODES = {s: i for i, s in enumerate(STRATEGIES)}
 MAX_SAMPLES = 4096
 MAX_PATTERNS = 65536
+#: The largest seed: the pattern generator is seeded with 32 bits of it.
+MAX_SEED = 2**32 - 1
 
 
 @dataclass(frozen=True)
@@ -55,7 +58,18 @@ class Sampling:
         ``pattern_indices(indices[i], patterns, seed)``, so neighbouring
         pixels see different directions.
     seed : int, optional
-        Seed of the pattern assignment (and of the 'random' strategies).
+        Seed of the pattern assignment (and of the 'random' strategies),
+        0 .. 2**32 - 1 (:data:`MAX_SEED`): the patterns' generator takes 32
+        bits of it, so larger or negative seeds would repeat the patterns
+        of seeds in that range; they are refused.
+
+    Raises
+    ------
+    TypeError
+        ``samples``, ``patterns`` or ``seed`` is not an int (bools and floats
+        are refused).
+    ValueError
+        A value out of its range, or an unknown ``strategy``.
 
     Examples
     --------
@@ -70,8 +84,7 @@ class Sampling:
 
     def __post_init__(self):
         check_sampling(self.samples, self.strategy, self.patterns)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)):
-            raise TypeError(f"seed must be an int, got {self.seed!r}")
+        check_seed(self.seed)
 
     def directions(self, normals, indices=None) -> np.ndarray:
         """World directions (N, samples, 3) float32 about ``normals``: :func:`sample_directions`."""
@@ -88,6 +101,11 @@ def check_sampling(samples, strategy, patterns):
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {', '.join(STRATEGIES)}")
     if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
         raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+
+
+def check_seed(seed) -> int:
+    """The seed of a sampling as an int in 0 .. :data:`MAX_SEED` (TypeError, ValueError otherwise)."""
+    return check_int(seed, "seed", 0, MAX_SEED, "the pattern generator uses 32 bits of it")
 
 
 def _radical_inverse(k, base):
@@ -110,12 +128,18 @@ def sample_patterns(samples: int, strategy: str = "hammersley", patterns: int = 
                     seed: int = 0) -> np.ndarray:
     """The 2-D sample patterns of a strategy.
 
+    Parameters
+    ----------
+    samples, strategy, patterns, seed
+        As for :class:`Sampling` (``seed`` in 0 .. 2**32 - 1).
+
     Returns
     -------
     ndarray, shape (patterns, samples, 2), float64
         Points ``(xi1, xi2)`` in ``[0, 1)``; deterministic for ``seed``.
     """
     check_sampling(samples, strategy, patterns)
+    check_seed(seed)
     N, M = int(samples), int(patterns)
     rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, _CODES[strategy], N])
     k = np.arange(N)
@@ -145,7 +169,11 @@ def sample_patterns(samples: int, strategy: str = "hammersley", patterns: int = 
 
 
 def pattern_indices(indices, patterns: int, seed: int = 0) -> np.ndarray:
-    """Pattern used by query point ``indices`` (a hash, so chunking cannot change it)."""
+    """Pattern used by query point ``indices`` (a hash, so chunking cannot change it).
+
+    ``seed`` as for :class:`Sampling` (0 .. 2**32 - 1).
+    """
+    check_seed(seed)
     i = np.asarray(indices, dtype=np.uint64)
     z = i + np.uint64((int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & 0xFFFFFFFFFFFFFFFF)
     with np.errstate(over="ignore"):
@@ -173,16 +201,9 @@ def hemisphere_frame(normals) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _check_normals(normals):
-    n = np.asarray(normals)
-    if n.ndim != 2 or n.shape[1] != 3:
-        raise ValueError(f"normals must have shape (N, 3), got {n.shape}")
-    n = n.astype(np.float64)
-    if not np.isfinite(n).all():
-        raise ValueError("normals must be finite")
-    length = np.linalg.norm(n, axis=1)
-    if (length < 1e-12).any():
-        raise ValueError(f"{int((length < 1e-12).sum())} normals are zero; AO needs a hemisphere")
-    return n / length[:, None]
+    """(N, 3) finite normals, normalised as the AO entry points do (:func:`pyshadow._validate.unit_normals`:
+    any non-zero length, however small or large, is scaled to 1; zero rows are refused)."""
+    return unit_normals(normals, None)
 
 
 def local_directions(points) -> np.ndarray:
@@ -205,6 +226,7 @@ def direction_table(samples: int, strategy: str = "hammersley", patterns: int = 
     patterns) are kept, the last eight asked.
     """
     check_sampling(samples, strategy, patterns)
+    check_seed(seed)
     key = (int(samples), str(strategy), int(patterns), int(seed))
     if key[0] * key[2] <= _TABLE_CACHE_ENTRIES:
         return _kept_direction_table(*key)
@@ -228,6 +250,9 @@ _ORDER = ("samples", "strategy", "patterns", "seed")
 
 def _sampling(where, args, sampling, old):
     """The ``Sampling`` of a call that may use the old positional or keyword sampling arguments."""
+    if sampling is not None and not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r} (e.g. "
+                        f"sampling=pyshadow.Sampling(36, 'hammersley'))")
     return legacy_sampling(where, args, _ORDER, sampling, old, Sampling(), stacklevel=5)[0]
 
 
@@ -250,14 +275,16 @@ def sample_directions(normals, *args, sampling: Sampling | None = None, indices=
     Parameters
     ----------
     normals : array_like, shape (N, 3)
-        Surface normals (world frame; normalised here, must be non-zero).
+        Surface normals (world frame; finite and non-zero, normalised here
+        whatever their length, as ``Scene.ambient_occlusion`` does).
         Query point ``i`` uses pattern ``pattern_indices(i, sampling.patterns,
         sampling.seed)``.
     sampling : Sampling, optional
         Directions per point, strategy, number of patterns ``M`` and seed;
         default ``Sampling()`` (36 Hammersley directions, 256 patterns). The
         old positional or keyword ``samples, strategy, patterns, seed`` still
-        work, with a DeprecationWarning.
+        work, with a DeprecationWarning; anything else (a strategy's name, a
+        sample count) is a TypeError.
     indices : array_like of int, shape (N,), optional
         Pattern index of each point (as ``Scene.ambient_occlusion``'s
         ``indices``, e.g. pixel numbers); default ``arange(N)``.
@@ -268,6 +295,14 @@ def sample_directions(normals, *args, sampling: Sampling | None = None, indices=
         Unit directions in the upper hemisphere of each normal, computed by
         the same OpenCL function the AO kernel calls, so a ray tracer given
         these directions traces exactly the rays pyshadow tests.
+
+    Raises
+    ------
+    TypeError
+        ``sampling`` is not a :class:`Sampling`; ``normals`` not numeric.
+    ValueError
+        ``normals`` not of shape (N, 3), not finite or zero; ``indices`` of
+        the wrong shape.
     """
     sampling = _sampling("pyshadow.sample_directions", args, sampling, old)
     samples, strategy, patterns, seed = sampling.samples, sampling.strategy, sampling.patterns, sampling.seed

@@ -43,6 +43,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._validate import check_int, check_rows
+
 #: the row offsets of a zigzag grid (ViewSet.zigzag): 0.5 centred rows, 0 the thesis's grid
 ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
 
@@ -50,13 +52,16 @@ ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
 #: inverted (a direction on a map's own axis takes nearly all the weight)
 FILTER_ANGLE_EPS = 1e-4
 
-__all__ = [
-    "ViewSet",
-    "polar_direction",
-    "octahedral_decode",
-    "octahedral_encode",
-    "hilbert_d2xy",
-]
+#: most maps of a ViewSet.zigzag (theta * phi): the largest ViewSet.hilbert set's (level 10, hemispheres)
+MAX_MAPS = 2 * 4**10
+#: the largest theta or phi of ViewSet.zigzag (as a CSM file's header allows)
+MAX_GRID = 1 << 16
+#: how far a given ViewSet's directions may be from unit length, and its bases from orthonormal (entries of
+#: B B^T - I) and from ending with d_k: float32-rounded inputs pass (errors of a few 1e-8); 1e-6 moves a point
+#: of the unit bounding sphere by ~1e-6 radius, under 1/400 texel at the largest resolution (4096)
+BASIS_TOL = 1e-6
+
+__all__ = ["ViewSet", "polar_direction", "octahedral_decode", "octahedral_encode", "hilbert_d2xy"]
 
 
 def polar_direction(theta, phi) -> np.ndarray:
@@ -206,22 +211,27 @@ class ViewSet:
     params : dict
         Layout parameters: ``{'theta', 'phi', 'row_offset'}`` (no
         ``row_offset``: 0) or ``{'level'}``.
+
+    Parameters
+    ----------
+    directions, bases, layout, params
+        As the attributes (kept as given), to :data:`BASIS_TOL` (1e-6).
+
+    Raises
+    ------
+    TypeError, ValueError
+        Non-numeric arrays; wrong shapes, non-finite values, directions or bases beyond the tolerance.
     """
 
     def __init__(self, directions, bases, layout: str = "custom", params: dict | None = None):
-        directions = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-        bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
-        if len(directions) != len(bases):
-            raise ValueError(
-                f"ViewSet: {len(directions)} directions but {len(bases)} bases"
-            )
-        if not (np.isfinite(directions).all() and np.isfinite(bases).all()):
-            raise ValueError("ViewSet: directions and bases must be finite")
-        self.directions = directions
-        self.bases = bases
-        self.layout = layout
-        self.params = dict(params or {})
-        self._tree = None
+        d, b = check_rows(directions, "ViewSet: directions"), np.asarray(bases)
+        if b.ndim != 3 or b.shape[1:] != (3, 3) or len(b) != len(d):
+            raise ValueError(f"ViewSet: bases must have shape (D, 3, 3) for {len(d)} directions, got {b.shape}")
+        if b.dtype.kind not in "iuf":
+            raise TypeError(f"ViewSet: bases must be numeric, got {b.dtype}")
+        d, b = d.astype(np.float64, copy=False), b.astype(np.float64, copy=False)
+        _check_frames(d, b)
+        self.__dict__.update(directions=d, bases=b, layout=layout, params=dict(params or {}), _tree=None)
 
     # -- constructors -----------------------------------------------------
     @classmethod
@@ -232,7 +242,9 @@ class ViewSet:
         ----------
         theta, phi : int
             Rows (polar angle steps of ``pi/theta``) and columns (azimuth
-            steps of ``2*pi/phi``); ``D = theta*phi``.
+            steps of ``2*pi/phi``); ``D = theta*phi``. Integers (not bools),
+            each in 1 .. 65536, ``D`` at most 2**21 (:data:`MAX_MAPS`, the
+            largest :meth:`hilbert` set).
         row_offset : {0.5, 0}, optional
             Row ``i`` lies at the polar angle ``(i + row_offset)*pi/theta``.
             0.5 (default): rows centred in their bands, each pole half a
@@ -243,9 +255,12 @@ class ViewSet:
             grid, row 0 on the north pole and the south pole a whole step
             from the last row (CSM files without the parameter).
         """
-        theta, phi = int(theta), int(phi)
-        if theta < 1 or phi < 1:
-            raise ValueError(f"ViewSet.zigzag needs theta >= 1 and phi >= 1, got {theta}x{phi}")
+        theta = check_int(theta, "ViewSet.zigzag: theta", 1, MAX_GRID)
+        phi = check_int(phi, "ViewSet.zigzag: phi", 1, MAX_GRID)
+        if theta * phi > MAX_MAPS:
+            raise ValueError(f"ViewSet.zigzag: theta * phi must be at most {MAX_MAPS} (2**21), got {theta}x{phi}")
+        if isinstance(row_offset, (bool, np.bool_)) or not isinstance(row_offset, (int, float, np.number)):
+            raise TypeError(f"ViewSet.zigzag: row_offset must be a number (0 or 0.5), got {row_offset!r}")
         row_offset = float(row_offset)
         if row_offset not in ZIGZAG_ROW_OFFSETS:
             raise ValueError(f"ViewSet.zigzag needs row_offset 0 or 0.5, got {row_offset}")
@@ -259,7 +274,7 @@ class ViewSet:
         # the grid angles, defined on the pole), then transport it along the order
         u0 = np.array([np.sin(ph[0]), 0.0, -np.cos(ph[0])])
         bases = _transport_bases(d, u0)
-        return cls(d, bases, "zigzag", {"theta": theta, "phi": phi, "row_offset": row_offset})
+        return _built(cls, d, bases, "zigzag", {"theta": theta, "phi": phi, "row_offset": row_offset})
 
     @classmethod
     def hilbert(cls, level: int = 6, hemispheres: bool = False) -> "ViewSet":
@@ -268,19 +283,19 @@ class ViewSet:
         Parameters
         ----------
         level : int
-            0 .. 10. One square of ``2^level x 2^level`` cells: ``D = 4**level``
-            (level 5: 1024 maps, 6: 4096, 7: 16384).
+            0 .. 10 (an integer, not a bool). One square of ``2^level x 2^level``
+            cells: ``D = 4**level`` (level 5: 1024 maps, 6: 4096, 7: 16384).
         hemispheres : bool, optional
             Map each hemisphere onto its own square (the octahedral diamond
             turned by 45 degrees) and join the squares side by side into a
             ``2^(level+1) x 2^level`` rectangle, traversed by two Hilbert
             curves that meet across the equator: ``D = 2 * 4**level``
             (level 5: 2048 maps, 6: 8192), the sizes of the thesis's
-            ``theta x 2 theta`` grids.
+            ``theta x 2 theta`` grids. A bool.
         """
-        level = int(level)
-        if not 0 <= level <= 10:
-            raise ValueError(f"ViewSet.hilbert needs 0 <= level <= 10, got {level}")
+        level = check_int(level, "ViewSet.hilbert: level", 0, 10)
+        if not isinstance(hemispheres, (bool, np.bool_)):
+            raise TypeError(f"ViewSet.hilbert: hemispheres must be a bool, got {hemispheres!r}")
         n = 1 << level
         x, y = hilbert_d2xy(level, np.arange(n * n))
         if hemispheres:
@@ -295,7 +310,7 @@ class ViewSet:
         params = {"level": level}
         if hemispheres:
             params["hemispheres"] = True
-        return cls(d, bases, "hilbert", params)
+        return _built(cls, d, bases, "hilbert", params)
 
     @staticmethod
     def maps_for(layout: str, params: dict) -> int:
@@ -323,7 +338,7 @@ class ViewSet:
     def __getitem__(self, item) -> "ViewSet":
         if not isinstance(item, slice):
             raise TypeError("ViewSet supports slicing only: views[i:j]")
-        return ViewSet(self.directions[item], self.bases[item], "custom")
+        return _built(ViewSet, self.directions[item], self.bases[item], "custom", None)
 
     def __repr__(self) -> str:
         p = ", ".join(f"{k}={v}" for k, v in self.params.items())
@@ -335,8 +350,8 @@ class ViewSet:
 
         Parameters
         ----------
-        dirs : array_like, shape (N, 3)
-            Directions (need not be unit length; must be non-zero).
+        dirs : array_like, shape (N, 3) or (3,)
+            Directions (need not be unit length; must be finite and non-zero).
 
         Returns
         -------
@@ -480,14 +495,40 @@ class ViewSet:
         return cand[np.arange(len(d)), np.argmax(dot, axis=1)]   # first of equals, as the kernel
 
 
+def _built(cls, directions, bases, layout, params) -> ViewSet:
+    """A view set of arrays valid by construction (zigzag, hilbert, a slice): not checked again."""
+    views = cls.__new__(cls)
+    views.__dict__.update(directions=directions, bases=bases, layout=layout, params=params or {}, _tree=None)
+    return views
+
+
 def _unit_rows(dirs, caller: str) -> np.ndarray:
-    """Directions (N, 3) float64, normalised; ValueError naming ``caller`` for
-    non-finite or zero rows."""
-    d = np.asarray(dirs, dtype=np.float64).reshape(-1, 3)
+    """Directions (N, 3) (or one, (3,)) as (N, 3) float64, normalised; ValueError naming ``caller``
+    for another shape, non-finite or zero rows (TypeError for non-numeric ones)."""
+    a = np.asarray(dirs)
+    d = check_rows(a.reshape(1, 3) if a.shape == (3,) else a, f"{caller}: directions").astype(np.float64)
     norm = np.linalg.norm(d, axis=1)
     if not (np.isfinite(d).all() and (norm > 0).all()):
         raise ValueError(f"{caller}: directions must be finite and non-zero")
     return d / norm[:, None]
+
+
+def _check_frames(d, b):
+    """ValueError unless ``d`` (D, 3) are unit vectors and ``b`` (D, 3, 3) right-handed orthonormal
+    bases with ``d`` as their third rows, to :data:`BASIS_TOL`."""
+    if not (np.isfinite(d).all() and np.isfinite(b).all()):
+        raise ValueError("ViewSet: directions and bases must be finite")
+    tests = [(lambda: np.abs(np.sqrt(np.einsum("ij,ij->i", d, d)) - 1.0), "directions are not unit vectors"),
+             (lambda: np.abs(np.einsum("nij,nkj->nik", b, b) - np.eye(3)).max(axis=(1, 2)),
+              "bases are not orthonormal (rows u, v, d of unit length, at right angles)"),
+             (lambda: np.abs(b[:, 2] - d).max(axis=1), "bases do not end with their map's direction (row d_k)"),
+             (lambda: -np.linalg.det(b), "bases are left-handed (u x v = -d)")]
+    for err, what in tests if len(d) else ():
+        bad = err() > BASIS_TOL
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise ValueError(f"ViewSet: {int(bad.sum())} {what} (first: map {k}, direction {d[k].tolist()}, "
+                             f"basis {b[k].tolist()}; tolerance {BASIS_TOL:g})")
 
 
 def _hilbert_cell_directions(level, split, x, y):

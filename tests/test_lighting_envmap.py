@@ -5,7 +5,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from pyshadow.lighting import EnvironmentMap, cube, irradiance_sh, sh_basis
+from pyshadow.lighting import EnvironmentMap, cube, irradiance_sh, latlong_directions, latlong_solid_angles, sh_basis
 from pyshadow.lighting.sh import KERNEL_BANDS, RH_CONSTANTS
 
 LM = [(0, 0), (1, -1), (1, 0), (1, 1), (2, -2), (2, -1), (2, 0), (2, 1), (2, 2)]
@@ -306,3 +306,87 @@ def test_unreadable_files_are_refused_and_nothing_is_written(tmp_path):
     with pytest.raises(ValueError, match=r"grey.exr: an environment map needs RGB or RGBA channels \(got 1\)"):
         EnvironmentMap.from_file(tmp_path / "grey.exr")
     assert sorted(tmp_path.iterdir()) == before + [tmp_path / "grey.exr"]
+
+
+# -- input checks of irradiance_sh and the lat-long grids ----------------------------------------
+@pytest.mark.parametrize("normals, match", [
+    ([[0, 5.0, 0]], r"normals: 1 rows are not unit vectors \(row 0 has length 5, allowed 1 \+- 1e-06\)"),
+    ([[0, 0, 0.0]], r"normals: 1 rows are not unit vectors \(row 0 has length 0,"),
+    ([[0, 1.0, 0], [0, 1.00001, 0]], r"normals: 1 rows are not unit vectors \(row 1"),
+    ([[np.nan, 1.0, 0]], "normals: 1 rows are not finite"),
+    ([[0, np.inf, 0]], "normals: 1 rows are not finite"),
+    (np.ones((2, 2)), r"normals: expected shape \(N, 3\) or \(3,\) \(got shape \(2, 2\)\)"),
+    (np.ones((2, 2, 3)) / math.sqrt(3), r"normals: expected shape \(N, 3\) or \(3,\)"),
+])
+def test_irradiance_sh_refuses_bad_normals(normals, match):
+    """[0, 5, 0] gave 24.3 (25 times the quadratic form's value at the unit normal) and [0, 0, 0] the
+    band-0 term; the normals are checked as EnvironmentMap.irradiance checks them."""
+    with pytest.raises(ValueError, match=match):
+        irradiance_sh(np.ones((9, 1)), np.asarray(normals))
+
+
+def test_irradiance_sh_refuses_bad_coefficients():
+    n = np.array([[0, 1.0, 0]])
+    L = np.ones((9, 3))
+    L[4, 2] = np.nan
+    with pytest.raises(ValueError, match=r"coefficients: 1 entries are not finite \(first L\[4, 2\] = nan\)"):
+        irradiance_sh(L, n)
+    with pytest.raises(ValueError, match="coefficients: 27 entries are not finite"):
+        irradiance_sh(np.full((9, 3), np.inf), n)
+    with pytest.raises(ValueError, match=r"coefficients must have shape \(9, C\) \(got shape \(4, 3\)\)"):
+        irradiance_sh(np.ones((4, 3)), n)
+    with pytest.raises(ValueError, match=r"coefficients must have shape \(9, C\) \(got shape \(9,\)\)"):
+        irradiance_sh(np.ones(9), n)
+    with pytest.raises(TypeError, match="coefficients: expected real numbers"):
+        irradiance_sh(np.ones((9, 3), complex), n)
+    with pytest.raises(TypeError, match="normals: expected real numbers"):
+        irradiance_sh(np.ones((9, 3)), np.array([["0", "1", "0"]]))
+
+
+def test_irradiance_sh_of_unit_normals_is_unchanged():
+    """Bit for bit sum_k A_l L_k Y_k(n), written out here; (3,) gives (C,); float32 and int inputs as float64."""
+    rng = np.random.default_rng(11)
+    L = rng.normal(size=(9, 3))
+    n = unit(rng.normal(size=(200, 3)))
+    A = np.array([math.pi] + [2.0 * math.pi / 3.0] * 3 + [math.pi / 4.0] * 5)
+    want = sh_basis(n) @ (A[:, None] * L)
+    assert irradiance_sh(L, n).tobytes() == want.tobytes()
+    assert irradiance_sh(L, n[7]).shape == (3,)
+    assert irradiance_sh(L, n[7]).tobytes() == (sh_basis(n[7]) @ (A[:, None] * L)).tobytes()
+    n32, L32 = n.astype(np.float32), L.astype(np.float32)
+    want32 = sh_basis(n32.astype(np.float64)) @ (A[:, None] * L32.astype(np.float64))
+    assert irradiance_sh(L32, n32).tobytes() == want32.tobytes()
+    axes = np.array([[0, 1, 0], [0, 0, -1]])
+    assert irradiance_sh(np.arange(9).reshape(9, 1), axes).tobytes() == \
+        (sh_basis(axes.astype(np.float64)) @ (A[:, None] * np.arange(9.0).reshape(9, 1))).tobytes()
+    assert irradiance_sh(L, np.zeros((0, 3))).shape == (0, 3)
+    # within the tolerance (1e-6), as given: not renormalised
+    m = n[:5] * (1 + 5e-7)
+    assert irradiance_sh(L, m).tobytes() == (sh_basis(m) @ (A[:, None] * L)).tobytes()
+
+
+@pytest.mark.parametrize("f", [latlong_directions, latlong_solid_angles])
+def test_latlong_grids_refuse_sizes_that_are_no_grid(f):
+    """(0, 0) raised ZeroDivisionError, negative sizes NumPy errors, 2.5 a TypeError from NumPy."""
+    for args, name, got in [((0, 0), "height", 0), ((-1, 2), "height", -1), ((4, 0), "width", 0),
+                            ((4, -8), "width", -8)]:
+        with pytest.raises(ValueError, match=f"^{name} must be >= 1, got {got}$"):
+            f(*args)
+    for args, msg in [((2.5, 5), "height must be an int, got 2.5"), ((4, 8.0), "width must be an int, got 8.0"),
+                      ((True, 2), "height must be an int, got True"), (("4", 8), "height must be an int, got '4'")]:
+        with pytest.raises(TypeError, match=f"^{msg}$"):
+            f(*args)
+
+
+def test_latlong_grids_of_valid_sizes_are_unchanged():
+    """Bit for bit the module docstring's texel centres and exact solid angles, written out here."""
+    for h, w in [(1, 1), (1, 2), (4, 8), (7, 3), (64, 128), (np.int64(5), np.int32(10))]:
+        th = (np.arange(h) + 0.5) * (math.pi / h)
+        ph = (np.arange(w) + 0.5) * (2.0 * math.pi / w)
+        d = np.stack([np.sin(th)[:, None] * np.cos(ph)[None, :], np.broadcast_to(np.cos(th)[:, None], (h, w)),
+                      np.sin(th)[:, None] * np.sin(ph)[None, :]], axis=-1)
+        u = np.cos(np.linspace(0.0, math.pi, h + 1))
+        u[0], u[-1] = 1.0, -1.0
+        om = np.repeat(((u[:-1] - u[1:]) * (2.0 * math.pi / w))[:, None], w, axis=1)
+        assert latlong_directions(h, w).tobytes() == d.tobytes() and latlong_directions(h, w).shape == (h, w, 3)
+        assert latlong_solid_angles(h, w).tobytes() == om.tobytes() and latlong_solid_angles(h, w).shape == (h, w)

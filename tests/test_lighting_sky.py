@@ -128,3 +128,62 @@ def test_overcast_sky_refuses_bad_input():
 def test_skies_are_environment_maps():
     assert isinstance(overcast_sky(height=8), EnvironmentMap)
     assert isinstance(clear_sky([0, 1, 0], height=8), EnvironmentMap)
+
+
+# -- input checks of sun_irradiance and disc_solid_angle -----------------------------------------
+def test_sun_irradiance_refuses_a_sun_below_the_horizon_as_clear_sky_does():
+    """It gave the horizon's value (~80 lux, clamping y to 0) for any sun below the horizon, while
+    clear_sky refused the same direction: both refuse it now, with the same message."""
+    for d in ([0.0, -1.0, 0.0], [0.0, -1e-9, 1.0], [0.0, -0.2, math.sqrt(0.96)]):
+        with pytest.raises(ValueError, match="sun_direction: the sun is below the horizon") as got:
+            sun_irradiance(d)
+        with pytest.raises(ValueError) as want:
+            clear_sky(d, height=8)
+        assert str(got.value) == str(want.value)
+    with pytest.raises(ValueError, match="elevation -90 deg"):
+        sun_irradiance([0, -1, 0])
+    # a day: the hours the sun is up give a value, the others are refused
+    for hour in np.linspace(0, 24, 49):
+        d = sun_position(45.0, 172, hour)
+        if d[1] >= 0:
+            assert (sun_irradiance(d) > 0).all()
+        else:
+            with pytest.raises(ValueError, match="below the horizon"):
+                sun_irradiance(d)
+    with pytest.raises(TypeError, match="turbidity: must be a number"):
+        sun_irradiance([0, 1, 0], "clear")
+
+
+def test_sun_irradiance_of_suns_above_the_horizon_is_unchanged():
+    """Bit for bit the Kasten-Young / Angstrom formula, written out here (the horizon, y = 0 and -0.0,
+    included)."""
+    lam = np.array([0.680, 0.550, 0.440])
+    rng = np.random.default_rng(7)
+    dirs = rng.normal(size=(40, 3))
+    dirs[:, 1] = np.abs(dirs[:, 1])
+    dirs = list(dirs / np.linalg.norm(dirs, axis=1, keepdims=True))
+    dirs += [np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, -0.0, 1.0])]
+    for d in dirs:
+        for T in (1.7, 3.0, 6.5, 10.0):
+            v = np.asarray(d, np.float64)
+            v = v / float(np.linalg.norm(v))
+            zen = math.degrees(math.acos(min(1.0, max(0.0, v[1]))))
+            m = 1.0 / (math.cos(math.radians(zen)) + 0.50572 * (96.07995 - zen) ** -1.6364)
+            tau = 0.008735 * lam ** -4.08 + (0.04608 * T - 0.04586) * lam ** -1.3
+            want = 128_000.0 * np.exp(-m * tau)
+            assert sun_irradiance(d, T).tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("bad", [-1.0, -1e-300, 4.0, math.pi + 1e-9, np.nan, np.inf, -np.inf])
+def test_disc_solid_angle_refuses_radii_outside_0_pi(bad):
+    """-1 gave the cap of radius 1, 4 that of 2 pi - 4, nan gave nan: a cap's angular radius is in [0, pi]."""
+    with pytest.raises(ValueError, match=r"radius: must lie in \[0, 3.14159\]"):
+        disc_solid_angle(bad)
+    with pytest.raises(TypeError, match="radius: must be a number"):
+        disc_solid_angle("small")
+
+
+def test_disc_solid_angle_of_valid_radii_is_unchanged():
+    for r in (0.0, 1e-300, 1e-9, SUN_ANGULAR_RADIUS, 0.3, 1.0, math.pi / 2, 3.0, math.pi, np.float32(0.25)):
+        assert disc_solid_angle(r) == 4.0 * math.pi * math.sin(0.5 * float(r)) ** 2
+    assert disc_solid_angle(0.0) == 0.0 and disc_solid_angle(math.pi) == pytest.approx(4 * math.pi, rel=1e-15)

@@ -1,6 +1,7 @@
 """Sampling (pyshadow.sampling): the device's directions against the NumPy reference, the
 patterns' properties, the strategies' order against Embree, and the Sampling value."""
 import dataclasses
+import re
 
 import numpy as np
 import pytest
@@ -74,7 +75,7 @@ def test_sampling_defaults_and_fields():
         s.samples = 64
     for strategy in pyshadow.STRATEGIES:
         Sampling(1, strategy, 1)
-        Sampling(sampling.MAX_SAMPLES, strategy, sampling.MAX_PATTERNS, seed=2**40)
+        Sampling(sampling.MAX_SAMPLES, strategy, sampling.MAX_PATTERNS, seed=2**32 - 1)
     Sampling(np.int64(8), patterns=np.int32(4), seed=np.uint8(1))   # NumPy integers pass
 
 
@@ -138,3 +139,96 @@ def test_direction_table_is_kept_read_only_and_equals_the_patterns_directions():
         kept = args[0] * args[2] <= sampling._TABLE_CACHE_ENTRIES
         assert (sampling.direction_table(*args) is t) == kept
     assert sampling.direction_table(16, "hammersley", 256, 1) is not sampling.direction_table(16, "hammersley", 256, 0)
+
+
+# ---------------------------------------------------------------------------
+# seeds, the sampling argument and the normals
+# ---------------------------------------------------------------------------
+@pytest.mark.parametrize("seed", [-1, 2**32, 2**32 + 5, 2**64, -2**70, np.int64(-3), np.uint64(2**40)])
+def test_seeds_beyond_32_bits_are_refused(seed):
+    """The generator takes 32 bits of the seed: 5 and 5 + 2**32 gave the same patterns, 0, 2**64 and
+    -2**70 the same everything. Refused wherever a seed is taken."""
+    match = (r"^seed must be in 0\.\.4294967295 \(the pattern generator uses 32 bits of it\), "
+             rf"got {int(seed)}$")
+    with pytest.raises(ValueError, match=match):
+        Sampling(16, seed=seed)
+    with pytest.raises(ValueError, match=match):
+        sampling.sample_patterns(4, "random", 2, seed)
+    with pytest.raises(ValueError, match=match):
+        sampling.direction_table(4, "random", 2, seed)
+    with pytest.raises(ValueError, match=match):
+        sampling.pattern_indices(np.arange(4), 16, seed)
+    with pytest.raises(ValueError, match=match):
+        with pytest.warns(DeprecationWarning):
+            pyshadow._compat.reset()
+            pyshadow.sample_directions(np.array([[0, 1.0, 0]]), seed=seed)       # the old keyword
+    assert sampling.MAX_SEED == 2**32 - 1
+
+
+def _splitmix_pattern(i: int, patterns: int, seed: int) -> int:
+    """pattern_indices written out with Python integers (mod 2**64)."""
+    m = (1 << 64) - 1
+    z = (i + ((seed * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & m)) & m
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & m
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & m
+    return (z ^ (z >> 31)) % patterns
+
+
+@pytest.mark.parametrize("seed", [0, 1, 12345, 2**31, 2**32 - 1, np.uint32(2**32 - 1), np.int64(7)])
+def test_seeds_in_range_give_the_patterns_they_gave(seed):
+    """Bit for bit: the 'random' patterns are the generator's draws for [seed, 0, N] (the 32-bit seed
+    itself), the assignment the splitmix64 hash of the seed, both written out here."""
+    N, M = 7, 5
+    want = np.minimum(np.random.default_rng([int(seed), 0, N]).random((M, N, 2)), np.nextafter(1.0, 0.0))
+    assert sampling.sample_patterns(N, "random", M, seed).tobytes() == want.tobytes()
+    idx = np.array([0, 1, 2, 3, 1000, 2**31, 2**40 + 3])
+    want_idx = [_splitmix_pattern(int(i), 97, int(seed)) for i in idx]
+    assert sampling.pattern_indices(idx, 97, seed).tolist() == want_idx
+    assert Sampling(N, "random", M, seed).seed == seed
+
+
+@pytest.mark.parametrize("bad", ["halton", 16, 16.0, ("halton",), {"samples": 16}])
+def test_sampling_must_be_a_sampling(bad):
+    """sampling="halton" raised AttributeError ('str' object has no attribute 'samples')."""
+    n = np.array([[0, 1.0, 0]])
+    match = rf"^sampling must be a pyshadow\.Sampling, got {re.escape(repr(bad))} \(e\.g\. sampling="
+    for f in (pyshadow.sample_directions, sampling.sample_directions_reference):
+        with pytest.raises(TypeError, match=match):
+            f(n, sampling=bad)
+
+
+def test_normals_of_any_non_zero_length_are_normalised_as_ambient_occlusion_does():
+    """A normal of length 1e-300 was "zero" here (an absolute 1e-12 threshold) while Scene.ambient_occlusion
+    normalises it: both follow pyshadow._validate.unit_normals now."""
+    s = Sampling(8, "halton", 16, 3)
+    up = np.array([[0, 1.0, 0]])
+    ref = sampling.sample_directions_reference(up, sampling=s)
+    dev = pyshadow.sample_directions(up, sampling=s)
+    for scale in (1e-300, 1e-13, 1e-12, 1e300, 5e-324):
+        n = up * scale
+        assert (sampling.sample_directions_reference(n, sampling=s) == ref).all()
+        assert (pyshadow.sample_directions(n, sampling=s) == dev).all()
+    for bad, match in [([[0, 0, 0.0]], "^normals: 1 rows are zero vectors$"),
+                       ([[0, 1.0, 0], [0, 0, 0]], "^normals: 1 rows are zero vectors$"),
+                       ([[np.nan, 1.0, 0]], "^normals: 1 rows are not finite$"),
+                       ([[np.inf, 1.0, 0]], "^normals: 1 rows are not finite$"),
+                       ([0, 1.0, 0], r"^normals must have shape \(N, 3\), got \(3,\)$"),
+                       (np.ones((2, 2)), r"^normals must have shape \(N, 3\), got \(2, 2\)$")]:
+        for f in (pyshadow.sample_directions, sampling.sample_directions_reference):
+            with pytest.raises(ValueError, match=match):
+                f(np.asarray(bad), sampling=s)
+    with pytest.raises(TypeError, match="^normals must be numeric, got complex128$"):
+        pyshadow.sample_directions(np.ones((1, 3), complex), sampling=s)
+
+
+def test_normals_that_were_accepted_are_normalised_as_before():
+    """Bit for bit n / np.linalg.norm(n) for the lengths the old threshold let through (float64 of any
+    input dtype), so the directions are unchanged."""
+    rng = np.random.default_rng(5)
+    for scale, dtype in [(1e-11, np.float64), (1.0, np.float64), (1e100, np.float64), (1.0, np.float32),
+                         (1e-3, np.float32), (3.0, np.int64)]:
+        n = (rng.normal(size=(5000, 3)) * scale).astype(dtype)
+        n[~n.any(axis=1)] = 1
+        m = n.astype(np.float64)
+        want = m / np.linalg.norm(m, axis=1)[:, None]
+        assert sampling._check_normals(n).tobytes() == want.tobytes()

@@ -236,9 +236,11 @@ def test_hilbert_directions_cover_sphere_evenly(hemispheres):
     assert nn.max() / nn.min() < 2.5
 
 
-@pytest.mark.parametrize("args", [(0, 4), (4, 0), (-1, 2)])
-def test_zigzag_rejects_empty_grid(args):
-    with pytest.raises(ValueError, match="theta >= 1"):
+@pytest.mark.parametrize("args, match", [((0, 4), "theta must be in 1..65536, got 0"),
+                                         ((4, 0), "phi must be in 1..65536, got 0"),
+                                         ((-1, 2), "theta must be in 1..65536, got -1")])
+def test_zigzag_rejects_empty_grid(args, match):
+    with pytest.raises(ValueError, match=f"^ViewSet.zigzag: {match}$"):
         pyshadow.ViewSet.zigzag(*args)
 
 
@@ -335,3 +337,130 @@ def test_filter_window_refuses_custom_layouts_and_bad_directions():
     a, b = zigzag.filter_window(w), zigzag.filter_window(3 * w)
     assert (a[0] == b[0]).all()
     np.testing.assert_allclose(a[1], b[1], rtol=1e-12)
+
+
+# -- argument checks: sizes, hemispheres, given directions and bases ------------------------------
+@pytest.mark.parametrize("args, exc, match", [
+    ((2.7, 5.9), TypeError, "theta must be an int, got 2.7"),           # was a 2 x 5 grid
+    ((4, 8.0), TypeError, "phi must be an int, got 8.0"),
+    (("16", "32"), TypeError, "theta must be an int, got '16'"),         # was accepted
+    ((True, 4), TypeError, "theta must be an int, got True"),
+    ((np.nan, 4), TypeError, "theta must be an int, got nan"),          # was "cannot convert float NaN"
+    ((4, np.inf), TypeError, "phi must be an int, got inf"),
+    ((100000, 200000), ValueError, "theta must be in 1..65536, got 100000"),     # was a raw MemoryError
+    ((8, 65537), ValueError, "phi must be in 1..65536, got 65537"),
+    ((2048, 2048), ValueError, r"theta \* phi must be at most 2097152 \(2\*\*21\), got 2048x2048"),
+    ((4, 8, "0.5"), TypeError, r"row_offset must be a number \(0 or 0.5\), got '0.5'"),
+    ((4, 8, True), TypeError, r"row_offset must be a number \(0 or 0.5\), got True"),
+])
+def test_zigzag_requires_integer_sizes_in_range(args, exc, match):
+    with pytest.raises(exc, match=f"^ViewSet.zigzag: {match}$"):
+        pyshadow.ViewSet.zigzag(*args)
+
+
+@pytest.mark.parametrize("args, exc, match", [
+    ((2.9,), TypeError, "level must be an int, got 2.9"),               # was level 2
+    (("3",), TypeError, "level must be an int, got '3'"),
+    ((True,), TypeError, "level must be an int, got True"),
+    ((None,), TypeError, "level must be an int, got None"),
+    ((11,), ValueError, "level must be in 0..10, got 11"),
+    ((-1,), ValueError, "level must be in 0..10, got -1"),
+    ((3, "no"), TypeError, "hemispheres must be a bool, got 'no'"),     # was hemispheres on
+    ((3, 1), TypeError, "hemispheres must be a bool, got 1"),
+    ((3, None), TypeError, "hemispheres must be a bool, got None"),
+])
+def test_hilbert_requires_an_integer_level_and_a_bool(args, exc, match):
+    with pytest.raises(exc, match=f"^ViewSet.hilbert: {match}$"):
+        pyshadow.ViewSet.hilbert(*args)
+
+
+def test_integer_sizes_of_any_integer_type_give_the_same_view_sets():
+    """NumPy integers and bools are accepted and give the sets Python ints give, bit for bit; the
+    largest zigzag (2**21 maps) is allowed."""
+    a, b = pyshadow.ViewSet.zigzag(8, 16), pyshadow.ViewSet.zigzag(np.int64(8), np.uint16(16), np.float32(0.5))
+    assert a.directions.tobytes() == b.directions.tobytes() and a.bases.tobytes() == b.bases.tobytes()
+    assert b.params == {"theta": 8, "phi": 16, "row_offset": 0.5} and type(b.params["theta"]) is int
+    for hemi in (True, np.bool_(True)):
+        c, d = pyshadow.ViewSet.hilbert(3, True), pyshadow.ViewSet.hilbert(np.int8(3), hemi)
+        assert c.bases.tobytes() == d.bases.tobytes() and d.params == {"level": 3, "hemispheres": True}
+    assert pyshadow.ViewSet.maps_for("zigzag", {"theta": 1024, "phi": 2048}) == pyshadow.views.MAX_MAPS
+
+
+def test_zigzag_grid_is_unchanged():
+    """The directions of the grid, bit for bit: thesis eq. 5.1 at the Listing 5.1 angles, written out."""
+    for T, P, off in [(3, 5, 0.5), (4, 6, 0.0), (1, 1, 0.5), (16, 32, 0.5)]:
+        v = pyshadow.ViewSet.zigzag(T, P, off)
+        rows = np.repeat(np.arange(T), P)
+        k = np.tile(np.arange(P), T)
+        th = (rows + off) * (np.pi / T)
+        ph = np.where(rows % 2 == 0, k, P - 1 - k) * (2.0 * np.pi / P)
+        want = np.stack([np.sin(th) * np.cos(ph), np.cos(th), np.sin(th) * np.sin(ph)], axis=-1)
+        assert v.directions.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("make", LAYOUTS)
+def test_given_view_sets_of_the_layouts_pass_their_check(make):
+    """The layouts' own directions and bases (and float32 copies of them) are within the tolerance of
+    the check, and are kept as given."""
+    v = make()
+    w = pyshadow.ViewSet(v.directions, v.bases)
+    assert w.directions is v.directions and w.bases is v.bases and w.layout == "custom"
+    pyshadow.ViewSet(v.directions.astype(np.float32), v.bases.astype(np.float32))
+    q = v.directions[::7]
+    np.testing.assert_allclose(v.directions[w.nearest(q)], q, atol=1e-12)      # a pole row: any of its maps
+
+
+def _one_view():
+    return np.array([[0, 1.0, 0]]), np.array([[[0, 0, 1.0], [1.0, 0, 0], [0, 1.0, 0]]])     # u x v = d
+
+
+@pytest.mark.parametrize("change, match", [
+    (lambda d, b: (d * 2, b), r"1 directions are not unit vectors \(first: map 0, direction \[0.0, 2.0, 0.0\]"),
+    (lambda d, b: (d * 0, b * 0), "1 directions are not unit vectors"),
+    (lambda d, b: (d, b * 0), r"1 bases are not orthonormal \(rows u, v, d of unit length, at right angles\)"),
+    (lambda d, b: (d, b * 2), "1 bases are not orthonormal"),
+    (lambda d, b: (d, b + [[0, 0, 1e-5], [0, 0, 0], [0, 0, 0]]), "1 bases are not orthonormal"),
+    (lambda d, b: (d, b[:, [1, 0, 2]]), r"1 bases are left-handed \(u x v = -d\)"),
+    (lambda d, b: (d, np.eye(3)[None]), r"1 bases do not end with their map's direction \(row d_k\)"),
+    (lambda d, b: (-d, b), "1 bases do not end with their map's direction"),
+])
+def test_given_directions_and_bases_must_be_unit_and_orthonormal(change, match):
+    """Zero bases rendered nothing, silently; doubled directions and bases were taken as they came."""
+    d, b = change(*_one_view())
+    with pytest.raises(ValueError, match="^ViewSet: " + match):
+        pyshadow.ViewSet(d, b)
+    pyshadow.ViewSet(*_one_view())
+    d, b = _one_view()
+    pyshadow.ViewSet(d * (1 + 9e-7), b + [[0, 0, 4e-7], [0, 0, 0], [0, 0, 0]])      # within 1e-6
+
+
+@pytest.mark.parametrize("args, exc, match", [
+    ((np.zeros((2, 2)), np.zeros((2, 3, 3))), ValueError,
+     r"ViewSet: directions must have shape \(N, 3\), got \(2, 2\)"),
+    ((np.array([0, 1.0, 0]), np.eye(3)), ValueError, r"ViewSet: directions must have shape \(N, 3\), got \(3,\)"),
+    ((*_one_view()[:1], np.eye(3)[None].repeat(2, 0)), ValueError,
+     r"ViewSet: bases must have shape \(D, 3, 3\) for 1 directions, got \(2, 3, 3\)"),
+    ((_one_view()[0], np.eye(3)), ValueError, r"ViewSet: bases must have shape \(D, 3, 3\) for 1 directions"),
+    ((np.array([["a", "b", "c"]]), _one_view()[1]), TypeError, "ViewSet: directions must be numeric"),
+    ((_one_view()[0], np.ones((1, 3, 3), complex)), TypeError, "ViewSet: bases must be numeric, got complex128"),
+    ((np.array([[0, np.nan, 0]]), _one_view()[1]), ValueError, "ViewSet: directions and bases must be finite"),
+])
+def test_given_view_sets_must_have_the_documented_shapes(args, exc, match):
+    with pytest.raises(exc, match=match):
+        pyshadow.ViewSet(*args)
+    assert len(pyshadow.ViewSet(np.zeros((0, 3)), np.zeros((0, 3, 3)))) == 0
+
+
+def test_nearest_and_filter_window_refuse_other_shapes_clearly():
+    """An (N, 2) array gave "cannot reshape array of size 4 into shape (3)"."""
+    views = pyshadow.ViewSet.zigzag(4, 8)
+    for bad, shape in [(np.zeros((2, 2)), r"\(2, 2\)"), (np.ones((2, 3, 1)), r"\(2, 3, 1\)"),
+                       (np.ones(6), r"\(6,\)")]:
+        with pytest.raises(ValueError, match=rf"^nearest: directions must have shape \(N, 3\), got {shape}$"):
+            views.nearest(bad)
+        with pytest.raises(ValueError, match=rf"^filter_window: directions must have shape \(N, 3\), got {shape}$"):
+            views.filter_window(bad)
+    with pytest.raises(TypeError, match="^nearest: directions must be numeric"):
+        views.nearest(np.array([["a", "b", "c"]]))
+    # one direction as (3,) is one row, as before
+    assert views.nearest(np.array([0, 1.0, 0.2])).tolist() == views.nearest(np.array([[0, 1.0, 0.2]])).tolist()

@@ -65,15 +65,22 @@ def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
     return v2
 
 
+def _number(x, name: str) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name}: must be a number (got {x!r})") from None
+
+
 def positive(x, name: str) -> float:
-    v = float(x)
+    v = _number(x, name)
     if not (math.isfinite(v) and v > 0):
         raise ValueError(f"{name}: must be a finite number > 0 (got {x!r})")
     return v
 
 
 def in_range(x, name: str, lo: float, hi: float) -> float:
-    v = float(x)
+    v = _number(x, name)
     if not (math.isfinite(v) and lo <= v <= hi):
         raise ValueError(f"{name}: must lie in [{lo:g}, {hi:g}] (got {x!r})")
     return v

@@ -27,9 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .._validate import check_int
 from . import cube
 from ._checks import radiance_array, unit_rows
-from .sh import SH_COUNT, irradiance_sh, latlong_basis_integrals, sh_basis
+from .sh import SH_COUNT, _irradiance, latlong_basis_integrals, sh_basis
 
 __all__ = ["EnvironmentMap", "LAYOUTS", "latlong_directions", "latlong_solid_angles"]
 
@@ -37,8 +38,34 @@ __all__ = ["EnvironmentMap", "LAYOUTS", "latlong_directions", "latlong_solid_ang
 LAYOUTS = ("auto", "latlong", "horizontal-cross", "vertical-cross")
 
 
+def _grid(height, width) -> tuple:
+    """(height, width) of a lat-long grid as ints >= 1 (TypeError / ValueError naming the argument)."""
+    return check_int(height, "height", 1), check_int(width, "width", 1)
+
+
 def latlong_directions(height: int, width: int) -> np.ndarray:
-    """Unit direction of every lat-long texel centre, shape (H, W, 3), float64, y up."""
+    """Unit direction of every lat-long texel centre.
+
+    Parameters
+    ----------
+    height, width : int
+        Rows and columns of the map, integers >= 1 (Python or NumPy ints,
+        not bools); rows and columns as in the module docstring (any W, not
+        only W = 2 H).
+
+    Returns
+    -------
+    ndarray, shape (height, width, 3), float64
+        Unit vectors, y up.
+
+    Raises
+    ------
+    TypeError
+        ``height`` or ``width`` is not an integer.
+    ValueError
+        ``height`` or ``width`` is below 1.
+    """
+    height, width = _grid(height, width)
     th = (np.arange(height) + 0.5) * (math.pi / height)
     ph = (np.arange(width) + 0.5) * (2.0 * math.pi / width)
     st = np.sin(th)[:, None]
@@ -47,7 +74,28 @@ def latlong_directions(height: int, width: int) -> np.ndarray:
 
 
 def latlong_solid_angles(height: int, width: int) -> np.ndarray:
-    """Exact solid angle of every lat-long texel, shape (H, W), float64 (sr; sums to 4 pi)."""
+    """Exact solid angle of every lat-long texel.
+
+    Parameters
+    ----------
+    height, width : int
+        Rows and columns of the map, integers >= 1 (as for
+        :func:`latlong_directions`).
+
+    Returns
+    -------
+    ndarray, shape (height, width), float64
+        Solid angles in sr, ``(cos theta_i - cos theta_{i+1}) 2 pi / W``;
+        they sum to 4 pi.
+
+    Raises
+    ------
+    TypeError
+        ``height`` or ``width`` is not an integer.
+    ValueError
+        ``height`` or ``width`` is below 1.
+    """
+    height, width = _grid(height, width)
     u = np.cos(np.linspace(0.0, math.pi, height + 1))
     u[0], u[-1] = 1.0, -1.0
     return np.repeat(((u[:-1] - u[1:]) * (2.0 * math.pi / width))[:, None], width, axis=1)
@@ -262,7 +310,7 @@ class EnvironmentMap:
             Irradiance in radiance units times sr; see
             :func:`pyshadow.lighting.sh.irradiance_sh`.
         """
-        return irradiance_sh(self.sh(), unit_rows(normals, "normals"))
+        return _irradiance(self.sh(), unit_rows(normals, "normals"))
 
     def integral(self) -> np.ndarray:
         """``sum_i L_i Omega_i`` per channel: the radiance integrated over the sphere, (3,)."""

@@ -42,6 +42,8 @@ import math
 
 import numpy as np
 
+from ._checks import unit_rows
+
 __all__ = ["SH_COUNT", "BAND_OF", "KERNEL_BANDS", "RH_CONSTANTS", "sh_basis", "irradiance_sh",
            "latlong_basis_integrals"]
 
@@ -90,9 +92,12 @@ def irradiance_sh(coefficients, normals) -> np.ndarray:
     ----------
     coefficients : array_like, shape (9, C), float
         ``L_k`` per channel (C = 3 for RGB), e.g. from
-        :meth:`~pyshadow.lighting.EnvironmentMap.sh`.
+        :meth:`~pyshadow.lighting.EnvironmentMap.sh`; finite.
     normals : array_like, shape (N, 3) or (3,), float
-        Unit normals, y up.
+        Unit normals, y up: finite, length 1 +- 1e-6 (as
+        :meth:`~pyshadow.lighting.EnvironmentMap.irradiance`). Not
+        renormalised: the result is the quadratic form's value at the
+        normals given.
 
     Returns
     -------
@@ -101,10 +106,36 @@ def irradiance_sh(coefficients, normals) -> np.ndarray:
         radiance over the hemisphere around n, in radiance units times sr
         (lux for luminance in cd/m^2). May be slightly negative where the
         order-3 truncation rings (a strong lobe opposite n).
+
+    Raises
+    ------
+    ValueError
+        ``coefficients`` not of shape (9, C) or not finite; ``normals`` not
+        of shape (N, 3) or (3,), not finite, zero or not of unit length (the
+        quadratic form grows with the square of the length: a normal of
+        length 5 would give some 25 times the irradiance).
+    TypeError
+        Either array is not numeric.
     """
-    L = np.asarray(coefficients, dtype=np.float64)
+    L = np.asarray(coefficients)
+    if L.dtype.kind not in "biuf":
+        raise TypeError(f"coefficients: expected real numbers (got dtype {L.dtype})")
+    L = L.astype(np.float64, copy=False)
     if L.ndim != 2 or L.shape[0] != SH_COUNT:
         raise ValueError(f"coefficients must have shape (9, C) (got shape {L.shape})")
+    if not np.isfinite(L).all():
+        bad = np.argwhere(~np.isfinite(L))[0]
+        raise ValueError(f"coefficients: {int((~np.isfinite(L)).sum())} entries are not finite "
+                         f"(first L[{bad[0]}, {bad[1]}] = {float(L[tuple(bad)])})")
+    n = np.asarray(normals)
+    if n.dtype.kind not in "biuf":
+        raise TypeError(f"normals: expected real numbers (got dtype {n.dtype})")
+    rows = unit_rows(n, "normals")
+    return _irradiance(L, rows if n.ndim == 2 else rows[0])
+
+
+def _irradiance(L, normals) -> np.ndarray:
+    """:func:`irradiance_sh` unchecked: ``L`` (9, C) float64, any normals (zero rows give band 0)."""
     return sh_basis(normals) @ (KERNEL_BANDS[BAND_OF][:, None] * L)
 
 

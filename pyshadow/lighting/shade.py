@@ -64,7 +64,7 @@ import numpy as np
 from ._checks import in_range, unit_direction
 from .envmap import EnvironmentMap
 from .local import lights_radiance
-from .sh import SH_COUNT, irradiance_sh
+from .sh import SH_COUNT, _irradiance
 from .sun import sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
@@ -360,7 +360,7 @@ def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
                          f"(got {a.shape}, {b.shape}, {alb.shape})")
     if n == 0:
         return np.zeros((0, 3))
-    e = np.maximum(irradiance_sh(lighting.sh, b), 0.0)
+    e = np.maximum(_irradiance(np.asarray(lighting.sh, dtype=np.float64), b), 0.0)   # zero bent rows: band 0
     return alb / math.pi * e * a[:, None]
 
 

@@ -64,8 +64,29 @@ TURBIDITY_RANGE = (1.7, 10.0)
 
 
 def disc_solid_angle(radius: float) -> float:
-    """Solid angle of a spherical cap of angular radius ``radius`` (rad): 2 pi (1 - cos r)."""
-    return 4.0 * math.pi * math.sin(0.5 * radius) ** 2
+    """Solid angle of a spherical cap (a disc on the sky) of angular radius ``radius``.
+
+    Parameters
+    ----------
+    radius : float
+        Angular radius in rad, in [0, pi]: from the cap's centre to its rim
+        (pi: the whole sphere).
+
+    Returns
+    -------
+    float
+        ``2 pi (1 - cos r)`` sr (computed as ``4 pi sin^2(r / 2)``, exact
+        for small ``r``), in [0, 4 pi].
+
+    Raises
+    ------
+    ValueError
+        ``radius`` is not finite or outside [0, pi] (a negative or larger
+        angle is no cap: the formula would return the cap of ``|r|`` or of
+        ``2 pi - r``).
+    """
+    r = in_range(radius, "radius", 0.0, math.pi)
+    return 4.0 * math.pi * math.sin(0.5 * r) ** 2
 
 
 def _height(height) -> int:
@@ -117,17 +138,55 @@ def _perez(coef, cos_theta, gamma):
     return (1.0 + A * np.exp(B / cos_theta)) * (1.0 + C * np.exp(D * gamma) + E * np.cos(gamma) ** 2)
 
 
+def _above_horizon(sun_direction) -> np.ndarray:
+    """The unit sun direction; ValueError when the sun is below the horizon (y < 0)."""
+    s = unit_direction(sun_direction, "sun_direction")
+    if s[1] < 0:
+        raise ValueError(f"sun_direction: the sun is below the horizon (elevation "
+                         f"{math.degrees(math.asin(s[1])):.3g} deg); the clear-sky model needs y >= 0")
+    return s
+
+
 def sun_irradiance(sun_direction, turbidity: float = 3.0) -> np.ndarray:
     """Direct-normal irradiance of the sun through a clear atmosphere, linear RGB, lux-scaled.
 
+    Parameters
+    ----------
+    sun_direction : array_like, shape (3,)
+        Unit vector towards the sun, y up (e.g. from :func:`sun_position`);
+        the sun must not be below the horizon (y >= 0), as for :func:`clear_sky`.
+    turbidity : float
+        Atmospheric turbidity T in [1.7, 10].
+
+    Returns
+    -------
+    irradiance : ndarray, shape (3,), float64
+        RGB irradiance on a surface facing the sun; its luminance
+        ``LUMINANCE_WEIGHTS @ irradiance`` is in lux.
+
+    Raises
+    ------
+    ValueError
+        ``sun_direction`` is not a unit 3-vector or points below the horizon
+        (y < 0); ``turbidity`` is outside [1.7, 10].
+
+    Notes
+    -----
     ``EXTRATERRESTRIAL_ILLUMINANCE * exp(-m (tau_R + tau_A))`` per channel, with
     the Kasten-Young air mass m, Rayleigh depth ``0.008735 lambda^-4.08`` and
     Angstrom aerosol depth ``(0.04608 T - 0.04586) lambda^-1.3`` at 680, 550
     and 440 nm (the turbidity relation of Preetham et al., appendix A.3). The
-    sun above the atmosphere is taken as white (R = G = B). Returns (3,)
-    float64; the luminance is ``LUMINANCE_WEIGHTS @ result`` lux.
+    sun above the atmosphere is taken as white (R = G = B).
+
+    A sun below the horizon is refused, as :func:`clear_sky` refuses it:
+    neither the horizon's value (about (79.7, 1.41, 0.0004) at T = 3, not
+    zero: the air mass stays finite there) nor zero would be the model's
+    answer, and a sun without its sky would light a scene the sky does not
+    match. To animate a sun through a day, take the hours with
+    ``sun_position(...)[1] >= 0`` (the horizon itself included) and light
+    the others without the sun (or with a night sky of your own).
     """
-    d = unit_direction(sun_direction, "sun_direction")
+    d = _above_horizon(sun_direction)
     T = in_range(turbidity, "turbidity", *TURBIDITY_RANGE)
     zen = math.degrees(math.acos(min(1.0, max(0.0, d[1]))))
     m = 1.0 / (math.cos(math.radians(zen)) + 0.50572 * (96.07995 - zen) ** -1.6364)
@@ -182,10 +241,7 @@ def clear_sky(sun_direction, turbidity: float = 3.0, *, height: int = 128, sun: 
     xyY -> XYZ -> linear Rec. 709 (negative components clipped to 0).
     Evaluated at texel centres.
     """
-    s = unit_direction(sun_direction, "sun_direction")
-    if s[1] < 0:
-        raise ValueError(f"sun_direction: the sun is below the horizon (elevation "
-                         f"{math.degrees(math.asin(s[1])):.3g} deg); the clear-sky model needs y >= 0")
+    s = _above_horizon(sun_direction)
     T = in_range(turbidity, "turbidity", *TURBIDITY_RANGE)
     albedo = in_range(ground_albedo, "ground_albedo", 0.0, 1.0)
     h = _height(height)

@@ -135,10 +135,18 @@ def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.nd
 
 
 def check_indices(indices, n: int, name: str = "indices") -> np.ndarray:
-    """Sample-pattern indices of ``n`` points as int64 (default ``arange(n)``)."""
-    idx = np.arange(n) if indices is None else np.asarray(indices, dtype=np.int64)
+    """Sample-pattern indices of ``n`` points as int64 (default ``arange(n)``): integers >= 0, shape (n,)
+    (a float or a negative index was truncated or wrapped into another point's pattern)."""
+    if indices is None:
+        return np.arange(n)
+    a = np.asarray(indices)
+    if a.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be integers, got dtype {a.dtype}")
+    idx = a.astype(np.int64)
     if idx.shape != (n,):
         raise ValueError(f"{name} must have shape ({n},), got {idx.shape}")
+    if n and idx.min() < 0:
+        raise ValueError(f"{name} must be >= 0 and below 2**63")
     return idx
 
 

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import _cl
 from ._compat import legacy_sampling
-from ._validate import check_int, unit_normals
+from ._validate import check_indices, check_int, unit_normals
 
 __all__ = ["Sampling", "STRATEGIES", "ao_from_samples", "sample_patterns", "pattern_indices", "sample_directions",
            "sample_directions_reference", "hemisphere_frame", "local_directions", "direction_table"]
@@ -263,7 +263,7 @@ def sample_directions_reference(normals, *args, sampling: Sampling | None = None
     samples, strategy, patterns, seed = sampling.samples, sampling.strategy, sampling.patterns, sampling.seed
     n = _check_normals(normals)
     local = local_directions(sample_patterns(samples, strategy, patterns, seed))
-    idx = np.arange(len(n)) if indices is None else np.asarray(indices, dtype=np.int64)
+    idx = check_indices(indices, len(n))
     loc = local[pattern_indices(idx, patterns, seed)]       # (N, S, 3)
     t, b = hemisphere_frame(n)
     return loc[..., 0:1] * t[:, None] + loc[..., 1:2] * n[:, None] + loc[..., 2:3] * b[:, None]
@@ -302,7 +302,7 @@ def sample_directions(normals, *args, sampling: Sampling | None = None, indices=
         ``sampling`` is not a :class:`Sampling`; ``normals`` not numeric.
     ValueError
         ``normals`` not of shape (N, 3), not finite or zero; ``indices`` of
-        the wrong shape.
+        the wrong shape or negative (not integers: TypeError).
     """
     sampling = _sampling("pyshadow.sample_directions", args, sampling, old)
     samples, strategy, patterns, seed = sampling.samples, sampling.strategy, sampling.patterns, sampling.seed
@@ -314,9 +314,7 @@ def sample_directions(normals, *args, sampling: Sampling | None = None, indices=
     import pyopencl as cl
 
     table = direction_table(S, strategy, patterns, seed)
-    idx = np.arange(N) if indices is None else np.asarray(indices, dtype=np.int64)
-    if idx.shape != (N,):
-        raise ValueError(f"indices must have shape ({N},), got {idx.shape}")
+    idx = check_indices(indices, N)
     pidx = pattern_indices(idx, patterns, seed)
     k = _cl.kernel("sampling.cl", "sample_directions", {"SAMPLES": S})
     buf = _cl.empty(out.nbytes)

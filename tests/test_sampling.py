@@ -232,3 +232,25 @@ def test_normals_that_were_accepted_are_normalised_as_before():
         m = n.astype(np.float64)
         want = m / np.linalg.norm(m, axis=1)[:, None]
         assert sampling._check_normals(n).tobytes() == want.tobytes()
+
+
+def test_indices_must_be_non_negative_integers():
+    """A float index was truncated and a negative one wrapped into another point's pattern: both refused,
+    by sample_directions, its NumPy reference and the AO path alike; integer indices keep their patterns."""
+    import pyshadow
+    from pyshadow._validate import check_indices
+
+    n = np.tile([0.0, 1.0, 0.0], (3, 1))
+    s = pyshadow.Sampling(8, "hammersley", patterns=16, seed=3)
+    for f in (pyshadow.sample_directions, pyshadow.sampling.sample_directions_reference):
+        with pytest.raises(TypeError, match="indices must be integers"):
+            f(n, sampling=s, indices=[0.0, 1.5, 2.0])
+        with pytest.raises(ValueError, match="indices must be >= 0"):
+            f(n, sampling=s, indices=[0, -1, 2])
+        np.testing.assert_array_equal(f(n, sampling=s, indices=np.array([5, 6, 7], np.uint32)),
+                                      f(n, sampling=s, indices=[5, 6, 7]))
+    with pytest.raises(ValueError, match="below 2\\*\\*63"):
+        check_indices(np.array([2**63], np.uint64), 1)
+    scene = pyshadow.Scene(ground=0.0)
+    with pytest.raises(ValueError, match="indices must be >= 0"):
+        scene.ambient_occlusion(np.ones((3, 3)), n, sampling=s, indices=[0, -1, 2])

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
-from ._validate import check_transform
+from ._validate import FLOAT32_MAX, check_transform
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -123,8 +123,8 @@ class Scene:
                  resolution: int = 128, depth_bits: int = 16, layers="auto", footprint: bool = False,
                  progress: bool = False):
         ground = None if ground is None else float(ground)
-        if ground is not None and not np.isfinite(ground):
-            raise ValueError(f"ground must be a finite height, got {ground}")
+        if ground is not None and not abs(ground) <= FLOAT32_MAX:       # the kernels take it as a float32
+            raise ValueError(f"ground must be a finite height within float32's range, got {ground}")
         if not isinstance(footprint, (bool, np.bool_)):
             raise TypeError(f"footprint must be True or False, got {footprint!r}")
         self.ground = ground

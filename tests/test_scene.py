@@ -217,3 +217,12 @@ def test_stand_on_ground_refuses_what_is_no_placement():
     c, r = pyshadow.bounding_sphere(mesh)
     np.testing.assert_allclose((T[:3, :3] @ c + T[:3, 3])[[0, 2]], [1.0, 2.0], atol=1e-12)
     assert np.cbrt(np.linalg.det(T[:3, :3])) * r == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("ground", [float("nan"), float("inf"), 1e40, -1e39])
+def test_scene_ground_must_be_a_float32_height(ground):
+    """The kernels take the ground's height as a float32: beyond its range it overflowed (a warning, then
+    an infinite plane)."""
+    with pytest.raises(ValueError, match="ground must be a finite height within float32's range"):
+        pyshadow.Scene(ground=ground)
+    assert pyshadow.Scene(ground=3e38).ground == 3e38

@@ -390,3 +390,10 @@ def test_latlong_grids_of_valid_sizes_are_unchanged():
         om = np.repeat(((u[:-1] - u[1:]) * (2.0 * math.pi / w))[:, None], w, axis=1)
         assert latlong_directions(h, w).tobytes() == d.tobytes() and latlong_directions(h, w).shape == (h, w, 3)
         assert latlong_solid_angles(h, w).tobytes() == om.tobytes() and latlong_solid_angles(h, w).shape == (h, w)
+
+
+@pytest.mark.parametrize("bad", [np.zeros((4, 2)), np.array([[np.nan, 1.0, 0.0]]), np.float64(1.0)])
+def test_sh_basis_refuses_what_is_no_direction(bad):
+    """An (N, 2) array raised an IndexError and a NaN gave NaN basis values: both named now."""
+    with pytest.raises(ValueError, match=r"sh_basis: directions must be finite, shape \(\.\.\., 3\)"):
+        sh_basis(bad)

@@ -79,6 +79,8 @@ def sh_basis(directions) -> np.ndarray:
         ``Y[..., k]``, k = l (l + 1) + m, as in the module docstring.
     """
     d = np.asarray(directions, dtype=np.float64)
+    if d.ndim == 0 or d.shape[-1] != 3 or not np.isfinite(d).all():
+        raise ValueError(f"sh_basis: directions must be finite, shape (..., 3), got shape {d.shape}")
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     return np.stack([np.full_like(x, _C00), _C1 * z, _C1 * y, _C1 * x,
                      _C2 * x * z, _C2 * y * z, _C20 * (3.0 * y * y - 1.0), _C2 * x * y,

@@ -374,3 +374,18 @@ def test_save_writes_through_links_and_refuses_what_is_no_file(tmp_path, small_c
         with pytest.raises(FileExistsError, match="not a regular file"):
             small_csm.save(tmp_path / name)
     assert (tmp_path / "folder.csm").is_dir() and not (tmp_path / "fifo.csm").is_file()
+
+
+def test_a_mesh_beyond_float32_builds_no_csm_and_one_within_round_trips(tmp_path):
+    """A CSM's centre and radius must fit float32 (the lookup's frame, and what load accepts): a mesh
+    beyond that is refused at build, not saved into a file that cannot be loaded."""
+    import trimesh
+    huge = trimesh.creation.box()
+    huge.apply_scale(1e39)
+    with pytest.raises(ValueError, match="beyond float32's range"):
+        CoherentShadowMap.build(huge, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=False)
+    big = trimesh.creation.box()
+    big.apply_scale(1e30)
+    csm = CoherentShadowMap.build(big, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=False)
+    back = CoherentShadowMap.load(csm.save(tmp_path / "big.csm"))
+    assert back.radius == csm.radius and back.depth.tobytes() == csm.depth.tobytes()

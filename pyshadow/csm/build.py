@@ -12,6 +12,7 @@ import pyopencl as cl
 import trimesh
 
 from .. import _cl
+from .._validate import FLOAT32_MAX
 from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from ..raster import DepthRenderer, _check_resolution_layers
 from ..views import ViewSet
@@ -132,6 +133,9 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if footprint and R >= 4096:
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
     centre, radius = bounding_sphere(mesh) if frame is None else _check_frame(mesh, frame)
+    if not (radius <= FLOAT32_MAX and (np.abs(centre) <= FLOAT32_MAX).all()):     # as a .csm file holds them
+        raise ValueError(f"the mesh's bounding sphere (centre {centre.tolist()}, radius {radius:.6g}) lies beyond "
+                         "float32's range, which the lookup and the .csm file work in: scale the mesh down")
     dtype_z = _depth_dtype(depth_bits)
     dtype_i = _iend_dtype(D)
     per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)

@@ -56,7 +56,7 @@ def default_cache_dir() -> Path:
 
 #: the package's modules whose code decides a built CSM's bytes (the functions a build runs, found by
 #: tests/test_cache.py; besides them only the device and launch choice of ``_cl``, whose answers are
-#: the same bit for bit at every width, and ``_compat``'s keyword checks run)
+#: the same bit for bit at every width, and the argument checks of ``_compat`` and ``_validate`` run)
 BUILD_SOURCES = ("csm/build.py", "csm/core.py", "csm/exposure.py", "csm/fileformat.py", "csm/surface_rule.py",
                  "embree.py", "mesh.py", "raster.py", "views.py")
 
@@ -83,8 +83,11 @@ def source_digest(paths=None, kernels=None) -> str:
     from ._version import __version__
 
     pkg = Path(__file__).resolve().parent
+    # every module but the kernels' package (an installed pyshadow has one, a source checkout has the
+    # kernels beside the package): the same digest from either, whichever a subprocess imports
     texts = [(p, lambda p=p: (pkg / p).read_bytes()) for p in paths] if paths is not None else [
-        (str(f.relative_to(pkg)), f.read_bytes) for f in sorted(pkg.rglob("*.py"))]
+        (str(f.relative_to(pkg)), f.read_bytes) for f in sorted(pkg.rglob("*.py"))
+        if f.relative_to(pkg).parts[0] != "kernels"]
     texts += [(k, lambda k=k: _cl.kernel_source(k).encode()) for k in kernels] if kernels is not None else [
         (f.name, f.read_bytes) for f in sorted(_cl.kernel_dir().glob("*")) if f.suffix in (".cl", ".h")]
     h = hashlib.sha256(__version__.encode())

@@ -18,6 +18,7 @@ import pyshadow
 from pyshadow.bake import AssetParams, bake_assets, find_assets
 from pyshadow.bake.frames import bake_frames, render_chunk, scene_payload
 from pyshadow.bake.motion import default_motion, read_motion, write_motion
+from pyshadow.bake.params import code_digest
 from pyshadow.bake.runner import open_executor, sweep_temporaries
 
 pytest.importorskip("distributed")
@@ -544,3 +545,18 @@ def test_cli_rejects_non_finite_numbers(tmp_path, capsys):
             bake_frames(out, parts, pyshadow.Camera([0, 1, 4], [0, 0, 0]), default_motion(1)[0], ground=ground,
                         csm_for=lambda name, mesh: built.append(name))
     assert built == [] and not out.exists()
+
+
+def test_code_digest_is_the_same_from_a_checkout_and_an_install(tmp_path):
+    """``python -m pyshadow.bake`` run from the repository root imports the checkout's package (kernels
+    beside it), from elsewhere the installed one (kernels inside it): both must key assets alike, or a
+    rerun bakes everything again."""
+    repo = Path(__file__).resolve().parents[1]
+    code = "from pyshadow.bake.params import code_digest; import pyshadow; print(code_digest(), pyshadow.__file__)"
+    seen = {}
+    for cwd in (repo, tmp_path):
+        res = subprocess.run([sys.executable, "-c", code], cwd=cwd, capture_output=True, text=True, timeout=300)
+        assert res.returncode == 0, res.stderr
+        digest, where = res.stdout.split()
+        seen[where] = digest
+    assert set(seen.values()) == {code_digest()}, seen

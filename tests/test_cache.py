@@ -125,8 +125,8 @@ def test_code_digest_depends_on_the_build_kernels(monkeypatch):
 def test_code_digest_covers_every_module_a_build_runs(mesh, monkeypatch):
     """Every module of the package whose functions run in a build (zigzag and Hilbert views, closed and
     open meshes, footprint, 'auto' backs: traced with sys.setprofile) is in BUILD_SOURCES, but for the
-    device and launch choice (_cl, answers the same at every lane width) and the keyword checks
-    (_compat); and a change to the text of one of them changes the digest."""
+    device and launch choice (_cl, answers the same at every lane width) and the argument checks
+    (_compat, _validate); and a change to the text of one of them changes the digest."""
     import sys
 
     from pyshadow import cache as cache_module
@@ -149,7 +149,7 @@ def test_code_digest_covers_every_module_a_build_runs(mesh, monkeypatch):
                                              progress=False)
     finally:
         sys.setprofile(None)
-    launch_only = {f for f in ran if f.startswith("_cl/") or f == "_compat.py"}
+    launch_only = {f for f in ran if f.startswith("_cl/") or f in ("_compat.py", "_validate.py")}
     assert {"csm/build.py", "raster.py", "csm/exposure.py"} <= ran
     assert ran - launch_only <= set(cache_module.BUILD_SOURCES), ran - launch_only
     d = cache_module._code_digest()

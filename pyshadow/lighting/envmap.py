@@ -90,10 +90,8 @@ def latlong_solid_angles(height: int, width: int) -> np.ndarray:
 
     Raises
     ------
-    TypeError
-        ``height`` or ``width`` is not an integer.
-    ValueError
-        ``height`` or ``width`` is below 1.
+    TypeError, ValueError
+        As :func:`latlong_directions`.
     """
     height, width = _grid(height, width)
     u = np.cos(np.linspace(0.0, math.pi, height + 1))

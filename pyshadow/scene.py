@@ -407,9 +407,9 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         if mesh is not None:
             if not isinstance(mesh, trimesh.Trimesh):
                 mesh = load_mesh(mesh)
-            if mesh_hash(mesh) != obj.mesh_hash:
+            if (digest := mesh_hash(mesh)) != obj.mesh_hash:
                 raise ValueError("mesh does not match the CSM (different mesh hash)")
-            _check_csm_frame(obj, mesh)
+            _check_csm_frame(obj, mesh, digest)
         inst = Instance(T, True, csm=obj, mesh=mesh)
     else:
         if mesh is not None:
@@ -436,11 +436,19 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
     return inst
 
 
-def _check_csm_frame(csm, mesh):
+#: the (mesh hash, centre, radius, box) of the CSMs whose frame held their mesh: checked once, not
+#: once per instance (10,000 instances of one CSM)
+_FRAMES_OK: set = set()
+
+
+def _check_csm_frame(csm, mesh, digest):
     """The CSM's sphere holds its mesh and its box is the mesh's: the mesh hash does not cover them, so
     a file edited there (and its checksum made good) would shadow from the wrong place."""
     from .csm.build import _check_frame
 
+    key = (digest, csm.centre.tobytes(), float(csm.radius), None if csm.box is None else csm.box.tobytes())
+    if key in _FRAMES_OK:
+        return
     try:
         _check_frame(mesh, (csm.centre, csm.radius))
     except ValueError as e:
@@ -448,6 +456,7 @@ def _check_csm_frame(csm, mesh):
     if csm.box is not None and not np.allclose(csm.box, normalised_bounds(mesh, csm.centre, csm.radius),
                                                rtol=0.0, atol=1e-9):
         raise ValueError("the CSM's box is not its mesh's box in its frame: an edited file?")
+    _FRAMES_OK.add(key)
 
 
 def _caster_slots(scene, surface_ids, n, points=None):

@@ -93,10 +93,7 @@ class Sampling:
 
 def check_sampling(samples, strategy, patterns):
     """Validate the sampling arguments shared by every AO entry point."""
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)):
-        raise TypeError(f"samples must be an int, got {samples!r}")
-    if not 1 <= samples <= MAX_SAMPLES:
-        raise ValueError(f"samples must be in 1..{MAX_SAMPLES}, got {samples}")
+    check_int(samples, "samples", 1, MAX_SAMPLES)
     if strategy not in _CODES:
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {', '.join(STRATEGIES)}")
     if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:

@@ -518,13 +518,15 @@ def _check_frames(d, b):
     bases with ``d`` as their third rows, to :data:`BASIS_TOL`."""
     if not (np.isfinite(d).all() and np.isfinite(b).all()):
         raise ValueError("ViewSet: directions and bases must be finite")
-    tests = [(lambda: np.abs(np.sqrt(np.einsum("ij,ij->i", d, d)) - 1.0), "directions are not unit vectors"),
-             (lambda: np.abs(np.einsum("nij,nkj->nik", b, b) - np.eye(3)).max(axis=(1, 2)),
-              "bases are not orthonormal (rows u, v, d of unit length, at right angles)"),
-             (lambda: np.abs(b[:, 2] - d).max(axis=1), "bases do not end with their map's direction (row d_k)"),
-             (lambda: -np.linalg.det(b), "bases are left-handed (u x v = -d)")]
-    for err, what in tests if len(d) else ():
-        bad = err() > BASIS_TOL
+    if len(d) == 0:
+        return
+    errors = {"directions are not unit vectors": np.abs(np.sqrt(np.einsum("ij,ij->i", d, d)) - 1.0),
+              "bases are not orthonormal (rows u, v, d of unit length, at right angles)":
+                  np.abs(np.einsum("nij,nkj->nik", b, b) - np.eye(3)).max(axis=(1, 2)),
+              "bases do not end with their map's direction (row d_k)": np.abs(b[:, 2] - d).max(axis=1),
+              "bases are left-handed (u x v = -d)": -np.linalg.det(b)}
+    for what, err in errors.items():
+        bad = err > BASIS_TOL
         if bad.any():
             k = int(np.argmax(bad))
             raise ValueError(f"ViewSet: {int(bad.sum())} {what} (first: map {k}, direction {d[k].tolist()}, "

@@ -111,6 +111,53 @@ def test_ctrl_c_while_results_json_is_written(interrupted_main, capsys, monkeypa
     assert json.loads((out / "results.json").read_text()) == {"earlier": True}
 
 
+def test_ctrl_c_between_outputs_leaves_no_stale_results_json(interrupted_main, capsys, monkeypatch):
+    """Interrupted after the run's first image is written, before its second: the earlier results.json
+    (describing an earlier run's images) is gone, not left beside the new ao.png; results.json comes last."""
+    import pyshadow
+    from pyshadow.bench.single import run_main
+
+    real, written = pyshadow.write_image, []
+
+    def write_image(path, array):
+        if written:
+            raise KeyboardInterrupt
+        real(path, array)
+        written.append(os.path.basename(path))
+
+    monkeypatch.setattr(pyshadow, "write_image", write_image)
+    status, out = interrupted_main(run_main)                         # the real single benchmark
+    assert status == 130 and written == ["ao.png"]
+    assert capsys.readouterr() == ("", INTERRUPTED)
+    assert sorted(os.listdir(out)) == ["ao.png"]
+
+
+def test_ctrl_c_between_sweep_outputs_leaves_no_stale_sweep_json(tmp_path, capsys, monkeypatch):
+    """The sweep alike: interrupted after pareto.png, before sweep.md, the earlier sweep.json is gone."""
+    from pyshadow.bench import cli
+    from pyshadow.bench.common import _PROGRESS
+    from test_bench_report import _sweep
+
+    monkeypatch.setitem(_PROGRESS, "on", _PROGRESS["on"])
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "sweep.json").write_text('{"earlier": true}\n')
+    sw = _sweep()
+    sw["rows"] = sw["rows"][:1]                                      # one measured row
+    monkeypatch.setattr(cli, "run_sweep", lambda *a, **k: sw)
+    written = []
+
+    def write_bytes_atomic(path, data):
+        written.append(os.path.basename(path))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "write_bytes_atomic", write_bytes_atomic)
+    status = cli.main([*TINY, "--sweep", "--sweep-grid", "tiny", "--out", str(out), "--no-cache", "--quiet"])
+    assert status == 130 and written == ["sweep.md"]
+    assert capsys.readouterr() == ("", INTERRUPTED)
+    assert sorted(os.listdir(out)) == ["pareto.png"]
+
+
 class _HalfBuilt:
     """Caught by Ctrl-C in its __init__, so its __del__ fails (as pytools' PersistentDict does)."""
 

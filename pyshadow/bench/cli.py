@@ -11,7 +11,7 @@ from pathlib import Path
 from .._files import writable_folder, write_bytes_atomic
 from ..cache import CSMCache, default_cache_dir
 from .answer import answer_text, run_max_error
-from .common import _PROGRESS, _Log
+from .common import _PROGRESS, _Log, drop_earlier_record
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
 from .lit import sky_lighting
@@ -158,7 +158,9 @@ def main(argv=None) -> int:
     :data:`EXIT_INTERRUPTED`. Every output file is written atomically
     (a temporary file renamed over the target), so an interrupted run leaves
     no partly written file: each output is either complete or not there (or
-    still the previous run's).
+    still the previous run's). The record (results.json, sweep.json) is
+    written last, and an earlier one is removed before the run's first other
+    output is written: a record present describes the files beside it.
 
     Returns
     -------
@@ -271,6 +273,7 @@ def _run(argv) -> int:
         sw = run_sweep(args, cfg, factory, cache, log)
         if args.max_error is not None:
             sw["max_error"] = _answer(sw, args.max_error)
+        drop_earlier_record(out / "sweep.json")          # written last, below
         pareto_plot(sw, out / "pareto.png", args.max_error)
         write_bytes_atomic(out / "sweep.md", sweep_markdown(sw).encode())
         _emit(sw, out / "sweep.json", args.json)

@@ -41,6 +41,29 @@ def _fig(value, unit: str, label: str) -> dict:
     return {"value": value, "unit": unit, "label": label}
 
 
+def _num(x, fmt: str, scale: float = 1.0) -> str:
+    """``x * scale`` formatted with ``fmt``; "n/a" for a missing figure (None: nan or inf in results.json).
+
+    Every table and markdown of pyshadow-bench prints a figure through this.
+    """
+    return "n/a" if x is None else format(x if scale == 1.0 else x * scale, fmt)
+
+
+def drop_earlier_record(path) -> None:
+    """Remove ``path``, an earlier run's record (results.json, sweep.json), if it is there.
+
+    A run calls this before it writes its first output into the folder and
+    writes its own record last. Each output is written atomically, but not
+    the set: otherwise a run interrupted (Ctrl-C) or failing between two
+    outputs would leave its new images beside an earlier record describing
+    other ones. So a record present always describes the files beside it.
+    """
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
+
+
 def ao_defect(a, n: int) -> str | None:
     """Why ``a`` cannot be the AO of ``n`` pixels, or None when it can.
 

@@ -49,7 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import _bar, _fig
+from .common import _bar, _fig, _num
 
 #: Pixels whose normal has at least this cosine towards the light are measured.
 MIN_COSINE = 0.1
@@ -251,14 +251,18 @@ def light_pass(args, scene, camera, csm_bytes: int, light: dict, out_dir: Path, 
 
 
 def format_light(rec: dict) -> list:
-    """Rows (label, text) of the result table for a ``results.json`` ``"light"`` record."""
+    """Rows (label, text) of the result table for a ``results.json`` ``"light"`` record.
+
+    A missing figure (``null``) prints as "n/a"; a missing moving time (no caster moved) is left out.
+    """
+    num = _num
     where = rec.get("direction", rec.get("position"))
     rows = [("light", f"{rec['kind']} {tuple(round(x, 3) for x in where)}: {rec['pixels']} pixels facing it, "
-                      f"{100 * rec['shadowed']['value']:.1f} % shadowed (Embree)")]
+                      f"{num(rec['shadowed']['value'], '.1f', 100)} % shadowed (Embree)")]
     for m, f in rec["methods"].items():
         mv = f["frame_time_moving"]["value"]
-        rows.append((f"  {m}", f"agreement {100 * f['agreement']['value']:.2f} %; "
-                               f"{f['bytes']['value'] / 2**20:.1f} MiB; "
+        rows.append((f"  {m}", f"agreement {num(f['agreement']['value'], '.2f', 100)} %; "
+                               f"{num(f['bytes']['value'], '.1f', 2**-20)} MiB; "
                                + (f"moving {mv * 1e3:.0f} ms, " if mv is not None else "")
-                               + f"static {f['frame_time_static']['value'] * 1e3:.0f} ms a frame"))
+                               + f"static {num(f['frame_time_static']['value'], '.0f', 1e3)} ms a frame"))
     return rows

@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import _bar, _fig
+from .common import _bar, _fig, _num
 
 #: Shading modes the lit pass measures, in order ("bent" first: its frame is written).
 LIT_MODES = ("bent", "transfer", "sampled")
@@ -215,18 +215,22 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
 
 
 def format_lighting(rec: dict) -> list:
-    """Rows (label, text) of the result table for a ``results.json`` ``"lighting"`` record."""
+    """Rows (label, text) of the result table for a ``results.json`` ``"lighting"`` record.
+
+    A missing figure (``null``) prints as "n/a".
+    """
+    num = _num
     rows = []
     sky = rec["sky"] if rec["sky"] != "file" else f"file {rec['file']}"
     sun = rec.get("sun")
     rows.append(("lighting", f"{sky} sky, " + ("no sun" if sun is None else
                  "sun dir (" + ", ".join(f"{x:.3f}" for x in sun["direction"]) + ")")
-                 + f"; exposure {rec['exposure']['value']:.3g}"))
+                 + f"; exposure {num(rec['exposure']['value'], '.3g')}"))
     for mode, figs in rec["modes"].items():
         f = {k: v["value"] for k, v in figs.items()}
-        rmse = "n/a" if f["radiance_rmse_relative"] is None else f"{f['radiance_rmse_relative']:.4f}"
-        rows.append((f"  {mode} vs Embree {mode}", f"rel. RMSE {rmse} (same dirs); lit frame "
-                     f"{f['lit_frame_time'] * 1e3:.0f} ms ({f['lit_throughput']:.1f} Msamples/s) vs AO alone "
-                     f"{f['ao_frame_time'] * 1e3:.0f} ms ({f['ao_throughput']:.1f}); "
-                     f"Embree lit {f['embree_lit_frame_time'] * 1e3:.0f} ms"))
+        rows.append((f"  {mode} vs Embree {mode}", f"rel. RMSE {num(f['radiance_rmse_relative'], '.4f')} (same "
+                     f"dirs); lit frame {num(f['lit_frame_time'], '.0f', 1e3)} ms "
+                     f"({num(f['lit_throughput'], '.1f')} Msamples/s) vs AO alone "
+                     f"{num(f['ao_frame_time'], '.0f', 1e3)} ms ({num(f['ao_throughput'], '.1f')}); "
+                     f"Embree lit {num(f['embree_lit_frame_time'], '.0f', 1e3)} ms"))
     return rows

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+from .common import _num
 from .methods import measure_row, method_runs, time_rows
 
 #: AO RMSE targets of the "which method wins" answer.
@@ -104,7 +105,7 @@ def winners_text(w, what) -> str:
         lines.append(f"  RMSE <= {r['target']:<5g}: " + (
             "none of the measured settings" if p is None else
             f"{p['label']}{_setting(p)}, "
-            f"{1e3 * p['frame_time']:.0f} ms, RMSE {p[f'rmse_{what}']:.4f}"))
+            f"{_num(p['frame_time'], '.0f', 1e3)} ms, RMSE {_num(p[f'rmse_{what}'], '.4f')}"))
     return "\n".join(lines)
 
 
@@ -115,12 +116,13 @@ def _setting(p) -> str:
 
 
 def points_markdown(pts) -> str:
-    """The points as a markdown table, by label then frame time."""
+    """The points as a markdown table, by label then frame time (a missing one last, "n/a")."""
     lines = ["| method | setting | frame ms | precompute s | RMSE vs limited | RMSE vs unlimited |",
              "|---|---|---|---|---|---|"]
-    for p in sorted(pts, key=lambda p: (p["label"], p["frame_time"])):
-        lines.append(f"| {p['label']} | {p['setting']} | {1e3 * p['frame_time']:.0f} | "
-                     f"{p['precompute_time'] or 0:.2f} | {p['rmse_limited']:.4f} | {p['rmse_unlimited']:.4f} |")
+    for p in sorted(pts, key=lambda p: (p["label"], p["frame_time"] is None, p["frame_time"] or 0.0)):
+        lines.append(f"| {p['label']} | {p['setting']} | {_num(p['frame_time'], '.0f', 1e3)} | "
+                     f"{p['precompute_time'] or 0:.2f} | {_num(p['rmse_limited'], '.4f')} | "
+                     f"{_num(p['rmse_unlimited'], '.4f')} |")
     return "\n".join(lines)
 
 

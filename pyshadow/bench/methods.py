@@ -55,7 +55,7 @@ import time
 
 import numpy as np
 
-from .common import _fig, cached_ao
+from .common import _fig, _num, cached_ao
 from .config import positive_number
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
 
@@ -551,13 +551,11 @@ def methods_pass(args, scene, camera, gb: GBuffer, tracer, cache, csm, conv, vis
 
 
 def methods_table(m: dict) -> str:
-    """The methods entry as a markdown table (no final newline)."""
+    """The methods entry as a markdown table (no final newline); a missing figure prints as "n/a"."""
     def v(f, fmt, scale=1.0):
-        if not isinstance(f, dict) or f["value"] is None:
-            return "n/a"
-        return format(f["value"] * scale, fmt)
+        return _num(f["value"] if isinstance(f, dict) else None, fmt, scale)
 
-    lines = [f"methods (D = {m['distance']['value']:.3g}; limit moves the reference by RMSE "
+    lines = [f"methods (D = {v(m['distance'], '.3g')}; limit moves the reference by RMSE "
              f"{v(m['limit_effect_rmse'], '.3f')})",
              "| method | definition | setting | precompute s | memory MB | frame ms | agreement % | coverage "
              "| RMSE vs limited | RMSE vs unlimited | rays by Embree % |",

@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .common import _num
 from .config import _config_of
 from .sweep import _answer_text
 
@@ -25,11 +26,6 @@ def difference_rgb(diff, covered, vmax=None):
     cmap = matplotlib.colormaps["RdBu"]
     rgb = cmap(np.clip(0.5 + 0.5 * d / vmax, 0.0, 1.0), bytes=True)[..., :3]
     return np.ascontiguousarray(rgb, dtype=np.uint8), vmax
-
-
-def _num(x, fmt: str, scale: float = 1.0) -> str:
-    """``x * scale`` formatted with ``fmt``; "n/a" for a missing figure (None: nan or inf in results.json)."""
-    return "n/a" if x is None else format(x if scale == 1.0 else x * scale, fmt)
 
 
 def format_table(r: dict) -> str:
@@ -100,7 +96,10 @@ def format_table(r: dict) -> str:
 
 
 def sweep_markdown(sw: dict) -> str:
-    """``sweep.md``: a sweep's setting, its rows as a markdown table, the ``--max-error`` answer."""
+    """``sweep.md``: a sweep's setting, its rows as a markdown table, the ``--max-error`` answer.
+
+    A figure whose value is missing (``null`` in sweep.json) prints as "n/a".
+    """
     env = sw["environment"]
     lines = [
         f"# pyshadow-bench sweep ({sw['grid']} grid)", "",
@@ -108,20 +107,22 @@ def sweep_markdown(sw: dict) -> str:
         f"- device: {env['device']} ({env['platform']}); pyshadow {env['pyshadow']}",
         f"- base: {_config_of(sw['base']).label}"
         f"; strategy {sw['strategy']}; converged reference {sw['reference_samples']} spp (Embree)",
-        f"- runtime: {sw['runtime']['value']:.0f} s; frame and AO times are medians of "
+        f"- runtime: {_num(sw['runtime']['value'], '.0f')} s; frame and AO times are medians of "
         f"{sw['repeats']} runs after a warm-up, taken in rounds interleaved over all rows", "",
         "| configuration | varies | build s | CSM MB | ratio | frame ms | AO Msamples/s "
         "| agreement % | RMSE | MAE | RMSE same rays | Pareto |",
         "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|",
     ]
+    num = _num          # a missing figure (null) prints as "n/a"
     for r in sw["rows"]:
         f = {k: v["value"] for k, v in r["figures"].items()}
-        b = "n/a" if f["build_time"] is None else f"{f['build_time']:.1f}"
+        mb = None if f["csm_bytes"] is None else f["csm_bytes"] / 1e6
         lines.append(
-            f"| {r['label']} | {r['varies']} | {b} | {f['csm_bytes'] / 1e6:.2f} | {f['csm_ratio']:.1f} "
-            f"| {f['frame_time'] * 1e3:.0f} | {f['ao_throughput']:.2f} | "
-            f"{100 * f['visibility_agreement']:.3f} | {f['ao_rmse_converged']:.4f} | "
-            f"{f['ao_mae_converged']:.4f} | {f['ao_rmse_identical']:.4f} | "
+            f"| {r['label']} | {r['varies']} | {num(f['build_time'], '.1f')} | {num(mb, '.2f')} "
+            f"| {num(f['csm_ratio'], '.1f')} | {num(f['frame_time'], '.0f', 1e3)} "
+            f"| {num(f['ao_throughput'], '.2f')} | "
+            f"{num(f['visibility_agreement'], '.3f', 100)} | {num(f['ao_rmse_converged'], '.4f')} | "
+            f"{num(f['ao_mae_converged'], '.4f')} | {num(f['ao_rmse_identical'], '.4f')} | "
             f"{'**yes**' if r['pareto'] else ''} |")
     lines += ["", "RMSE/MAE: AO against the converged reference over covered pixels (filtered "
               "rows: the filtered image). RMSE same rays: unfiltered AO against Embree on the "
@@ -133,7 +134,7 @@ def sweep_markdown(sw: dict) -> str:
         from .method_sweep import points_markdown, winners_text
 
         m = sw["methods"]
-        lines += [f"## Methods (D = {m['distance']['value']:.4g} for the distance-limited definition; "
+        lines += [f"## Methods (D = {_num(m['distance']['value'], '.4g')} for the distance-limited definition; "
                   "frame time: G-buffer raster + AO, vtk-ssao its own render)", "",
                   points_markdown(m["points"]), "",
                   winners_text(m["winners_limited"], "limited"), "",

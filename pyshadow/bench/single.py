@@ -10,7 +10,7 @@ import numpy as np
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..sampling import Sampling
-from .common import _bar, _fig, environment
+from .common import _bar, _fig, drop_earlier_record, environment
 from .config import Config
 from .measure import (GBuffer, _errors, by_surface, converged_reference, embree_pass, time_rays,
                       visibility_pass)
@@ -25,6 +25,10 @@ TIMED_SAMPLES = 1 << 25
 
 def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lighting=None) -> dict:
     """The single benchmark of one configuration; writes its images into ``args.out``.
+
+    An earlier ``results.json`` there is removed before the first image is
+    written (:func:`pyshadow.bench.common.drop_earlier_record`): the caller
+    writes the new one last.
 
     Renders AO with pyshadow, traces the identical rays with Embree, times
     both in ``args.repeats`` interleaved rounds (medians; AO and Embree on
@@ -153,6 +157,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
     diff = gb.image(raw - ident["ao"], 0.0)
     rgb, vmax = difference_rgb(diff, gb.object_id != -1)
     files = {}
+    drop_earlier_record(out_dir / "results.json")      # the caller writes the new one last
     for name, img in (("ao.png", ao_img), ("reference.png", ref_img), ("difference.png", rgb),
                       ("ao.exr", ao_img.astype(np.float32)), ("reference.exr", ref_img),
                       ("converged.exr", conv_img)):

@@ -11,7 +11,7 @@ import numpy as np
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..sampling import Sampling
-from .common import _bar, _fig, environment
+from .common import _bar, _fig, _num, environment
 from .config import SWEEP_GRIDS, Config
 from .measure import GBuffer, _errors, converged_reference, embree_pass, visibility_pass
 from .scenes import SceneFactory, _csm_summary
@@ -220,6 +220,7 @@ def _answer_text(ans: dict) -> str:
     if row is None:
         return f"no configuration of the sweep reaches AO RMSE <= {e:g}"
     f = {k: v["value"] for k, v in row["figures"].items()}
+    mb = None if f["csm_bytes"] is None else f["csm_bytes"] / 1e6
     return (f"fastest configuration with AO RMSE <= {e:g}: {row['label']} -- "
-            f"{f['frame_time'] * 1e3:.0f} ms/frame, RMSE {f['ao_rmse_converged']:.4f}, "
-            f"{f['csm_bytes'] / 1e6:.2f} MB of CSMs, agreement {100 * f['visibility_agreement']:.2f} %")
+            f"{_num(f['frame_time'], '.0f', 1e3)} ms/frame, RMSE {_num(f['ao_rmse_converged'], '.4f')}, "
+            f"{_num(mb, '.2f')} MB of CSMs, agreement {_num(f['visibility_agreement'], '.2f', 100)} %")

@@ -60,6 +60,8 @@ MAX_GRID = 1 << 16
 #: B B^T - I) and from ending with d_k: float32-rounded inputs pass (errors of a few 1e-8); 1e-6 moves a point
 #: of the unit bounding sphere by ~1e-6 radius, under 1/400 texel at the largest resolution (4096)
 BASIS_TOL = 1e-6
+#: the parameters of a layout (ViewSet.from_params): required, and optional with their defaults
+_LAYOUT_PARAMS = {"zigzag": (("theta", "phi"), {"row_offset": 0.0}), "hilbert": (("level",), {"hemispheres": False})}
 
 __all__ = ["ViewSet", "polar_direction", "octahedral_decode", "octahedral_encode", "hilbert_d2xy"]
 
@@ -324,12 +326,9 @@ class ViewSet:
 
     @classmethod
     def from_params(cls, layout: str, params: dict) -> "ViewSet":
-        """Rebuild a zigzag or hilbert view set from its layout and parameters."""
-        if layout == "zigzag":
-            return cls.zigzag(params["theta"], params["phi"], params.get("row_offset", 0.0))
-        if layout == "hilbert":
-            return cls.hilbert(params["level"], bool(params.get("hemispheres", False)))
-        raise ValueError(f"unknown view-set layout {layout!r}")
+        """Rebuild a zigzag or hilbert view set from its layout and parameters (ValueError: a key missing)."""
+        args = _layout_args(layout, params)
+        return cls.zigzag(*args) if layout == "zigzag" else cls.hilbert(*args)
 
     # -- container protocol ------------------------------------------------
     def __len__(self) -> int:
@@ -500,6 +499,20 @@ def _built(cls, directions, bases, layout, params) -> ViewSet:
     views = cls.__new__(cls)
     views.__dict__.update(directions=directions, bases=bases, layout=layout, params=params or {}, _tree=None)
     return views
+
+
+def _layout_args(layout, params) -> tuple:
+    """The arguments of ViewSet.zigzag or ViewSet.hilbert in ``params``; ValueError for another layout or
+    naming the keys ``params`` lacks."""
+    required, optional = _LAYOUT_PARAMS.get(layout, (None, None)) if isinstance(layout, str) else (None, None)
+    if required is None:
+        raise ValueError(f"unknown view-set layout {layout!r}")
+    if missing := [k for k in required if k not in params]:
+        raise ValueError(f"ViewSet.from_params: {layout} parameters miss {', '.join(map(repr, missing))} (expected "
+                         f"{', '.join(map(repr, required))}; optional {', '.join(map(repr, optional))}), "
+                         f"got {list(params)!r}")
+    args = [params[k] for k in required] + [params.get(k, default) for k, default in optional.items()]
+    return (args[0], bool(args[1])) if layout == "hilbert" else tuple(args)
 
 
 def _unit_rows(dirs, caller: str) -> np.ndarray:

@@ -560,3 +560,41 @@ def test_code_digest_is_the_same_from_a_checkout_and_an_install(tmp_path):
         digest, where = res.stdout.split()
         seen[where] = digest
     assert set(seen.values()) == {code_digest()}, seen
+
+
+def test_frames_interrupted_while_the_csms_are_built_writes_this_runs_manifest(tmp_path, monkeypatch, capsys):
+    """A Ctrl-C before the frames' tasks left the earlier run's manifest, describing CSM files this run replaced."""
+    from pyshadow.bake import frames as fr
+    from pyshadow.bake.cli import main
+
+    out, write = tmp_path / "frames", fr.write_bytes_atomic          # Ctrl-C at two points, then a rerun
+    args = ["frames", "-o", str(out), "--frames", "2", "--size", "32x24", "--samples", "4", "--resolution", "32",
+            "--executor", "serial", "--quiet", "--no-cache", "--maps"]
+    assert main([*args, "8x16"]) == 0                                                  # the earlier run
+    earlier, old_bunny = json.loads((out / "manifest.json").read_text()), (out / "csm" / "bunny.csm").read_bytes()
+    assert earlier["summary"]["rendered"] == 2 and sorted(earlier["csm"]) == ["bunny", "torus"]
+
+    def stop(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    def write_until_torus(path, data):                  # Ctrl-C once this run has replaced csm/bunny.csm
+        return stop() if Path(path).name == "torus.csm" else write(path, data)
+
+    for target, name, value, csm in [(pyshadow.CoherentShadowMap, "build", stop, {}),      # building the first CSM
+                                     (fr, "write_bytes_atomic", write_until_torus, {"bunny": "csm/bunny.csm"})]:
+        capsys.readouterr()
+        with monkeypatch.context() as mp:
+            mp.setattr(target, name, value)
+            assert main([*args, "8x8"]) == 130
+        err, m = capsys.readouterr().err, json.loads((out / "manifest.json").read_text())
+        assert err == "interrupted: finished outputs are kept, nothing half-written; rerun to continue\n"
+        assert m["schema"] == fr.FRAMES_SCHEMA and m["executor"]["kind"] == "serial" and m["csm"] == csm
+        assert m["summary"] == {"rendered": 0, "skipped": 0, "failed": 0, "interrupted": 2}
+        assert m["frames"] == [{"frame": f, "key": None, "status": "failed", "action": "interrupted",
+                                "error": "interrupted before it finished"} for f in (0, 1)]
+        assert (m["scene"] is None) == (csm == {}) and m["scene"] != earlier["scene"] and _temporaries(out) == []
+        assert ((out / "csm" / "bunny.csm").read_bytes() == old_bunny) == (csm == {})
+    assert main([*args, "8x8"]) == 0                                                   # the rerun finishes
+    m = json.loads((out / "manifest.json").read_text())
+    assert m["summary"] == {"rendered": 2, "skipped": 0, "failed": 0, "interrupted": 0}
+    assert m["csm"] == earlier["csm"] and m["scene"] != earlier["scene"]

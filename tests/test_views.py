@@ -464,3 +464,25 @@ def test_nearest_and_filter_window_refuse_other_shapes_clearly():
         views.nearest(np.array([["a", "b", "c"]]))
     # one direction as (3,) is one row, as before
     assert views.nearest(np.array([0, 1.0, 0.2])).tolist() == views.nearest(np.array([[0, 1.0, 0.2]])).tolist()
+
+
+@pytest.mark.parametrize("layout, params, message", [
+    ("zigzag", {"theta": 8}, "ViewSet.from_params: zigzag parameters miss 'phi' (expected 'theta', 'phi'; optional "
+                             "'row_offset'), got ['theta']"),
+    ("zigzag", {"row_offset": 0.5}, "ViewSet.from_params: zigzag parameters miss 'theta', 'phi' (expected 'theta', "
+                                    "'phi'; optional 'row_offset'), got ['row_offset']"),
+    ("hilbert", {}, "ViewSet.from_params: hilbert parameters miss 'level' (expected 'level'; optional "
+                    "'hemispheres'), got []"),
+    ("spiral", {}, "unknown view-set layout 'spiral'"),
+])
+def test_from_params_names_missing_parameters(layout, params, message):
+    """A missing key was a bare KeyError('phi')."""
+    with pytest.raises(ValueError) as e:
+        pyshadow.ViewSet.from_params(layout, params)
+    assert str(e.value) == message
+    for views, layout, params in [(pyshadow.ViewSet.zigzag(4, 6), "zigzag", {"theta": 4, "phi": 6, "row_offset": 0.5}),
+                                  (pyshadow.ViewSet.zigzag(4, 6, 0.0), "zigzag", {"theta": 4, "phi": 6}),
+                                  (pyshadow.ViewSet.hilbert(2, True), "hilbert", {"level": 2, "hemispheres": True})]:
+        back = pyshadow.ViewSet.from_params(layout, params)
+        assert back.params == views.params
+        np.testing.assert_array_equal(back.bases, views.bases)

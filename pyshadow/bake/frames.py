@@ -68,10 +68,14 @@ def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
         out.append({"name": name, "casts": bool(casts), "vertices": v, "faces": f, "csm": csm})
         for b in (name.encode(), bytes([casts]), v.tobytes(), f.tobytes(), csm or b""):
             h.update(hashlib.sha256(b).digest())
-    cam = {"eye": camera.eye.tolist(), "target": camera.target.tolist(), "up": camera.up.tolist(),
-           "fov_y": float(camera.fov_y), "width": camera.width, "height": camera.height}
+    cam = _camera_dict(camera)
     h.update(json.dumps({"camera": cam, "ground": ground, "render": render}, sort_keys=True).encode())
     return {"key": h.hexdigest(), "parts": out, "camera": cam, "ground": ground, "render": render}
+
+
+def _camera_dict(camera) -> dict:
+    return {"eye": camera.eye.tolist(), "target": camera.target.tolist(), "up": camera.up.tolist(),
+            "fov_y": float(camera.fov_y), "width": camera.width, "height": camera.height}
 
 
 def _scene(payload):
@@ -197,7 +201,13 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     KeyboardInterrupt
         After the manifest is written (the frames not finished marked
         'interrupted'), also for one that lands while the executor shuts
-        down.
+        down or while the CSMs are built or written: then every frame is
+        'interrupted' (its ``key`` None before the scene is known), ``csm``
+        lists the CSM files this run wrote and ``scene`` is None until
+        every CSM is built. So the manifest always describes this run,
+        never an earlier one's outputs that this run may have replaced.
+        Another exception raised while preparing or rendering leaves the
+        same manifest before it propagates.
     """
     from tqdm.auto import tqdm
 
@@ -222,33 +232,30 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         def csm_for(name, mesh):
             return CoherentShadowMap.build(mesh, ViewSet.zigzag(64, 128), progress=False)
 
-    t0 = time.perf_counter()
-    payload = scene_payload(parts, camera, ground=ground, csm_for=csm_for,
-                            render={"samples": int(samples), "lookup": lookup, "denoise": denoise})
-    csm_files = {}
-    for part in payload["parts"]:
-        if part["csm"] is not None:
-            rel = f"csm/{part['name']}.csm"
-            (out / "csm").mkdir(exist_ok=True)
-            write_bytes_atomic(out / rel, part["csm"])
-            csm_files[part["name"]] = rel
-    prepare = time.perf_counter() - t0
+    render = {"samples": int(samples), "lookup": lookup, "denoise": denoise}
     code = code_digest()
-    entries, todo = {}, []
-    for f in range(len(T)):
-        key = _frame_key(payload["key"], T[f], code)
-        rec = done(out, f"records/frame_{f:04d}.json", key)
-        if rec is not None:
-            entries[f] = dict(rec, action="skipped")
-        else:
-            todo.append((f, key))
-    log(f"{len(T)} frames: {len(todo)} to render")
-    keys = dict(todo)
-    tasks = [([f for f, _ in todo[i:i + chunk]], T[[f for f, _ in todo[i:i + chunk]]])
-             for i in range(0, len(todo), int(chunk))]
-    ex = None
-    bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
-    try:
+    payload, csm_files, keys, entries, todo = None, {}, {}, {}, []
+    ex = bar = prepare = None
+    t0 = time.perf_counter()
+    try:                                    # a Ctrl-C from here on, even while the CSMs are built: manifest written
+        payload = scene_payload(parts, camera, ground=ground, csm_for=csm_for, render=render)
+        for part in payload["parts"]:
+            if part["csm"] is not None:
+                rel = f"csm/{part['name']}.csm"
+                (out / "csm").mkdir(exist_ok=True)
+                write_bytes_atomic(out / rel, part["csm"])
+                csm_files[part["name"]] = rel
+        prepare = time.perf_counter() - t0
+        for f in range(len(T)):
+            keys[f] = _frame_key(payload["key"], T[f], code)
+            rec = done(out, f"records/frame_{f:04d}.json", keys[f])
+            if rec is not None:
+                entries[f] = dict(rec, action="skipped")
+            else:
+                todo.append(f)
+        log(f"{len(T)} frames: {len(todo)} to render")
+        tasks = [(todo[i:i + chunk], T[todo[i:i + chunk]]) for i in range(0, len(todo), int(chunk))]
+        bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
         if todo:
             ex = open_executor(executor, workers, scheduler, threads)
             for frames, res, err in ex.run(render_chunk, ((tuple(fs), (fs, Tc)) for fs, Tc in tasks),
@@ -265,18 +272,21 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                         entries[r["frame"]] = dict(rec, action="rendered")
                 bar.update(len(frames))
     finally:
-        bar.close()
+        if bar is not None:
+            bar.close()
         stopped = close_executor(ex)        # a Ctrl-C while it closes: raised once the manifest is written
         sweep_temporaries(out)
-        for f, key in todo:
-            entries.setdefault(f, {"frame": f, "key": key, "status": "failed", "action": "interrupted",
+        for f in range(len(T)):             # not rendered, nor found done, in this run
+            entries.setdefault(f, {"frame": f, "key": keys.get(f), "status": "failed", "action": "interrupted",
                                    "error": "interrupted before it finished"})
         wall = time.perf_counter() - t_start
+        prepare = time.perf_counter() - t0 if prepare is None else prepare     # stopped while preparing
         actions = [e["action"] for e in entries.values()]
         rendered = actions.count("rendered")
         manifest = {
-            "schema": FRAMES_SCHEMA, "pyshadow": __version__, "code": code, "scene": payload["key"],
-            "render": payload["render"], "camera": payload["camera"], "ground": ground, "csm": csm_files,
+            "schema": FRAMES_SCHEMA, "pyshadow": __version__, "code": code,
+            "scene": payload["key"] if payload is not None else None, "render": render,
+            "camera": _camera_dict(camera), "ground": ground, "csm": csm_files,
             "executor": executor_info(ex, executor),
             "seconds": wall, "prepare_seconds": prepare,
             "frames_per_minute": 60.0 * rendered / (wall - prepare) if rendered and wall > prepare else None,

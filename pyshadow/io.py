@@ -179,6 +179,29 @@ def write_image(path, array) -> None:
         _write_oiio(tmp, data, kind)
 
 
+#: EXIF orientation code -> the (H, W, C) transform that turns the stored pixels upright (as
+#: ``ImageBufAlgo.reorient``): Radiance HDR files stored bottom-up ("+Y H +X W") or column-wise,
+#: TIFF and JPEG orientation tags.
+_ORIENT = {1: lambda x: x, 2: lambda x: x[:, ::-1], 3: lambda x: x[::-1, ::-1], 4: lambda x: x[::-1],
+           5: lambda x: x.transpose(1, 0, 2), 6: lambda x: x.transpose(1, 0, 2)[:, ::-1],
+           7: lambda x: x.transpose(1, 0, 2)[::-1, ::-1], 8: lambda x: x.transpose(1, 0, 2)[::-1]}
+
+
+def _display_window(data: np.ndarray, spec) -> np.ndarray:
+    """The data window's pixels placed in the display window (zeros where no pixel is stored)."""
+    full = (spec.full_x, spec.full_y, spec.full_width, spec.full_height)
+    if full == (spec.x, spec.y, spec.width, spec.height) or spec.full_width < 1 or spec.full_height < 1:
+        return data
+    out = np.zeros((spec.full_height, spec.full_width, data.shape[2]), data.dtype)
+    y0, x0 = max(spec.y, spec.full_y), max(spec.x, spec.full_x)
+    y1 = min(spec.y + spec.height, spec.full_y + spec.full_height)
+    x1 = min(spec.x + spec.width, spec.full_x + spec.full_width)
+    if y1 > y0 and x1 > x0:
+        out[y0 - spec.full_y:y1 - spec.full_y, x0 - spec.full_x:x1 - spec.full_x] = \
+            data[y0 - spec.y:y1 - spec.y, x0 - spec.x:x1 - spec.x]
+    return out
+
+
 def read_image(path) -> np.ndarray:
     """Read an image file as float32.
 
@@ -207,6 +230,13 @@ def read_image(path) -> np.ndarray:
     Notes
     -----
     A (H, W, 1) array written to EXR reads back as (H, W), with the same bits.
+
+    The image comes back upright, row 0 at the top: a file's orientation
+    (a Radiance HDR stored bottom-up, ``+Y H +X W``, or column-wise; a TIFF
+    or JPEG orientation tag) is applied. It covers the file's display window:
+    an EXR whose data window is smaller or offset has its pixels placed
+    there, zeros where none is stored (overscan outside the display window
+    is dropped).
     """
     path = Path(os.fspath(path))
     if not path.exists():
@@ -233,7 +263,8 @@ def read_image(path) -> np.ndarray:
             raise ValueError(f"cannot read image {path}: {inp.geterror() or oiio.geterror()}")
     finally:
         inp.close()
-    data = np.asarray(native).reshape(spec.height, spec.width, C)
+    data = _display_window(np.asarray(native).reshape(spec.height, spec.width, C), spec)
+    data = _ORIENT.get(spec.get_int_attribute("Orientation", 1), _ORIENT[1])(data)
     if top is not None:
         enc = data.astype(np.float64) / top
         colour = [c for c in range(C) if c != alpha]

@@ -327,3 +327,16 @@ def test_point_spot_and_sun_bad_input_not_covered_elsewhere(two_bodies, no_launc
         point_light_radiance(two_bodies, p, n + [np.inf, 0.0, 0.0], light, 0.5)
     with pytest.raises(ValueError, match="points"):
         point_light_radiance(two_bodies, p + [0.0, np.nan, 0.0], n, light, 0.5)
+
+
+@pytest.mark.parametrize("make, msg", [
+    (lambda: DiscLight([0, 1, 0], [0, -1, 0], "x", intensity=1.0), "disc light radius: must be a number (got 'x')"),
+    (lambda: DiscLight([0, 1, 0], [0, -1, 0], None, intensity=1.0), "disc light radius: must be a number (got None)"),
+    (lambda: RectLight.facing([0, 1, 0], [0, -1, 0], "x", 1.0, intensity=1.0),
+     "rectangle width: must be a number (got 'x')"),
+])
+def test_area_light_extent_that_is_no_number_is_named(make, msg):
+    """float('x') / float(None) escaped with messages that named no argument."""
+    with pytest.raises(TypeError) as e:
+        make()
+    assert str(e.value) == msg

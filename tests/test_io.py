@@ -273,3 +273,44 @@ def test_srgb_helpers_are_inverse():
     x = np.linspace(0.0, 1.0, 1001)
     np.testing.assert_allclose(pio.srgb_to_linear(pio.linear_to_srgb(x)), x, atol=1e-12)
     np.testing.assert_allclose(pio.linear_to_srgb(x), srgb_encode(x), atol=1e-15)
+
+
+def _rgbe_file(path, resolution: str, values):
+    """A flat (uncompressed) Radiance HDR file with the given resolution line; grey pixels in file order."""
+    px = b""
+    for v in values:                     # v = m 2^e, m in [0.5, 1): RGBE (256 m, 256 m, 256 m, e + 128)
+        m, e = np.frexp(v)
+        px += bytes([int(m * 256)] * 3 + [int(e) + 128])
+    path.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n" + resolution.encode() + b"\n" + px)
+
+
+@pytest.mark.parametrize("resolution, want", [
+    ("-Y 2 +X 4", [[1.0, 1.25, 1.5, 1.75], [2.0, 2.25, 2.5, 2.75]]),       # the standard: top-down
+    ("+Y 2 +X 4", [[2.0, 2.25, 2.5, 2.75], [1.0, 1.25, 1.5, 1.75]]),       # stored bottom-up
+    ("-Y 2 -X 4", [[1.75, 1.5, 1.25, 1.0], [2.75, 2.5, 2.25, 2.0]]),       # stored right to left
+    ("+X 4 -Y 2", [[1.0, 1.5, 2.0, 2.5], [1.25, 1.75, 2.25, 2.75]]),       # stored by columns
+])
+def test_hdr_orientation_is_applied(tmp_path, resolution, want):
+    """A Radiance HDR stored bottom-up (or mirrored, or by columns) came back in file order: an
+    environment map upside down, the sun below the horizon. It comes back upright."""
+    p = tmp_path / "o.hdr"
+    _rgbe_file(p, resolution, [1.0 + 0.25 * i for i in range(8)])
+    img = read_image(p)
+    assert img.shape == (2, 4, 3)
+    assert img[:, :, 0].tolist() == want
+
+
+def test_exr_data_window_is_placed_in_the_display_window(tmp_path):
+    """An EXR whose data window (4 x 2 at (2, 1)) is smaller than its display window (8 x 4) came back
+    as the bare 4 x 2 data window (a lat-long map's aspect: silently taken for the whole sphere)."""
+    p = str(tmp_path / "dw.exr")
+    spec = oiio.ImageSpec(4, 2, 3, oiio.TypeFloat)
+    spec.x, spec.y = 2, 1
+    spec.full_x, spec.full_y, spec.full_width, spec.full_height = 0, 0, 8, 4
+    out = oiio.ImageOutput.create(p)
+    assert out.open(p, spec)
+    assert out.write_image(np.arange(24, dtype=np.float32).reshape(2, 4, 3))
+    assert out.close()
+    img = read_image(p)
+    assert img.shape == (4, 8, 3)
+    assert img[:, :, 0].tolist() == [[0] * 8, [0, 0, 0, 3, 6, 9, 0, 0], [0, 0, 12, 15, 18, 21, 0, 0], [0] * 8]

@@ -313,3 +313,30 @@ def test_sampled_mode_samples_the_suns_disc_by_default(small_scene):
     hard = terms(Lighting(sun=sun))
     np.testing.assert_array_equal(hard.sun, terms(Lighting(sun=sun, sun_samples=1)).sun)
     assert set(np.unique(hard.sun_visibility)) == {0.0, 1.0}
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(exposure="a"), "exposure: must be a number (got 'a')"),
+    (dict(exposure=None), "exposure: must be a number (got None)"),
+    (dict(curve="exponential", gamma=None), "gamma: must be a number (got None)"),
+])
+def test_tonemap_names_a_non_numeric_exposure_or_gamma(kw, msg):
+    """float('a') / float(None) escaped with messages that named no argument."""
+    with pytest.raises(TypeError) as e:
+        tonemap(np.zeros((1, 1, 3)), **kw)
+    assert str(e.value) == msg
+
+
+@pytest.mark.parametrize("curve", ["srgb", "exponential"])
+def test_tonemap_overflowing_exposure_is_white_without_a_warning(curve):
+    """exposure * L beyond float64 raised RuntimeWarning (an error under -W error); it is +inf: white."""
+    out = tonemap(np.array([[[1e300, 0.0, 1e-300]]]), exposure=1e10, curve=curve)
+    assert out.tolist() == [[[255, 0, 0]]]
+
+
+def test_write_radiance_beyond_float32_is_inf_without_a_warning(tmp_path):
+    """write_radiance cast float64 to float32 itself and warned (an error under -W error) on 1e300;
+    write_image documents +inf there."""
+    p = tmp_path / "big.exr"
+    write_radiance(p, np.array([[[1e300, 1.0, 0.0]]]))
+    assert read_image(p).tolist() == [[[np.inf, 1.0, 0.0]]]

@@ -120,3 +120,46 @@ def test_black_sky_gives_no_sun():
     sun, sky = extract_sun(env)
     assert (sun.irradiance == 0).all() and len(sun.texels) == 0 and (sky.radiance == 0).all()
     assert np.linalg.norm(sun.direction) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("height", [16, 32])
+def test_sun_at_the_zenith_lights_every_side_alike(height):
+    """A sun exactly at the zenith on a small map fell between all sub-samples and went wholly into
+    texel (0, 0), half a texel (2.8 deg at height 32) towards +x: +x walls got 25 % more than -x
+    walls. Now it is spread evenly over the top row."""
+    env = clear_sky([0.0, 1.0, 0.0], height=height)
+    e = env.irradiance([[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1]])[:, 1]
+    np.testing.assert_allclose(e, e[0], rtol=1e-9)
+    sun, _ = extract_sun(env)
+    np.testing.assert_allclose(sun.direction, [0.0, 1.0, 0.0], atol=1e-6)     # was 0.05 to 0.1 off
+    flat = overcast_sky(height=height)
+    added = add_sun_disc(flat, [0.0, -1.0, 0.0], np.ones(3)).radiance - flat.radiance
+    assert (added[-1] > 0).all() and np.ptp(added[-1]) < 1e-9 * added[-1].max() and not added[:-1].any()
+    np.testing.assert_allclose(added.reshape(-1, 3).T @ flat.solid_angles().reshape(-1),
+                               disc_solid_angle(SUN_ANGULAR_RADIUS), rtol=1e-12)
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e300, 2.0 ** -1070])
+def test_extract_sun_is_scale_free(scale):
+    """A map of tiny radiance gave a NaN sun direction (the weighted mean underflowed to a zero
+    vector), a huge one LinAlgError 'SVD did not converge' (the fit's squares overflowed)."""
+    a = np.ones((16, 32, 3))
+    a[5, 5] = 1000.0
+    sun1, sky1 = extract_sun(EnvironmentMap(a))
+    env = EnvironmentMap(a * scale)
+    sun, sky = extract_sun(env)
+    assert np.isfinite(sun.direction).all()
+    np.testing.assert_allclose(sun.direction, sun1.direction, rtol=1e-12)
+    assert sun.texels.tolist() == sun1.texels.tolist()
+    rel = 1e-12 if scale > 1e-300 else 1e-3          # 2^-1070: the ones are denormal, 1000 has 13 bits
+    np.testing.assert_allclose(sun.irradiance / scale, sun1.irradiance, rtol=rel)
+    np.testing.assert_allclose(sky.radiance + sun.texel_radiance(env.grid_shape), env.radiance, rtol=1e-15)
+
+
+@pytest.mark.parametrize("height", [float("inf"), float("nan"), None])
+def test_sky_height_that_is_no_number_is_named(height):
+    """int(inf) raised OverflowError, int(nan) / int(None) messages without the argument."""
+    with pytest.raises(ValueError) as e:
+        overcast_sky(height=height)
+    assert str(e.value) == (f"height: must be an even integer >= 4, so that the horizon is a row boundary "
+                            f"(got {height!r})")

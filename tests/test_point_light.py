@@ -192,3 +192,44 @@ def test_lighting_adds_local_lights_to_shading_render_and_reference(two_bodies):
     assert lit.radiance.max() > 0 and dark.radiance.max() == 0
     with pytest.raises(TypeError, match="lights"):
         Lighting(lights=[sun])
+
+
+@pytest.mark.parametrize("radius", [1e-6, 1e-9, 1e-30, 1e-200])
+def test_tiny_sphere_light_is_the_point_light(radius):
+    """Omega = 2 pi (1 - cos a) rounded to 0 for R / d below ~1e-8 (black, not lit) and gave 0 / 0 = NaN
+    where R^2 underflowed; a tiny sphere light is the point light."""
+    scene = pyshadow.Scene(ground=0.0)
+    p, n = ground_grid(5, 1.0)
+    exact, _ = point_light_radiance(scene, p, n, PointLight([0.0, 2.0, 0.0], 3.0), 1.0)
+    soft, vis = point_light_radiance(scene, p, n, PointLight([0.0, 2.0, 0.0], 3.0, radius=radius), 1.0,
+                                     samples=4)
+    np.testing.assert_allclose(soft, exact, rtol=max(1e-12, 4 * radius))
+    assert (vis == 1).all()
+
+
+def test_light_beyond_float64_distance_is_refused():
+    """|light - point| beyond ~1.3e154 overflowed: visibility 0 (the max_distance was NaN) for a light in
+    plain view, or OverflowError from R ** 2 for a sphere light."""
+    scene = pyshadow.Scene(ground=0.0)
+    for light in (PointLight([0.0, 1e200, 0.0], 1.0), PointLight([0.0, 3e300, 0.0], 1.0, radius=1e300)):
+        with pytest.raises(ValueError) as e:
+            point_light_radiance(scene, [[0.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]], light, 1.0, backend="embree",
+                                 samples=4)
+        assert str(e.value) == (f"point 0 lies too far from the light (point [0.0, 0.0, 0.0], light "
+                                f"{light.position.tolist()}): their distance overflows float64")
+
+
+@pytest.mark.parametrize("make, exc, msg", [
+    (lambda: PointLight([0, 1, 0], 1.0, radius="x"), TypeError, "light radius: must be a number (got 'x')"),
+    (lambda: PointLight([0, 1, 0], 1.0, radius=None), TypeError, "light radius: must be a number (got None)"),
+    (lambda: PointLight([0, 1, 0], "x"), ValueError,
+     "light intensity: expected an RGB 3-vector or a scalar (got 'x')"),
+    (lambda: PointLight("abc", 1.0), ValueError, "light position: expected a finite 3-vector (got 'abc')"),
+    (lambda: SpotLight([0, 1, 0], 1.0, direction=[0, -1, 0], angle="x"), TypeError,
+     "spot angle: must be a number (got 'x')"),
+])
+def test_light_arguments_that_are_no_numbers_are_named(make, exc, msg):
+    """float('x') / np.asarray('abc', float) escaped with messages that named no argument."""
+    with pytest.raises(exc) as e:
+        make()
+    assert str(e.value) == msg

@@ -37,7 +37,7 @@ from dataclasses import InitVar, dataclass
 
 import numpy as np
 
-from ._checks import unit_direction
+from ._checks import _number, unit_direction
 from .local import PointLight, SpotLight, _intensity, _position
 from .sun import _tangent_frame as _frame   # two unit vectors completing a unit normal
 
@@ -61,7 +61,7 @@ def _flux(obj, intensity, power):
 
 
 def _extent(x, name):
-    r = float(x)
+    r = _number(x, name)
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"{name}: must be finite and > 0 (a zero-area light has no radiance; got {x!r})")
     return r

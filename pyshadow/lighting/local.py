@@ -36,21 +36,29 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import in_range, unit_direction
+from ._checks import _number, in_range, unit_direction
 from .sun import _GOLDEN
 
 __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
 
 
+def _floats(x, name, what):
+    """``x`` as a float64 array; ValueError naming ``name`` for what does not convert ("abc", [1, "a"])."""
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {what} (got {x!r})") from None
+
+
 def _position(x, name):
-    v = np.asarray(x, dtype=np.float64)
+    v = _floats(x, name, "a finite 3-vector")
     if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name}: expected a finite 3-vector (got {x!r})")
     return v.copy()
 
 
 def _intensity(x, name):
-    v = np.asarray(x, dtype=np.float64)
+    v = _floats(x, name, "an RGB 3-vector or a scalar")
     if v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got shape {v.shape})")
     v = np.broadcast_to(v, (3,)).copy()
@@ -82,7 +90,7 @@ class PointLight:
     def __post_init__(self):
         object.__setattr__(self, "position", _position(self.position, "light position"))
         object.__setattr__(self, "intensity", _intensity(self.intensity, "light intensity"))
-        r = float(self.radius)
+        r = _number(self.radius, "light radius")
         if not (math.isfinite(r) and r >= 0):
             raise ValueError(f"light radius: must be finite and >= 0 (got {self.radius!r})")
         object.__setattr__(self, "radius", r)
@@ -117,7 +125,7 @@ class SpotLight(PointLight):
         if self.direction is None:
             raise ValueError("spot direction: required (a unit 3-vector)")
         object.__setattr__(self, "direction", unit_direction(self.direction, "spot direction"))
-        a = float(self.angle)
+        a = _number(self.angle, "spot angle")
         if not (math.isfinite(a) and 0 < a <= math.pi / 2):
             raise ValueError(f"spot angle: must lie in (0, pi/2] (got {self.angle!r})")
         object.__setattr__(self, "angle", a)
@@ -225,7 +233,12 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
         raise ValueError("albedo: must be finite and lie in [0, 1]")
     idx = check_indices(indices, n)
     to_light = light.position - p
-    d = np.linalg.norm(to_light, axis=1)
+    with np.errstate(over="ignore"):
+        d = np.linalg.norm(to_light, axis=1)
+    if n and not np.isfinite(d).all():                 # |p - light| beyond 1.3e154: no direction, no distance
+        i = int(np.argmax(~np.isfinite(d)))
+        raise ValueError(f"point {i} lies too far from the light (point {p[i].tolist()}, light "
+                         f"{light.position.tolist()}): their distance overflows float64")
     if n and not (d > light.radius).all():
         i = int(np.argmin(d - light.radius))
         raise ValueError(f"point {i} lies {'at the light' if light.radius == 0 else 'within the sphere light'} "
@@ -233,16 +246,19 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     axis = to_light / np.where(d > 0, d, 1.0)[:, None]
     spot = light.factor(-axis)
     k = int(samples) if light.radius > 0 else 1
-    half = np.arcsin(np.minimum(light.radius / np.maximum(d, 1e-300), 1.0))
+    rho = np.minimum(light.radius / d, 1.0) if n else np.zeros(0)                  # sin of the cone's half-angle
+    half = np.arcsin(rho)
     dirs = light_directions(axis, half, k, idx, seed)                              # (N, K, 3)
     cos = np.maximum(np.einsum("nkj,nj->nk", dirs, nrm), 0.0)
     live = (cos > 0).any(axis=1) & (spot > 0)
     lit = np.zeros((n, k), bool)
     if live.any():
         rows = np.flatnonzero(live)
-        # each ray runs to the sphere's near surface along its direction (to the centre: R = 0)
-        b = np.einsum("nkj,nj->nk", dirs[rows], to_light[rows])
-        tmax = b - np.sqrt(np.maximum(b * b - (d[rows] ** 2 - light.radius ** 2)[:, None], 0.0))
+        # each ray runs to the sphere's near surface along its direction (to the centre: R = 0), in units
+        # of d (no d^2 to overflow): t = d (cos b - sqrt(rho^2 - sin^2 b)), b the ray's angle to the axis
+        c = np.einsum("nkj,nj->nk", dirs[rows], axis[rows])
+        s2 = (np.cross(dirs[rows], axis[rows][:, None, :]) ** 2).sum(axis=2)
+        tmax = d[rows][:, None] * (c - np.sqrt(np.maximum(rho[rows][:, None] ** 2 - s2, 0.0)))
         ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,))[rows], k)
         lit[rows] = vis.visible(scene, np.repeat(p[rows], k, axis=0), dirs[rows].reshape(-1, 3), backend=backend,
                                 bias=bias, surface_ids=ids, normals=np.repeat(nrm[rows], k, axis=0),
@@ -253,12 +269,11 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
 
         lit = lit & ~below_geometric(dirs, geometric_normals)
     shaded = (cos * lit).mean(axis=1) * spot
-    if light.radius > 0:
-        omega = 2.0 * math.pi * (1.0 - np.cos(half))
-        scale = omega / (math.pi * light.radius ** 2)          # L Omega with L = I / (pi R^2)
-    else:
-        scale = 1.0 / d ** 2
-    e = light.intensity[None, :] * (scale * shaded)[:, None]
+    # E = I f^2 shaded: f = 1 / d for a point light; for a sphere L Omega = I f^2 with L = I / (pi R^2),
+    # Omega = 2 pi (1 - cos a) = 4 pi sin^2(a / 2), so f = 2 sin(a / 2) / R (-> 1 / d as R / d -> 0,
+    # where 1 - cos a would round to 0); I f (f shaded) neither squares d nor R
+    f = 2.0 * np.sin(0.5 * half) / light.radius if light.radius > 0 else 1.0 / d
+    e = (light.intensity[None, :] * f[:, None]) * (f * shaded)[:, None]
     return alb / math.pi * e, np.where(live, lit.mean(axis=1), 0.0)
 
 

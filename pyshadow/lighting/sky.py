@@ -90,8 +90,11 @@ def disc_solid_angle(radius: float) -> float:
 
 
 def _height(height) -> int:
-    h = int(height)
-    if h != height or h < 4 or h % 2:
+    try:
+        h = int(height)
+    except (TypeError, ValueError, OverflowError):      # None, inf, NaN, "abc"
+        h = None
+    if h is None or h != height or h < 4 or h % 2:
         raise ValueError(f"height: must be an even integer >= 4, so that the horizon is a row "
                          f"boundary (got {height!r})")
     return h
@@ -355,6 +358,10 @@ def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_A
     EnvironmentMap
         ``env`` plus ``radiance * coverage`` on every texel the disc touches;
         ``sum(added * Omega) = radiance * disc_solid_angle(radius)`` to rounding.
+        A disc that no sub-sample falls in (narrower than their spacing, as
+        near a lat-long map's poles, where the texels converge) goes to the
+        sub-samples nearest its centre: at a pole, evenly to the whole first
+        (or last) row, not to one texel of it.
     """
     d = unit_direction(direction, "direction")
     r = in_range(radius, "radius", 1e-9, math.pi / 2)
@@ -373,9 +380,10 @@ def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_A
     covered = (wts * inside).sum(axis=1)                     # sr of the disc in each texel
     total = covered.sum()
     omega_disc = disc_solid_angle(r)
-    if total == 0.0:                                         # narrower than a sub-sample
-        covered = (near == env.texel_index(d[None, :])[0]).astype(np.float64)
-        total = 1.0
+    if total == 0.0:                                         # narrower than a sub-sample: the nearest ones
+        chord = np.linalg.norm(sub - d, axis=-1)             # (ties: every texel around a pole alike)
+        covered = (wts * (chord <= chord.min() * (1.0 + 1e-9))).sum(axis=1)
+        total = covered.sum()
     covered *= omega_disc / total
     out = env.radiance.reshape(-1, 3).copy()
     om = env.solid_angles().reshape(-1)[near]

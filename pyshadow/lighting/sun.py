@@ -181,7 +181,12 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     k = in_range(enlarge, "enlarge", 1.0, 100.0)
     thr = in_range(threshold, "threshold", 1.0, math.inf)
     rmax = in_range(max_radius, "max_radius", 1e-6, math.pi / 2)
-    T = env.radiance.reshape(-1, 3)
+    T0 = env.radiance.reshape(-1, 3)
+    # the split is scale-free: work on the map scaled by a power of two to a largest value in [0.5, 1)
+    # (exact), so that neither the fit's squares overflow (1e300) nor the weighted mean direction
+    # underflows to a zero vector (1e-300); the sun's excess and irradiance are scaled back
+    shift = -math.frexp(float(T0.max()))[1] if T0.size and T0.max() > 0 else 0
+    T = np.ldexp(T0, shift)
     dirs = env.directions().reshape(-1, 3)
     omega = env.solid_angles().reshape(-1)
     lum = T @ LUMINANCE_WEIGHTS
@@ -200,9 +205,9 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
             inside, bg, excess = _region(dirs, T, lum, omega, c, p,
                                          min(2.0 * k * r0 + 1.5 * p, rmax), rmax, thr)
             break
-    sky = T.copy()
-    sky[inside] = bg
-    e_sun = excess.T @ omega[inside]
+    sky = T0.copy()
+    sky[inside] = np.ldexp(bg, -shift)
+    e_sun = np.ldexp(excess.T @ omega[inside], -shift)
     w = (excess @ LUMINANCE_WEIGHTS) * omega[inside]
     if w.sum() > 0:
         v = w @ dirs[inside]
@@ -214,5 +219,5 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     else:
         direction, ang_r = c / np.linalg.norm(c), r0
     sun = SunLight(direction=direction, irradiance=e_sun, angular_radius=ang_r,
-                   texels=inside.astype(np.int64), excess=excess)
+                   texels=inside.astype(np.int64), excess=T0[inside] - sky[inside])
     return sun, env.with_radiance(sky.reshape(env.radiance.shape))

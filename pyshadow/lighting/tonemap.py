@@ -16,13 +16,13 @@ of :mod:`~pyshadow.lighting.shade`) maps to 0, NaN is an error.
 """
 from __future__ import annotations
 
-import math
 import os
 from pathlib import Path
 
 import numpy as np
 
 from ..io import linear_to_srgb, write_image
+from ._checks import positive
 
 __all__ = ["tonemap", "write_radiance", "CURVES"]
 
@@ -55,18 +55,15 @@ def tonemap(radiance, exposure: float = 1.0, curve: str = "srgb", *, gamma: floa
         Display gamma of the exponential curve (ignored by "srgb").
     """
     a = _radiance(radiance)
-    s = float(exposure)
-    if not (math.isfinite(s) and s > 0):
-        raise ValueError(f"exposure: must be a finite number > 0 (got {exposure!r})")
+    s = positive(exposure, "exposure")
     if curve not in CURVES:
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")
-    x = np.maximum(a.astype(np.float64) * s, 0.0)
+    with np.errstate(over="ignore"):            # beyond float64: +inf, white as documented
+        x = np.maximum(a.astype(np.float64) * s, 0.0)
     if curve == "srgb":
         v = linear_to_srgb(x)
     else:
-        g = float(gamma)
-        if not (math.isfinite(g) and g > 0):
-            raise ValueError(f"gamma: must be a finite number > 0 (got {gamma!r})")
+        g = positive(gamma, "gamma")
         v = np.power(-np.expm1(-x), 1.0 / g)
     return np.floor(np.clip(v, 0.0, 1.0) * 255.0 + 0.5).astype(np.uint8)
 
@@ -83,4 +80,4 @@ def write_radiance(path, radiance) -> None:
     a = _radiance(radiance)
     if (a < 0).any():
         raise ValueError(f"radiance: {int((a < 0).any(axis=2).sum())} pixel(s) are negative")
-    write_image(p, a.astype(np.float32, copy=False))
+    write_image(p, a)                           # float32 there: beyond its range -> +inf, as documented

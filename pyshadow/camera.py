@@ -9,10 +9,33 @@ __all__ = ["Camera"]
 
 
 def _vec3(x, name):
-    a = np.asarray(x, dtype=np.float64).reshape(-1)
-    if a.shape != (3,) or not np.isfinite(a).all():
+    try:
+        a = np.asarray(x, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (3,) or not np.isfinite(a).all():
         raise ValueError(f"Camera: {name} must be 3 finite numbers, got {x!r}")
     return a
+
+
+def _unit(v):
+    """``v / |v|`` (float64), or None for a zero vector. Where ``|v|^2`` leaves float64's range
+    (components below about 1e-154 or above 1e154) ``v`` is first divided by its largest component,
+    so that any finite non-zero vector gives its direction; elsewhere the plain quotient."""
+    n = _norm(v)
+    if not 1e-150 < n < 1e150:
+        big = np.abs(v).max()
+        if not big > 0:
+            return None
+        v = v / big
+        n = _norm(v)
+    return v / n
+
+
+def _norm(v) -> float:
+    """``np.linalg.norm(v)``, inf or 0 without a warning where its square leaves float64's range."""
+    with np.errstate(over="ignore", under="ignore"):
+        return float(np.linalg.norm(v))
 
 
 def points_on_rays(origin, t, dirs, dtype=np.float64) -> np.ndarray:
@@ -64,18 +87,29 @@ class Camera:
         self.eye = _vec3(eye, "eye")
         self.target = _vec3(target, "target")
         up = _vec3(up, "up")
-        f = self.target - self.eye
-        n = np.linalg.norm(f)
-        if not n > 0:
+        with np.errstate(over="ignore"):
+            f = self.target - self.eye
+        if not np.isfinite(f).all():        # beyond float64's range: the same direction, halved
+            f = 0.5 * self.target - 0.5 * self.eye
+        f = _unit(f)
+        if f is None:
             raise ValueError("Camera: eye and target coincide")
-        f /= n
+        if not 1e-150 < _norm(up) < 1e150:     # any length: only its direction counts
+            if _unit(up) is None:
+                raise ValueError(f"Camera: up must not be the zero vector, got {up.tolist()}")
+            up = _unit(up)
         r = np.cross(f, up)
         rn = np.linalg.norm(r)
         if not rn > 1e-9 * np.linalg.norm(up):
             raise ValueError("Camera: up is parallel to the viewing direction")
         r /= rn
         self.forward, self.right, self.up = f, r, np.cross(r, f)
-        fov_y = float(fov_y)
+        if isinstance(fov_y, (str, bytes, bool)) or np.ndim(fov_y) != 0:
+            raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}")
+        try:
+            fov_y = float(fov_y)
+        except (TypeError, ValueError):
+            raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}") from None
         if not 0.0 < fov_y < 180.0:
             raise ValueError(f"Camera: fov_y must be in (0, 180) degrees, got {fov_y}")
         self.fov_y = fov_y

@@ -42,21 +42,31 @@ UPSAMPLE_MIN_WEIGHT = 1e-6
 
 _NORMAL_TOL = 1e-2
 _MIN_DEPTH = float(np.finfo(np.float32).tiny)
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
-def _float_array(name: str, a, ndim: int) -> np.ndarray:
+def _float_array(name: str, a, ndim: int, in_float32: bool = False) -> np.ndarray:
+    """``a`` as a float32 C-contiguous array of ``ndim`` dimensions; with ``in_float32``, finite values
+    beyond float32's range (which the cast would turn into infinities) are refused."""
     a = np.asarray(a)
     if not np.issubdtype(a.dtype, np.floating):
         raise TypeError(f"{name} must be a float array, got dtype {a.dtype}")
     if a.ndim != ndim:
         raise ValueError(f"{name} must have {ndim} dimensions (expected {ndim} vs got {a.ndim}, "
                          f"shape {a.shape})")
+    if in_float32 and a.dtype.itemsize > 4 and a.size:     # finite values the cast would make +-inf
+        big = np.isfinite(a) & (np.abs(a) > _FLOAT32_MAX)
+        if big.any():
+            i = np.unravel_index(int(np.argmax(big)), a.shape)
+            raise ValueError(f"{name} holds {int(big.sum())} finite value(s) beyond float32's range "
+                             f"(|x| > {_FLOAT32_MAX:.3g}; the filters compute in float32), first at "
+                             f"{tuple(int(k) for k in i)}: {float(a[i])!r}")
     return np.ascontiguousarray(a, dtype=np.float32)
 
 
 def _check_guide(depth, normal) -> tuple[np.ndarray, np.ndarray]:
     """Validate the G-buffer guide; return float32 C-contiguous copies."""
-    depth = _float_array("depth", depth, 2)
+    depth = _float_array("depth", depth, 2, in_float32=True)       # else a surface became background
     normal = _float_array("normal", normal, 3)
     H, W = depth.shape
     if H < 1 or W < 1:
@@ -186,6 +196,8 @@ def _upsample_params(ao_low, depth, scale, radius, sigma_spatial, sigma_depth, s
     sn = _positive("sigma_normal", sigma_normal)
     if isinstance(fill, bool) or not isinstance(fill, numbers.Real) or not math.isfinite(fill):
         raise ValueError(f"fill must be a finite number, got {fill!r}")
+    if abs(float(fill)) > _FLOAT32_MAX:
+        raise ValueError(f"fill must lie within float32's range (|fill| <= {_FLOAT32_MAX:.3g}), got {fill!r}")
     _check_values("ao_low", ao_low, np.isfinite(depth[::scale, ::scale]))
     return ao_low, scale, radius, ss, sz, sn, float(fill)
 

@@ -12,14 +12,16 @@ vertex in view nearer than that is refused rather than cut away.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pyopencl as cl
 import trimesh
 
 from . import _cl
-from ._validate import check_transform
+from ._validate import FLOAT32_MAX, check_transform
 from .camera import Camera, points_on_rays
-from .mesh import float32_unit, load_mesh
+from .mesh import check_mesh, float32_unit, load_mesh
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
 
@@ -95,13 +97,25 @@ def gbuffer_triangles(items, camera: Camera):
             raise ValueError(f"item {oid} must be a (mesh, 4x4 transform) pair") from None
         if not isinstance(mesh, trimesh.Trimesh):
             mesh = load_mesh(mesh)
+        else:                   # a mesh object is used as it is: NaN vertices or stray faces would drop triangles
+            check_mesh(mesh, f"item {oid}")
         T = check_transform(T, name=f"transform of item {oid}")
         v = np.asarray(mesh.vertices, dtype=np.float64)
-        w = v @ T[:3, :3].T + T[:3, 3]
-        c = (w - camera.eye) @ R.T
+        with np.errstate(over="ignore", invalid="ignore"):
+            w = v @ T[:3, :3].T + T[:3, 3]
+            c = (w - camera.eye) @ R.T
+        if not np.isfinite(np.add.reduce(c, axis=None)) and not np.isfinite(c).all():
+            raise ValueError(f"item {oid}: its transform places vertices beyond float64's range from the camera "
+                             f"(largest |vertex| {float(np.abs(v).max()):.3g}, transform scale up to "
+                             f"{float(np.abs(T[:3, :3]).max()):.3g})")
         if len(c) and not _outside_view(c, tx, ty):    # an item wholly outside the view sets no near plane
             far = max(far, float(np.abs(c).max()))
         per.append((c, np.asarray(mesh.faces), oid))
+    reach = float(np.abs(camera.eye).max()) + math.sqrt(3.0) * far
+    if not reach <= FLOAT32_MAX:        # the G-buffer's depths and positions are float32
+        raise ValueError(f"render_gbuffer: the geometry in view lies up to {reach:.3g} from the world origin "
+                         f"(eye {camera.eye.tolist()}, farthest geometry in view {far:.3g} from it); the G-buffer's "
+                         f"float32 depths and positions hold at most {FLOAT32_MAX:.3g}")
     near = max(far * 1e-6, 1e-30)
     for c, _, oid in per:       # a vertex in view nearer than the near plane: its triangles would be cut
         z = c[:, 2]

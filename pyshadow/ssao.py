@@ -31,9 +31,12 @@ threshold).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from . import _cl
+from ._validate import FLOAT32_MAX
 from .sampling import MAX_SAMPLES, Sampling, direction_table, pattern_indices, sample_directions
 
 __all__ = ["screen_space_ao", "screen_space_ao_reference", "view_depth"]
@@ -45,6 +48,9 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
 
     if not isinstance(camera, Camera):
         raise TypeError(f"camera must be a pyshadow.Camera, got {camera!r}")
+    if not isinstance(gbuffer, Mapping):
+        raise TypeError(f"gbuffer must be a mapping with 'depth' and 'normal' (render_gbuffer's dict or a Frame), "
+                        f"got {type(gbuffer).__name__}")
     H, W = camera.height, camera.width
     for key, shape in (("depth", (H, W)), ("normal", (H, W, 3))):
         if key not in gbuffer:
@@ -59,14 +65,30 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
         raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
         raise ValueError(f"samples must be an int in 1..{MAX_SAMPLES}, got {samples!r}")
-    bias = 0.02 * radius if bias is None else float(bias)
+    if bias is not None:
+        try:
+            bias = float(bias)
+        except (TypeError, ValueError):
+            raise TypeError(f"bias must be a number (world units) or None, got {bias!r}") from None
+    bias = 0.02 * radius if bias is None else bias
     if not (np.isfinite(bias) and bias >= 0):
         raise ValueError(f"bias must be finite and >= 0 (world units), got {bias}")
+    for name, v in (("radius", radius), ("bias", bias)):        # the kernel reads them as float32
+        if v > FLOAT32_MAX:
+            raise ValueError(f"{name} must be at most {FLOAT32_MAX:.3g} (float32's range; world units), got {v:g}")
+    if not isinstance(range_check, (bool, np.bool_)):
+        raise TypeError(f"range_check must be a bool, got {range_check!r}")
     depth = np.asarray(gbuffer["depth"], np.float64).reshape(-1)
     normal = np.asarray(gbuffer["normal"], np.float64).reshape(-1, 3)
     hit = np.isfinite(depth)
+    odd = np.isnan(depth) | (depth == -np.inf)
+    if odd.any():
+        raise ValueError(f"gbuffer['depth'] holds {int(odd.sum())} NaN or -inf value(s); use +inf for the background")
     if (depth[hit] <= 0).any():
         raise ValueError("gbuffer['depth'] must be > 0 where finite (distance from the eye)")
+    if hit.any() and float(depth[hit].max()) > FLOAT32_MAX:
+        raise ValueError(f"gbuffer['depth'] holds distances beyond float32's range (up to "
+                         f"{float(depth[hit].max()):.3g}; the kernel reads at most {FLOAT32_MAX:.3g})")
     length = np.linalg.norm(normal[hit], axis=1)
     if not (np.isfinite(length).all() and (length > 1e-6).all()):
         raise ValueError("gbuffer['normal'] must be finite and non-zero wherever depth is finite")
@@ -76,7 +98,7 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
     n[hit] = normal[hit] / length[:, None]
     n[~hit] = (0.0, 1.0, 0.0)
     return (rel.astype(np.float32), n.astype(np.float32), view_depth(gbuffer, camera).reshape(-1), radius,
-            Sampling(int(samples), seed=int(seed)), np.float32(bias),
+            Sampling(int(samples), seed=seed), np.float32(bias),
             np.float32(radius if range_check else np.inf))
 
 

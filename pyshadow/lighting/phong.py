@@ -188,8 +188,14 @@ class PhongLighting:
 
 
 def _unit(v):
-    """Rows of ``v`` scaled to unit length (zero rows stay zero)."""
-    d = np.linalg.norm(v, axis=-1, keepdims=True)
+    """Rows of ``v`` scaled to unit length (zero rows stay zero); a row whose squared length leaves
+    float64's range (a light or eye beyond about 1e154) is divided by its largest component first."""
+    with np.errstate(over="ignore"):
+        d = np.linalg.norm(v, axis=-1, keepdims=True)
+    far = ~(d < np.inf)
+    if far.any():
+        v = np.where(far, v / np.abs(v).max(axis=-1, keepdims=True), v)
+        d = np.where(far, np.linalg.norm(v, axis=-1, keepdims=True), d)
     return v / np.where(d > 0, d, 1.0)
 
 
@@ -218,7 +224,7 @@ def light_terms(points, normals, eye, light_position, exponent: float):
     e = _unit(np.asarray(eye, np.float64) - points)
     nl = np.einsum("ij,ij->i", normals, l)
     r = 2.0 * nl[:, None] * normals - l
-    er = np.maximum(np.einsum("ij,ij->i", e, r), 0.0)
+    er = np.clip(np.einsum("ij,ij->i", e, r), 0.0, 1.0)     # a rounded e . r above 1 would overflow ^p
     spec = np.where(nl > 0, er ** exponent, 0.0)
     return np.maximum(nl, 0.0), spec
 
@@ -237,11 +243,44 @@ def phong_colour(lighting: PhongLighting, albedo, ambient_factor, light_visibili
             + v * cl * lighting.specular[None, :] * np.asarray(spec, np.float64)[:, None])
 
 
+def _rows_and_lengths(v):
+    """``(v, |v|)`` of (N, 3) rows; a row whose squared length overflows (a light beyond about 1e154) is
+    divided by its largest component and its length taken from that (the shadow rays' direction and
+    ``max_distance`` then stay finite)."""
+    with np.errstate(over="ignore"):
+        d = np.linalg.norm(v, axis=1)
+    far = ~(d < np.inf)
+    if far.any():
+        v = v.copy()
+        big = np.abs(v[far]).max(axis=1)
+        v[far] /= big[:, None]
+        d[far] = big * np.linalg.norm(v[far], axis=1)
+    return v, d
+
+
+def _point_albedo(albedo, n: int) -> np.ndarray:
+    """``phong_shade``'s ``albedo=``: a scalar, an RGB triple or (n, 3) values in [0, 1], as (n, 3) float64."""
+    try:
+        a = np.asarray(albedo, np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape not in ((), (3,), (n, 3)):
+        raise ValueError(f"albedo: expected a scalar, an RGB triple or ({n}, 3) values (got "
+                         f"{'shape ' + str(a.shape) if a is not None else repr(albedo)})")
+    bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
+    if bad.any():
+        raise ValueError(f"albedo: must be finite and lie in [0, 1] per channel ({int(bad.sum())} value(s) do not, "
+                         f"e.g. {float(a[bad][0])!r})" if a.ndim else f"albedo: must be finite and lie in [0, 1] "
+                         f"(got {float(a)!r})")
+    return np.broadcast_to(a, (n, 3))
+
+
 def _check_light_off_surfaces(scene, p, position):
     """Refuse a light at a query point or on the ground plane (its direction is undefined there)."""
     tol = 1e-9 * max(1.0, float(np.abs(position).max()))
     if len(p):
-        d = np.linalg.norm(position - p, axis=1)
+        with np.errstate(over="ignore"):        # a light beyond about 1e154: inf, far from every point
+            d = np.linalg.norm(position - p, axis=1)
         if d.min() <= tol:
             i = int(np.argmin(d))
             raise ValueError(f"light lies on a surface: point {i} is at the light (distance {d[i]:.3g}); "
@@ -317,7 +356,10 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     p = rows3(points, "points")
     n = len(p)
     nrm = unit_normals(normals, n)
-    eye = np.asarray(eye, np.float64)
+    try:
+        eye = np.asarray(eye, np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})") from None
     if eye.shape != (3,) or not np.isfinite(eye).all():
         raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})")
     _check_light_off_surfaces(scene, p, lighting.position)
@@ -327,16 +369,14 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         a = np.asarray(ao, np.float64)
         if a.shape != (n,) or not np.isfinite(a).all() or (a < 0).any() or (a > 1).any():
             raise ValueError(f"ao: expected ({n},) values in [0, 1] (got shape {a.shape})")
-    c_r = lighting.albedo_of(surface_ids, n) if albedo is None else np.broadcast_to(
-        np.asarray(albedo, np.float64), (n, 3))
+    c_r = lighting.albedo_of(surface_ids, n) if albedo is None else _point_albedo(albedo, n)
     geo = None if geometric_normals is None else unit_normals(geometric_normals, n, "geometric_normals")
     if terms is None:
         diffuse, spec = light_terms(p, nrm, eye, lighting.position, lighting.exponent)
     else:
         diffuse, spec = (np.asarray(t, np.float64).reshape(n) for t in terms)
     ids = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
-    to_light = lighting.position - p
-    dist = np.linalg.norm(to_light, axis=1)
+    to_light, dist = _rows_and_lengths(lighting.position - p)
     facing = np.einsum("ij,ij->i", nrm, to_light) > 0
     if geo is not None:
         facing &= np.einsum("ij,ij->i", geo, to_light) > 0

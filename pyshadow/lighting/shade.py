@@ -87,7 +87,10 @@ MAX_SUN_RADIUS = math.pi / 4
 
 
 def _albedo(a, name: str) -> np.ndarray:
-    v = np.asarray(a, dtype=np.float64) if not isinstance(a, (str, bytes)) else None
+    try:
+        v = np.asarray(a, dtype=np.float64) if not isinstance(a, (str, bytes)) else None
+    except (TypeError, ValueError):
+        v = None
     if v is None or v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB albedo of shape (3,) or a scalar (got {a!r})")
     v = np.broadcast_to(v, (3,)).copy()
@@ -358,6 +361,9 @@ def sky_radiance(lighting: Lighting, ao, bent_normals, albedo) -> np.ndarray:
     if a.shape != (n,) or b.shape != (n, 3) or alb.shape != (n, 3):
         raise ValueError(f"sky_radiance: ao (N,), bent_normals (N, 3) and albedo (N, 3) must agree "
                          f"(got {a.shape}, {b.shape}, {alb.shape})")
+    for what, x in (("ao", a), ("bent_normals", b), ("albedo", alb)):
+        if not np.isfinite(x).all():            # NaN radiance otherwise
+            raise ValueError(f"sky_radiance: {what} holds {int((~np.isfinite(x)).sum())} non-finite value(s)")
     if n == 0:
         return np.zeros((0, 3))
     e = np.maximum(_irradiance(np.asarray(lighting.sh, dtype=np.float64), b), 0.0)   # zero bent rows: band 0

@@ -69,7 +69,7 @@ import numpy as np
 import pyopencl as cl
 
 from .. import _cl
-from .._validate import check_both, check_values, kernel_rows
+from .._validate import FLOAT32_MAX, check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
 from ..scene_arrays import scene_arrays
 
@@ -106,8 +106,10 @@ def _check_bias(bias, name="bias"):
         b = float(bias)
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}") from None
-    if not (np.isfinite(b) and b >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}")
+    if not (np.isfinite(b) and 0 <= b <= FLOAT32_MAX):
+        raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}"
+                         + (f" (beyond float32's range, {FLOAT32_MAX:.3g}: the kernel reads it as float32)"
+                            if b > FLOAT32_MAX else ""))
     return b
 
 
@@ -141,7 +143,9 @@ def light_of_rays(points, directions, max_distance=None, scale=1.0):
         longest ray plus ``scale``; a mix of bounded and unbounded rays.
     """
     if max_distance is None or np.isinf(max_distance).all():
-        w = directions.mean(axis=0)
+        w, ref = directions.mean(axis=0), "their mean"
+        if not np.linalg.norm(w) > 0.5:     # far from one direction (unit rows within LIGHT_TOL: about 1)
+            w, ref = directions[0].copy(), "ray 0's direction"
         w /= np.linalg.norm(w)
         cos = directions @ w                # unit rows: the angle to the mean is below LIGHT_TOL
         if not cos.min() >= 1.0 - 0.5 * LIGHT_TOL ** 2:
@@ -149,7 +153,7 @@ def light_of_rays(points, directions, max_distance=None, scale=1.0):
             raise ValueError(f"a shadow map answers the rays of one light: unbounded rays must share one "
                              f"direction (a directional light), but ray {i}'s direction "
                              f"{np.round(directions[i], 6).tolist()} lies "
-                             f"{float(np.arccos(np.clip(cos[i], -1, 1))):.3g} rad from their mean "
+                             f"{float(np.arccos(np.clip(cos[i], -1, 1))):.3g} rad from {ref} "
                              f"{np.round(w, 6).tolist()} (> {LIGHT_TOL})")
         return "directional", w
     if not np.isfinite(max_distance).all():
@@ -185,8 +189,9 @@ _CUBE_FACES = (((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 1, 0), (0, 
 def _cube_cameras(position, resolution):
     from ..camera import Camera
 
-    return [Camera(position, np.asarray(position) + f, up=u, fov_y=90.0, width=resolution, height=resolution)
-            for f, u in _CUBE_FACES]
+    s = max(1.0, float(np.abs(position).max()))       # a target that differs from position along f alone
+    return [Camera(position, np.asarray(position) + s * np.asarray(f, np.float64), up=u, fov_y=90.0,
+                   width=resolution, height=resolution) for f, u in _CUBE_FACES]
 
 
 def _ortho_frame(scene, casters, direction, R):
@@ -347,10 +352,9 @@ class ShadowMapVisibility:
         w = kernel_rows(directions, "directions", len(p))
         check_both(p, "points", w, "directions")
         n = len(p)
-        m = None                        # the receiver-plane rule needs the normals' directions only
-        if normals is not None:
-            m = kernel_rows(normals, "normals", n)
-            check_values(m, "normals", nonzero=True)
+        m = None                        # the receiver-plane rule needs the normals' directions only: unit
+        if normals is not None:         # rows (float32 keeps none of a length below 1e-45 or above 3e38)
+            m = unit_normals(normals, n, "normals")
         scene.caster_slots(surface_ids, n)
         tmax = check_max_distance(max_distance, n)
         check_straddle(straddle)

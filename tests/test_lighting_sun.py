@@ -163,3 +163,55 @@ def test_sky_height_that_is_no_number_is_named(height):
         overcast_sky(height=height)
     assert str(e.value) == (f"height: must be an even integer >= 4, so that the horizon is a row boundary "
                             f"(got {height!r})")
+
+
+def _cap_coverage_map(env, d, r, n=400_000):
+    """The disc's exact share of every texel, independently of add_sun_disc: n sunflower points,
+    uniform in solid angle over the cap, each Omega_disc / n into the texel it falls in."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = unit(np.cross(d, a))
+    e2 = np.cross(d, e1)
+    j = np.arange(n)
+    u = (j + 0.5) / n * (2.0 * math.sin(0.5 * r) ** 2)                 # 1 - cos(rho)
+    ph = 2.0 * math.pi * np.mod(j * (math.sqrt(5.0) - 1.0) / 2.0, 1.0)
+    s = np.sqrt(u * (2.0 - u))
+    p = (1.0 - u)[:, None] * d + (s * np.cos(ph))[:, None] * e1 + (s * np.sin(ph))[:, None] * e2
+    idx = env.texel_index(p / np.linalg.norm(p, axis=1, keepdims=True))
+    cov = np.bincount(idx, minlength=int(np.prod(env.grid_shape))) * (disc_solid_angle(r) / n)
+    val = cov / env.solid_angles().reshape(-1)
+    return env.with_radiance(np.repeat(val[:, None], 3, axis=1).reshape(env.radiance.shape))
+
+
+@pytest.mark.parametrize("height", [16, 32])
+@pytest.mark.parametrize("angle", [1e-4, 1e-3])
+def test_sun_just_off_the_zenith_goes_where_the_disc_is(height, angle):
+    """A sun 1e-4 or 1e-3 rad off the zenith fell between the sub-samples (even in cos theta, so
+    sparse in angle near a pole) and went whole into the nearest one's texel, half a pitch off:
+    at height 16 the walls got up to 0.065 (1e-4) / 0.053 (1e-3) of the sun's normal irradiance
+    E_n more or less than the disc's own texel shares give, and clear_sky lit +x with 33736 lux
+    and -x with 21328. The disc is now integrated itself (exactly in polar angle)."""
+    env = EnvironmentMap(np.zeros((height, 2 * height, 3)))
+    d = unit([math.sin(angle) * math.cos(0.3), math.cos(angle), math.sin(angle) * math.sin(0.3)])
+    walls = [[1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1], [0, 1, 0]]
+    e = add_sun_disc(env, d, np.ones(3)).irradiance(walls)[:, 0]
+    en = disc_solid_angle(SUN_ANGULAR_RADIUS)
+    # 1. the exact reference for a map of texels: the disc's share of each texel (400 000 points;
+    #    the two agree to 7e-7 E_n; 1e-4 E_n leaves room for either's quadrature; the old code
+    #    was 0.025 to 0.065 E_n off).
+    ref = _cap_coverage_map(env, d, SUN_ANGULAR_RADIUS).irradiance(walls)[:, 0]
+    assert np.abs(e - ref).max() <= 1e-4 * en, (e - ref) / en
+    # 2. opposite walls: their difference is the first moment of the added radiance. A texel holds
+    #    its share spread over itself; the top row's wedges have their mean direction (2/3) pitch
+    #    from the pole, and a disc a off the pole puts 1 + 2 (a / r) cos(phi - phi_0) times the
+    #    even share into the wedge at phi, so the walls differ by (2/3) pitch (a / r) E_n to first
+    #    order in a / r (the continuous disc: a E_n, 28 (h = 16) and 14 (h = 32) times less; no
+    #    map of whole texels can hold less; found: 0.987 to 0.998 of it); the old code: 0.13 E_n
+    #    at h = 16 whatever a, 4.6 to 46 times the bound.
+    first_moment = (2.0 / 3.0) * env.pitch * angle / SUN_ANGULAR_RADIUS * en
+    diff = math.hypot(e[0] - e[1], e[2] - e[3])
+    assert diff <= 1.05 * first_moment, (diff / en, first_moment / en)
+    if angle == 1e-3:
+        sky = clear_sky(unit([angle, 1.0, 0.0]), height=height)
+        lux = sky.irradiance(walls[:2]) @ LUMINANCE_WEIGHTS
+        e_sun = LUMINANCE_WEIGHTS @ sun_irradiance(unit([angle, 1.0, 0.0]))
+        assert abs(lux[0] - lux[1]) <= 1.05 * first_moment / en * e_sun, lux

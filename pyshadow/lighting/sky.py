@@ -16,10 +16,14 @@ The sun disc
 :data:`SUN_ANGULAR_RADIUS` = asin(695 700 km / 1 au) = 0.0046505 rad
 (0.26645 degrees; thesis 001, eq. 3.1 gets 0.00465 rad from atan with a
 rounder solar diameter). The disc is drawn with its exact energy: texels
-it covers get ``L_disc * coverage``, coverage found by sub-sampling each
-texel and scaled so that ``sum(coverage * Omega) = 2 pi (1 - cos r)``
-exactly; a disc smaller than a texel is therefore blurred over one to four
-texels, never lost or brightened.
+it covers get ``L_disc * coverage``, coverage the fraction of the texel
+inside the disc, found from the disc itself (on lat-long maps integrated
+exactly in polar angle, so also where the texels converge at a pole) and
+scaled so that ``sum(coverage * Omega) = 2 pi (1 - cos r)`` exactly; a disc
+smaller than a texel is therefore spread over the texels it overlaps (one
+to four, or the whole first row around the zenith), never lost or
+brightened. Each texel holds its share spread over its whole extent, so a
+map places a sub-texel sun only to within its texels' size.
 """
 from __future__ import annotations
 
@@ -310,32 +314,159 @@ def overcast_sky(horizontal_illuminance: float = 10_000.0, *, height: int = 128,
 
 
 def _subsamples(env: EnvironmentMap, flat: np.ndarray, k: int):
-    """k x k sub-sample directions (M, k*k, 3) and weights (M, k*k) summing to each texel's Omega."""
+    """k x k sub-sample directions (M, k*k, 3) and weights (M, k*k) summing to each cube texel's Omega."""
+    from .cube import FACE_FRAMES
     f = (np.arange(k) + 0.5) / k
-    if env.layout == "latlong":
-        h, w = env.grid_shape
-        i, j = np.divmod(flat, w)
-        u0, u1 = np.cos(math.pi * i / h), np.cos(math.pi * (i + 1) / h)
-        uu = u0[:, None] + (u1 - u0)[:, None] * f[None, :]            # equal-area in cos(theta)
-        ph = 2.0 * math.pi * (j[:, None] + f[None, :]) / w
-        U, P = uu[:, :, None], ph[:, None, :]
-        S = np.sqrt(np.clip(1.0 - U * U, 0.0, None))
-        d = np.stack(np.broadcast_arrays(S * np.cos(P), U, S * np.sin(P)), axis=-1).reshape(len(flat), -1, 3)
-        wts = np.full(d.shape[:2], 1.0)
-    else:
-        from .cube import FACE_FRAMES
-        n = env.grid_shape[1]
-        fc, rem = np.divmod(flat, n * n)
-        i, j = np.divmod(rem, n)
-        s = 2.0 * (j[:, None] + f[None, :]) / n - 1.0
-        t = 2.0 * (i[:, None] + f[None, :]) / n - 1.0
-        Sg, Tg = s[:, None, :], t[:, :, None]
-        c, r, dn = (FACE_FRAMES[fc, q][:, None, None, :] for q in range(3))
-        d = c + Sg[..., None] * r + Tg[..., None] * dn
-        wts = (1.0 / (1.0 + Sg * Sg + Tg * Tg) ** 1.5).reshape(len(flat), -1)
-        d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(len(flat), -1, 3)
+    n = env.grid_shape[1]
+    fc, rem = np.divmod(flat, n * n)
+    i, j = np.divmod(rem, n)
+    s = 2.0 * (j[:, None] + f[None, :]) / n - 1.0
+    t = 2.0 * (i[:, None] + f[None, :]) / n - 1.0
+    Sg, Tg = s[:, None, :], t[:, :, None]
+    c, r, dn = (FACE_FRAMES[fc, q][:, None, None, :] for q in range(3))
+    d = c + Sg[..., None] * r + Tg[..., None] * dn
+    wts = (1.0 / (1.0 + Sg * Sg + Tg * Tg) ** 1.5).reshape(len(flat), -1)
+    d = (d / np.linalg.norm(d, axis=-1, keepdims=True)).reshape(len(flat), -1, 3)
     om = env.solid_angles().reshape(-1)[flat]
     return d, wts * (om / wts.sum(axis=1))[:, None]
+
+
+#: Resolution of the disc's own sampling: on lat-long maps at least this many azimuth nodes per
+#: column (the polar angle is integrated exactly); on cubes points this many per disc radius or
+#: per width of the narrowest texel, whichever is less (twice that along the rim).
+_PER_TEXEL = 8
+#: Fewest azimuth nodes over a disc on a lat-long map (its rim is a square-root profile in azimuth).
+_MIN_NODES = 64
+
+
+def _sin_gap(a, b):
+    """cos a - cos b (= 2 sin((a + b) / 2) sin((b - a) / 2), exact for a close to b) for
+    0 <= a <= b <= pi; 0 where rounding put a row edge a hair past the end it bounds."""
+    return np.maximum(2.0 * np.sin(0.5 * (a + b)) * np.sin(0.5 * (b - a)), 0.0)
+
+
+def _latlong_coverage(h: int, w: int, d: np.ndarray, r: float):
+    """Solid angle of the cap (centre ``d``, radius ``r``) in each texel of an h x w lat-long map.
+
+    The cap is integrated over azimuth at nodes ``phi`` and exactly over polar angle: the meridian
+    at ``phi`` crosses the cap in one arc ``|theta - alpha| <= beta`` (``alpha`` the foot of ``d``
+    on the meridian's great circle, ``cos r = cos delta cos beta`` with ``delta`` the distance of
+    ``d`` from that circle), which is cut at the row boundaries in closed form. Nothing depends on
+    how narrow the texels get towards a pole: a cap around a pole crosses every meridian, and the
+    nodes are then ``_PER_TEXEL`` per column, the same in every column. Otherwise the nodes span
+    the cap's azimuths ``phi_c +- D``, ``D = asin(sin r / sin theta_c)``, as ``phi = phi_c + D sin t``
+    (no square-root end points), ``t`` evenly spaced within each column's piece, at least
+    ``_PER_TEXEL`` per column and ``_MIN_NODES`` over the cap.
+
+    Returns flat texel indices and the sr of the cap in each (summing to the cap's solid angle
+    up to the azimuth quadrature's error).
+    """
+    th_c = math.atan2(math.hypot(d[0], d[2]), d[1])
+    ph_c = math.atan2(d[2], d[0])
+    col = 2.0 * math.pi / w
+    if th_c <= r or th_c >= math.pi - r:                      # around a pole: every meridian
+        n = max(_MIN_NODES, _PER_TEXEL * w)
+        phi = (np.arange(n) + 0.5) * (2.0 * math.pi / n)
+        dphi = np.full(n, 2.0 * math.pi / n)
+    else:
+        D = math.asin(min(1.0, math.sin(r) / math.sin(th_c)))
+        n = max(_MIN_NODES, math.ceil(_PER_TEXEL * math.pi * D / col))   # node gap <= column / _PER_TEXEL
+        # pieces of t between the column edges the cap spans, so that no node straddles one
+        k = np.arange(math.floor((ph_c - D) / col) + 1, math.ceil((ph_c + D) / col))
+        edges = np.unique(np.concatenate([[-0.5 * math.pi, 0.5 * math.pi],
+                                          np.arcsin(np.clip((k * col - ph_c) / D, -1.0, 1.0))]))
+        size = np.diff(edges)
+        m = np.maximum(2, np.ceil(n * size / math.pi)).astype(np.int64)
+        piece = np.repeat(np.arange(len(size)), m)
+        step = (size / m)[piece]
+        t = edges[piece] + (np.arange(len(piece)) - np.repeat(np.cumsum(m) - m, m) + 0.5) * step
+        phi = ph_c + D * np.sin(t)
+        dphi = D * np.cos(t) * step
+    cp, sp = np.cos(phi), np.sin(phi)
+    sin_delta = np.minimum(np.abs(d[2] * cp - d[0] * sp), 1.0)   # d . (meridian plane's normal)
+    half_delta = 0.5 * np.arcsin(sin_delta)
+    q = (math.sin(0.5 * r) ** 2 - np.sin(half_delta) ** 2) / np.cos(2.0 * half_delta)
+    beta = 2.0 * np.arcsin(np.sqrt(np.clip(q, 0.0, 1.0)))
+    alpha = np.arctan2(d[0] * cp + d[2] * sp, d[1])
+    jcol = np.floor(np.mod(phi, 2.0 * math.pi) / col).astype(np.int64) % w
+    u = np.cos(np.linspace(0.0, math.pi, h + 1))              # row edges, as latlong_solid_angles
+    u[0], u[-1] = 1.0, -1.0
+    idx, val, inner = [], [], []
+    # the arc, and its part past the meridian's end at the antipode (alpha - beta < -pi)
+    for shift in (0.0, 2.0 * math.pi):
+        a = np.clip(alpha - beta + shift, 0.0, math.pi)
+        b = np.clip(alpha + beta + shift, 0.0, math.pi)
+        ok = b > a
+        a, b, j, wt = a[ok], b[ok], jcol[ok], dphi[ok]
+        ia = np.minimum((a * (h / math.pi)).astype(np.int64), h - 1)
+        ib = np.minimum((b * (h / math.pi)).astype(np.int64), h - 1)
+        one, two = ia == ib, ia != ib
+        idx += [ia[one] * w + j[one], ia[two] * w + j[two], ib[two] * w + j[two]]
+        val += [wt[one] * _sin_gap(a[one], b[one]),
+                wt[two] * _sin_gap(a[two], (ia[two] + 1) * (math.pi / h)),
+                wt[two] * _sin_gap(ib[two] * (math.pi / h), b[two])]
+        inner.append((ia[two] + 1, ib[two], j[two], wt[two]))     # whole rows ia + 1 .. ib - 1
+    first = min((int(x[0].min()) for x in inner if len(x[0])), default=0)
+    last = max((int(x[1].max()) for x in inner if len(x[1])), default=0)
+    if last > first:
+        acc = np.zeros((last - first + 1, w))
+        cnt = np.zeros(acc.shape, np.int64)                   # exact: where no arc is, 0 (no residue)
+        for i0, i1, j, wt in inner:
+            np.add.at(acc, (i0 - first, j), wt)
+            np.add.at(acc, (i1 - first, j), -wt)
+            np.add.at(cnt, (i0 - first, j), 1)
+            np.add.at(cnt, (i1 - first, j), -1)
+        run = np.where(np.cumsum(cnt[:-1], axis=0) > 0, np.maximum(np.cumsum(acc[:-1], axis=0), 0.0), 0.0)
+        rows = run * (u[first:last] - u[first + 1:last + 1])[:, None]
+        ri, rj = np.nonzero(rows)
+        idx.append((ri + first) * w + rj)
+        val.append(rows[ri, rj])
+    return _group(np.concatenate(idx), np.concatenate(val))
+
+
+def _group(flat, v):
+    """Unique indices and the sums of ``v`` over each."""
+    uniq, inv = np.unique(flat, return_inverse=True)
+    return uniq, np.bincount(inv, weights=v, minlength=len(uniq))
+
+
+def _cap_points(d: np.ndarray, r: float, rings: int) -> np.ndarray:
+    """Points of equal solid angle over the cap: ``rings`` rings even in ``1 - cos rho``, each with
+    ``4 ceil(pi rings)`` azimuths (spacing at the rim about equal along and across the rim), the
+    pattern's axes along the cap's tangent frame (so a cap centred on a cube face's centre, a
+    corner of four texels, gives the four their exact quarters)."""
+    n_az = 4 * math.ceil(math.pi * rings)
+    one_minus_cos = (np.arange(rings) + 0.5) * (2.0 * math.sin(0.5 * r) ** 2 / rings)
+    cos_rho = 1.0 - one_minus_cos
+    sin_rho = np.sqrt(one_minus_cos * (2.0 - one_minus_cos))
+    psi = (np.arange(n_az) + 0.5) * (2.0 * math.pi / n_az)
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(d, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    pts = (cos_rho[:, None, None] * d + sin_rho[:, None, None]
+           * (np.cos(psi)[None, :, None] * e1 + np.sin(psi)[None, :, None] * e2)).reshape(-1, 3)
+    return pts / np.linalg.norm(pts, axis=1, keepdims=True)
+
+
+def _cube_coverage(env: EnvironmentMap, d: np.ndarray, r: float):
+    """Flat texel indices and the sr of the cap in each, for a cube map.
+
+    A cap narrower than two texel pitches is sampled itself (:func:`_cap_points`, equal shares,
+    each into the texel it falls in), with points ``_PER_TEXEL`` per radius and per width of the
+    narrowest texel (a face corner's, ``pitch / 3``). A wider cap: ``k x k`` sub-samples of each
+    texel near it, ``k >= 4`` (its texels are then much smaller than it).
+    """
+    p = env.pitch
+    if r < 2.0 * p:
+        rings = math.ceil(_PER_TEXEL * r / min(r, p / 3.0))
+        pts = _cap_points(d, r, rings)
+        return _group(env.texel_index(pts), np.full(len(pts), 1.0))
+    dirs = env.directions().reshape(-1, 3)
+    near = np.flatnonzero(dirs @ d >= math.cos(min(r + 1.5 * p, math.pi)))
+    k = int(min(64, max(4, math.ceil(6.0 * p / r))))
+    sub, wts = _subsamples(env, near, k)
+    return near, (wts * ((sub @ d) >= math.cos(r))).sum(axis=1)
 
 
 def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_ANGULAR_RADIUS
@@ -356,12 +487,16 @@ def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_A
     Returns
     -------
     EnvironmentMap
-        ``env`` plus ``radiance * coverage`` on every texel the disc touches;
+        ``env`` plus ``radiance * coverage`` on every texel the disc overlaps,
+        coverage the fraction of the texel's Omega inside the disc;
         ``sum(added * Omega) = radiance * disc_solid_angle(radius)`` to rounding.
-        A disc that no sub-sample falls in (narrower than their spacing, as
-        near a lat-long map's poles, where the texels converge) goes to the
-        sub-samples nearest its centre: at a pole, evenly to the whole first
-        (or last) row, not to one texel of it.
+        The coverage comes from the disc itself, not from points of the
+        texels, so a disc goes where it is however narrow the texels get
+        (near a lat-long map's poles): lat-long, integrated exactly in
+        polar angle and at azimuth nodes (:func:`_latlong_coverage`; a disc
+        at a pole covers the first or last row evenly); cube,
+        :func:`_cube_coverage`. The coverages are scaled to the disc's exact
+        solid angle (the quadrature's error, well below 1e-3, goes).
     """
     d = unit_direction(direction, "direction")
     r = in_range(radius, "radius", 1e-9, math.pi / 2)
@@ -370,21 +505,14 @@ def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_A
     L = np.asarray(radiance, dtype=np.float64)
     if L.shape != (3,) or not np.isfinite(L).all() or (L < 0).any():
         raise ValueError(f"radiance: expected 3 finite values >= 0 (got {L.tolist()})")
-    dirs = env.directions().reshape(-1, 3)
-    reach = r + 1.5 * env.pitch
-    near = np.flatnonzero(dirs @ d >= math.cos(min(reach, math.pi)))
-    near = np.union1d(near, env.texel_index(d[None, :]))
-    k = int(min(64, max(4, math.ceil(6.0 * env.pitch / r))))
-    sub, wts = _subsamples(env, near, k)
-    inside = (sub @ d) >= math.cos(r)
-    covered = (wts * inside).sum(axis=1)                     # sr of the disc in each texel
+    if env.layout == "latlong":
+        near, covered = _latlong_coverage(*env.grid_shape, d, r)
+    else:
+        near, covered = _cube_coverage(env, d, r)
     total = covered.sum()
-    omega_disc = disc_solid_angle(r)
-    if total == 0.0:                                         # narrower than a sub-sample: the nearest ones
-        chord = np.linalg.norm(sub - d, axis=-1)             # (ties: every texel around a pole alike)
-        covered = (wts * (chord <= chord.min() * (1.0 + 1e-9))).sum(axis=1)
-        total = covered.sum()
-    covered *= omega_disc / total
+    if not total > 0.0:                                      # cannot happen; keep the energy anyway
+        near, covered, total = env.texel_index(d[None, :]), np.ones(1), 1.0
+    covered = covered * (disc_solid_angle(r) / total)
     out = env.radiance.reshape(-1, 3).copy()
     om = env.solid_angles().reshape(-1)[near]
     out[near] += L[None, :] * (covered / om)[:, None]

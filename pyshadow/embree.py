@@ -305,7 +305,7 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     from .visibility.finite import check_max_distance
 
     p, w = _rays64(points, directions)
-    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    w = unit_normals(w, len(p), "directions")       # any length: scaled first where |w|^2 leaves float64
     tmax = check_max_distance(max_distance, len(p))
     groups = anchor_groups(scene, p)
     if len(groups) > 1:         # points far apart: each group's rays relative to an anchor of its own

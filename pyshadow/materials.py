@@ -16,13 +16,16 @@ The colour of a surface point (:func:`point_colours`) is the product of
 what its mesh has, as glTF defines a base colour: the barycentric
 interpolation of its face's corner colours, times the texture's bilinear
 sample at the interpolated UV (repeat wrap; ``v = 0`` is the image's
-bottom row), times the material's base colour factor. A lit render
+bottom row), times the material's base colour factor. UVs that are not
+finite (an OBJ's ``vt nan nan``) are kept by :func:`pyshadow.load_mesh`
+(the geometry, shadows and AO do not need them) and refused with a
+ValueError naming the source where the texture is applied. A lit render
 multiplies it by the instance's albedo (:class:`pyshadow.lighting.Lighting`'s
 ``albedo``/``albedos``); a mesh without a :class:`MeshVisual` contributes 1.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -47,17 +50,21 @@ class MeshVisual:
         The base-colour image, linear RGB, row 0 at the top (``v = 1``).
     factor : ndarray, shape (3,), float32
         Base colour factor (glTF ``baseColorFactor``), linear RGB; ones otherwise.
+    source : str
+        What the attributes were read from (the path :func:`pyshadow.load_mesh`
+        was given, or ``<Trimesh>``), named in errors.
     """
 
     colours: np.ndarray | None
     uv: np.ndarray | None
     texture: np.ndarray | None
     factor: np.ndarray
+    source: str = "mesh"
 
     def take(self, faces) -> "MeshVisual":
         """The attributes of the faces ``faces`` (index or boolean mask), in that order."""
         pick = (lambda a: None if a is None else np.ascontiguousarray(a[faces]))
-        return MeshVisual(pick(self.colours), pick(self.uv), self.texture, self.factor)
+        return replace(self, colours=pick(self.colours), uv=pick(self.uv))
 
     def with_fans(self, faces: np.ndarray, loops) -> "MeshVisual":
         """Extended by the fan faces :func:`pyshadow.mesh.close_holes` appends, in its order.
@@ -84,8 +91,7 @@ class MeshVisual:
                 centre = np.broadcast_to(at_a.mean(axis=0), at_a.shape)
                 parts[name].append(np.stack([at_b, at_a, centre], axis=1).astype(np.float32))
         grow = (lambda a, extra: a if a is None or not extra else np.concatenate([a, *extra]))
-        return MeshVisual(grow(self.colours, parts["colours"]), grow(self.uv, parts["uv"]), self.texture,
-                          self.factor)
+        return replace(self, colours=grow(self.colours, parts["colours"]), uv=grow(self.uv, parts["uv"]))
 
 
 def _linear(rgb8) -> np.ndarray:
@@ -120,7 +126,7 @@ def _placeholder(image) -> bool:
     return got.shape == blank.shape and bool(np.array_equal(got, blank))
 
 
-def mesh_visual(mesh) -> MeshVisual | None:
+def mesh_visual(mesh, source: str = "mesh") -> MeshVisual | None:
     """The :class:`MeshVisual` of a trimesh as loaded (before merging), or None if it has none.
 
     Parameters
@@ -131,6 +137,8 @@ def mesh_visual(mesh) -> MeshVisual | None:
         (and a material image or glTF ``COLOR_0`` colours). The uniform
         image trimesh makes up for UVs without a material file is not a
         texture (ignored).
+    source : str, optional
+        What it was read from (:attr:`MeshVisual.source`).
     """
     import trimesh
 
@@ -154,7 +162,7 @@ def mesh_visual(mesh) -> MeshVisual | None:
             colours = _linear(col)[faces]
     if colours is None and uv is None:
         return None
-    return MeshVisual(colours, uv, texture, factor)
+    return MeshVisual(colours, uv, texture, factor, str(source))
 
 
 def visual_of(mesh) -> MeshVisual | None:
@@ -216,13 +224,23 @@ def _bilinear(image, uv) -> np.ndarray:
             + fy * ((1 - fx) * img[i1, j0] + fx * img[i1, j1]))
 
 
+def _check_uv(visual: MeshVisual) -> None:
+    """ValueError naming ``visual.source`` if any of its UVs is not finite (the texture cannot be applied:
+    NaN colours; refused whatever faces are asked, so a render fails or not whatever it sees)."""
+    bad = int((~np.isfinite(visual.uv).all(axis=-1)).sum())
+    if bad:
+        raise ValueError(f"{visual.source}: {bad} of {visual.uv.shape[0] * 3} texture coordinates (UVs of face "
+                         "corners) are not finite (NaN or inf): its texture cannot be applied")
+
+
 def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
     """Linear RGB surface colour of points on a mesh, (N, 3) float64 (module docstring).
 
     Parameters
     ----------
     visual : MeshVisual or None
-        None: ones.
+        None: ones. With a texture its UVs must be finite (ValueError naming
+        its source otherwise).
     faces : ndarray, shape (N,), int
         Face index of each point.
     bary : ndarray, shape (N, 3)
@@ -236,6 +254,7 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
     if visual.colours is not None:
         out *= np.einsum("nk,nkc->nc", b, visual.colours[f].astype(np.float64))
     if visual.uv is not None and visual.texture is not None:
+        _check_uv(visual)
         uv = np.einsum("nk,nkc->nc", b, visual.uv[f].astype(np.float64))
         out *= _bilinear(visual.texture, uv)
     return out * visual.factor.astype(np.float64)

@@ -110,7 +110,9 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         :class:`pyshadow.materials.MeshVisual` in
         ``mesh.metadata["pyshadow_visual"]`` (linear RGB; absent when the
         source has none). Vertices, faces and :func:`mesh_hash` are the same
-        with or without them.
+        with or without them. UVs that are not finite are kept: only a
+        texture lookup needs them, and it refuses them
+        (:func:`pyshadow.materials.point_colours`).
 
     Raises
     ------
@@ -195,7 +197,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         raise ValueError(f"{label}: every face is degenerate (empty mesh after cleaning)")
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     mesh.remove_unreferenced_vertices()
-    visual = mesh_visual(source)          # per corner of the source's faces, which merging keeps in order
+    visual = mesh_visual(source, label)   # per corner of the source's faces, which merging keeps in order
     if visual is not None:
         mesh.metadata[VISUAL_KEY] = visual.take(kept)
     if fill_holes:

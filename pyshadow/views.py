@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import check_int, check_rows
+from ._validate import check_int, check_rows, unit_normals
 
 #: the row offsets of a zigzag grid (ViewSet.zigzag): 0.5 centred rows, 0 the thesis's grid
 ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
@@ -317,12 +317,9 @@ class ViewSet:
     @staticmethod
     def maps_for(layout: str, params: dict) -> int:
         """The map count of a zigzag or hilbert view set, from its parameters
-        alone (nothing is built: a file's header is checked with it first)."""
-        if layout == "zigzag":
-            return int(params["theta"]) * int(params["phi"])
-        if layout == "hilbert":
-            return 4 ** int(params["level"]) * (2 if params.get("hemispheres", False) else 1)
-        raise ValueError(f"unknown view-set layout {layout!r}")
+        alone (nothing is built: a file's header is checked with it first); ValueError as from_params."""
+        a = _layout_args(layout, params, "ViewSet.maps_for")
+        return int(a[0]) * int(a[1]) if layout == "zigzag" else 4 ** int(a[0]) * (2 if a[1] else 1)
 
     @classmethod
     def from_params(cls, layout: str, params: dict) -> "ViewSet":
@@ -501,14 +498,14 @@ def _built(cls, directions, bases, layout, params) -> ViewSet:
     return views
 
 
-def _layout_args(layout, params) -> tuple:
+def _layout_args(layout, params, caller="ViewSet.from_params") -> tuple:
     """The arguments of ViewSet.zigzag or ViewSet.hilbert in ``params``; ValueError for another layout or
-    naming the keys ``params`` lacks."""
+    naming the keys ``params`` lacks (the message starts with ``caller``)."""
     required, optional = _LAYOUT_PARAMS.get(layout, (None, None)) if isinstance(layout, str) else (None, None)
     if required is None:
         raise ValueError(f"unknown view-set layout {layout!r}")
     if missing := [k for k in required if k not in params]:
-        raise ValueError(f"ViewSet.from_params: {layout} parameters miss {', '.join(map(repr, missing))} (expected "
+        raise ValueError(f"{caller}: {layout} parameters miss {', '.join(map(repr, missing))} (expected "
                          f"{', '.join(map(repr, required))}; optional {', '.join(map(repr, optional))}), "
                          f"got {list(params)!r}")
     args = [params[k] for k in required] + [params.get(k, default) for k, default in optional.items()]
@@ -516,14 +513,14 @@ def _layout_args(layout, params) -> tuple:
 
 
 def _unit_rows(dirs, caller: str) -> np.ndarray:
-    """Directions (N, 3) (or one, (3,)) as (N, 3) float64, normalised; ValueError naming ``caller``
-    for another shape, non-finite or zero rows (TypeError for non-numeric ones)."""
+    """Directions (N, 3) (or one, (3,)) as (N, 3) float64, normalised (any length: unit_normals); ValueError
+    naming ``caller`` for another shape, non-finite or zero rows (TypeError for non-numeric ones)."""
     a = np.asarray(dirs)
     d = check_rows(a.reshape(1, 3) if a.shape == (3,) else a, f"{caller}: directions").astype(np.float64)
-    norm = np.linalg.norm(d, axis=1)
-    if not (np.isfinite(d).all() and (norm > 0).all()):
-        raise ValueError(f"{caller}: directions must be finite and non-zero")
-    return d / norm[:, None]
+    try:
+        return unit_normals(d, None, caller)
+    except ValueError:
+        raise ValueError(f"{caller}: directions must be finite and non-zero") from None
 
 
 def _check_frames(d, b):

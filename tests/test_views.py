@@ -476,10 +476,17 @@ def test_nearest_and_filter_window_refuse_other_shapes_clearly():
     ("spiral", {}, "unknown view-set layout 'spiral'"),
 ])
 def test_from_params_names_missing_parameters(layout, params, message):
-    """A missing key was a bare KeyError('phi')."""
+    """A missing key was a bare KeyError('phi'), in from_params and in maps_for (which checks a CSM file's
+    header): both name the keys now, each naming itself."""
     with pytest.raises(ValueError) as e:
         pyshadow.ViewSet.from_params(layout, params)
     assert str(e.value) == message
+    with pytest.raises(ValueError) as e:
+        pyshadow.ViewSet.maps_for(layout, params)
+    assert str(e.value) == message.replace("ViewSet.from_params:", "ViewSet.maps_for:")
+    assert [pyshadow.ViewSet.maps_for(*a) for a in [("zigzag", {"theta": 4, "phi": 6}), ("hilbert", {"level": 2}),
+            ("hilbert", {"level": 2, "hemispheres": True}), ("hilbert", {"level": 3, "hemispheres": False})]] \
+        == [24, 16, 32, 64]
     for views, layout, params in [(pyshadow.ViewSet.zigzag(4, 6), "zigzag", {"theta": 4, "phi": 6, "row_offset": 0.5}),
                                   (pyshadow.ViewSet.zigzag(4, 6, 0.0), "zigzag", {"theta": 4, "phi": 6}),
                                   (pyshadow.ViewSet.hilbert(2, True), "hilbert", {"level": 2, "hemispheres": True})]:

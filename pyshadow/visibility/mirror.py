@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_indices, nonzero, rows3, unit_normals
+from .._validate import check_indices, rows3, unit_normals
 from ..contact import ground_tolerance, occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
@@ -45,8 +45,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     p = rows3(points, "points")
-    w = nonzero(rows3(directions, "directions", len(p)), "directions")
-    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    w = unit_normals(directions, len(p), "directions")     # any length: huge or tiny rows scaled first
     own = scene.caster_slots(surface_ids, len(p), p)
     m = None if normals is None else unit_normals(normals, len(p))
     tmax = check_max_distance(max_distance, len(p))
@@ -193,8 +192,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     the CSM backends (:mod:`pyshadow.visibility.finite`), ray by ray.
     """
     p = rows3(points, "points")
-    n = nonzero(rows3(normals, "normals", len(p)), "normals")
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    n = unit_normals(normals, len(p))
     idx = check_indices(indices, len(p))
     S = sampling.samples
     if max_distance is not None or obscurance is not None:

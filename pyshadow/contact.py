@@ -35,6 +35,7 @@ import weakref
 
 import numpy as np
 
+from ._validate import check_rows
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -205,10 +206,12 @@ def ground_sheet_slots(scene, points, own):
     ndarray of int32, shape (N,)
         ``own`` itself where no point changes, else a changed copy.
     """
+    p = check_rows(points, "points")
+    if np.shape(own) != (len(p),):
+        raise ValueError(f"own must have shape ({len(p)},) (one caster slot per point), got {np.shape(own)}")
     found = sheets(scene) if len(own) else []
     if not found:
         return own
-    p = np.asarray(points)
     cand = np.flatnonzero((np.asarray(own) == -2)
                           & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= ground_tolerance(scene)))
     out = own
@@ -287,11 +290,11 @@ def contact_mask(scene, points):
         farther than that tolerance from the footprint's outline. None when
         the scene has no footprint (nothing to test).
     """
+    p = check_rows(points, "points")
     fps = _on_ground(scene, "contact", _footprint)     # footprints(scene), with the casters' slots
     if not fps:
         return None
     tol = ground_tolerance(scene)
-    p = np.asarray(points)
     mask = np.zeros(len(p), bool)
     cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= tol)
     if not len(cand):
@@ -312,6 +315,9 @@ def occlude_contacts(scene, points, directions, visible):
     or downwards keeps its answer (the ground plane's).
     """
     mask = contact_mask(scene, points)
+    if mask is not None and (np.shape(directions) != (len(mask), 3) or np.shape(visible) != (len(mask),)):
+        raise ValueError(f"directions (N, 3) and visible (N,) must match points' {len(mask)} rows, got "
+                         f"{np.shape(directions)} and {np.shape(visible)}")
     if mask is not None:
         visible[mask & (np.asarray(directions)[:, 1] > 0)] = False
     return visible

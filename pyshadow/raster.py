@@ -20,6 +20,7 @@ import trimesh
 
 from . import _cl
 from ._cl import launch
+from ._validate import check_int, squared_lengths
 from ._compat import keyword_only
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
@@ -42,7 +43,7 @@ def _check_resolution_layers(resolution, layers):
         raise TypeError(f"resolution must be an int, got {resolution!r}")
     if not 1 <= int(resolution) <= MAX_RESOLUTION:
         raise ValueError(f"resolution must be in 1..{MAX_RESOLUTION}, got {resolution}")
-    if isinstance(layers, bool) or layers not in (1, 2, 3):
+    if isinstance(layers, bool) or not isinstance(layers, (int, np.integer)) or layers not in (1, 2, 3):
         raise ValueError(f"layers must be 1, 2 or 3, got {layers!r}")
 
 
@@ -69,9 +70,28 @@ def _prepare_mesh(mesh, frame):
         raise ValueError("a face refers to a vertex that does not exist")
     if len(faces) >= 2**31 or len(verts) >= 2**31:
         raise ValueError("meshes beyond 2^31 faces or vertices are not supported")
-    centre, radius = frame if frame is not None else bounding_sphere(mesh)
+    centre, radius = check_frame(verts, frame) if frame is not None else bounding_sphere(mesh)
     vn = (verts - np.asarray(centre, dtype=np.float64)) / float(radius)
     return vn, faces.astype(np.int32)
+
+
+def check_frame(verts, frame):
+    """``frame = (centre, radius)`` as (3,) float64 and float: finite, radius > 0, every vertex within the
+    radius (else depths leave [0, 1] and geometry is clipped) -- the CSM build's rule."""
+    try:
+        centre, radius = frame
+        centre = np.asarray(centre, dtype=np.float64)
+        radius = float(radius)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"frame must be (centre, radius), got {frame!r}") from e
+    if centre.shape != (3,) or not np.isfinite(centre).all():
+        raise ValueError(f"frame: the centre must be 3 finite numbers, got {centre!r}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"frame: the radius must be finite and > 0, got {radius!r}")
+    far = float(np.sqrt(squared_lengths(verts - centre).max()))
+    if not far <= radius * (1 + 1e-6):
+        raise ValueError(f"frame: a vertex lies {far:.6g} from the centre, outside the radius {radius:.6g}")
+    return centre, radius
 
 
 def texel_rays(basis, resolution: int):
@@ -245,9 +265,7 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     D = len(views)
     if block is None:
         block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
-    block = int(block)
-    if block < 1:
-        raise ValueError(f"block must be >= 1, got {block}")
+    block = check_int(block, "block", 1)
     out = np.empty((D, renderer.layers, renderer.resolution, renderer.resolution), np.float32)
     buf = _cl.empty(min(block, D) * renderer.bytes_per_map)
     fout = np.empty(out.shape, np.uint8) if facing else None

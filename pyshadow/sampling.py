@@ -94,7 +94,7 @@ class Sampling:
 def check_sampling(samples, strategy, patterns):
     """Validate the sampling arguments shared by every AO entry point."""
     check_int(samples, "samples", 1, MAX_SAMPLES)
-    if strategy not in _CODES:
+    if not isinstance(strategy, str) or strategy not in _CODES:
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {', '.join(STRATEGIES)}")
     if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
         raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
@@ -171,7 +171,14 @@ def pattern_indices(indices, patterns: int, seed: int = 0) -> np.ndarray:
     ``seed`` as for :class:`Sampling` (0 .. 2**32 - 1).
     """
     check_seed(seed)
-    i = np.asarray(indices, dtype=np.uint64)
+    if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
+        raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+    a = np.asarray(indices)
+    if a.dtype.kind not in "iu":
+        raise TypeError(f"indices must be integers, got dtype {a.dtype}")
+    if a.dtype.kind == "i" and a.size and a.min() < 0:
+        raise ValueError("indices must be >= 0 and below 2**63")
+    i = a.astype(np.uint64)
     z = i + np.uint64((int(seed) * 0x9E3779B97F4A7C15 + 0x632BE59BD9B4E019) & 0xFFFFFFFFFFFFFFFF)
     with np.errstate(over="ignore"):
         z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
@@ -343,6 +350,11 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         The normalised sum of the visible directions (only with
         ``return_bent_normals=True``).
     """
+    d, v, n = np.shape(directions), np.shape(visible), np.shape(normals)
+    if len(d) != 3 or d[2] != 3 or v != d[:2] or n != (d[0], 3):
+        raise ValueError(f"directions (N, S, 3), visible (N, S) and normals (N, 3) must agree, got {d}, {v} and {n}")
+    if d[1] == 0:
+        raise ValueError("directions hold no sample (S = 0): AO is the mean over at least one")
     ao = visible.mean(axis=1).astype(np.float32)
     if not return_bent_normals:
         return ao

@@ -48,6 +48,7 @@ import weakref
 
 import numpy as np
 
+from ._validate import check_indices, check_rows, check_values
 from .materials import barycentrics
 
 __all__ = ["NORMAL_MODES", "DEFAULT_CREASE_ANGLE", "corner_normals", "check_crease_angle", "shading_gbuffer",
@@ -70,7 +71,7 @@ def check_crease_angle(angle) -> float:
         a = float(angle)
     except (TypeError, ValueError):
         raise ValueError(f"crease_angle: expected a number of radians (got {angle!r})") from None
-    if isinstance(angle, bool) or not (0.0 <= a < math.pi / 2):
+    if isinstance(angle, (bool, np.bool_)) or not (0.0 <= a < math.pi / 2):
         raise ValueError(f"crease_angle: expected radians in [0, pi/2) (got {angle!r}); at pi/2 or more a "
                          f"shading normal could turn away from its face")
     return a
@@ -273,9 +274,12 @@ def ambient_occlusion(scene, points, normals, geometric_normals, *, backend="csm
     from .sampling import Sampling, ao_from_samples, sample_directions
 
     sampling = Sampling() if sampling is None else sampling
-    n = np.asarray(normals)
-    ng = np.asarray(geometric_normals)
-    idx = np.arange(len(n)) if indices is None else np.asarray(indices, dtype=np.int64)
+    n = check_rows(normals, "normals")
+    ng = check_rows(geometric_normals, "geometric_normals")
+    if len(ng) != len(n):
+        raise ValueError(f"geometric_normals has {len(ng)} rows but normals has {len(n)} (shapes must match)")
+    check_values(ng, "geometric_normals", nonzero=True)
+    idx = check_indices(indices, len(n))
     ao, bent = vis.ambient_occlusion(scene, points, n, backend=backend, sampling=sampling, return_bent_normals=True,
                                      bias=bias, indices=idx, surface_ids=surface_ids)
     tilted = np.flatnonzero((n != ng).any(axis=1))

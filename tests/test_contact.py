@@ -268,3 +268,21 @@ def test_no_sheet_where_the_open_body_does_not_lie_on_the_ground_or_covers_it():
     assert contact.footprints(finned) == [] and contact.sheets(finned) == []
     under = _under(50, 0.45, 5)
     assert (finned.caster_slots(GROUND_ID, len(under), under) == -2).all()
+
+
+def test_contact_helpers_check_their_shapes(resting):
+    """Was: IndexErrors ('too many indices', 'boolean index did not match') from NumPy."""
+    assert contact.contact_mask(resting, [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]]).tolist() == [True, False]
+    with pytest.raises(ValueError, match=r"^points must have shape \(N, 3\), got \(3,\)$"):
+        contact.contact_mask(resting, [0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match=r"^points must have shape \(N, 3\), got \(1, 2\)$"):
+        contact.contact_mask(resting, [[0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"^directions \(N, 3\) and visible \(N,\) must match points' 1 rows, "
+                                         r"got \(2, 3\) and \(1,\)$"):
+        contact.occlude_contacts(resting, np.zeros((1, 3)), np.tile([0.0, 1.0, 0.0], (2, 1)), np.ones(1, bool))
+    sheet = pyshadow.Scene(ground=0.0, views=VIEWS, resolution=RES)
+    sheet.add(trimesh.Trimesh([[0, 0, 0], [1, 0, 0], [0, 0, 1]], [[0, 1, 2]], process=False))
+    p = np.array([[0.1, 0.0, 0.1], [0.2, 0.0, 0.2]])
+    assert contact.ground_sheet_slots(sheet, p, np.array([-2, -2], np.int32)).tolist() == [0, 0]
+    with pytest.raises(ValueError, match=r"^own must have shape \(2,\) \(one caster slot per point\), got \(1,\)$"):
+        contact.ground_sheet_slots(sheet, p, np.array([-2], np.int32))

@@ -170,3 +170,40 @@ def test_render_depth_rejects_empty_view_set(no_launch):
 def test_render_depth_rejects_non_view_set(no_launch):
     with pytest.raises(TypeError, match="ViewSet"):
         pyshadow.render_depth(load("suzanne.ply"), np.eye(3), resolution=16)
+
+
+@pytest.mark.parametrize("frame, msg", [
+    (((0.0, 0.0, 0.0), 0.0), "frame: the radius must be finite and > 0, got 0.0"),
+    (((0.0, 0.0, 0.0), -1.0), "frame: the radius must be finite and > 0, got -1.0"),
+    (((0.0, 0.0, 0.0), float("nan")), "frame: the radius must be finite and > 0, got nan"),
+    (((float("nan"), 0.0, 0.0), 1.0), "frame: the centre must be 3 finite numbers, got array([nan,  0.,  0.])"),
+    (((0.0, 0.0), 2.0), "frame: the centre must be 3 finite numbers, got array([0., 0.])"),
+    (3, "frame must be (centre, radius), got 3"),
+    (((0.0, 0.0, 0.0), 0.1), "frame: a vertex lies 1 from the centre, outside the radius 0.1"),
+])
+def test_render_depth_checks_the_frame(frame, msg):
+    """Was: radius 0 divided by zero, -1 mirrored the mesh, NaN gave maps of +inf only, a frame smaller
+    than the mesh depths outside [0, 1] (-4.3 .. 5.3), all without an error."""
+    import re
+
+    mesh = trimesh.creation.icosphere(1)
+    for f in (raster.render_depth, raster.render_depth_reference):
+        with pytest.raises(ValueError, match=f"^{re.escape(msg)}$"):
+            f(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=4, frame=frame)
+    d = raster.render_depth(mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=4, frame=((0.0, 0.0, 0.0), 1.5))
+    assert np.nanmin(d) >= 0 and np.max(d[np.isfinite(d)]) <= 1
+
+
+def test_render_depth_block_and_layers_are_ints():
+    """Was: block=1.5 was truncated and True taken as 1; layers=2.0 accepted, an array an ambiguous truth value."""
+    mesh = trimesh.creation.icosphere(1)
+    views = pyshadow.ViewSet.zigzag(2, 4)
+    for bad in (1.5, True, "2"):
+        with pytest.raises(TypeError, match=f"^block must be an int, got {bad!r}$"):
+            raster.render_depth(mesh, views, resolution=4, block=bad)
+    with pytest.raises(ValueError, match="^block must be >= 1, got 0$"):
+        raster.render_depth(mesh, views, resolution=4, block=0)
+    for bad in (2.0, np.array([1, 2])):
+        with pytest.raises(ValueError, match="^layers must be 1, 2 or 3, got "):
+            raster.render_depth(mesh, views, resolution=4, layers=bad)
+    assert raster.render_depth(mesh, views, resolution=4, layers=np.int64(2), block=np.int64(3)).shape == (8, 2, 4, 4)

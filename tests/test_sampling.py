@@ -254,3 +254,35 @@ def test_indices_must_be_non_negative_integers():
     scene = pyshadow.Scene(ground=0.0)
     with pytest.raises(ValueError, match="indices must be >= 0"):
         scene.ambient_occlusion(np.ones((3, 3)), n, sampling=s, indices=[0, -1, 2])
+
+
+def test_pattern_indices_validates_patterns_and_indices():
+    """Was: patterns=0 divided by zero (RuntimeWarning, garbage patterns), -1 an OverflowError, 2**40
+    gave patterns beyond any table; a float index was truncated, a negative one an OverflowError."""
+    want = sampling.pattern_indices(np.arange(6), 16, 3)
+    assert np.array_equal(sampling.pattern_indices(np.arange(6, dtype=np.uint32), 16, 3), want)
+    for bad in (0, -1, 2**40, 2.0, True):
+        with pytest.raises(ValueError, match=f"^patterns must be an int in 1..65536, got {re.escape(repr(bad))}$"):
+            sampling.pattern_indices([1], bad)
+    with pytest.raises(TypeError, match="^indices must be integers, got dtype float64$"):
+        sampling.pattern_indices([1.5], 4)
+    with pytest.raises(ValueError, match=r"^indices must be >= 0 and below 2\*\*63$"):
+        sampling.pattern_indices([3, -1], 4)
+
+
+def test_strategy_of_another_type_is_a_value_error():
+    """Was: a list strategy raised 'unhashable type'."""
+    with pytest.raises(ValueError, match=r"^unknown strategy \['halton'\]; expected one of random, "):
+        Sampling(4, ["halton"])
+
+
+def test_ao_from_samples_shapes_must_agree():
+    """Was: 5 visibility flags for 4 directions averaged silently, no sample gave NaN (a RuntimeWarning)."""
+    d = np.tile([0.0, 1.0, 0.0], (2, 4, 1))
+    n = np.tile([0.0, 1.0, 0.0], (2, 1))
+    assert sampling.ao_from_samples(d, np.ones((2, 4), bool), n).tolist() == [1.0, 1.0]
+    with pytest.raises(ValueError, match=r"^directions \(N, S, 3\), visible \(N, S\) and normals \(N, 3\) must "
+                                         r"agree, got \(2, 4, 3\), \(2, 5\) and \(2, 3\)$"):
+        sampling.ao_from_samples(d, np.ones((2, 5), bool), n)
+    with pytest.raises(ValueError, match=r"^directions hold no sample \(S = 0\)"):
+        sampling.ao_from_samples(d[:, :0], np.ones((2, 0), bool), n)

@@ -2,6 +2,7 @@
 its hemisphere rule against Embree on identical rays, the torus's facet bands, vertex colours and
 textures kept by load_mesh, per-instance albedo and bad input."""
 import math
+import re
 
 import numpy as np
 import pytest
@@ -309,3 +310,34 @@ def test_scene_render_passes_the_shading_normals_on():
     flat = s.render(cam, sampling=pyshadow.Sampling(8))
     assert not np.array_equal(a.normal, flat.normal) and a.geometric_normal is not None
     np.testing.assert_array_equal(a.geometric_normal, flat.normal)
+
+
+def test_crease_angle_refuses_numpy_bools():
+    """Was: True was refused but np.True_ taken as 1 radian."""
+    from pyshadow.shading_normals import check_crease_angle
+
+    with pytest.raises(ValueError, match=r"^crease_angle: expected radians in \[0, pi/2\) \(got np\.True_\)"):
+        check_crease_angle(np.True_)
+    assert check_crease_angle(np.float32(0.5)) == np.float32(0.5)
+
+
+def test_smooth_ao_checks_geometric_normals_and_indices(small_scene):
+    """Was: zero geometric normals gave AO 0 (every direction 'below the plane'), NaN ones switched the rule
+    off, one row for two points was broadcast, float indices truncated -- all without an error."""
+    from pyshadow.shading_normals import ambient_occlusion
+
+    p = np.array([[2.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    ns = np.array([[0.5, 1.0, 0.0], [0.0, 1.0, 0.0]])
+    ns /= np.linalg.norm(ns, axis=1, keepdims=True)
+    ng = np.tile([0.0, 1.0, 0.0], (2, 1))
+    s = Sampling(16)
+    ao, _ = ambient_occlusion(small_scene, p, ns, ng, backend="numpy", sampling=s)
+    assert np.array_equal(ambient_occlusion(small_scene, p, ns, ng * 5, backend="numpy", sampling=s)[0], ao)
+    for bad, err, msg in [(np.zeros((2, 3)), ValueError, "geometric_normals: 2 rows are zero vectors"),
+                          (np.full((2, 3), np.nan), ValueError, "geometric_normals: 2 rows are not finite"),
+                          (ng[:1], ValueError, "geometric_normals has 1 rows but normals has 2 (shapes must match)"),
+                          (ng[0], ValueError, "geometric_normals must have shape (N, 3), got (3,)")]:
+        with pytest.raises(err, match=f"^{re.escape(msg)}$"):
+            ambient_occlusion(small_scene, p, ns, bad, backend="numpy", sampling=s)
+    with pytest.raises(TypeError, match="^indices must be integers, got dtype float64$"):
+        ambient_occlusion(small_scene, p, ns, ng, backend="numpy", sampling=s, indices=[0.5, 1.7])

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import nonzero, rows3, unit_normals
 from ..sampling import ao_from_samples, sample_directions
 from .estimators import raymarch_visible
-from .project import CubeMapAO
+from .project import CubeMapAO, check_tolerance
 
 __all__ = ["CubeMapVisibility"]
 
@@ -44,7 +45,7 @@ class CubeMapVisibility:
             raise TypeError(f"maps must be a pyshadow.cubemap.CubeMapAO, got {type(maps).__name__}")
         if unseen not in UNSEEN:
             raise ValueError(f"unseen must be one of {UNSEEN}, got {unseen!r}")
-        self.maps, self.unseen, self.tolerance = maps, unseen, float(tolerance)
+        self.maps, self.unseen, self.tolerance = maps, unseen, check_tolerance(tolerance)
 
     def __repr__(self) -> str:
         return f"<CubeMapVisibility 'cubemap': {len(self.maps.probes)} probes, D = {self.maps.max_distance}>"
@@ -59,6 +60,8 @@ class CubeMapVisibility:
         if max_distance is None:
             return self.maps.max_distance
         d = np.asarray(max_distance, np.float64)
+        if d.size == 0:
+            raise ValueError("max_distance is empty: the cube-map backend takes one max_distance for all rays")
         if d.size != 1 and not (d == d.reshape(-1)[0]).all():
             raise ValueError("the cube-map backend takes one max_distance for all rays")
         return float(d.reshape(-1)[0])
@@ -89,8 +92,9 @@ class CubeMapVisibility:
         ``normals`` and ``surface_ids`` sharpen the choice of probe.
         """
         D = self._distance(scene, max_distance)
-        p = np.asarray(points, np.float64).reshape(-1, 3)
-        w = np.asarray(directions, np.float64).reshape(-1, 3)
+        p = rows3(points, "points")
+        w = rows3(directions, "directions", len(p))
+        nonzero(w, "directions")
         return self._march(self._assign(p, normals, surface_ids), p, w, D)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
@@ -103,9 +107,8 @@ class CubeMapVisibility:
         if obscurance is not None:
             raise ValueError("the cube-map backend answers distance-limited AO only (obscurance=None)")
         D = self._distance(scene, max_distance)
-        p = np.asarray(points, np.float64).reshape(-1, 3)
-        n = np.asarray(normals, np.float64).reshape(-1, 3)
-        n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        p = rows3(points, "points")
+        n = unit_normals(normals, len(p))
         dirs = sample_directions(n, sampling=sampling, indices=indices).astype(np.float64)
         S = dirs.shape[1]
         probe_of = np.repeat(self._assign(p, n, surface_ids), S)

@@ -62,6 +62,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import FLOAT32_MAX, unit_normals
 from ..sampling import Sampling, ao_from_samples, sample_directions
 from .probe import CubeProbe, _FRAMES, direction_texels
 
@@ -84,9 +85,15 @@ def march_defaults(max_distance: float, thickness=None, step=1.0, bias=1e-3, max
     D = float(max_distance)
     if not (np.isfinite(D) and D > 0):
         raise ValueError(f"max_distance must be a finite distance > 0 (world units), got {max_distance!r}")
+    if D > FLOAT32_MAX:
+        raise ValueError(f"max_distance must be at most {FLOAT32_MAX:.6g} (the march runs in float32 on the "
+                         f"device), got {max_distance!r}")
     tau = 0.25 * D if thickness is None else float(thickness)
     if not (tau >= 0 and np.isfinite(tau)):
         raise ValueError(f"thickness must be >= 0 and finite, got {thickness!r}")
+    if tau > FLOAT32_MAX:
+        raise ValueError(f"thickness must be at most {FLOAT32_MAX:.6g} (the march runs in float32 on the "
+                         f"device), got {thickness!r}")
     step = float(step)
     if not 0 < step <= 4:
         raise ValueError(f"step must be in (0, 4] texels, got {step!r}")
@@ -104,16 +111,27 @@ def _check_probe(probe):
 
 
 def _rays(probe, points, directions):
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    if p.shape != w.shape:
+    """Points (N, 3) float64 and unit directions of rays: one 3-vector each or (N, 3) arrays of equal shape
+    (another shape is not flattened into rows); any finite non-zero direction length is normalised."""
+    p, w = np.asarray(points), np.asarray(directions)
+    p, w = (a.reshape(1, 3) if a.shape == (3,) else a for a in (p, w))
+    if p.ndim != 2 or p.shape[1:] != (3,) or p.shape != w.shape:
         raise ValueError(f"points and directions must both be (N, 3), got {p.shape} and {w.shape}")
+    for a, name in ((p, "points"), (w, "directions")):
+        if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+            raise TypeError(f"{name} must be numeric, got {a.dtype}")
+    p, w = p.astype(np.float64, copy=False), w.astype(np.float64, copy=False)
     if not (np.isfinite(p).all() and np.isfinite(w).all()):
         raise ValueError("points and directions must be finite")
-    ln = np.linalg.norm(w, axis=1)
-    if (ln == 0).any():
+    if not np.abs(w).max(axis=1, initial=0.0).all():
         raise ValueError("directions must be non-zero")
-    return p, w / ln[:, None]
+    far = ~(np.abs(p - probe.centre).max(axis=1, initial=0.0) <= FLOAT32_MAX)
+    if far.any():
+        i = int(np.argmax(far))
+        raise ValueError(f"points: {int(far.sum())} rows lie beyond float32's range from the probe's centre "
+                         f"{probe.centre.tolist()} (row {i}: {p[i].tolist()}; the march reads them relative to "
+                         f"it in float32, at most {FLOAT32_MAX:.6g})")
+    return p, unit_normals(w, len(w), "directions")
 
 
 def _plane_offset(probe):

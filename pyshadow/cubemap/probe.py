@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import check_int
 from ..camera import Camera
 from ..gbuffer import render_gbuffer
 from ..scene import GROUND_ID
@@ -69,6 +70,7 @@ def direction_texels(directions, resolution: int):
     x, y : ndarray, shape (N,), float64
         The face-plane coordinates in ``[-1, 1]``.
     """
+    R = check_int(resolution, "resolution", 1)
     d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
     a = np.abs(d)
     axis = np.where((a[:, 0] >= a[:, 1]) & (a[:, 0] >= a[:, 2]), 0, np.where(a[:, 1] >= a[:, 2], 1, 2))
@@ -79,7 +81,6 @@ def direction_texels(directions, resolution: int):
     with np.errstate(divide="ignore", invalid="ignore"):
         x = np.nan_to_num(np.einsum("ij,ij->i", d, fr[:, 0]) / fwd)    # a zero vector: some valid texel
         y = np.nan_to_num(np.einsum("ij,ij->i", d, fr[:, 1]) / fwd)
-    R = int(resolution)
     col = np.clip(np.floor((x + 1.0) * 0.5 * R), 0, R - 1).astype(np.int64)
     row = np.clip(np.floor((1.0 - y) * 0.5 * R), 0, R - 1).astype(np.int64)
     return face, row, col, x, y

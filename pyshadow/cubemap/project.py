@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validate import nonzero, rows3
 from ..sampling import Sampling
 from .estimators import ESTIMATORS, GRAZING, march_defaults, texel_ao
 from .probe import CubeProbe, _check_resolution, direction_texels
@@ -56,6 +57,7 @@ def quality(points, normals, centre, max_distance) -> np.ndarray:
     ndarray, shape (K,), float64
         In ``[0, 1]``; 0 where the surface faces away from the probe.
     """
+    max_distance = march_defaults(max_distance)["max_distance"]
     u = np.asarray(points, np.float64) - np.asarray(centre, np.float64)
     r = np.maximum(np.linalg.norm(u, axis=1), 1e-300)
     qa = max_distance / (max_distance + r)
@@ -142,6 +144,17 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
     return seen, ao
 
 
+def check_tolerance(tolerance) -> float:
+    """The relative depth tolerance of the visibility test as a float in (0, 1) (ValueError otherwise)."""
+    try:
+        t = float(tolerance)
+    except (TypeError, ValueError):
+        raise ValueError(f"tolerance must be in (0, 1), got {tolerance!r}") from None
+    if not 0 < t < 1:
+        raise ValueError(f"tolerance must be in (0, 1), got {tolerance!r}")
+    return t
+
+
 def coverage_grid(covered, background, grid: int = 8) -> float:
     """Seed 002, section 4.6: the shaded fraction counted on a ``grid x grid`` image.
 
@@ -156,6 +169,10 @@ def coverage_grid(covered, background, grid: int = 8) -> float:
     grid : int, optional
         Cells per side, 1 .. min(H, W) (default 8, the thesis's 8 x 8 target).
     """
+    covered, background = np.asarray(covered), np.asarray(background)
+    if covered.ndim != 2 or background.shape != covered.shape:
+        raise ValueError(f"covered and background must be (H, W) images of one shape, got {covered.shape} and "
+                         f"{background.shape}")
     H, W = covered.shape
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 1 <= grid <= min(H, W):
         raise ValueError(f"grid must be an int in 1..{min(H, W)}, got {grid!r}")
@@ -280,8 +297,7 @@ class CubeMapAO:
             raise ValueError(f"lookup must be 'nearest' or 'bilinear', got {lookup!r}")
         if on_empty not in ("raise", "fallback"):
             raise ValueError(f"on_empty must be 'raise' or 'fallback', got {on_empty!r}")
-        if not 0 < float(tolerance) < 1:
-            raise ValueError(f"tolerance must be in (0, 1), got {tolerance!r}")
+        check_tolerance(tolerance)
         fill = np.nan if fallback is None else float(fallback)
         if not self.probes:
             raise ValueError("CubeMapAO.project: no probe placed yet (add_probe or place first)")
@@ -345,10 +361,12 @@ class CubeMapAO:
             Probe index, -1 where no probe sees the point.
         quality : ndarray, shape (K,), float64
         """
-        p = np.asarray(points, np.float64).reshape(-1, 3)
-        n = None if normals is None else np.asarray(normals, np.float64).reshape(-1, 3)
+        p = rows3(points, "points")
+        n = None if normals is None else nonzero(rows3(normals, "normals", len(p)), "normals")
         ids = None if surface_ids is None else np.asarray(surface_ids).reshape(-1)
-        best_i, best_q, _ = self._best(p, n, ids, float(tolerance))
+        if ids is not None and ids.size != 1 and len(ids) != len(p):
+            raise ValueError(f"surface_ids has {len(ids)} entries but points has {len(p)} rows (shapes must match)")
+        best_i, best_q, _ = self._best(p, n, ids, check_tolerance(tolerance))
         return best_i, np.maximum(best_q, 0.0)
 
     def place(self, camera, *, threshold: float = 0.75, grid: int = 8, gbuffer=None) -> bool:
@@ -374,6 +392,8 @@ class CubeMapAO:
 def normal_hash(normal) -> np.ndarray:
     """Seed 002 eq. (4.5): ``0.14 (nx/2+1/2) + 0.29 (ny/2+1/2) + 0.5 (nz/2+1/2)``, (H, W) float64."""
     n = np.asarray(normal, np.float64)
+    if n.ndim < 1 or n.shape[-1] != 3:
+        raise ValueError(f"normal must have shape (..., 3), got {n.shape}")
     return 0.14 * (n[..., 0] * 0.5 + 0.5) + 0.29 * (n[..., 1] * 0.5 + 0.5) + 0.5 * (n[..., 2] * 0.5 + 0.5)
 
 
@@ -414,6 +434,9 @@ def seed_box_filter(ao, depth, normal, *, rule: str = "seed", size: int = 7, dep
                          f"{depth.shape}, {np.shape(normal)}")
     if isinstance(size, bool) or not isinstance(size, (int, np.integer)) or size < 1 or size % 2 == 0:
         raise ValueError(f"size must be an odd int >= 1, got {size!r}")
+    for name, thr in (("depth_threshold", depth_threshold), ("hash_threshold", hash_threshold)):
+        if isinstance(thr, bool) or not isinstance(thr, (int, float, np.integer, np.floating)) or not thr > 0:
+            raise ValueError(f"{name} must be a number > 0, got {thr!r}")
     if rule == "relative":
         if np.isnan(ao[np.isfinite(depth)]).any():
             raise ValueError("rule='relative' needs AO on every surface pixel (project with fallback=)")
@@ -426,7 +449,7 @@ def seed_box_filter(ao, depth, normal, *, rule: str = "seed", size: int = 7, dep
     a = ao.astype(np.float64)
     num = np.zeros((H, W))
     cnt = np.zeros((H, W))
-    half = size // 2
+    half = min(size // 2, max(H, W) - 1)   # farther offsets read only the padding: they count for no pixel
     pad = lambda x, v: np.pad(x, half, constant_values=v)  # noqa: E731
     zp, hp, ap = pad(z, np.inf), pad(hsh, np.inf), pad(a, np.nan)
     for dy in range(-half, half + 1):

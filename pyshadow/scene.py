@@ -444,13 +444,13 @@ _FRAMES_OK: set = set()
 def _check_csm_frame(csm, mesh, digest):
     """The CSM's sphere holds its mesh and its box is the mesh's: the mesh hash does not cover them, so
     a file edited there (and its checksum made good) would shadow from the wrong place."""
-    from .csm.build import _check_frame
+    from .raster import check_frame
 
     key = (digest, csm.centre.tobytes(), float(csm.radius), None if csm.box is None else csm.box.tobytes())
     if key in _FRAMES_OK:
         return
     try:
-        _check_frame(mesh, (csm.centre, csm.radius))
+        check_frame(np.asarray(mesh.vertices, np.float64), (csm.centre, csm.radius))
     except ValueError as e:
         raise ValueError(f"the CSM's frame does not hold its mesh ({e}): an edited file?") from None
     if csm.box is not None and not np.allclose(csm.box, normalised_bounds(mesh, csm.centre, csm.radius),

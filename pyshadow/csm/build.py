@@ -14,7 +14,7 @@ import trimesh
 from .. import _cl
 from .._validate import FLOAT32_MAX
 from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
-from ..raster import DepthRenderer, _check_resolution_layers
+from ..raster import DepthRenderer, _check_resolution_layers, check_frame
 from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
@@ -74,24 +74,6 @@ def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame,
                         frame=corner_frame(frame, resolution), facing=True, both_sides=both_sides)
 
 
-def _check_frame(mesh, frame):
-    try:
-        centre, radius = frame
-        centre = np.asarray(centre, dtype=np.float64)
-        radius = float(radius)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"frame must be (centre, radius), got {frame!r}") from e
-    if centre.shape != (3,) or not np.isfinite(centre).all():
-        raise ValueError(f"frame: the centre must be 3 finite numbers, got {centre!r}")
-    if not (np.isfinite(radius) and radius > 0):
-        raise ValueError(f"frame: the radius must be finite and > 0, got {radius!r}")
-    far = float(np.linalg.norm(np.asarray(mesh.vertices, np.float64) - centre, axis=1).max())
-    if far > radius * (1 + 1e-6):
-        raise ValueError(f"frame: a vertex lies {far:.6g} from the centre, outside the radius {radius:.6g}")
-    return centre, radius
-
-
-
 def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
               frame=None, footprint: bool = False, two_sided="auto"):
@@ -132,7 +114,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
-    centre, radius = bounding_sphere(mesh) if frame is None else _check_frame(mesh, frame)
+    centre, radius = (bounding_sphere(mesh) if frame is None
+                      else check_frame(np.asarray(mesh.vertices, np.float64), frame))
     if not (radius <= FLOAT32_MAX and (np.abs(centre) <= FLOAT32_MAX).all()):     # as a .csm file holds them
         raise ValueError(f"the mesh's bounding sphere (centre {centre.tolist()}, radius {radius:.6g}) lies beyond "
                          "float32's range, which the lookup and the .csm file work in: scale the mesh down")

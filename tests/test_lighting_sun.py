@@ -215,3 +215,15 @@ def test_sun_just_off_the_zenith_goes_where_the_disc_is(height, angle):
         lux = sky.irradiance(walls[:2]) @ LUMINANCE_WEIGHTS
         e_sun = LUMINANCE_WEIGHTS @ sun_irradiance(unit([angle, 1.0, 0.0]))
         assert abs(lux[0] - lux[1]) <= 1.05 * first_moment / en * e_sun, lux
+
+
+@pytest.mark.parametrize("bad", ["abc", [0, "a", 1]])
+def test_directions_that_are_no_numbers_are_named(bad):
+    """A sun direction (or rows of them) holding what is no number: ValueError naming the argument, not
+    NumPy's conversion error."""
+    from pyshadow.lighting._checks import unit_direction, unit_rows
+
+    with pytest.raises(ValueError, match=r"^direction: expected a 3-vector \(got "):
+        unit_direction(bad, "direction")
+    with pytest.raises(ValueError, match=r"^dirs: expected rows of 3 numbers, shape \(N, 3\) or \(3,\) \(got "):
+        unit_rows(bad, "dirs")

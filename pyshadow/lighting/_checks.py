@@ -36,7 +36,7 @@ def radiance_array(a, name: str, mask=None) -> np.ndarray:
 
 def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
     """A unit 3-vector as float64; zero, non-finite or non-unit vectors raise ValueError."""
-    v = np.asarray(d, dtype=np.float64)
+    v = _floats(d, name, "a 3-vector")
     if v.shape != (3,):
         raise ValueError(f"{name}: expected a 3-vector (got shape {v.shape})")
     if not np.isfinite(v).all():
@@ -51,7 +51,7 @@ def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
 
 def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
     """An (N, 3) (or (3,)) array of unit vectors as float64 (N, 3)."""
-    v = np.asarray(a, dtype=np.float64)
+    v = _floats(a, name, "rows of 3 numbers, shape (N, 3) or (3,)")
     v2 = v.reshape(1, 3) if v.shape == (3,) else v
     if v2.ndim != 2 or v2.shape[1] != 3:
         raise ValueError(f"{name}: expected shape (N, 3) or (3,) (got shape {v.shape})")
@@ -63,6 +63,14 @@ def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
         raise ValueError(f"{name}: {int((dev > tol).sum())} rows are not unit vectors (row {k} has "
                          f"length {np.linalg.norm(v2[k]):.9g}, allowed 1 +- {tol:g})")
     return v2
+
+
+def _floats(x, name: str, what: str) -> np.ndarray:
+    """``x`` as a float64 array; ValueError naming ``name`` where it holds what is no number ("abc")."""
+    try:
+        return np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {what} (got {x!r})") from None
 
 
 def _number(x, name: str) -> float:

@@ -36,18 +36,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import _number, in_range, unit_direction
+from ._checks import _floats, _number, in_range, unit_direction
 from .sun import _GOLDEN
 
 __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
-
-
-def _floats(x, name, what):
-    """``x`` as a float64 array; ValueError naming ``name`` for what does not convert ("abc", [1, "a"])."""
-    try:
-        return np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected {what} (got {x!r})") from None
 
 
 def _position(x, name):

@@ -38,6 +38,19 @@ def _norm(v) -> float:
         return float(np.linalg.norm(v))
 
 
+def axis_camera(eye, forward, up, resolution: int) -> "Camera":
+    """The square 90-degree camera at ``eye`` looking along the axis ``forward`` (a cube map's face).
+
+    Its target lies ``max(1, |eye|)`` along ``forward`` (the largest component of ``eye``), so that
+    the target differs from the eye far from the origin too (at 1e17, ``eye + forward`` rounds to
+    ``eye``); along an axis the view direction comes out the same either way.
+    """
+    e = np.asarray(eye, dtype=np.float64)
+    s = max(1.0, float(np.abs(e).max()))
+    return Camera(e, e + s * np.asarray(forward, np.float64), up=up, fov_y=90.0, width=resolution,
+                  height=resolution)
+
+
 def points_on_rays(origin, t, dirs, dtype=np.float64) -> np.ndarray:
     """``origin + t dirs``: the points at distances ``t`` (shape S) along unit ``dirs`` (S + (3,))
     from ``origin`` (3,), computed in float64 by columns (faster than broadcasting over the last

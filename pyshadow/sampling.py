@@ -216,6 +216,9 @@ def local_directions(points) -> np.ndarray:
     ``(sqrt(xi1) cos 2 pi xi2, sqrt(1 - xi1), sqrt(xi1) sin 2 pi xi2)``, float64.
     """
     xi = np.asarray(points, dtype=np.float64)
+    if xi.shape[-1:] != (2,) or not ((xi >= 0.0) & (xi <= 1.0)).all():      # else NaN directions
+        raise ValueError(f"points: expected 2-D sample points in [0, 1]^2, shape (..., 2) (got shape {xi.shape}"
+                         f"{'' if xi.shape[-1:] != (2,) else ', values outside [0, 1] or NaN'})")
     r = np.sqrt(xi[..., 0])
     ang = 2.0 * np.pi * xi[..., 1]
     return np.stack([r * np.cos(ang), np.sqrt(1.0 - xi[..., 0]), r * np.sin(ang)], axis=-1)

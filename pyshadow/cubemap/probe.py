@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._validate import check_int
-from ..camera import Camera
+from ..camera import Camera, axis_camera
 from ..gbuffer import render_gbuffer
 from ..scene import GROUND_ID
 
@@ -51,8 +51,7 @@ _FRAMES = face_frames()
 
 def face_camera(centre, face: int, resolution: int) -> Camera:
     """The square 90-degree :class:`pyshadow.Camera` of face ``face`` (0..5) at ``centre``."""
-    c = np.asarray(centre, dtype=np.float64)
-    return Camera(c, c + FACE_FORWARD[face], up=_UP_HINT[face], fov_y=90.0, width=resolution, height=resolution)
+    return axis_camera(centre, FACE_FORWARD[face], _UP_HINT[face], resolution)
 
 
 def direction_texels(directions, resolution: int):

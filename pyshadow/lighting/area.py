@@ -245,7 +245,13 @@ def _check_plane(light, p):
     q = p - light.position
     h = q @ light.normal
     size = light.radius if isinstance(light, DiscLight) else math.sqrt(light.area)
-    on = np.abs(h) <= PLANE_TOL * (size + np.linalg.norm(q, axis=1))
+    with np.errstate(over="ignore"):
+        dist = np.linalg.norm(q, axis=1)
+    if not np.isfinite(dist).all():                # beyond about 1e154 from the light: no distance to shade with
+        i = int(np.argmax(~np.isfinite(dist)))
+        raise ValueError(f"point {i} lies too far from the {type(light).__name__} (point {p[i].tolist()}, light "
+                         f"{light.position.tolist()}): their distance overflows float64")
+    on = np.abs(h) <= PLANE_TOL * (size + dist)
     bad = np.flatnonzero(on & light.inside(q - h[:, None] * light.normal))
     if len(bad):
         raise ValueError(f"point {bad[0]} lies on the {type(light).__name__}'s plane within its extent "

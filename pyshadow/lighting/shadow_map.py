@@ -187,11 +187,9 @@ _CUBE_FACES = (((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 1, 0), (0, 
 
 
 def _cube_cameras(position, resolution):
-    from ..camera import Camera
+    from ..camera import axis_camera
 
-    s = max(1.0, float(np.abs(position).max()))       # a target that differs from position along f alone
-    return [Camera(position, np.asarray(position) + s * np.asarray(f, np.float64), up=u, fov_y=90.0,
-                   width=resolution, height=resolution) for f, u in _CUBE_FACES]
+    return [axis_camera(position, f, u, resolution) for f, u in _CUBE_FACES]
 
 
 def _ortho_frame(scene, casters, direction, R):

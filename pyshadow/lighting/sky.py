@@ -307,6 +307,9 @@ def overcast_sky(horizontal_illuminance: float = 10_000.0, *, height: int = 128,
     u = np.cos(np.linspace(0.0, math.pi, h + 1))
     u[0], u[h // 2], u[-1] = 1.0, 0.0, -1.0
     lz = 9.0 * e_h / (7.0 * math.pi)
+    if not math.isfinite(3.0 * lz):                 # the zenith's luminance (lz (1 + 2) / 3 at most) overflows
+        raise ValueError(f"horizontal_illuminance: {horizontal_illuminance!r} lux gives a sky luminance beyond "
+                         f"float64's range")
     row = lz * (1.0 + (u[:-1] + u[1:])) / 3.0
     rgb = np.repeat(np.repeat(row[:, None, None], 2 * h, axis=1), 3, axis=2)
     rgb[h // 2:] = albedo * e_h / math.pi

@@ -19,6 +19,8 @@ import numbers
 
 import numpy as np
 
+from ._validate import FLOAT32_MAX
+
 __all__ = [
     "MAX_RADIUS",
     "MAX_UPSAMPLE_RADIUS",
@@ -42,7 +44,6 @@ UPSAMPLE_MIN_WEIGHT = 1e-6
 
 _NORMAL_TOL = 1e-2
 _MIN_DEPTH = float(np.finfo(np.float32).tiny)
-_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _float_array(name: str, a, ndim: int, in_float32: bool = False) -> np.ndarray:
@@ -55,11 +56,11 @@ def _float_array(name: str, a, ndim: int, in_float32: bool = False) -> np.ndarra
         raise ValueError(f"{name} must have {ndim} dimensions (expected {ndim} vs got {a.ndim}, "
                          f"shape {a.shape})")
     if in_float32 and a.dtype.itemsize > 4 and a.size:     # finite values the cast would make +-inf
-        big = np.isfinite(a) & (np.abs(a) > _FLOAT32_MAX)
+        big = np.isfinite(a) & (np.abs(a) > FLOAT32_MAX)
         if big.any():
             i = np.unravel_index(int(np.argmax(big)), a.shape)
             raise ValueError(f"{name} holds {int(big.sum())} finite value(s) beyond float32's range "
-                             f"(|x| > {_FLOAT32_MAX:.3g}; the filters compute in float32), first at "
+                             f"(|x| > {FLOAT32_MAX:.3g}; the filters compute in float32), first at "
                              f"{tuple(int(k) for k in i)}: {float(a[i])!r}")
     return np.ascontiguousarray(a, dtype=np.float32)
 
@@ -196,8 +197,8 @@ def _upsample_params(ao_low, depth, scale, radius, sigma_spatial, sigma_depth, s
     sn = _positive("sigma_normal", sigma_normal)
     if isinstance(fill, bool) or not isinstance(fill, numbers.Real) or not math.isfinite(fill):
         raise ValueError(f"fill must be a finite number, got {fill!r}")
-    if abs(float(fill)) > _FLOAT32_MAX:
-        raise ValueError(f"fill must lie within float32's range (|fill| <= {_FLOAT32_MAX:.3g}), got {fill!r}")
+    if abs(float(fill)) > FLOAT32_MAX:
+        raise ValueError(f"fill must lie within float32's range (|fill| <= {FLOAT32_MAX:.3g}), got {fill!r}")
     _check_values("ao_low", ao_low, np.isfinite(depth[::scale, ::scale]))
     return ao_low, scale, radius, ss, sz, sn, float(fill)
 

@@ -91,13 +91,18 @@ class Sampling:
         return sample_directions(normals, sampling=self, indices=indices)
 
 
+def _check_patterns(patterns) -> None:
+    """The number of sample patterns: an int (not a bool) in 1 .. MAX_PATTERNS (ValueError)."""
+    if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
+        raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+
+
 def check_sampling(samples, strategy, patterns):
     """Validate the sampling arguments shared by every AO entry point."""
     check_int(samples, "samples", 1, MAX_SAMPLES)
     if not isinstance(strategy, str) or strategy not in _CODES:
         raise ValueError(f"unknown strategy {strategy!r}; expected one of {', '.join(STRATEGIES)}")
-    if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
-        raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+    _check_patterns(patterns)
 
 
 def check_seed(seed) -> int:
@@ -171,8 +176,7 @@ def pattern_indices(indices, patterns: int, seed: int = 0) -> np.ndarray:
     ``seed`` as for :class:`Sampling` (0 .. 2**32 - 1).
     """
     check_seed(seed)
-    if isinstance(patterns, bool) or not isinstance(patterns, (int, np.integer)) or not 1 <= patterns <= MAX_PATTERNS:
-        raise ValueError(f"patterns must be an int in 1..{MAX_PATTERNS}, got {patterns!r}")
+    _check_patterns(patterns)
     a = np.asarray(indices)
     if a.dtype.kind not in "iu":
         raise TypeError(f"indices must be integers, got dtype {a.dtype}")

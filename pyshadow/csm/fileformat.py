@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import atomic_path
+from .._validate import FLOAT32_MAX
 from .._version import __version__
 from ..views import ZIGZAG_ROW_OFFSETS, ViewSet
 from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype, _offsets_dtype
@@ -159,7 +160,7 @@ def _number(x, lo=-np.inf, hi=np.inf) -> bool:
         v = float(x)
     except OverflowError:               # an integer beyond float64
         return False
-    return abs(v) <= float(np.finfo(np.float32).max) and lo <= v <= hi
+    return abs(v) <= FLOAT32_MAX and lo <= v <= hi
 
 
 def _from_header(cls, path, head, start, raw):

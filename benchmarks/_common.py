@@ -44,6 +44,7 @@ def median_time(fn, repeats: int = 3, warmup: int = 1):
 
 def environment() -> dict:
     import pyshadow
+    from pyshadow.bench.common import package_versions
 
     info = pyshadow.device_info()
     return {
@@ -56,6 +57,7 @@ def environment() -> dict:
         "python": sys.version.split()[0],
         "machine": platform.machine(),
         "pyshadow": pyshadow.__version__,
+        "packages": package_versions(),
     }
 
 

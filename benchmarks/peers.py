@@ -404,6 +404,7 @@ def main(argv=None) -> int:
     else:
         print(f"\npyshadow device {out['device']} ({out['compute_units']} compute units, "
               f"POCL_CPU_MAX_CU_NUM={args.threads}, {out['lanes']} lanes); wall {out['wall_s']:.0f} s")
+        print("packages: " + ", ".join(f"{k} {v}" for k, v in out["packages"].items()))
     return 0
 
 

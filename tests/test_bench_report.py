@@ -171,3 +171,19 @@ def test_format_table_with_lighting_and_light_missing():
                                            "alone n/a ms (n/a); Embree lit n/a ms")
     assert rows["light"] == "point (1.0, 2.0, 3.0): 7 pixels facing it, n/a % shadowed (Embree)"
     assert rows["AO vs Embree 64 spp"] == "RMSE n/a  MAE n/a  (Embree 8 spp itself: RMSE n/a)"
+
+
+def test_records_name_the_versions_that_can_move_a_figure():
+    # the mesh loader, Embree and PoCL decide answers (a run on another machine read 0.026 points
+    # more agreement on the same code): every record names the versions it ran with
+    from importlib.metadata import version
+
+    import numpy
+    import trimesh
+
+    from pyshadow.bench.common import PACKAGES, package_versions
+
+    v = package_versions()
+    assert tuple(v) == PACKAGES
+    assert v["numpy"] == numpy.__version__ and v["trimesh"] == trimesh.__version__
+    assert v["embreex"] == version("embreex")

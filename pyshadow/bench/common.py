@@ -132,19 +132,31 @@ def cached_ao(cache, key: str, n: int, log=None):
     return None
 
 
+#: the distributions whose versions can move a figure (the answers of the mesh loader, of Embree, of PoCL)
+PACKAGES = ("numpy", "scipy", "trimesh", "embreex", "pyopencl", "pocl-binary-distribution")
+
+
+def package_versions() -> dict:
+    """``{distribution: version or None}`` of :data:`PACKAGES` (None: not installed as a distribution)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = None
+    return out
+
+
 def environment(threads: int) -> dict:
     """Device and software the figures were measured on."""
     import pyshadow
 
     info = pyshadow.device_info()
-    try:
-        from importlib.metadata import version
-
-        embreex_version = version("embreex")
-    except Exception:                          # not installed as a distribution
-        embreex_version = None
+    packages = package_versions()
     return {"device": info["name"], "platform": info["platform"], "device_type": info["type"],
             "compute_units": info["compute_units"], "cpu_count": os.cpu_count(),
-            "embree_threads": threads, "embreex": embreex_version,
+            "embree_threads": threads, "embreex": packages["embreex"],
             "python": sys.version.split()[0], "machine": platform.machine(),
-            "pyshadow": pyshadow.__version__}
+            "pyshadow": pyshadow.__version__, "packages": packages}

@@ -20,6 +20,24 @@ __all__ = [
 ]
 
 
+def _check_clim(clim, who: str, log: bool = False) -> tuple[float, float]:
+    """``clim`` as two floats ``lo < hi``, finite with a finite span (``lo > 0`` for a log scale).
+
+    VTK replaces a reversed range by another one (with an error on the
+    console only), and a range wider than float64 maps every value to one end.
+    """
+    try:
+        lo, hi = (float(v) for v in np.asarray(clim, dtype=np.float64).reshape(-1))
+    except (TypeError, ValueError):
+        raise ValueError(f"{who}: clim must be two numbers (low, high), got {clim!r}") from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi and np.isfinite(hi - lo)):
+        raise ValueError(f"{who}: clim must be finite with low < high (and a span within float64), "
+                         f"got {clim!r}")
+    if log and not lo > 0:
+        raise ValueError(f"{who}: clim of a log scale must be positive, got {clim!r}")
+    return lo, hi
+
+
 def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray", clim=None,
                 mask=None, origin: str = "upper", log_scale: bool = False, name: str = "values",
                 title_fit: str | None = None):
@@ -30,7 +48,9 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     plotter : pyvista.Plotter
     image : array_like, shape (H, W) numeric, or (H, W, 3) RGB
         Scalar images are colour-mapped; RGB images are shown as colours:
-        ``uint8`` as is, floats in [0, 1] scaled to 0..255 (clipped).
+        ``uint8`` as is, floats (or bools) in [0, 1] scaled to 0..255
+        (clipped). Other integer RGB types raise TypeError (their range is
+        not known).
     title : str, optional
         Text along the top edge of the subplot.
     title_fit : str, optional
@@ -38,10 +58,12 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     cmap : str, optional
         Colour map of a scalar image.
     clim : (float, float), optional
-        Colour range; default the finite minimum and maximum.
+        Colour range, finite with low < high; default the finite minimum
+        and maximum (positive ones with ``log_scale``).
     mask : array_like of bool, shape (H, W), optional
         Pixels to leave out (they show the background). Non-finite pixels
-        of a scalar image are always left out.
+        (in any channel of an RGB image) are always left out, and so are
+        pixels <= 0 with ``log_scale``.
     origin : {'upper', 'lower'}
         Where row 0 is drawn: at the top (camera images) or at the bottom
         (depth maps, CSM texel grids).
@@ -58,7 +80,11 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     Raises
     ------
     ValueError
-        Wrong shape, unknown ``origin``, a mask of another shape.
+        Wrong shape, unknown ``origin``, a mask of another shape, a bad
+        ``clim`` (reversed, equal, non-finite; not positive with
+        ``log_scale``).
+    TypeError
+        A complex or non-numeric image, an integer RGB image not ``uint8``.
 
     Notes
     -----
@@ -84,14 +110,25 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
         if m.shape != (H, W):
             raise ValueError(f"image_panel: mask must have shape {(H, W)}, got {m.shape}")
         keep &= ~m
+    if img.dtype.kind == "c":
+        raise TypeError(f"image_panel: image must be real, got {img.dtype}")
     if rgb:
+        if img.dtype.kind in "iu" and img.dtype != np.uint8:
+            raise TypeError(f"image_panel: an RGB image must be uint8 (0..255) or float (0..1), "
+                            f"got {img.dtype}")
         if img.dtype != np.uint8:
-            img = np.round(np.clip(np.asarray(img, np.float64), 0.0, 1.0) * 255.0).astype(np.uint8)
+            img = np.asarray(img, np.float64)
+            keep &= np.isfinite(img).all(axis=2)
+            img = np.round(np.clip(np.nan_to_num(img), 0.0, 1.0) * 255.0).astype(np.uint8)
     else:
         if not (np.issubdtype(img.dtype, np.number) or img.dtype == bool):
             raise ValueError(f"image_panel: image must be numeric, got {img.dtype}")
         img = np.asarray(img, dtype=np.float64)
         keep &= np.isfinite(img)
+        if log_scale:                    # no place on a log scale (they would set the range)
+            keep &= img > 0
+        if clim is not None:
+            clim = _check_clim(clim, "image_panel", log=log_scale)
     if origin == "upper":
         img, keep = img[::-1], keep[::-1]
     grid = pv.ImageData(dimensions=(W + 1, H + 1, 1))
@@ -106,6 +143,9 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
             vals = img[keep]
             if clim is None:
                 lo, hi = float(vals.min()), float(vals.max())
+                if not np.isfinite(hi - lo):
+                    raise ValueError(f"image_panel: the image's values span [{lo:g}, {hi:g}], "
+                                     "beyond float64; pass clim or rescale the image")
                 clim = (lo, hi if hi > lo else lo + 1.0)
             actor = plotter.add_mesh(shown, scalars=name, cmap=cmap, clim=clim, lighting=False,
                                      log_scale=log_scale, show_scalar_bar=False)
@@ -145,13 +185,24 @@ def colour_bar(plotter, title: str, *, cmap: str = "gray", clim=(0.0, 1.0), n_la
     Returns
     -------
     vtkScalarBarActor
+
+    Raises
+    ------
+    ValueError
+        ``clim`` reversed, equal or not finite.
     """
+    clim = _check_clim(clim, "colour_bar")
     w, h = _viewport_pixels(plotter)
     size = int(np.clip(round(min(h / 3.2, w / 30.0)), 6, 16))
-    bar = plotter.add_scalar_bar(title=title, cmap=cmap, clim=tuple(float(v) for v in clim),
+    key, n = title, 1
+    while key in plotter.scalar_bars:     # pyvista keeps one bar per title (a repeat returns None)
+        n += 1
+        key = f"{title} ({n})"
+    bar = plotter.add_scalar_bar(title=key, cmap=cmap, clim=clim,
                                  n_labels=n_labels, fmt=fmt, vertical=False, position_x=0.1,
                                  position_y=0.04, width=0.8, height=0.92, color=TEXT_COLOR,
                                  title_font_size=size, label_font_size=size)
+    bar.SetTitle(title)
     bar.SetTextPositionToPrecedeScalarBar()      # labels under the bar, the title above it
     return bar
 
@@ -162,18 +213,29 @@ def bent_normal_rgb(bent, mask=None):
     Parameters
     ----------
     bent : array_like, shape (H, W, 3)
-        Unit vectors (world x, y, z -> red, green, blue).
+        Unit vectors (world x, y, z -> red, green, blue). Pixels with a
+        non-finite component become black (0).
     mask : array_like of bool, shape (H, W), optional
         Pixels without a surface; they become black (0).
 
     Returns
     -------
     ndarray, shape (H, W, 3), uint8
+
+    Raises
+    ------
+    ValueError
+        ``bent`` not (H, W, 3), or ``mask`` not (H, W).
     """
     b = np.asarray(bent, dtype=np.float64)
     if b.ndim != 3 or b.shape[2] != 3:
         raise ValueError(f"bent_normal_rgb: bent must have shape (H, W, 3), got {b.shape}")
-    rgb = np.round(np.clip((b + 1.0) * 0.5, 0.0, 1.0) * 255.0).astype(np.uint8)
+    off = ~np.isfinite(b).all(axis=2)
     if mask is not None:
-        rgb[np.asarray(mask, dtype=bool)] = 0
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != b.shape[:2]:
+            raise ValueError(f"bent_normal_rgb: mask must have shape {b.shape[:2]}, got {m.shape}")
+        off |= m
+    rgb = np.round(np.clip((np.nan_to_num(b) + 1.0) * 0.5, 0.0, 1.0) * 255.0).astype(np.uint8)
+    rgb[off] = 0
     return rgb

@@ -30,8 +30,10 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     mesh : trimesh.Trimesh
         ``V`` vertices, ``T`` triangles.
     transform : array_like, shape (4, 4), optional
-        Applied to points and normals (rigid with uniform scale, as in
-        :meth:`pyshadow.Scene.add`); default identity (object frame).
+        Affine, invertible and finite; applied to the points, and its
+        inverse transpose to the normals (so any scale, shear or mirror
+        keeps them perpendicular to the surface); default identity (object
+        frame).
     scalars : array_like, shape (V,) or (V, 3), optional
         Per-vertex values stored as point data ``name`` and made active.
     name : str, optional
@@ -50,21 +52,26 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     TypeError
         ``mesh`` is not a trimesh.Trimesh.
     ValueError
-        ``transform`` or ``scalars`` of the wrong shape.
+        ``transform`` of the wrong shape, not finite, not affine or
+        singular; ``scalars`` of the wrong shape; a mesh without vertices.
     """
     import trimesh
+
+    from .._validate import check_transform
 
     pv = _pv()
     if not isinstance(mesh, trimesh.Trimesh):
         raise TypeError(f"mesh_to_polydata: mesh must be a trimesh.Trimesh, got {type(mesh).__name__}")
+    if len(mesh.vertices) == 0:
+        raise ValueError("mesh_to_polydata: mesh has no vertices")
     pts = np.asarray(mesh.vertices, dtype=np.float64)
     nrm = np.asarray(mesh.vertex_normals, dtype=np.float64)
     if transform is not None:
-        T = np.asarray(transform, dtype=np.float64)
-        if T.shape != (4, 4):
-            raise ValueError(f"mesh_to_polydata: transform must have shape (4, 4), got {T.shape}")
+        with np.errstate(over="ignore"):        # its determinant overflows for scales beyond 1e102
+            T = check_transform(transform, name="mesh_to_polydata: transform")
         pts = pts @ T[:3, :3].T + T[:3, 3]
-        nrm = nrm @ T[:3, :3].T
+        N = np.linalg.inv(T[:3, :3]).T
+        nrm = nrm @ (N / np.abs(N).max()).T              # scaled: no overflow for huge/tiny scales
         nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     cells = np.hstack([np.full((len(faces), 1), 3, np.int64), faces]).reshape(-1)
@@ -111,10 +118,12 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
     plotter : pyvista.Plotter
     scalars : dict of int -> array_like, shape (V_i,), optional
         Per-vertex values of instance ``i`` (e.g. ``scene.vertex_ao(i)``);
-        instances without an entry are drawn in ``color``.
+        instances without an entry are drawn in ``color``. A key that is
+        not the id of an instance with a mesh raises ValueError.
     name, cmap, clim :
         Scalar array name, colour map and colour range (shared by all
-        instances, so one colour bar describes them).
+        instances, so one colour bar describes them; ``clim`` finite with
+        low < high).
     ground : bool, optional
         Draw the scene's analytic ground plane as a flat quad
         (:meth:`Scene.ground_quad`) in ``color`` when it has one.
@@ -135,8 +144,15 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
         is under key ``pyshadow.scene.GROUND_ID`` (-2).
     """
     from ..scene import GROUND_ID
+    from .images import _check_clim
 
     scalars = {} if scalars is None else dict(scalars)
+    drawn = [i for i, inst in enumerate(scene.instances) if inst.mesh is not None]
+    stray = [k for k in scalars if isinstance(k, (bool, np.bool_)) or k not in drawn]
+    if stray:
+        raise ValueError(f"scene_to_plotter: scalars has keys {stray!r} that are not ids of instances "
+                         f"with a mesh (those are {drawn})")
+    clim = _check_clim(clim, "scene_to_plotter")
     out = {}
     for i, inst in enumerate(scene.instances):
         if inst.mesh is None:
@@ -172,17 +188,39 @@ def look_at_bodies(plotter, centre, radius: float, direction=(0.55, 0.45, 1.0), 
         From the centre towards the camera (normalised here); y is up.
     fill : float, optional
         Share of the subplot's narrower side the sphere spans (a
-        perspective camera with VTK's 30 degree view angle).
+        perspective camera with VTK's 30 degree view angle), > 0.
+
+    Raises
+    ------
+    ValueError
+        ``centre`` or ``direction`` not 3 finite numbers, ``direction``
+        zero, ``radius`` or ``fill`` not finite and > 0.
+
+    Notes
+    -----
+    The camera's up is +y; looking along y (from straight above or below)
+    it is -z from above and +z from below, so x points right either way.
     """
-    c = np.asarray(centre, dtype=np.float64).reshape(3)
-    d = np.asarray(direction, dtype=np.float64).reshape(3)
+    c = np.asarray(centre, dtype=np.float64).reshape(-1)
+    d = np.asarray(direction, dtype=np.float64).reshape(-1)
+    if c.shape != (3,) or not np.isfinite(c).all():
+        raise ValueError(f"look_at_bodies: centre must be 3 finite numbers, got {centre!r}")
+    if d.shape != (3,) or not np.isfinite(d).all() or not np.abs(d).max() > 0:
+        raise ValueError(f"look_at_bodies: direction must be 3 finite numbers, not all 0, got {direction!r}")
+    for key, value in (("radius", radius), ("fill", fill)):
+        if not (np.isfinite(float(value)) and float(value) > 0):
+            raise ValueError(f"look_at_bodies: {key} must be finite and > 0, got {value!r}")
+    d = d / np.abs(d).max()
     d = d / np.linalg.norm(d)
+    up = (0.0, 1.0, 0.0)
+    if abs(d[1]) > 0.999999:           # looking along y: +y is no up; x to the right
+        up = (0.0, 0.0, -1.0) if d[1] > 0 else (0.0, 0.0, 1.0)
     w, h = _viewport_pixels(plotter)
     half = np.radians(30.0) / 2.0
     if w < h:                      # the horizontal field is the narrow one
         half = np.arctan(np.tan(half) * w / h)
     dist = radius / (np.sin(half) * float(fill))
-    plotter.camera_position = [tuple(c + dist * d), tuple(c), (0.0, 1.0, 0.0)]
+    plotter.camera_position = [tuple(c + dist * d), tuple(c), up]
     plotter.renderer.ResetCameraClippingRange()
 
 
@@ -196,12 +234,14 @@ def ground_grid(centre=(0.0, 0.0), size: float = 6.0, divisions: int = 48,
     Parameters
     ----------
     centre : (float, float), optional
-        World ``(x, z)`` of the square's centre.
+        World ``(x, z)`` of the square's centre (exactly two numbers: a
+        3-D point raises ValueError).
     size : float, optional
-        Side length.
+        Side length, finite and > 0.
     divisions : int, optional
         Quads per side (``(divisions + 1)**2`` vertices), 1 .. 2048.
     height : float, optional
+        World ``y`` of the grid, finite.
 
     Returns
     -------
@@ -210,14 +250,20 @@ def ground_grid(centre=(0.0, 0.0), size: float = 6.0, divisions: int = 48,
     """
     import trimesh
 
-    n = int(divisions)
-    if not 1 <= n <= 2048:
-        raise ValueError(f"ground_grid: divisions must be in 1..2048, got {divisions!r}")
-    if not size > 0:
-        raise ValueError(f"ground_grid: size must be positive, got {size}")
-    s = np.linspace(-0.5, 0.5, n + 1) * float(size)
-    z, x = np.meshgrid(s + float(centre[1]), s + float(centre[0]), indexing="ij")
-    v = np.column_stack([x.reshape(-1), np.full(x.size, float(height)), z.reshape(-1)])
+    from .._validate import check_int
+
+    n = check_int(divisions, "ground_grid: divisions", 1, 2048)
+    cen = np.asarray(centre, dtype=np.float64).reshape(-1)
+    if cen.shape != (2,) or not np.isfinite(cen).all():
+        raise ValueError(f"ground_grid: centre must be the two finite numbers (x, z), got {centre!r}")
+    size, height = float(size), float(height)
+    if not (np.isfinite(size) and size > 0):
+        raise ValueError(f"ground_grid: size must be finite and > 0, got {size}")
+    if not np.isfinite(height):
+        raise ValueError(f"ground_grid: height must be finite, got {height}")
+    s = np.linspace(-0.5, 0.5, n + 1) * size
+    z, x = np.meshgrid(s + cen[1], s + cen[0], indexing="ij")
+    v = np.column_stack([x.reshape(-1), np.full(x.size, height), z.reshape(-1)])
     i = np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]
     a, b, c, d = i, i + 1, i + n + 2, i + n + 1          # (r,c) (r,c+1) (r+1,c+1) (r+1,c)
     # x grows along a row, z along a column: (b - a) x (d - a) = x x z = -y, so wind a, d, c

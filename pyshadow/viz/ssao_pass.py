@@ -72,13 +72,20 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
     Raises
     ------
     ValueError
-        A radius that is not finite and > 0, or a kernel size < 1.
+        A radius that is not finite and > 0, a kernel size < 1, a bias that
+        is not finite.
+    TypeError
+        A kernel size that is not an integer.
     """
+    from .._validate import check_int
+
     radius = float(radius)
     if not (np.isfinite(radius) and radius > 0):
         raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
-    if int(kernel_size) < 1:
-        raise ValueError(f"kernel_size must be >= 1, got {kernel_size}")
+    kernel_size = check_int(kernel_size, "kernel_size", 1)
+    bias = 0.02 * radius if bias is None else float(bias)
+    if not np.isfinite(bias):
+        raise ValueError(f"bias must be finite (world units), got {bias}")
     from .plotter import _pv, make_plotter
 
     pv = _pv()
@@ -93,8 +100,7 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
             pl.camera.position, pl.camera.focal_point = tuple(camera.eye), tuple(camera.target)
             pl.camera.up, pl.camera.view_angle = tuple(camera.up), float(camera.fov_y)
             if ssao_on:
-                pl.enable_ssao(radius=radius, bias=0.02 * radius if bias is None else float(bias),
-                               kernel_size=int(kernel_size), blur=bool(blur))
+                pl.enable_ssao(radius=radius, bias=bias, kernel_size=kernel_size, blur=bool(blur))
             pl.show(auto_close=False)            # window and pipeline set up, first render
             t0 = time.perf_counter()
             pl.render()

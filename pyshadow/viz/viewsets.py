@@ -27,7 +27,7 @@ def view_set_points(views, radius: float = 1.0, *, path: bool = True):
     views : pyshadow.ViewSet
         ``D`` directions in compression order.
     radius : float, optional
-        Sphere radius.
+        Sphere radius, finite and > 0.
     path : bool, optional
         Also join consecutive directions by one polyline (the traversal).
 
@@ -46,7 +46,10 @@ def view_set_points(views, radius: float = 1.0, *, path: bool = True):
     D = len(views)
     if D == 0:
         raise ValueError("view_set_points: the view set is empty")
-    pts = np.asarray(views.directions, dtype=np.float64) * float(radius)
+    radius = float(radius)
+    if not (np.isfinite(radius) and radius > 0):      # a negative one puts every map on the antipode
+        raise ValueError(f"view_set_points: radius must be finite and > 0, got {radius}")
+    pts = np.asarray(views.directions, dtype=np.float64) * radius
     verts = np.column_stack([np.ones(D, np.int64), np.arange(D)]).reshape(-1)
     kw = {"verts": verts}
     if path and D > 1:

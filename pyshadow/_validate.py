@@ -100,6 +100,23 @@ def nonzero(a, name):
     return a
 
 
+def uniform_scale(A):
+    """The signed cube root of ``det(A)`` of 3x3 matrices ``A`` (shape (..., 3, 3)): a rigid transform's
+    uniform scale, at any scale (beyond the range where ``det(A)`` over- or underflows float64, from
+    ``A / max|A|``; within it ``cbrt(det(A))`` itself)."""
+    A = np.asarray(A, np.float64)
+    with np.errstate(over="ignore", under="ignore"):
+        d = np.linalg.det(A)
+    s = np.cbrt(d)
+    odd = ~((np.abs(d) > 1e-290) & (np.abs(d) < 1e290))
+    if np.any(odd):
+        m = np.abs(A).max(axis=(-2, -1))
+        m = np.where(m > 0, m, 1.0)
+        scaled = np.cbrt(np.linalg.det(A / m[..., None, None])) * m
+        s = np.where(odd, scaled, s)
+    return s
+
+
 def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.ndarray:
     """Validate a 4x4 affine transform; return it as float64.
 
@@ -117,11 +134,14 @@ def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.nd
     if not np.allclose(T[3], [0.0, 0.0, 0.0, 1.0], atol=1e-12):
         raise ValueError(f"{name} must be affine (last row 0 0 0 1), got {T[3].tolist()}")
     A = T[:3, :3]
-    det = np.linalg.det(A)
-    if not abs(det) > 1e-300:
+    m = np.abs(A).max()
+    # singular or not, scale-free: det(A) itself overflows beyond scales of 5e102 and underflows
+    # below 1e-100, where a uniform scale is still a rigid body's; entries all below float64's normal
+    # range count as singular (the reciprocal of such a scale overflows)
+    if not (m >= np.finfo(np.float64).tiny and abs(np.linalg.det(A / m)) > 1e-300):
         raise ValueError(f"{name} is singular")
     if rigid:
-        s = np.cbrt(det)
+        s = float(uniform_scale(A))
         if not s > 0:
             raise ValueError(f"{name} mirrors (negative determinant); only rotations are rigid")
         Q = A / s

@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
-from ._validate import FLOAT32_MAX, check_transform
+from ._validate import FLOAT32_MAX, check_transform, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -74,7 +74,7 @@ class Instance:
 
     @property
     def scale(self) -> float:
-        return float(np.cbrt(np.linalg.det(self.transform[:3, :3])))
+        return float(uniform_scale(self.transform[:3, :3]))
 
     @property
     def rotation(self) -> np.ndarray:

@@ -16,7 +16,7 @@ import weakref
 
 import numpy as np
 
-from ._validate import FLOAT32_MAX, check_float32_points
+from ._validate import FLOAT32_MAX, check_float32_points, uniform_scale
 
 __all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "points_bound"]
 
@@ -50,7 +50,7 @@ def scene_arrays(scene) -> dict:
     c = np.array([np.asarray(s[0], np.float64) for s in spheres]).reshape(n, 3)
     r = np.array([float(s[1]) for s in spheres], np.float64)
     A = T[:, :3, :3]
-    scale = np.cbrt(np.linalg.det(A)) if n else np.zeros(0)
+    scale = uniform_scale(A) if n else np.zeros(0)
     wc = np.matmul(A, c[:, :, None])[:, :, 0] + T[:, :3, 3] if n else np.zeros((0, 3))
     types, index = [], {}
     for inst in insts:                  # the distinct CSMs of the casters, in first-use order

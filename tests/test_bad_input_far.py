@@ -47,3 +47,47 @@ def test_local_directions_refuse_points_outside_the_unit_square(bad):
         local_directions(bad)
     d = local_directions([[0.0, 0.0], [1.0, 0.25], [0.25, 1.0]])
     assert np.allclose(d, [[0, 1, 0], [0, 0, 1], [0.5, np.sqrt(0.75), 0]], atol=1e-15)
+
+
+@pytest.mark.parametrize("s", [1e-101, 1e-300, 1e103, 1e300])
+def test_rigid_transforms_at_any_scale_are_rigid(s):
+    """det(A) underflowed below scales of 1e-100 ("singular") and overflowed beyond 5e102 (a RuntimeWarning,
+    then "not rigid ... uniform scale inf"); a turned uniform scale is rigid at any float64 scale."""
+    from pyshadow._validate import check_transform, uniform_scale
+
+    T = np.eye(4)
+    T[:3, :3] = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]) * s
+    assert np.array_equal(check_transform(T, rigid=True), T)
+    assert uniform_scale(T[:3, :3]) == s
+    A = np.array([[1.0, 2.0, 0.0], [-2.0, 1.0, 0.0], [0.0, 0.0, 5.0 ** 0.5]])        # within det's range: as before
+    assert np.array_equal(uniform_scale(np.stack([T[:3, :3], A])), [s, np.cbrt(np.linalg.det(A))])
+    with pytest.raises(ValueError, match="is not rigid"):
+        check_transform(T @ np.diag([1.0, 1.0, 2.0, 1.0]), rigid=True)
+    with pytest.raises(ValueError, match="mirrors"):
+        check_transform(T @ np.diag([-1.0, 1.0, 1.0, 1.0]), rigid=True)
+
+
+def test_transforms_below_float64s_normal_range_stay_singular():
+    from pyshadow._validate import check_transform
+
+    with pytest.raises(ValueError, match="transform is singular"):
+        check_transform(np.diag([1e-320, 1e-320, 1e-320, 1.0]), rigid=True)
+    with pytest.raises(ValueError, match="transform is singular"):
+        check_transform(np.diag([1.0, 1.0, 1e-301, 1.0]))
+
+
+def test_a_caster_scaled_beyond_float32_is_named_not_a_float64_overflow():
+    """A body scaled by 1e103 used to be refused as 'not rigid' after an overflow warning; its placement
+    is now refused where the kernels' float32 range is checked, and a receiver's scale is its own."""
+    import trimesh
+
+    import pyshadow
+
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    T = np.diag([1e103, 1e103, 1e103, 1.0])
+    scene = pyshadow.Scene(ground=None, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+    scene.add(box, T, casts=False)
+    assert scene.instances[0].scale == 1e103
+    scene.add(box, T @ np.diag([1e-100, 1e-100, 1e-100, 1.0]))
+    with pytest.raises(ValueError, match="beyond float32's range"):
+        scene.visible(np.array([[0.0, 0.0, 5e103]]), np.array([[0.0, 0.0, -1.0]]))

@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from .._validate import uniform_scale
 from ..views import ViewSet
 from .core import DEPTH_Q, front_margin
 from .reference import shadow_taps
@@ -107,7 +108,7 @@ class Body:
 
     @property
     def scale(self) -> float:
-        return float(np.cbrt(np.linalg.det(self.transform[:3, :3])))
+        return float(uniform_scale(self.transform[:3, :3]))
 
     def world_triangles(self, anchor) -> np.ndarray:
         T = self.transform

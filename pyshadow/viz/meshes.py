@@ -67,8 +67,7 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     pts = np.asarray(mesh.vertices, dtype=np.float64)
     nrm = np.asarray(mesh.vertex_normals, dtype=np.float64)
     if transform is not None:
-        with np.errstate(over="ignore"):        # its determinant overflows for scales beyond 1e102
-            T = check_transform(transform, name="mesh_to_polydata: transform")
+        T = check_transform(transform, name="mesh_to_polydata: transform")
         pts = pts @ T[:3, :3].T + T[:3, 3]
         N = np.linalg.inv(T[:3, :3]).T
         nrm = nrm @ (N / np.abs(N).max()).T              # scaled: no overflow for huge/tiny scales

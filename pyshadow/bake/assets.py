@@ -53,10 +53,39 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
     -------
     bytes
         The file's bytes (binary little-endian PLY, or binary glTF).
+
+    Raises
+    ------
+    ValueError
+        An unknown ``mesh_format``; a mesh without triangles or with
+        vertices beyond float32's range; ``ao`` not (V,) in [0, 1] or
+        ``bent`` not (V, 3) finite (either would be dropped or written as
+        garbage, not stored).
+    TypeError
+        ``ao`` or ``bent`` not real numbers.
     """
     import trimesh
 
     from ..io import linear_to_srgb
+    from ..mesh import check_mesh
+
+    if mesh_format not in ("ply", "glb"):
+        raise ValueError(f"mesh_format must be 'ply' or 'glb', got {mesh_format!r}")
+    check_mesh(mesh)
+    V = len(mesh.vertices)
+    if not np.abs(np.asarray(mesh.vertices)).max() <= np.finfo(np.float32).max:
+        raise ValueError("mesh: vertices beyond float32's range (they would be written as inf)")
+    ao, bent = np.asarray(ao), np.asarray(bent)
+    for arr, what, shape in ((ao, "ao", (V,)), (bent, "bent", (V, 3))):
+        if arr.dtype.kind not in "iuf":
+            raise TypeError(f"{what} must hold real numbers, got dtype {arr.dtype}")
+        if arr.shape != shape:
+            raise ValueError(f"{what} must have shape {shape} (one per vertex), got {arr.shape}")
+    bad = ~((ao >= 0.0) & (ao <= 1.0))         # NaN included
+    if bad.any():
+        raise ValueError(f"ao must lie in [0, 1]: {int(bad.sum())} of {V} values do not, e.g. {float(ao[bad][0])}")
+    if not np.isfinite(bent).all():
+        raise ValueError("bent must be finite (unit normals), got NaN or inf")
 
     out = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)
     grey = np.round(255.0 * linear_to_srgb(np.clip(ao, 0.0, 1.0))).astype(np.uint8)

@@ -31,6 +31,8 @@ def choose_csm(mesh, params):
 
     from ..csm.choose import choose_csm as choose
 
+    if params.max_error is None:
+        raise ValueError("choose_csm: params.max_error is None; set the accuracy to choose the CSM for")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)      # a miss is in the record ("met": false)
         return choose(mesh, params.max_error, lookup=params.lookup, depth_bits=params.depth_bits)

@@ -11,25 +11,47 @@ from __future__ import annotations
 
 import io
 import json
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
 
 from .._files import write_bytes_atomic
-from .._validate import check_transform
+from .._validate import check_int, check_transform
 
 __all__ = ["read_motion", "write_motion", "default_motion"]
 
 
+def _names(names, label) -> list | None:
+    """``names`` as a list of str (None stays None); TypeError unless a sequence of strings."""
+    if names is None:
+        return None
+    if isinstance(names, np.ndarray):
+        if names.ndim != 1 or names.dtype.kind != "U":
+            raise TypeError(f"{label}: names must be a 1-D array of strings, got dtype {names.dtype}, "
+                            f"shape {names.shape}")
+        return [str(n) for n in names]
+    if not isinstance(names, (list, tuple)):        # a str would be split into its characters
+        raise TypeError(f"{label}: names must be a list of strings, got {type(names).__name__}")
+    bad = [n for n in names if not isinstance(n, str)]
+    if bad:
+        raise TypeError(f"{label}: names must be strings, got {bad[0]!r}")
+    return [str(n) for n in names]
+
+
 def _check(transforms, names, label) -> tuple[np.ndarray, list | None]:
-    T = np.asarray(transforms, dtype=np.float64)
+    T = np.asarray(transforms)
+    if T.dtype.kind not in "iuf":       # no strings, bools, complex or objects read as numbers
+        raise TypeError(f"{label}: transforms must hold real numbers, got dtype {T.dtype}")
+    T = T.astype(np.float64)
     if T.ndim != 4 or T.shape[2:] != (4, 4) or T.shape[0] < 1 or T.shape[1] < 1:
         raise ValueError(f"{label}: transforms must have shape (frames, bodies, 4, 4), got {T.shape}")
     for f in range(T.shape[0]):
         for b in range(T.shape[1]):
             check_transform(T[f, b], rigid=True, name=f"{label}: frame {f}, body {b}")
+    names = _names(names, label)
     if names is not None:
-        names = [str(n) for n in names]
         if len(names) != T.shape[1]:
             raise ValueError(f"{label}: {len(names)} names for {T.shape[1]} bodies")
     return T, names
@@ -59,21 +81,34 @@ def read_motion(path) -> tuple[np.ndarray, list | None]:
     suffix = path.suffix.lower()
     if suffix == ".npz":
         try:
-            with np.load(path, allow_pickle=False) as z:
-                T = np.array(z["transforms"])
-                names = [str(n) for n in z["names"]] if "names" in z.files else None
-        except (OSError, ValueError, KeyError) as e:
+            with open(path, "rb") as f:     # ours to close: np.load leaks its own on a damaged archive
+                z = np.load(f, allow_pickle=False)
+                if not isinstance(z, np.lib.npyio.NpzFile):
+                    raise ValueError("a single .npy array, not an NPZ archive")
+                with z:
+                    T = np.array(z["transforms"])
+                    names = np.array(z["names"]) if "names" in z.files else None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, zlib.error) as e:
             raise ValueError(f"{path}: not a motion NPZ with an array 'transforms' ({e})") from None
     elif suffix == ".json":
         try:
             d = json.loads(path.read_text())
-            T = np.array(d["frames"], dtype=np.float64)
+            A = np.array(d["frames"], dtype=object)
             names = d.get("names")
-        except (OSError, ValueError, KeyError, TypeError) as e:
+            bad = {type(x).__name__ for x in A.ravel() if type(x) not in (int, float)}
+            if bad:                         # strings and booleans are not numbers; nor are ragged lists
+                raise ValueError(f"'frames' must be nested lists of numbers, found {', '.join(sorted(bad))}")
+            T = A.astype(np.float64)
+        except OverflowError:
+            raise ValueError(f"{path}: 'frames' holds a number too large for float64") from None
+        except (OSError, ValueError, KeyError, TypeError, RecursionError) as e:
             raise ValueError(f"{path}: not a motion JSON with a list 'frames' ({e})") from None
     else:
         raise ValueError(f"{path}: a motion file ends in .npz or .json, not {path.suffix!r}")
-    return _check(T, names, str(path))
+    try:
+        return _check(T, names, str(path))
+    except TypeError as e:              # a file's content: ValueError, as documented
+        raise ValueError(str(e)) from None
 
 
 def write_motion(path, transforms, names=None) -> Path:
@@ -124,8 +159,7 @@ def default_motion(frames: int = 60) -> tuple[np.ndarray, list]:
     from ..data import default_parts
     from ..mesh import bounding_sphere
 
-    if isinstance(frames, bool) or int(frames) < 1:
-        raise ValueError(f"frames must be a positive int, got {frames!r}")
+    frames = check_int(frames, "frames", 1)     # a float such as 2.5 made 2 frames of a partial turn
     parts = default_parts()
     out = np.empty((int(frames), len(parts), 4, 4))
     for b, (name, mesh, T, casts) in enumerate(parts):

@@ -4,6 +4,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import numbers
+
+import numpy as np
 
 __all__ = ["AssetParams", "code_digest", "asset_key"]
 
@@ -64,14 +67,25 @@ class AssetParams:
                 raise ValueError(f"AssetParams.{f} must be a positive int, got {v!r}")
         if self.theta < 2 or self.phi < 2:
             raise ValueError(f"AssetParams: at least 2x2 maps, got {self.theta}x{self.phi}")
-        if self.depth_bits not in (16, 32):
+        d = self.depth_bits         # 16.0 == 16: a bake alike under another key (and np.int64 no JSON)
+        if isinstance(d, bool) or not isinstance(d, int) or d not in (16, 32):
             raise ValueError(f"AssetParams.depth_bits must be 16 or 32, got {self.depth_bits!r}")
         if self.lookup not in LOOKUPS:
             raise ValueError(f"AssetParams.lookup must be one of {LOOKUPS}, got {self.lookup!r}")
         if self.mesh_format not in MESH_FORMATS:
             raise ValueError(f"AssetParams.mesh_format must be one of {MESH_FORMATS}, got {self.mesh_format!r}")
-        if self.max_error is not None and not (0.0 < float(self.max_error) < 1.0):
-            raise ValueError(f"AssetParams.max_error must lie in (0, 1), got {self.max_error!r}")
+        for f in ("ground", "fill_holes"):      # a string such as "false" is truthy: a bake of other settings
+            v = getattr(self, f)
+            if not isinstance(v, (bool, np.bool_)):
+                raise TypeError(f"AssetParams.{f} must be a bool, got {v!r}")
+            object.__setattr__(self, f, bool(v))
+        if self.max_error is not None:
+            v = self.max_error
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+                raise TypeError(f"AssetParams.max_error must be a float or None, got {v!r}")
+            if not (0.0 < float(v) < 1.0):
+                raise ValueError(f"AssetParams.max_error must lie in (0, 1), got {v!r}")
+            object.__setattr__(self, "max_error", float(v))     # JSON-ready: the key and the manifest
 
     def to_dict(self) -> dict:
         """The parameters as a JSON-ready dict (the manifest's ``params``)."""
@@ -80,6 +94,8 @@ class AssetParams:
     @classmethod
     def from_dict(cls, d: dict) -> "AssetParams":
         """Inverse of :meth:`to_dict`; unknown keys are an error."""
+        if not isinstance(d, dict):
+            raise TypeError(f"AssetParams.from_dict needs a dict, got {type(d).__name__}")
         names = {f.name for f in dataclasses.fields(cls)}
         extra = set(d) - names
         if extra:

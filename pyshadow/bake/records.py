@@ -35,7 +35,7 @@ def done(out: Path, record: str, key: str):
             if not f.is_file() or f.stat().st_size != meta["bytes"] or sha256_file(f) != meta["sha256"]:
                 return None
         return rec
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+    except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):   # deep nesting: corrupt
         return None
 
 

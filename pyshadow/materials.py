@@ -8,9 +8,13 @@ corner*, in a :class:`MeshVisual` stored as ``mesh.metadata["pyshadow_visual"]``
 Vertices, faces and :func:`pyshadow.mesh_hash` are exactly those of a load
 without it, so CSMs and caches do not change.
 
-Colour convention: linear RGB in [0, 1]. 8-bit colours of files (vertex and
-face colours, texture images) are sRGB-encoded and decoded with
-:func:`pyshadow.io.srgb_to_linear`; alpha is ignored.
+Colour convention: linear RGB in [0, 1]. Colours of files (vertex and
+face colours, texture images, an OBJ material's ``Kd``) are sRGB-encoded
+and decoded with :func:`pyshadow.io.srgb_to_linear`; alpha is ignored.
+Integer data is 8-bit (over 255) except 16 bit (over 65535: a 16-bit
+greyscale PNG, glTF's unsigned short ``COLOR_0``); float data (glTF's float
+``COLOR_0``) is in [0, 1] already. Colours that are not finite are
+refused like such UVs (below).
 
 The colour of a surface point (:func:`point_colours`) is the product of
 what its mesh has, as glTF defines a base colour: the barycentric
@@ -25,7 +29,7 @@ multiplies it by the instance's albedo (:class:`pyshadow.lighting.Lighting`'s
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -49,7 +53,9 @@ class MeshVisual:
     texture : ndarray, shape (h, w, 3), float32, or None
         The base-colour image, linear RGB, row 0 at the top (``v = 1``).
     factor : ndarray, shape (3,), float32
-        Base colour factor (glTF ``baseColorFactor``), linear RGB; ones otherwise.
+        Base colour factor (glTF ``baseColorFactor``), linear RGB; for an
+        untextured :class:`trimesh.visual.material.SimpleMaterial` (OBJ/MTL)
+        its ``diffuse`` (``Kd``) when set; ones otherwise.
     source : str
         What the attributes were read from (the path :func:`pyshadow.load_mesh`
         was given, or ``<Trimesh>``), named in errors.
@@ -60,6 +66,9 @@ class MeshVisual:
     texture: np.ndarray | None
     factor: np.ndarray
     source: str = "mesh"
+    # which of colours, uv and texture hold only finite values: found once per visual (a copy made by
+    # take or with_fans finds its own), not on every point_colours call
+    _finite: dict = field(default_factory=dict, init=False, repr=False)
 
     def take(self, faces) -> "MeshVisual":
         """The attributes of the faces ``faces`` (index or boolean mask), in that order."""
@@ -94,27 +103,69 @@ class MeshVisual:
         return replace(self, colours=grow(self.colours, parts["colours"]), uv=grow(self.uv, parts["uv"]))
 
 
-def _linear(rgb8) -> np.ndarray:
-    """8-bit sRGB (..., >= 3) -> linear float32 (..., 3)."""
+def _linear(rgb) -> np.ndarray:
+    """sRGB-encoded (..., >= 3) -> linear float32 (..., 3); non-finite values -> NaN (module docstring).
+
+    uint16 is over 65535, float as it is (clipped to [0, 1]), any other type over 255.
+    """
     from .io import srgb_to_linear
 
-    return srgb_to_linear(np.asarray(rgb8)[..., :3].astype(np.float64) / 255.0).astype(np.float32)
+    a = np.asarray(rgb)[..., :3]
+    scale = 1.0 if a.dtype.kind == "f" else 65535.0 if a.dtype == np.uint16 else 255.0
+    a = a.astype(np.float64)
+    ok = np.isfinite(a)
+    return np.where(ok, srgb_to_linear(np.where(ok, a, 0.0) / scale), np.nan).astype(np.float32)
 
 
-def _texture(material):
-    """(image (h, w, 3) float32 linear or None, factor (3,) float32) of a trimesh material."""
+def _image(image) -> np.ndarray:
+    """A PIL image's encoded colours, (h, w, 3): 16-bit greyscale (modes ``I;16*``, ``I``: a 16-bit PNG)
+    as uint16 and float greyscale (``F``) as float, which ``convert("RGB")`` would clip to 0/255."""
+    if image.mode.startswith("I;16") or image.mode == "I":
+        grey = np.clip(np.asarray(image), 0, 65535).astype(np.uint16)
+    elif image.mode == "F":
+        grey = np.asarray(image, dtype=np.float32)
+    else:
+        return np.asarray(image.convert("RGB"))
+    return np.repeat(grey[..., None], 3, axis=-1)
+
+
+def _diffuse(material) -> np.ndarray:
+    """Linear factor (3,) float32 of an untextured SimpleMaterial's sRGB ``diffuse`` (OBJ ``Kd``); ones when unset
+    (trimesh's default grey, unless an MTL file gave it: ``kd`` in its kwargs) or for other materials."""
+    from trimesh.visual.color import DEFAULT_COLOR
+
+    d = getattr(material, "diffuse", None)
+    if d is None or ("kd" not in (getattr(material, "kwargs", None) or {})
+                     and np.array_equal(np.asarray(d), DEFAULT_COLOR)):
+        return np.ones(3, np.float32)
+    return _linear(np.asarray(d))
+
+
+def _texture(material, sample: bool = True):
+    """(image (h, w, 3) float32 linear or None, factor (3,) float32) of a trimesh material.
+
+    ``sample=False``: the factor only (no UVs to apply an image with); the image still decides
+    whether a SimpleMaterial's ``diffuse`` counts (only without any image: trimesh writes its
+    placeholder image with its default grey as ``map_Kd`` and ``Kd``).
+    """
     image = getattr(material, "baseColorTexture", None)
     if image is None:
         image = getattr(material, "image", None)
-    factor = np.ones(3, np.float32)
+    untextured = image is None
+    if image is not None and _placeholder(image):
+        image = None
     base = getattr(material, "baseColorFactor", None)
     if base is not None:
         base = np.asarray(base)
         # trimesh keeps glTF's factor as uint8 RGBA (sRGB-free: glTF factors are linear)
         factor = (base[:3].astype(np.float64) / (255.0 if base.dtype == np.uint8 else 1.0)).astype(np.float32)
-    if image is None or _placeholder(image):
+    elif untextured:
+        factor = _diffuse(material)
+    else:
+        factor = np.ones(3, np.float32)
+    if image is None or not sample:
         return None, factor
-    return _linear(np.asarray(image.convert("RGB"))), factor
+    return _linear(_image(image)), factor
 
 
 def _placeholder(image) -> bool:
@@ -134,9 +185,10 @@ def mesh_visual(mesh, source: str = "mesh") -> MeshVisual | None:
     mesh : trimesh.Trimesh
         Its ``visual``: :class:`trimesh.visual.ColorVisuals` with vertex or
         face colours, or :class:`trimesh.visual.TextureVisuals` with UVs
-        (and a material image or glTF ``COLOR_0`` colours). The uniform
-        image trimesh makes up for UVs without a material file is not a
-        texture (ignored).
+        (and a material image or glTF ``COLOR_0`` colours) or a material
+        colour (glTF ``baseColorFactor``, OBJ ``Kd``; with or without UVs).
+        The uniform image trimesh makes up for UVs without a material file
+        is not a texture (ignored).
     source : str, optional
         What it was read from (:attr:`MeshVisual.source`).
     """
@@ -154,13 +206,14 @@ def mesh_visual(mesh, source: str = "mesh") -> MeshVisual | None:
         elif visual.kind == "face":
             colours = np.repeat(_linear(visual.face_colors)[:, None, :], 3, axis=1)
     elif isinstance(visual, trimesh.visual.TextureVisuals):
-        if visual.uv is not None and len(visual.uv) == len(mesh.vertices):
+        has_uv = visual.uv is not None and len(visual.uv) == len(mesh.vertices)
+        texture, factor = _texture(visual.material, sample=has_uv)
+        if has_uv:
             uv = np.asarray(visual.uv, dtype=np.float32)[faces]
-            texture, factor = _texture(visual.material)
         col = visual.vertex_attributes.get("color") if hasattr(visual, "vertex_attributes") else None
         if col is not None and len(col) == len(mesh.vertices):
             colours = _linear(col)[faces]
-    if colours is None and uv is None:
+    if colours is None and uv is None and bool((factor == 1).all()):
         return None
     return MeshVisual(colours, uv, texture, factor, str(source))
 
@@ -219,18 +272,29 @@ def _bilinear(image, uv) -> np.ndarray:
     fx, fy = (x - x0)[:, None], (y - y0)[:, None]
     i0, j0 = np.mod(y0.astype(np.int64), h), np.mod(x0.astype(np.int64), w)
     i1, j1 = np.mod(i0 + 1, h), np.mod(j0 + 1, w)
-    img = np.asarray(image, dtype=np.float64)
-    return ((1 - fy) * ((1 - fx) * img[i0, j0] + fx * img[i0, j1])
-            + fy * ((1 - fx) * img[i1, j0] + fx * img[i1, j1]))
+    tap = (lambda i, j: image[i, j].astype(np.float64))      # the taps only, not the whole image, in float64
+    return ((1 - fy) * ((1 - fx) * tap(i0, j0) + fx * tap(i0, j1))
+            + fy * ((1 - fx) * tap(i1, j0) + fx * tap(i1, j1)))
 
 
-def _check_uv(visual: MeshVisual) -> None:
-    """ValueError naming ``visual.source`` if any of its UVs is not finite (the texture cannot be applied:
-    NaN colours; refused whatever faces are asked, so a render fails or not whatever it sees)."""
-    bad = int((~np.isfinite(visual.uv).all(axis=-1)).sum())
-    if bad:
-        raise ValueError(f"{visual.source}: {bad} of {visual.uv.shape[0] * 3} texture coordinates (UVs of face "
-                         "corners) are not finite (NaN or inf): its texture cannot be applied")
+#: what point_colours names when an attribute of a visual is not finite
+_WHAT = {"colours": "colours (of face corners)", "uv": "texture coordinates (UVs of face corners)",
+         "texture": "texels of its texture"}
+
+
+def _check_finite(visual: MeshVisual, name: str) -> None:
+    """ValueError naming ``visual.source`` if any value of its attribute ``name`` (corner colours, UVs or
+    texels) is not finite (NaN or inf in float file data: NaN colours); refused whatever faces are asked,
+    so a render fails or not whatever it sees."""
+    a = getattr(visual, name)
+    ok = visual._finite.get(name)
+    if ok is None:
+        ok = visual._finite[name] = bool(np.isfinite(a).all())
+    if not ok:
+        bad = int((~np.isfinite(a).all(axis=-1)).sum())
+        n = a.shape[0] * a.shape[1] if name == "texture" else a.shape[0] * 3
+        raise ValueError(f"{visual.source}: {bad} of {n} {_WHAT[name]} are not finite (NaN or inf)"
+                         + (": its texture cannot be applied" if name == "uv" else ""))
 
 
 def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
@@ -239,8 +303,8 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
     Parameters
     ----------
     visual : MeshVisual or None
-        None: ones. With a texture its UVs must be finite (ValueError naming
-        its source otherwise).
+        None: ones. Its colours, and with a texture its UVs and texels,
+        must be finite (ValueError naming its source otherwise).
     faces : ndarray, shape (N,), int
         Face index of each point.
     bary : ndarray, shape (N, 3)
@@ -252,9 +316,11 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
         return out
     b = np.asarray(bary, dtype=np.float64)
     if visual.colours is not None:
+        _check_finite(visual, "colours")
         out *= np.einsum("nk,nkc->nc", b, visual.colours[f].astype(np.float64))
     if visual.uv is not None and visual.texture is not None:
-        _check_uv(visual)
+        _check_finite(visual, "uv")
+        _check_finite(visual, "texture")
         uv = np.einsum("nk,nkc->nc", b, visual.uv[f].astype(np.float64))
         out *= _bilinear(visual.texture, uv)
     return out * visual.factor.astype(np.float64)

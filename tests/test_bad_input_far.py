@@ -91,3 +91,16 @@ def test_a_caster_scaled_beyond_float32_is_named_not_a_float64_overflow():
     scene.add(box, T @ np.diag([1e-100, 1e-100, 1e-100, 1.0]))
     with pytest.raises(ValueError, match="beyond float32's range"):
         scene.visible(np.array([[0.0, 0.0, 5e103]]), np.array([[0.0, 0.0, -1.0]]))
+
+
+@pytest.mark.parametrize("row", [[0.0, 0.0, 0.0, 1.000009], [0.0, 0.0, 1e-9, 1.0]])
+def test_a_projective_last_row_is_not_affine(row):
+    """np.allclose's relative tolerance let w = 1.000009 pass as affine; the rest of the code ignores w."""
+    from pyshadow._validate import check_transform
+
+    T = np.eye(4)
+    T[3] = row
+    with pytest.raises(ValueError, match="must be affine"):
+        check_transform(T)
+    T[3] = [0.0, 0.0, 0.0, 1.0 + 1e-13]
+    assert np.array_equal(check_transform(T), T)

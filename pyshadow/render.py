@@ -9,6 +9,7 @@ may denoise the AO image (:mod:`pyshadow.filters`).
 """
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
@@ -24,6 +25,8 @@ __all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels
 
 #: Names accepted by ``denoise=``: the filters of :mod:`pyshadow.filters`.
 DENOISERS = ("bilateral", "separable", "box")
+#: Low-res taps per side of the upsampling of ``ao_scale`` > 1 (:func:`pyshadow.filters.upsample`'s ``radius``).
+_UPSAMPLE_RADIUS = 2
 
 
 @dataclass(eq=False)
@@ -35,7 +38,13 @@ class Frame(Mapping):
     ao : ndarray, shape (H, W), float32
         Ambient occlusion in [0, 1], 1 on the background.
     bent_normal : ndarray, shape (H, W, 3), float32
-        World-frame bent normals, 0 on the background.
+        World-frame bent normals, 0 on the background. With ``ao_scale`` > 1
+        only the AO pass's pixels hold theirs (every ``ao_scale``-th pixel of
+        every ``ao_scale``-th row, and covered pixels that no such pixel's
+        upsampling reaches); the other covered pixels hold 0. The lighting
+        stage upsamples them like the AO where it needs them (the sky term);
+        :func:`pyshadow.filters.upsample` of each channel with ``fill=0``
+        does the same for a caller.
     depth : ndarray, shape (H, W), float32
         Distance along the eye ray (world units), ``inf`` on the background.
     normal : ndarray, shape (H, W, 3), float32
@@ -187,29 +196,51 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
     """
     from .gbuffer import render_gbuffer
 
+    ao_scale = _check_ao_scale(ao_scale)
     items, ids = scene.draw_items(ground_size)
     g = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
+    return covered_pixels(camera, g, _instance_ids(g, ids), ao_scale=ao_scale)
+
+
+def _instance_ids(g, ids) -> np.ndarray:
+    """(H, W) int32: the G-buffer's item indices mapped through the drawn items' ids ``ids``, -1 background."""
     hit = g["object_id"] >= 0
-    obj = np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
-    return covered_pixels(camera, g, obj, ao_scale=ao_scale)
+    return np.where(hit, ids[np.maximum(g["object_id"], 0)] if len(ids) else -1, -1).astype(np.int32)
 
 
-def _check_gbuffer(g, camera, n_items: int) -> dict:
-    """A G-buffer given to :func:`surface_points`: the camera's shape, item indices in range."""
+def _check_gbuffer(g, camera, n_items: int, *, frame: bool = False) -> dict:
+    """A G-buffer given to :func:`surface_points`: the camera's shape, float buffers, item indices in
+    range, a depth > 0 on every covered pixel; with ``frame`` (:func:`render`) also its positions."""
     H, W = camera.height, camera.width
     want = {"object_id": (H, W), "depth": (H, W), "normal": (H, W, 3)}
+    if frame:
+        want["position"] = (H, W, 3)
     for key, shape in want.items():
         if key not in g:
             raise ValueError(f"gbuffer lacks {key!r} (it needs {', '.join(want)})")
         if np.shape(g[key]) != shape:
             raise ValueError(f"gbuffer[{key!r}] has shape {np.shape(g[key])}; the camera needs {shape}")
+        if key != "object_id" and not np.issubdtype(np.asarray(g[key]).dtype, np.floating):
+            raise TypeError(f"gbuffer[{key!r}] must be floats, got {np.asarray(g[key]).dtype}")
     oid = np.asarray(g["object_id"])
     if not np.issubdtype(oid.dtype, np.integer):
         raise TypeError(f"gbuffer['object_id'] must be integers, got {oid.dtype}")
     if oid.size and (oid.min() < -1 or oid.max() >= n_items):
         raise ValueError(f"gbuffer['object_id'] holds {int(oid.min())}..{int(oid.max())}; the scene draws "
                          f"{n_items} items (ids 0..{n_items - 1}, -1 for the background)")
+    z = np.asarray(g["depth"])[oid >= 0]
+    bad = ~(np.isfinite(z) & (z > 0))
+    if bad.any():
+        raise ValueError(f"gbuffer['depth'] must be finite and > 0 where object_id >= 0 (a surface in front of "
+                         f"the camera), got {int(bad.sum())} other value(s), e.g. {float(z[bad][0])!r}")
     return g
+
+
+def _check_ao_scale(ao_scale) -> int:
+    if isinstance(ao_scale, (bool, np.bool_)) or not isinstance(ao_scale, numbers.Integral) \
+            or ao_scale not in (1, 2, 4):
+        raise ValueError(f"ao_scale must be 1, 2 or 4, got {ao_scale!r}")
+    return int(ao_scale)
 
 
 def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfacePoints:
@@ -225,14 +256,19 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
     ao_scale : {1, 2, 4}, optional
         As in :func:`surface_points`.
     """
-    H, W = camera.height, camera.width
+    ao_scale = _check_ao_scale(ao_scale)
     hit = object_id != -1
-    if ao_scale == 1:
-        sel = np.flatnonzero(hit.reshape(-1))
-    else:
-        sub = np.zeros((H, W), bool)
+    if ao_scale != 1:
+        sub = np.zeros((camera.height, camera.width), bool)
         sub[::ao_scale, ::ao_scale] = True
-        sel = np.flatnonzero((hit & sub).reshape(-1))
+        hit = hit & sub
+    return _points_at(camera, gbuffer, object_id, hit)
+
+
+def _points_at(camera, gbuffer, object_id, keep) -> SurfacePoints:
+    """:class:`SurfacePoints` of the pixels where the (H, W) bool ``keep`` is True (covered ones)."""
+    H, W = camera.height, camera.width
+    sel = np.flatnonzero(keep.reshape(-1))
     every = len(sel) == H * W                   # no background: sel is every pixel, in order
 
     def pick(a, k, copy=True):                  # a's values at sel, rows of k (np.take: indexing is slower)
@@ -244,6 +280,25 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
     return SurfacePoints(gbuffer=gbuffer, object_id=object_id, index=sel,
                          points=points_on_rays(camera.eye, depth, dirs),
                          normals=pick(gbuffer["normal"], 3), surface_ids=pick(object_id, 1))
+
+
+def _ao_pass(hit, scale: int) -> np.ndarray:
+    """(H, W) bool: the pixels :func:`render` computes AO at for ``ao_scale=scale``: every ``scale``-th
+    covered pixel (the low-res samples of :func:`pyshadow.filters.upsample`) and every covered pixel
+    whose upsampling window (``_UPSAMPLE_RADIUS`` low-res taps per side) holds no covered sample, which
+    upsampling would give its ``fill`` value (unoccluded) instead of an AO."""
+    H, W = hit.shape
+    low = hit[::scale, ::scale]
+    Hl, Wl = low.shape
+    c = np.zeros((Hl + 1, Wl + 1), np.int64)
+    c[1:, 1:] = low.cumsum(0).cumsum(1)                 # covered samples in [0, i) x [0, j)
+    i, j = np.arange(Hl), np.arange(Wl)
+    ia, ib = np.clip(i - _UPSAMPLE_RADIUS + 1, 0, Hl), np.minimum(i + _UPSAMPLE_RADIUS + 1, Hl)
+    ja, jb = np.clip(j - _UPSAMPLE_RADIUS + 1, 0, Wl), np.minimum(j + _UPSAMPLE_RADIUS + 1, Wl)
+    n = c[ib][:, jb] - c[ia][:, jb] - c[ib][:, ja] + c[ia][:, ja]
+    keep = np.repeat(np.repeat(n == 0, scale, 0), scale, 1)[:H, :W]
+    keep[::scale, ::scale] = True
+    return keep & hit
 
 
 def _put_pixels(image, index, values) -> None:
@@ -268,13 +323,12 @@ def _put_pixels(image, index, values) -> None:
 def _check_render_options(denoise, ao_scale, sampling):
     if denoise is not None and denoise not in DENOISERS:
         raise ValueError(f"denoise must be None, 'bilateral', 'separable' or 'box', got {denoise!r}")
-    if ao_scale not in (1, 2, 4) or isinstance(ao_scale, bool):
-        raise ValueError(f"ao_scale must be 1, 2 or 4, got {ao_scale!r}")
+    ao_scale = _check_ao_scale(ao_scale)
     if sampling is None:
-        return Sampling()
+        return ao_scale, Sampling()
     if not isinstance(sampling, Sampling):
         raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
-    return sampling
+    return ao_scale, sampling
 
 
 def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_scale: int = 1,
@@ -295,14 +349,19 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         Edge-aware filtering of the AO image (:mod:`pyshadow.filters`).
     ao_scale : {1, 2, 4}, optional
         Compute AO at 1/ao_scale resolution and upsample it with the
-        full-resolution G-buffer (joint bilateral upsampling).
+        full-resolution G-buffer (joint bilateral upsampling,
+        :func:`pyshadow.filters.upsample`; bent normals: ``Frame``). A covered pixel whose
+        upsampling window holds no covered low-res pixel (a small object
+        between them, a tiny image) gets its own AO instead of ``fill``.
     ground_size : float, optional
         Side of the drawn ground quad (:meth:`pyshadow.Scene.ground_quad`).
     bias : float, optional
         As in :func:`pyshadow.visibility.visible`.
     gbuffer : dict, optional
         A G-buffer to use instead of rasterising one (e.g.
-        :func:`pyshadow.embree.gbuffer`).
+        :func:`pyshadow.embree.gbuffer`): ``object_id``, ``depth``, ``normal``
+        and ``position`` of the camera's shape, the depth finite and > 0 on
+        every covered pixel.
     lighting : pyshadow.lighting.Lighting, optional
         Fill ``Frame.radiance`` (H, W, 3) float32, linear, 0 on the
         background: the sky term from the frame's (filtered, upsampled) AO
@@ -338,8 +397,9 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     Frame
     """
     from . import visibility as vis
+    from .gbuffer import render_gbuffer
 
-    sampling = _check_render_options(denoise, ao_scale, sampling)
+    ao_scale, sampling = _check_render_options(denoise, ao_scale, sampling)
     if normals not in NORMAL_MODES:
         raise ValueError(f"normals must be 'flat' or 'smooth', got {normals!r}")
     crease_angle = check_crease_angle(crease_angle)
@@ -353,26 +413,30 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
             raise TypeError(f"lighting must be a pyshadow.lighting.Lighting or PhongLighting, got {lighting!r}")
     smooth = normals == "smooth"
     colour = surface = None
-    items = scene.draw_items(ground_size)[0] if smooth or lighting is not None else []
+    drawn, ids = scene.draw_items(ground_size)
+    if gbuffer is not None:
+        gbuffer = _check_gbuffer(gbuffer, camera, len(drawn), frame=True)
+    items = drawn if smooth or lighting is not None else []
     gouraud = phong and lighting.per_vertex
     if smooth or gouraud or any(visual_of(mesh) is not None for mesh, _ in items):
-        from .gbuffer import render_gbuffer
         from .materials import surface_colours
         from .shading_normals import pixel_surface, shading_gbuffer
 
-        gbuffer = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
+        gbuffer = render_gbuffer(items, camera) if gbuffer is None else gbuffer
         surface = pixel_surface(items, gbuffer, camera)
         if smooth:
             gbuffer = shading_gbuffer(items, gbuffer, camera, crease_angle, surface)
         if lighting is not None:
             colour = surface_colours(items, *surface[1:])   # the covered pixels in flat order, as covered_pixels
-    sp = surface_points(scene, camera, ground_size=ground_size, ao_scale=ao_scale, gbuffer=gbuffer)
-    g = sp.gbuffer
+    g = render_gbuffer(drawn, camera) if gbuffer is None else gbuffer
+    obj = _instance_ids(g, ids)
+    hit = obj != -1
+    sp = _points_at(camera, g, obj, hit if ao_scale == 1 else _ao_pass(hit, ao_scale))   # where AO is computed
     geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)
     bent = np.zeros((H, W, 3), np.float32)
-    transfer = None
+    transfer = own = None
     if len(sp.index):
         one_pass = (lighting is not None and not phong and lighting.mode == "transfer" and ao_scale == 1 and not smooth
                     and hasattr(vis.get_backend(visibility), "sh_transfer"))
@@ -396,9 +460,11 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     if ao_scale != 1 or denoise is not None:
         from . import filters
 
-        if ao_scale != 1:
+        if ao_scale != 1:           # the AO pass's pixels off the grid keep their own AO and bent normal
             low = ao[::ao_scale, ::ao_scale]
-            frame.ao = filters.upsample(low, g["depth"], g["normal"], scale=ao_scale)
+            frame.ao = filters.upsample(low, g["depth"], g["normal"], scale=ao_scale, radius=_UPSAMPLE_RADIUS)
+            own = sp.index[(sp.index // W % ao_scale != 0) | (sp.index % W % ao_scale != 0)]
+            frame.ao.reshape(-1)[own] = ao.reshape(-1)[own]
         if denoise == "bilateral":
             frame.ao = filters.bilateral(frame.ao, g["depth"], g["normal"])
         elif denoise == "separable":
@@ -410,8 +476,25 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
                                          items, surface)
     elif lighting is not None:
         frame.radiance = _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling,
-                                   transfer, colour)
+                                   transfer, colour, own)
     return frame
+
+
+def _bent_rows(frame, sp, ao_scale, own, index, nrm) -> np.ndarray:
+    """(K, 3) float64 bent normals of the covered pixels ``index`` (shading normals ``nrm``) for the
+    sky term: the frame's own; with ``ao_scale`` > 1 upsampled from the AO pass's grid like the AO,
+    except at the pass's pixels ``own`` off the grid, and made unit (``nrm`` where they cancel)."""
+    if ao_scale == 1:
+        return np.asarray(frame.bent_normal.reshape(-1, 3)[index], np.float64)
+    from . import filters
+
+    g, s = sp.gbuffer, ao_scale
+    bent = np.stack([filters.upsample(frame.bent_normal[::s, ::s, c], g["depth"], g["normal"], scale=s,
+                                      radius=_UPSAMPLE_RADIUS, fill=0.0) for c in range(3)], axis=2)
+    bent.reshape(-1, 3)[own] = frame.bent_normal.reshape(-1, 3)[own]
+    b = np.asarray(bent.reshape(-1, 3)[index], np.float64)
+    length = np.linalg.norm(b, axis=1, keepdims=True)
+    return np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
 
 
 def _phong_radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, colour, items,
@@ -454,10 +537,11 @@ def _lit_pixels(camera, sp, frame, lighting, ao_scale, colour):
 
 
 def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sampling, transfer,
-              colour=None) -> np.ndarray:
+              colour=None, own=None) -> np.ndarray:
     """``Frame.radiance`` of :func:`render` (see its ``lighting``); ``transfer``: the covered pixels'
     SH transfer when the AO pass summed it already (mode "transfer", full resolution), else None;
-    ``colour``: (K, 3) surface colours of every covered pixel (flat order) or None (ones). With
+    ``colour``: (K, 3) surface colours of every covered pixel (flat order) or None (ones); ``own``: with
+    ``ao_scale`` > 1, the flat indices of the AO pass's pixels off its grid (else None). With
     ``Frame.geometric_normal`` set, the hemisphere rule of :mod:`pyshadow.shading_normals` applies."""
     from .lighting.local import lights_radiance
     from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
@@ -466,17 +550,6 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     out, full, nrm, albedo, geo = _lit_pixels(camera, sp, frame, lighting, ao_scale, colour)
     if full is None:
         return out
-    bent = frame.bent_normal
-    if ao_scale != 1:                     # bent normals exist on the AO pass's pixels only: upsample them
-        from . import filters
-
-        g = sp.gbuffer
-        bent = np.stack([filters.upsample(frame.bent_normal[::ao_scale, ::ao_scale, c], g["depth"], g["normal"],
-                                          scale=ao_scale, fill=0.0) for c in range(3)], axis=2)
-    b = np.asarray(bent.reshape(-1, 3)[full.index], np.float64)
-    if ao_scale != 1:
-        length = np.linalg.norm(b, axis=1, keepdims=True)
-        b = np.where(length > 1e-6, b / np.maximum(length, 1e-30), nrm)
     if transfer is not None:
         sky = transfer_sky(lighting, transfer, albedo)
     elif lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
@@ -484,6 +557,7 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
         sky = term(scene, full.points, nrm, lighting, albedo, backend=visibility, sampling=sampling,
                    surface_ids=full.surface_ids, indices=full.index, bias=bias, geometric_normals=geo)[0]
     else:
+        b = _bent_rows(frame, sp, ao_scale, own, full.index, nrm)     # only this term reads them
         sky = sky_radiance(lighting, frame.ao.reshape(-1)[full.index], b, albedo)
     sun, _ = sun_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
                           surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)

@@ -6,11 +6,27 @@ a vertex). It keeps them apart from the geometry instead, per *face
 corner*, in a :class:`MeshVisual` stored as ``mesh.metadata["pyshadow_visual"]``
 (:data:`VISUAL_KEY`; absent when the file has neither colours nor UVs).
 Vertices, faces and :func:`pyshadow.mesh_hash` are exactly those of a load
-without it, so CSMs and caches do not change.
+without it, so CSMs and caches do not change. A scene (several meshes, as
+a GLB or a multi-material OBJ loads) gets one visual per mesh, joined per
+face corner in the order its meshes are concatenated (:func:`join_visuals`):
+each part keeps its own colours, material colour and texture.
 
-Colour convention: linear RGB in [0, 1]. Colours of files (vertex and
-face colours, texture images, an OBJ material's ``Kd``) are sRGB-encoded
-and decoded with :func:`pyshadow.io.srgb_to_linear`; alpha is ignored.
+Colour convention: linear RGB in [0, 1]; alpha is ignored. Texture images
+and an OBJ material's ``Kd`` are sRGB-encoded and decoded with
+:func:`pyshadow.io.srgb_to_linear`, and so are the vertex and face colours
+of every format but glTF (PLY, OBJ, OFF, ...: display-encoded, as their
+viewers show them). glTF is linear where its specification says so: the
+``COLOR_0`` vertex colours ("an additional linear multiplier to base
+color", glTF 2.0 section 3.9.2) and ``baseColorFactor`` are used as they
+are; its base colour texture is sRGB like any image. A mesh counts as glTF
+(:func:`is_gltf`) when :func:`pyshadow.load_mesh` read it from a path
+ending in ``.glb`` or ``.gltf`` (any case), or when the trimesh object
+itself comes from trimesh's glTF reader: that reader puts the key
+``"from_gltf_primitive"`` in every mesh's ``metadata`` (kept by
+``Scene.to_geometry``, ``force="mesh"`` and ``copy``), and a mesh of a
+loaded scene also has ``source.file_type`` ``'glb'``/``'gltf'``. Any other
+mesh object (built in code, or read from another format) has sRGB colours;
+one whose colours are linear can pass ``gltf=True`` to :func:`mesh_visual`.
 Integer data is 8-bit (over 255) except 16 bit (over 65535: a 16-bit
 greyscale PNG, glTF's unsigned short ``COLOR_0``); float data (glTF's float
 ``COLOR_0``) is in [0, 1] already. Colours that are not finite are
@@ -25,7 +41,8 @@ finite (an OBJ's ``vt nan nan``) are kept by :func:`pyshadow.load_mesh`
 (the geometry, shadows and AO do not need them) and refused with a
 ValueError naming the source where the texture is applied. A lit render
 multiplies it by the instance's albedo (:class:`pyshadow.lighting.Lighting`'s
-``albedo``/``albedos``); a mesh without a :class:`MeshVisual` contributes 1.
+``albedo``/``albedos``); a mesh without a :class:`MeshVisual` contributes 1,
+and so do the faces of a part without colours in a joined scene.
 """
 from __future__ import annotations
 
@@ -33,10 +50,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["MeshVisual", "VISUAL_KEY", "mesh_visual", "visual_of", "point_colours", "surface_colours", "barycentrics"]
+__all__ = ["MeshVisual", "VISUAL_KEY", "GLTF_SUFFIXES", "is_gltf", "mesh_visual", "join_visuals", "visual_of",
+           "point_colours", "surface_colours", "barycentrics"]
 
 #: Key of :attr:`trimesh.Trimesh.metadata` under which :func:`pyshadow.load_mesh` keeps a :class:`MeshVisual`.
 VISUAL_KEY = "pyshadow_visual"
+
+#: File suffixes (lower case) whose meshes :func:`pyshadow.load_mesh` reads as glTF (linear ``COLOR_0``).
+GLTF_SUFFIXES = (".glb", ".gltf")
 
 
 @dataclass(eq=False)
@@ -59,6 +80,12 @@ class MeshVisual:
     source : str
         What the attributes were read from (the path :func:`pyshadow.load_mesh`
         was given, or ``<Trimesh>``), named in errors.
+    textures : tuple of ndarray
+        Several images (each as ``texture``), when the faces of a joined
+        scene (:func:`join_visuals`) use different textures; ``texture`` is
+        None then. Empty otherwise.
+    texture_index : ndarray, shape (T,), int32, or None
+        With ``textures``: the image each face samples, -1 for none (colour 1).
     """
 
     colours: np.ndarray | None
@@ -66,6 +93,8 @@ class MeshVisual:
     texture: np.ndarray | None
     factor: np.ndarray
     source: str = "mesh"
+    textures: tuple = ()
+    texture_index: np.ndarray | None = None
     # which of colours, uv and texture hold only finite values: found once per visual (a copy made by
     # take or with_fans finds its own), not on every point_colours call
     _finite: dict = field(default_factory=dict, init=False, repr=False)
@@ -73,25 +102,33 @@ class MeshVisual:
     def take(self, faces) -> "MeshVisual":
         """The attributes of the faces ``faces`` (index or boolean mask), in that order."""
         pick = (lambda a: None if a is None else np.ascontiguousarray(a[faces]))
-        return replace(self, colours=pick(self.colours), uv=pick(self.uv))
+        return replace(self, colours=pick(self.colours), uv=pick(self.uv), texture_index=pick(self.texture_index))
+
+    def reversed(self) -> "MeshVisual":
+        """The attributes of the faces with their corners in reverse order (trimesh's ``fliplr`` of faces
+        that a mirroring transform reverses)."""
+        rev = (lambda a: None if a is None else np.ascontiguousarray(a[:, ::-1]))
+        return replace(self, colours=rev(self.colours), uv=rev(self.uv))
 
     def with_fans(self, faces: np.ndarray, loops) -> "MeshVisual":
         """Extended by the fan faces :func:`pyshadow.mesh.close_holes` appends, in its order.
 
         The fan face ``(b, a, centre)`` of the boundary edge ``(a, b)`` of face
-        ``f`` takes ``f``'s corner attributes at ``a`` and ``b``; the centre
-        takes the mean of the loop's.
+        ``f`` takes ``f``'s corner attributes at ``a`` and ``b`` (and ``f``'s
+        texture); the centre takes the mean of the loop's.
         """
         where = {}
         for k in range(3):
             for f, (a, b) in enumerate(zip(faces[:, k].tolist(), faces[:, (k + 1) % 3].tolist())):
                 where[(a, b)] = (f, k, (k + 1) % 3)
-        parts = {"colours": [], "uv": []}
+        parts = {"colours": [], "uv": [], "texture_index": []}
         for loop in loops:
             if len(loop) < 3:
                 continue
             hit = [where[e] for e in loop]
-            for name in parts:
+            if self.texture_index is not None:
+                parts["texture_index"].append(self.texture_index[[f for f, _, _ in hit]])
+            for name in ("colours", "uv"):
                 arr = getattr(self, name)
                 if arr is None:
                     continue
@@ -100,13 +137,15 @@ class MeshVisual:
                 centre = np.broadcast_to(at_a.mean(axis=0), at_a.shape)
                 parts[name].append(np.stack([at_b, at_a, centre], axis=1).astype(np.float32))
         grow = (lambda a, extra: a if a is None or not extra else np.concatenate([a, *extra]))
-        return replace(self, colours=grow(self.colours, parts["colours"]), uv=grow(self.uv, parts["uv"]))
+        return replace(self, colours=grow(self.colours, parts["colours"]), uv=grow(self.uv, parts["uv"]),
+                       texture_index=grow(self.texture_index, parts["texture_index"]))
 
 
-def _linear(rgb) -> np.ndarray:
-    """sRGB-encoded (..., >= 3) -> linear float32 (..., 3); non-finite values -> NaN (module docstring).
+def _linear(rgb, srgb: bool = True) -> np.ndarray:
+    """Colours (..., >= 3) -> linear float32 (..., 3); non-finite values -> NaN (module docstring).
 
-    uint16 is over 65535, float as it is (clipped to [0, 1]), any other type over 255.
+    uint16 is over 65535, float as it is (clipped to [0, 1]), any other type over 255; then decoded
+    with :func:`pyshadow.io.srgb_to_linear` unless ``srgb`` is False (glTF's linear ``COLOR_0``).
     """
     from .io import srgb_to_linear
 
@@ -114,7 +153,8 @@ def _linear(rgb) -> np.ndarray:
     scale = 1.0 if a.dtype.kind == "f" else 65535.0 if a.dtype == np.uint16 else 255.0
     a = a.astype(np.float64)
     ok = np.isfinite(a)
-    return np.where(ok, srgb_to_linear(np.where(ok, a, 0.0) / scale), np.nan).astype(np.float32)
+    unit = np.where(ok, a, 0.0) / scale
+    return np.where(ok, srgb_to_linear(unit) if srgb else np.clip(unit, 0.0, 1.0), np.nan).astype(np.float32)
 
 
 def _image(image) -> np.ndarray:
@@ -141,12 +181,14 @@ def _diffuse(material) -> np.ndarray:
     return _linear(np.asarray(d))
 
 
-def _texture(material, sample: bool = True):
+def _texture(material, sample: bool = True, images: dict | None = None):
     """(image (h, w, 3) float32 linear or None, factor (3,) float32) of a trimesh material.
 
     ``sample=False``: the factor only (no UVs to apply an image with); the image still decides
     whether a SimpleMaterial's ``diffuse`` counts (only without any image: trimesh writes its
-    placeholder image with its default grey as ``map_Kd`` and ``Kd``).
+    placeholder image with its default grey as ``map_Kd`` and ``Kd``). ``images``: decoded images by
+    the id of their PIL image (shared by the parts of a scene: each is decoded once, and equal
+    parts get the same array).
     """
     image = getattr(material, "baseColorTexture", None)
     if image is None:
@@ -165,7 +207,11 @@ def _texture(material, sample: bool = True):
         factor = np.ones(3, np.float32)
     if image is None or not sample:
         return None, factor
-    return _linear(_image(image)), factor
+    if images is None:
+        return _linear(_image(image)), factor
+    if id(image) not in images:
+        images[id(image)] = (image, _linear(_image(image)))     # the image kept alive: its id stays its own
+    return images[id(image)][1], factor
 
 
 def _placeholder(image) -> bool:
@@ -177,7 +223,22 @@ def _placeholder(image) -> bool:
     return got.shape == blank.shape and bool(np.array_equal(got, blank))
 
 
-def mesh_visual(mesh, source: str = "mesh") -> MeshVisual | None:
+def is_gltf(mesh) -> bool:
+    """Does ``mesh`` come from trimesh's glTF reader (module docstring)? Its ``COLOR_0`` is linear then.
+
+    True when its ``metadata`` has the key ``"from_gltf_primitive"`` (which that reader sets on every
+    mesh) or its ``source.file_type`` is ``'glb'`` or ``'gltf'``.
+    """
+    if "from_gltf_primitive" in (getattr(mesh, "metadata", None) or {}):
+        return True
+    try:
+        kind = getattr(getattr(mesh, "source", None), "file_type", None)
+    except Exception:       # an object whose source cannot be read is no glTF
+        return False
+    return isinstance(kind, str) and kind.lower() in ("glb", "gltf")
+
+
+def mesh_visual(mesh, source: str = "mesh", gltf: bool | None = None) -> MeshVisual | None:
     """The :class:`MeshVisual` of a trimesh as loaded (before merging), or None if it has none.
 
     Parameters
@@ -186,36 +247,123 @@ def mesh_visual(mesh, source: str = "mesh") -> MeshVisual | None:
         Its ``visual``: :class:`trimesh.visual.ColorVisuals` with vertex or
         face colours, or :class:`trimesh.visual.TextureVisuals` with UVs
         (and a material image or glTF ``COLOR_0`` colours) or a material
-        colour (glTF ``baseColorFactor``, OBJ ``Kd``; with or without UVs).
-        The uniform image trimesh makes up for UVs without a material file
-        is not a texture (ignored).
+        colour (glTF ``baseColorFactor``, OBJ ``Kd``; with or without UVs;
+        per face for the primitives of a glTF mesh merged into one, a
+        :class:`trimesh.visual.material.MultiMaterial`). The uniform image
+        trimesh makes up for UVs without a material file is not a texture
+        (ignored).
     source : str, optional
         What it was read from (:attr:`MeshVisual.source`).
+    gltf : bool or None, optional
+        Whether its vertex and face colours are linear (glTF ``COLOR_0``)
+        rather than sRGB-encoded; None: :func:`is_gltf` of ``mesh``.
     """
+    return _mesh_visual(mesh, source, gltf, None)
+
+
+def _mesh_visual(mesh, source, gltf, images) -> MeshVisual | None:
+    """:func:`mesh_visual`, with the decoded images of :func:`_texture` shared through ``images``."""
     import trimesh
 
     visual = getattr(mesh, "visual", None)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if visual is None or len(faces) == 0:
         return None
+    srgb = not (is_gltf(mesh) if gltf is None else bool(gltf))
     colours = uv = texture = None
     factor = np.ones(3, np.float32)
     if isinstance(visual, trimesh.visual.ColorVisuals):
         if visual.kind == "vertex":
-            colours = _linear(visual.vertex_colors)[faces]
+            colours = _linear(visual.vertex_colors, srgb)[faces]
         elif visual.kind == "face":
-            colours = np.repeat(_linear(visual.face_colors)[:, None, :], 3, axis=1)
+            colours = np.repeat(_linear(visual.face_colors, srgb)[:, None, :], 3, axis=1)
     elif isinstance(visual, trimesh.visual.TextureVisuals):
         has_uv = visual.uv is not None and len(visual.uv) == len(mesh.vertices)
-        texture, factor = _texture(visual.material, sample=has_uv)
+        material = visual.material
+        per_face = getattr(visual, "face_materials", None)
+        if isinstance(material, trimesh.visual.material.MultiMaterial):
+            # glTF primitives merged by trimesh (merge_primitives=True): a material colour per face
+            if per_face is not None and len(per_face) == len(faces) and len(material.materials):
+                table = np.stack([_texture(m, sample=False)[1] for m in material.materials])
+                pick = np.clip(np.asarray(per_face, dtype=np.int64), 0, len(table) - 1)
+                if not (table == 1).all():
+                    colours = np.repeat(table[pick][:, None, :], 3, axis=1)
+        else:
+            texture, factor = _texture(material, sample=has_uv, images=images)
         if has_uv:
             uv = np.asarray(visual.uv, dtype=np.float32)[faces]
         col = visual.vertex_attributes.get("color") if hasattr(visual, "vertex_attributes") else None
         if col is not None and len(col) == len(mesh.vertices):
-            colours = _linear(col)[faces]
+            c = _linear(col, srgb)[faces]
+            colours = c if colours is None else colours * c
     if colours is None and uv is None and bool((factor == 1).all()):
         return None
     return MeshVisual(colours, uv, texture, factor, str(source))
+
+
+def join_visuals(parts, source: str = "mesh") -> MeshVisual | None:
+    """One :class:`MeshVisual` of meshes concatenated in order, from the visual of each.
+
+    Parameters
+    ----------
+    parts : sequence of (MeshVisual or None, int)
+        Each mesh's visual (None: it has none) and its number of faces.
+    source : str, optional
+        :attr:`MeshVisual.source` of the result.
+
+    Returns
+    -------
+    MeshVisual or None
+        None when no part has one; the part's own (``source`` replaced) when
+        there is one part. Otherwise a part's faces keep their colours, UVs
+        and texture; a part without colours has ones (not trimesh's default
+        grey); factors that differ between parts are multiplied into the
+        corner colours (exact: a factor is constant over its part); textures
+        that differ give :attr:`MeshVisual.textures` with a texture index per
+        face (the parts without one: -1, colour 1).
+    """
+    parts = [(v, int(n)) for v, n in parts]
+    if all(v is None for v, _ in parts):
+        return None
+    if len(parts) == 1:
+        return replace(parts[0][0], source=str(source))
+    one = np.ones(3, np.float32)
+    factors = [one if v is None else np.asarray(v.factor, np.float32) for v, _ in parts]
+    same = all(np.array_equal(f, factors[0]) for f in factors)
+    colours = None
+    if not same or any(v is not None and v.colours is not None for v, _ in parts):
+        colours = np.concatenate([
+            (np.ones((n, 3, 3), np.float32) if v is None or v.colours is None else v.colours)
+            * (one if same else f) for (v, n), f in zip(parts, factors)]).astype(np.float32)
+    uv = None
+    if any(v is not None and v.uv is not None for v, _ in parts):
+        uv = np.concatenate([np.zeros((n, 3, 2), np.float32) if v is None or v.uv is None else v.uv
+                             for v, n in parts]).astype(np.float32)
+    images: list = []
+
+    def slot(image):                       # index of ``image`` in ``images`` (the same array: the same slot)
+        for k, known in enumerate(images):
+            if known is image:
+                return k
+        images.append(image)
+        return len(images) - 1
+
+    index = []
+    for v, n in parts:
+        if v is None or v.uv is None:
+            index.append(np.full(n, -1, np.int32))
+        elif v.texture_index is not None:
+            remap = np.array([slot(t) for t in v.textures] + [-1], np.int32)
+            index.append(remap[v.texture_index])               # -1 stays -1 (the last entry)
+        else:
+            index.append(np.full(n, -1 if v.texture is None else slot(v.texture), np.int32))
+    index = np.concatenate(index)
+    texture, textures, texture_index = None, (), None
+    if len(images) == 1 and (index == 0).all():
+        texture = images[0]
+    elif images:
+        textures, texture_index = tuple(images), index
+    return MeshVisual(colours, uv, texture, factors[0] if same else one, str(source), textures, texture_index)
 
 
 def visual_of(mesh) -> MeshVisual | None:
@@ -226,7 +374,7 @@ def visual_of(mesh) -> MeshVisual | None:
     if not isinstance(v, MeshVisual):
         raise TypeError(f"mesh.metadata[{VISUAL_KEY!r}] must be a pyshadow.materials.MeshVisual, "
                         f"got {type(v).__name__}")
-    if any(a is not None and len(a) != len(mesh.faces) for a in (v.colours, v.uv)):
+    if any(a is not None and len(a) != len(mesh.faces) for a in (v.colours, v.uv, v.texture_index)):
         raise ValueError(f"mesh.metadata[{VISUAL_KEY!r}] holds attributes of another mesh "
                          f"(its arrays do not have one row per face, {len(mesh.faces)})")
     return v
@@ -285,16 +433,26 @@ _WHAT = {"colours": "colours (of face corners)", "uv": "texture coordinates (UVs
 def _check_finite(visual: MeshVisual, name: str) -> None:
     """ValueError naming ``visual.source`` if any value of its attribute ``name`` (corner colours, UVs or
     texels) is not finite (NaN or inf in float file data: NaN colours); refused whatever faces are asked,
-    so a render fails or not whatever it sees."""
-    a = getattr(visual, name)
+    so a render fails or not whatever it sees. With :attr:`MeshVisual.textures`: every image, and the
+    UVs of the faces that have a texture."""
     ok = visual._finite.get(name)
     if ok is None:
-        ok = visual._finite[name] = bool(np.isfinite(a).all())
+        ok = visual._finite[name] = all(bool(np.isfinite(a).all()) for a in _checked(visual, name))
     if not ok:
-        bad = int((~np.isfinite(a).all(axis=-1)).sum())
-        n = a.shape[0] * a.shape[1] if name == "texture" else a.shape[0] * 3
+        arrays = _checked(visual, name)
+        bad = sum(int((~np.isfinite(a).all(axis=-1)).sum()) for a in arrays)
+        n = sum(a.shape[0] * a.shape[1] if name == "texture" else a.shape[0] * 3 for a in arrays)
         raise ValueError(f"{visual.source}: {bad} of {n} {_WHAT[name]} are not finite (NaN or inf)"
                          + (": its texture cannot be applied" if name == "uv" else ""))
+
+
+def _checked(visual: MeshVisual, name: str) -> list:
+    """The arrays :func:`_check_finite` checks for ``name``."""
+    if visual.texture_index is not None and name == "texture":
+        return list(visual.textures)
+    if visual.texture_index is not None and name == "uv":
+        return [visual.uv[visual.texture_index >= 0]]
+    return [getattr(visual, name)]
 
 
 def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
@@ -318,11 +476,17 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
     if visual.colours is not None:
         _check_finite(visual, "colours")
         out *= np.einsum("nk,nkc->nc", b, visual.colours[f].astype(np.float64))
-    if visual.uv is not None and visual.texture is not None:
+    if visual.uv is not None and (visual.texture is not None or visual.texture_index is not None):
         _check_finite(visual, "uv")
         _check_finite(visual, "texture")
         uv = np.einsum("nk,nkc->nc", b, visual.uv[f].astype(np.float64))
-        out *= _bilinear(visual.texture, uv)
+        if visual.texture_index is None:
+            out *= _bilinear(visual.texture, uv)
+        else:                                   # a joined scene: each face its part's texture, or none
+            which = visual.texture_index[f]
+            for k in np.unique(which[which >= 0]):
+                sel = which == k
+                out[sel] *= _bilinear(visual.textures[k], uv[sel])
     return out * visual.factor.astype(np.float64)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import trimesh
 
 from ._validate import check_transform
-from .materials import VISUAL_KEY, mesh_visual, visual_of
+from .materials import GLTF_SUFFIXES, VISUAL_KEY, _mesh_visual, join_visuals, visual_of
 
 __all__ = [
     "MeshCleanupWarning",
@@ -38,30 +38,64 @@ class MeshCleanupWarning(UserWarning):
     """Faces were removed from a mesh while loading it (degenerate or duplicate)."""
 
 
-def _as_trimesh(source, label: str) -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
-    """Turn what trimesh gives back for ``source`` into one Trimesh (no processing).
+def _as_trimesh(source, label: str, gltf: bool | None = None):
+    """Turn what trimesh gives back for ``source`` into one Trimesh (no processing) and its visual.
 
-    Returns the new mesh (geometry only) and the Trimesh it was copied from
-    (with its visual attributes).
+    Returns the new mesh (geometry only) and its :class:`pyshadow.materials.MeshVisual` (or None),
+    aligned with the new mesh's faces. A scene's meshes are placed and concatenated exactly as
+    ``Scene.to_geometry`` does (the same vertices and faces: :func:`mesh_hash` does not depend on
+    the visuals), but each mesh's visual is read from the scene's own geometry (trimesh's copies
+    lose glTF's ``COLOR_0``), reversed where the node's transform reverses the faces' winding, and
+    joined per face corner (:func:`pyshadow.materials.join_visuals`). ``gltf``: as
+    :func:`pyshadow.materials.mesh_visual`.
     """
     if isinstance(source, trimesh.Trimesh):
         return trimesh.Trimesh(
             vertices=np.array(source.vertices, dtype=np.float64),
             faces=np.array(source.faces, dtype=np.int64),
             process=False,
-        ), source
+        ), _mesh_visual(source, label, gltf, None)
     if isinstance(source, trimesh.Scene):
-        meshes = [g for g in source.geometry.values() if isinstance(g, trimesh.Trimesh)]
-        if not meshes:
+        if not any(isinstance(g, trimesh.Trimesh) for g in source.geometry.values()):
             raise ValueError(f"{label}: the scene holds no triangle meshes")
-        # to_geometry applies every node's transform and concatenates
-        geom = source.to_geometry()
-        if not isinstance(geom, trimesh.Trimesh):
+        # every node's geometry moved by its transform, as to_geometry concatenates it (which keeps the
+        # meshes, unless paths outnumber them)
+        parts = source.dump()
+        meshes = [g for g in parts if isinstance(g, trimesh.Trimesh)]
+        if sum(trimesh.util.is_instance_named(g, "Path") for g in parts) > len(meshes):
             raise ValueError(f"{label}: the scene could not be concatenated into one mesh")
-        return _as_trimesh(geom, label)
+        if not meshes:
+            return trimesh.Trimesh(process=False), None
+        vertices, faces = trimesh.util.append_faces([m.vertices.copy() for m in meshes],
+                                                    [m.faces.copy() for m in meshes])
+        geom = trimesh.Trimesh(vertices=np.array(vertices, dtype=np.float64),
+                               faces=np.array(faces, dtype=np.int64).reshape(-1, 3), process=False)
+        cache = ({}, {})
+        return geom, join_visuals([(_part_visual(source, m, label, gltf, cache), len(m.faces)) for m in meshes],
+                                  label)
     raise ValueError(
         f"{label}: not a triangle mesh (trimesh returned {type(source).__name__})"
     )
+
+
+def _part_visual(scene, part, label, gltf, cache):
+    """The visual of ``part`` (a mesh of ``scene.dump()``) read from the scene geometry it copies.
+
+    ``cache``: (visual by geometry name, decoded images) shared by the parts of one scene.
+    """
+    visuals, images = cache
+    name = part.metadata.get("name")
+    orig = scene.geometry.get(name) if isinstance(name, str) else None
+    if not isinstance(orig, trimesh.Trimesh) or orig.faces.shape != part.faces.shape:
+        return _mesh_visual(part, label, gltf, images)
+    if name not in visuals:
+        visuals[name] = _mesh_visual(orig, label, gltf, images)
+    visual = visuals[name]
+    if visual is None or np.array_equal(part.faces, orig.faces):
+        return visual
+    if np.array_equal(part.faces, orig.faces[:, ::-1]):          # a mirroring node: trimesh's fliplr
+        return visual.reversed()
+    return _mesh_visual(part, label, gltf, images)
 
 
 def check_mesh(mesh: trimesh.Trimesh, label: str = "mesh") -> None:
@@ -90,8 +124,10 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     ----------
     path_or_trimesh : str, os.PathLike, trimesh.Trimesh or trimesh.Scene
         A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
-        object. A scene (GLB/GLTF) is flattened: every node's transform is
-        applied and the meshes are concatenated.
+        object. A scene (GLB/GLTF, an OBJ with several materials) is
+        flattened: every node's transform is applied and the meshes are
+        concatenated (as ``Scene.to_geometry``), each keeping its own colours,
+        material colour and texture.
     fill_holes : bool, optional
         Close every boundary loop with a fan of triangles around the loop's
         centroid (see :func:`close_holes`). Closed meshes compress much better:
@@ -109,7 +145,14 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         corner, aligned with the cleaned faces, as a
         :class:`pyshadow.materials.MeshVisual` in
         ``mesh.metadata["pyshadow_visual"]`` (linear RGB; absent when the
-        source has none). Vertices, faces and :func:`mesh_hash` are the same
+        source has none). Vertex and face colours are decoded from sRGB,
+        except glTF's linear ``COLOR_0`` (a path ending in ``.glb`` or
+        ``.gltf``, or a mesh object from trimesh's glTF reader:
+        :func:`pyshadow.materials.is_gltf`; the rule is in
+        :mod:`pyshadow.materials`). A scene's meshes each keep their own
+        colours, material colour and texture
+        (:func:`pyshadow.materials.join_visuals`; a mesh without colours is
+        white). Vertices, faces and :func:`mesh_hash` are the same
         with or without them. UVs that are not finite are kept: only a
         texture lookup needs them, and it refuses them
         (:func:`pyshadow.materials.point_colours`).
@@ -134,6 +177,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     >>> m.faces.shape
     (12, 3)
     """
+    gltf = None             # a mesh object: pyshadow.materials.is_gltf tells
     if isinstance(path_or_trimesh, (trimesh.Trimesh, trimesh.Scene)):
         label = f"<{type(path_or_trimesh).__name__}>"
         raw = path_or_trimesh
@@ -144,6 +188,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
             raise FileNotFoundError(f"mesh file not found: {path}")
         if not path.is_file():
             raise ValueError(f"{path}: not a regular file")
+        gltf = True if path.suffix.lower() in GLTF_SUFFIXES else None
         try:
             raw = trimesh.load(str(path), process=False)
         except (NotImplementedError, KeyError) as exc:
@@ -160,7 +205,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
 
     if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
         raise ValueError(f"{label}: the file holds no geometry (empty mesh)")
-    mesh, source = _as_trimesh(raw, label)
+    mesh, visual = _as_trimesh(raw, label, gltf)      # the visual per corner of its faces, which merging keeps
     check_mesh(mesh, label)
 
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
@@ -197,7 +242,6 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         raise ValueError(f"{label}: every face is degenerate (empty mesh after cleaning)")
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     mesh.remove_unreferenced_vertices()
-    visual = mesh_visual(source, label)   # per corner of the source's faces, which merging keeps in order
     if visual is not None:
         mesh.metadata[VISUAL_KEY] = visual.take(kept)
     if fill_holes:

@@ -114,13 +114,16 @@ def test_a_float_greyscale_texture_is_not_clipped_to_black_and_white():
 @pytest.mark.parametrize("colours", [np.array([[0.5, 0.25, 1.0, 1.0]] * 3, np.float32),
                                      np.round(np.array([[0.5, 0.25, 1.0, 1.0]] * 3) * 65535).astype(np.uint16)],
                          ids=["float32", "uint16"])
-def test_gltf_colour_0_of_a_textured_mesh_is_scaled_by_its_type(colours):
-    """glTF's COLOR_0 next to a texture is kept by trimesh as the accessor's raw float or normalised uint16
-    data; it was divided by 255 like uint8 (float: near black; uint16: clipped to white)."""
+def test_colour_attribute_of_a_textured_mesh_is_scaled_by_its_type(colours):
+    """A colour attribute next to a texture (as trimesh keeps glTF's COLOR_0: the accessor's raw float or
+    normalised uint16 data) was divided by 255 like uint8 (float: near black; uint16: clipped to white).
+    Built in code, the mesh is no glTF: its colours are sRGB; with gltf=True they are linear."""
     visual = trimesh.visual.TextureVisuals(uv=UV, image=Image.fromarray(np.full((2, 2, 3), 255, np.uint8)))
     visual.vertex_attributes["color"] = colours
     got = colour_at_centre(mesh_visual(triangle(visual)))
     np.testing.assert_allclose(got, srgb_to_linear([0.5, 0.25, 1.0]), rtol=1e-4)
+    got = colour_at_centre(mesh_visual(triangle(visual), gltf=True))
+    np.testing.assert_allclose(got, [0.5, 0.25, 1.0], rtol=1e-4)
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf])

@@ -42,7 +42,12 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
     ao : ndarray, float32, shape (V,)
         AO per vertex in [0, 1]; stored as the float vertex property ``ao``
         (PLY) or attribute ``_ao`` (GLB), and as the vertex colour, grey,
-        sRGB-encoded (so a viewer shows AO's brightness), alpha 255.
+        8 bits, alpha 255, in each format's colour space so that a viewer
+        shows AO's brightness: sRGB-encoded in the PLY (display-encoded, as
+        PLY viewers take vertex colours), linear in the GLB's ``COLOR_0``
+        (``round(255 * ao)``: glTF 2.0 defines ``COLOR_0`` as a linear
+        multiplier of the base colour, and :func:`pyshadow.load_mesh` reads
+        it back as linear).
     bent : ndarray, float32, shape (V, 3)
         Unit bent normals in the mesh's own frame; PLY properties
         ``bent_nx``, ``bent_ny``, ``bent_nz``, GLB attribute ``_bent_normal``
@@ -88,7 +93,8 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
         raise ValueError("bent must be finite (unit normals), got NaN or inf")
 
     out = trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False)
-    grey = np.round(255.0 * linear_to_srgb(np.clip(ao, 0.0, 1.0))).astype(np.uint8)
+    level = np.clip(ao.astype(np.float64), 0.0, 1.0)
+    grey = np.round(255.0 * (linear_to_srgb(level) if mesh_format == "ply" else level)).astype(np.uint8)
     colours = np.empty((len(ao), 4), np.uint8)
     colours[:, :3] = grey[:, None]
     colours[:, 3] = 255

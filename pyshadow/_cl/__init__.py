@@ -43,6 +43,7 @@ import pyopencl as cl
 
 from . import pocl_cpu as _pocl_cpu
 from . import probe as _probe
+from .launch import check_alloc
 from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
 __all__ = [
@@ -348,7 +349,8 @@ def _probe_choice(st) -> dict:
 def _probe_job(dev) -> dict:
     """What the probe builds at each width: its own small kernel (run and
     checked) and the lane kernels in their widest variants (built only)."""
-    fp64 = int(bool(dev.double_fp_config) and "cl_khr_fp64" in dev.extensions)
+    # the extension first: an OpenCL 1.0/1.1 device without it may refuse the DOUBLE_FP_CONFIG query
+    fp64 = int("cl_khr_fp64" in dev.extensions.split() and bool(dev.double_fp_config))
     scene = {"DEPTH_BITS": 16, "IEND_T": "ushort", "PAIR_WIDE": 0, "SEARCH_BLOCK": 16,
              "NTYPES": 1, "GROUND": 1, "LAYOUT_ZIGZAG": 1, "LAYOUT_HILBERT": 1,
              "FILTER_ANGLE_EPS": "1e-4f", "HAVE_FP64": fp64, "BATCH": 128, "SURFACE_NORMALS": 1,
@@ -520,10 +522,14 @@ def build_source(src: str, label: str, defines: dict | None = None) -> cl.Progra
     except (cl.RuntimeError, cl.LogicError) as exc:
         digest = hashlib.sha1(src.encode()).hexdigest()[:12]
         dump = Path(tempfile.gettempdir()) / f"pyshadow-{Path(label).stem}-{digest}.cl"
-        dump.write_text(src)
+        try:
+            dump.write_text(src)
+            saved = f"full source saved to {dump}"
+        except OSError as err:      # a read-only or full temporary folder: the compiler's log all the same
+            saved = f"the full source could not be saved ({err})"
         raise KernelBuildError(
             f"building {label} failed on {st['device'].name.strip()} "
-            f"with options {' '.join(opts)}; full source saved to {dump}\n{exc}"
+            f"with options {' '.join(opts)}; {saved}\n{exc}"
         ) from exc
 
 
@@ -549,6 +555,7 @@ def to_device(array: np.ndarray, dtype=None) -> cl.Buffer:
     mf = cl.mem_flags
     if a.nbytes == 0:
         a = np.zeros(1, dtype=a.dtype)
+    check_alloc(a.nbytes)
     return cl.Buffer(context(), mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
 
 
@@ -565,6 +572,7 @@ def host_buffer(array: np.ndarray, writable: bool = False) -> cl.Buffer:
     if a.nbytes == 0:
         return to_device(np.zeros(1, a.dtype))
     mf = cl.mem_flags
+    check_alloc(a.nbytes)
     flags = (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.USE_HOST_PTR
     return cl.Buffer(context(), flags, hostbuf=a)
 
@@ -583,9 +591,9 @@ def sync_host_buffer(buf: cl.Buffer, array: np.ndarray) -> None:
 def has_fp64() -> bool:
     """Whether the device computes in double precision (cl_khr_fp64)."""
     dev = device()
-    return bool(dev.double_fp_config) and "cl_khr_fp64" in dev.extensions
+    return "cl_khr_fp64" in dev.extensions.split() and bool(dev.double_fp_config)
 
 
 def empty(nbytes: int) -> cl.Buffer:
-    """A new device buffer of ``nbytes`` (at least 1)."""
-    return cl.Buffer(context(), cl.mem_flags.READ_WRITE, size=max(int(nbytes), 4))
+    """A new device buffer of ``nbytes`` (at least 1; see :func:`~pyshadow._cl.launch.check_alloc`)."""
+    return cl.Buffer(context(), cl.mem_flags.READ_WRITE, size=max(check_alloc(nbytes), 4))

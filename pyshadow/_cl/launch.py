@@ -1,7 +1,8 @@
 """Launch shapes: lane width, batches, work-groups and chunks, per device kind.
 
 Every kernel launch of pyshadow takes its shape from :func:`shape`, so what
-depends on the device lives here and nowhere else. Each value says why it
+depends on the device lives here and nowhere else: its work-group limits and
+the largest buffer it allocates (:func:`check_alloc`). Each value says why it
 has its value; figures are from benchmarks/README.md.
 """
 from __future__ import annotations
@@ -11,7 +12,9 @@ from dataclasses import asdict, dataclass, replace
 
 import pyopencl as cl
 
-__all__ = ["LaunchShape", "shape", "grid", "override"]
+from .probe import DeviceNotSupportedError
+
+__all__ = ["LaunchShape", "shape", "grid", "override", "check_alloc"]
 
 _overrides: list[dict] = []
 
@@ -33,9 +36,10 @@ class LaunchShape:
     query_group : int
         Work-items per work-group of the query kernels.
     query_chunk : int
-        Queries per launch of ``scene_visible``.
+        Queries per launch of ``scene_visible`` (fewer where the device
+        allocates less than a chunk's buffers at once).
     ao_chunk_samples : int
-        Points x samples per launch of ``scene_ao``.
+        Points x samples per launch of ``scene_ao`` (fewer likewise).
     raster_group : int or None
         Work-items (views) per work-group of ``render_depth_layers``; None
         lets the driver choose.
@@ -65,6 +69,11 @@ AO_CHUNK_SAMPLES = 1 << 24
 # a multiple of every lane width (16), so the triangle table is the same
 # array whatever the width
 TRIANGLE_PAD = 16
+# the widest row of a launch's buffers: a float64 point or direction of
+# scene_visible, the 9 float32 SH transfer terms of a scene_ao point; a chunk
+# of rows must fit in one buffer of the device (max_mem_alloc_size, 128 MiB
+# for the smallest full-profile device: 24 B x QUERY_CHUNK is 100 MB)
+QUERY_ROW_BYTES, AO_ROW_BYTES = 24, 36
 
 
 def shape() -> LaunchShape:
@@ -93,6 +102,11 @@ def _device_shape() -> LaunchShape:
 
     dev = device()
     width = lanes()
+    # work-items a group may hold (a kernel's own limit can be lower still)
+    wg_max = max(1, min(int(dev.max_work_group_size), int(dev.max_work_item_sizes[0])))
+    alloc = int(dev.max_mem_alloc_size)
+    query_chunk = max(1, min(QUERY_CHUNK, alloc // QUERY_ROW_BYTES))
+    ao_chunk = max(1, min(AO_CHUNK_SAMPLES, alloc // AO_ROW_BYTES))
     if dev.type & cl.device_type.CPU:
         return LaunchShape(
             kind="CPU",
@@ -106,10 +120,10 @@ def _device_shape() -> LaunchShape:
             query_batch=512,
             # 16 work-items a group: each holds query_batch queries in private
             # arrays, which PoCL keeps together per group on its stack
-            # (thousands of them overflow it)
-            query_group=16,
-            query_chunk=QUERY_CHUNK,
-            ao_chunk_samples=AO_CHUNK_SAMPLES,
+            # (thousands of them overflow it); fewer where the device allows fewer
+            query_group=min(16, wg_max),
+            query_chunk=query_chunk,
+            ao_chunk_samples=ao_chunk,
             # one view per group: views differ in cost, and groups of one let
             # PoCL's threads share them out evenly (its own choice split 234
             # views into one half per core and left a core idle: 0.94 against
@@ -126,9 +140,9 @@ def _device_shape() -> LaunchShape:
         query_batch=width,
         # a multiple of NVIDIA's 32-wide warps and AMD's 64-wide wavefronts,
         # within what the device allows
-        query_group=max(1, min(128, int(dev.max_work_group_size))),
-        query_chunk=QUERY_CHUNK,
-        ao_chunk_samples=AO_CHUNK_SAMPLES,
+        query_group=min(128, wg_max),
+        query_chunk=query_chunk,
+        ao_chunk_samples=ao_chunk,
         raster_group=None,
         triangle_pad=TRIANGLE_PAD,
     )
@@ -169,3 +183,30 @@ def ao_points(samples: int, s: LaunchShape | None = None) -> int:
 def grid(items: int, group: int):
     """Global and local sizes covering ``items`` work-items in groups of ``group``."""
     return (-(-int(items) // group) * group,), (group,)
+
+
+def check_alloc(nbytes) -> int:
+    """``nbytes`` as an int, once it is known that the device allocates a buffer that large.
+
+    Raises
+    ------
+    ValueError
+        ``nbytes`` is negative (a byte count that overflowed on its way here).
+    DeviceNotSupportedError
+        ``nbytes`` is more than the device's ``max_mem_alloc_size``: said
+        before anything is allocated, with both sizes (drivers say only
+        INVALID_BUFFER_SIZE, or fail at a later launch).
+    """
+    from . import device
+
+    n = int(nbytes)
+    if n < 0:
+        raise ValueError(f"a device buffer of {n} bytes was asked for (a byte count that overflowed?)")
+    dev = device()
+    limit = int(dev.max_mem_alloc_size)
+    if n > limit:
+        raise DeviceNotSupportedError(
+            f"a buffer of {n:,} bytes is more than OpenCL device {dev.name.strip()!r} allocates at once "
+            f"(max_mem_alloc_size {limit:,} bytes); ask for less at a time, or choose another device "
+            "with PYSHADOW_DEVICE")
+    return n

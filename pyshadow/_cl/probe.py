@@ -15,6 +15,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -37,7 +38,8 @@ _CHILD = Path(__file__).with_name("probe_child.py")
 
 
 class DeviceNotSupportedError(RuntimeError):
-    """The device cannot run pyshadow's lane kernels at any width."""
+    """The device cannot run what pyshadow asks of it: its lane kernels at any width, or a buffer
+    larger than it allocates at once (:func:`pyshadow._cl.launch.check_alloc`)."""
 
 
 def parse_override(value: str | None) -> int | None:
@@ -133,19 +135,36 @@ def run_probe(platform_index: int, device_index: int, job: dict,
 
     ``job`` is what the child builds (see ``probe_child.py``);
     ``command(width)`` (tests only) replaces the child's command line.
-    Returns ``{width: {"ok": bool, "why": str}}``.
+    Returns ``{width: {"ok": bool, "why": str}}``. Each child leads a process
+    group of its own, killed whole at the timeout (PoCL runs the linker as a
+    process of its own, which would hold the child's pipes open) or when the
+    caller is interrupted.
     """
     with tempfile.TemporaryDirectory(prefix="pyshadow-probe-") as tmp:
         src = Path(tmp) / "job.json"
         src.write_text(json.dumps(job))
         procs = {}
-        for w in widths:
-            cmd = command(w) if command else [sys.executable, str(_CHILD), str(platform_index),
-                                              str(device_index), str(w), str(src)]
-            procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                        stderr=subprocess.PIPE, text=True,
-                                        env=_child_env())
-        return _collect(procs, timeout)
+        try:
+            for w in widths:
+                cmd = command(w) if command else [sys.executable, str(_CHILD), str(platform_index),
+                                                  str(device_index), str(w), str(src)]
+                procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                            stderr=subprocess.PIPE, text=True,
+                                            env=_child_env(), start_new_session=True)
+            return _collect(procs, timeout)
+        finally:
+            for p in procs.values():
+                if p.poll() is None:
+                    _kill(p)
+                    p.wait()
+
+
+def _kill(p) -> None:
+    """Kill child ``p`` and what it started (its process group)."""
+    try:
+        os.killpg(p.pid, signal.SIGKILL)
+    except (AttributeError, OSError):       # no process groups here, or the group is gone
+        p.kill()
 
 
 def _collect(procs, timeout):
@@ -155,8 +174,11 @@ def _collect(procs, timeout):
         try:
             stdout, stderr = p.communicate(timeout=max(0.1, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
-            p.kill()
-            p.communicate()
+            _kill(p)
+            try:
+                p.communicate(timeout=5.0)
+            except subprocess.TimeoutExpired:   # a process that left the group still holds the pipes
+                p.wait()
             out[w] = {"ok": False, "why": f"no answer within {timeout:g} s (the compiler or "
                                           "the kernel hung; the child was killed)"}
             continue

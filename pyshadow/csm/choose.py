@@ -18,6 +18,8 @@ for ``csm.stats["choice"]``.
 """
 from __future__ import annotations
 
+import math
+import numbers
 import time
 import warnings
 
@@ -34,6 +36,33 @@ PILOTS = ((16, 32, 64), (32, 64, 64), (16, 32, 128))
 def _work(cand) -> int:
     """Build work of candidate ``(theta, phi, resolution)``: maps times texels."""
     return cand[0] * cand[1] * cand[2] ** 2
+
+
+def _keep(built, needed):
+    """Let go of the CSMs in ``built`` that no candidate still to be looked at needs (the pilots, the misses):
+    otherwise every rejected CSM stays held while the next, larger one is built."""
+    for k in [k for k in built if k not in needed]:
+        del built[k]
+
+
+def _max_error(v) -> float:
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+        raise TypeError(f"max_error must be a float, got {v!r}")
+    f = math.nan if isinstance(v, numbers.Integral) else float(v)       # no integer lies in (0, 1)
+    if not 0.0 < f < 1.0:
+        raise ValueError(f"max_error must lie in (0, 1), got {v!r}")
+    return f
+
+
+def _max_bytes(v) -> int:
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+        raise TypeError(f"max_bytes must be a number of bytes, got {v!r}")
+    if not isinstance(v, numbers.Integral) and not math.isfinite(float(v)):
+        raise ValueError(f"max_bytes must be finite, got {v!r}")
+    n = int(v) if isinstance(v, numbers.Integral) else math.floor(float(v))
+    if n < 1:
+        raise ValueError(f"max_bytes must be positive (at least 1 byte), got {v!r}")
+    return n
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -148,9 +177,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         measurement where built), ``size_model``, ``seconds`` (model,
         pilots, builds and checks together).
     """
-    max_error = float(max_error)
-    if not 0.0 < max_error < 1.0:
-        raise ValueError(f"max_error must lie in (0, 1), got {max_error!r}")
+    max_error = _max_error(max_error)
     if lookup not in ("nearest", "vote", "auto"):
         raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
     if not candidates:
@@ -176,6 +203,8 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         tried.append(entry)
         if pred["disagreement"] > need[lk] and i < len(order) - 1:
             continue
+        _keep(built, {c for c, _ in order[i:]})
+        csm = None                     # the last miss: not held while the next one is built
         csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
         entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
         if not verify:
@@ -188,13 +217,21 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
             need[lk] = min(need[lk], max_error * pred["disagreement"] / got)
         else:
             need[lk] = 0.0
-    got = entry["measured"]["disagreement"] if verify else entry["predicted"]["disagreement"] * MODEL_RATIO[1]
-    met = got <= max_error
-    if not met:
-        warnings.warn(f"no candidate CSM meets max_error={max_error:g} (best "
-                      f"{'measured' if verify else 'predicted'} {got:.4f}); keeping {entry['predicted']['layout']}",
-                      UserWarning, stacklevel=3)
     p = entry["predicted"]
+    # unverified: met by the walk's own test (the prediction against the target narrowed by the model's range)
+    met = entry["measured"]["disagreement"] <= max_error if verify else p["disagreement"] <= need[p["lookup"]]
+    if not met:
+        if verify:
+            got = f"measured {entry['measured']['disagreement']:.4f}"
+            best = min((t for t in tried if "measured" in t), key=lambda t: t["measured"]["disagreement"])
+            if best is not entry:
+                got += (f"; the lowest measured, {best['measured']['disagreement']:.4f}, was "
+                        f"{best['predicted']['layout']} ({best['predicted']['lookup']})")
+        else:
+            got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
+                   "with the model's range")
+        warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last tried, {p['layout']} "
+                      f"({p['lookup']}): {got}", UserWarning, stacklevel=3)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
@@ -227,13 +264,16 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     Raises
     ------
     ValueError
-        If no candidate fits (the message gives the smallest predicted size).
+        If no candidate fits (the message gives the smallest predicted size);
+        ``max_bytes`` below 1 or not finite.
+    TypeError
+        ``max_bytes`` not a real number (a bool or a string).
     """
-    max_bytes = int(max_bytes)
-    if max_bytes <= 0:
-        raise ValueError(f"max_bytes must be positive, got {max_bytes!r}")
+    max_bytes = _max_bytes(max_bytes)
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    if not candidates:
+        raise ValueError("choose_within needs at least one candidate")
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     rays = rays_for(mesh, seed=seed, **draw)
@@ -244,7 +284,9 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     fits = sorted((t for t in tried if t["predicted_bytes"] <= max_bytes),
                   key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"]))
     csm = entry = None
-    for entry in fits:
+    for j, entry in enumerate(fits):
+        _keep(built, {t["candidate"] for t in fits[j:]})
+        c = None
         c, seconds = _build(mesh, entry["candidate"], depth_bits, layers, progress, built)
         entry.update(bytes=c.stats["bytes"], build_seconds=seconds)
         if c.stats["bytes"] <= max_bytes:

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from .._validate import uniform_scale
+from .._validate import check_int, uniform_scale
 from ..views import ViewSet
 from .core import DEPTH_Q, front_margin
 from .reference import shadow_taps
@@ -277,6 +277,13 @@ def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
 
     local, face = trimesh.sample.sample_surface(mesh, points, seed=seed)
     nrm = np.asarray(mesh.face_normals, np.float64)[face]
+    zero = np.flatnonzero(~np.abs(nrm).any(axis=1))
+    if len(zero):           # trimesh zeroes the normals of small faces (a mesh in micrometres): scale-free here
+        tri = np.asarray(mesh.vertices, np.float64)[np.asarray(mesh.faces)[face[zero]]]
+        e = tri[:, 1:] - tri[:, :1]
+        e /= np.maximum(np.abs(e).max(axis=(1, 2)), np.finfo(np.float64).tiny)[:, None, None]
+        c = np.cross(e[:, 0], e[:, 1])
+        nrm[zero] = c / np.linalg.norm(c, axis=1, keepdims=True)
     d = sample_directions(nrm, sampling=Sampling(samples, seed=seed)).reshape(-1, 3).astype(np.float64)
     return np.repeat(local, samples, axis=0), d, np.repeat(nrm, samples, axis=0)
 
@@ -388,6 +395,13 @@ def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, l
     """
     import time
 
+    from ..raster import MAX_RESOLUTION
+
+    if depth_bits not in (16, 32) or isinstance(depth_bits, (bool, np.bool_)):
+        raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+    check_int(resolution, "resolution", 1, MAX_RESOLUTION)
+    if lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     L = Layout.for_mesh(mesh, maps, resolution, depth_bits)
     body = [Body(mesh, np.eye(4), L)]
     rays = rays_for(mesh, **draw) if rays is None else rays

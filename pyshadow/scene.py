@@ -20,6 +20,7 @@ from ._compat import deprecated, keyword_only, legacy_sampling
 from ._validate import FLOAT32_MAX, check_transform, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
+from .csm.choose import _max_error
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
@@ -419,7 +420,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         check_mesh(obj, "Scene.add")            # a mesh object is used as it is: checked, not cleaned
         csm = None
         if casts:
-            key = id(obj) if max_error is None else (id(obj), float(max_error), lookup)
+            key = id(obj) if max_error is None else (id(obj), _max_error(max_error), lookup)   # checked first
             csm = scene._built.get(key)
             o = scene.csm_options
             if csm is None and max_error is not None:

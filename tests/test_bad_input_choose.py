@@ -162,3 +162,12 @@ def test_rejected_csms_are_let_go_before_the_next_build(box, monkeypatch):
     with pytest.raises(ValueError, match="no candidate CSM fits in 100 bytes"):
         choose_within(box, 100, **TINY, candidates=SMALL)
     assert sorted(c for c, _ in seen) == sorted(SMALL)
+
+
+@pytest.mark.parametrize("bad, error", [("abc", TypeError), ("0.01", TypeError), (True, TypeError), (2.0, ValueError)])
+def test_scene_add_checks_max_error_before_anything_is_built(bad, error):
+    """Scene.add(max_error="abc") failed in its own float() with Python's generic message."""
+    scene = pyshadow.Scene()
+    with pytest.raises(error, match="max_error"):
+        scene.add(trimesh.creation.box(), max_error=bad)
+    assert scene.instances == []

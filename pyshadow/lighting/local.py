@@ -23,7 +23,10 @@ Fibonacci spiral of :func:`pyshadow.lighting.shade.sun_directions`, turned per
 point by its pattern index and the seed), each traced to the sphere's
 surface, and ``E = L * Omega * mean_k(max(n . l_k, 0) V_k)`` with ``Omega = 2 pi
 (1 - cos a)`` (for ``R << d``: ``intensity / d^2 * mean(cos V)``). ``K = 1`` or
-``radius = 0``: one ray to the centre, hard shadows. Embree
+``radius = 0``: one ray to the centre, hard shadows, ``E = intensity * max(n . l, 0) / d^2 * V``
+(a sphere wholly above the horizon gives exactly that; ``L * Omega * cos`` of the centre
+alone would overstate it by ``2 / (1 + cos a)``: the mean cosine over the cone is
+``cos * (1 + cos a) / 2``). Embree
 (``backend="embree"``) answers the identical rays: the ground truth.
 
 Disc and rectangle lights (one-sided, area-sampled, the same units) live in
@@ -263,8 +266,10 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     shaded = (cos * lit).mean(axis=1) * spot
     # E = I f^2 shaded: f = 1 / d for a point light; for a sphere L Omega = I f^2 with L = I / (pi R^2),
     # Omega = 2 pi (1 - cos a) = 4 pi sin^2(a / 2), so f = 2 sin(a / 2) / R (-> 1 / d as R / d -> 0,
-    # where 1 - cos a would round to 0); I f (f shaded) neither squares d nor R
-    f = 2.0 * np.sin(0.5 * half) / light.radius if light.radius > 0 else 1.0 / d
+    # where 1 - cos a would round to 0); I f (f shaded) neither squares d nor R. One ray (K = 1) to a sphere's
+    # centre: its cosine is not the cone's mean cosine (that is cos (1 + cos a) / 2), so f = 1 / d, the exact
+    # I cos / d^2 of a sphere above the horizon, as the K-ray mean converges to
+    f = 2.0 * np.sin(0.5 * half) / light.radius if light.radius > 0 and k > 1 else 1.0 / d
     e = (light.intensity[None, :] * f[:, None]) * (f * shaded)[:, None]
     return alb / math.pi * e, np.where(live, lit.mean(axis=1), 0.0)
 

@@ -227,3 +227,17 @@ def test_directions_that_are_no_numbers_are_named(bad):
         unit_direction(bad, "direction")
     with pytest.raises(ValueError, match=r"^dirs: expected rows of 3 numbers, shape \(N, 3\) or \(3,\) \(got "):
         unit_rows(bad, "dirs")
+
+
+def test_from_environment_takes_the_discs_radius():
+    """A uniform disc of 0.2 rad on a black lat-long map: extract_sun, told the real sun's radius, grows
+    its region from inside the disc and stops there (10-15 % of the energy, 6 degrees off); from_environment
+    had no way to tell it the radius. Told it, the whole disc is the sun."""
+    from pyshadow.lighting import Lighting, disc_solid_angle
+
+    d = np.array([0.3, 0.8, 0.2]) / np.linalg.norm([0.3, 0.8, 0.2])
+    E = np.array([1000.0, 900.0, 800.0])
+    env = add_sun_disc(EnvironmentMap(np.zeros((64, 128, 3))), d, E / disc_solid_angle(0.2), 0.2)
+    light = Lighting.from_environment(env, sun_radius=0.2)
+    np.testing.assert_allclose(light.sun.irradiance, E, rtol=1e-9)
+    assert np.degrees(np.arccos(min(1.0, float(light.sun.direction @ d)))) < 0.05

@@ -246,16 +246,19 @@ class Lighting:
         self.seed = int(seed)
 
     @classmethod
-    def from_environment(cls, env: EnvironmentMap, *, extract: bool = True, **kwargs) -> "Lighting":
+    def from_environment(cls, env: EnvironmentMap, *, extract: bool = True, sun_radius: float | None = None,
+                         **kwargs) -> "Lighting":
         """Lighting from an environment map: with ``extract``, its sun becomes a directional light
-        (:func:`pyshadow.lighting.extract_sun`) and the rest the SH sky; else all of it is SH sky."""
+        (:func:`pyshadow.lighting.extract_sun`, told the disc's angular radius ``sun_radius`` in rad,
+        default the real sun's: a much larger disc is otherwise found only in part) and the rest the SH
+        sky; else all of it is SH sky."""
         if not isinstance(env, EnvironmentMap):
             raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
         if not extract:
             return cls(env, **kwargs)
         from .sun import extract_sun
 
-        sun, sky = extract_sun(env)
+        sun, sky = extract_sun(env) if sun_radius is None else extract_sun(env, radius=sun_radius)
         return cls(sky, sun=sun, **kwargs)
 
     @classmethod

@@ -87,34 +87,46 @@ def _inv(sigma: float) -> np.float32:
     return np.float32(min(max(1.0 / sigma, _INV_SIGMA_RANGE[0]), _INV_SIGMA_RANGE[1]))
 
 
-def _launch(kernel, W: int, H: int, *args):
-    kernel(_cl.queue(), (W, H), None, *args)
+def _planes(normal: np.ndarray) -> np.ndarray:
+    """(H, W, 3) normals -> (3, H, W), one contiguous plane per component (the
+    lane kernels read the normals of consecutive pixels as whole vectors)."""
+    return np.ascontiguousarray(np.moveaxis(normal, -1, 0))
 
 
-def _run_passes(names, defines: dict, image: np.ndarray, depth: np.ndarray, normal: np.ndarray,
-                *scalars) -> np.ndarray:
-    """Run the ``filters.cl`` kernels ``names`` in turn, one work-item per full-res pixel.
+def _run_passes(names, defines: dict, image: np.ndarray, guides, scalars, size) -> np.ndarray:
+    """Run the ``filters.cl`` kernels ``names`` in turn over the 2-D range ``size(lanes)``.
 
-    Every kernel takes ``(src, depth, normal, *scalars, dst)``: the first
-    reads ``image`` (float32, any 2-D shape the kernel expects), each later
-    one the float32 (H, W) output of the one before; all read the float32
-    guide ``depth`` (H, W) and ``normal`` (H, W, 3).
+    Every kernel takes ``(src, *guides, *scalars, dst)``: the first reads
+    ``image`` (float32, any 2-D shape the kernel expects), each later one the
+    float32 (H, W) output of the one before; all read the float32 arrays
+    ``guides``, the first of them the full-res depth (H, W). The kernels
+    are built with ``LANES`` = :func:`pyshadow._cl.lanes` and launched over
+    ``size(LANES)`` work-items (see the kernels' comment), local size None.
 
     Returns
     -------
     ndarray, shape (H, W), float32
         The output of the last kernel.
     """
-    H, W = depth.shape
+    H, W = guides[0].shape
     q = _cl.queue()
-    src_b, z_b, n_b = _cl.to_device(image), _cl.to_device(depth), _cl.to_device(normal)
+    lanes = _cl.lanes()
+    defines = {**defines, "LANES": lanes}
+    src_b = _cl.to_device(image)
+    guide_b = [_cl.to_device(g) for g in guides]
     for name in names:
         dst_b = _cl.empty(4 * H * W)
-        _launch(_cl.kernel("filters.cl", name, defines), W, H, src_b, z_b, n_b, *scalars, dst_b)
+        _cl.kernel("filters.cl", name, defines)(q, size(lanes), None, src_b, *guide_b, *scalars,
+                                                 dst_b)
         src_b = dst_b
     out = np.empty((H, W), np.float32)
     cl.enqueue_copy(q, out, src_b)
     return out
+
+
+def _row_range(W: int, H: int):
+    """The range of the bilateral and box kernels: LANES pixels of a row a work-item."""
+    return lambda lanes: (-(-W // lanes), H)
 
 
 # --------------------------------------------------------------------------
@@ -200,8 +212,8 @@ def bilateral(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=
     if radius == 0:
         return ao.copy()
     passes = ("bilateral_rows", "bilateral_cols") if separable else ("bilateral_2d",)
-    return _run_passes(passes, {"RADIUS": radius}, ao, depth, normal,
-                       np.int32(W), np.int32(H), _inv(ss), _inv(sz), _inv(sn))
+    return _run_passes(passes, {"RADIUS": radius}, ao, (depth, _planes(normal)),
+                       (np.int32(W), np.int32(H), _inv(ss), _inv(sz), _inv(sn)), _row_range(W, H))
 
 
 # --------------------------------------------------------------------------
@@ -262,8 +274,8 @@ def edge_aware_box(ao, depth, normal, *, size=7, depth_threshold=0.02,
     ao, depth, normal, size, dt, nt = box_inputs(ao, depth, normal, size, depth_threshold,
                                                  normal_threshold)
     H, W = depth.shape
-    return _run_passes(("edge_aware_box",), {"HALF": size // 2}, ao, depth, normal,
-                       np.int32(W), np.int32(H), np.float32(dt), np.float32(nt))
+    return _run_passes(("edge_aware_box",), {"HALF": size // 2}, ao, (depth, _planes(normal)),
+                       (np.int32(W), np.int32(H), np.float32(dt), np.float32(nt)), _row_range(W, H))
 
 
 # --------------------------------------------------------------------------
@@ -358,6 +370,11 @@ def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None,
     H, W = depth.shape
     Hl, Wl = ao_low.shape
     defines = {"SCALE": scale, "RADIUS": radius, "MIN_WEIGHT": UPSAMPLE_MIN_WEIGHT}
-    return _run_passes(("upsample_joint_bilateral",), defines, ao_low, depth, normal,
-                       np.int32(W), np.int32(H), np.int32(Wl), np.int32(Hl),
-                       _inv(ss), _inv(sz), _inv(sn), np.float32(fill))
+    # the guide at the samples, (Hl, Wl) and (3, Hl, Wl): the kernel reads its
+    # taps for consecutive low-res columns as whole vectors
+    guides = (depth, normal, np.ascontiguousarray(depth[::scale, ::scale]),
+              _planes(normal[::scale, ::scale]))
+    return _run_passes(("upsample_joint_bilateral",), defines, ao_low, guides,
+                       (np.int32(W), np.int32(H), np.int32(Wl), np.int32(Hl),
+                        _inv(ss), _inv(sz), _inv(sn), np.float32(fill)),
+                       lambda lanes: (scale * -(-Wl // lanes), H))

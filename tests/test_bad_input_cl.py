@@ -132,12 +132,54 @@ def test_a_cpu_device_of_eight_work_items_a_group_answers_the_same(monkeypatch):
     groups = []
     real = launch.grid
 
-    def rec(items, group):
+    def rec(items, group, *kernel):
         groups.append(group)
-        return real(items, group)
+        return real(items, group, *kernel)
     monkeypatch.setattr(launch, "grid", rec)
     assert np.array_equal(scene.visible(p, d), want)
     assert groups and max(groups) <= 8
+
+
+def test_a_kernel_allowed_fewer_work_items_than_the_device_is_launched_within_its_own_limit(monkeypatch):
+    """A GPU lowers CL_KERNEL_WORK_GROUP_SIZE below the device's limit for a kernel that needs many
+    registers; the query kernels were launched in groups of the device's shape (128 on a GPU) whatever
+    the kernel allowed, which such a device refuses (INVALID_WORK_GROUP_SIZE). Simulated: the device's
+    shape asks for groups of 16 and the kernels say they allow 3."""
+    scene = box_scene()
+    p, d = queries(3000)
+    n = np.tile([0.0, 1.0, 0.0], (len(p), 1))
+    s8 = pyshadow.Sampling(8, seed=2)
+    want_v, want_ao = scene.visible(p, d), scene.ambient_occlusion(p, n, sampling=s8)
+    asked, launched = [], []
+    real_grid = launch.grid
+
+    def limit(kernel):
+        asked.append(kernel.function_name)
+        return 3
+
+    def rec(*a):
+        g, loc = real_grid(*a)
+        launched.append(loc[0])
+        assert g[0] % loc[0] == 0
+        return g, loc
+    with launch.override(query_group=16):
+        monkeypatch.setattr(launch, "kernel_group_limit", limit, raising=False)
+        monkeypatch.setattr(launch, "grid", rec)
+        got_v, got_ao = scene.visible(p, d), scene.ambient_occlusion(p, n, sampling=s8)
+    assert np.array_equal(got_v, want_v) and np.array_equal(got_ao, want_ao)
+    assert set(asked) == {"scene_visible", "scene_ao"} and set(launched) == {3}
+
+
+def test_the_kernel_group_limit_is_the_kernels_own_and_asked_once():
+    scene = box_scene()
+    p, d = queries(100)
+    scene.visible(p, d)
+    k = next(k for k in _cl._kernels.values() if k.function_name == "scene_visible")
+    want = k.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, _cl.device())
+    assert launch.kernel_group_limit(k) == want >= 1
+    assert launch.grid(10, 10 ** 9, k) == ((-(-10 // want) * want,), (want,))
+    assert launch.grid(10, 4, k) == ((12,), (4,))
+    assert k in launch._group_limits
 
 
 # ---------------------------------------------------------------------------

@@ -14,7 +14,7 @@ import pyopencl as cl
 
 from .probe import DeviceNotSupportedError
 
-__all__ = ["LaunchShape", "shape", "grid", "override", "check_alloc"]
+__all__ = ["LaunchShape", "shape", "grid", "kernel_group_limit", "override", "check_alloc"]
 
 _overrides: list[dict] = []
 
@@ -102,7 +102,8 @@ def _device_shape() -> LaunchShape:
 
     dev = device()
     width = lanes()
-    # work-items a group may hold (a kernel's own limit can be lower still)
+    # work-items a group may hold (a kernel's own limit can be lower still:
+    # grid() applies it)
     wg_max = max(1, min(int(dev.max_work_group_size), int(dev.max_work_item_sizes[0])))
     alloc = int(dev.max_mem_alloc_size)
     query_chunk = max(1, min(QUERY_CHUNK, alloc // QUERY_ROW_BYTES))
@@ -180,9 +181,31 @@ def ao_points(samples: int, s: LaunchShape | None = None) -> int:
     return max(1, s.query_batch // padded_samples(samples, s))
 
 
-def grid(items: int, group: int):
-    """Global and local sizes covering ``items`` work-items in groups of ``group``."""
+def grid(items: int, group: int, kernel: cl.Kernel | None = None):
+    """Global and local sizes covering ``items`` work-items in groups of ``group``.
+
+    With ``kernel``, a group holds at most the work-items that kernel allows
+    on the device (``CL_KERNEL_WORK_GROUP_SIZE``, :func:`kernel_group_limit`),
+    which a GPU lowers below the device's own limit for a kernel that needs
+    many registers: a launch beyond it fails with INVALID_WORK_GROUP_SIZE.
+    """
+    if kernel is not None:
+        group = min(group, kernel_group_limit(kernel))
     return (-(-int(items) // group) * group,), (group,)
+
+
+_group_limits: dict = {}
+
+
+def kernel_group_limit(kernel: cl.Kernel) -> int:
+    """Work-items a group of ``kernel`` may hold on the current device (at least 1; asked once per kernel)."""
+    limit = _group_limits.get(kernel)
+    if limit is None:
+        from . import device
+
+        limit = max(1, int(kernel.get_work_group_info(cl.kernel_work_group_info.WORK_GROUP_SIZE, device())))
+        _group_limits[kernel] = limit
+    return limit
 
 
 def check_alloc(nbytes) -> int:

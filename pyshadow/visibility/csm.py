@@ -429,7 +429,7 @@ class CSMVisibility(_SampledSky):
         for s in range(0, n, shape.query_chunk):
             e = min(n, s + shape.query_chunk)
             buf = _cl.host_buffer(res[s:e], writable=True)
-            k(q, *launch.grid(-(-(e - s) // batch), shape.query_group), *args, np.int32(e - s),
+            k(q, *launch.grid(-(-(e - s) // batch), shape.query_group, k), *args, np.int32(e - s),
               _cl.host_buffer(p[s:e]), _cl.host_buffer(w[s:e]), *a, _cl.host_buffer(own[s:e]),
               *([] if m is None else [_cl.host_buffer(m[s:e])]),
               *([] if tmax is None else [_cl.host_buffer(tmax[s:e])]), buf)
@@ -516,7 +516,7 @@ class CSMVisibility(_SampledSky):
             ao_buf = _cl.empty(4 * (e - s))
             bent_buf = _cl.empty(12 * (e - s) if bent_normals else 4)
             tr_buf = _cl.empty(36 * (e - s) if transfer else 4)
-            k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group), *args, np.int32(e - s),
+            k(q, *launch.grid(-(-(e - s) // defines["AO_POINTS"]), shape.query_group, k), *args, np.int32(e - s),
               _cl.to_device(rel[s:e]), _cl.to_device(n[s:e]),
               _cl.to_device(pidx[s:e], np.int32), _cl.to_device(own[s:e]),
               *([] if tmax is None else [_cl.to_device(tmax[s:e], np.float32)]), table, ao_buf, bent_buf, tr_buf,

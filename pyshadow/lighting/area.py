@@ -38,6 +38,7 @@ from dataclasses import InitVar, dataclass
 import numpy as np
 
 from ._checks import _number, unit_direction
+from ._value import ArrayValue
 from .local import PointLight, SpotLight, _intensity, _position
 from .sun import _tangent_frame as _frame   # two unit vectors completing a unit normal
 
@@ -67,8 +68,8 @@ def _extent(x, name):
     return r
 
 
-@dataclass(frozen=True)
-class DiscLight:
+@dataclass(frozen=True, eq=False)
+class DiscLight(ArrayValue):
     """A one-sided Lambertian disc light.
 
     Attributes
@@ -117,8 +118,8 @@ class DiscLight:
         return np.linalg.norm(q, axis=-1) <= self.radius * (1 + 1e-12)
 
 
-@dataclass(frozen=True)
-class RectLight:
+@dataclass(frozen=True, eq=False)
+class RectLight(ArrayValue):
     """A one-sided Lambertian rectangle light.
 
     Attributes

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import _floats, _number, in_range, unit_direction
+from ._value import ArrayValue
 from .sun import _GOLDEN
 
 __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
@@ -62,8 +63,8 @@ def _intensity(x, name):
     return v
 
 
-@dataclass(frozen=True)
-class PointLight:
+@dataclass(frozen=True, eq=False)
+class PointLight(ArrayValue):
     """A point light (``radius = 0``: hard shadows) or a sphere light (soft shadows).
 
     Attributes
@@ -95,7 +96,7 @@ class PointLight:
         return np.ones(len(to_point))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SpotLight(PointLight):
     """A spot light: a point (or sphere) light shining into a cone.
 

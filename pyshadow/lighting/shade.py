@@ -62,6 +62,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import in_range, unit_direction
+from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .local import lights_radiance
 from .sh import SH_COUNT, _irradiance
@@ -101,8 +102,8 @@ def _albedo(a, name: str) -> np.ndarray:
     return v
 
 
-@dataclass(frozen=True)
-class DirectionalLight:
+@dataclass(frozen=True, eq=False)
+class DirectionalLight(ArrayValue):
     """A directional light: the sun.
 
     Attributes

@@ -16,14 +16,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._checks import in_range, positive
+from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .sky import LUMINANCE_WEIGHTS, SUN_ANGULAR_RADIUS
 
 __all__ = ["SunLight", "extract_sun"]
 
 
-@dataclass(frozen=True)
-class SunLight:
+@dataclass(frozen=True, eq=False)
+class SunLight(ArrayValue):
     """A directional light taken out of an environment map.
 
     Attributes

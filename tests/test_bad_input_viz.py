@@ -211,3 +211,23 @@ def test_vtk_ssao_rejects_bad_bias_and_kernel_size(two_receivers, kw, err):
     cam = pyshadow.Camera([0.0, 1.6, 3.0], [0.0, 0.3, 0.0], width=32, height=24)
     with pytest.raises(err, match=next(iter(kw))):
         viz.vtk_ssao(two_receivers, cam, 0.5, **kw)
+
+
+@pytest.mark.parametrize("value, log", [(1.0, False), (0.0, False), (-3.0, False), (1e20, False),
+                                        (0.25, True), (1e-300, True)])
+def test_image_panel_of_one_value_draws_the_middle_colour(plotter, value, log):
+    """An image of one value (an unoccluded AO image: all 1.0) was given the range (v, v + 1) and drawn
+    in the colour map's lowest colour: black, as if fully occluded; now v is the range's middle."""
+    actor = viz.image_panel(plotter, np.full((4, 5), value), log_scale=log)
+    lo, hi = actor.mapper.scalar_range
+    assert lo < value < hi
+    if log:
+        assert np.isclose(np.log(value) - np.log(lo), np.log(hi) - np.log(value))
+    else:
+        assert value - lo == hi - value
+
+
+def test_image_panel_of_one_value_at_float64s_limit_asks_for_clim(plotter):
+    for value, log in ((1.5e308, False), (5e-324, True)):
+        with pytest.raises(ValueError, match="pass clim"):
+            viz.image_panel(plotter, np.full((2, 2), value), log_scale=log)

@@ -59,7 +59,9 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
         Colour map of a scalar image.
     clim : (float, float), optional
         Colour range, finite with low < high; default the finite minimum
-        and maximum (positive ones with ``log_scale``).
+        and maximum (positive ones with ``log_scale``), or for an image of
+        one value a range with that value in its middle (a factor 2 either
+        side with ``log_scale``).
     mask : array_like of bool, shape (H, W), optional
         Pixels to leave out (they show the background). Non-finite pixels
         (in any channel of an RGB image) are always left out, and so are
@@ -146,7 +148,14 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
                 if not np.isfinite(hi - lo):
                     raise ValueError(f"image_panel: the image's values span [{lo:g}, {hi:g}], "
                                      "beyond float64; pass clim or rescale the image")
-                clim = (lo, hi if hi > lo else lo + 1.0)
+                if hi == lo:             # one value: the middle of the colour map, not its lowest colour
+                    d = 0.5 * max(1.0, abs(lo))
+                    clim = (lo / 2.0, lo * 2.0) if log_scale else (lo - d, lo + d)
+                    if not (np.isfinite(clim).all() and clim[0] < lo < clim[1] and (clim[0] > 0 or not log_scale)):
+                        raise ValueError(f"image_panel: every pixel is {lo:g}, too near float64's limits "
+                                         "to centre a colour range on; pass clim")
+                else:
+                    clim = (lo, hi)
             actor = plotter.add_mesh(shown, scalars=name, cmap=cmap, clim=clim, lighting=False,
                                      log_scale=log_scale, show_scalar_bar=False)
     # straight-on parallel camera that fits the whole image below a title strip

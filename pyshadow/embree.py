@@ -13,9 +13,10 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
+from ._embree_checks import check_frame, check_item, check_threads, float32_rays
 from ._validate import check_both, check_values, kernel_rows, unit_normals
 from .contact import ground_tolerance
-from .mesh import bounding_sphere, float32_unit, load_mesh
+from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
 from .views import ViewSet
 
@@ -26,11 +27,13 @@ __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuff
 def ray_epsilon(scale) -> np.ndarray:
     """Offset along a ray that safely leaves a surface at coordinates of size ``scale``.
 
-    64 float32 ulps of ``max(scale, 1.2e-38)`` (float32's smallest normal number):
+    64 float32 ulps of ``scale`` clipped to ``[1.2e-38, 2**127]`` (float32's normal range):
     large enough to step over the
     intersection error of a float32 ray tracer, small against any feature.
     """
-    scale = np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), float(np.finfo(np.float32).tiny))
+    # beyond 2**127 (float32's last binade: up to its largest number, and inf) the same spacing, 2**104
+    scale = np.minimum(np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), float(np.finfo(np.float32).tiny)),
+                       2.0 ** 127)
     return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
 
 
@@ -58,6 +61,9 @@ class EmbreeScene:
         from embreex.mesh_construction import TriangleMesh
 
         tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+        if not np.isfinite(tri).all():      # Embree would drop such triangles: rays pass through them
+            raise ValueError(f"EmbreeScene: {int((~np.isfinite(tri).all(axis=(1, 2))).sum())} triangles have "
+                             "corners that are not finite (NaN or inf)")
         # coordinates of any size: Embree sees them scaled by a power of two (1 near unit size)
         self.unit = float32_unit(np.abs(tri).max()) if len(tri) else 1.0
         tri = np.ascontiguousarray(tri * self.unit, dtype=np.float32)
@@ -78,16 +84,10 @@ class EmbreeScene:
         return t, prim, np.asarray(res["Ng"], dtype=np.float64) / self.unit ** 2
 
     def _rays(self, origins, directions, tfar):
-        """float32 origins and directions and embreex's keywords (``dists``: ``tfar``), in Embree's units."""
-        if self.unit != 1.0:        # exact in float64: a power of two
-            origins = np.asarray(origins, dtype=np.float64) * self.unit
-            tfar = None if tfar is None else np.asarray(tfar, dtype=np.float64) * self.unit
-        o = np.ascontiguousarray(origins, dtype=np.float32).reshape(-1, 3)
-        d = np.ascontiguousarray(directions, dtype=np.float32).reshape(-1, 3)
-        kw = {}
-        if tfar is not None:
-            kw["dists"] = np.array(np.broadcast_to(tfar, (len(o),)), dtype=np.float32)    # a writable copy
-        return o, d, kw
+        """float32 origins and directions and embreex's keywords (``dists``: ``tfar``), in Embree's units
+        (scaled by :attr:`unit`, exact: a power of two); refused, named, where Embree would misread them
+        (:func:`pyshadow._embree_checks.float32_rays`)."""
+        return float32_rays(origins, directions, tfar, self.unit)
 
     def occluded(self, origins, directions, tfar=None) -> np.ndarray:
         """Any hit along each ray within ``tfar`` (default: unbounded); bool (N,)."""
@@ -117,14 +117,18 @@ def depth_layers(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     """
     from .raster import texel_rays
 
+    from ._validate import check_int
+
+    R = check_int(resolution, "depth_layers: resolution", 1)
+    layers = check_int(layers, "depth_layers: layers", 0)
     if not isinstance(mesh, trimesh.Trimesh):
         mesh = load_mesh(mesh)
-    centre, radius = frame if frame is not None else bounding_sphere(mesh)
+    check_mesh(mesh, "depth_layers: mesh")
+    centre, radius = check_frame(frame, "depth_layers: frame") if frame is not None else bounding_sphere(mesh)
     verts = (np.asarray(mesh.vertices, dtype=np.float64) - centre) / radius
     tri = verts[np.asarray(mesh.faces)]
     scene = EmbreeScene(tri)
     normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    R = int(resolution)
     out = np.full((len(views), layers, R, R), np.inf, dtype=np.float32)
     front = np.zeros(out.shape, bool)
     eps = float(ray_epsilon(2.0))
@@ -158,9 +162,8 @@ def gbuffer(items, camera) -> dict:
     from .gbuffer import check_transform
 
     tris, obj, face = [], [], []
-    for oid, (mesh, T) in enumerate(items):
-        if not isinstance(mesh, trimesh.Trimesh):
-            mesh = load_mesh(mesh)
+    for oid, item in enumerate(items):
+        mesh, T = check_item(item, oid)     # as render_gbuffer: a NaN corner would drop its triangles, unseen
         T = check_transform(T, name=f"transform of item {oid}")
         w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
         tris.append((w - camera.eye)[np.asarray(mesh.faces)])
@@ -174,6 +177,8 @@ def gbuffer(items, camera) -> dict:
     t, prim, _ng = scene.intersect(np.zeros_like(dirs), dirs)
     hit = prim >= 0
     p = np.where(hit, prim, 0)
+    if not len(tris):           # no triangles: every pixel misses (one zero row for the lookups below)
+        tris, obj, face = np.zeros((1, 3, 3)), np.zeros(1, np.int32), np.zeros(1, np.int64)
     tri = tris[p]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
@@ -215,6 +220,8 @@ def caster_scene(scene, anchor=None) -> tuple[EmbreeScene, np.ndarray]:
         relative to it.
     """
     anchor = scene.anchor() if anchor is None else np.asarray(anchor, np.float64)
+    if anchor.shape != (3,) or not np.isfinite(anchor).all():
+        raise ValueError(f"caster_scene: anchor must be 3 finite numbers, got {anchor.tolist()}")
     tris = []
     for i, inst in enumerate(scene.instances):
         if not inst.casts:
@@ -468,16 +475,18 @@ class EmbreeTracer:
     """
 
     def __init__(self, scene, threads: int):
+        self.threads = check_threads(threads)
         self.scene = scene
         self.rays, self.anchor = caster_scene(scene)
         self.eps = surface_epsilon(scene)
-        self.threads = int(threads)
+        self.closed = False
         self.pool = ThreadPoolExecutor(self.threads)
         # first call commits Embree's BVH: keep it out of every timing
         self.rays.occluded(np.zeros((1, 3), np.float32), np.array([[0.0, 1.0, 0.0]], np.float32))
 
     def close(self):
-        """Shut the thread pool down (waits for running calls)."""
+        """Shut the thread pool down (waits for running calls); :meth:`occluded` then refuses rays."""
+        self.closed = True
         self.pool.shutdown()
 
     def __enter__(self):
@@ -501,14 +510,21 @@ class EmbreeTracer:
         ndarray, shape (n,), bool
             True where a caster triangle blocks the ray.
         """
+        if self.closed:
+            raise RuntimeError("EmbreeTracer.occluded: the tracer is closed (close() or the end of its with block)")
         n = len(o32)
-        out = np.empty(n, bool)
-        if n == 0:
-            return out
-        step = max(4096, -(-n // (4 * self.threads)))
+        if np.shape(o32) != (n, 3) or np.shape(d32) != (n, 3):    # chunks of shorter directions: read past their end
+            raise ValueError(f"EmbreeTracer.occluded: origins and directions must both have shape (n, 3), got "
+                             f"{np.shape(o32)} and {np.shape(d32)}")
+        out, step = np.empty(n, bool), max(4096, -(-n // (4 * self.threads)))
+        # rays as prepare() makes them go to Embree unchecked (the benchmarks time this path)
+        raw = (self.rays.unit == 1.0 and self.rays.n_triangles and o32.dtype == d32.dtype == np.float32
+               and o32.flags.c_contiguous and d32.flags.c_contiguous)
 
         def work(s):
-            out[s:s + step] = self.rays.occluded(o32[s:s + step], d32[s:s + step])
+            o, d = o32[s:s + step], d32[s:s + step]
+            out[s:s + step] = np.asarray(self.rays._scene.run(o, d, query="OCCLUDED")) >= 0 if raw \
+                else self.rays.occluded(o, d)
 
         list(self.pool.map(work, range(0, n, step)))
         return out
@@ -538,7 +554,14 @@ class EmbreeTracer:
         origins, dirs : ndarray, shape (m, 3), float32
             Those rays, ready for :meth:`occluded`.
         """
-        S = int(samples)
+        from ._validate import check_int, rows3
+
+        S = check_int(samples, "EmbreeTracer.prepare: samples", 1)
+        points = rows3(points, "points")
+        normals = rows3(normals, "normals", len(points))
+        if np.shape(dirs32) != (len(points) * S, 3):
+            raise ValueError(f"EmbreeTracer.prepare: dirs32 must have shape ({len(points) * S}, 3) (samples "
+                             f"directions per point), got {np.shape(dirs32)}")
         if anchor_groups(self.scene, points)[0][0] is not None:      # not one group at the scene's anchor
             raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of the smallest caster "
                              "from the scene's anchor, where its one anchor loses float32 precision; "

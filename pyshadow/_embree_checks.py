@@ -1,0 +1,110 @@
+"""Checks of what :mod:`pyshadow.embree` hands to Embree: float32 rays, lengths, thread counts.
+
+Embree reads each ray from float32 arrays without looking at them: a
+direction array shorter than the origins is read past its end, a NaN or an
+overflowed coordinate makes a ray silently miss, and a negative ``tfar``
+is answered "occluded". Everything is refused here, named, before a ray is
+traced; valid rays are passed on unchanged (the same float32 values).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ._validate import check_int, check_values
+
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+def _rows32(a, name, unit=1.0):
+    """``a`` (any shape ending in 3) as C-contiguous float32 (n, 3), scaled by ``unit`` (float64 first)."""
+    a = np.asarray(a)
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (N, 3), got {a.shape}")
+    if not (np.issubdtype(a.dtype, np.floating) or np.issubdtype(a.dtype, np.integer)):
+        raise TypeError(f"{name} must be real numbers, got dtype {a.dtype}")
+    with np.errstate(over="ignore", invalid="ignore"):       # beyond float32: inf, refused below
+        if unit != 1.0:
+            a = np.asarray(a, dtype=np.float64) * unit
+        out = np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 3)
+    return out
+
+
+def float32_rays(origins, directions, tfar, unit):
+    """Origins, directions (float32, (n, 3)) and embreex's keywords for rays in Embree's units.
+
+    ``origins`` and ``tfar`` are scaled by ``unit`` (the scene's power of two);
+    ``directions`` may have one row for all origins (embreex repeats it).
+    Raises ValueError for mismatched shapes, coordinates that are not finite
+    in float32, zero directions, and ``tfar`` that is NaN or negative; a
+    ``tfar`` beyond float32's range is unbounded (inf).
+    """
+    o = _rows32(origins, "origins", unit)
+    d = _rows32(directions, "directions")
+    n = len(o)
+    if len(d) != n and not (len(d) == 1 and n > 0):
+        raise ValueError(f"directions has {len(d)} rows but origins has {n} (give one direction per origin, "
+                         "or a single direction for all)")
+    for a, name in ((o, "origins"), (d, "directions")):
+        with np.errstate(all="ignore"):
+            total = a.sum()             # finite unless an entry is not (or finite entries overflow it)
+        if not np.isfinite(total):
+            bad = int((~np.isfinite(a).all(axis=1)).sum())
+            if bad:
+                raise ValueError(f"{name}: {bad} rows are not finite as float32 (NaN, inf, or beyond float32's "
+                                 f"range once scaled by the scene's unit {unit:g})")
+    if not d.all():                     # some zero entries: is a row all zeros? (cheap where none is)
+        check_values(d, "directions", nonzero=True)
+    kw = {}
+    if tfar is not None:
+        t = np.asarray(tfar)
+        if t.ndim > 1 or (t.ndim == 1 and len(t) != n):
+            raise ValueError(f"tfar must be a number or have shape ({n},), got shape {t.shape}")
+        if not (np.issubdtype(t.dtype, np.floating) or np.issubdtype(t.dtype, np.integer)):
+            raise TypeError(f"tfar must be real numbers, got dtype {t.dtype}")
+        with np.errstate(over="ignore"):
+            t = np.asarray(t, dtype=np.float64) * unit if unit != 1.0 else t
+            t32 = np.array(np.broadcast_to(t, (n,)), dtype=np.float32)     # a writable copy; beyond float32: inf
+        if not (t32 >= 0).all():
+            bad = ~(t32 >= 0)
+            i = int(np.argmax(bad))
+            raise ValueError(f"tfar must be >= 0 (inf: unbounded), got {np.broadcast_to(tfar, (n,))[i]} "
+                             f"for ray {i} ({int(bad.sum())} bad)")
+        kw["dists"] = t32
+    return o, d, kw
+
+
+def check_threads(threads) -> int:
+    """``threads`` of :class:`pyshadow.embree.EmbreeTracer`: an int >= 1."""
+    return check_int(threads, "EmbreeTracer: threads", 1)
+
+
+def check_frame(frame, name="frame"):
+    """``(centre, radius)`` of a normalised frame: centre (3,) finite, radius finite and > 0."""
+    try:
+        centre, radius = frame
+        centre = np.asarray(centre, dtype=np.float64)
+        radius = float(radius)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be (centre (3,), radius), got {frame!r}") from None
+    if centre.shape != (3,) or not np.isfinite(centre).all():
+        raise ValueError(f"{name}: centre must be 3 finite numbers, got {centre.tolist()}")
+    if not (np.isfinite(radius) and radius > 0):
+        raise ValueError(f"{name}: radius must be finite and > 0, got {radius}")
+    return centre, radius
+
+
+def check_item(item, oid):
+    """A ``(mesh, transform)`` item of :func:`pyshadow.embree.gbuffer`, its mesh loaded or checked as
+    :func:`pyshadow.render_gbuffer` does (the transform is checked by the caller)."""
+    import trimesh
+
+    from .mesh import check_mesh, load_mesh
+
+    try:
+        mesh, T = item
+    except (TypeError, ValueError):
+        raise ValueError(f"item {oid} must be a (mesh, 4x4 transform) pair") from None
+    if not isinstance(mesh, trimesh.Trimesh):
+        return load_mesh(mesh), T
+    check_mesh(mesh, f"item {oid}")
+    return mesh, T

@@ -169,7 +169,7 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
-        T = check_transform(np.eye(4) if transform is None else transform, rigid=True, name="transform").copy()
+        T = _held_transform(np.eye(4) if transform is None else transform)
         self.instances.append(_new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
@@ -181,8 +181,8 @@ class Scene:
         return self.instances[int(instance_id)]
 
     def set_transform(self, instance_id: int, transform) -> None:
-        """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt."""
-        self._instance(instance_id).transform = check_transform(transform, rigid=True, name="transform").copy()
+        """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt. (Its held copy is read-only.)"""
+        self._instance(instance_id).transform = _held_transform(transform)
         self._version += 1
 
     def transform(self, instance_id: int) -> np.ndarray:
@@ -392,6 +392,15 @@ class Scene:
         extra = {} if crease_angle is None else {"crease_angle": crease_angle}
         return render_stage.render(self, camera, visibility=name, sampling=sampling, denoise=denoise,
                                    ao_scale=ao_scale, ground_size=ground_size, bias=bias, normals=normals, **extra)
+
+
+def _held_transform(transform) -> np.ndarray:
+    """The scene's own read-only copy of a checked rigid transform: the queries keep tables derived from
+    it until :meth:`Scene.set_transform` (an edit in place would leave them stale, answering from the
+    old place; it raises instead)."""
+    T = check_transform(transform, rigid=True, name="transform").copy()
+    T.flags.writeable = False
+    return T
 
 
 def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:

@@ -17,7 +17,9 @@ The margin covers the float32 rounding of the walk: a ray that meets a
 sphere passes, within the rounding, through a cell listing it.
 
 The cell size follows the scene: one cell for every two casters over the
-spheres' bounding box, and no smaller than the median diameter. The kernels
+spheres' bounding box, no smaller than the median diameter nor than twice
+the margin (so that a sphere grown by it meets at most 4 cells an axis,
+where queries far away make the margin dwarf the casters). The kernels
 read a cell's list four spheres at a time (:func:`grid_packets`: one test
 of four), so a cell listing three or four spheres costs a ray little more
 than one listing a single sphere, while every cell crossed costs a step of
@@ -111,7 +113,9 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
         raise ValueError(f"instance_grid: {n} centres and {len(r)} radii")
     lo = (c - r[:, None]).min(axis=0) - 2.0 * margin
     hi = (c + r[:, None]).max(axis=0) + 2.0 * margin
-    target = _cell_size(lo, hi, r)
+    # no narrower than twice the margin: a sphere grown by a margin that dwarfs it (queries far from the
+    # casters) would fill hundreds of cells (10,000 casters asked from 1e6 m: a grid of 57 MB, 0.7 GB to build)
+    target = max(_cell_size(lo, hi, r), 2.0 * margin)
     origin = lo.astype(np.float32)
     origin = np.where(origin > lo, np.nextafter(origin, np.float32(-np.inf)), origin)     # at or below lo
     # cells of about the target edge, each axis's fitted to the box: a thin layer of casters gets one

@@ -1,0 +1,95 @@
+"""Scenes of many instances at the extremes: the grid over the casters' spheres
+(pyshadow.visibility.grid) where the queries lie far from the casters."""
+import numpy as np
+
+import pyshadow
+from pyshadow.scene_arrays import scene_arrays
+from pyshadow.visibility import csm as csm_backend, grid
+
+
+def _lattice(k, rng):
+    x, z = np.meshgrid(np.arange(k) - k / 2, np.arange(k) - k / 2)
+    n = k * k
+    return np.c_[x.ravel() + rng.uniform(-0.2, 0.2, n), np.full(n, 0.3), z.ravel() + rng.uniform(-0.2, 0.2, n)]
+
+
+def test_grid_for_far_queries_lists_each_sphere_in_few_cells():
+    """Before: the cells were sized by the casters alone, so the margin far queries grow every sphere
+    by (about 1e-5 of their distance: 32 m at 1e6 m) made each sphere of a 1 m lattice fill hundreds
+    of cells: 50 x 50 casters were listed 294,000 times (118 a caster; 10,000 casters: a grid of
+    57 MB, 0.7 GB while building it and 5 s for 16 rays from 1e6 m). Now a cell is at least twice
+    the margin wide, a grown sphere meets at most 4 cells an axis, and every cell it meets lists it."""
+    rng = np.random.default_rng(0)
+    c = _lattice(50, rng)
+    n = len(c)
+    r = np.full(n, 0.3)
+    for margin in (4.0, 32.0):
+        header, cells, items = grid.instance_grid(c, r, margin, balanced_only=False)
+        assert len(items) <= 64 * n
+        o, h, dims = header["origin"][0].astype(float), header["cell"][0].astype(float), header["dims"][0]
+        owner = np.repeat(np.arange(int(np.prod(dims))), np.diff(cells.astype(np.int64)))
+        ijk = np.stack(np.unravel_index(owner, dims), axis=1)
+        inst = items["instance"][: int(cells[-1])]
+        ids = np.stack(np.meshgrid(*[np.arange(d) for d in dims], indexing="ij"), -1).reshape(-1, 3)
+        for j in rng.choice(n, 25, replace=False):
+            gap = np.maximum(np.maximum(o + ids * h - c[j], c[j] - (o + (ids + 1) * h)), 0.0)
+            d = np.sqrt((gap * gap).sum(axis=1))
+            need = set(np.flatnonzero(d < (r[j] + margin) * (1 - 1e-9)).tolist())
+            got = set(np.ravel_multi_index(tuple(ijk[inst == j].T), dims).tolist())
+            assert need <= got and len(got) <= 64
+
+
+def test_far_queries_keep_a_small_grid_and_answer_as_every_caster(monkeypatch):
+    """Before: rays from 1e6 m away among 400 casters on a 1 m lattice kept a grid of 0.53 MB with
+    the scene for each far anchor (7 x 6 x 7 cells, every sphere grown by a 32 m margin in most of
+    them), 18 times the grid of the queries near the casters; now 0.13 MB (3 x 3 x 3 cells). The
+    answers, by the grid and by every caster, agreed before and still do."""
+    spot = pyshadow.data.mesh("spot")
+    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
+    rng = np.random.default_rng(1)
+    s = pyshadow.Scene(ground=0.0)
+    sc = 0.3 / a.radius
+    for p in _lattice(20, rng):
+        T = np.eye(4)
+        T[:3, :3] *= sc
+        T[:3, 3] = p - sc * a.centre
+        s.add(a, T, mesh=spot)
+    assert csm_backend.instance_accel(s) == "grid"
+    C = scene_arrays(s)["world_centre"]
+    m = 64
+    P = np.c_[np.full(m, 1e6), rng.uniform(0.0, 0.6, m), rng.uniform(-1e3, 1e3, m)]
+    D = C[rng.integers(0, len(C), m)] - P
+    D[::4, 1] = 0.0
+    by_grid = s.visible(P, D)
+    kept = [v[1].nbytes for k, v in scene_arrays(s).items() if isinstance(k, tuple) and k[0] == "instance_grid"]
+    assert max(kept) <= 5 * 80 * len(C)            # at most 5 packets (80 bytes) a caster
+    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
+    np.testing.assert_array_equal(by_grid, s.visible(P, D))
+    assert (~by_grid).sum() >= 16
+
+
+def test_a_transform_edited_in_place_cannot_leave_the_scene_stale():
+    """Before: ``scene.instances[i].transform`` was the scene's writeable copy. A caster moved by
+    editing it in place (not by set_transform) after a query left the kept instance table and grid
+    stale: a ray down onto its old place was still blocked, where a scene built with it moved was
+    open. Now the copy is read-only (the edit raises) and set_transform moves it."""
+    import pytest
+
+    spot = pyshadow.data.mesh("spot")
+    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
+    s = pyshadow.Scene()
+    for i in range(20):
+        T = np.eye(4)
+        T[:3, 3] = [3.0 * (i % 5), 0.0, 3.0 * (i // 5)] - a.centre
+        s.add(a, T, mesh=spot)
+    p, d = np.array([[0.0, 2.0 * a.radius, 0.0]]), np.array([[0.0, -1.0, 0.0]])
+    assert csm_backend.instance_accel(s) == "grid" and not s.visible(p, d)[0]
+    with pytest.raises(ValueError, match="read-only"):
+        s.instances[0].transform[1, 3] += 50.0
+    with pytest.raises(ValueError, match="read-only"):
+        s.instances[0].transform[:] = s.transform(1)
+    assert not s.visible(p, d)[0]                           # unchanged, as the scene holds it
+    T = s.transform(0)
+    T[1, 3] += 50.0
+    s.set_transform(0, T)
+    assert s.visible(p, d)[0] and not s.instances[0].transform.flags.writeable

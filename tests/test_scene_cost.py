@@ -42,12 +42,22 @@ class KernelSpy:
             if source_file != "visibility.cl":
                 return k
             self.built.append((name, dict(defines or {})))
-
-            def launch(*args, **kwargs):
-                self.launches += 1
-                return k(*args, **kwargs)
-            return launch
+            return Counted(k, self)
         monkeypatch.setattr(_cl, "kernel", kernel)
+
+
+class Counted:
+    """A kernel whose launches the spy counts (its other attributes are the kernel's)."""
+
+    def __init__(self, k, spy):
+        self._k, self._spy = k, spy
+
+    def __call__(self, *args, **kwargs):
+        self._spy.launches += 1
+        return self._k(*args, **kwargs)
+
+    def __getattr__(self, name):
+        return getattr(self._k, name)
 
 
 @pytest.fixture

@@ -61,7 +61,9 @@ def test_far_queries_keep_a_small_grid_and_answer_as_every_caster(monkeypatch):
     D = C[rng.integers(0, len(C), m)] - P
     D[::4, 1] = 0.0
     by_grid = s.visible(P, D)
-    kept = [v[1].nbytes for k, v in scene_arrays(s).items() if isinstance(k, tuple) and k[0] == "instance_grid"]
+    held = scene_arrays(s)
+    kept = [v[1].nbytes for d in (held, *held.get("far_anchors", {}).values()) for k, v in d.items()
+            if isinstance(k, tuple) and k[0] == "instance_grid"]
     assert max(kept) <= 5 * 80 * len(C)            # at most 5 packets (80 bytes) a caster
     monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
     np.testing.assert_array_equal(by_grid, s.visible(P, D))
@@ -93,3 +95,42 @@ def test_a_transform_edited_in_place_cannot_leave_the_scene_stale():
     T[1, 3] += 50.0
     s.set_transform(0, T)
     assert s.visible(p, d)[0] and not s.instances[0].transform.flags.writeable
+
+
+def test_tables_of_far_anchors_are_kept_for_the_last_few_only(monkeypatch):
+    """Before: every anchor of far query points (one per region of about 128 m here) kept its instance
+    table, grid and their device copies with the scene until it changed: 100 points scattered over
+    +-1e5 m among 10,000 casters kept 809 MB. Now the scene's own anchor and the last FAR_ANCHORS
+    others are kept, and the answers are those of a scene that keeps nothing."""
+    from pyshadow.visibility import held as held_mod
+
+    spot = pyshadow.data.mesh("spot")
+    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
+    rng = np.random.default_rng(2)
+    s = pyshadow.Scene(ground=0.0)
+    sc = 0.3 / a.radius
+    for p in _lattice(6, rng):
+        T = np.eye(4)
+        T[:3, :3] *= sc
+        T[:3, 3] = p - sc * a.centre
+        s.add(a, T, mesh=spot)
+    assert csm_backend.instance_accel(s) == "grid"
+    m = 40
+    P = np.c_[rng.uniform(-1e5, 1e5, m), rng.uniform(0.0, 0.6, m), rng.uniform(-1e5, 1e5, m)]
+    C = scene_arrays(s)["world_centre"]
+    D = C[rng.integers(0, len(C), m)] - P
+    D[1::2, 1] += 5.0                                   # every other ray passes 5 m above its caster
+    near = np.c_[rng.uniform(-3, 3, 64), np.zeros(64), rng.uniform(-3, 3, 64)]
+    up = np.tile([0.0, 1.0, 0.0], (64, 1))
+    S = pyshadow.Sampling(8, seed=1)
+    got = [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(m)]
+    got_ao = s.ambient_occlusion(near, up, sampling=S)
+    far = scene_arrays(s)["far_anchors"]
+    assert len(far) == held_mod.FAR_ANCHORS
+    assert not any(isinstance(k, tuple) and k[0] == "instance_data" and k[1] != s.anchor().tobytes()
+                   for k in scene_arrays(s))            # far anchors' tables only among the last few
+    monkeypatch.setattr(held_mod, "FAR_ANCHORS", 0)      # keep none: every far query builds its own
+    want = [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(m)]
+    assert got == want and len(scene_arrays(s)["far_anchors"]) == 0
+    np.testing.assert_array_equal(got_ao, s.ambient_occlusion(near, up, sampling=S))
+    assert sum(got) >= 8 and sum(got) <= m - 8

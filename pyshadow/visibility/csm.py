@@ -62,6 +62,7 @@ from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distan
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 from .grid import grid_margin, grid_packets, instance_grid
+from .held import held_at, kept as _kept, on_device as _on_device
 from .sampled_sky import _SampledSky
 
 __all__ = ["CSMVisibility", "lane_table", "instance_accel"]
@@ -119,23 +120,6 @@ def _grid_margin(rows, points_extent, spheres=None):
     return grid_margin(max(points_extent, spheres), spheres)
 
 
-def _kept(held, key, make):
-    """``held[key]``, made by ``make()`` the first time (``held``: a scene's arrays, dropped when it changes)."""
-    if key not in held:
-        held[key] = make()
-    return held[key]
-
-
-def _on_device(held, array):
-    """The device copy of a read-only table that ``held`` keeps (or a module constant), made once
-    per OpenCL context and kept with it: a query among many casters copies no table per call."""
-    key = ("device", id(_cl.context()), id(array))
-    got = held.get(key)
-    if got is None or got[0] is not array:      # (the array is kept with its copy: its id is not reused)
-        got = held[key] = (array, _cl.to_device(array))
-    return got[1]
-
-
 def _grid_key(anchor, margin):
     return ("instance_grid", np.asarray(anchor, np.float64).tobytes(), margin)
 
@@ -162,15 +146,13 @@ def _instance_data(scene, anchor, lookup="nearest"):
     Computed for all casters at once from :func:`pyshadow.scene_arrays.scene_arrays`, with
     the operations of :meth:`pyshadow.scene.Instance.world_sphere` (bit-identical to
     computing them instance by instance), and kept with those arrays per anchor and
-    lookup until the scene changes (read-only).
+    lookup until the scene changes (read-only; :func:`.held.held_at`).
     """
     arr = scene_arrays(scene)
     if not arr["casts"].any():              # an empty scene's anchor follows its points: nothing kept
         return _instance_rows(arr, np.asarray(anchor, np.float64), lookup)
     key = ("instance_data", np.asarray(anchor, np.float64).tobytes(), lookup)
-    if key not in arr:
-        arr[key] = _instance_rows(arr, np.asarray(anchor, np.float64), lookup)
-    return arr[key]
+    return _kept(held_at(scene, anchor), key, lambda: _instance_rows(arr, np.asarray(anchor, np.float64), lookup))
 
 
 def _instance_rows(arr, anchor, lookup):
@@ -212,9 +194,9 @@ _NO_GRID, _NO_PACKETS = _read_only(np.zeros(1, GRID)), _read_only(np.zeros(1, GR
 def _accel_tables(scene, rows, anchor, points_extent):
     """The kernels' tables of :func:`instance_accel`: the tree (nodes, order, box margin) and the
     grid (header, packets); one-record placeholders for the one not used. Both are kept with the
-    scene's arrays (per anchor, and the grid per margin) until the scene changes."""
+    scene's arrays (per anchor, :func:`.held.held_at`, and the grid per margin) until the scene changes."""
     accel = instance_accel(scene)
-    held = scene_arrays(scene)
+    held = held_at(scene, anchor)
     nodes, order, pad, grid, packets = _NO_NODES, _NO_ORDER, 0.0, _NO_GRID, _NO_PACKETS
     at = np.asarray(anchor, np.float64).tobytes()
     if accel == "tree":
@@ -349,7 +331,7 @@ class CSMVisibility(_SampledSky):
         g_eps = ground_tolerance(scene)
         nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
         # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points)
-        held = scene_arrays(scene)
+        held = held_at(scene, anchor)
         dev = (lambda a: _on_device(held, a)) if ninst else _cl.to_device
         args = [*atlas["buffers"], dev(rows), dev(itype), np.int32(ninst), np.float32(gy),
                 np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),

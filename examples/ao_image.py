@@ -26,13 +26,14 @@ def main(argv=None):
     parser.add_argument("--theta", type=int, default=32, help="zigzag rows of the CSM maps")
     parser.add_argument("--phi", type=int, default=64, help="zigzag columns of the CSM maps")
     parser.add_argument("--resolution", type=int, default=64, help="CSM texels per side")
-    parser.add_argument("--window", type=int, nargs=2, default=(1300, 1080), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(1300, 1080))
     args = parser.parse_args(argv)
 
     import pyshadow
     import pyshadow.data
-    from pyshadow import embree, viz
+    from pyshadow import embree
 
     try:
         t0 = time.perf_counter()
@@ -64,8 +65,7 @@ def main(argv=None):
     print(f"mean AO {raw['ao'][hit].mean():.4f} (Embree {ref['ao'][hit].mean():.4f}); "
           f"mean abs. difference to Embree: raw {err.mean():.4f}, filtered {ferr.mean():.4f}")
 
-    plotter = viz.make_plotter((3, 2), args.window, off_screen=args.screenshot is not None,
-                               groups=[(2, np.s_[:])], row_weights=[1.0, 1.0, 0.14])
+    plotter = viz.script_plotter(parser, args, (3, 2), groups=[(2, np.s_[:])], row_weights=[1.0, 1.0, 0.14])
     panels = [
         ((0, 0), raw["ao"], f"pyshadow AO, {args.samples} samples ({t_raw:.2f} s)"),
         ((0, 1), viz.bent_normal_rgb(raw["bent_normal"]), "bent normals: x, y, z as red, green, blue"),

@@ -67,25 +67,24 @@ def main(argv=None):
                         help="CSMs with footprint intervals (CoherentShadowMap.build(..., footprint=True))")
     parser.add_argument("--ground-divisions", type=int, default=64,
                         help="quads per side of the ground receiver grid")
-    parser.add_argument("--window", type=int, nargs=2, default=(1500, 620), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(1500, 620))
     args = parser.parse_args(argv)
 
     import pyshadow
     import pyshadow.data
-    from pyshadow import viz
 
     try:
         meshes = [pyshadow.load_mesh(p) for p in args.meshes] or [pyshadow.data.bunny()]
         sampling = pyshadow.Sampling(args.samples)
+        t0 = time.perf_counter()
+        scene, ids, gid = build_scene(meshes, args.theta, args.phi, args.resolution,
+                                      args.ground_divisions, args.footprint)
+        t_build = time.perf_counter() - t0
     except (FileNotFoundError, ValueError) as exc:
         parser.error(str(exc))
     names = [str(p) for p in args.meshes] or ["bunny"]
-
-    t0 = time.perf_counter()
-    scene, ids, gid = build_scene(meshes, args.theta, args.phi, args.resolution,
-                                  args.ground_divisions, args.footprint)
-    t_build = time.perf_counter() - t0
     ours, refs = {}, {}
     t_ours = t_ref = 0.0
     for i in ids + [gid]:
@@ -105,8 +104,7 @@ def main(argv=None):
     print(f"time: pyshadow {t_ours:.2f} s, Embree {t_ref:.2f} s")
 
     lim = float(max(0.05, np.percentile(np.abs(alld), 99.5)))
-    plotter = viz.make_plotter((2, 3), args.window, off_screen=args.screenshot is not None,
-                               groups=[(1, np.s_[0:2])], row_weights=[1.0, 0.13])
+    plotter = viz.script_plotter(parser, args, (2, 3), groups=[(1, np.s_[0:2])], row_weights=[1.0, 0.13])
     spheres = [scene.instances[i].world_sphere() for i in ids]
     centre = np.mean([c for c, _ in spheres], axis=0)
     radius = max(float(np.linalg.norm(c - centre)) + r for c, r in spheres)

@@ -30,13 +30,13 @@ def main(argv=None):
     parser.add_argument("--depth-bits", type=int, default=16, choices=(16, 32))
     parser.add_argument("--fill-holes", action="store_true",
                         help="close the mesh's holes first (watertight: [z1, z3) runs)")
-    parser.add_argument("--window", type=int, nargs=2, default=(900, 860), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(900, 860))
     args = parser.parse_args(argv)
 
     import pyshadow
     import pyshadow.data
-    from pyshadow import viz
 
     try:
         if args.mesh:
@@ -64,8 +64,7 @@ def main(argv=None):
         print(f"silhouette: {seen.size} texels ({100 * seen.size / heat.size:.0f}%); segments per "
               f"texel median {np.median(seen):.0f}, max {seen.max():.0f}")
 
-    plotter = viz.make_plotter((2, 1), args.window, off_screen=args.screenshot is not None,
-                               row_weights=[1.0, 0.12])
+    plotter = viz.script_plotter(parser, args, (2, 1), row_weights=[1.0, 0.12])
     plotter.subplot(0, 0)
     top = float(seen.max()) if seen.size else 1.0
     step = 10.0 ** np.floor(np.log10(top)) / 2.0         # round the colour range up: 371 -> 400

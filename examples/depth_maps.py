@@ -44,27 +44,26 @@ def main(argv=None):
     parser.add_argument("--single-square", action="store_true",
                         help="Hilbert: one octahedral square (4^level maps) instead of one "
                              "square per hemisphere (2*4^level, as many as zigzag 2^l x 2^(l+1))")
-    parser.add_argument("--window", type=int, nargs=2, default=(1200, 1100), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(1200, 1100))
     args = parser.parse_args(argv)
     if not 2 <= args.maps <= 8:
         parser.error(f"--maps must be in 2..8, got {args.maps}")
 
     import pyshadow
     import pyshadow.data
-    from pyshadow import viz
 
     try:
         mesh = pyshadow.load_mesh(args.mesh) if args.mesh else pyshadow.data.bunny()
         zigzag = pyshadow.ViewSet.zigzag(args.theta, args.phi)
         hilbert = pyshadow.ViewSet.hilbert(args.level, hemispheres=not args.single_square)
+        idx = pick_maps(zigzag, args.maps)
+        chosen = pyshadow.ViewSet(zigzag.directions[idx], zigzag.bases[idx])
+        depth = pyshadow.render_depth(mesh, chosen, resolution=args.resolution, layers=2)   # (n, 2, R, R)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(str(exc))
     name = args.mesh or "bunny"
-
-    idx = pick_maps(zigzag, args.maps)
-    chosen = pyshadow.ViewSet(zigzag.directions[idx], zigzag.bases[idx])
-    depth = pyshadow.render_depth(mesh, chosen, resolution=args.resolution, layers=2)   # (n, 2, R, R)
     theta, phi = polar_angles(chosen.directions)
     for k, i in enumerate(idx):
         hit1 = np.isfinite(depth[k, 0]).mean()
@@ -74,10 +73,9 @@ def main(argv=None):
 
     n = len(idx)
     half = max(1, n // 2)
-    plotter = viz.make_plotter(
-        (5, n), args.window, off_screen=args.screenshot is not None,
-        groups=[(2, np.s_[:]), (3, np.s_[:half]), (3, np.s_[half:]), (4, np.s_[:])],
-        row_weights=[1.0, 1.0, 0.2, 1.6, 0.2])
+    plotter = viz.script_plotter(parser, args, (5, n),
+                                 groups=[(2, np.s_[:]), (3, np.s_[:half]), (3, np.s_[half:]), (4, np.s_[:])],
+                                 row_weights=[1.0, 1.0, 0.2, 1.6, 0.2])
     titles = {(layer, k): f"map {i} layer {layer + 1}: theta {theta[k]:.0f}, phi {phi[k]:.0f}"
               for k, i in enumerate(idx) for layer in range(2)}
     longest = max(titles.values(), key=len)

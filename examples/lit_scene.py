@@ -58,8 +58,9 @@ def main(argv=None):
     parser.add_argument("--turbidity", type=float, default=3.0, help="Preetham turbidity (1.7 .. 10)")
     parser.add_argument("--save-frames", action="store_true",
                         help="also write every tone-mapped frame as OUT_0000.png, OUT_0001.png, ...")
-    parser.add_argument("--window", type=int, nargs=2, default=(1300, 560), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(1300, 560))
     args = parser.parse_args(argv)
     if args.frames < 2:
         parser.error(f"--frames must be >= 2, got {args.frames}")
@@ -69,7 +70,6 @@ def main(argv=None):
     import pyshadow
     import pyshadow.data
     from pyshadow import render as render_stage
-    from pyshadow import viz
     from pyshadow.lighting import Lighting, sun_position, tonemap
 
     try:
@@ -119,7 +119,7 @@ def main(argv=None):
     print(f"lit frames per second: {1.0 / med:.2f} (median {1e3 * med:.1f} ms: set_transform + render "
           f"with lighting; device {pyshadow.device_info()['name']}); exposure {exposure:.3g}")
 
-    plotter = viz.make_plotter((1, 2), args.window, off_screen=args.screenshot is not None)
+    plotter = viz.script_plotter(parser, args, (1, 2))
     panels = [(0, images[0], f"frame 1/{args.frames}"),
               (1, images[-1], f"frame {args.frames}/{args.frames}: bunny moved and turned")]
     for c, (rgb, mask), title in panels:

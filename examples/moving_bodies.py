@@ -127,8 +127,9 @@ def main(argv=None):
                         help="off screen (with --screenshot): frames of the scripted motion")
     parser.add_argument("--save-frames", action="store_true",
                         help="also write every frame as OUT_0000.png, OUT_0001.png, ...")
-    parser.add_argument("--window", type=int, nargs=2, default=(1100, 820), metavar=("W", "H"))
-    parser.add_argument("--screenshot", metavar="PNG", help="render off screen into this file")
+    from pyshadow import viz
+
+    viz.add_window_options(parser, window=(1100, 820))
     args = parser.parse_args(argv)
     if args.frames < 0:
         parser.error(f"--frames must be >= 0, got {args.frames}")
@@ -136,7 +137,6 @@ def main(argv=None):
         parser.error("--save-frames needs --screenshot")
 
     import pyshadow
-    from pyshadow import viz
 
     try:
         sampling = pyshadow.Sampling(args.samples)
@@ -159,8 +159,7 @@ def main(argv=None):
           f"built in {t_build:.2f} s")
     ao = recompute(scene, ids, start, sampling)       # warm-up: kernel builds, device data
 
-    plotter = viz.make_plotter((2, 1), args.window, off_screen=args.screenshot is not None,
-                               row_weights=[1.0, 0.1])
+    plotter = viz.script_plotter(parser, args, (2, 1), row_weights=[1.0, 0.1])
     plotter.subplot(0, 0)
     drawn = viz.scene_to_plotter(scene, plotter, ao, ground=False, lighting=False)
     viz.look_at_bodies(plotter, (0.0, 0.3, 0.0), 3.9, direction=(0.45, 0.8, 1.0), fill=1.05)

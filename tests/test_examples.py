@@ -161,7 +161,7 @@ import numpy as np
 import moving_bodies
 from pyshadow import viz
 
-make = viz.make_plotter
+make = viz.plotter.make_plotter
 
 def offscreen(*args, **kwargs):          # the interactive window, drawn off screen
     kwargs["off_screen"] = True
@@ -184,7 +184,7 @@ def drive(plotter, screenshot=None, **kwargs):   # instead of show(): press keys
     print(f"turn slider {turn:.1f}; changed {changed:.3f}")
     plotter.close()
 
-viz.make_plotter, viz.finish = offscreen, drive
+viz.plotter.make_plotter, viz.finish = offscreen, drive    # the one script_plotter calls
 moving_bodies.main(["--theta", "8", "--phi", "16", "--resolution", "32", "--samples", "8",
                     "--ground-divisions", "16", "--window", "400", "300"])
 """

@@ -11,7 +11,7 @@ from pathlib import Path
 from .._files import writable_folder, write_bytes_atomic
 from ..cache import CSMCache, default_cache_dir
 from .answer import answer_text, run_max_error
-from .common import _PROGRESS, _Log, drop_earlier_record
+from .common import _PROGRESS, UsageError, _Log, drop_earlier_record
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
 from .lit import sky_lighting
@@ -61,13 +61,13 @@ def build_parser() -> argparse.ArgumentParser:
                       help="use this mesh instead of the default bodies (repeatable); each is "
                            "scaled to bounding radius 1 and stood on the ground, side by side")
     io = ap.add_argument_group("output")
-    io.add_argument("--out", default="pyshadow-bench-out", metavar="DIR",
+    io.add_argument("--out", type=_folder, default="pyshadow-bench-out", metavar="DIR",
                     help="output directory (default ./pyshadow-bench-out)")
     io.add_argument("--json", action="store_true",
                     help="print results.json (sweep.json with --sweep, max_error.json with "
                          "--max-error alone) on stdout and nothing else; the table goes to stderr")
     io.add_argument("--quiet", action="store_true", help="no progress messages on stderr")
-    io.add_argument("--cache-dir", metavar="DIR",
+    io.add_argument("--cache-dir", type=_folder, metavar="DIR",
                     help="CSM and reference cache (default $PYSHADOW_CACHE, else "
                          "the user cache directory of 'pyshadow')")
     io.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
@@ -128,12 +128,38 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-def _check_out(ap, out: Path):
-    """Create ``out`` and probe that it is writable; a parser error (exit 2) otherwise."""
+def _folder(text: str) -> str:
+    """argparse type of a folder path: the text as given; an empty one (which would mean the
+    current folder, or for --cache-dir the default cache) is refused."""
+    if not text:
+        raise argparse.ArgumentTypeError("expected a folder path, got an empty string")
+    return text
+
+
+def _outputs(args, answer_mode: bool) -> list:
+    """The names of the files the run will write into ``--out``."""
+    if args.sweep:
+        return ["pareto.png", "sweep.md", "sweep.json"]
+    if answer_mode:
+        return ["max_error.json" if args.frame_budget is None else "frame_budget.json"]
+    return (["ao.png", "reference.png", "difference.png", "ao.exr", "reference.exr", "converged.exr"]
+            + (["radiance.exr", "lit.png"] if args.sky is not None else [])
+            + (["shadow.png"] if args.light is not None else []) + ["results.json"])
+
+
+def _check_out(ap, out: Path, names=()):
+    """Create ``out`` and probe that it is writable, and that none of the output ``names`` there is
+    something other than a file a write can replace (a folder, say); a parser error (exit 2) otherwise."""
     try:
         writable_folder(out, ".pyshadow-bench-")
     except ValueError as e:
         ap.error(f"--out {out}: {e}")
+    for name in names:
+        p = out / name
+        if p.exists() and not p.is_file():
+            ap.error(f"--out {out}: {name} exists there and is not a regular file, which the run would replace")
+        if p.is_symlink() and not p.resolve().parent.is_dir():     # written through the link: into no folder
+            ap.error(f"--out {out}: {name} is a symbolic link to {os.readlink(p)}, in a folder that does not exist")
 
 
 def _emit(obj, path: Path | None, as_json: bool):
@@ -233,7 +259,7 @@ def _run(argv) -> int:
                  "or --frame-budget")
     if args.ao_distance is not None and not args.method:
         ap.error("--ao-distance needs --method")
-    _check_out(ap, out)
+    _check_out(ap, out, _outputs(args, answer_mode))
 
     preset = PRESETS["quick" if args.quick else "default"]
     explicit = [k for k in ("maps", "resolution", "depth_bits", "size", "samples",
@@ -286,7 +312,10 @@ def _run(argv) -> int:
         print(answer_text(rec), file=sys.stderr if args.json else sys.stdout)
         return 0
 
-    result = run_main(args, cfg, factory, cache, log, lighting)
+    try:
+        result = run_main(args, cfg, factory, cache, log, lighting)
+    except UsageError as e:                 # raised before any output is written
+        ap.error(str(e))
     result["files"]["results.json"] = str(out / "results.json")
     _emit(result, out / "results.json", args.json)
     print(format_table(result), file=sys.stderr if args.json else sys.stdout)

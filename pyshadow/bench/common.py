@@ -24,6 +24,14 @@ class _Log:
 _PROGRESS = {"on": True}      # --quiet turns progress bars off
 
 
+class UsageError(Exception):
+    """An option value found unusable once the scene exists (``--light`` inside a caster, say).
+
+    Raised before the run writes any output; the command line reports it
+    as an argparse error (``error: ...``, exit status 2).
+    """
+
+
 def _bar(total, desc, unit="it"):
     """A tqdm bar on stderr, shown only on a terminal (and not with --quiet)."""
     from tqdm import tqdm

@@ -140,8 +140,12 @@ def _int_range(lo, hi, what):
     return parse
 
 
-def positive_number(not_a_number: str, not_positive: str):
-    """An argparse type for a finite number > 0; the messages are formatted with ``text``."""
+def positive_number(not_a_number: str, not_positive: str, hi=None):
+    """An argparse type for a finite number > 0; the messages are formatted with ``text``.
+
+    ``hi``: optional ``(largest, message)``, a larger value refused with the
+    message formatted with ``text`` and ``hi``.
+    """
     def parse(text):
         try:
             v = float(text)
@@ -149,6 +153,8 @@ def positive_number(not_a_number: str, not_positive: str):
             raise argparse.ArgumentTypeError(not_a_number.format(text=text)) from None
         if not (math.isfinite(v) and v > 0):
             raise argparse.ArgumentTypeError(not_positive.format(text=text))
+        if hi is not None and v > hi[0]:
+            raise argparse.ArgumentTypeError(hi[1].format(text=text, hi=hi[0]))
         return v
     return parse
 

@@ -126,6 +126,37 @@ def place_light(light: dict, scene) -> dict:
     return light
 
 
+def _facing(light, sp):
+    """Rays, distances (None for a sun), unit normals and the mask of ``sp``'s pixels facing the light."""
+    n = np.asarray(sp.normals, np.float64)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    w, t = _rays(light, sp.points, n)
+    nl = np.einsum("ij,ij->i", n, w)
+    return w, t, n, nl, nl >= MIN_COSINE
+
+
+def check_light(light: dict, scene, camera) -> dict:
+    """``light`` placed (:func:`place_light`) once it is known to be measurable on this scene and camera.
+
+    Called before the benchmark's other work, so that a light it cannot
+    measure ends the run before any output is written.
+
+    Raises
+    ------
+    ValueError
+        The light lies inside a caster's bounding sphere, or no covered pixel
+        faces it (``n . l >=`` :data:`MIN_COSINE`); the message names ``--light``.
+    """
+    import pyshadow
+
+    with np.errstate(all="ignore"):             # a far light: distances may overflow (no pixel faces it then)
+        light = place_light(light, scene)
+        sel = _facing(light, pyshadow.render.surface_points(scene, camera))[4]
+    if not sel.any():
+        raise ValueError(f"--light {light['spec']}: no covered pixel faces the light (n.l >= {MIN_COSINE})")
+    return light
+
+
 def _rays(light, points, normals):
     if light["kind"] == "sun":
         w = np.broadcast_to(light["direction"], points.shape)
@@ -173,11 +204,7 @@ def light_pass(args, scene, camera, csm_bytes: int, light: dict, out_dir: Path, 
 
     light = place_light(light, scene)
     sp = pyshadow.render.surface_points(scene, camera)
-    n = np.asarray(sp.normals, np.float64)
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
-    w, t = _rays(light, sp.points, n)
-    nl = np.einsum("ij,ij->i", n, w)
-    sel = nl >= MIN_COSINE
+    w, t, n, nl, sel = _facing(light, sp)
     P, W, N, ids = sp.points[sel], w[sel], n[sel], sp.surface_ids[sel]
     T = None if t is None else t[sel]
     if not len(P):

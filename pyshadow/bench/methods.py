@@ -55,6 +55,7 @@ import time
 
 import numpy as np
 
+from .._validate import FLOAT32_MAX
 from .common import _fig, _num, cached_ao
 from .config import positive_number
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
@@ -75,8 +76,11 @@ def parse_methods(text: str) -> list:
     return names
 
 
-#: ``--ao-distance`` value: a finite number > 0, world units (argparse type).
-positive_distance = positive_number("not a number: {text!r}", "must be finite and > 0 (world units), got {text}")
+#: ``--ao-distance`` value: a number > 0 and at most float32's largest (the kernels read it as
+#: float32), world units (argparse type).
+positive_distance = positive_number("not a number: {text!r}", "must be finite and > 0 (world units), got {text}",
+                                    hi=(FLOAT32_MAX, "must be at most {hi:.3g} (float32's range; world units), "
+                                                     "got {text}"))
 
 
 def selected_methods(values) -> list:

@@ -10,7 +10,7 @@ import numpy as np
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..sampling import Sampling
-from .common import _bar, _fig, drop_earlier_record, environment
+from .common import UsageError, _bar, _fig, drop_earlier_record, environment
 from .config import Config
 from .measure import (GBuffer, _errors, by_surface, converged_reference, embree_pass, time_rays,
                       visibility_pass)
@@ -65,6 +65,9 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
     ------
     RuntimeError
         When the camera sees no surface.
+    pyshadow.bench.common.UsageError
+        ``args.light`` cannot be measured on this scene
+        (:func:`pyshadow.bench.light.check_light`); raised before any output is written.
     """
     import pyshadow
 
@@ -73,6 +76,14 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
     S, strat, seed, pat = cfg.samples, args.strategy, args.seed, args.patterns
     scene, camera, infos = factory(cfg)
     csm = _csm_summary(infos)
+    light = getattr(args, "light", None)
+    if light is not None:                 # a light the pass cannot measure: before any work or output
+        from .light import check_light
+
+        try:
+            light = check_light(light, scene, camera)
+        except ValueError as e:
+            raise UsageError(str(e)) from None
 
     log(f"rendering {camera.width}x{camera.height}, {S} samples ({strat})")
 
@@ -244,13 +255,10 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
     }
     if lit_record is not None:
         result["lighting"] = lit_record
-    if getattr(args, "light", None) is not None:
+    if light is not None:
         from .light import light_pass
 
-        try:
-            result["light"], light_files = light_pass(args, scene, camera, csm["bytes"], args.light, out_dir, log)
-        except ValueError as e:                     # a light inside a caster's sphere of the user's scene
-            raise SystemExit(f"pyshadow-bench: {e}") from None
+        result["light"], light_files = light_pass(args, scene, camera, csm["bytes"], light, out_dir, log)
         files.update(light_files)
     if methods is not None:
         result["methods"] = methods

@@ -29,7 +29,8 @@ Modules
 -------
 Everything below is imported from ``pyshadow.viz``; the modules only group it:
 
-* :mod:`pyshadow.viz.plotter` -- off-screen setup, plotters, screenshots, titles.
+* :mod:`pyshadow.viz.plotter` -- off-screen setup, plotters, screenshots, titles,
+  the example scripts' ``--window`` and ``--screenshot`` options.
 * :mod:`pyshadow.viz.meshes` -- meshes and scenes to polydata, the camera on
   them, the ground grid.
 * :mod:`pyshadow.viz.images` -- image panels, colour bars, bent-normal colours.
@@ -46,14 +47,19 @@ from .images import bent_normal_rgb, colour_bar, image_panel
 from .meshes import ground_grid, look_at_bodies, mesh_to_polydata, scene_to_plotter, update_scalars
 from .plotter import (
     BACKGROUND,
+    MAX_WINDOW_SIDE,
     TEXT_COLOR,
     add_title,
+    add_window_options,
     configure_offscreen,
     finish,
     font_size,
     make_plotter,
     save_screenshot,
+    screenshot_path,
+    script_plotter,
     update_title,
+    window_side,
 )
 from .ssao_pass import VTKSSAO, vtk_ssao
 from .viewsets import add_view_set, segment_heatmap, view_set_points
@@ -63,6 +69,11 @@ __all__ = [
     "TEXT_COLOR",
     "configure_offscreen",
     "make_plotter",
+    "MAX_WINDOW_SIDE",
+    "add_window_options",
+    "script_plotter",
+    "window_side",
+    "screenshot_path",
     "finish",
     "save_screenshot",
     "font_size",

@@ -10,6 +10,7 @@ The choice of the off-screen render window is described in the
 """
 from __future__ import annotations
 
+import argparse
 import ctypes.util
 import os
 import sys
@@ -97,7 +98,7 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
     shape : tuple of int, optional
         Subplot grid ``(rows, columns)``.
     window_size : tuple of int, optional
-        ``(width, height)`` in pixels, each at least 16.
+        ``(width, height)`` in pixels, each 16 to :data:`MAX_WINDOW_SIDE`.
     off_screen : bool, optional
         Render without a window (for :func:`finish` with a screenshot);
         :func:`configure_offscreen` is called first.
@@ -113,15 +114,16 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
     Raises
     ------
     ValueError
-        A window size that is not two integers >= 16.
+        A window size that is not two integers in 16..:data:`MAX_WINDOW_SIDE`.
     RuntimeError
         ``off_screen=False`` on Linux without a display (the message says to
         pass ``--screenshot``), or no off-screen backend (see
         :func:`configure_offscreen`).
     """
     size = tuple(int(v) for v in np.asarray(window_size).reshape(-1))
-    if len(size) != 2 or min(size) < 16:
-        raise ValueError(f"window_size must be (width, height) with both >= 16, got {window_size!r}")
+    if len(size) != 2 or min(size) < 16 or max(size) > MAX_WINDOW_SIDE:
+        raise ValueError(f"window_size must be (width, height) with both in 16..{MAX_WINDOW_SIDE}, "
+                         f"got {window_size!r}")
     if off_screen:
         configure_offscreen()
     elif not _has_display():
@@ -163,6 +165,54 @@ def finish(plotter, screenshot=None, *, title: str = "pyshadow"):
     path = save_screenshot(plotter, screenshot)
     plotter.close()
     return path
+
+
+#: Largest window side (pixels): VTK aborts the process ("stack smashing") on a
+#: window of 400 x 99,999,999.
+MAX_WINDOW_SIDE = 16384
+#: Image files a screenshot may be written as (VTK's writers).
+SCREENSHOT_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+
+
+def window_side(text: str) -> int:
+    """argparse type of a ``--window`` side: an integer number of pixels, 16 to :data:`MAX_WINDOW_SIDE`."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 16 <= v <= MAX_WINDOW_SIDE:
+        raise argparse.ArgumentTypeError(f"a window side must be in 16..{MAX_WINDOW_SIDE} pixels, got {v}")
+    return v
+
+
+def screenshot_path(text: str) -> str:
+    """argparse type of ``--screenshot``: an image file (:data:`SCREENSHOT_SUFFIXES`) in a folder
+    that exists, checked when the command line is read, before any work."""
+    if not text or os.path.isdir(text):
+        raise argparse.ArgumentTypeError(f"expected a PNG file path, got {text!r}")
+    if os.path.splitext(text)[1].lower() not in SCREENSHOT_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"expected a .png file (or {', '.join(SCREENSHOT_SUFFIXES[1:])}), "
+                                         f"got {text!r}")
+    folder = os.path.dirname(os.path.abspath(text))
+    if not os.path.isdir(folder):
+        raise argparse.ArgumentTypeError(f"folder {folder} does not exist")
+    return text
+
+
+def add_window_options(parser, window=(1024, 768)) -> None:
+    """Add an example script's ``--window W H`` (default ``window``) and ``--screenshot PNG`` to ``parser``."""
+    parser.add_argument("--window", type=window_side, nargs=2, default=tuple(window), metavar=("W", "H"))
+    parser.add_argument("--screenshot", type=screenshot_path, metavar="PNG",
+                        help="render off screen into this file")
+
+
+def script_plotter(parser, args, shape=(1, 1), **kw):
+    """:func:`make_plotter` for a script's ``args`` (:func:`add_window_options`): off screen with
+    ``--screenshot``; no display (or no off-screen backend) is the parser's error (exit status 2)."""
+    try:
+        return make_plotter(shape, args.window, off_screen=args.screenshot is not None, **kw)
+    except RuntimeError as exc:
+        parser.error(str(exc))
 
 
 def save_screenshot(plotter, path):

@@ -13,6 +13,20 @@ def _lattice(k, rng):
     return np.c_[x.ravel() + rng.uniform(-0.2, 0.2, n), np.full(n, 0.3), z.ravel() + rng.uniform(-0.2, 0.2, n)]
 
 
+def _spot_lattice(k, rng):
+    """A ground-plane scene of k x k small Spots (bounding radius 0.3) on the jittered 1 m lattice."""
+    spot = pyshadow.data.mesh("spot")
+    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
+    s = pyshadow.Scene(ground=0.0)
+    sc = 0.3 / a.radius
+    for p in _lattice(k, rng):
+        T = np.eye(4)
+        T[:3, :3] *= sc
+        T[:3, 3] = p - sc * a.centre
+        s.add(a, T, mesh=spot)
+    return s
+
+
 def test_grid_for_far_queries_lists_each_sphere_in_few_cells():
     """Before: the cells were sized by the casters alone, so the margin far queries grow every sphere
     by (about 1e-5 of their distance: 32 m at 1e6 m) made each sphere of a 1 m lattice fill hundreds
@@ -44,16 +58,8 @@ def test_far_queries_keep_a_small_grid_and_answer_as_every_caster(monkeypatch):
     the scene for each far anchor (7 x 6 x 7 cells, every sphere grown by a 32 m margin in most of
     them), 18 times the grid of the queries near the casters; now 0.13 MB (3 x 3 x 3 cells). The
     answers, by the grid and by every caster, agreed before and still do."""
-    spot = pyshadow.data.mesh("spot")
-    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
     rng = np.random.default_rng(1)
-    s = pyshadow.Scene(ground=0.0)
-    sc = 0.3 / a.radius
-    for p in _lattice(20, rng):
-        T = np.eye(4)
-        T[:3, :3] *= sc
-        T[:3, 3] = p - sc * a.centre
-        s.add(a, T, mesh=spot)
+    s = _spot_lattice(20, rng)
     assert csm_backend.instance_accel(s) == "grid"
     C = scene_arrays(s)["world_centre"]
     m = 64
@@ -104,16 +110,8 @@ def test_tables_of_far_anchors_are_kept_for_the_last_few_only(monkeypatch):
     others are kept, and the answers are those of a scene that keeps nothing."""
     from pyshadow.visibility import held as held_mod
 
-    spot = pyshadow.data.mesh("spot")
-    a = pyshadow.CoherentShadowMap.build(spot, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
     rng = np.random.default_rng(2)
-    s = pyshadow.Scene(ground=0.0)
-    sc = 0.3 / a.radius
-    for p in _lattice(6, rng):
-        T = np.eye(4)
-        T[:3, :3] *= sc
-        T[:3, 3] = p - sc * a.centre
-        s.add(a, T, mesh=spot)
+    s = _spot_lattice(6, rng)
     assert csm_backend.instance_accel(s) == "grid"
     m = 40
     P = np.c_[rng.uniform(-1e5, 1e5, m), rng.uniform(0.0, 0.6, m), rng.uniform(-1e5, 1e5, m)]

@@ -178,7 +178,7 @@ def pattern_indices(indices, patterns: int, seed: int = 0) -> np.ndarray:
     check_seed(seed)
     _check_patterns(patterns)
     a = np.asarray(indices)
-    if a.dtype.kind not in "iu":
+    if a.dtype.kind not in "iu" and a.size:             # (an empty list is float64: no index at all)
         raise TypeError(f"indices must be integers, got dtype {a.dtype}")
     if a.dtype.kind == "i" and a.size and a.min() < 0:
         raise ValueError("indices must be >= 0 and below 2**63")
@@ -357,14 +357,22 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         The normalised sum of the visible directions (only with
         ``return_bent_normals=True``).
     """
-    d, v, n = np.shape(directions), np.shape(visible), np.shape(normals)
+    directions, visible, normals = np.asarray(directions), np.asarray(visible), np.asarray(normals)
+    d, v, n = directions.shape, visible.shape, normals.shape
     if len(d) != 3 or d[2] != 3 or v != d[:2] or n != (d[0], 3):
         raise ValueError(f"directions (N, S, 3), visible (N, S) and normals (N, 3) must agree, got {d}, {v} and {n}")
     if d[1] == 0:
         raise ValueError("directions hold no sample (S = 0): AO is the mean over at least one")
+    for name, a, kinds in (("directions", directions, "iuf"), ("visible", visible, "biuf"), ("normals", normals, "iuf")):
+        if a.dtype.kind not in kinds:
+            raise TypeError(f"{name} must hold {'bools or ' if name == 'visible' else ''}real numbers, got {a.dtype}")
+    if visible.dtype.kind != "b" and not ((visible >= 0) & (visible <= 1)).all():
+        raise ValueError("visible: weights must lie in [0, 1] (NaN is none)")
     ao = visible.mean(axis=1).astype(np.float32)
     if not return_bent_normals:
         return ao
+    if not (np.isfinite(directions).all() and np.isfinite(normals).all()):
+        raise ValueError("directions and normals must be finite (the bent normals sum them)")
     b = (directions * visible[..., None]).sum(axis=1)
     length = np.linalg.norm(b, axis=1, keepdims=True)
     b = np.where(length > 0, b / np.maximum(length, np.finfo(length.dtype).tiny), normals)

@@ -43,7 +43,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import check_int, check_rows, unit_normals
+from ._validate import check_int, check_rows
+from ._views_checks import (BASIS_TOL, LAYOUTS, _check_frames, _check_layout, _layout_args, _unit_rows,
+                            real_array, scaled_vectors)  # noqa: F401 (BASIS_TOL, LAYOUTS: views.*)
 
 #: the row offsets of a zigzag grid (ViewSet.zigzag): 0.5 centred rows, 0 the thesis's grid
 ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
@@ -56,12 +58,8 @@ FILTER_ANGLE_EPS = 1e-4
 MAX_MAPS = 2 * 4**10
 #: the largest theta or phi of ViewSet.zigzag (as a CSM file's header allows)
 MAX_GRID = 1 << 16
-#: how far a given ViewSet's directions may be from unit length, and its bases from orthonormal (entries of
-#: B B^T - I) and from ending with d_k: float32-rounded inputs pass (errors of a few 1e-8); 1e-6 moves a point
-#: of the unit bounding sphere by ~1e-6 radius, under 1/400 texel at the largest resolution (4096)
-BASIS_TOL = 1e-6
-#: the parameters of a layout (ViewSet.from_params): required, and optional with their defaults
-_LAYOUT_PARAMS = {"zigzag": (("theta", "phi"), {"row_offset": 0.0}), "hilbert": (("level",), {"hemispheres": False})}
+#: BASIS_TOL (1e-6, from _views_checks): how far a given ViewSet's directions may be from unit length, and
+#: its bases from orthonormal and from ending with d_k
 
 __all__ = ["ViewSet", "polar_direction", "octahedral_decode", "octahedral_encode", "hilbert_d2xy"]
 
@@ -69,10 +67,11 @@ __all__ = ["ViewSet", "polar_direction", "octahedral_decode", "octahedral_encode
 def polar_direction(theta, phi) -> np.ndarray:
     """Unit direction of polar angles, thesis eq. 5.1 (y up).
 
-    ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)``.
+    ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)``; finite real angles (ValueError,
+    TypeError otherwise), of shapes that broadcast.
     """
-    theta = np.asarray(theta, dtype=np.float64)
-    phi = np.asarray(phi, dtype=np.float64)
+    theta = real_array(theta, "polar_direction: theta")
+    phi = real_array(phi, "polar_direction: phi")
     st = np.sin(theta)
     return np.stack([st * np.cos(phi), np.cos(theta), st * np.sin(phi)], axis=-1)
 
@@ -93,8 +92,15 @@ def octahedral_decode(uv) -> np.ndarray:
     Returns
     -------
     ndarray, shape (..., 3), float64
+
+    Raises
+    ------
+    TypeError, ValueError
+        Not real numbers; another shape, or points outside the square (or not finite).
     """
-    uv = np.asarray(uv, dtype=np.float64)
+    uv = real_array(uv, "octahedral_decode: uv", 2)
+    if not (np.abs(uv) <= 1.0).all():
+        raise ValueError("octahedral_decode: uv must lie in the square [-1, 1]^2 (the map's domain)")
     u, v = uv[..., 0], uv[..., 1]
     a, b = np.abs(u), np.abs(v)
     sd = 1.0 - (a + b)
@@ -111,8 +117,15 @@ def octahedral_decode(uv) -> np.ndarray:
 
 
 def octahedral_encode(dirs) -> np.ndarray:
-    """Unit directions to the square ``[-1, 1]^2``; inverse of :func:`octahedral_decode`."""
-    d = np.asarray(dirs, dtype=np.float64)
+    """Directions (..., 3) to the square ``[-1, 1]^2``; inverse of :func:`octahedral_decode`.
+
+    Normalised here, whatever their length (finite, non-zero, real: ValueError, TypeError otherwise)."""
+    d = real_array(dirs, "octahedral_encode: dirs", 3)
+    return _encode_unit(scaled_vectors(d, "octahedral_encode: dirs"))
+
+
+def _encode_unit(d: np.ndarray) -> np.ndarray:
+    """:func:`octahedral_encode` of finite float64 directions of a normal length (the lookups' own)."""
     d = d / np.linalg.norm(d, axis=-1, keepdims=True)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     ay = np.abs(y)
@@ -134,9 +147,17 @@ def octahedral_encode(dirs) -> np.ndarray:
 def hilbert_d2xy(level: int, d) -> tuple[np.ndarray, np.ndarray]:
     """Cell ``(x, y)`` of position ``d`` along the Hilbert curve of order ``level``.
 
-    Vectorised over ``d``; consecutive ``d`` give edge-adjacent cells.
+    Vectorised over ``d``; consecutive ``d`` give edge-adjacent cells. ``level`` an int in 0 .. 31,
+    ``d`` integers in ``0 .. 4**level - 1`` (TypeError, ValueError otherwise).
     """
-    d = np.asarray(d, dtype=np.int64)
+    level = check_int(level, "hilbert_d2xy: level", 0, 31)
+    a = np.asarray(d)
+    if a.dtype.kind not in "iu" and a.size:
+        raise TypeError(f"hilbert_d2xy: d must hold integers, got dtype {a.dtype}")
+    d = a.astype(np.int64)
+    if a.size and not ((a >= 0).all() and (a < 4**level).all()):
+        raise ValueError(f"hilbert_d2xy: d must lie in 0..{4**level - 1} (the curve's cells), got values "
+                         f"{int(a.min())}..{int(a.max())}")
     x = np.zeros_like(d)
     y = np.zeros_like(d)
     t = d.copy()
@@ -217,12 +238,15 @@ class ViewSet:
     Parameters
     ----------
     directions, bases, layout, params
-        As the attributes (kept as given), to :data:`BASIS_TOL` (1e-6).
+        As the attributes (kept as given), to :data:`BASIS_TOL` (1e-6). A ``'zigzag'`` or ``'hilbert'``
+        layout (the O(1) lookups read the grid from ``params``) needs the directions of its grid; any
+        bases (e.g. other cameras' on that grid).
 
     Raises
     ------
     TypeError, ValueError
-        Non-numeric arrays; wrong shapes, non-finite values, directions or bases beyond the tolerance.
+        Non-numeric arrays; wrong shapes, non-finite values, directions or bases beyond the tolerance;
+        another layout, or one whose params are missing or are not the grid of the directions.
     """
 
     def __init__(self, directions, bases, layout: str = "custom", params: dict | None = None):
@@ -233,6 +257,7 @@ class ViewSet:
             raise TypeError(f"ViewSet: bases must be numeric, got {b.dtype}")
         d, b = d.astype(np.float64, copy=False), b.astype(np.float64, copy=False)
         _check_frames(d, b)
+        _check_layout(layout, params, d)
         self.__dict__.update(directions=d, bases=b, layout=layout, params=dict(params or {}), _tree=None)
 
     # -- constructors -----------------------------------------------------
@@ -247,6 +272,12 @@ class ViewSet:
             steps of ``2*pi/phi``); ``D = theta*phi``. Integers (not bools),
             each in 1 .. 65536, ``D`` at most 2**21 (:data:`MAX_MAPS`, the
             largest :meth:`hilbert` set).
+            The lookups (:meth:`nearest`, :meth:`filter_window`, the kernels)
+            search the 2 x 2 grid points around a direction: the nearest of
+            all maps when ``theta <= phi**2 / 2`` (checked on grids up to
+            64 rows; met whenever ``phi >= theta``), not on thinner grids
+            (``theta`` beyond about ``2 phi**2 / pi``, e.g. 64 x 8), where
+            the nearest may lie rows away, through a pole.
         row_offset : {0.5, 0}, optional
             Row ``i`` lies at the polar angle ``(i + row_offset)*pi/theta``.
             0.5 (default): rows centred in their bands, each pole half a
@@ -257,26 +288,12 @@ class ViewSet:
             grid, row 0 on the north pole and the south pole a whole step
             from the last row (CSM files without the parameter).
         """
-        theta = check_int(theta, "ViewSet.zigzag: theta", 1, MAX_GRID)
-        phi = check_int(phi, "ViewSet.zigzag: phi", 1, MAX_GRID)
-        if theta * phi > MAX_MAPS:
-            raise ValueError(f"ViewSet.zigzag: theta * phi must be at most {MAX_MAPS} (2**21), got {theta}x{phi}")
-        if isinstance(row_offset, (bool, np.bool_)) or not isinstance(row_offset, (int, float, np.number)):
-            raise TypeError(f"ViewSet.zigzag: row_offset must be a number (0 or 0.5), got {row_offset!r}")
-        row_offset = float(row_offset)
-        if row_offset not in ZIGZAG_ROW_OFFSETS:
-            raise ValueError(f"ViewSet.zigzag needs row_offset 0 or 0.5, got {row_offset}")
-        rows = np.repeat(np.arange(theta), phi)
-        k = np.tile(np.arange(phi), theta)
-        cols = np.where(rows % 2 == 0, k, phi - 1 - k)
-        th = (rows + row_offset) * (np.pi / theta)
-        ph = cols * (2.0 * np.pi / phi)
-        d = polar_direction(th, ph)
+        d, ph0, params = _zigzag_grid(theta, phi, row_offset)
         # start from the thesis's basis at the first map (eq. 5.4 written in
         # the grid angles, defined on the pole), then transport it along the order
-        u0 = np.array([np.sin(ph[0]), 0.0, -np.cos(ph[0])])
+        u0 = np.array([np.sin(ph0), 0.0, -np.cos(ph0)])
         bases = _transport_bases(d, u0)
-        return _built(cls, d, bases, "zigzag", {"theta": theta, "phi": phi, "row_offset": row_offset})
+        return _built(cls, d, bases, "zigzag", params)
 
     @classmethod
     def hilbert(cls, level: int = 6, hemispheres: bool = False) -> "ViewSet":
@@ -295,24 +312,12 @@ class ViewSet:
             (level 5: 2048 maps, 6: 8192), the sizes of the thesis's
             ``theta x 2 theta`` grids. A bool.
         """
-        level = check_int(level, "ViewSet.hilbert: level", 0, 10)
-        if not isinstance(hemispheres, (bool, np.bool_)):
-            raise TypeError(f"ViewSet.hilbert: hemispheres must be a bool, got {hemispheres!r}")
-        n = 1 << level
-        x, y = hilbert_d2xy(level, np.arange(n * n))
-        if hemispheres:
-            x = np.concatenate([x, x + n])
-            y = np.concatenate([y, y])
-        d = _hilbert_cell_directions(level, bool(hemispheres), x, y)
+        d, params = _hilbert_grid(level, hemispheres)
         # start from the basis the zigzag layout would give at d_0
         u0 = np.array([d[0, 2], 0.0, -d[0, 0]])
         if np.linalg.norm(u0) < 1e-9:
             u0 = np.array([1.0, 0.0, 0.0])
-        bases = _transport_bases(d, u0)
-        params = {"level": level}
-        if hemispheres:
-            params["hemispheres"] = True
-        return _built(cls, d, bases, "hilbert", params)
+        return _built(cls, d, _transport_bases(d, u0), "hilbert", params)
 
     @staticmethod
     def maps_for(layout: str, params: dict) -> int:
@@ -356,8 +361,9 @@ class ViewSet:
             grid cell holding the direction and its neighbours are compared
             (on the pole row of a ``row_offset = 0`` zigzag grid, whose maps
             share one direction, the column of the direction's azimuth is
-            taken). A
-            ``custom`` set uses a k-d tree.
+            taken); on zigzag grids thinner than ``theta <= phi**2 / 2`` the
+            nearest of those candidates, as the kernels (see :meth:`zigzag`).
+            A ``custom`` set uses a k-d tree.
         """
         if len(self) == 0:
             raise ValueError("nearest: the view set is empty")
@@ -491,56 +497,44 @@ class ViewSet:
         return cand[np.arange(len(d)), np.argmax(dot, axis=1)]   # first of equals, as the kernel
 
 
+def _zigzag_grid(theta, phi, row_offset):
+    """Directions (D, 3) of ViewSet.zigzag's grid, the first map's phi and the checked params."""
+    theta = check_int(theta, "ViewSet.zigzag: theta", 1, MAX_GRID)
+    phi = check_int(phi, "ViewSet.zigzag: phi", 1, MAX_GRID)
+    if theta * phi > MAX_MAPS:
+        raise ValueError(f"ViewSet.zigzag: theta * phi must be at most {MAX_MAPS} (2**21), got {theta}x{phi}")
+    if isinstance(row_offset, (bool, np.bool_)) or not isinstance(row_offset, (int, float, np.number)):
+        raise TypeError(f"ViewSet.zigzag: row_offset must be a number (0 or 0.5), got {row_offset!r}")
+    row_offset = float(row_offset)
+    if row_offset not in ZIGZAG_ROW_OFFSETS:
+        raise ValueError(f"ViewSet.zigzag needs row_offset 0 or 0.5, got {row_offset}")
+    rows = np.repeat(np.arange(theta), phi)
+    k = np.tile(np.arange(phi), theta)
+    cols = np.where(rows % 2 == 0, k, phi - 1 - k)
+    th = (rows + row_offset) * (np.pi / theta)
+    ph = cols * (2.0 * np.pi / phi)
+    return polar_direction(th, ph), ph[0], {"theta": theta, "phi": phi, "row_offset": row_offset}
+
+
+def _hilbert_grid(level, hemispheres):
+    """Directions (D, 3) of ViewSet.hilbert's cells, in curve order, and the checked params."""
+    level = check_int(level, "ViewSet.hilbert: level", 0, 10)
+    if not isinstance(hemispheres, (bool, np.bool_)):
+        raise TypeError(f"ViewSet.hilbert: hemispheres must be a bool, got {hemispheres!r}")
+    n = 1 << level
+    x, y = hilbert_d2xy(level, np.arange(n * n))
+    if hemispheres:
+        x = np.concatenate([x, x + n])
+        y = np.concatenate([y, y])
+    return _hilbert_cell_directions(level, bool(hemispheres), x, y), \
+        {"level": level, **({"hemispheres": True} if hemispheres else {})}
+
+
 def _built(cls, directions, bases, layout, params) -> ViewSet:
     """A view set of arrays valid by construction (zigzag, hilbert, a slice): not checked again."""
     views = cls.__new__(cls)
     views.__dict__.update(directions=directions, bases=bases, layout=layout, params=params or {}, _tree=None)
     return views
-
-
-def _layout_args(layout, params, caller="ViewSet.from_params") -> tuple:
-    """The arguments of ViewSet.zigzag or ViewSet.hilbert in ``params``; ValueError for another layout or
-    naming the keys ``params`` lacks (the message starts with ``caller``)."""
-    required, optional = _LAYOUT_PARAMS.get(layout, (None, None)) if isinstance(layout, str) else (None, None)
-    if required is None:
-        raise ValueError(f"unknown view-set layout {layout!r}")
-    if missing := [k for k in required if k not in params]:
-        raise ValueError(f"{caller}: {layout} parameters miss {', '.join(map(repr, missing))} (expected "
-                         f"{', '.join(map(repr, required))}; optional {', '.join(map(repr, optional))}), "
-                         f"got {list(params)!r}")
-    args = [params[k] for k in required] + [params.get(k, default) for k, default in optional.items()]
-    return (args[0], bool(args[1])) if layout == "hilbert" else tuple(args)
-
-
-def _unit_rows(dirs, caller: str) -> np.ndarray:
-    """Directions (N, 3) (or one, (3,)) as (N, 3) float64, normalised (any length: unit_normals); ValueError
-    naming ``caller`` for another shape, non-finite or zero rows (TypeError for non-numeric ones)."""
-    a = np.asarray(dirs)
-    d = check_rows(a.reshape(1, 3) if a.shape == (3,) else a, f"{caller}: directions").astype(np.float64)
-    try:
-        return unit_normals(d, None, caller)
-    except ValueError:
-        raise ValueError(f"{caller}: directions must be finite and non-zero") from None
-
-
-def _check_frames(d, b):
-    """ValueError unless ``d`` (D, 3) are unit vectors and ``b`` (D, 3, 3) right-handed orthonormal
-    bases with ``d`` as their third rows, to :data:`BASIS_TOL`."""
-    if not (np.isfinite(d).all() and np.isfinite(b).all()):
-        raise ValueError("ViewSet: directions and bases must be finite")
-    if len(d) == 0:
-        return
-    errors = {"directions are not unit vectors": np.abs(np.sqrt(np.einsum("ij,ij->i", d, d)) - 1.0),
-              "bases are not orthonormal (rows u, v, d of unit length, at right angles)":
-                  np.abs(np.einsum("nij,nkj->nik", b, b) - np.eye(3)).max(axis=(1, 2)),
-              "bases do not end with their map's direction (row d_k)": np.abs(b[:, 2] - d).max(axis=1),
-              "bases are left-handed (u x v = -d)": -np.linalg.det(b)}
-    for what, err in errors.items():
-        bad = err > BASIS_TOL
-        if bad.any():
-            k = int(np.argmax(bad))
-            raise ValueError(f"ViewSet: {int(bad.sum())} {what} (first: map {k}, direction {d[k].tolist()}, "
-                             f"basis {b[k].tolist()}; tolerance {BASIS_TOL:g})")
 
 
 def _hilbert_cell_directions(level, split, x, y):
@@ -561,11 +555,11 @@ def _hilbert_cell_directions(level, split, x, y):
 def _hilbert_square_coords(split, d):
     """(hemisphere (N,), square coordinates (N, 2) in [-1, 1]) of unit directions."""
     if not split:
-        return np.zeros(len(d), np.int64), octahedral_encode(d)
+        return np.zeros(len(d), np.int64), _encode_unit(d)
     lower = d[:, 1] < 0
     up = d.copy()
     up[:, 1] = np.abs(up[:, 1])
-    uv = octahedral_encode(up)
+    uv = _encode_unit(up)
     s = uv[:, 0] + uv[:, 1]
     t = uv[:, 1] - uv[:, 0]
     s = np.where(lower, -s, s)

@@ -44,8 +44,8 @@ from __future__ import annotations
 import numpy as np
 
 from ._validate import check_int, check_rows
-from ._views_checks import (BASIS_TOL, LAYOUTS, _check_frames, _check_layout, _layout_args, _unit_rows,
-                            real_array, scaled_vectors)  # noqa: F401 (BASIS_TOL, LAYOUTS: views.*)
+from . import _views_checks
+from ._views_checks import _check_frames, _check_layout, _layout_args, _unit_rows, real_array, scaled_vectors
 
 #: the row offsets of a zigzag grid (ViewSet.zigzag): 0.5 centred rows, 0 the thesis's grid
 ZIGZAG_ROW_OFFSETS = (0.5, 0.0)
@@ -58,8 +58,9 @@ FILTER_ANGLE_EPS = 1e-4
 MAX_MAPS = 2 * 4**10
 #: the largest theta or phi of ViewSet.zigzag (as a CSM file's header allows)
 MAX_GRID = 1 << 16
-#: BASIS_TOL (1e-6, from _views_checks): how far a given ViewSet's directions may be from unit length, and
-#: its bases from orthonormal and from ending with d_k
+#: how far a given ViewSet's directions may be from unit length, and its bases from orthonormal and from
+#: ending with d_k (1e-6; _views_checks says why); the layouts a ViewSet may name
+BASIS_TOL, LAYOUTS = _views_checks.BASIS_TOL, _views_checks.LAYOUTS
 
 __all__ = ["ViewSet", "polar_direction", "octahedral_decode", "octahedral_encode", "hilbert_d2xy"]
 

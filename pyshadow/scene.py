@@ -489,6 +489,8 @@ def _slots_of_ids(scene, surface_ids, n):
         return ids          # every instance casts: ids are the slots (-1, -2 included)
     if ids.shape not in ((), (1,), (n,)):
         raise ValueError(f"surface_ids must be one id or {n} (one a query), got shape {ids.shape}")
+    if ids.dtype.kind == "u" and ids.size and ids.max() > np.iinfo(np.int64).max:    # would wrap negative
+        raise ValueError(f"surface_ids must be instance ids, -1 (unknown) or {GROUND_ID} (ground); got {ids.max()}")
     ids = np.broadcast_to(ids, (n,)).astype(np.int64)
     ok = (ids == -1) | (ids == GROUND_ID) | ((ids >= 0) & (ids < len(scene.instances)))
     if not ok.all():

@@ -18,7 +18,7 @@ in :mod:`pyshadow.visibility.base`.
 from __future__ import annotations
 
 from . import finite
-from .base import VisibilityBackend, backends, get_backend, register
+from .base import VisibilityBackend, backends, check_bias, get_backend, register
 from .csm import CSMVisibility
 from .mirror import NumPyVisibility, ambient_occlusion_reference, visible_reference
 from .raytraced import EmbreeVisibility
@@ -89,8 +89,10 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
         True where the ray reaches the sky.
     """
     extra = {} if normals is None else {"normals": normals}
+    check_bias(bias)
+    finite.check_straddle(straddle)     # also without max_distance: a bad value is not silently dropped
     if max_distance is not None:        # backends without finite rays still answer the default query
-        extra.update(max_distance=max_distance, straddle=finite.check_straddle(straddle))
+        extra.update(max_distance=max_distance, straddle=straddle)
     return get_backend(backend).visible(scene, points, directions, bias=bias, surface_ids=surface_ids, **extra)
 
 
@@ -161,8 +163,9 @@ def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, r
     elif not isinstance(sampling, Sampling):
         raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
     extra = {}
+    check_bias(bias)
+    finite.check_ao_options(obscurance, quadrature, straddle)     # checked even where unused: not dropped
     if max_distance is not None or obscurance is not None:     # other backends answer the default query
-        finite.check_ao_options(obscurance, quadrature, straddle)
         extra = dict(max_distance=max_distance, obscurance=obscurance, quadrature=quadrature, straddle=straddle)
     return get_backend(backend).ambient_occlusion(scene, points, normals, sampling=sampling,
                                                   return_bent_normals=bool(return_bent_normals), bias=bias,

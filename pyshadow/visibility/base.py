@@ -20,11 +20,14 @@ inputs) and ``"embree"`` (ray tracing: the ground truth).
 """
 from __future__ import annotations
 
+import numbers
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-__all__ = ["VisibilityBackend", "register", "get_backend", "backends"]
+from .._validate import FLOAT32_MAX
+
+__all__ = ["VisibilityBackend", "register", "get_backend", "backends", "check_bias"]
 
 
 @runtime_checkable
@@ -81,3 +84,22 @@ def get_backend(name):
 def backends() -> list[str]:
     """Names of the registered backends."""
     return sorted(_REGISTRY)
+
+
+def check_bias(bias):
+    """Validate the ``bias`` of a query (None: the default bias); returns it unchanged.
+
+    One real number (not a bool, a string or an array of several), finite and
+    within float32's range: the kernels take it as a float32 (beyond it the
+    cast overflowed), and the mirror must refuse what they refuse (a NaN bias
+    made every tap pass there).
+    """
+    if bias is None:
+        return None
+    scalar = isinstance(bias, np.ndarray) and bias.ndim == 0 and bias.dtype.kind in "iuf"
+    if isinstance(bias, (bool, np.bool_)) or not (scalar or isinstance(bias, numbers.Real)):
+        raise TypeError(f"bias must be one real number or None, got {bias!r}")
+    if not abs(float(bias)) <= FLOAT32_MAX:
+        raise ValueError(f"bias must be finite and within float32's range (the kernels take it as a "
+                         f"float32), got {float(bias)}")
+    return bias

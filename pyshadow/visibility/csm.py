@@ -57,7 +57,7 @@ from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import anchor_groups, points_bound, scene_arrays
 from ..views import FILTER_ANGLE_EPS
 from . import order
-from .base import register
+from .base import check_bias, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
@@ -235,8 +235,11 @@ def _extent(p, anchor, bound=None) -> float:
 
 
 def _float32_lengths(tmax):
-    """float64 ray lengths -> float32 for the kernel (those beyond float32's range: +inf)."""
-    return np.where(tmax > np.finfo(np.float32).max, np.inf, tmax).astype(np.float32)
+    """float64 ray lengths -> float32 for the kernel (those beyond float32's range: +inf; positive ones
+    below its smallest normal number: that number, not 0, which ends a ray before a surface at its point)."""
+    t = np.where(tmax > np.finfo(np.float32).max, np.inf, tmax).astype(np.float32)
+    tiny = np.finfo(np.float32).tiny        # (a subnormal length: 0 on a device that flushes them)
+    return np.where((t < tiny) & (tmax > 0), tiny, t)
 
 
 class CSMVisibility(_SampledSky):
@@ -267,9 +270,7 @@ class CSMVisibility(_SampledSky):
         q = atlas["quantum"] + 1e-7
         if bias is None:
             return q, VOTE_BIAS_TEXELS if self._vote else DEFAULT_BIAS_TEXELS, DEFAULT_BIAS_TAN, q
-        bias = float(bias)
-        if not np.isfinite(bias):
-            raise ValueError(f"bias must be finite, got {bias}")
+        bias = float(check_bias(bias))      # one real number within float32 (the kernels' argument)
         return bias, 0.0, 0.0, bias
 
     def _defines(self, scene, atlas, **extra):

@@ -80,7 +80,10 @@ def check_max_distance(max_distance, n: int):
     if max_distance is None:
         return None
     try:
-        t = np.asarray(max_distance, dtype=np.float64)
+        t = np.asarray(max_distance)
+        if t.dtype.kind in "bcmMSUV":       # True (1.0), "2.5", 1+0j, dates: not lengths
+            raise TypeError
+        t = np.asarray(t, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"max_distance must be a number or an array of N numbers, got {max_distance!r}") from None
     if t.ndim > 1 or (t.ndim == 1 and len(t) != n):
@@ -240,6 +243,8 @@ def check_ao_options(obscurance, quadrature, straddle):
     tau = None
     if obscurance is not None:
         try:
+            if isinstance(obscurance, (bool, np.bool_, str, bytes)):     # True (tau 1), "2": not rates
+                raise TypeError
             tau = float(obscurance)
         except (TypeError, ValueError):
             raise TypeError(f"obscurance must be a number (tau, 1 / world units), got {obscurance!r}") from None
@@ -262,7 +267,8 @@ def ao_nodes(tmax, tau, quadrature: int) -> np.ndarray:
     if tau is None:
         return tmax[:, None].copy()
     u = (np.arange(quadrature) + 0.5) / quadrature
-    return np.minimum(-np.log1p(-u)[None, :] / tau, tmax[:, None])
+    with np.errstate(over="ignore"):        # tau below ~1e-308: nodes beyond float64 are unbounded (inf)
+        return np.minimum(-np.log1p(-u)[None, :] / tau, tmax[:, None])
 
 
 def obscurance_weight(L, tmax, tau) -> np.ndarray:

@@ -17,7 +17,7 @@ from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_bo
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
-from .base import register
+from .base import check_bias, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
                      rays_ao)
 
@@ -44,6 +44,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     """
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    check_bias(bias)                    # as the kernels: a NaN bias answered every ray open here
     p = rows3(points, "points")
     w = unit_normals(directions, len(p), "directions")     # any length: huge or tiny rows scaled first
     own = scene.caster_slots(surface_ids, len(p), p)
@@ -191,6 +192,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     ``obscurance``: distance AO by the same finite queries and quadrature as
     the CSM backends (:mod:`pyshadow.visibility.finite`), ray by ray.
     """
+    check_bias(bias)
     p = rows3(points, "points")
     n = unit_normals(normals, len(p))
     idx = check_indices(indices, len(p))
@@ -208,6 +210,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
         weights = rays_ao(scene, p, n, dirs, ao_nodes(tmax, tau, Q), straddle, answer)
         return ao_from_samples(dirs, weights, n, return_bent_normals)
     dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
+    scene.caster_slots(surface_ids, len(p))     # checked before the broadcast below (numpy's message)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     vis = visible_reference(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), bias=bias,
                             surface_ids=ids, lookup=lookup, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)

@@ -2,10 +2,19 @@
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
-__all__ = ["radiance_array", "unit_direction", "unit_rows", "positive", "in_range"]
+__all__ = ["radiance_array", "unit_direction", "unit_rows", "positive", "in_range", "MAX_RADIANCE", "MAX_SH",
+           "sh_coefficients", "bounded_sh", "check_seed", "light_tuple", "rgb_channels"]
+
+#: Largest radiance a map may hold: below it a map's integrals, SH coefficients (at most 0.631 * 4 pi
+#: times it) and SH irradiance (at most some 250 times it) stay finite in float64.
+MAX_RADIANCE = sys.float_info.max / 1024
+#: Largest |SH coefficient| accepted: the SH irradiance (at most 31 times it) and the transfer sums
+#: (at most 17 times it) stay finite. A map within MAX_RADIANCE has coefficients below it.
+MAX_SH = sys.float_info.max / 64
 
 
 def radiance_array(a, name: str, mask=None) -> np.ndarray:
@@ -24,7 +33,8 @@ def radiance_array(a, name: str, mask=None) -> np.ndarray:
     out = np.array(arr, dtype=np.float64)
     if mask is not None:
         out[~mask] = 0.0
-    bad = [(np.isnan(out), "NaN"), (np.isinf(out), "infinite"), (out < 0, "negative")]
+    bad = [(np.isnan(out), "NaN"), (np.isinf(out), "infinite"), (out < 0, "negative"),
+           (out > MAX_RADIANCE, f"above {MAX_RADIANCE:.4g} (the map's integrals would overflow float64)")]
     for hit, what in bad:
         n = int(hit.any(axis=2).sum())
         if n:
@@ -32,6 +42,60 @@ def radiance_array(a, name: str, mask=None) -> np.ndarray:
             raise ValueError(f"{name}: {n} texel(s) are {what}, first at row {i}, column {j} "
                              f"(value {tuple(arr[i, j].tolist())}); radiance must be finite and >= 0")
     return out
+
+
+def bounded_sh(L: np.ndarray, name: str) -> np.ndarray:
+    """``L`` (finite float64) unchanged; ValueError naming ``name`` where |L| exceeds :data:`MAX_SH`."""
+    if L.size and np.abs(L).max() > MAX_SH:
+        raise ValueError(f"{name}: |coefficient| up to {np.abs(L).max():.4g}; SH coefficients beyond "
+                         f"{MAX_SH:.4g} overflow the irradiance in float64")
+    return L
+
+
+def sh_coefficients(x, name: str, what: str) -> np.ndarray:
+    """(9, 3) SH coefficients as float64 (a copy): real numbers, finite, within :data:`MAX_SH`."""
+    L = np.array(_floats(x, name, f"{what} of shape (9, 3)"), dtype=np.float64)
+    if L.shape != (9, 3):
+        raise ValueError(f"{name}: expected {what} of shape (9, 3) (got shape {L.shape})")
+    if not np.isfinite(L).all():
+        raise ValueError(f"{name}: SH coefficients must be finite")
+    return bounded_sh(L, name)
+
+
+def check_seed(seed) -> int:
+    """A random seed: an int >= 0 (NumPy's generators refuse negative ones with no name)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected an int >= 0 (got {seed!r})")
+    return int(seed)
+
+
+def light_tuple(lights) -> tuple:
+    """``lights`` (an iterable of point, spot, disc or rectangle lights) as a tuple."""
+    from .area import LIGHT_TYPES
+
+    try:
+        out = tuple(lights)
+    except TypeError:
+        out = None
+    if out is None or not all(isinstance(x, LIGHT_TYPES) for x in out):
+        raise TypeError(f"lights: expected point, spot, disc or rectangle lights (got {lights!r})")
+    return out
+
+
+def rgb_channels(path) -> None:
+    """ValueError naming ``path`` where its first three channels are not R, G, B (an EXR of Z, or Y/RY/BY)."""
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:                                  # read_image has read it: cannot happen
+        return
+    try:
+        names = tuple(inp.spec().channelnames)
+    finally:
+        inp.close()
+    base = tuple(n.rsplit(".", 1)[-1].upper() for n in names)
+    if base[:3] != ("R", "G", "B") or base[3:] not in ((), ("A",)):
+        raise ValueError(f"{path}: an environment map needs channels R, G, B (and A) (got {', '.join(names)})")
 
 
 def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
@@ -66,8 +130,11 @@ def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
 
 
 def _floats(x, name: str, what: str) -> np.ndarray:
-    """``x`` as a float64 array; ValueError naming ``name`` where it holds what is no number ("abc")."""
+    """``x`` as a float64 array; ValueError naming ``name`` where it holds what is no number ("abc", a
+    ragged list, complex numbers: NumPy would drop their imaginary part with a ComplexWarning)."""
     try:
+        if np.asarray(x).dtype.kind == "c":
+            raise TypeError
         return np.asarray(x, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected {what} (got {x!r})") from None
@@ -75,6 +142,8 @@ def _floats(x, name: str, what: str) -> np.ndarray:
 
 def _number(x, name: str) -> float:
     try:
+        if isinstance(x, (bool, np.bool_)):             # True is no latitude, exposure or radius
+            raise TypeError
         return float(x)
     except (TypeError, ValueError):
         raise TypeError(f"{name}: must be a number (got {x!r})") from None

@@ -29,7 +29,7 @@ import numpy as np
 
 from .._validate import check_int
 from . import cube
-from ._checks import radiance_array, unit_rows
+from ._checks import radiance_array, rgb_channels, unit_rows
 from .sh import SH_COUNT, _irradiance, latlong_basis_integrals, sh_basis
 
 __all__ = ["EnvironmentMap", "LAYOUTS", "latlong_directions", "latlong_solid_angles"]
@@ -125,7 +125,8 @@ class EnvironmentMap:
     Parameters
     ----------
     radiance : array_like, shape (H, W, 3), or (6, N, N, 3) for cube faces
-        Linear RGB radiance, finite and >= 0 (see the module docstring for
+        Linear RGB radiance, finite, >= 0 and at most ``MAX_RADIANCE``
+        (1.76e305, so that its integrals stay finite) (see the module docstring for
         units and the frame). Copied to float64.
     layout : {"auto", "latlong", "horizontal-cross", "vertical-cross"}
         How an (H, W, 3) image maps to directions. ``"auto"`` picks by the
@@ -152,7 +153,10 @@ class EnvironmentMap:
     def __init__(self, radiance, layout: str = "auto", *, name: str = "radiance"):
         if layout not in LAYOUTS:
             raise ValueError(f"layout: expected one of {', '.join(LAYOUTS)} (got {layout!r})")
-        a = np.asarray(radiance)
+        try:
+            a = np.asarray(radiance)
+        except ValueError:                          # a ragged list
+            raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) (got a ragged sequence)") from None
         if a.ndim == 4:
             if a.shape[0] != 6 or a.shape[1] != a.shape[2] or a.shape[3] != 3 or a.shape[1] < 1:
                 raise ValueError(f"{name}: cube faces must have shape (6, N, N, 3) (got shape {a.shape})")
@@ -187,7 +191,8 @@ class EnvironmentMap:
             The file; nothing is written anywhere.
         layout : str
             As for the constructor. RGBA files lose their alpha channel; one-
-            or two-channel files are refused.
+            or two-channel files, and files whose channels are not named
+            R, G, B (and A), such as an EXR of Z, X, depth, are refused.
 
         Raises
         ------
@@ -203,6 +208,7 @@ class EnvironmentMap:
         if img.ndim == 2 or img.shape[2] not in (3, 4):
             ch = 1 if img.ndim == 2 else img.shape[2]
             raise ValueError(f"{p}: an environment map needs RGB or RGBA channels (got {ch})")
+        rgb_channels(p)                             # not Z, X, depth or Y, RY, BY read as R, G, B
         return cls(img[:, :, :3], layout, name=str(p))
 
     def with_radiance(self, radiance) -> "EnvironmentMap":
@@ -325,7 +331,7 @@ class EnvironmentMap:
                 raise ValueError(f"layout: a lat-long map is written as 'latlong' (got {layout!r})")
             return self.radiance.copy()
         layout = layout or "horizontal-cross"
-        if layout not in cube.CROSS_CELLS:
+        if layout not in tuple(cube.CROSS_CELLS):
             raise ValueError(f"layout: a cube is written as 'horizontal-cross' or 'vertical-cross' "
                              f"(got {layout!r})")
         return cube.cross_from_faces(self.radiance, layout)

@@ -59,7 +59,8 @@ def device_sampled_sky(scene, points, normals, env, *, backend, sampling, indice
     b = get_backend(backend)
     if not isinstance(b, CSMVisibility):
         return None
-    rad = env.radiance.astype(np.float32)
+    with np.errstate(over="ignore"):              # beyond float32: +inf, then the host route below
+        rad = env.radiance.astype(np.float32)
     if not np.all(np.isfinite(rad)):              # beyond float32's range: the float64 host route
         return None
     return b.sampled_sky(scene, points, normals, rad, env.grid_shape, sampling=sampling, bias=bias,

@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from ._checks import unit_rows
+from ._checks import _floats, bounded_sh, unit_rows
 
 __all__ = ["SH_COUNT", "BAND_OF", "KERNEL_BANDS", "RH_CONSTANTS", "sh_basis", "irradiance_sh",
            "latlong_basis_integrals"]
@@ -78,9 +78,10 @@ def sh_basis(directions) -> np.ndarray:
     Y : ndarray, shape (..., 9), float64
         ``Y[..., k]``, k = l (l + 1) + m, as in the module docstring.
     """
-    d = np.asarray(directions, dtype=np.float64)
-    if d.ndim == 0 or d.shape[-1] != 3 or not np.isfinite(d).all():
-        raise ValueError(f"sh_basis: directions must be finite, shape (..., 3), got shape {d.shape}")
+    d = _floats(directions, "sh_basis: directions", "finite numbers of shape (..., 3)")
+    if d.ndim == 0 or d.shape[-1] != 3 or (d.size and not -1e150 <= d.min() <= d.max() <= 1e150):  # NaN, inf, overflow
+        raise ValueError(f"sh_basis: directions must be finite, shape (..., 3), got shape {d.shape}"
+                         f"{'' if d.ndim == 0 or d.shape[-1] != 3 else ' (and |x| <= 1e150)'}")
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     return np.stack([np.full_like(x, _C00), _C1 * z, _C1 * y, _C1 * x,
                      _C2 * x * z, _C2 * y * z, _C20 * (3.0 * y * y - 1.0), _C2 * x * y,
@@ -129,6 +130,7 @@ def irradiance_sh(coefficients, normals) -> np.ndarray:
         bad = np.argwhere(~np.isfinite(L))[0]
         raise ValueError(f"coefficients: {int((~np.isfinite(L)).sum())} entries are not finite "
                          f"(first L[{bad[0]}, {bad[1]}] = {float(L[tuple(bad)])})")
+    bounded_sh(L, "coefficients")
     n = np.asarray(normals)
     if n.dtype.kind not in "biuf":
         raise TypeError(f"normals: expected real numbers (got dtype {n.dtype})")

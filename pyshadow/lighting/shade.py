@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import in_range, unit_direction
+from ._checks import _floats, check_seed, in_range, light_tuple, sh_coefficients, unit_direction
 from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .local import lights_radiance
@@ -123,7 +123,7 @@ class DirectionalLight(ArrayValue):
 
     def __post_init__(self):
         d = unit_direction(self.direction, "sun direction")
-        e = np.asarray(self.irradiance, dtype=np.float64)
+        e = _floats(self.irradiance, "sun irradiance", "an RGB 3-vector")
         if e.shape != (3,):
             raise ValueError(f"sun irradiance: expected an RGB 3-vector (got shape {e.shape})")
         if not np.isfinite(e).all() or (e < 0).any():
@@ -175,7 +175,7 @@ class Lighting:
         radius is > 0) and over sphere and area lights; 1: hard shadows.
         Default: :data:`SAMPLED_SUN_SAMPLES` in mode "sampled" (the accurate
         mode samples the sun's real disc), 1 in the others.
-    seed : int, optional
+    seed : int >= 0, optional
         Seed of the per-point turn of the sun's directions.
 
     Raises
@@ -197,23 +197,14 @@ class Lighting:
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
                  ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int | None = None, seed: int = 0,
                  lights=()):
-        from .area import LIGHT_TYPES
-
-        self.lights = tuple(lights)
-        if not all(isinstance(x, LIGHT_TYPES) for x in self.lights):
-            raise TypeError(f"lights: expected point, spot, disc or rectangle lights (got {self.lights!r})")
+        self.lights = light_tuple(lights)
         env = sky if isinstance(sky, EnvironmentMap) else None
         if sky is None:
             coef = np.zeros((SH_COUNT, 3))
         elif env is not None:
             coef = sky.sh()
         else:
-            coef = np.array(sky, dtype=np.float64)
-            if coef.shape != (SH_COUNT, 3):
-                raise ValueError(f"sky: expected an EnvironmentMap or SH coefficients of shape (9, 3) "
-                                 f"(got shape {coef.shape})")
-            if not np.isfinite(coef).all():
-                raise ValueError("sky: SH coefficients must be finite")
+            coef = sh_coefficients(sky, "sky", "an EnvironmentMap or SH coefficients")
         if mode not in MODES:
             raise ValueError(f"mode: expected one of {', '.join(MODES)} (got {mode!r})")
         if mode == "sampled" and sky is not None and env is None:
@@ -225,8 +216,7 @@ class Lighting:
         if isinstance(sun_samples, bool) or not isinstance(sun_samples, (int, np.integer)) \
                 or not 1 <= sun_samples <= 1024:
             raise ValueError(f"sun_samples: expected an int in 1 .. 1024 (got {sun_samples!r})")
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-            raise ValueError(f"seed: expected an int (got {seed!r})")
+        seed = check_seed(seed)
         per = {}
         if albedos is not None:
             if not isinstance(albedos, Mapping):
@@ -582,9 +572,9 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     sun = sun + lights_radiance(scene, p, nrm, lighting, albedo, backend=backend, surface_ids=surface_ids,
                                 indices=idx, bias=bias)
     f32 = np.float32
-    return ShadedPoints(radiance=(sky + sun).astype(f32), sky=sky.astype(f32), sun=sun.astype(f32),
-                        ao=np.asarray(ao, f32), bent_normal=np.asarray(bent, f32),
-                        sun_visibility=frac.astype(f32))
+    with np.errstate(over="ignore"):                        # beyond float32 (or float64): +inf, no warning
+        return ShadedPoints(radiance=(sky + sun).astype(f32), sky=sky.astype(f32), sun=sun.astype(f32),
+                            ao=np.asarray(ao, f32), bent_normal=np.asarray(bent, f32), sun_visibility=frac.astype(f32))
 
 
 def shade(scene, points, normals, lighting: Lighting, **kwargs) -> np.ndarray:

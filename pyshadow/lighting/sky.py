@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ._checks import in_range, positive, unit_direction
+from ._checks import _floats, in_range, positive, unit_direction
 from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles
 
 __all__ = ["SUN_ANGULAR_RADIUS", "LUMINANCE_WEIGHTS", "sun_position", "clear_sky", "overcast_sky",
@@ -501,11 +501,13 @@ def add_sun_disc(env: EnvironmentMap, direction, radiance, radius: float = SUN_A
         :func:`_cube_coverage`. The coverages are scaled to the disc's exact
         solid angle (the quadrature's error, well below 1e-3, goes).
     """
+    if not isinstance(env, EnvironmentMap):
+        raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
     d = unit_direction(direction, "direction")
     r = in_range(radius, "radius", 1e-9, math.pi / 2)
     if r >= math.pi / 2:
         raise ValueError(f"radius: must be below pi / 2 (got {radius!r})")
-    L = np.asarray(radiance, dtype=np.float64)
+    L = _floats(radiance, "radiance", "3 finite values >= 0")
     if L.shape != (3,) or not np.isfinite(L).all() or (L < 0).any():
         raise ValueError(f"radiance: expected 3 finite values >= 0 (got {L.tolist()})")
     if env.layout == "latlong":

@@ -134,7 +134,8 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     env : EnvironmentMap
         Any layout.
     radius : float
-        Expected angular radius of the sun in rad (default: the real sun's).
+        Expected angular radius of the sun in rad, in (0, pi / 2] (default:
+        the real sun's).
     enlarge : float
         The search starts at ``enlarge * radius`` around the brightest texel
         (plus the texel pitch), for haze and camera blooming (thesis 001
@@ -179,6 +180,8 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     if not isinstance(env, EnvironmentMap):
         raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
     r0 = positive(radius, "radius")
+    if r0 > math.pi / 2:                     # else the sun's angular_radius could be 10 rad (no disc)
+        raise ValueError(f"radius: the sun's angular radius must lie in (0, pi / 2] (got {radius!r})")
     k = in_range(enlarge, "enlarge", 1.0, 100.0)
     thr = in_range(threshold, "threshold", 1.0, math.inf)
     rmax = in_range(max_radius, "max_radius", 1e-6, math.pi / 2)

@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 
+from ._checks import _floats
 from .sh import SH_COUNT, sh_basis
 
 __all__ = ["sh_transfer", "transfer_irradiance"]
@@ -121,9 +122,14 @@ def transfer_irradiance(coefficients, transfer) -> np.ndarray:
     transfer : array_like, shape (N, 9)
         :func:`sh_transfer`'s ``T_k``.
     """
-    L = np.asarray(coefficients, dtype=np.float64)
-    T = np.asarray(transfer, dtype=np.float64)
+    L = _floats(coefficients, "coefficients", "SH coefficients of shape (9, 3)")
+    T = _floats(transfer, "transfer", "transfer vectors of shape (N, 9)")
     if L.shape != (SH_COUNT, 3) or T.ndim != 2 or T.shape[1] != SH_COUNT:
         raise ValueError(f"transfer_irradiance: coefficients (9, 3) and transfer (N, 9) expected "
                          f"(got {L.shape} and {T.shape})")
-    return T @ L
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = T @ L
+    if E.size and not -math.inf < E.min() <= E.max() < math.inf:    # NaN or inf in, or beyond float64: named
+        what = "coefficients" if not np.isfinite(L).all() else "transfer" if not np.isfinite(T).all() else "E"
+        raise ValueError(f"transfer_irradiance: {what} not finite (E overflows float64 or the input holds NaN/inf)")
+    return E

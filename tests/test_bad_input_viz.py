@@ -231,3 +231,27 @@ def test_image_panel_of_one_value_at_float64s_limit_asks_for_clim(plotter):
     for value, log in ((1.5e308, False), (5e-324, True)):
         with pytest.raises(ValueError, match="pass clim"):
             viz.image_panel(plotter, np.full((2, 2), value), log_scale=log)
+
+
+def test_a_screenshot_that_fails_half_way_leaves_the_earlier_image_and_no_partial_file(plotter, tmp_path):
+    """save_screenshot wrote straight into the target: a write that failed half way (a full disk, an
+    interrupt) left a truncated PNG where the earlier image was. Now a temporary file is renamed over
+    it only once written."""
+    from pyshadow.io import read_image
+
+    viz.image_panel(plotter, np.linspace(0.0, 1.0, 12).reshape(3, 4))
+    out = tmp_path / "frame.png"
+    assert viz.save_screenshot(plotter, out) == str(out)
+    before = out.read_bytes()
+    assert read_image(out).shape[:2] == (120, 160)
+
+    def broken(path, *a, **k):
+        with open(path, "wb") as f:
+            f.write(before[:40])                    # part of a PNG, then the failure
+        raise OSError(28, "No space left on device", str(path))
+    plotter.screenshot = broken
+    with pytest.raises(OSError, match="No space left") as info:
+        viz.save_screenshot(plotter, out)
+    assert info.value.filename == str(out)
+    assert out.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frame.png"]

@@ -216,7 +216,8 @@ def script_plotter(parser, args, shape=(1, 1), **kw):
 
 
 def save_screenshot(plotter, path):
-    """Render ``plotter`` now and write the image to the PNG ``path``; the plotter stays open.
+    """Render ``plotter`` now and write the image to the PNG ``path`` (atomically: a temporary file
+    beside it, then a rename); the plotter stays open.
 
     pyvista's ``Plotter.screenshot`` renders only before the first image,
     so frames of an animation must come through here.
@@ -226,12 +227,15 @@ def save_screenshot(plotter, path):
     str
         The path written.
     """
+    from .._files import atomic_path
+
     path = os.fspath(path)
     parent = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(parent):
         raise FileNotFoundError(f"screenshot directory does not exist: {parent}")
     plotter.render()
-    plotter.screenshot(path)
+    with atomic_path(path) as tmp:          # a failed write leaves the earlier image, no partial file
+        plotter.screenshot(str(tmp))
     return path
 
 

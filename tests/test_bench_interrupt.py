@@ -197,3 +197,21 @@ def test_sigint_ends_the_command_with_one_line(tmp_path):
     assert stdout == ""
     assert err.endswith(INTERRUPTED) and "Traceback" not in err, err
     assert os.listdir(tmp_path / "out") == []
+
+
+def test_a_reader_that_leaves_ends_the_command_without_a_traceback(tmp_path):
+    """``pyshadow-bench --json | head -1``: the JSON written into a pipe whose reader had gone ended in a
+    BrokenPipeError traceback (and another at the interpreter's exit). Now status 141, as for SIGPIPE,
+    no traceback, and results.json is written."""
+    env = {k: v for k, v in os.environ.items() if k != "PYSHADOW_CACHE"}
+    r, w = os.pipe()
+    os.close(r)                                       # the reader has gone before anything is written
+    try:
+        p = subprocess.run([sys.executable, "-m", "pyshadow.bench", *TINY, "--out", str(tmp_path / "out"),
+                            "--no-cache", "--json", "--quiet"], stdout=w, stderr=subprocess.PIPE, text=True,
+                           env=env, timeout=300)
+    finally:
+        os.close(w)
+    assert p.returncode == 141, p.stderr
+    assert "Traceback" not in p.stderr and "BrokenPipeError" not in p.stderr, p.stderr
+    assert json.loads((tmp_path / "out" / "results.json").read_text())["files"]

@@ -174,6 +174,8 @@ def _emit(obj, path: Path | None, as_json: bool):
 
 #: Exit status after Ctrl-C (SIGINT): 128 + 2, as a shell reports a command SIGINT ended.
 EXIT_INTERRUPTED = 130
+#: Exit status when the reader of stdout has gone (a closed pipe): 128 + 13, as for SIGPIPE.
+EXIT_BROKEN_PIPE = 141
 
 
 def main(argv=None) -> int:
@@ -196,6 +198,11 @@ def main(argv=None) -> int:
     """
     try:
         return _run(argv)
+    except BrokenPipeError:
+        # the reader of stdout left (``pyshadow-bench --json | head``): end without a traceback (the
+        # files written so far stay); stdout goes to the null device, so the final flush raises nothing
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except KeyboardInterrupt:
         # leaving this clause frees the interrupted run's objects; one that Ctrl-C caught half
         # built (pyopencl's kernel cache, say) may fail in its __del__: not worth a traceback

@@ -25,12 +25,15 @@ def atomic_path(path):
     """
     path = Path(os.fspath(path))
     if path.is_symlink():               # write through the link: the file it names is replaced, not the link
-        path = path.resolve()
+        try:
+            path = path.resolve()
+        except RuntimeError:            # Python < 3.13: a link that leads back to itself
+            raise OSError(errno.ELOOP, "too many levels of symbolic links", str(path)) from None
     if path.exists() and not path.is_file():
         raise FileExistsError(errno.EEXIST, "not a regular file, which a write would replace", str(path))
     if not path.parent.is_dir():
         raise FileNotFoundError(errno.ENOENT, f"no folder {str(path.parent)!r} to write into", str(path))
-    tmp = path.parent / f".{path.stem}.{secrets.token_hex(6)}.tmp{path.suffix}"
+    tmp = path.parent / _temporary_name(path)
     try:
         yield tmp
         os.replace(tmp, path)
@@ -41,7 +44,22 @@ def atomic_path(path):
             pass
         if isinstance(e, OSError) and e.filename in (str(tmp), tmp):    # name the file asked for
             e.filename = str(path)
+            if isinstance(e.strerror, str):
+                e.strerror = e.strerror.replace(str(tmp), str(path))
         raise
+
+
+def _temporary_name(path: Path) -> str:
+    """``.<stem>.<12 hex>.tmp<suffix>``, the stem shortened where the name would exceed the folder's
+    limit on a file name's length (a target name near the limit is still writable)."""
+    try:
+        limit = os.pathconf(path.parent, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        limit = 255
+    stem, tail = path.stem, f".{secrets.token_hex(6)}.tmp{path.suffix}"
+    while 0 < limit < len(os.fsencode(f".{stem}{tail}")) and len(stem) > 1:
+        stem = stem[:-1]
+    return f".{stem}{tail}"
 
 
 def write_bytes_atomic(path, data: bytes) -> None:

@@ -44,15 +44,26 @@ _KIND = {".exr": "exr", ".png": "srgb8", ".jpg": "srgb8", ".jpeg": "srgb8"}
 EXTENSIONS = tuple(_KIND)
 _JPEG_QUALITY = 95
 _CHANNEL_NAMES = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
+_FLOAT32_EXACT = 2 ** 24        # float32 holds every integer up to here
+
+
+def _real(x, name: str) -> np.ndarray:
+    """``x`` as float64 for the sRGB functions; wider floats are clipped to [0, 1] first (no overflow)."""
+    a = np.asarray(x)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name}: expected real numbers (got dtype {a.dtype})")
+    if a.dtype.kind == "f" and a.dtype.itemsize > 8:      # long double beyond float64's range
+        a = np.clip(a, 0.0, 1.0)
+    return a.astype(np.float64)
 
 
 def linear_to_srgb(x) -> np.ndarray:
     """sRGB transfer function (IEC 61966-2-1): linear [0, 1] -> encoded [0, 1].
 
     ``12.92 x`` for ``x <= 0.0031308``, else ``1.055 x^(1/2.4) - 0.055``.
-    Input is clipped to [0, 1]; float64 out.
+    Input is clipped to [0, 1]; float64 out. Real numbers only (TypeError otherwise).
     """
-    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+    x = np.clip(_real(x, "x"), 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
@@ -60,9 +71,9 @@ def srgb_to_linear(c) -> np.ndarray:
     """Inverse of :func:`linear_to_srgb`: encoded [0, 1] -> linear [0, 1].
 
     ``c / 12.92`` for ``c <= 0.04045``, else ``((c + 0.055) / 1.055)^2.4``.
-    Input is clipped to [0, 1]; float64 out.
+    Input is clipped to [0, 1]; float64 out. Real numbers only (TypeError otherwise).
     """
-    c = np.clip(np.asarray(c, dtype=np.float64), 0.0, 1.0)
+    c = np.clip(_real(c, "c"), 0.0, 1.0)
     return np.where(c <= 0.04045, c / 12.92, np.power((c + 0.055) / 1.055, 2.4))
 
 
@@ -100,7 +111,7 @@ def _pixels(array, kind: str, path: Path) -> np.ndarray:
     if np.isnan(a).any():
         raise ValueError(f"image holds {int(np.isnan(a).sum())} NaN value(s), which 8-bit "
                          f"{path.suffix} cannot store")
-    enc = np.clip(a.astype(np.float64), 0.0, 1.0)
+    enc = np.clip(a, 0.0, 1.0).astype(np.float64)       # clipped first: a long double may overflow float64
     colour = slice(0, 3) if a.shape[2] == 4 else slice(None)
     enc[:, :, colour] = linear_to_srgb(enc[:, :, colour])
     return np.floor(enc * 255.0 + 0.5).astype(np.uint8)
@@ -121,14 +132,19 @@ def _write_oiio(tmp: Path, data: np.ndarray, kind: str):
         spec.attribute("Compression", f"jpeg:{_JPEG_QUALITY}")
     out = oiio.ImageOutput.create(str(tmp))
     if out is None:
-        raise OSError(f"OpenImageIO has no writer for {tmp}: {oiio.geterror()}")
+        _write_error(tmp, "OpenImageIO has no writer for it", oiio.geterror())
     if not out.open(str(tmp), spec):
-        raise OSError(f"could not open {tmp} for writing: {out.geterror() or oiio.geterror()}")
+        _write_error(tmp, "OpenImageIO could not open it for writing", out.geterror() or oiio.geterror())
     ok = out.write_image(data)
     err = out.geterror() if not ok else ""
     closed = out.close()
     if not ok or not closed:
-        raise OSError(f"could not write {tmp}: {err or out.geterror() or oiio.geterror()}")
+        _write_error(tmp, "OpenImageIO could not write it", err or out.geterror() or oiio.geterror())
+
+
+def _write_error(tmp: Path, what: str, reason: str):
+    """Raise an OSError about the temporary file ``tmp``: ``atomic_path`` names the target instead."""
+    raise OSError(errno.EIO, f"{what} ({reason.strip() or 'no reason given'})", str(tmp))
 
 
 def write_image(path, array) -> None:
@@ -202,6 +218,23 @@ def _display_window(data: np.ndarray, spec) -> np.ndarray:
     return out
 
 
+def _exr_with_uint(inp, spec, path: Path) -> np.ndarray:
+    """An EXR holding UINT channels (ids), channel by channel: the integers as they are, float
+    channels as floats (OpenImageIO alone would scale the integers to [0, 1])."""
+    planes = []
+    for c in range(spec.nchannels):
+        uint = spec.channelformat(c).basetype == oiio.UINT
+        px = inp.read_image(0, 0, c, c + 1, oiio.TypeUInt32 if uint else oiio.TypeFloat)
+        if px is None:
+            raise ValueError(f"cannot read image {path}: {inp.geterror() or oiio.geterror()}")
+        px = np.asarray(px).reshape(spec.height, spec.width)
+        if uint and px.size and int(px.max()) > _FLOAT32_EXACT:
+            raise ValueError(f"cannot read image {path}: its uint channel {spec.channelnames[c]!r} holds "
+                             f"{int(px.max())}, beyond 2**24, which float32 cannot hold exactly")
+        planes.append(px.astype(np.float32))
+    return np.stack(planes, axis=-1)
+
+
 def read_image(path) -> np.ndarray:
     """Read an image file as float32.
 
@@ -214,8 +247,10 @@ def read_image(path) -> np.ndarray:
     -------
     image : ndarray, float32, shape (H, W) for one channel, else (H, W, C)
         Float files (EXR, HDR, float TIFF) come back as stored (half is
-        widened exactly). Integer files (8-bit PNG/JPEG, 16-bit PNG) are
-        taken as sRGB-encoded: value ``v`` of ``2^b - 1`` decodes to
+        widened exactly); an EXR's uint channels (ids) as their integers
+        (ValueError beyond 2**24, which float32 cannot hold). Integer
+        files (8-bit PNG/JPEG, 16-bit PNG) are taken as sRGB-encoded:
+        value ``v`` of ``2^b - 1`` decodes to
         ``srgb_to_linear(v / (2^b - 1))``, linear in [0, 1]; an alpha channel
         is only scaled to [0, 1] (straight alpha, as stored).
 
@@ -252,7 +287,10 @@ def read_image(path) -> np.ndarray:
         spec = inp.spec()
         C, alpha = spec.nchannels, spec.alpha_channel
         fmt = spec.format
-        if fmt == oiio.TypeUInt8 or fmt == oiio.TypeUInt16:
+        if inp.format_name() == "openexr" and any(spec.channelformat(c).basetype == oiio.UINT
+                                                  for c in range(C)):
+            native, top = _exr_with_uint(inp, spec, path), None
+        elif fmt == oiio.TypeUInt8 or fmt == oiio.TypeUInt16:
             native = inp.read_image(fmt)
             top = 255.0 if fmt == oiio.TypeUInt8 else 65535.0
         elif fmt.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE):

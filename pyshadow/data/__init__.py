@@ -153,9 +153,11 @@ def mesh_file(name: str, folder) -> Path:
     ValueError
         If ``name`` is not a bundled mesh.
     """
+    from .._files import write_bytes_atomic
+
     full = _mesh_name(name)
     path = Path(os.fspath(folder)) / full
-    path.write_bytes(mesh_bytes(full))
+    write_bytes_atomic(path, mesh_bytes(full))          # a failed write leaves an earlier file intact
     return path
 
 

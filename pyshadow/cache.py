@@ -25,7 +25,9 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import os
+import re
 import time
 from pathlib import Path
 
@@ -57,8 +59,8 @@ def default_cache_dir() -> Path:
 #: the package's modules whose code decides a built CSM's bytes (the functions a build runs, found by
 #: tests/test_cache.py; besides them only the device and launch choice of ``_cl``, whose answers are
 #: the same bit for bit at every width, and the argument checks of ``_compat`` and ``_validate`` run)
-BUILD_SOURCES = ("csm/build.py", "csm/core.py", "csm/exposure.py", "csm/fileformat.py", "csm/surface_rule.py",
-                 "embree.py", "mesh.py", "raster.py", "views.py")
+BUILD_SOURCES = ("_embree_checks.py", "_views_checks.py", "csm/build.py", "csm/core.py", "csm/exposure.py",
+                 "csm/fileformat.py", "csm/surface_rule.py", "embree.py", "mesh.py", "raster.py", "views.py")
 
 
 def source_digest(paths=None, kernels=None) -> str:
@@ -106,6 +108,29 @@ def _code_digest() -> str:
     return source_digest(BUILD_SOURCES, ("csm.cl", "raster.cl"))
 
 
+def _sidecar_seconds(side: Path, key: str):
+    """The build seconds a CSM's sidecar records for ``key``: a finite number >= 0, else None (no file,
+    not JSON, not an object, another key, a missing or non-numeric value)."""
+    try:
+        meta = json.loads(side.read_text())
+    except (OSError, ValueError):
+        return None
+    s = meta.get("build_seconds") if isinstance(meta, dict) and meta.get("key") == key else None
+    if isinstance(s, (int, float)) and not isinstance(s, bool) and math.isfinite(s) and s >= 0:
+        return float(s)
+    return None
+
+
+def _array_name(key) -> str:
+    """The file name of the array under ``key``: its first 40 characters, which must be letters,
+    digits, '-' or '_' (a hex digest), so that the file lies in the cache's reference folder."""
+    if not isinstance(key, str):
+        raise TypeError(f"the array's key must be a str, got {type(key).__name__}")
+    if not re.fullmatch(r"[0-9A-Za-z_-]+", key[:40]):
+        raise ValueError(f"the array's key must start with letters, digits, '-' or '_' (a hex digest), got {key!r}")
+    return f"{key[:40]}.npz"
+
+
 def _quiet(msg: str) -> None:
     """The default ``log``: discard the message."""
 
@@ -131,14 +156,16 @@ class CSMCache:
 
     Every file is written atomically (temporary file, flush, rename). A file
     that fails to load (checksum, truncation, format) or holds a CSM that
-    does not match its key is removed and rebuilt; a cache directory that
+    does not match its key (mesh, views, resolution, depth bits, layer
+    rule, the build's defaults) is removed and rebuilt; a cache directory that
     cannot be created or written only disables caching (one warning through
     ``log``), it never fails a call.
 
     Parameters
     ----------
     root : str or path-like or None
-        Cache directory (created on first use); ``None`` disables the cache:
+        Cache directory (created on first use; a relative path is taken from the working directory
+        of the moment the cache is made; an empty string is a ValueError); ``None`` disables the cache:
         every :meth:`csm` call builds, :meth:`array` returns None and
         :meth:`put_array` does nothing.
     log : callable, optional
@@ -148,7 +175,10 @@ class CSMCache:
     """
 
     def __init__(self, root, log=None):
-        self.root = Path(root) if root is not None else None
+        if isinstance(root, str) and not root.strip():
+            raise ValueError("CSMCache: root is an empty path; pass None to disable the cache")
+        # absolute now: a later change of the working directory does not move the cache
+        self.root = Path(root).absolute() if root is not None else None
         self.log = log if log is not None else _quiet
         self._code = None
         self._warned = False
@@ -193,12 +223,16 @@ class CSMCache:
             file format version and :func:`_code_digest`.
         """
         from .csm import FORMAT_VERSION
+        from .csm.build import check_arguments
 
+        # build's checks first: a key of int(8.7) would find the CSM of resolution 8
+        check_arguments(views, resolution, depth_bits, layers)
         if self._code is None:
             self._code = _code_digest()
         spec = {"mesh": mesh_hash, "layout": views.layout,
                 "params": {k: views.params[k] for k in sorted(views.params)}, "maps": len(views),
-                "resolution": int(resolution), "depth_bits": int(depth_bits), "layers": str(layers),
+                "resolution": int(resolution), "depth_bits": int(depth_bits),
+                "layers": layers if isinstance(layers, str) else str(int(layers)),
                 "format": FORMAT_VERSION, "code": self._code}
         return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
 
@@ -228,6 +262,7 @@ class CSMCache:
             path as str (None when not cached); ``stats``: ``csm.stats``.
         """
         from . import CoherentShadowMap
+        from .csm.build import layer_rule
         from .mesh import mesh_hash as _mesh_hash
 
         mh = _mesh_hash(mesh)
@@ -246,6 +281,10 @@ class CSMCache:
                        if getattr(csm, f) != want]
                 if csm.views.layout != views.layout or csm.views.params != views.params:
                     bad.append("views")
+                if csm.layer_rule != layer_rule(layers, mesh):
+                    bad.append("layer_rule")
+                if csm.footprint or csm.two_sided != "auto":        # what build's defaults give
+                    bad.append("footprint or two_sided")
                 if bad:
                     raise ValueError(f"holds different {', '.join(bad)}")
             except (ValueError, OSError) as e:       # CSMFormatError is a ValueError
@@ -257,13 +296,7 @@ class CSMCache:
                     except OSError:
                         pass
             else:
-                build = None
-                try:
-                    meta = json.loads(side.read_text())
-                    if meta.get("key") == key:
-                        build = float(meta["build_seconds"])
-                except (OSError, ValueError, KeyError, TypeError):
-                    pass
+                build = _sidecar_seconds(side, key)
                 return csm, {"name": name, "source": "cached", "seconds": time.perf_counter() - t0,
                              "build_seconds": build, "file": str(path), "stats": csm.stats}
         self.log(f"building the CSM of {name}: {len(views)} maps of {resolution}^2 texels, "
@@ -289,25 +322,29 @@ class CSMCache:
         ----------
         key : str
             The caller's key (a hex digest of everything the array depends
-            on); its first 40 characters name the file.
+            on); its first 40 characters name the file: letters, digits, '-'
+            or '_' (else ValueError; not a str: TypeError).
 
         Returns
         -------
         ndarray, float32, or None
             The array as stored by :meth:`put_array` (any shape); None when
             absent, or when the file is damaged (zip, format or checksum
-            error): such a file is removed.
+            error, data not float32): such a file is removed.
         """
+        name = _array_name(key)
         d = self._dir("reference")
         if d is None:
             return None
-        path = d / f"{key[:40]}.npz"
+        path = d / name
         if not path.exists():
             return None
         try:
             # numpy leaves its own file open when the zip is damaged: open and close it here
             with open(path, "rb") as f, np.load(f, allow_pickle=False) as z:
-                a = np.array(z["data"], dtype=np.float32)
+                a = z["data"]
+                if a.dtype != np.float32:
+                    raise ValueError(f"holds {a.dtype} data, not float32")
                 digest = bytes(z["sha256"])
             if hashlib.sha256(a.tobytes()).digest() != digest:
                 raise ValueError("checksum mismatch")
@@ -325,13 +362,23 @@ class CSMCache:
 
         The file ``reference/<key[:40]>.npz`` (compressed, with the SHA-256
         of the array's bytes) is written atomically and replaces an earlier
-        one; a write error is logged, not raised.
+        one; a write error is logged, not raised. ``key`` as in :meth:`array`;
+        an array of non-real values is a TypeError, finite values beyond
+        float32's range a ValueError (NaN and infinities are stored).
         """
+        name = _array_name(key)
+        a = np.asarray(a)
+        if a.dtype.kind not in "biuf":
+            raise TypeError(f"put_array: the array must hold real numbers, got {a.dtype}")
+        with np.errstate(over="ignore"):
+            a32 = np.ascontiguousarray(a, dtype=np.float32)
+        if a.dtype.kind == "f" and (np.isinf(a32) & np.isfinite(a)).any():
+            raise ValueError("put_array: the array holds finite values beyond float32's range")
+        a = a32
         d = self._dir("reference")
         if d is None:
             return
-        a = np.ascontiguousarray(a, dtype=np.float32)
-        path = d / f"{key[:40]}.npz"
+        path = d / name
         buf = io.BytesIO()
         np.savez_compressed(buf, data=a, sha256=np.frombuffer(hashlib.sha256(a.tobytes()).digest(),
                                                               np.uint8))

@@ -21,7 +21,7 @@ from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
 from .exposure import both_sided_faces, is_auto
 
-__all__ = ["build_csm", "corner_frame", "footprint_corners", "footprint_scale"]
+__all__ = ["build_csm", "check_arguments", "corner_frame", "footprint_corners", "footprint_scale"]
 
 
 def _defines(resolution, layers, rule, block, depth_bits, iend_dtype, two_sided=False):
@@ -74,11 +74,10 @@ def footprint_corners(mesh, views: ViewSet, resolution: int, layers: int, frame,
                         frame=corner_frame(frame, resolution), facing=True, both_sides=both_sides)
 
 
-def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
-              layers="auto", block: int | None = None, progress: bool = True,
-              frame=None, footprint: bool = False, two_sided="auto"):
-    """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
-    t0 = time.perf_counter()
+def check_arguments(views, resolution, depth_bits, layers="auto") -> None:
+    """The checks of :meth:`CoherentShadowMap.build` that need no mesh (the cache's, before a hit):
+    ``views`` a zigzag or hilbert :class:`ViewSet` of 1 .. 2^32-2 maps, ``resolution`` an int
+    1 .. 4096, ``depth_bits`` 16 or 32, ``layers`` 'auto', 2 or 3; TypeError or ValueError naming it."""
     if not isinstance(views, ViewSet):
         raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
     if views.layout not in _LAYOUTS:
@@ -90,18 +89,32 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if depth_bits not in (16, 32) or isinstance(depth_bits, bool):
         raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
     _check_resolution_layers(resolution, 2)
+    layer_rule(layers)
+
+
+def layer_rule(layers, mesh=None):
+    """The layer rule ``layers`` asks for: 2 or 3, 'auto' 3 for a watertight ``mesh`` (None: 'auto'
+    is only checked, 0 returned); ValueError for anything else."""
+    if isinstance(layers, str) and layers == "auto":
+        return 0 if mesh is None else 3 if mesh.is_watertight else 2
+    if layers in (2, 3) and not isinstance(layers, (bool, np.bool_)):
+        return int(layers)
+    raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
+
+
+def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
+              layers="auto", block: int | None = None, progress: bool = True,
+              frame=None, footprint: bool = False, two_sided="auto"):
+    """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
+    t0 = time.perf_counter()
+    check_arguments(views, resolution, depth_bits)
     if not isinstance(mesh, trimesh.Trimesh):
         mesh = load_mesh(mesh)
     check_mesh(mesh, "CoherentShadowMap.build")
-    if layers == "auto":
-        rule = 3 if mesh.is_watertight else 2
-    elif layers in (2, 3) and not isinstance(layers, bool):
-        rule = int(layers)
-        if rule == 3 and not mesh.is_watertight:
-            raise ValueError("layers=3 ([z1, z3) intervals) needs a watertight mesh; "
-                             "this one has boundary edges (use layers=2 or fill_holes=True)")
-    else:
-        raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
+    rule = layer_rule(layers, mesh)
+    if rule == 3 and not mesh.is_watertight:          # (only asked: "auto" gives 3 to closed meshes)
+        raise ValueError("layers=3 ([z1, z3) intervals) needs a watertight mesh; "
+                         "this one has boundary edges (use layers=2 or fill_holes=True)")
     R = int(resolution)
     D = len(views)
     if not isinstance(footprint, (bool, np.bool_)):
@@ -126,6 +139,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         per_map += rule * (R + 1) ** 2 * 5
     if block is None:
         block = max(1, min(D, (96 << 20) // per_map))
+    elif isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)):
+        raise TypeError(f"block must be an int, got {block!r}")
     block = int(block)
     if block < 1:
         raise ValueError(f"block must be >= 1, got {block}")

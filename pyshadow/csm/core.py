@@ -98,6 +98,74 @@ def _offsets_dtype(segments):
     return np.dtype(np.uint32) if segments < 2**32 else np.dtype(np.uint64)
 
 
+def _whole_numbers(name, a, what):
+    """``a`` (any shape) checked to hold integers (or floats that are whole numbers): TypeError or
+    ValueError naming ``name``; ``what`` names the values in messages."""
+    if isinstance(a, np.ndarray) and a.dtype.kind in "iu":
+        return a
+    if a is None or isinstance(a, (bool, np.bool_, str, bytes)):
+        raise TypeError(f"{name} must be integers, got {a!r}")
+    try:
+        arr = np.asarray(a)
+    except (ValueError, TypeError) as e:
+        raise TypeError(f"{name} must be an array of integers ({e})") from None
+    kind = arr.dtype.kind
+    if kind == "O":             # Python ints beyond int64 (2**64) arrive as objects
+        vals = arr.reshape(-1).tolist()
+        if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in vals):
+            raise TypeError(f"{name} must be integers, got {a!r}")
+        vals = [int(v) for v in vals]
+        if any(not -2**63 <= v < 2**63 for v in vals):
+            raise ValueError(f"{what}: {name} holds {max(vals, key=abs)}")
+        arr = arr.astype(np.int64)
+    if kind not in "iuf":
+        raise TypeError(f"{name} must be integers, got {arr.dtype} values")
+    if kind == "f" and arr.size:
+        whole = np.isfinite(arr) & (arr == np.floor(arr))
+        if not whole.all():
+            raise ValueError(f"{what}: {name} holds {arr[~whole].reshape(-1)[0]!r}, not a whole number")
+    return arr
+
+
+def query_indices(csm, map_index, rows, cols):
+    """The map indices, rows and columns of a texel query checked: ``(m, r, c)`` int64 (N,) and the
+    broadcast shape; ValueError or TypeError naming the argument (a fraction, NaN, a bool, an index
+    outside ``0 .. D-1`` or ``0 .. R-1``) where a cast would truncate, wrap or read out of bounds."""
+    D, R = csm.maps, csm.resolution
+    checked = []
+    for name, a, n, what in (("map_index", map_index, D, f"map index outside 0..{D - 1}"),
+                             ("rows", rows, R, f"row/column outside 0..{R - 1}"),
+                             ("cols", cols, R, f"row/column outside 0..{R - 1}")):
+        a = _whole_numbers(name, a, what)
+        if a.size and (a.min() < 0 or a.max() >= n):
+            bad = a.reshape(-1)[np.flatnonzero((a.reshape(-1) < 0) | (a.reshape(-1) >= n))[0]]
+            raise ValueError(f"{what}: {name} holds {bad}")
+        checked.append(a)
+    try:
+        m, r, c = np.broadcast_arrays(*checked)
+    except ValueError:
+        raise ValueError("map_index, rows and cols cannot be broadcast together: shapes "
+                         f"{', '.join(str(np.shape(a)) for a in checked)}") from None
+    return (*(a.astype(np.int64).reshape(-1) for a in (m, r, c)), m.shape)
+
+
+def decode_depth(stored, depth_bits) -> np.ndarray:
+    """:meth:`CoherentShadowMap.stored_to_depth`: stored values to float64 normalised depth (+inf for a miss).
+
+    16-bit values must be whole numbers 0 .. 65535 (any integer or float dtype; uint16 is not checked);
+    anything else is a ValueError or TypeError, never a depth between two keys, below 0 or beyond the far
+    plane.
+    """
+    s = np.asarray(stored)
+    if depth_bits == 16:
+        if s.dtype != np.uint16:
+            s = _whole_numbers("stored", s, "stored 16-bit depth outside 0..65535")
+            if s.size and (s.min() < 0 or s.max() > MISS16):
+                raise ValueError(f"stored 16-bit depth outside 0..65535: got {s.min()} .. {s.max()}")
+        return np.where(s == MISS16, np.inf, s.astype(np.float64) / DEPTH_Q)
+    return s.astype(np.float64)
+
+
 
 class CoherentShadowMap:
     """Compressed visibility of one rigid object from every map direction.
@@ -285,11 +353,8 @@ class CoherentShadowMap:
         return np.diff(self.offsets.astype(np.int64)).reshape(self.resolution, self.resolution)
 
     def stored_to_depth(self, stored) -> np.ndarray:
-        """Decode stored depth values to float64 normalised depth (+inf for a miss)."""
-        s = np.asarray(stored)
-        if self.depth_bits == 16:
-            return np.where(s == MISS16, np.inf, s.astype(np.float64) / DEPTH_Q)
-        return s.astype(np.float64)
+        """Decode stored depth values to float64 normalised depth (+inf for a miss): :func:`decode_depth`."""
+        return decode_depth(stored, self.depth_bits)
 
     # ------------------------------------------------------------------
     # device side
@@ -322,7 +387,8 @@ class CoherentShadowMap:
         """Index of the segment holding (map, texel), by the kernels' search (csm_find)."""
         from .device import segment_index
 
-        return segment_index(self, map_index, rows, cols)
+        m, r, c, shape = query_indices(self, map_index, rows, cols)
+        return segment_index(self, m.reshape(shape), r.reshape(shape), c.reshape(shape))
 
     def depth_for(self, map_index, rows, cols) -> np.ndarray:
         """Stored depth of texels ``(rows, cols)`` of map ``map_index``.

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from .build import footprint_scale
-from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin,
+from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin, query_indices,
                    slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
@@ -252,9 +252,9 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
 
 
 def segment_index_reference(csm, map_index, rows, cols) -> np.ndarray:
-    """NumPy version of :meth:`segment_index` (searchsorted per texel)."""
-    m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1)
-               for a in np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols)))
+    """NumPy version of :meth:`segment_index` (searchsorted per texel), int64 (N,) for the N broadcast
+    queries; the indices are checked as there (:func:`pyshadow.csm.core.query_indices`)."""
+    m, r, c, _ = query_indices(csm, map_index, rows, cols)
     t = r * csm.resolution + c
     out = np.empty(len(m), np.int64)
     for i, (tt, mm) in enumerate(zip(t, m)):

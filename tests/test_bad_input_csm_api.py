@@ -20,6 +20,7 @@ from pyshadow.csm.reference import segment_index_reference
 from pyshadow.mesh import mesh_hash
 
 from conftest import load
+from test_cache import Log
 
 R, VIEWS = 8, (2, 4)
 
@@ -42,14 +43,6 @@ def views():
 @pytest.fixture(scope="module")
 def csm(mesh, views):
     return CoherentShadowMap.build(mesh, views, resolution=R, progress=False)
-
-
-class Log(list):
-    def __call__(self, msg):
-        self.append(msg)
-
-    def text(self):
-        return "\n".join(self)
 
 
 def _grid(csm):

@@ -216,9 +216,7 @@ class Scene:
             if "anchor" not in held:
                 held["anchor"] = np.mean(held["world_centre"], axis=0)
             return held["anchor"].copy()
-        if points is not None and len(points):
-            return points.mean(axis=0)
-        return np.zeros(3)
+        return _points_anchor(points)
 
     def scale(self) -> float:
         """Largest world bounding-sphere radius of the instances (1 for an empty scene)."""
@@ -392,6 +390,17 @@ class Scene:
         extra = {} if crease_angle is None else {"crease_angle": crease_angle}
         return render_stage.render(self, camera, visibility=name, sampling=sampling, denoise=denoise,
                                    ao_scale=ao_scale, ground_size=ground_size, bias=bias, normals=normals, **extra)
+
+
+def _points_anchor(points) -> np.ndarray:
+    """:meth:`Scene.anchor` of an empty scene: the mean of ``points`` ((N, 3), any array-like), or the origin."""
+    if points is None:
+        return np.zeros(3)
+    if not isinstance(points, np.ndarray):
+        points = np.asarray(points, np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"points must have shape (N, 3), got {points.shape}")
+    return points.mean(axis=0) if len(points) else np.zeros(3)
 
 
 def _held_transform(transform) -> np.ndarray:

@@ -74,7 +74,9 @@ ANCHOR_REACH_RADII = 512.0
 
 
 def points_bound(points) -> float:
-    """The largest |coordinate| of ``points`` (two passes, no temporaries)."""
+    """The largest |coordinate| of ``points`` (two passes, no temporaries); 0 for no points."""
+    if not points.size:
+        return 0.0
     return max(abs(float(points.max())), abs(float(points.min())))
 
 

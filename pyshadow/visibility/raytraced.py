@@ -6,10 +6,13 @@ and runs to infinity (or to ``max_distance``: every ray is answered, there
 is nothing to ``straddle``; distance AO is exact, from the hit
 distances); the ground plane is tested analytically as the
 kernels do. ``bias`` does not apply (there is no depth to compare) and
-``surface_ids`` is not needed (the lift keeps a ray off its own surface).
+``surface_ids`` is not needed (the lift keeps a ray off its own surface); it,
+and ``visible``'s ``normals``, are still checked as the other backends check them.
 Every caster needs its mesh (``Scene.add(csm, mesh=...)``).
 """
 from __future__ import annotations
+
+import numpy as np
 
 from .base import register
 
@@ -28,6 +31,7 @@ class EmbreeVisibility:
                 max_distance=None, straddle="error"):
         from .. import embree
 
+        _check_unused(scene, points, surface_ids, normals)
         return embree.visible(scene, points, directions, max_distance=max_distance)
 
     def ambient_occlusion(self, scene, points, normals, *, sampling, return_bent_normals=False, bias=None,
@@ -38,12 +42,29 @@ class EmbreeVisibility:
         from .. import embree
         from .finite import check_ao_options
 
+        _check_unused(scene, points, surface_ids, None)
         distance = {}
         if max_distance is not None or obscurance is not None:
             check_ao_options(obscurance, quadrature, straddle)
             distance = {"max_distance": max_distance, "obscurance": obscurance}
         return embree.ambient_occlusion(scene, points, normals, sampling=sampling,
                                         return_bent_normals=return_bent_normals, indices=indices, **distance)
+
+
+def _check_unused(scene, points, surface_ids, normals):
+    """``surface_ids`` and ``normals`` are not needed here, but are checked as the other backends check
+    them: a bad id or normal is an error whatever the backend (not silently answered by this one)."""
+    if surface_ids is None and normals is None:
+        return
+    from .._validate import unit_normals
+
+    shape = np.shape(points)
+    if len(shape) != 2:
+        return                  # embree names the points' shape
+    if surface_ids is not None:
+        scene.caster_slots(surface_ids, shape[0])
+    if normals is not None:
+        unit_normals(normals, shape[0])
 
 
 register("embree", EmbreeVisibility())

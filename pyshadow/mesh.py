@@ -402,8 +402,12 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
         raise ValueError(f"bounding_sphere: {int(bad.sum())} of {len(bad)} vertices are not finite (NaN or inf), "
                          f"e.g. vertex {i} = {verts[i]}")
     # the fit (qhull) on a mesh of extent near 1: scaled by an exact power of two (float32_unit) where
-    # its extent is not; a flat or degenerate hull falls back to the box's centre below
-    unit = float32_unit(np.ptp(verts, axis=0).max())
+    # its extent is not, and below 2**-10 (a mesh in micrometres fell back to the box's centre, 0.8 %
+    # wider than the sphere at size 1); a flat or degenerate hull falls back to the box's centre below
+    extent = float(np.ptp(verts, axis=0).max())
+    unit = float32_unit(extent)
+    if unit == 1.0 and 0.0 < extent < 2.0 ** -10:     # qhull's absolute tolerances fail it below about 5e-5
+        unit = float(2.0 ** -np.round(np.log2(extent)))
     fit = mesh if unit == 1.0 else trimesh.Trimesh(verts * unit, np.asarray(mesh.faces), process=False)
     try:
         with np.errstate(all="ignore"):

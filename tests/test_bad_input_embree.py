@@ -294,3 +294,23 @@ def test_mesh_functions_name_objects_that_are_not_meshes():
         pyshadow.mesh.check_mesh(trimesh.Scene())
     with pytest.raises(TypeError, match="stand_on_ground: radius must be a number"):
         pyshadow.mesh.stand_on_ground(BOX, radius="a")
+
+
+@pytest.mark.parametrize("name, k", [("stanford-bunny", -12), ("stanford-bunny", -16), ("spot", -16), ("spot", -19)])
+def test_the_bounding_sphere_of_a_mesh_in_micrometres_is_that_at_size_1_scaled(name, k):
+    """Extents of about 1e-6 to 5e-5 (between float32_unit's band and qhull's absolute tolerances) made
+    the sphere fit fail and fall back to the box's centre: 0.8 % wider than the sphere at size 1 for
+    the bunny at 2**-12, so its CSM's frame and texels were not those of the same mesh in metres. Now
+    the fit sees the mesh scaled by a power of two, and the sphere (and so the CSM) is exactly the
+    unit one's scaled."""
+    m = pyshadow.data.mesh(name)
+    s = 2.0 ** k
+    small = trimesh.Trimesh(m.vertices * s, m.faces, process=False)
+    c0, r0 = pyshadow.mesh.bounding_sphere(m)
+    c, r = pyshadow.mesh.bounding_sphere(small)
+    assert np.array_equal(c / s, c0) and r / s == r0
+    views = pyshadow.ViewSet.zigzag(4, 8)
+    a = pyshadow.CoherentShadowMap.build(m, views, resolution=16, progress=False)
+    b = pyshadow.CoherentShadowMap.build(small, views, resolution=16, progress=False)
+    for f in ("offsets", "iend", "depth"):
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f

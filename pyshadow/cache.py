@@ -164,8 +164,9 @@ class CSMCache:
     Parameters
     ----------
     root : str or path-like or None
-        Cache directory (created on first use; a relative path is taken from the working directory
-        of the moment the cache is made; an empty string is a ValueError); ``None`` disables the cache:
+        Cache directory (created on first use; ``~`` is expanded; a relative
+        path is taken from the working directory of the moment the cache is
+        made; an empty string is a ValueError); ``None`` disables the cache:
         every :meth:`csm` call builds, :meth:`array` returns None and
         :meth:`put_array` does nothing.
     log : callable, optional
@@ -178,7 +179,7 @@ class CSMCache:
         if isinstance(root, str) and not root.strip():
             raise ValueError("CSMCache: root is an empty path; pass None to disable the cache")
         # absolute now: a later change of the working directory does not move the cache
-        self.root = Path(root).absolute() if root is not None else None
+        self.root = Path(root).expanduser().absolute() if root is not None else None
         self.log = log if log is not None else _quiet
         self._code = None
         self._warned = False

@@ -439,3 +439,15 @@ def test_keys_of_meshes_differing_in_float_rounding(mesh, views):
     cache = CSMCache(None)
     assert cache.csm_key(mesh_hash(mesh), views, R, 16, "auto") != cache.csm_key(mesh_hash(other), views, R, 16,
                                                                                    "auto")
+
+
+def test_a_cache_root_starting_with_a_tilde_is_the_home_folder(tmp_path, monkeypatch):
+    """CSMCache("~/cache") made a folder literally named '~' in the working directory (pyshadow-bench
+    expanded it itself, PYSHADOW_CACHE too; the class did not)."""
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    c = CSMCache("~/cache")
+    assert c.root == tmp_path / "home" / "cache"
+    c.put_array("ab12", np.ones(3, np.float32))
+    assert (tmp_path / "home" / "cache").is_dir() and not (tmp_path / "~").exists()
+    np.testing.assert_array_equal(c.array("ab12"), np.ones(3, np.float32))

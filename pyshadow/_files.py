@@ -4,6 +4,7 @@ from __future__ import annotations
 import errno
 import os
 import secrets
+import stat
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,6 +23,7 @@ def atomic_path(path):
     FileNotFoundError naming it, before anything is written. A symbolic link
     is written through (the file it names is replaced); a path that exists
     but is no regular file (a folder, a device, a FIFO) is a FileExistsError.
+    A file replaced keeps its permission bits.
     """
     path = Path(os.fspath(path))
     if path.is_symlink():               # write through the link: the file it names is replaced, not the link
@@ -36,6 +38,8 @@ def atomic_path(path):
     tmp = path.parent / _temporary_name(path)
     try:
         yield tmp
+        if path.exists():               # the file replaced keeps its permissions (a private 0600 stays so)
+            os.chmod(tmp, stat.S_IMODE(path.stat().st_mode))
         os.replace(tmp, path)
     except BaseException as e:
         try:

@@ -52,7 +52,7 @@ def _backend(where, lookup, backend, filtered, stacklevel=4):
         if lookup != "nearest":
             raise TypeError(f"{where}: pass lookup= or the old filtered=, not both")
         lookup = "vote" if filtered else "nearest"
-    if lookup not in LOOKUPS:
+    if not isinstance(lookup, str) or lookup not in LOOKUPS:
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     if backend is None:
         return "csm" if lookup == "nearest" else "csm-vote"

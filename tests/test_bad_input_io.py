@@ -210,3 +210,31 @@ def test_unwritable_arrays_are_refused_and_leave_nothing(tmp_path, array, exc, e
     with pytest.raises(exc):
         write_image(tmp_path / ("a" + ext), array)
     assert os.listdir(tmp_path) == []
+
+
+def test_a_replaced_file_keeps_its_permissions(tmp_path):
+    """An atomic write replaced the file by a new one of the default mode: a private 0600 image (or
+    cache file) became 0644, readable by everyone. The temporary file now takes the old file's mode."""
+    import stat
+
+    from pyshadow._files import write_bytes_atomic
+    from pyshadow.io import write_image
+
+    for name, write in (("a.bin", lambda p: write_bytes_atomic(p, b"new")),
+                        ("a.png", lambda p: write_image(p, np.zeros((2, 2, 3), np.float32)))):
+        p = tmp_path / name
+        p.write_bytes(b"old")
+        p.chmod(0o600)
+        write(p)
+        assert stat.S_IMODE(p.stat().st_mode) == 0o600 and p.read_bytes() != b"old"
+    fresh = tmp_path / "b.bin"
+    write_bytes_atomic(fresh, b"x")
+    assert stat.S_IMODE(fresh.stat().st_mode) == 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    import os
+
+    m = os.umask(0)
+    os.umask(m)
+    return m

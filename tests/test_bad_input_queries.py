@@ -174,3 +174,16 @@ def test_a_positive_length_below_float32s_range_still_meets_a_surface_at_the_poi
     for t in (1e-300, 1e-40, 1e-38):
         got = visibility.visible(small_scene, p, d, backend=backend, max_distance=t, straddle="embree")
         assert got.tolist() == [False, True], (t, got)
+
+
+def test_a_lookup_that_is_not_a_name_is_refused_by_name(small_scene, no_launch):
+    """Scene.visible(lookup=np.array(["vote"])) raised NumPy's 'truth value of an array ... is ambiguous'
+    from the membership test, and AssetParams(lookup=...) the same."""
+    from pyshadow.bake import AssetParams
+
+    p, d = rays()
+    for bad in (np.array(["vote", "nearest"]), np.array(["vote"]), ["vote"], 1):
+        with pytest.raises(ValueError, match="lookup must be 'nearest' or 'vote'"):
+            small_scene.visible(p, d, lookup=bad)
+    with pytest.raises(ValueError, match="AssetParams.lookup must be one of"):
+        AssetParams(lookup=np.array(["vote", "nearest"]))

@@ -70,7 +70,7 @@ class AssetParams:
         d = self.depth_bits         # 16.0 == 16: a bake alike under another key (and np.int64 no JSON)
         if isinstance(d, bool) or not isinstance(d, int) or d not in (16, 32):
             raise ValueError(f"AssetParams.depth_bits must be 16 or 32, got {self.depth_bits!r}")
-        if self.lookup not in LOOKUPS:
+        if not isinstance(self.lookup, str) or self.lookup not in LOOKUPS:
             raise ValueError(f"AssetParams.lookup must be one of {LOOKUPS}, got {self.lookup!r}")
         if self.mesh_format not in MESH_FORMATS:
             raise ValueError(f"AssetParams.mesh_format must be one of {MESH_FORMATS}, got {self.mesh_format!r}")

@@ -237,6 +237,9 @@ def main(argv=None) -> int:
         return 130
     except (ValueError, FileNotFoundError, ImportError) as e:
         ap.error(str(e))
+    except OSError as e:                # an output that cannot be written, a folder that cannot be read
+        print(f"pyshadow-bake: error: {e}", file=sys.stderr)
+        return 1
     return 2
 
 

@@ -73,19 +73,25 @@ def find_assets(sources) -> tuple[list, list]:
             for f in sorted(p.iterdir()):
                 if f.is_file() and not f.name.startswith(".") and f.suffix.lower() in suffixes:
                     files.append(f)
-                elif f.is_file() and not f.name.startswith("."):
+                elif not f.name.startswith(".") and not f.is_dir():    # also a broken link, a FIFO
                     ignored.append(str(f))
-        elif p.exists():
+        elif p.is_file():
             files.append(p)
+        elif p.exists():                # a FIFO or device: reading it could block forever
+            raise ValueError(f"not a mesh file (nor a folder): {p}")
         else:
             raise FileNotFoundError(f"no such mesh file or folder: {p}")
-    files = sorted(set(files))
+    seen = {}                           # one file named twice (src/a.obj, src/../src/a.obj) is one asset
+    for f in files:
+        seen.setdefault(f.parent.resolve() / f.name, f)
+    files = sorted(seen.values())
     stems = [re.sub(r"[^A-Za-z0-9._-]", "_", f.stem) or "mesh" for f in files]
     lower = [s.lower() for s in stems]
     names = [s if lower.count(s.lower()) == 1 else f"{s}_{f.suffix.lstrip('.').lower()}"
              for s, f in zip(stems, files)]
     if len(set(n.lower() for n in names)) != len(names):
-        raise ValueError(f"assets with the same name: {sorted(names)}; rename the files")
+        same = sorted(f"{n} ({f})" for n, f in zip(names, files) if [m.lower() for m in names].count(n.lower()) > 1)
+        raise ValueError(f"assets with the same name: {', '.join(same)}; rename the files")
     return list(zip(names, files)), ignored
 
 
@@ -159,7 +165,11 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     params = params if params is not None else AssetParams()
     out = Path(out_dir).expanduser()
     for sub in ("", "csm", "meshes", "records"):
+        if (out / sub).exists() and not (out / sub).is_dir():
+            raise FileExistsError(f"{out / sub} is a file, where the bake needs a folder")
         (out / sub).mkdir(parents=True, exist_ok=True)
+    if (out / "manifest.json").exists() and not (out / "manifest.json").is_file():     # found now, not after the bake
+        raise FileExistsError(f"{out / 'manifest.json'} is not a file, and the manifest is written there")
     for p in sweep_temporaries(out):
         log(f"removed a temporary file of an interrupted run: {p}")
     assets, ignored = find_assets(sources)
@@ -198,7 +208,11 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
                 if err is not None:         # the task itself failed (e.g. its worker died again and again)
                     entries[name] = dict(_failed(name, path, key, f"{type(err).__name__}: {err}"), action="failed")
                 else:
-                    entries[name] = _store(out, path, res)
+                    try:
+                        entries[name] = _store(out, path, res)
+                    except OSError as e:    # unwritable, disk full: this asset failed, the others go on
+                        entries[name] = dict(_failed(name, path, key, f"writing its outputs: {type(e).__name__}: "
+                                                                      f"{e}"), action="failed")
                 bar.update(1)
                 bar.set_postfix_str(f"{name}: {entries[name]['action']}")
     finally:

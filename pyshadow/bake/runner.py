@@ -15,14 +15,16 @@ from __future__ import annotations
 
 import json
 import logging
+import numbers
 import os
 import re
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 from pathlib import Path
 
 __all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
-           "dask_available"]
+           "dask_available", "WorkerDied"]
 
 EXECUTORS = ("dask", "process", "serial")
 
@@ -70,6 +72,10 @@ def _init_process_worker(env: dict) -> None:
     os.environ.update(env)
 
 
+class WorkerDied(RuntimeError):
+    """A task's worker process died while running it (the task ran alone, so it was the cause)."""
+
+
 class _Serial:
     kind = "serial"
 
@@ -94,32 +100,68 @@ class _Pool:
 
     def __init__(self, workers: int, threads: int):
         self.workers, self.threads = workers, threads
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
-                                        initializer=_init_process_worker, initargs=(thread_env(threads),))
+        self.pool = self._new_pool()
+
+    def _new_pool(self):
+        return ProcessPoolExecutor(max_workers=self.workers, mp_context=get_context("spawn"),
+                                   initializer=_init_process_worker, initargs=(thread_env(self.threads),))
 
     def run(self, fn, tasks, shared=None, window=None):
         window = window or 2 * self.workers
         extra = (shared,) if shared is not None else ()
         it = iter(tasks)
-        pending = {}
+        pending = {}                    # future -> (tag, args)
+        broken = []                     # tasks in flight when a worker process died
 
         def submit():
             for tag, args in it:
-                pending[self.pool.submit(fn, *args, *extra)] = tag
+                try:
+                    pending[self.pool.submit(fn, *args, *extra)] = (tag, args)
+                except BrokenProcessPool:
+                    broken.append((tag, args))
                 return True
             return False
 
-        while len(pending) < window and submit():
+        while len(pending) < window and not broken and submit():
             pass
-        while pending:
-            done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
-            for fut in done:
-                tag = pending.pop(fut)
-                try:
-                    yield tag, fut.result(), None
-                except Exception as e:
-                    yield tag, None, e
-                submit()
+        while pending or broken:
+            if pending:
+                done, _ = wait(list(pending), return_when=FIRST_COMPLETED)
+                for fut in done:
+                    tag, args = pending.pop(fut)
+                    err = fut.exception()
+                    if isinstance(err, BrokenProcessPool):
+                        broken.append((tag, args))
+                    else:
+                        yield (tag, fut.result(), None) if err is None else (tag, None, err)
+            if broken:                  # the pool is dead: every task still in it died with it
+                for fut in list(pending):
+                    tag, args = pending.pop(fut)
+                    if fut.done() and fut.exception() is None:
+                        yield tag, fut.result(), None
+                    else:
+                        broken.append((tag, args))
+                self._restart()
+                while broken:           # one at a time: only the task that kills its worker fails
+                    tag, args = broken.pop(0)
+                    yield self._alone(fn, tag, args, extra)
+            while len(pending) < window and not broken and submit():
+                pass
+
+    def _alone(self, fn, tag, args, extra):
+        """Run one task by itself in the pool: a dead worker is then this task's doing."""
+        try:
+            return tag, self.pool.submit(fn, *args, *extra).result(), None
+        except BrokenProcessPool:
+            self._restart()
+            return tag, None, WorkerDied("its worker process died while running it (a crash in native code, "
+                                         "or killed by the system, e.g. out of memory)")
+        except Exception as e:
+            return tag, None, e
+
+    def _restart(self):
+        self.pool.shutdown(wait=True, cancel_futures=True)
+        self.pool = self._new_pool()
 
     def close(self):
         self.pool.shutdown(wait=True, cancel_futures=True)
@@ -257,11 +299,10 @@ def open_executor(kind: str | None = None, workers: int | None = None, scheduler
         raise ValueError(f"executor must be one of {EXECUTORS}, got {kind!r}")
     if scheduler is not None and kind != "dask":
         raise ValueError(f"a scheduler address needs the 'dask' executor, not {kind!r}")
-    if workers is not None and (isinstance(workers, bool) or int(workers) < 1):
-        raise ValueError(f"workers must be a positive int, got {workers!r}")
+    for arg, v in (("workers", workers), ("threads", threads)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 1):
+            raise ValueError(f"{arg} must be a positive int, got {v!r}")    # not 2.5 cut to 2, nor 'abc'
     workers = int(workers) if workers is not None else cores
-    if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
-        raise ValueError(f"threads must be a positive int, got {threads!r}")
     threads = int(threads) if threads is not None else max(1, cores // workers)
     if kind == "serial":
         return _Serial()

@@ -45,13 +45,11 @@ def float32_rays(origins, directions, tfar, unit):
         raise ValueError(f"directions has {len(d)} rows but origins has {n} (give one direction per origin, "
                          "or a single direction for all)")
     for a, name in ((o, "origins"), (d, "directions")):
-        with np.errstate(all="ignore"):
-            total = a.sum()             # finite unless an entry is not (or finite entries overflow it)
-        if not np.isfinite(total):
-            bad = int((~np.isfinite(a).all(axis=1)).sum())
-            if bad:
-                raise ValueError(f"{name}: {bad} rows are not finite as float32 (NaN, inf, or beyond float32's "
-                                 f"range once scaled by the scene's unit {unit:g})")
+        try:
+            check_values(a, name)
+        except ValueError as e:         # "<name>: <k> rows are not finite", of the float32 rows
+            raise ValueError(f"{e} as float32 (NaN, inf, or beyond float32's range once scaled by the "
+                             f"scene's unit {unit:g})") from None
     if not d.all():                     # some zero entries: is a row all zeros? (cheap where none is)
         check_values(d, "directions", nonzero=True)
     kw = {}

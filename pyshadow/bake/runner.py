@@ -15,13 +15,14 @@ from __future__ import annotations
 
 import json
 import logging
-import numbers
 import os
 import re
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 from pathlib import Path
+
+from .._validate import check_int
 
 __all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
            "dask_available", "WorkerDied"]
@@ -300,8 +301,12 @@ def open_executor(kind: str | None = None, workers: int | None = None, scheduler
     if scheduler is not None and kind != "dask":
         raise ValueError(f"a scheduler address needs the 'dask' executor, not {kind!r}")
     for arg, v in (("workers", workers), ("threads", threads)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < 1):
-            raise ValueError(f"{arg} must be a positive int, got {v!r}")    # not 2.5 cut to 2, nor 'abc'
+        if v is None:
+            continue
+        try:
+            check_int(v, arg, 1)
+        except (TypeError, ValueError):     # not 2.5 cut to 2, nor 'abc'; one error type, as documented
+            raise ValueError(f"{arg} must be a positive int, got {v!r}") from None
     workers = int(workers) if workers is not None else cores
     threads = int(threads) if threads is not None else max(1, cores // workers)
     if kind == "serial":

@@ -387,8 +387,7 @@ class CoherentShadowMap:
         """Index of the segment holding (map, texel), by the kernels' search (csm_find)."""
         from .device import segment_index
 
-        m, r, c, shape = query_indices(self, map_index, rows, cols)
-        return segment_index(self, m.reshape(shape), r.reshape(shape), c.reshape(shape))
+        return segment_index(self, map_index, rows, cols)
 
     def depth_for(self, map_index, rows, cols) -> np.ndarray:
         """Stored depth of texels ``(rows, cols)`` of map ``map_index``.

@@ -11,7 +11,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl.tables import CSM_TYPE
-from .core import DEPTH_Q, SEARCH_BLOCK, lookup_box
+from .core import DEPTH_Q, SEARCH_BLOCK, lookup_box, query_indices
 
 __all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas"]
 
@@ -99,14 +99,8 @@ def device_buffers(csm):
 
 def segment_index(csm, map_index, rows, cols) -> np.ndarray:
     """:meth:`CoherentShadowMap.segment_index`: the kernels' search (``csm_find``) on the device."""
-    m, r, c = np.broadcast_arrays(np.asarray(map_index), np.asarray(rows), np.asarray(cols))
-    shape = m.shape
-    m, r, c = (np.asarray(a, dtype=np.int64).reshape(-1) for a in (m, r, c))
-    R, D = csm.resolution, csm.maps
-    if len(m) and (m.min() < 0 or m.max() >= D):
-        raise ValueError(f"map index outside 0..{D - 1}")
-    if len(r) and (min(r.min(), c.min()) < 0 or max(r.max(), c.max()) >= R):
-        raise ValueError(f"row/column outside 0..{R - 1}")
+    m, r, c, shape = query_indices(csm, map_index, rows, cols)     # int64 (N,), within the maps and texels
+    R = csm.resolution
     out = np.empty(len(m), np.uint32)
     if len(m):
         k = _cl.kernel("csm_query.cl", "csm_lookup", csm.defines)

@@ -6,6 +6,8 @@ import sys
 
 import numpy as np
 
+from .._validate import check_int
+
 __all__ = ["radiance_array", "unit_direction", "unit_rows", "positive", "in_range", "MAX_RADIANCE", "MAX_SH",
            "sh_coefficients", "bounded_sh", "check_seed", "light_tuple", "rgb_channels"]
 
@@ -64,9 +66,10 @@ def sh_coefficients(x, name: str, what: str) -> np.ndarray:
 
 def check_seed(seed) -> int:
     """A random seed: an int >= 0 (NumPy's generators refuse negative ones with no name)."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected an int >= 0 (got {seed!r})")
-    return int(seed)
+    try:
+        return check_int(seed, "seed", 0)
+    except (TypeError, ValueError):     # one error type for every bad seed, as the constructor documents
+        raise ValueError(f"seed: expected an int >= 0 (got {seed!r})") from None
 
 
 def light_tuple(lights) -> tuple:

@@ -61,9 +61,29 @@ def _backend(where, lookup, backend, filtered, stacklevel=4):
     return backend
 
 
-@dataclass
+#: The fields of an :class:`Instance` its scene's kept tables are derived from (see ``Instance.__setattr__``).
+_HELD_FIELDS = frozenset({"transform", "casts", "csm", "mesh"})
+_PLACED_ONLY = ("Scene.instances is read-only: Scene.add places an object and Scene.set_transform moves one "
+                "(the queries keep tables derived from the list; an edit would leave them answering for the old one)")
+
+
+class _Placed(list):
+    """:attr:`Scene.instances`: a list that only :meth:`Scene.add` extends (every mutator refuses)."""
+
+    def _refuse(self, *args, **kwargs):
+        raise TypeError(_PLACED_ONLY)
+
+    append = extend = insert = pop = remove = clear = sort = reverse = _refuse
+    __setitem__ = __delitem__ = __iadd__ = __imul__ = _refuse
+
+    def __reduce__(self):               # pickle and copy through the constructor, not append/extend
+        return _Placed, (list(self),)
+
+
+@dataclass(eq=False)
 class Instance:
-    """One placed object of a :class:`Scene`."""
+    """One placed object of a :class:`Scene` (compared by identity; its fields are read-only once placed:
+    move it with :meth:`Scene.set_transform`)."""
 
     transform: np.ndarray
     casts: bool
@@ -80,6 +100,12 @@ class Instance:
     @property
     def rotation(self) -> np.ndarray:
         return self.transform[:3, :3] / self.scale
+
+    def __setattr__(self, name, value):
+        if name in _HELD_FIELDS and name in self.__dict__:
+            raise AttributeError(f"Instance.{name} is read-only: the scene's queries keep tables derived from it "
+                                 "(move an instance with Scene.set_transform; add another for a new object)")
+        object.__setattr__(self, name, value)
 
     def object_sphere(self):
         if self.csm is not None:
@@ -132,9 +158,12 @@ class Scene:
         self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128), resolution=resolution,
                                 depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
         self.progress = progress
-        self.instances: list[Instance] = []
+        self._placed = _Placed()
         self._built: dict = {}           # id(mesh) -> CSM built by add()
         self._version = 0                # advanced by add() and set_transform() (scene_arrays)
+
+    instances = property(lambda self: self._placed, doc="The placed :class:`Instance` objects, by instance id "
+                         "(a read-only list: :meth:`add` places, :meth:`set_transform` moves).")
 
     # ------------------------------------------------------------------
     # building the scene
@@ -170,7 +199,7 @@ class Scene:
             that does not match the CSM.
         """
         T = _held_transform(np.eye(4) if transform is None else transform)
-        self.instances.append(_new_instance(self, obj, T, casts, mesh, max_error, lookup))
+        list.append(self._placed, _new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
 
@@ -182,7 +211,7 @@ class Scene:
 
     def set_transform(self, instance_id: int, transform) -> None:
         """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt. (Its held copy is read-only.)"""
-        self._instance(instance_id).transform = _held_transform(transform)
+        object.__setattr__(self._instance(instance_id), "transform", _held_transform(transform))
         self._version += 1
 
     def transform(self, instance_id: int) -> np.ndarray:

@@ -549,7 +549,7 @@ def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices,
             def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r):
                 return backend._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
 
-            weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer)
+            weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer, sel)
             res = ao_from_samples(dirs.astype(np.float64), weights, n[sel], True)
             res_ao[s:s + step], res_bent[s:s + step] = res
         return res_ao, res_bent

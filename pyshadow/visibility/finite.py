@@ -304,7 +304,7 @@ def shell_clear(scene, points, tmax) -> np.ndarray:
     return ok
 
 
-def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.ndarray:
+def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=None) -> np.ndarray:
     """Finite AO rays by a CSM backend: ``answer(rows, lengths)`` -> (K,) bool for the rows it is given.
 
     Rays that do not straddle (:func:`straddling`) are answered at their
@@ -325,6 +325,9 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.nd
         Validated lengths.
     straddle : {'error', 'embree', 'infinite'}
     answer : callable
+    name : callable, optional
+        ``name(i)``: how the ``'error'`` message names ray ``i`` to the
+        caller (default ``"AO ray i"``).
 
     Returns
     -------
@@ -352,7 +355,7 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.nd
         c, r = scene.instances[j].world_sphere()
         why = ("pass straddle='embree' (ray tracing) or 'infinite' (the unbounded answer)"
                if straddle == "error" else "straddle='embree' needs every caster's mesh (Scene.add(csm, mesh=...))")
-        raise ValueError(f"AO ray {i} (and {len(amb) - 1} more) of length {float(tmax[i]):.6g} ends inside the "
+        raise ValueError(f"{name(i) if name else f'AO ray {i}'} (and {len(amb) - 1} more) of length {float(tmax[i]):.6g} ends inside the "
                          f"bounding sphere of caster instance {j} (centre {np.round(np.asarray(c), 6).tolist()}, "
                          f"radius {float(r):.6g}) and is occluded unbounded: a CSM cannot tell whether the "
                          f"occluder lies before or beyond the end; {why}")
@@ -362,7 +365,7 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer) -> np.nd
     return vis
 
 
-def rays_ao(scene, points, normals, directions, nodes, straddle, answer):
+def rays_ao(scene, points, normals, directions, nodes, straddle, answer, point_ids=None):
     """Per-sample weights rho_Q of distance AO from finite visibility queries.
 
     Parameters
@@ -377,6 +380,9 @@ def rays_ao(scene, points, normals, directions, nodes, straddle, answer):
     answer : callable
         ``answer(rows, lengths)``: the backend's finite visibility of the
         flattened rays ``rows`` (point-major, ``i * S + s``), (K,) bool.
+    point_ids : ndarray, shape (N,), optional
+        The caller's index of each point, for the ``'error'`` message
+        (default ``0 .. N-1``).
 
     Returns
     -------
@@ -389,9 +395,13 @@ def rays_ao(scene, points, normals, directions, nodes, straddle, answer):
     W = unit_directions(directions.reshape(-1, 3))
     weight = np.zeros(N * S)
     vis = prev = None
+
+    def name(i):
+        return f"AO sample {i % S} of point {i // S if point_ids is None else int(point_ids[i // S])}"
+
     for j in range(Q):
         t = np.repeat(nodes[:, j], S)
         if vis is None or not np.array_equal(t, prev):      # equal lengths: the same answers
-            vis, prev = answer_finite_ao(scene, P, W, t, straddle, answer), t
+            vis, prev = answer_finite_ao(scene, P, W, t, straddle, answer, name), t
         weight += vis
     return (weight / Q).reshape(N, S)

@@ -252,7 +252,8 @@ def read_image(path) -> np.ndarray:
         files (8-bit PNG/JPEG, 16-bit PNG) are taken as sRGB-encoded:
         value ``v`` of ``2^b - 1`` decodes to
         ``srgb_to_linear(v / (2^b - 1))``, linear in [0, 1]; an alpha channel
-        is only scaled to [0, 1] (straight alpha, as stored).
+        is only scaled to [0, 1] (straight alpha, as stored). Signed integer
+        files are refused (ValueError).
 
     Raises
     ------
@@ -293,6 +294,10 @@ def read_image(path) -> np.ndarray:
         elif fmt == oiio.TypeUInt8 or fmt == oiio.TypeUInt16:
             native = inp.read_image(fmt)
             top = 255.0 if fmt == oiio.TypeUInt8 else 65535.0
+        elif fmt.basetype in (oiio.INT8, oiio.INT16, oiio.INT32, oiio.INT64):
+            raise ValueError(f"cannot read image {path}: its channels are signed integers ({fmt}), which have no "
+                             "colour encoding (OpenImageIO maps them to [-1, 1]; the negative half would be lost); "
+                             "store them as float (EXR, float TIFF) or as unsigned integers")
         elif fmt.basetype in (oiio.HALF, oiio.FLOAT, oiio.DOUBLE):
             native, top = inp.read_image(oiio.TypeFloat), None
         else:  # other integer types: OpenImageIO maps them to [0, 1]

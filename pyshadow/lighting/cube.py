@@ -36,6 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import check_int, check_values, rows3
+
 __all__ = ["FACE_NAMES", "FACE_FRAMES", "CROSS_CELLS", "face_directions", "face_solid_angles",
            "cube_lookup", "faces_from_cross", "cross_from_faces", "cube_basis_integrals"]
 
@@ -65,8 +67,8 @@ def _coords(n: int) -> np.ndarray:
 
 
 def face_directions(n: int) -> np.ndarray:
-    """Unit direction of every texel centre, shape (6, n, n, 3), float64."""
-    s = _coords(n)
+    """Unit direction of every texel centre, shape (6, n, n, 3), float64 (``n`` an int >= 1)."""
+    s = _coords(check_int(n, "n", 1))
     S, T = np.meshgrid(s, s)                      # S along columns, T along rows
     c, r, dn = FACE_FRAMES[:, 0], FACE_FRAMES[:, 1], FACE_FRAMES[:, 2]
     d = (c[:, None, None, :] + S[None, :, :, None] * r[:, None, None, :]
@@ -79,8 +81,9 @@ def face_solid_angles(n: int) -> np.ndarray:
 
     A rectangle [s0, s1] x [t0, t1] on the plane at distance 1 subtends
     ``F(s1, t1) - F(s0, t1) - F(s1, t0) + F(s0, t0)`` with
-    ``F(s, t) = atan(s t / sqrt(1 + s^2 + t^2))``.
+    ``F(s, t) = atan(s t / sqrt(1 + s^2 + t^2))``. ``n``: an int >= 1.
     """
+    n = check_int(n, "n", 1)
     e = np.linspace(-1.0, 1.0, n + 1)
     S, T = np.meshgrid(e, e)
     F = np.arctan2(S * T, np.sqrt(1.0 + S * S + T * T))
@@ -94,15 +97,25 @@ def cube_lookup(directions, n: int):
     Parameters
     ----------
     directions : ndarray, shape (M, 3), float
-        Non-zero directions, y up (need not be unit).
+        Finite, non-zero directions, y up (need not be unit).
     n : int
-        Face size in texels.
+        Face size in texels, >= 1.
 
     Returns
     -------
     face, row, col : ndarray, shape (M,), int64
+
+    Raises
+    ------
+    ValueError
+        ``directions`` not of shape (M, 3), or holding rows that are not
+        finite or zero (no face); ``n`` below 1.
+    TypeError
+        ``directions`` not numeric; ``n`` not an int.
     """
-    d = np.asarray(directions, dtype=np.float64)
+    n = check_int(n, "n", 1)
+    d = rows3(directions, "directions")
+    check_values(d, "directions", nonzero=True)
     a = np.abs(d)
     axis = np.argmax(a, axis=1)
     neg = d[np.arange(len(d)), axis] < 0

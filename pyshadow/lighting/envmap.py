@@ -151,7 +151,7 @@ class EnvironmentMap:
     """
 
     def __init__(self, radiance, layout: str = "auto", *, name: str = "radiance"):
-        if layout not in LAYOUTS:
+        if not isinstance(layout, str) or layout not in LAYOUTS:    # (an array's `in` is no answer)
             raise ValueError(f"layout: expected one of {', '.join(LAYOUTS)} (got {layout!r})")
         try:
             a = np.asarray(radiance)
@@ -290,7 +290,7 @@ class EnvironmentMap:
             ``L[k, c] = integral L_c(d) Y_k(d) dOmega``, basis and index k as
             in :mod:`pyshadow.lighting.sh`.
         """
-        if order != 3:
+        if np.ndim(order) != 0 or order != 3:          # (an array's != is no answer)
             raise ValueError(f"order: only order 3 (9 coefficients) is implemented (got {order!r})")
         if self.layout == "latlong":
             T, P = latlong_basis_integrals(*self.grid_shape)
@@ -323,15 +323,16 @@ class EnvironmentMap:
     def to_image(self, layout: str | None = None) -> np.ndarray:
         """The map as an (H, W, 3) float64 image: lat-long as is, a cube as a cross.
 
-        ``layout`` is ``"horizontal-cross"`` (default for cubes) or
-        ``"vertical-cross"``; unused cells are 0.
+        ``layout`` is ``"horizontal-cross"`` (default for cubes: None) or
+        ``"vertical-cross"``; unused cells are 0. Any other value, ``""``
+        included, raises ValueError.
         """
         if self.layout == "latlong":
-            if layout not in (None, "latlong"):
+            if layout is not None and (not isinstance(layout, str) or layout != "latlong"):
                 raise ValueError(f"layout: a lat-long map is written as 'latlong' (got {layout!r})")
             return self.radiance.copy()
-        layout = layout or "horizontal-cross"
-        if layout not in tuple(cube.CROSS_CELLS):
+        layout = "horizontal-cross" if layout is None else layout
+        if not isinstance(layout, str) or layout not in tuple(cube.CROSS_CELLS):
             raise ValueError(f"layout: a cube is written as 'horizontal-cross' or 'vertical-cross' "
                              f"(got {layout!r})")
         return cube.cross_from_faces(self.radiance, layout)

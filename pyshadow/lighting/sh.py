@@ -42,6 +42,7 @@ import math
 
 import numpy as np
 
+from .._validate import check_int
 from ._checks import _floats, bounded_sh, unit_rows
 
 __all__ = ["SH_COUNT", "BAND_OF", "KERNEL_BANDS", "RH_CONSTANTS", "sh_basis", "irradiance_sh",
@@ -150,6 +151,12 @@ def latlong_basis_integrals(height: int, width: int):
     texel of row i, column j is ``T[i, k] * P[j, k]``, integrated in closed form
     (``dOmega = d(cos theta) d(phi)``).
 
+    Parameters
+    ----------
+    height, width : int
+        Rows and columns of the map, integers >= 1 (Python or NumPy ints,
+        not bools; TypeError or ValueError naming the argument otherwise).
+
     Returns
     -------
     T : ndarray, shape (height, 9), float64
@@ -158,6 +165,7 @@ def latlong_basis_integrals(height: int, width: int):
         The phi factor per column (column j covers phi in
         [2 pi j / W, 2 pi (j + 1) / W)).
     """
+    height, width = check_int(height, "height", 1), check_int(width, "width", 1)
     t = np.linspace(0.0, math.pi, height + 1)
     u = np.cos(t)
     u[0], u[-1] = 1.0, -1.0

@@ -61,7 +61,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import _floats, check_seed, in_range, light_tuple, sh_coefficients, unit_direction
+from ._checks import _floats, check_seed, flag, in_range, light_tuple, sh_coefficients, unit_direction
 from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .local import lights_radiance
@@ -242,10 +242,10 @@ class Lighting:
         """Lighting from an environment map: with ``extract``, its sun becomes a directional light
         (:func:`pyshadow.lighting.extract_sun`, told the disc's angular radius ``sun_radius`` in rad,
         default the real sun's: a much larger disc is otherwise found only in part) and the rest the SH
-        sky; else all of it is SH sky."""
+        sky; else all of it is SH sky. ``extract`` is True or False (TypeError otherwise: "no" was true)."""
         if not isinstance(env, EnvironmentMap):
             raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
-        if not extract:
+        if not flag(extract, "extract"):
             return cls(env, **kwargs)
         from .sun import extract_sun
 

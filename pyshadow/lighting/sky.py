@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ._checks import _floats, in_range, positive, unit_direction
+from ._checks import _floats, flag, in_range, positive, unit_direction
 from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles
 
 __all__ = ["SUN_ANGULAR_RADIUS", "LUMINANCE_WEIGHTS", "sun_position", "clear_sky", "overcast_sky",
@@ -228,7 +228,8 @@ def clear_sky(sun_direction, turbidity: float = 3.0, *, height: int = 128, sun: 
         Rows of the lat-long map (even); the width is 2 * height.
     sun : bool
         Draw the sun's disc (radius :data:`SUN_ANGULAR_RADIUS`, irradiance
-        :func:`sun_irradiance`) into the map.
+        :func:`sun_irradiance`) into the map. True or False (Python or NumPy
+        bools); anything else raises TypeError.
     ground_albedo : float
         Albedo in [0, 1] of the grey ground below the horizon.
 
@@ -251,6 +252,7 @@ def clear_sky(sun_direction, turbidity: float = 3.0, *, height: int = 128, sun: 
     s = _above_horizon(sun_direction)
     T = in_range(turbidity, "turbidity", *TURBIDITY_RANGE)
     albedo = in_range(ground_albedo, "ground_albedo", 0.0, 1.0)
+    sun = flag(sun, "sun")
     h = _height(height)
     dirs = latlong_directions(h, 2 * h)
     omega = latlong_solid_angles(h, 2 * h)

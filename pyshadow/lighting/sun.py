@@ -107,12 +107,20 @@ def _background(dirs, lum_or_rgb, omega, ring, centre):
 
 
 def _region(dirs, T, lum, omega, c, p, rad, rmax, thr):
-    """Grow the cone around ``c``; return its texels, their background and their excess."""
+    """Grow the cone around ``c``; return its texels, their background and their excess.
+
+    The ring the background is fitted to stays within pi / 2 of ``c``, where the tangent coordinates
+    (u, v) tell directions apart (beyond, a direction and its mirror image in the tangent plane share
+    them: the ground below a horizon would be fitted as if it were sky). Where that leaves fewer ring
+    texels than the quadratic's 6 coefficients (a map too coarse to tell a sun from its sky), no texels.
+    """
     ang = np.arccos(np.clip(dirs @ c, -1.0, 1.0))
     while True:
-        ring = (ang > rad + p) & (ang <= rad + 3.0 * p)
+        ring = (ang > rad + p) & (ang <= min(rad + 3.0 * p, 0.5 * math.pi))
         if ring.sum() < 24:
-            ring = (ang > rad + p) & (ang <= rad + 8.0 * p)
+            ring = (ang > rad + p) & (ang <= min(rad + 8.0 * p, 0.5 * math.pi))
+        if ring.sum() < 6:                  # no background to tell a sun from: all of it stays sky
+            return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
         fit = _background(dirs, np.column_stack([lum, T]), omega, ring, c)
         lum_fit = fit(dirs[ring])[:, 0]
         if not (lum[ring] > thr * np.maximum(lum_fit, 0.0)).any() or rad >= rmax:
@@ -162,7 +170,8 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     2. A quadratic background ``a + b u + c v + d u^2 + e u v + f v^2`` in
        tangent coordinates around the cone's axis is fitted (Omega-weighted
        least squares, luminance and each channel) to the ring one to three
-       pitches outside the cone; the cone grows by a pitch while that ring
+       pitches outside the cone (up to eight where that holds fewer than 24
+       texels), within pi / 2 of the axis; the cone grows by a pitch while that ring
        holds a texel brighter than ``threshold`` times the fit. The region is
        the cone plus the one-pitch buffer between it and the ring (where the
        partly covered edge texels of a disc lie).
@@ -175,7 +184,10 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
        (a uniform disc has ``<alpha^2> = r^2 / 2``; ``pitch^2 / 3`` removes
        the texels' own spread) when that exceeds the pitch, else ``radius``.
     A sky with no sun (overcast) yields a sun of nearly zero irradiance; a
-    black map yields none (no texels, zero irradiance).
+    black map yields none (no texels, zero irradiance), and so does a map too
+    coarse for step 2 (fewer than 6 ring texels within pi / 2 of the axis: a
+    1 x 2 lat-long map, a cube of 2 x 2 faces, some 4 x 8 maps), which stays
+    all sky.
     """
     if not isinstance(env, EnvironmentMap):
         raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")

@@ -48,7 +48,8 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
         Unit geometric normals when ``normals`` are shading normals: the
         hemisphere rule of :mod:`pyshadow.shading_normals` (directions at or
         below the geometric plane are occluded) applies, through ``visible``
-        on every backend.
+        on every backend. Finite and non-zero, one row a point (as
+        :func:`pyshadow.shading_normals.ambient_occlusion` checks them).
 
     Returns
     -------
@@ -59,7 +60,7 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
         Y_0 c``, the others 0) gives ``E = pi c AO``.
     """
     from .. import visibility as vis
-    from .._validate import check_indices, rows3, unit_normals
+    from .._validate import check_indices, check_rows, check_values, rows3, unit_normals
     from ..sampling import Sampling, ao_from_samples
 
     if sampling is None:
@@ -69,6 +70,9 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
     p = rows3(points, "points")
     n = unit_normals(normals, len(p))
     idx = check_indices(indices, len(p))
+    if geometric_normals is not None:       # NaN or zero rows put no direction below the plane: no rule at all
+        geometric_normals = check_rows(geometric_normals, "geometric_normals", len(p))
+        check_values(geometric_normals, "geometric_normals", nonzero=True)
     b = vis.get_backend(backend)
     if hasattr(b, "sh_transfer") and geometric_normals is None:
         return b.sh_transfer(scene, p, n, sampling=sampling, bias=bias, indices=idx, surface_ids=surface_ids)
@@ -98,6 +102,8 @@ def sample_visibility(scene, points, normals, *, backend, sampling, indices, sur
     n = np.asarray(normals, dtype=np.float64)
     S = sampling.samples
     dirs = sample_directions(n, sampling=sampling, indices=indices)
+    if surface_ids is not None and np.shape(surface_ids) not in ((), (1,), (len(p),)):   # as the CSM backends say
+        raise ValueError(f"surface_ids must be one id or {len(p)} (one a query), got shape {np.shape(surface_ids)}")
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
     if geometric_normals is None:
         lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,

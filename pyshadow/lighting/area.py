@@ -39,7 +39,7 @@ import numpy as np
 
 from ._checks import _number, unit_direction
 from ._value import ArrayValue
-from .local import PointLight, SpotLight, _intensity, _position
+from .local import PointLight, SpotLight, _check_shading, _intensity, _position
 from .sun import _tangent_frame as _frame   # two unit vectors completing a unit normal
 
 __all__ = ["DiscLight", "RectLight", "AreaLight", "LIGHT_TYPES", "area_light_samples", "area_light_radiance"]
@@ -273,8 +273,8 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     normals : array_like, shape (N, 3)
         World surface normals (normalised here; zero or non-finite rows are an error).
     light : DiscLight or RectLight
-    albedo : array_like, shape (3,) or (N, 3)
-        Linear RGB albedo in [0, 1].
+    albedo : float or array_like, shape (3,) or (N, 3)
+        Linear RGB albedo in [0, 1] (a scalar: grey).
     backend : str, optional
         Visibility backend (:func:`pyshadow.visibility.backends`); ``"embree"``
         traces the identical rays: the ground truth.
@@ -283,11 +283,12 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     surface_ids, indices, seed, bias : optional
         As for :func:`pyshadow.visibility.visible` (``surface_ids``, ``bias``);
         the pattern index of each point (default ``arange(N)``) and the seed
-        that turn its pattern (:func:`area_light_samples`).
+        that turn its pattern (:func:`area_light_samples`) (an int >= 0, checked also where unused).
     straddle : {'error', 'embree'}, optional
         Rays ending inside a caster's bounding sphere: refused or answered by
         Embree (:mod:`pyshadow.visibility.finite`).
     geometric_normals : ndarray, shape (N, 3), optional
+        Finite, non-zero rows (any length).
         With ``normals`` shading normals: rays at or below the geometric
         plane are shadowed (:mod:`pyshadow.shading_normals`).
 
@@ -301,7 +302,7 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
         point: behind the light or the surface; nothing is traced there).
     """
     from .. import visibility as vis
-    from .._validate import check_indices, rows3, unit_normals
+    from .._validate import rows3, unit_normals
 
     if not isinstance(light, AreaLight):
         raise TypeError(f"light: expected a DiscLight or RectLight (got {type(light).__name__})")
@@ -310,12 +311,9 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     p = rows3(points, "points")
     n = len(p)
     nrm = unit_normals(normals, n)
-    alb = np.broadcast_to(np.asarray(albedo, np.float64), (n, 3))
-    if not np.isfinite(alb).all() or (alb < 0).any() or (alb > 1).any():
-        raise ValueError("albedo: must be finite and lie in [0, 1]")
-    idx = check_indices(indices, n)
+    alb, idx, seed = _check_shading(scene, albedo, indices, seed, surface_ids, geometric_normals, n)
     ids_all = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
-    gn = None if geometric_normals is None else np.asarray(geometric_normals, np.float64).reshape(n, 3)
+    gn = None if geometric_normals is None else np.asarray(geometric_normals, np.float64)
     h = _check_plane(light, p)
     k = int(samples)
     num, den = np.zeros(n), np.zeros(n)

@@ -48,13 +48,15 @@ __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance",
 
 def _position(x, name):
     v = _floats(x, name, "a finite 3-vector")
-    if v.shape != (3,) or not np.isfinite(v).all():
+    if v.shape != (3,) or not np.isfinite(v).all() or np.asarray(x).dtype == bool:     # True is no coordinate
         raise ValueError(f"{name}: expected a finite 3-vector (got {x!r})")
     return v.copy()
 
 
 def _intensity(x, name):
     v = _floats(x, name, "an RGB 3-vector or a scalar")
+    if np.asarray(x).dtype == bool:                 # True is no intensity
+        raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got {x!r})")
     if v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got shape {v.shape})")
     v = np.broadcast_to(v, (3,)).copy()
@@ -173,6 +175,44 @@ def light_directions(axis, half_angle, k: int, indices, seed: int = 0) -> np.nda
     return out / np.linalg.norm(out, axis=2, keepdims=True)
 
 
+def _sphere_cone(position, centres, radii):
+    """The cone from ``position`` holding spheres: ``(frame, half-angle)``, the frame (3, 3) float64 unit rows
+    ``e1, e2, axis`` (right-handed), the half-angle in rad; ``(None, pi)`` where ``position`` lies within a
+    sphere, there are none, or they lie around it (their unit directions' sum under half their count).
+
+    The axis is that sum's direction; the half-angle the largest angle of a centre from it (by ``atan2``:
+    exact for the tiny cones of far lights) plus the angle its sphere subtends, ``asin(r / d)``.
+    """
+    v = np.asarray(centres, np.float64) - position
+    dist = np.linalg.norm(v, axis=1)
+    a = (v / np.where(dist > 0, dist, 1.0)[:, None]).sum(axis=0)
+    if not (len(v) and (dist > radii).all() and np.linalg.norm(a) > 0.5 * len(v)):
+        return None, math.pi
+    a /= np.linalg.norm(a)
+    e1 = np.cross(np.eye(3)[int(np.argmin(np.abs(a)))], a)
+    e1 /= np.linalg.norm(e1)
+    half = np.arctan2(np.linalg.norm(np.cross(v, a), axis=1), v @ a) + np.arcsin(radii / dist)
+    return np.stack([e1, np.cross(a, e1), a]), float(half.max())
+
+
+def _check_shading(scene, albedo, indices, seed, surface_ids, geometric_normals, n):
+    """The shared arguments of a local light's radiance, checked by name: ``(albedo (n, 3), indices, seed)``.
+
+    ``albedo`` a scalar, RGB triple or (n, 3) values in [0, 1]; ``seed`` an
+    int >= 0 (also where one ray a point needs none); ``surface_ids`` one or
+    n instance ids of ``scene``; ``geometric_normals`` (n, 3) finite, non-zero.
+    """
+    from .._validate import check_indices, nonzero, rows3
+    from ._checks import check_seed
+    from .phong import _point_albedo
+
+    if surface_ids is not None:
+        scene.caster_slots(surface_ids, n)
+    if geometric_normals is not None:
+        nonzero(rows3(geometric_normals, "geometric_normals", n), "geometric_normals")
+    return _point_albedo(albedo, n), check_indices(indices, n), check_seed(seed)
+
+
 def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, backend="csm", samples: int = 1,
                          surface_ids=None, indices=None, seed: int = 0, bias=None, straddle: str = "error",
                          geometric_normals=None):
@@ -187,8 +227,8 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     normals : array_like, shape (N, 3)
         World unit surface normals (normalised here; zero rows are an error).
     light : PointLight or SpotLight
-    albedo : array_like, shape (3,) or (N, 3)
-        Linear RGB albedo in [0, 1].
+    albedo : float or array_like, shape (3,) or (N, 3)
+        Linear RGB albedo in [0, 1] (a scalar: grey).
     backend : str, optional
         Visibility backend (:func:`pyshadow.visibility.backends`); ``"embree"``
         is the ground truth on the identical rays.
@@ -197,11 +237,12 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     surface_ids, indices, seed, bias : optional
         As for :func:`pyshadow.visibility.visible` (``surface_ids``, ``bias``);
         the pattern index of each point (default ``arange(N)``) and the seed
-        that turn the sphere light's spiral.
+        that turn the sphere light's spiral (an int >= 0, checked also where unused).
     straddle : {'error', 'embree'}, optional
         Rays ending inside a caster's bounding sphere (a light inside one):
         refused, or answered by Embree (:mod:`pyshadow.visibility.finite`).
     geometric_normals : ndarray, shape (N, 3), optional
+        Finite, non-zero rows (any length).
         With ``normals`` shading normals: light directions at or below the
         geometric plane are shadowed (:mod:`pyshadow.shading_normals`).
 
@@ -215,7 +256,7 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
         traced there).
     """
     from .. import visibility as vis
-    from .._validate import check_indices, rows3, unit_normals
+    from .._validate import rows3, unit_normals
 
     if not isinstance(light, PointLight):
         raise TypeError(f"light: expected a PointLight or SpotLight (got {type(light).__name__})")
@@ -224,10 +265,7 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     p = rows3(points, "points")
     nrm = unit_normals(normals, len(p))
     n = len(p)
-    alb = np.broadcast_to(np.asarray(albedo, np.float64), (n, 3))
-    if not np.isfinite(alb).all() or (alb < 0).any() or (alb > 1).any():
-        raise ValueError("albedo: must be finite and lie in [0, 1]")
-    idx = check_indices(indices, n)
+    alb, idx, seed = _check_shading(scene, albedo, indices, seed, surface_ids, geometric_normals, n)
     to_light = light.position - p
     with np.errstate(over="ignore"):
         d = np.linalg.norm(to_light, axis=1)
@@ -284,10 +322,12 @@ def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", 
     sphere and area lights take ``lighting.sun_samples`` rays a point, turned
     by ``lighting.seed``; zeros without local lights.
     """
+    from .._validate import check_rows
     from .area import AreaLight, area_light_radiance
+    from .shade import _check_lighting
 
-    out = np.zeros((len(points), 3))
-    for light in lighting.lights:
+    out = np.zeros((len(check_rows(points, "points")), 3))
+    for light in _check_lighting(lighting).lights:
         fn = area_light_radiance if isinstance(light, AreaLight) else point_light_radiance
         out += fn(scene, points, normals, light, albedo, backend=backend, samples=lighting.sun_samples,
                   surface_ids=surface_ids, indices=indices, seed=lighting.seed, bias=bias,

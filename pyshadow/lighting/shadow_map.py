@@ -15,6 +15,9 @@ light:
 * rays that end at one common point (``points + directions * max_distance``
   equal to 1e-6 of the rays' length plus the scene's size: a point or spot
   light): a cube map of six 90 degree faces, R x R texels each, at that point.
+  A far light's cube (casters' cone under ``FIT_TEXELS`` texels) turns to the
+  cone's axis, widened by the largest power of two ``k`` that keeps it in a face:
+  texels, ε's texel term ``k`` times finer; ε + ``FIT_ULPS`` float32 ulps of depth.
 
 Any other ray set is refused with a ``ValueError``. The map holds every
 caster instance (each needs its mesh) placed by its current transform; it is
@@ -72,6 +75,7 @@ from .. import _cl
 from .._validate import FLOAT32_MAX, check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
 from ..scene_arrays import scene_arrays
+from ._checks import _floats
 
 __all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
            "BIAS_TEXELS", "NO_NORMAL_SLOPE", "TAN_MAX", "PCF_SIZES", "MIN_RESOLUTION", "MAX_RESOLUTION"]
@@ -81,6 +85,7 @@ PCF_SIZES = (1, 3, 5, 7)
 BIAS_TEXELS = 1.0
 NO_NORMAL_SLOPE = 2.0
 TAN_MAX = 10.0
+FIT_TEXELS, FIT_ULPS = 2.0, 4.0     # a fitted cube: below this casters' cone (texels across); ε's float32 ulps
 LIGHT_TOL = 1e-6            # rays of one light: directions / endpoints equal to this (relative)
 CACHE_MAPS = 4              # rendered maps kept per backend object
 
@@ -103,7 +108,7 @@ def _check_bias(bias, name="bias"):
     if bias is None:
         return None
     try:
-        b = float(bias)
+        b = float(bias) if not isinstance(bias, (bool, np.bool_)) else math.nan      # True is no distance
     except (TypeError, ValueError):
         raise ValueError(f"{name} must be a finite number >= 0 (world units) or None, got {bias!r}") from None
     if not (np.isfinite(b) and 0 <= b <= FLOAT32_MAX):
@@ -174,9 +179,7 @@ def light_of_rays(points, directions, max_distance=None, scale=1.0):
 def _light_frame(direction):
     """Orthonormal (u, v, d) with d = -direction (the light's travel direction)."""
     d = -np.asarray(direction, np.float64)
-    a = np.zeros(3)
-    a[int(np.argmin(np.abs(d)))] = 1.0
-    u = np.cross(a, d)
+    u = np.cross(np.eye(3)[int(np.argmin(np.abs(d)))], d)
     u /= np.linalg.norm(u)
     return u, np.cross(d, u), d
 
@@ -229,15 +232,17 @@ class ShadowMap:
         The kernel's frame (``kernels/shadow_map.cl``).
     texel : float or None
         World size of a texel (the larger side) of an orthographic map.
+    basis, zoom, slack : ndarray (3, 3) or None, float, float
+        A fitted cube's map of light-relative offsets, its ``k`` and ε's float32 term (None, 1, 0 if none).
     nbytes : int
         Bytes of the depth buffer (float32 per texel; 0 without casters).
     """
 
-    def __init__(self, kind, light, resolution, origin, frame, buffer, texel=None):
+    def __init__(self, kind, light, resolution, origin, frame, buffer, texel=None, fit=(None, 1.0, 0.0)):
         self.kind, self.light, self.resolution = kind, light, resolution
         self.origin, self.frame, self.buffer, self.texel = origin, frame, buffer, texel
-        faces = 6 if kind == "point" else 1
-        self.nbytes = 0 if buffer is None else 4 * faces * resolution ** 2
+        self.basis, self.zoom, self.slack = fit
+        self.nbytes = 0 if buffer is None else 4 * (6 if kind == "point" else 1) * resolution ** 2
 
     def depth(self) -> np.ndarray:
         """A host copy of the depths, float32 (R, R) or (6, R, R) (+inf where no caster)."""
@@ -287,9 +292,7 @@ class ShadowMapVisibility:
     def __repr__(self) -> str:
         return f"<ShadowMapVisibility {self.resolution}^2 pcf={self.pcf}>"
 
-    # ------------------------------------------------------------------
-    # the protocol
-    # ------------------------------------------------------------------
+    # -- the protocol --------------------------------------------------
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
                 max_distance=None, straddle="error") -> np.ndarray:
         """Does each ray reach its light? (N,) bool: more than half of the PCF taps lit.
@@ -376,9 +379,7 @@ class ShadowMapVisibility:
         raise ValueError("a shadow map answers the rays of one light (one direction, or one end point); it "
                          "cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree'")
 
-    # ------------------------------------------------------------------
-    # maps
-    # ------------------------------------------------------------------
+    # -- maps ----------------------------------------------------------
     def shadow_map(self, scene, *, direction=None, position=None) -> ShadowMap:
         """The shadow map of a directional light or a point light, rendered unless kept.
 
@@ -398,11 +399,11 @@ class ShadowMapVisibility:
         """
         if (direction is None) == (position is None):
             raise ValueError("give exactly one of direction= (a directional light) or position= (a point light)")
-        kind = "directional" if position is None else "point"
-        light = np.asarray(direction if position is None else position, np.float64).reshape(-1)
+        kind, what = ("directional", "direction") if position is None else ("point", "position")
+        light = np.array(_floats(direction if position is None else position, f"the light's {what}", "3 numbers"))
+        light = light.reshape(-1)       # a copy: the kept map's light does not follow the caller's array
         if light.shape != (3,) or not np.isfinite(light).all():
-            raise ValueError(f"the light's {'direction' if position is None else 'position'} must be 3 finite "
-                             f"numbers, got {light.tolist()}")
+            raise ValueError(f"the light's {what} must be 3 finite numbers, got {light.tolist()}")
         if kind == "directional":
             norm = float(np.linalg.norm(light))
             if not norm > 0:
@@ -472,21 +473,31 @@ class ShadowMapVisibility:
         return ShadowMap("directional", direction, R, origin, frame, buf, texel)
 
     def _render_point(self, scene, casters, position):
-        """The cube map at ``position``: six 90 degree faces of the casters' depths (along each face's axis)."""
+        """The cube map at ``position``: six 90 degree faces of the casters' depths (along each face's axis);
+        fitted to a narrow cone of casters (module docstring; :class:`ShadowMap`'s ``basis, zoom, slack``)."""
         from ..gbuffer import gbuffer_triangles
+        from .local import _sphere_cone
 
-        R = self.resolution
-        cams = _cube_cameras(position, R)
+        R, arr, basis, k, slack = self.resolution, scene_arrays(scene), None, 1.0, 0.0
+        c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
+        cone, half = _sphere_cone(position, c, r)
+        if half < 0.5 and R * math.tan(half) < FIT_TEXELS:     # a far light: all its casters in a few texels
+            k = 2.0 ** math.floor(-math.log2(math.tan(half)))
+            basis, slack = cone * [[k], [k], [1.0]], FIT_ULPS * 2.0 ** -23 * float(((c - position) @ cone[2] + r).max())
+        cams = _cube_cameras(position if basis is None else np.zeros(3), R)
         frame = np.concatenate([cam.rotation.reshape(9) for cam in cams]).astype(np.float32)
         if not len(casters):
             return ShadowMap("point", position, R, position, frame, None)
         buf = self._new_depth(6)
         items = [(scene.instances[i].mesh, scene.instances[i].transform) for i in casters]
+        if basis is not None:           # the casters placed in the fitted cube's coordinates
+            items = [(mesh, np.block([[basis @ T[:3, :3], (basis @ (T[:3, 3] - position))[:, None]],
+                                      [np.zeros((1, 3)), np.ones((1, 1))]])) for mesh, T in items]
         eye = np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
         for f, cam in enumerate(cams):
             tris = gbuffer_triangles(items, cam)[0]
             self._raster(buf, _cl.to_device(tris.reshape(-1, 9), np.float32), len(tris), eye, 1, f * R * R)
-        return ShadowMap("point", position, R, position, frame, buf)
+        return ShadowMap("point", position, R, position, frame, buf, None, (basis, k, slack))
 
     def _lookup(self, sm, p, m, bias):
         """Lit fraction of the PCF taps of each point, (N,) float32 (validated float64 rows)."""
@@ -495,10 +506,13 @@ class ShadowMapVisibility:
             return np.ones(n, np.float32)
         half = self.pcf // 2
         texels = self.bias_texels + (0.0 if m is not None else NO_NORMAL_SLOPE * (half + math.sqrt(0.5)))
+        p, texels = p - sm.origin, texels / sm.zoom
+        if sm.basis is not None:        # a fitted cube: its coordinates, normals by the inverse transpose
+            p, m, bias = p @ sm.basis.T, None if m is None else m @ np.linalg.inv(sm.basis), bias + sm.slack
         out = np.empty(n, np.float32)
         q = _cl.queue()
-        k = _cl.kernel("shadow_map.cl", "sm_lookup", {"TAN_MAX": TAN_MAX})
-        pts = _cl.to_device(p - sm.origin, np.float32)
+        k = _cl.kernel("shadow_map.cl", "sm_lookup", {"TAN_MAX": TAN_MAX / sm.zoom})
+        pts = _cl.to_device(p, np.float32)
         nrm = _cl.to_device(m if m is not None else np.zeros((1, 3)), np.float32)
         res = _cl.empty(4 * n)
         k(q, (n,), None, sm.buffer, np.int32(sm.resolution), np.int32(sm.kind == "point"),
@@ -508,9 +522,7 @@ class ShadowMapVisibility:
         return out
 
 
-# ---------------------------------------------------------------------------
-# NumPy references of the orthographic map (float64; small inputs, for the tests)
-# ---------------------------------------------------------------------------
+# -- NumPy references of the orthographic map (float64; small inputs, for the tests) ----------------------
 def render_reference(scene, direction, resolution: int) -> np.ndarray:
     """The orthographic depth map of ``sm_raster`` in NumPy: (R, R) float64 (+inf where no caster).
 

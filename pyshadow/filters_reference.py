@@ -44,11 +44,18 @@ def _shifted(a: np.ndarray, dy: int, dx: int, outside) -> np.ndarray:
 
 
 def _weights(dist2, zp, zq, np_, nq, ss, sz, sn):
-    """Tap weights (float64) of the module docstring; 0 where zq is background."""
-    with np.errstate(invalid="ignore", over="ignore"):
+    """Tap weights (float64) of the module docstring; 0 where zq is background.
+
+    ``ss ** 2`` in float64 (a Python float's raised OverflowError beyond
+    ``ss = 1.3e154``, and its 0 below ``1e-162`` ZeroDivisionError): a tap
+    at distance 0 has spatial term 0 at every sigma, any other one inf
+    where ``ss ** 2`` underflows.
+    """
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         rel = np.abs(zq - zp) / zp
         m = np.maximum(0.0, 1.0 - np.sum(np_ * nq, axis=-1))
-        w = np.exp(-0.5 * (dist2 / ss**2 + (rel / sz) ** 2 + (m / sn) ** 2))
+        d = np.where(dist2 > 0, dist2 / np.float64(ss) ** 2, 0.0)
+        w = np.exp(-0.5 * (d + (rel / sz) ** 2 + (m / sn) ** 2))
     return np.where(np.isfinite(zq), w, 0.0)
 
 

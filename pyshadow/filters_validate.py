@@ -125,7 +125,7 @@ def _check_values(name: str, img: np.ndarray, surf: np.ndarray):
 
 
 def _check_ao(ao, depth: np.ndarray) -> np.ndarray:
-    ao = _float_array("ao", ao, 2)
+    ao = _float_array("ao", ao, 2, in_float32=True)     # else 1e300 was refused as "NaN/inf"
     if ao.shape != depth.shape:
         raise ValueError(f"ao and depth must have the same shape "
                          f"(expected {depth.shape} vs got {ao.shape})")
@@ -154,8 +154,8 @@ def _bilateral_params(radius, sigma_spatial, sigma_depth, sigma_normal):
     ss = _positive("sigma_spatial", sigma_spatial)
     sz = _positive("sigma_depth", sigma_depth)
     sn = _positive("sigma_normal", sigma_normal)
-    if radius is None:
-        radius = min(MAX_RADIUS, math.ceil(2.0 * ss))
+    if radius is None:                  # (ss capped: 2 ss overflows to inf, whose ceil raised OverflowError)
+        radius = min(MAX_RADIUS, math.ceil(2.0 * min(ss, MAX_RADIUS)))
     radius = _int_in("radius", radius, 0, MAX_RADIUS)
     return radius, ss, sz, sn
 
@@ -187,7 +187,7 @@ def low_res_shape(shape, scale: int) -> tuple[int, int]:
 
 def _upsample_params(ao_low, depth, scale, radius, sigma_spatial, sigma_depth, sigma_normal,
                      fill):
-    ao_low = _float_array("ao_low", ao_low, 2)
+    ao_low = _float_array("ao_low", ao_low, 2, in_float32=True)
     H, W = depth.shape
     if scale is None:
         fits = [s for s in UPSAMPLE_SCALES if low_res_shape((H, W), s) == ao_low.shape]

@@ -68,6 +68,8 @@ _CORNERS = weakref.WeakKeyDictionary()
 def check_crease_angle(angle) -> float:
     """``angle`` as a float in [0, pi/2) radians, or a ValueError naming it."""
     try:
+        if isinstance(angle, (str, bytes)):     # float("0.5") read a string as radians
+            raise TypeError
         a = float(angle)
     except (TypeError, ValueError):
         raise ValueError(f"crease_angle: expected a number of radians (got {angle!r})") from None
@@ -75,6 +77,18 @@ def check_crease_angle(angle) -> float:
         raise ValueError(f"crease_angle: expected radians in [0, pi/2) (got {angle!r}); at pi/2 or more a "
                          f"shading normal could turn away from its face")
     return a
+
+
+def _vertices(mesh) -> np.ndarray:
+    """The mesh's vertices as float64, scaled by a power of two (exactly: no direction or angle changes)
+    to a largest |coordinate| in [0.5, 1) where it lies outside [2**-60, 2**60]: the squared lengths of
+    the faces' cross products under- or overflowed below about 1e-77 or above 1e77 (corner normals of
+    length 1e-206 at 1e-102, NaN ones beyond 1e154)."""
+    v = np.asarray(mesh.vertices, dtype=np.float64)
+    big = float(np.abs(v).max()) if v.size else 0.0
+    if 0.0 < big < 2.0**-60 or 2.0**60 < big < np.inf:
+        v = v * 2.0 ** -math.frexp(big)[1]
+    return v
 
 
 def _face_normals(v, faces) -> np.ndarray:
@@ -115,7 +129,7 @@ def corner_normals(mesh, crease_angle: float = DEFAULT_CREASE_ANGLE, *, return_s
     crease = check_crease_angle(crease_angle)
     held = _CORNERS.setdefault(mesh, {})
     if crease not in held:
-        v = np.asarray(mesh.vertices, dtype=np.float64)
+        v = _vertices(mesh)
         faces = np.asarray(mesh.faces, dtype=np.int64)
         fn = _face_normals(v, faces)
         weight = _corner_angles(v, faces).reshape(-1)
@@ -175,12 +189,19 @@ def pixel_surface(items, gbuffer, camera):
     obj = np.asarray(gbuffer["object_id"]).reshape(-1)
     index = np.flatnonzero(obj >= 0)
     item, face = obj[index].astype(np.int64), np.asarray(gbuffer["face"]).reshape(-1)[index].astype(np.int64)
+    if len(item) and item.max() >= len(items):      # else a bare IndexError from items[i]
+        raise ValueError(f"gbuffer['object_id'] holds id {int(item.max())} but there are {len(items)} items "
+                         f"(the G-buffer was rendered from other items)")
     dirs = camera.ray_directions().reshape(-1, 3)[index]
     p = camera.eye + np.asarray(gbuffer["depth"]).reshape(-1)[index, None].astype(np.float64) * dirs
     bary = np.zeros((len(index), 3))
     for i in np.unique(item):
         mesh, T = items[i]
         sel = np.flatnonzero(item == i)
+        bad = (face[sel] < 0) | (face[sel] >= len(mesh.faces))     # else an IndexError, or a face from the end
+        if bad.any():
+            raise ValueError(f"gbuffer['face'] holds face {int(face[sel][bad][0])} of item {int(i)}, whose mesh "
+                             f"has {len(mesh.faces)} faces (the G-buffer was rendered from other items)")
         T = np.asarray(T, dtype=np.float64)
         w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
         bary[sel] = barycentrics(p[sel], w[np.asarray(mesh.faces)[face[sel]]])
@@ -222,8 +243,7 @@ def shading_gbuffer(items, gbuffer, camera, crease_angle: float = DEFAULT_CREASE
         f = face[sel]
         n = np.einsum("nk,nkj->nj", bary[sel], corners[f]) @ M
         n /= np.linalg.norm(n, axis=1, keepdims=True)
-        v = np.asarray(mesh.vertices, dtype=np.float64)
-        fn = _face_normals(v, np.asarray(mesh.faces)[f]) @ M               # the face's normal, same map
+        fn = _face_normals(_vertices(mesh), np.asarray(mesh.faces)[f]) @ M     # the face's normal, same map
         g = ng.reshape(-1, 3)[index[sel]].astype(np.float64)
         flip = np.einsum("ij,ij->i", fn, g) < 0
         out_n[index[sel]] = np.where(flip[:, None], -n, n).astype(np.float32)

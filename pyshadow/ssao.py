@@ -36,10 +36,12 @@ from collections.abc import Mapping
 import numpy as np
 
 from . import _cl
-from ._validate import FLOAT32_MAX
+from ._validate import FLOAT32_MAX, unit_normals
 from .sampling import MAX_SAMPLES, Sampling, direction_table, pattern_indices, sample_directions
 
 __all__ = ["screen_space_ao", "screen_space_ao_reference", "view_depth"]
+
+_MIN_DEPTH = float(np.finfo(np.float32).tiny)
 
 
 def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
@@ -57,19 +59,13 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
             raise ValueError(f"gbuffer lacks {key!r} (screen_space_ao needs 'depth' and 'normal')")
         if np.shape(gbuffer[key]) != shape:
             raise ValueError(f"gbuffer[{key!r}] has shape {np.shape(gbuffer[key])}; the camera needs {shape}")
-    try:
-        radius = float(radius)
-    except (TypeError, ValueError):
-        raise TypeError(f"radius must be a number (world units), got {radius!r}") from None
+    radius = _number(radius, "radius", "a number (world units)")
     if not (np.isfinite(radius) and radius > 0):
         raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not 1 <= samples <= MAX_SAMPLES:
         raise ValueError(f"samples must be an int in 1..{MAX_SAMPLES}, got {samples!r}")
     if bias is not None:
-        try:
-            bias = float(bias)
-        except (TypeError, ValueError):
-            raise TypeError(f"bias must be a number (world units) or None, got {bias!r}") from None
+        bias = _number(bias, "bias", "a number (world units) or None")
     bias = 0.02 * radius if bias is None else bias
     if not (np.isfinite(bias) and bias >= 0):
         raise ValueError(f"bias must be finite and >= 0 (world units), got {bias}")
@@ -78,8 +74,58 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
             raise ValueError(f"{name} must be at most {FLOAT32_MAX:.3g} (float32's range; world units), got {v:g}")
     if not isinstance(range_check, (bool, np.bool_)):
         raise TypeError(f"range_check must be a bool, got {range_check!r}")
-    depth = np.asarray(gbuffer["depth"], np.float64).reshape(-1)
-    normal = np.asarray(gbuffer["normal"], np.float64).reshape(-1, 3)
+    depth = _depth(gbuffer, camera).reshape(-1)
+    normal = _real(gbuffer["normal"], "gbuffer['normal']").reshape(-1, 3)
+    hit = np.isfinite(depth)
+    try:                                # any length (unnormalised normals of a mesh in micrometres)
+        unit = unit_normals(normal[hit], int(hit.sum()), "gbuffer['normal']")
+    except ValueError as e:
+        raise ValueError(f"gbuffer['normal'] must be finite and non-zero wherever depth is finite ({e})") from None
+    dirs = camera.ray_directions().reshape(-1, 3)
+    rel = np.where(hit[:, None], np.where(hit, depth, 0.0)[:, None] * dirs, 0.0)
+    n = np.zeros_like(normal)
+    n[hit] = unit
+    n[~hit] = (0.0, 1.0, 0.0)
+    return (rel.astype(np.float32), n.astype(np.float32), _view_depth(depth, camera).reshape(-1), radius,
+            Sampling(int(samples), seed=seed), np.float32(bias),
+            np.float32(radius if range_check else np.inf))
+
+
+def _number(value, name: str, what: str) -> float:
+    """``value`` as a float; TypeError naming ``name`` for what is no number (a bool, a string, complex)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):     # True was a radius of 1, "0.5" one of 0.5
+        raise TypeError(f"{name} must be {what}, got {value!r}")
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be {what}, got {value!r}") from None
+
+
+def _real(a, name: str) -> np.ndarray:
+    """``a`` as a float64 array; TypeError naming ``name`` unless it holds integers or floats (bool
+    depths read as 0 and 1, strings were parsed, complex normals lost their imaginary part)."""
+    a = np.asarray(a)
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {a.dtype}")
+    return a.astype(np.float64, copy=False)
+
+
+def _depth(gbuffer, camera) -> np.ndarray:
+    """``gbuffer['depth']`` (H, W) as float64, checked: > 0 and within float32's normal range where
+    finite, +inf on the background."""
+    from .camera import Camera
+
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a pyshadow.Camera, got {camera!r}")
+    if not isinstance(gbuffer, Mapping):
+        raise TypeError(f"gbuffer must be a mapping with 'depth' (render_gbuffer's dict or a Frame), "
+                        f"got {type(gbuffer).__name__}")
+    if "depth" not in gbuffer:
+        raise ValueError("gbuffer lacks 'depth'")
+    depth = _real(gbuffer["depth"], "gbuffer['depth']")
+    if depth.shape != (camera.height, camera.width):
+        raise ValueError(f"gbuffer['depth'] has shape {depth.shape}; the camera needs "
+                         f"{(camera.height, camera.width)}")
     hit = np.isfinite(depth)
     odd = np.isnan(depth) | (depth == -np.inf)
     if odd.any():
@@ -89,27 +135,25 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
     if hit.any() and float(depth[hit].max()) > FLOAT32_MAX:
         raise ValueError(f"gbuffer['depth'] holds distances beyond float32's range (up to "
                          f"{float(depth[hit].max()):.3g}; the kernel reads at most {FLOAT32_MAX:.3g})")
-    length = np.linalg.norm(normal[hit], axis=1)
-    if not (np.isfinite(length).all() and (length > 1e-6).all()):
-        raise ValueError("gbuffer['normal'] must be finite and non-zero wherever depth is finite")
-    dirs = camera.ray_directions().reshape(-1, 3)
-    rel = np.where(hit[:, None], np.where(hit, depth, 0.0)[:, None] * dirs, 0.0)
-    n = np.zeros_like(normal)
-    n[hit] = normal[hit] / length[:, None]
-    n[~hit] = (0.0, 1.0, 0.0)
-    return (rel.astype(np.float32), n.astype(np.float32), view_depth(gbuffer, camera).reshape(-1), radius,
-            Sampling(int(samples), seed=seed), np.float32(bias),
-            np.float32(radius if range_check else np.inf))
+    if hit.any() and float(depth[hit].min()) < _MIN_DEPTH:     # float32 subnormals (a view at 1e-46: all open)
+        raise ValueError(f"gbuffer['depth'] holds distances below float32's normal range (down to "
+                         f"{float(depth[hit].min()):.3g}; the kernel reads at least {_MIN_DEPTH:.3g})")
+    return depth
 
 
 def view_depth(gbuffer, camera) -> np.ndarray:
     """View depth (along ``camera.forward``) of each pixel's surface, (H, W) float32, +inf for the background.
 
     ``depth * (ray direction . forward)`` from the G-buffer's distance along
-    each pixel's ray (world units).
+    each pixel's ray (world units), checked as :func:`screen_space_ao` checks
+    it (a wrong shape, NaN, -inf or a distance <= 0 raises ValueError).
     """
-    depth = np.asarray(gbuffer["depth"], np.float64)
-    cos = camera.ray_directions() @ camera.forward
+    return _view_depth(_depth(gbuffer, camera), camera)
+
+
+def _view_depth(depth, camera) -> np.ndarray:
+    """:func:`view_depth` of checked distances ``depth`` (H, W) or (H * W,) float64."""
+    cos = (camera.ray_directions() @ camera.forward).reshape(depth.shape)
     with np.errstate(invalid="ignore"):
         z = np.where(np.isfinite(depth), depth * cos, np.inf)
     return z.astype(np.float32)
@@ -129,7 +173,9 @@ def screen_space_ao(gbuffer, camera, radius, *, samples: int = 16, seed: int = 0
     gbuffer : dict
         :func:`pyshadow.render_gbuffer`'s dict (or a Frame): ``'depth'``
         (H, W), distance from the eye along each pixel's ray, world units,
-        inf for the background; ``'normal'`` (H, W, 3) world normals.
+        inf for the background (finite distances within float32's normal
+        range, 1.2e-38 .. 3.4e38); ``'normal'`` (H, W, 3) world normals of
+        any length (normalised here).
     camera : pyshadow.Camera
         The camera the G-buffer was rendered with.
     radius : float
@@ -189,6 +235,8 @@ def screen_space_ao_reference(gbuffer, camera, radius, *, samples: int = 16, see
         Only with ``return_margin=True`` (inf for the background).
     """
     rel, n, z, radius, sampling, bias, rng = _check(gbuffer, camera, radius, samples, seed, bias, range_check)
+    if not isinstance(return_margin, (bool, np.bool_)):
+        raise TypeError(f"return_margin must be a bool, got {return_margin!r}")
     H, W = camera.height, camera.width
     hit = np.flatnonzero(np.isfinite(z))
     ao = np.ones(H * W, np.float32)

@@ -9,8 +9,11 @@ __all__ = ["Camera"]
 
 
 def _vec3(x, name):
+    """``x`` as 3 finite float64 numbers; ValueError naming ``name`` otherwise (bools and strings of
+    digits are no coordinates: ``(True, False, True)`` was read as ``(1, 0, 1)``)."""
     try:
-        a = np.asarray(x, dtype=np.float64).reshape(-1)
+        a = np.asarray(x)
+        a = np.asarray(a, dtype=np.float64).reshape(-1) if a.dtype.kind in "iuf" else None
     except (TypeError, ValueError):
         a = None
     if a is None or a.shape != (3,) or not np.isfinite(a).all():

@@ -66,10 +66,10 @@ class Sampling:
     Raises
     ------
     TypeError
-        ``samples``, ``patterns`` or ``seed`` is not an int (bools and floats
-        are refused).
+        ``samples`` or ``seed`` is not an int (bools and floats are refused).
     ValueError
-        A value out of its range, or an unknown ``strategy``.
+        A value out of its range, an unknown ``strategy``, or ``patterns``
+        not an int in 1 .. 65536 (a bool or a float included).
 
     Examples
     --------
@@ -219,7 +219,10 @@ def local_directions(points) -> np.ndarray:
 
     ``(sqrt(xi1) cos 2 pi xi2, sqrt(1 - xi1), sqrt(xi1) sin 2 pi xi2)``, float64.
     """
-    xi = np.asarray(points, dtype=np.float64)
+    xi = np.asarray(points)
+    if xi.dtype.kind not in "iuf":      # complex lost its imaginary part (a ComplexWarning), "0.5" was read
+        raise TypeError(f"points: expected real numbers (got dtype {xi.dtype})")
+    xi = xi.astype(np.float64, copy=False)
     if xi.shape[-1:] != (2,) or not ((xi >= 0.0) & (xi <= 1.0)).all():      # else NaN directions
         raise ValueError(f"points: expected 2-D sample points in [0, 1]^2, shape (..., 2) (got shape {xi.shape}"
                          f"{'' if xi.shape[-1:] != (2,) else ', values outside [0, 1] or NaN'})")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import check_int
 from .surface_rule import _fibonacci_sphere
 
 __all__ = ["exposed_back_faces", "escape_fractions", "both_sided_faces", "is_auto", "EXPOSURE_DIRECTIONS"]
@@ -33,10 +34,17 @@ def is_auto(two_sided) -> bool:
 def _back_rays(mesh, frame):
     """What the rays from behind the faces need: the faces' unit winding normals (F, 3), the rays'
     origin behind each centroid (F, 3), the faces of non-zero area (F,) and the Embree scene, all in
-    the normalised frame ``frame`` (centre, radius)."""
-    from ..embree import EmbreeScene, ray_epsilon
+    the normalised frame ``frame`` (centre, radius).
 
-    centre, radius = frame
+    ``frame`` is checked as the CSM build checks it (:func:`pyshadow.raster.check_frame`: a finite
+    centre, a finite radius > 0 reaching every vertex): a negative radius mirrored the mesh through
+    its centre (every back of a closed box read as exposed), an infinite one reported no face
+    exposed. A mesh without vertices has no face to answer for, whatever the frame."""
+    from ..embree import EmbreeScene, ray_epsilon
+    from ..raster import check_frame
+
+    verts = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+    centre, radius = check_frame(verts, frame) if len(verts) else frame
     tri = (np.asarray(mesh.triangles, dtype=np.float64) - np.asarray(centre, dtype=np.float64)) / float(radius)
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     length = np.linalg.norm(n, axis=1)
@@ -68,17 +76,35 @@ def exposed_back_faces(mesh, frame, directions: int = EXPOSURE_DIRECTIONS) -> np
         The normalised frame (world units) the rays are traced in: float32
         keeps its precision there whatever the mesh's size and position.
     directions : int, optional
-        Lattice directions over the whole sphere.
+        Lattice directions over the whole sphere, >= 1.
 
     Returns
     -------
     ndarray, shape (F,), bool
         True where the face's back side is open to the outside; False for
         faces of zero area.
+
+    Raises
+    ------
+    TypeError
+        ``directions`` is not an int (a float, a bool or a string).
+    ValueError
+        ``directions`` below 1 (no ray at all: every face read as sealed), or
+        ``frame`` not a finite centre and a finite radius > 0 reaching every
+        vertex.
+
+    Notes
+    -----
+    Lattices of different sizes are not nested: a larger ``directions``
+    finds more faces on the whole but may miss some that a smaller one
+    finds (on the teapot, 323 of the 870 faces found at 64 directions are
+    not found at 128). The union of the answers of several sizes is the
+    surest set.
     """
+    directions = check_int(directions, "directions", 1, why="the rays of the lattice")
     n, o, live, scene = _back_rays(mesh, frame)
     out = np.zeros(len(n), bool)
-    for d in _fibonacci_sphere(int(directions)) if scene is not None else ():
+    for d in _fibonacci_sphere(directions) if scene is not None else ():
         ask = np.flatnonzero(live & ~out & (n @ d < 0.0))
         if len(ask):
             out[ask] = ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
@@ -99,16 +125,22 @@ def escape_fractions(mesh, frame, directions: int = 1024) -> np.ndarray:
     frame : (centre, radius)
         The normalised frame (world units), as for :func:`exposed_back_faces`.
     directions : int, optional
-        Lattice directions over the whole sphere.
+        Lattice directions over the whole sphere, >= 1.
 
     Returns
     -------
     ndarray, shape (F,), float64
         In [0, 1]; 0 for faces of zero area.
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`exposed_back_faces`.
     """
+    directions = check_int(directions, "directions", 1, why="the rays of the lattice")
     n, o, live, scene = _back_rays(mesh, frame)
     escaped, asked = np.zeros(len(n)), np.zeros(len(n))
-    for d in _fibonacci_sphere(int(directions)) if scene is not None else ():
+    for d in _fibonacci_sphere(directions) if scene is not None else ():
         ask = np.flatnonzero(live & (n @ d < 0.0))
         if len(ask):
             escaped[ask] += ~scene.occluded(o[ask], np.broadcast_to(d, (len(ask), 3)))
@@ -133,10 +165,12 @@ def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
     frame : (centre, radius)
         The CSM's normalised frame (``csm.centre``, ``csm.radius``).
     layer_rule : {2, 3}
+        An int (another value, a float or a string is refused).
     two_sided : {'auto', True, False}, optional
 
     Returns
     -------
     ndarray, shape (F,), bool, or None
     """
-    return exposed_back_faces(mesh, frame) if is_auto(two_sided) and int(layer_rule) == 2 else None
+    rule = check_int(layer_rule, "layer_rule", 2, 3, why="the layers a map keeps per texel")
+    return exposed_back_faces(mesh, frame) if is_auto(two_sided) and rule == 2 else None

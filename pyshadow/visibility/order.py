@@ -100,7 +100,15 @@ def _octahedral_cell(w) -> np.ndarray:
 def _origin_cell(p) -> np.ndarray:
     """(N, 3) points -> (N,) uint32 cell of a CELLS^3 grid over their bounding box."""
     step = max(1, len(p) >> 12)                         # the box of a subsample: cells are clipped
-    lo, hi = p[::step].min(axis=0).astype(np.float64), p[::step].max(axis=0).astype(np.float64)
+    sub = p[::step]
+    lo, hi = sub.min(axis=0).astype(np.float64), sub.max(axis=0).astype(np.float64)
+    if not (np.isfinite(lo).all() and np.isfinite(hi).all()):
+        # the box of the finite entries (one NaN row made the box NaN: every ray's cell 0); the rows
+        # that are not finite get some cell (fmax / fmin below)
+        fin = np.isfinite(sub)
+        lo = np.where(fin, sub, np.inf).min(axis=0).astype(np.float64)
+        hi = np.where(fin, sub, -np.inf).max(axis=0).astype(np.float64)
+        lo = np.where(hi >= lo, lo, 0.0)                 # an axis without a finite entry: one cell
     scale = np.where(hi > lo, CELLS / np.where(hi > lo, hi - lo, 1.0), 0.0).astype(np.float32)
     q = np.empty(p.shape, np.float32)
     np.subtract(p, lo.astype(p.dtype), out=q, casting="same_kind")
@@ -117,7 +125,8 @@ def ray_key(points, directions) -> np.ndarray:
     ----------
     points : array_like, shape (N, 3)
         Ray origins, world units, float32 or float64 (any frame that is a
-        translation of the world frame: the key uses their bounding box).
+        translation of the world frame: the key uses their bounding box, that
+        of the finite entries).
     directions : array_like, shape (N, 3)
         Ray directions, world frame, any non-zero length.
 
@@ -125,14 +134,24 @@ def ray_key(points, directions) -> np.ndarray:
     -------
     ndarray, shape (N,), uint16 (uint32 where ``DIR_BINS ** 2 * CELLS ** 3`` exceeds 2 ** 16)
         ``octahedral cell of the direction * CELLS ** 3 + origin cell``.
+
+    Raises
+    ------
+    ValueError
+        ``points`` and ``directions`` not both of shape (N, 3).
+    TypeError
+        Either is not of real numbers (complex, bool, strings).
     """
     p, w = np.asarray(points), np.asarray(directions)
+    if p.ndim != 2 or p.shape[1:] != (3,) or w.shape != p.shape:
+        raise ValueError(f"points and directions must both be (N, 3), got {p.shape} and {w.shape}")
+    for name, a in (("points", p), ("directions", w)):
+        if a.dtype.kind not in "iuf":       # complex lost its imaginary part, bools read as 0 and 1
+            raise TypeError(f"{name} must hold real numbers, got dtype {a.dtype}")
     if p.dtype not in (np.float32, np.float64):
         p = p.astype(np.float64)
     if w.dtype not in (np.float32, np.float64):
         w = w.astype(np.float64)
-    if p.ndim != 2 or p.shape[1:] != (3,) or w.shape != p.shape:
-        raise ValueError(f"points and directions must both be (N, 3), got {p.shape} and {w.shape}")
     kt = np.uint16 if DIR_BINS ** 2 * CELLS ** 3 <= 1 << 16 else np.uint32
     if len(p) == 0:
         return np.zeros(0, kt)
@@ -163,15 +182,34 @@ def inverse_permutation(perm) -> np.ndarray:
     Parameters
     ----------
     perm : array_like of int, shape (N,)
-        A permutation of ``0 .. N-1`` (not checked).
+        A permutation of ``0 .. N-1``.
 
     Returns
     -------
     ndarray, shape (N,), int64
+
+    Raises
+    ------
+    TypeError
+        ``perm`` is not of integers (an empty list is an empty permutation).
+    ValueError
+        ``perm`` is not one-dimensional, or not a permutation of ``0 .. N-1``
+        (an index out of range, negative or repeated: the inverse read
+        uninitialised memory or wrapped a negative index around).
     """
     perm = np.asarray(perm)
-    inv = np.empty(len(perm), np.int64)
-    inv[perm] = np.arange(len(perm), dtype=np.int64)
+    if perm.ndim != 1:
+        raise ValueError(f"perm must be one-dimensional, got shape {perm.shape}")
+    n = len(perm)
+    if perm.dtype.kind not in "iu" and n:
+        raise TypeError(f"perm must hold integers, got dtype {perm.dtype}")
+    if n and not (perm.min() >= 0 and perm.max() < n):
+        raise ValueError(f"perm must be a permutation of 0 .. {n - 1}, got indices from {perm.min()} to {perm.max()}")
+    inv = np.full(n, -1, np.int64)
+    inv[perm.astype(np.int64, copy=False)] = np.arange(n, dtype=np.int64)
+    if n and inv.min() < 0:             # within range, n indices miss one only if one repeats
+        raise ValueError(f"perm must be a permutation of 0 .. {n - 1}: {int((inv < 0).sum())} of them are missing "
+                         f"(others repeat)")
     return inv
 
 

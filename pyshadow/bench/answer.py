@@ -54,6 +54,7 @@ import time
 
 import numpy as np
 
+from .._validate import check_int
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
 from ..sampling import Sampling
@@ -116,13 +117,28 @@ def noise_and_bias(renders, conv) -> tuple[float, float]:
         ``max(0, mean((M - conv)^2) - v / R)`` with ``M`` the mean render: the
         squared distance of the expectation from the reference, the mean's own
         noise ``v / R`` taken out.
+
+    Raises
+    ------
+    ValueError
+        Fewer than 2 renders, no pixel, ``conv`` of another length, or a value
+        that is not finite (a NaN would make the squared bias 0).
     """
     a = np.asarray(renders, np.float64)
     if a.ndim != 2 or a.shape[0] < 2:
         raise ValueError(f"need (R >= 2, N) renders, got shape {a.shape}")
+    ref = np.asarray(conv, np.float64)
+    if ref.shape != a.shape[1:]:
+        raise ValueError(f"conv must have shape {a.shape[1:]} (one value per pixel of the renders), got {ref.shape}")
+    if a.shape[1] == 0:
+        raise ValueError("need renders of at least one pixel, got none")
+    for x, name in ((a, "renders"), (ref, "conv")):
+        bad = int(np.count_nonzero(~np.isfinite(x)))
+        if bad:
+            raise ValueError(f"{name}: {bad} values are not finite (NaN or inf); the AO must be measured")
     R = a.shape[0]
     v = float(np.mean(np.var(a, axis=0, ddof=1)))
-    d = a.mean(axis=0) - np.asarray(conv, np.float64)
+    d = a.mean(axis=0) - ref
     return v, max(0.0, float(np.mean(d * d)) - v / R)
 
 
@@ -161,6 +177,17 @@ class FilterModel:
     bias2_floor: float = 0.0
     slope: float | None = None
 
+    def __post_init__(self):
+        """ValueError unless counts are ascending ints >= 1 (two or more), each with finite values >= 0."""
+        counts = [check_int(c, "counts", 1) for c in self.counts]
+        if len(counts) < 2 or any(b <= a for a, b in zip(counts, counts[1:])):
+            raise ValueError(f"counts must be at least two ascending sample counts, got {self.counts!r}")
+        for name in ("variances", "bias2s", "times"):
+            v = np.asarray(getattr(self, name), np.float64)
+            if v.shape != (len(counts),) or not (np.isfinite(v) & (v >= 0)).all():
+                raise ValueError(f"{name} must hold one finite value >= 0 per count ({len(counts)}), "
+                                 f"got {getattr(self, name)!r}")
+
     @property
     def bias2(self) -> float:
         """Squared bias: the mean of the counts' estimates (at least :attr:`bias2_floor`)."""
@@ -198,9 +225,9 @@ class FilterModel:
         Exact at the measured counts, conservative above each (variance falls
         at least as fast as 1/S). Below the lowest count, ``v_0 (S_0 / S)^max(1,
         p_0)`` with ``p_0`` the first local exponent: an extrapolation. Times
-        :attr:`noise_scale`.
+        :attr:`noise_scale`. ``samples`` is an int >= 1.
         """
-        S = float(samples)
+        S = float(check_int(samples, "samples", 1))
         if S < self.counts[0]:
             v = self.variances[0] * (self.counts[0] / S) ** max(1.0, self.exponents[0])
         else:
@@ -222,8 +249,11 @@ class FilterModel:
         Scales the noise term (:attr:`noise_scale`) so that the predicted RMSE
         at ``samples`` becomes the measured one when that raises it; where the
         predicted noise is 0 the excess becomes a bias floor instead. The
-        model never predicts less error than before.
+        model never predicts less error than before. ``measured_rmse`` must
+        be finite and >= 0 (ValueError: a NaN would leave the model unchanged).
         """
+        if not measured_rmse >= 0.0 or not math.isfinite(measured_rmse):
+            raise ValueError(f"measured_rmse must be a finite number >= 0, got {measured_rmse!r}")
         m2, noise = measured_rmse * measured_rmse, self.noise_variance(samples)
         if noise > 0.0:
             self.noise_scale *= max(1.0, (m2 - self.bias2) / noise)

@@ -177,7 +177,8 @@ def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embre
         hits; ``false_occluded``: fraction pyshadow calls occluded where
         Embree sees the sky; ``ao`` (N,) float32: the AO the per-ray
         results give (a consistency check against the AO kernel);
-        ``disagree`` (N,) int32: disagreeing rays of every pixel.
+        ``disagree`` (N,) int32: disagreeing rays of every pixel. With no
+        pixels the fractions are NaN (null in the records).
     """
     S = int(samples)
     agree = fv = fo = 0
@@ -194,7 +195,7 @@ def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embre
         fo += int(np.count_nonzero(~vis & ref))
         ao[s:e] = vis.reshape(e - s, S).mean(axis=1)
         disagree[s:e] = (vis != ref).reshape(e - s, S).sum(axis=1)
-    total = max(1, gb.n * S)
+    total = gb.n * S or float("nan")       # no rays: no fraction agrees (not 0 %)
     return {"agreement": agree / total, "false_visible": fv / total, "false_occluded": fo / total,
             "ao": ao, "disagree": disagree}
 
@@ -243,8 +244,11 @@ def by_surface(gb: GBuffer, names: dict, samples: int, disagree, ao, ref_ao, con
 
 
 def _errors(a, b):
-    """(RMSE, MAE) of ``a - b`` in float64; (nan, nan) when empty."""
-    d = np.asarray(a, np.float64) - np.asarray(b, np.float64)
+    """(RMSE, MAE) of ``a - b`` in float64, arrays of one shape; (nan, nan) when empty."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if a.shape != b.shape:          # broadcasting (N, 1) against (N,) compared every pixel with every other
+        raise ValueError(f"AO errors of arrays of different shapes: {a.shape} and {b.shape}")
+    d = a - b
     if d.size == 0:
         return float("nan"), float("nan")
     return float(np.sqrt(np.mean(d * d))), float(np.mean(np.abs(d)))

@@ -77,9 +77,18 @@ def point(rec) -> dict:
             "rmse_limited": rec["ao_rmse_limited"]["value"], "rmse_unlimited": rec["ao_rmse_unlimited"]["value"]}
 
 
+def _measured(p, key) -> bool:
+    """Whether point ``p`` has a frame time and a ``key`` error (a figure not finite is None in the records)."""
+    return all(p[k] is not None and math.isfinite(p[k]) for k in ("frame_time", key))
+
+
 def front(pts, key) -> list:
-    """Indices of the Pareto front (no other point both faster and more accurate), by frame time."""
-    order = sorted(range(len(pts)), key=lambda i: (pts[i]["frame_time"], pts[i][key]))
+    """Indices of the Pareto front (no other point both faster and more accurate), by frame time.
+
+    A point with a missing frame time or ``key`` (None or not finite) is never on the front.
+    """
+    order = sorted((i for i in range(len(pts)) if _measured(pts[i], key)),
+                   key=lambda i: (pts[i]["frame_time"], pts[i][key]))
     out, best = [], math.inf
     for i in order:
         if pts[i][key] < best:
@@ -89,10 +98,13 @@ def front(pts, key) -> list:
 
 
 def winners(pts, key) -> list:
-    """For each of :data:`TARGETS`: the fastest point with ``key`` <= target (None if none)."""
+    """For each of :data:`TARGETS`: the fastest point with ``key`` <= target (None if none).
+
+    A point with a missing frame time or ``key`` (None or not finite) wins no target.
+    """
     res = []
     for e in TARGETS:
-        ok = [p for p in pts if p[key] <= e]
+        ok = [p for p in pts if _measured(p, key) and p[key] <= e]
         res.append({"target": e, "winner": min(ok, key=lambda p: p["frame_time"]) if ok else None})
     return res
 
@@ -131,11 +143,14 @@ PALETTE = ("C0", "C1", "C2", "C4", "C5", "C6", "C8", "C9", "navy", "olive", "tea
 
 
 def plot_points(ax, pts, key):
-    """Scatter ``pts`` on ``ax`` (frame ms against ``key``), one marker per label, and their front's line."""
+    """Scatter ``pts`` on ``ax`` (frame ms against ``key``), one marker per label, and their front's line.
+
+    A point with a missing frame time or ``key`` (None or not finite) is not drawn.
+    """
     labels = sorted({p["label"] for p in pts})
     marks = dict(zip(labels, "os^vDP*Xph<>"))
     for j, lab in enumerate(labels):
-        q = [p for p in pts if p["label"] == lab]
+        q = [p for p in pts if p["label"] == lab and _measured(p, key)]
         ax.scatter([1e3 * p["frame_time"] for p in q], [p[key] for p in q], marker=marks[lab],
                    color=PALETTE[j % len(PALETTE)], label=lab, zorder=3)
         for p in q:

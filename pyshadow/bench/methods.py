@@ -55,7 +55,8 @@ import time
 
 import numpy as np
 
-from .._validate import FLOAT32_MAX
+from .._validate import FLOAT32_MAX, check_int, nonzero, rows3
+from ..lighting._checks import positive
 from .common import _fig, _num, cached_ao
 from .config import positive_number
 from .measure import GBuffer, _errors, _ray_chunks, _reference_key
@@ -122,13 +123,19 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
     -------
     ndarray, shape (n,), bool
         True where an occluder lies within ``D``.
+
+    Raises
+    ------
+    ValueError
+        Points or directions not (n, 3) finite rows of one count, a zero
+        direction, or ``max_distance`` not a finite number > 0.
     """
     from pyshadow.embree import ground_occludes, surface_epsilon
 
-    p = np.asarray(points, np.float64).reshape(-1, 3)
-    w = np.asarray(directions, np.float64).reshape(-1, 3)
+    p = rows3(points, "points")
+    w = nonzero(rows3(directions, "directions", len(p)), "directions")
     w = w / np.linalg.norm(w, axis=1, keepdims=True)
-    D = float(max_distance)
+    D = positive(max_distance, "max_distance")
     rel = p - tracer.anchor
     occ = ground_occludes(tracer.scene, rel, w, tracer.anchor, np.full(len(p), D))
     todo = np.flatnonzero(~occ)
@@ -186,14 +193,22 @@ def limited_reference(cache, tracer, scene, gb, D, samples, strategy, seed, patt
 
 
 def _agreement(mine_visible, embree_occluded, samples):
-    """Agreement, false-visible and false-occluded fractions, and disagreeing rays per pixel ((N,) int)."""
+    """Agreement, false-visible and false-occluded fractions, and disagreeing rays per pixel ((N,) int).
+
+    Both answers are (N * samples,) bool; with no rays the fractions are NaN (null in the records).
+    """
+    mine_visible, embree_occluded = np.asarray(mine_visible), np.asarray(embree_occluded)
+    S = check_int(samples, "samples", 1)
+    if mine_visible.shape != embree_occluded.shape or embree_occluded.ndim != 1 or len(embree_occluded) % S:
+        raise ValueError(f"the method's and Embree's answers must both be (N * {S},) rays, got shapes "
+                         f"{mine_visible.shape} and {embree_occluded.shape}")
     ref = ~embree_occluded
-    n = max(1, len(ref))
+    n = len(ref) or float("nan")        # no rays: no fraction agrees (not 100 %)
     dis = mine_visible != ref
     return {"agreement": 1.0 - np.count_nonzero(dis) / n,
             "false_visible": np.count_nonzero(mine_visible & ~ref) / n,
             "false_occluded": np.count_nonzero(~mine_visible & ref) / n,
-            "disagree": dis.reshape(-1, int(samples)).sum(axis=1)}
+            "disagree": dis.reshape(-1, S).sum(axis=1)}
 
 
 class Context:
@@ -401,12 +416,13 @@ def time_rows(ctx: Context, rows, repeats: int) -> float:
     """
     from pyshadow.gbuffer import render_gbuffer
 
+    repeats = check_int(repeats, "repeats", 1, why="the times are medians of the timed rounds")
     items, _ = ctx.scene.draw_items()
     for r in rows:
         r["values"] = np.asarray(r["ao"](), np.float32)
         r["times"] = []
     graster = []
-    for _ in range(int(repeats)):
+    for _ in range(repeats):
         t0 = time.perf_counter()
         render_gbuffer(items, ctx.camera)
         graster.append(time.perf_counter() - t0)

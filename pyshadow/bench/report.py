@@ -5,6 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..lighting._checks import positive
 from .common import _num
 from .config import _config_of
 from .sweep import _answer_text
@@ -16,6 +17,12 @@ def difference_rgb(diff, covered, vmax=None):
     Red: pyshadow darker (more occluded) than the reference; blue: lighter.
     The range is ``vmax`` or the 99.5th percentile of ``|diff|`` over the
     covered pixels (at least 0.01). Returns ``(rgb, vmax)``.
+
+    Raises
+    ------
+    ValueError
+        ``vmax`` given and not a finite number > 0 (0 divided by zero, a
+        negative one swapped red and blue).
     """
     import matplotlib
 
@@ -23,6 +30,8 @@ def difference_rgb(diff, covered, vmax=None):
     if vmax is None:
         a = np.abs(d[covered])
         vmax = max(0.01, float(np.percentile(a, 99.5)) if a.size else 0.0)
+    else:
+        vmax = positive(vmax, "vmax")
     cmap = matplotlib.colormaps["RdBu"]
     rgb = cmap(np.clip(0.5 + 0.5 * d / vmax, 0.0, 1.0), bytes=True)[..., :3]
     return np.ascontiguousarray(rgb, dtype=np.uint8), vmax
@@ -143,6 +152,14 @@ def sweep_markdown(sw: dict) -> str:
     return "\n".join(lines)
 
 
+def _log_axes(points, hline=None) -> tuple:
+    """Whether x and y of a panel can be log-scaled: a drawn point ((x, y), both finite; None is missing)
+    has x > 0, and one has y > 0 or the horizontal line ``hline`` is > 0."""
+    v = np.array([[np.nan if c is None else c for c in xy] for xy in points], float).reshape(-1, 2)
+    v = v[np.isfinite(v).all(axis=1)]
+    return bool((v[:, 0] > 0).any()), bool((v[:, 1] > 0).any() or (hline is not None and hline > 0))
+
+
 def _place_labels(fig, ax, items):
     """Annotate points without overlapping labels: try a few offsets per label.
 
@@ -182,7 +199,8 @@ def pareto_plot(sw: dict, path: Path, max_error: float | None = None):
     from matplotlib.ticker import FormatStrFormatter, LogLocator
 
     rows = sw["rows"]
-    t = np.array([r["figures"]["frame_time"]["value"] * 1e3 for r in rows])
+    # a missing figure (None: not finite) is NaN here, not drawn
+    t = np.array([r["figures"]["frame_time"]["value"] for r in rows], float) * 1e3
     e = np.array([r["figures"]["ao_rmse_converged"]["value"] for r in rows], float)
     on = np.array([r["pareto"] for r in rows])
     methods = sw.get("methods")
@@ -205,10 +223,17 @@ def pareto_plot(sw: dict, path: Path, max_error: float | None = None):
         ax_d.set_ylabel(f"AO RMSE vs converged distance-limited Embree (D = {methods['distance']['value']:.3g})")
         ax_d.set_title("methods, distance-limited AO", fontsize=9)
         ax_d.legend(fontsize=7)
+    drawn = {ax: list(zip(t, e))}        # each panel's points (a missing figure: NaN, not drawn)
+    if methods:
+        for a, key in ((ax, "rmse_unlimited"), (ax_d, "rmse_limited")):
+            drawn[a] = drawn.get(a, []) + [(p["frame_time"], p[key]) for p in methods["points"]]
     for a in ([ax, ax_d] if methods else [ax]):
-        a.set_xscale("log")
-        a.set_yscale("log")
-        for axis in (a.xaxis, a.yaxis):          # after set_*scale, which resets them
+        # log axes, but linear along one with no positive value (every figure missing, or 0):
+        # matplotlib cannot place log ticks there
+        logs = _log_axes(drawn[a], max_error if a is ax else None)
+        a.set_xscale("log" if logs[0] else "linear")
+        a.set_yscale("log" if logs[1] else "linear")
+        for axis in (x for x, lg in zip((a.xaxis, a.yaxis), logs) if lg):   # after set_*scale, which resets them
             axis.set_major_formatter(FormatStrFormatter("%g"))
             axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
             axis.set_minor_formatter(FormatStrFormatter("%g"))

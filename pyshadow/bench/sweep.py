@@ -35,7 +35,15 @@ def pareto_front(points) -> list[int]:
 
 
 def sweep_configs(base: Config, grid: str) -> list[tuple[Config, str]]:
-    """(config, what it varies) rows of a grid, duplicates dropped."""
+    """(config, what it varies) rows of a grid, duplicates dropped.
+
+    Raises
+    ------
+    ValueError
+        ``grid`` is not a name of :data:`pyshadow.bench.config.SWEEP_GRIDS`.
+    """
+    if not isinstance(grid, str) or grid not in SWEEP_GRIDS:
+        raise ValueError(f"grid must be one of {', '.join(sorted(SWEEP_GRIDS))}, got {grid!r}")
     rows, seen = [], set()
     for over in SWEEP_GRIDS[grid]:
         cfg = dataclasses.replace(base, **over)

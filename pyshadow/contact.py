@@ -15,7 +15,10 @@ scene's scale (:meth:`pyshadow.Scene.scale`) of the plane counts as on it in
 the kernels, and a face that close to it lies on it here. A point counts as
 inside the footprint when it lies in one of the contact faces (seen from
 above) and farther than that tolerance from the footprint's outline, so the
-points of the body's sides just above the ground stay the CSM's.
+points of the body's sides just above the ground stay the CSM's. A point's
+height is allowed one float32 spacing at the plane's height where that is
+larger: far from ``y = 0`` the float32 points of the plane lie off it by more
+than the tolerance.
 
 Only casters added with their mesh (:meth:`pyshadow.Scene.add` from a mesh,
 or a CSM with ``mesh=``) whose surface is closed have a footprint (every edge
@@ -57,6 +60,15 @@ def ground_tolerance(scene) -> float:
     return 1e-5 * scene.scale()
 
 
+def _ground_band(scene):
+    """Distance to the plane within which points count as the ground's here: the :func:`ground_tolerance`,
+    or one float32 spacing at the plane's height where that is larger. Points come as float32 (a
+    G-buffer's), the nearest of which lies up to half a spacing off the plane: at y = 1000.2, 1.2e-5
+    above it beside a tolerance of 8.7e-6 for unit bodies, and the footprint's points were left out
+    (such a point lies inside the body: its rays upwards are occluded all the same)."""
+    return max(ground_tolerance(scene), float(np.spacing(np.float32(abs(scene.ground)))))
+
+
 def _closed_surface(mesh):
     """The mesh's distinct vertices (U, 3) (equal coordinates merged) and its distinct faces over them
     (F, 3), each once whatever its winding (sorted indices), zero-area faces dropped; None where the
@@ -67,9 +79,14 @@ def _closed_surface(mesh):
         v, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces)
         u, merged = np.unique(v, axis=0, return_inverse=True)
         f = np.sort(merged.reshape(-1)[faces], axis=1)
+        scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
+        if not 1e-100 < scale < 1e100 and np.isfinite(scale):
+            # areas of sizes beyond about 1e-154 or 1e154 under- or overflow: every face was dropped as
+            # zero-area; measured on the mesh moved to the origin and scaled by a power of two to size ~1
+            unit = 2.0 ** -int(np.frexp(scale)[1])
+            v, scale = (v - v.min(axis=0)) * unit, scale * unit
         a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
         area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-        scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
         f = np.unique(f[(area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])], axis=0)
         _, count = _edges(f)
         got = _SURFACES[mesh] = (u, f) if len(f) and (count == 2).all() else (None, None)
@@ -198,8 +215,9 @@ def ground_sheet_slots(scene, points, own):
     from the body's own side (Embree's do). Asked as the ground, with no
     self-bias against the body, the coincident face shadowed about half of
     them. A point whose slot is the ground's or a receiver's (-2), within
-    :func:`ground_tolerance` of the plane and inside (or on) such a face
-    seen from above takes that caster's slot.
+    :func:`ground_tolerance` of the plane (or of one float32 spacing at its
+    height, where that is larger: the rounding of float32 points) and inside
+    (or on) such a face seen from above takes that caster's slot.
 
     Returns
     -------
@@ -209,11 +227,16 @@ def ground_sheet_slots(scene, points, own):
     p = check_rows(points, "points")
     if np.shape(own) != (len(p),):
         raise ValueError(f"own must have shape ({len(p)},) (one caster slot per point), got {np.shape(own)}")
+    if not isinstance(own, np.ndarray):             # a list: indexed and copied as an array below
+        own = np.asarray(own)
+        own = own.astype(np.int32) if own.dtype.kind in "iu" or not len(own) else own
+    if own.dtype.kind not in "iu":
+        raise TypeError(f"own must hold integer caster slots, got dtype {own.dtype}")
     found = sheets(scene) if len(own) else []
     if not found:
         return own
     cand = np.flatnonzero((np.asarray(own) == -2)
-                          & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= ground_tolerance(scene)))
+                          & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= _ground_band(scene)))
     out = own
     q_all = p[cand][:, [0, 2]].astype(np.float64)
     for slot, tri in found:
@@ -286,7 +309,9 @@ def contact_mask(scene, points):
     -------
     ndarray of bool, shape (N,), or None
         True where the point lies within :func:`ground_tolerance` of the
-        ground plane, inside one of the contact faces seen from above and
+        ground plane (or within one float32 spacing at its height, where
+        that is larger: the rounding of float32 points), inside one of the
+        contact faces seen from above and
         farther than that tolerance from the footprint's outline. None when
         the scene has no footprint (nothing to test).
     """
@@ -296,7 +321,7 @@ def contact_mask(scene, points):
         return None
     tol = ground_tolerance(scene)
     mask = np.zeros(len(p), bool)
-    cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= tol)
+    cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= _ground_band(scene))
     if not len(cand):
         return mask
     q_all = p[cand][:, [0, 2]].astype(np.float64)
@@ -308,12 +333,20 @@ def contact_mask(scene, points):
     return mask
 
 
+def _in_place(a, name):
+    """TypeError naming ``name`` where ``a``, an output changed in place, is no NumPy array (a list failed
+    in indexing with a message naming nothing)."""
+    if not isinstance(a, np.ndarray):
+        raise TypeError(f"{name} must be a NumPy array (it is changed in place), got {type(a).__name__}")
+
+
 def occlude_contacts(scene, points, directions, visible):
     """``visible`` (N,) bool with the rays that leave a footprint's point upwards set occluded (in place).
 
     The points of :func:`contact_mask`; a ray along the ground (``w_y = 0``)
     or downwards keeps its answer (the ground plane's).
     """
+    _in_place(visible, "visible")
     mask = contact_mask(scene, points)
     if mask is not None and (np.shape(directions) != (len(mask), 3) or np.shape(visible) != (len(mask),)):
         raise ValueError(f"directions (N, 3) and visible (N,) must match points' {len(mask)} rows, got "
@@ -330,6 +363,8 @@ def close_contacts(scene, points, normals, ao, bent, *zero):
     a point with no open sample), every array of ``zero`` (None: skipped)
     0 on those rows (the shadowed SH transfer, the sampled sky).
     """
+    for name, out in (("ao", ao), ("bent", bent), *((f"zero[{k}]", z) for k, z in enumerate(zero) if z is not None)):
+        _in_place(out, name)
     mask = contact_mask(scene, points) if len(points) else None
     if mask is None or not mask.any():
         return

@@ -11,7 +11,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import check_int, rows3, unit_normals
+from ..lighting._checks import _number
+from .estimators import march_defaults
+
 __all__ = ["unseen_rays", "ambiguous_rays"]
+
+
+def _rays(points, directions, normals, max_distance):
+    """Validated rays: points (N, 3) float64, unit directions, normals (or None) and the length ``D``.
+
+    (Rows of another count were broadcast, a zero direction became NaN with a RuntimeWarning, one of
+    length 1e-200 too, and a negative, zero or NaN ``D`` tested no point: every ray "seen".)"""
+    p = rows3(points, "points")
+    w = unit_normals(directions, len(p), "directions")
+    n = None if normals is None else rows3(normals, "normals", len(p))
+    return p, w, n, march_defaults(max_distance)["max_distance"]
 
 
 def unseen_rays(scene, probe, points, directions, max_distance, *, samples: int = 32, margin: float = 0.0,
@@ -48,9 +63,15 @@ def unseen_rays(scene, probe, points, directions, max_distance, *, samples: int 
     from ..embree import caster_scene, surface_epsilon
     from ..sampling import hemisphere_frame
 
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    w = w / np.linalg.norm(w, axis=1, keepdims=True)
+    p, w, _, max_distance = _rays(points, directions, None, max_distance)
+    samples = check_int(samples, "samples", 1)
+    margin = _number(margin, "margin")
+    if not (np.isfinite(margin) and margin >= 0):
+        raise ValueError(f"margin must be a finite number of texels >= 0, got {margin!r}")
+    if margin > 0:
+        if normals is None:
+            raise ValueError("unseen_rays: margin > 0 needs the points' normals (normals=)")
+        normals = rows3(normals, "normals", len(p))
     rays, anchor = caster_scene(scene)
     eps = surface_epsilon(scene, p)
     t_hit, _prim, _ng = rays.intersect(p - anchor + eps[:, None] * w, w)
@@ -113,11 +134,9 @@ def ambiguous_rays(scene, probe, points, normals, directions, max_distance, answ
     from ..embree import visible
     from ..sampling import hemisphere_frame
 
-    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
-    w = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    w = w / np.linalg.norm(w, axis=1, keepdims=True)
-    D = float(max_distance)
+    p, w, n, D = _rays(points, directions, normals, max_distance)
+    if answer is not None and np.shape(answer) != (len(p),):
+        raise ValueError(f"answer must have shape ({len(p)},) (one per ray), got {np.shape(answer)}")
     ref = visible(scene, p, w, max_distance=D) if answer is None else np.asarray(answer, bool)
     delta = 2.0 * (np.linalg.norm(p - probe.centre, axis=1) + D) / probe.resolution
     e1, e2 = hemisphere_frame(w)

@@ -145,8 +145,11 @@ class CubeProbe:
         from ..render import draw_items
 
         self.resolution = R = _check_resolution(resolution)
-        c = np.asarray(centre, dtype=np.float64).reshape(-1)
-        if c.shape != (3,) or not np.isfinite(c).all():
+        c = np.asarray(centre)
+        # strings were converted ("1" as 1.0, "abc" an error naming nothing), complex numbers lost their
+        # imaginary part with a ComplexWarning and booleans were read as 0 and 1
+        c = c.astype(np.float64).reshape(-1) if c.dtype.kind in "iuf" else None
+        if c is None or c.shape != (3,) or not np.isfinite(c).all():
             raise ValueError(f"CubeProbe: centre must be 3 finite numbers, got {centre!r}")
         if scene.ground is not None and c[1] < scene.ground:
             raise ValueError(f"CubeProbe: centre {c.tolist()} lies below the ground plane y = {scene.ground}")

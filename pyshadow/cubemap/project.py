@@ -29,11 +29,13 @@ Pixels no probe sees are NaN in ``ao`` and False in ``covered`` unless
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from .._validate import nonzero, rows3
+from ..lighting._checks import _number, flag
 from ..sampling import Sampling
 from .estimators import ESTIMATORS, GRAZING, march_defaults, texel_ao
 from .probe import CubeProbe, _check_resolution, direction_texels
@@ -58,11 +60,17 @@ def quality(points, normals, centre, max_distance) -> np.ndarray:
         In ``[0, 1]``; 0 where the surface faces away from the probe.
     """
     max_distance = march_defaults(max_distance)["max_distance"]
-    u = np.asarray(points, np.float64) - np.asarray(centre, np.float64)
+    # (normals of other rows were broadcast against the points; NaN gave NaN, outside [0, 1])
+    p = rows3(points, "points")
+    n = rows3(normals, "normals", len(p))
+    c = np.asarray(centre)
+    if c.shape != (3,) or c.dtype.kind not in "iuf" or not np.isfinite(c).all():
+        raise ValueError(f"centre must be 3 finite numbers, got {centre!r}")
+    u = p - c.astype(np.float64)
     r = np.maximum(np.linalg.norm(u, axis=1), 1e-300)
     qa = max_distance / (max_distance + r)
     qb = np.abs(u).max(axis=1) / r
-    qc = np.maximum(0.0, -np.einsum("ij,ij->i", np.asarray(normals, np.float64), u) / r)
+    qc = np.maximum(0.0, -np.einsum("ij,ij->i", n, u) / r)
     return qa * qb * qc
 
 
@@ -173,6 +181,8 @@ def coverage_grid(covered, background, grid: int = 8) -> float:
     if covered.ndim != 2 or background.shape != covered.shape:
         raise ValueError(f"covered and background must be (H, W) images of one shape, got {covered.shape} and "
                          f"{background.shape}")
+    # (a 2 counted as two shaded pixels, a float image failed in NumPy's '~')
+    covered, background = (_mask(a, name) for a, name in ((covered, "covered"), (background, "background")))
     H, W = covered.shape
     if isinstance(grid, bool) or not isinstance(grid, (int, np.integer)) or not 1 <= grid <= min(H, W):
         raise ValueError(f"grid must be an int in 1..{min(H, W)}, got {grid!r}")
@@ -186,6 +196,15 @@ def coverage_grid(covered, background, grid: int = 8) -> float:
             total += 1
             shaded += int(cv.sum() >= (~bg).sum() - cv.sum())
     return shaded / total if total else 1.0
+
+
+def _mask(a, name):
+    """A bool image: bool, or integers 0 and 1 only (TypeError naming ``name`` otherwise)."""
+    if a.dtype.kind in "iu" and ((a == 0) | (a == 1)).all():
+        return a.astype(bool)
+    if a.dtype.kind != "b":
+        raise TypeError(f"{name} must be a bool image (or of 0 and 1 only), got dtype {a.dtype}")
+    return a
 
 
 class CubeMapAO:
@@ -226,6 +245,7 @@ class CubeMapAO:
             raise ValueError(f"estimator must be one of {ESTIMATORS} or None, got {estimator!r}")
         self.max_distance = march_defaults(max_distance)["max_distance"]
         _check_resolution(resolution)
+        device = flag(device, "device")         # "no" was true: the device ran
         self.scene, self.resolution, self.estimator = scene, int(resolution), estimator
         self.sampling, self.device, self.ground_size, self.options = sampling, device, ground_size, options
         self.probes: list[CubeProbe] = []
@@ -290,6 +310,12 @@ class CubeMapAO:
         ValueError
             Bad options; no probe at all; with ``on_empty='raise'``, a camera
             with surface pixels none of which a probe sees.
+
+        Warns
+        -----
+        UserWarning
+            A stale probe (:attr:`stale`: the scene moved since it was
+            rendered; :meth:`refresh`): it answers for the scene as it was.
         """
         from ..render import surface_points
 
@@ -298,11 +324,12 @@ class CubeMapAO:
         if on_empty not in ("raise", "fallback"):
             raise ValueError(f"on_empty must be 'raise' or 'fallback', got {on_empty!r}")
         check_tolerance(tolerance)
-        fill = np.nan if fallback is None else float(fallback)
+        fill = np.nan if fallback is None else _number(fallback, "fallback")
         if not self.probes:
             raise ValueError("CubeMapAO.project: no probe placed yet (add_probe or place first)")
         if self.estimator is None:
             raise ValueError("CubeMapAO.project: built with estimator=None, the probes hold no AO")
+        self._warn_stale("project")
         sp = surface_points(self.scene, camera, ground_size=self.ground_size, gbuffer=gbuffer)
         H, W = camera.height, camera.width
         pts = sp.points
@@ -323,6 +350,12 @@ class CubeMapAO:
         return Projection(ao=ao_img.reshape(H, W), covered=(probe_img >= 0).reshape(H, W),
                           probe=probe_img.reshape(H, W), quality=q_img.reshape(H, W),
                           depth=np.asarray(g["depth"], np.float32), normal=np.asarray(g["normal"], np.float32))
+
+    def _warn_stale(self, name):
+        """A UserWarning when a probe is stale: its maps show the scene before a move (answers for it)."""
+        if self.stale:
+            warnings.warn(f"CubeMapAO.{name}: the probes are stale (the scene moved since they were rendered) and "
+                          "answer for the scene as it was: call refresh()", UserWarning, stacklevel=3)
 
     def _best(self, points, normals, ids, tolerance, lookup="nearest"):
         """Best probe (index, -1 none), its quality and its AO for each point (module docstring)."""
@@ -360,13 +393,25 @@ class CubeMapAO:
         probe : ndarray, shape (K,), int32
             Probe index, -1 where no probe sees the point.
         quality : ndarray, shape (K,), float64
+
+        Raises
+        ------
+        ValueError
+            Bad points, normals, ids or tolerance (a stale probe: a UserWarning, as :meth:`project`).
         """
         p = rows3(points, "points")
         n = None if normals is None else nonzero(rows3(normals, "normals", len(p)), "normals")
-        ids = None if surface_ids is None else np.asarray(surface_ids).reshape(-1)
+        ids = None if surface_ids is None else np.asarray(surface_ids)
+        if ids is not None and ids.dtype.kind not in "iu":     # compared with the probes' int ids: never equal
+            raise TypeError(f"surface_ids must be integers, got {ids.dtype}")
+        if ids is not None and ids.ndim > 1:
+            raise ValueError(f"surface_ids must be one id or one per point, shape (K,), got shape {ids.shape}")
+        ids = None if ids is None else ids.reshape(-1)
         if ids is not None and ids.size != 1 and len(ids) != len(p):
             raise ValueError(f"surface_ids has {len(ids)} entries but points has {len(p)} rows (shapes must match)")
-        best_i, best_q, _ = self._best(p, n, ids, check_tolerance(tolerance))
+        tolerance = check_tolerance(tolerance)
+        self._warn_stale("assign")
+        best_i, best_q, _ = self._best(p, n, ids, tolerance)
         return best_i, np.maximum(best_q, 0.0)
 
     def place(self, camera, *, threshold: float = 0.75, grid: int = 8, gbuffer=None) -> bool:
@@ -374,9 +419,9 @@ class CubeMapAO:
 
         The shaded fraction is :func:`coverage_grid` of the projection (a
         ``grid x grid`` count); with no probe yet, a probe is always placed.
-        Returns True when a probe was added.
+        Returns True when a probe was added (a UserWarning when a probe is stale: :meth:`project`).
         """
-        if not 0 < float(threshold) <= 1:
+        if not 0 < _number(threshold, "threshold") <= 1:
             raise ValueError(f"threshold must be in (0, 1], got {threshold!r}")
         if self.probes:
             pr = self.project(camera, gbuffer=gbuffer, on_empty="fallback")
@@ -427,6 +472,9 @@ def seed_box_filter(ao, depth, normal, *, rule: str = "seed", size: int = 7, dep
     """
     from .. import filters
 
+    for name, a in (("ao", ao), ("depth", depth), ("normal", normal)):    # complex: a ComplexWarning, then
+        if np.asarray(a).dtype.kind not in "iuf":                         # the real part; strings: converted
+            raise TypeError(f"{name} must hold real numbers, got dtype {np.asarray(a).dtype}")
     ao = np.asarray(ao, np.float32)
     depth = np.asarray(depth, np.float32)
     if ao.ndim != 2 or depth.shape != ao.shape or np.shape(normal) != ao.shape + (3,):

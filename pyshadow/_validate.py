@@ -117,11 +117,30 @@ def uniform_scale(A):
     return s
 
 
+def flag(value, name: str) -> bool:
+    """``value`` as a bool: True or False (Python or NumPy); TypeError naming ``name`` for anything else
+    (the string "no" or "False" would be true, an array's truth is ambiguous, None or 0 may mean a default)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name}: expected True or False (got {value!r})")
+    return bool(value)
+
+
+#: A rigid transform's 3x3 part, its uniform scale removed, may deviate from a rotation by RIGID_TOL
+#: (max |Q^T Q - I|): one written out with 5 or more decimals deviates by up to about 3e-5 (6 decimals,
+#: the common "%f", by up to 3e-6, which 1e-6 refused one time in ten). Beyond RIGID_EXACT it is
+#: replaced by the nearest rotation (the polar factor of Q), so that an instance's inverse, the
+#: transpose, stays exact; at or below it a transform is kept as given.
+RIGID_EXACT, RIGID_TOL = 1e-6, 1e-4
+
+
 def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.ndarray:
     """Validate a 4x4 affine transform; return it as float64.
 
     With ``rigid=True`` only rotation, translation and uniform positive scale
-    are accepted (the transforms a CSM instance may have).
+    are accepted (the transforms a CSM instance may have), within
+    :data:`RIGID_TOL`; a 3x3 part off a scaled rotation by more than
+    :data:`RIGID_EXACT` comes back as the nearest scaled rotation (the same
+    scale and translation).
     """
     T = np.asarray(T)
     if T.dtype.kind not in "iuf":
@@ -146,11 +165,14 @@ def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.nd
             raise ValueError(f"{name} mirrors (negative determinant); only rotations are rigid")
         Q = A / s
         err = np.abs(Q.T @ Q - np.eye(3)).max()
-        if err > 1e-6:
+        if err > RIGID_TOL:
             raise ValueError(
                 f"{name} is not rigid: after removing the uniform scale {s:.6g} the 3x3 part "
-                f"deviates from a rotation by {err:.3g} (shear or non-uniform scale)"
+                f"deviates from a rotation by {err:.3g} (shear or non-uniform scale; {RIGID_TOL:g} is allowed)"
             )
+        if err > RIGID_EXACT:           # rounded digits: the nearest rotation, U V^T of Q's SVD
+            U, _, Vt = np.linalg.svd(Q)
+            T[:3, :3] = s * (U @ Vt)
     return T
 
 

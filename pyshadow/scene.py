@@ -181,8 +181,8 @@ class Scene:
             with the scene's options (once per mesh object); with
             ``casts=False`` it only receives (walls, floors).
         transform : array_like, shape (4, 4), optional
-            Object-to-world transform: rotation, translation and uniform
-            positive scale only. Default identity.
+            Object-to-world transform: rotation (5 decimals suffice: placed as
+            the nearest), translation, uniform positive scale. Default identity.
         casts : bool, optional
         mesh : trimesh.Trimesh, optional
             The mesh of a CSM given as ``obj``, needed to draw it

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 
-from .._validate import check_int
+from .._validate import check_int, flag  # noqa: F401  (flag: this package's name for it)
 
 __all__ = ["radiance_array", "unit_direction", "unit_rows", "positive", "in_range", "MAX_RADIANCE", "MAX_SH",
            "sh_coefficients", "bounded_sh", "check_seed", "light_tuple", "rgb_channels", "flag"]
@@ -70,14 +70,6 @@ def check_seed(seed) -> int:
         return check_int(seed, "seed", 0)
     except (TypeError, ValueError):     # one error type for every bad seed, as the constructor documents
         raise ValueError(f"seed: expected an int >= 0 (got {seed!r})") from None
-
-
-def flag(value, name: str) -> bool:
-    """``value`` as a bool: True or False (Python or NumPy); TypeError naming ``name`` for anything else
-    (the string "no" or "False" would be true, an array's truth is ambiguous, None or 0 may mean a default)."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name}: expected True or False (got {value!r})")
-    return bool(value)
 
 
 def light_tuple(lights) -> tuple:

@@ -21,7 +21,8 @@ from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
 from .exposure import both_sided_faces, is_auto
 
-__all__ = ["build_csm", "check_arguments", "corner_frame", "footprint_corners", "footprint_scale"]
+__all__ = ["build_csm", "check_arguments", "check_depth_bits", "check_float32_frame", "corner_frame",
+           "footprint_corners", "footprint_scale"]
 
 
 def _defines(resolution, layers, rule, block, depth_bits, iend_dtype, two_sided=False):
@@ -86,10 +87,30 @@ def check_arguments(views, resolution, depth_bits, layers="auto") -> None:
         raise ValueError("the view set is empty")
     if len(views) >= 2**32 - 1:
         raise ValueError("too many maps")
-    if depth_bits not in (16, 32) or isinstance(depth_bits, bool):
-        raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+    check_depth_bits(depth_bits)
     _check_resolution_layers(resolution, 2)
     layer_rule(layers)
+
+
+def _real_scalar(value) -> bool:
+    """``value`` is one real number (Python, NumPy or a 0-d array; not a bool, a complex or a string)."""
+    return (not isinstance(value, (bool, np.bool_)) and np.ndim(value) == 0
+            and np.asarray(value).dtype.kind in "iuf")
+
+
+def check_depth_bits(depth_bits) -> None:
+    """ValueError naming ``depth_bits`` unless it is 16 or 32 (an array, a complex or a bool is neither)."""
+    if not (_real_scalar(depth_bits) and depth_bits in (16, 32)):
+        raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+
+
+def check_float32_frame(centre, radius) -> None:
+    """ValueError unless the frame ``(centre, radius)`` (object units) lies within float32's range, which
+    the lookup and the .csm file work in."""
+    if not (radius <= FLOAT32_MAX and (np.abs(centre) <= FLOAT32_MAX).all()):
+        raise ValueError(f"the mesh's bounding sphere (centre {np.asarray(centre).tolist()}, radius {radius:.6g}) "
+                         "lies beyond float32's range, which the lookup and the .csm file work in: "
+                         "scale the mesh down")
 
 
 def layer_rule(layers, mesh=None):
@@ -97,7 +118,7 @@ def layer_rule(layers, mesh=None):
     is only checked, 0 returned); ValueError for anything else."""
     if isinstance(layers, str) and layers == "auto":
         return 0 if mesh is None else 3 if mesh.is_watertight else 2
-    if layers in (2, 3) and not isinstance(layers, (bool, np.bool_)):
+    if _real_scalar(layers) and layers in (2, 3):
         return int(layers)
     raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
 
@@ -129,9 +150,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
     centre, radius = (bounding_sphere(mesh) if frame is None
                       else check_frame(np.asarray(mesh.vertices, np.float64), frame))
-    if not (radius <= FLOAT32_MAX and (np.abs(centre) <= FLOAT32_MAX).all()):     # as a .csm file holds them
-        raise ValueError(f"the mesh's bounding sphere (centre {centre.tolist()}, radius {radius:.6g}) lies beyond "
-                         "float32's range, which the lookup and the .csm file work in: scale the mesh down")
+    check_float32_frame(centre, radius)             # as a .csm file holds them
     dtype_z = _depth_dtype(depth_bits)
     dtype_i = _iend_dtype(D)
     per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)

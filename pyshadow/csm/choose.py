@@ -25,6 +25,7 @@ import warnings
 
 import numpy as np
 
+from .._validate import check_int
 from .error_model import CANDIDATES, LARGE_WORK, MODEL_RATIO, _count, predict, rays_for
 
 __all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model", "PILOTS"]
@@ -63,6 +64,26 @@ def _max_bytes(v) -> int:
     if n < 1:
         raise ValueError(f"max_bytes must be positive (at least 1 byte), got {v!r}")
     return n
+
+
+def _candidates(candidates, name):
+    """``candidates`` as a tuple of ``(theta, phi, resolution)`` tuples of ints, checked before any ray is
+    drawn or pilot built; ValueError naming ``name`` for none at all."""
+    from ..raster import MAX_RESOLUTION
+
+    out = []
+    for c in candidates:
+        try:
+            triple = not isinstance(c, (str, bytes)) and len(c) == 3
+        except TypeError:                       # no length: a number
+            triple = False
+        if not triple:
+            raise ValueError(f"candidates must hold (theta, phi, resolution) triples, got {c!r}")
+        out.append((check_int(c[0], "candidate theta", 1, 65536), check_int(c[1], "candidate phi", 1, 65536),
+                    check_int(c[2], "candidate resolution", 1, MAX_RESOLUTION)))
+    if not out:
+        raise ValueError(f"{name} needs at least one candidate")
+    return tuple(out)
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -180,8 +201,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     max_error = _max_error(max_error)
     if lookup not in ("nearest", "vote", "auto"):
         raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
-    if not candidates:
-        raise ValueError("choose_csm needs at least one candidate")
+    candidates = _candidates(candidates, "choose_csm")
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     rays = rays_for(mesh, seed=seed, **draw)
@@ -272,8 +292,7 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     max_bytes = _max_bytes(max_bytes)
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
-    if not candidates:
-        raise ValueError("choose_within needs at least one candidate")
+    candidates = _candidates(candidates, "choose_within")
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     rays = rays_for(mesh, seed=seed, **draw)

@@ -37,6 +37,7 @@ import numpy as np
 
 from .._validate import check_int, uniform_scale
 from ..views import ViewSet
+from .build import check_depth_bits, check_float32_frame
 from .core import DEPTH_Q, front_margin
 from .reference import shadow_taps
 
@@ -88,9 +89,14 @@ class Layout:
         """The layout :meth:`CoherentShadowMap.build` would give ``mesh`` (zigzag maps, bounding sphere)."""
         from ..mesh import bounding_sphere, normalised_bounds
 
+        try:            # (a third entry was zigzag's row_offset: another grid than the one built)
+            theta, phi = maps
+        except (TypeError, ValueError):
+            raise ValueError(f"maps must be a pair (theta, phi), got {maps!r}") from None
         c, r = bounding_sphere(mesh)
         c = np.asarray(c, np.float64)
-        return cls(ViewSet.zigzag(*maps), int(resolution), int(depth_bits), c, float(r),
+        check_float32_frame(c, r)           # as build: no CSM of this mesh exists to predict
+        return cls(ViewSet.zigzag(theta, phi), int(resolution), int(depth_bits), c, float(r),
                    normalised_bounds(mesh, c, float(r)))
 
     @property
@@ -203,14 +209,18 @@ def truth_visible(bodies, points, directions, *, ground: float | None = None) ->
         True where the ray reaches the sky.
     """
     from ..embree import EmbreeScene, ray_epsilon
+    from ..mesh import float32_unit
 
     p, w = _rays(points, directions)
     casters, anchor, scale = _frame(bodies)
     occ = _ground(p, w, ground, scale)
-    rel = p - anchor
-    world = EmbreeScene(np.concatenate([b.world_triangles(anchor) for b in casters]) if casters
+    # traced at unit size, scaled by a power of two (1 near it: exact): ray_epsilon is at least float32's
+    # smallest normal number, which lifted the rays off a body below 1e-38 units past every surface
+    unit = float32_unit(scale)
+    rel = (p - anchor) * unit
+    world = EmbreeScene(np.concatenate([b.world_triangles(anchor) * unit for b in casters]) if casters
                         else np.zeros((0, 3, 3)))
-    eps = np.maximum(2e-5 * scale, ray_epsilon(np.maximum(np.abs(rel).max(axis=1), scale)))
+    eps = np.maximum(2e-5 * scale * unit, ray_epsilon(np.maximum(np.abs(rel).max(axis=1), scale * unit)))
     todo = np.flatnonzero(~occ)
     occ[todo] = world.occluded(rel[todo] + eps[todo, None] * w[todo], w[todo])
     return ~occ
@@ -266,6 +276,8 @@ def model_visible(bodies, points, directions, normals=None, owner=None, *, looku
 def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
     """A body's own AO rays: ``points`` area-uniform surface points, ``samples`` cosine-weighted directions each.
 
+    ``points`` and ``seed`` are ints, ``points >= 1``; the mesh must have some area (ValueError).
+
     Returns
     -------
     p, d, n : ndarray, shape (points * samples, 3), float64
@@ -273,13 +285,25 @@ def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
     """
     import trimesh
 
+    from ..mesh import float32_unit
     from ..sampling import Sampling, sample_directions
 
-    local, face = trimesh.sample.sample_surface(mesh, points, seed=seed)
-    nrm = np.asarray(mesh.face_normals, np.float64)[face]
+    check_int(points, "points", 1)
+    check_int(seed, "seed", 0)
+    # drawn at unit size, scaled by a power of two (1 near it: exact): the face areas that weigh the draw
+    # underflow (tiny meshes) or overflow (huge ones) in the mesh's own units
+    verts = np.asarray(mesh.vertices, np.float64)
+    unit = float32_unit(np.ptp(verts, axis=0).max()) if len(verts) else 1.0
+    fit = mesh if unit == 1.0 else trimesh.Trimesh(verts * unit, np.asarray(mesh.faces), process=False)
+    if not fit.area > 0:
+        raise ValueError(f"ao_rays: the mesh has no surface area (its {len(mesh.faces)} faces are all degenerate): "
+                         "there are no AO rays to draw on it")
+    local, face = trimesh.sample.sample_surface(fit, points, seed=seed)
+    local = local / unit
+    nrm = np.asarray(fit.face_normals, np.float64)[face]
     zero = np.flatnonzero(~np.abs(nrm).any(axis=1))
     if len(zero):           # trimesh zeroes the normals of small faces (a mesh in micrometres): scale-free here
-        tri = np.asarray(mesh.vertices, np.float64)[np.asarray(mesh.faces)[face[zero]]]
+        tri = np.asarray(fit.vertices, np.float64)[np.asarray(fit.faces)[face[zero]]]
         e = tri[:, 1:] - tri[:, :1]
         e /= np.maximum(np.abs(e).max(axis=(1, 2)), np.finfo(np.float64).tiny)[:, None, None]
         c = np.cross(e[:, 0], e[:, 1])
@@ -307,6 +331,7 @@ def near_rays(mesh, count: int = 16000, seed: int = 7):
     """
     from ..mesh import bounding_sphere
 
+    check_int(count, "count", 0)
     c, r = bounding_sphere(mesh)
     rng = np.random.default_rng(seed)
     u = rng.normal(size=(count, 3))
@@ -343,6 +368,7 @@ def rays_for(mesh, *, points: int = 2000, samples: int = 16, near: int = 16000, 
     (normals or None), ``truth`` (bool), ``w`` (weights, or None), in the
     object's frame, no ground.
     """
+    check_int(near, "near", 0)
     body = [Body(mesh, np.eye(4), Layout.for_mesh(mesh))]
     p, d, nrm = ao_rays(mesh, points, samples, seed)
     out = {"own": {"p": p, "d": d, "n": nrm, "truth": truth_visible(body, p, d), "w": None}}
@@ -397,8 +423,7 @@ def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, l
 
     from ..raster import MAX_RESOLUTION
 
-    if depth_bits not in (16, 32) or isinstance(depth_bits, (bool, np.bool_)):
-        raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
+    check_depth_bits(depth_bits)
     check_int(resolution, "resolution", 1, MAX_RESOLUTION)
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .build import footprint_scale
+from .build import _real_scalar, check_depth_bits, footprint_scale
 from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin, query_indices,
                    slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
@@ -174,8 +174,16 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         The arrays of :meth:`CoherentShadowMap.build` for the same maps,
         bit for bit.
     """
+    if not (_real_scalar(rule) and rule in (2, 3)):
+        raise ValueError(f"rule must be 2 or 3, got {rule!r}")
+    check_depth_bits(depth_bits)
     layers = np.asarray(layers, np.float32)
     front = np.asarray(front, bool)
+    if layers.ndim != 4 or layers.shape[2] != layers.shape[3] or 0 in layers.shape:
+        raise ValueError(f"layers must have shape (D, L, R, R) with D, L, R >= 1, got {layers.shape}")
+    nan = int(np.count_nonzero(np.isnan(layers)))
+    if nan:
+        raise ValueError(f"layers: {nan} depths are NaN (+inf marks a ray with fewer hits)")
     D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
     if corners is not None:
         corners = np.asarray(corners, np.float32)

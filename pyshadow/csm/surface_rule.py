@@ -85,6 +85,10 @@ def covering_angle(views, lookup: str = "nearest") -> float:
     float
         Radians, in ``(0, pi]``.
     """
+    from ..views import ViewSet
+
+    if not isinstance(views, ViewSet):
+        raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     held = _COVER.setdefault(views, {})

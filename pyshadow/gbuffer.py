@@ -60,6 +60,42 @@ def _clip_near(tri: np.ndarray, near: float):
     return np.concatenate(out), np.concatenate(src)
 
 
+def _cut_in_view(tri, near: float, tx: float, ty: float):
+    """Index of the first camera-space triangle of ``tri`` (N, 3, 3) whose part nearer than ``near`` lies
+    in the view (half-widths ``tx``, ``ty`` at unit depth) with an area, which :func:`_clip_near` would cut
+    from the image; None if there is none. Only triangles whose box reaches the view's cross-section at
+    ``near`` are clipped (in float64, by Sutherland-Hodgman) to the part of the view between 1e-3 ``near``
+    and ``near``, and count where that part has an area on the screen."""
+    below = tri[:, :, 2] < near
+    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))     # few: by columns first
+    x, y = tri[part, :, 0], tri[part, :, 1]
+    cand = part[(x.min(axis=1) <= tx * near) & (x.max(axis=1) >= -tx * near)
+                & (y.min(axis=1) <= ty * near) & (y.max(axis=1) >= -ty * near)]
+    planes = [(np.array(a, np.float64), b) for a, b in (((0, 0, -1), -1e-3 * near), ((0, 0, 1), near),
+                                                        ((1, 0, -tx), 0.0), ((-1, 0, -tx), 0.0), ((0, 1, -ty), 0.0),
+                                                        ((0, -1, -ty), 0.0))]
+    for i in cand:
+        poly = list(tri[i])
+        for a, b in planes:                 # keep a . p <= b
+            out = []
+            for k in range(len(poly)):
+                p, q = poly[k], poly[(k + 1) % len(poly)]
+                fp, fq = a @ p - b, a @ q - b
+                if fp <= 0:
+                    out.append(p)
+                if (fp <= 0) != (fq <= 0):
+                    out.append(p + fp / (fp - fq) * (q - p))
+            poly = out
+            if len(poly) < 3:
+                break
+        else:                               # its area on the screen (the view's [-1, 1]^2): an edge-on
+            sx = np.array([p[0] / (p[2] * tx) for p in poly])      # plane through the eye has none
+            sy = np.array([p[1] / (p[2] * ty) for p in poly])
+            if abs(np.dot(sx, np.roll(sy, -1)) - np.dot(np.roll(sx, -1), sy)) > 2e-12:
+                return int(i)
+    return None
+
+
 def _outside_view(c, tx, ty) -> bool:
     """Whether camera-space points ``c`` (N, 3) all lie behind the eye or all beyond one side of the view
     (half-widths ``tx``, ``ty`` at unit depth): a body there covers no pixel."""
@@ -139,6 +175,12 @@ def gbuffer_triangles(items, camera: Camera):
         corner = np.take(side, faces)                      # (F, 3); indexing is slower
         keep = np.flatnonzero((corner[:, 0] & corner[:, 1] & corner[:, 2]) == 0)
         tri = np.take(c, faces if len(keep) == len(faces) else np.take(faces, keep, axis=0), axis=0)
+        lost = _cut_in_view(tri, near, tx, ty)
+        if lost is not None:
+            raise ValueError(f"render_gbuffer: face {int(keep[lost])} of item {oid} reaches into the view nearer than "
+                             f"the near plane {near:.3g} (1e-6 of the farthest geometry in view, {far:.3g}), which "
+                             f"would cut it away there (the pixels would show what lies behind it); draw it "
+                             f"smaller (a smaller ground_size for the ground) or far geometry as a scene of its own")
         clipped, src = _clip_near(tri, near)
         all_tri.append(clipped)
         all_obj.append(np.full(len(clipped), oid, dtype=np.int32))
@@ -301,7 +343,37 @@ def render_gbuffer(items, camera: Camera) -> dict:
     o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
     f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
     t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
+    if len(tris):
+        _far_corner_distances(tris, tri_idx, hit, t64, camera)
     return _finish(camera, t64, n_cam.astype(np.float64).reshape(H, W, 3), o, f)
+
+
+#: A pixel whose triangle has a corner farther from the eye than this many times the pixel's own distance
+#: gets that distance from float64 on the host. The kernel reads the corners in float32: their rounding
+#: (6e-8 of each corner's distance) tilts the plane by about that much of the corner's distance at the
+#: pixel, relative error 6e-8 times the ratio (below 2e-5 here; a ground quad of side 2e5 seen from 1.5 m
+#: put points 4 mm off the ground, half of them below it, and their AO came out 0).
+FAR_CORNER_RATIO = 256.0
+
+
+def _far_corner_distances(tris, tri_idx, hit, t, camera) -> None:
+    """Replace in ``t`` (H, W) float64 the distances of the pixels whose triangle (``tris`` camera space,
+    float64, index ``tri_idx`` per pixel) reaches beyond :data:`FAR_CORNER_RATIO` times their distance by
+    the float64 intersection of their ray with that triangle's plane (as the kernel's, exact)."""
+    flat = t.reshape(-1)
+    if max(float(tris.max()), -float(tris.min())) <= FAR_CORNER_RATIO * float(flat.min()):
+        return                              # no corner so far (a frame's usual case: two passes, no temporaries)
+    reach = np.abs(tris.reshape(len(tris), 9)).max(axis=1)
+    sel = np.flatnonzero(hit & (np.take(reach, tri_idx) > FAR_CORNER_RATIO * flat))
+    if not len(sel):
+        return
+    tri = np.take(tris, tri_idx[sel], axis=0)
+    d = camera._rays().reshape(-1, 3)[sel] @ camera.rotation.T
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        exact = np.einsum("ij,ij->i", n, tri[:, 0]) / np.einsum("ij,ij->i", n, d)
+    ok = np.isfinite(exact) & (exact > 0)
+    flat[sel[ok]] = exact[ok]
 
 
 def render_gbuffer_reference(items, camera: Camera) -> dict:

@@ -374,6 +374,7 @@ def visual_of(mesh) -> MeshVisual | None:
     if not isinstance(v, MeshVisual):
         raise TypeError(f"mesh.metadata[{VISUAL_KEY!r}] must be a pyshadow.materials.MeshVisual, "
                         f"got {type(v).__name__}")
+    _check_arrays(v, f"mesh.metadata[{VISUAL_KEY!r}]")
     if any(a is not None and len(a) != len(mesh.faces) for a in (v.colours, v.uv, v.texture_index)):
         raise ValueError(f"mesh.metadata[{VISUAL_KEY!r}] holds attributes of another mesh "
                          f"(its arrays do not have one row per face, {len(mesh.faces)})")
@@ -402,10 +403,21 @@ def barycentrics(points, triangles) -> np.ndarray:
     e1, e2, d = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
     d11, d12, d22 = (np.einsum("ij,ij->i", x, y) for x, y in ((e1, e1), (e1, e2), (e2, e2)))
     d1, d2 = np.einsum("ij,ij->i", d, e1), np.einsum("ij,ij->i", d, e2)
-    den = d11 * d22 - d12 * d12
-    den = np.where(den > 0, den, 1.0)
+    gram = d11 * d22 - d12 * d12
+    den = np.where(gram > 0, gram, 1.0)
     v = (d22 * d1 - d12 * d2) / den
     w = (d11 * d2 - d12 * d1) / den
+    # a sliver (sin^2 of its angle at a below 1e-10, the Gram determinant's weights off by up to 1e-6): that
+    # determinant cancels to noise or 0 (a point then got a's weight); |e1 x e2|^2 and the triple products
+    # lose only half as many digits
+    thin = np.flatnonzero(~(gram > 1e-10 * d11 * d22))
+    if len(thin):
+        n = np.cross(e1[thin], e2[thin])
+        nn = np.einsum("ij,ij->i", n, n)
+        ok = nn > 0
+        k, n, nn = thin[ok], n[ok], nn[ok]
+        v[k] = np.einsum("ij,ij->i", np.cross(d[k], e2[k]), n) / nn
+        w[k] = np.einsum("ij,ij->i", np.cross(e1[k], d[k]), n) / nn
     b = np.maximum(np.column_stack([1.0 - v - w, v, w]), 0.0)
     s = b.sum(axis=1, keepdims=True)
     return np.where(s > 0, b / np.where(s > 0, s, 1.0), 1.0 / 3.0)
@@ -446,6 +458,35 @@ def _check_finite(visual: MeshVisual, name: str) -> None:
                          + (": its texture cannot be applied" if name == "uv" else ""))
 
 
+def _check_arrays(visual: MeshVisual, name: str) -> None:
+    """TypeError or ValueError naming ``name`` where an array of ``visual`` is not of its documented form
+    (:class:`MeshVisual`): colours (T, 3, 3), UVs (T, 3, 2) and textures (h, w, 3), h, w >= 1, of floats
+    (8-bit data read as floats was 255 times too bright), texture indices of integers, a factor of three
+    finite numbers >= 0."""
+    want = {"colours": (3, 3), "uv": (3, 2)}
+    arrays = [(k, getattr(visual, k), want[k]) for k in want]
+    arrays += [("texture", t, None) for t in (visual.texture, *visual.textures)]
+    for key, a, tail in arrays:
+        if a is None:
+            continue
+        a = np.asarray(a)
+        if a.dtype.kind != "f":
+            what = "texture coordinates" if key == "uv" else "linear RGB in [0, 1], not 8-bit values"
+            raise TypeError(f"{name}: {key} must be floats ({what}), got dtype {a.dtype}")
+        if tail is None and not (a.ndim == 3 and a.shape[2] == 3 and a.shape[0] >= 1 and a.shape[1] >= 1):
+            raise ValueError(f"{name}: a texture must be an RGB image of shape (h, w, 3), h, w >= 1, "
+                             f"got shape {a.shape}")
+        if tail is not None and (a.ndim != 3 or a.shape[1:] != tail):
+            raise ValueError(f"{name}: {key} must have shape (T, {tail[0]}, {tail[1]}), got {a.shape}")
+    if visual.texture_index is not None and np.asarray(visual.texture_index).dtype.kind not in "iu":
+        raise TypeError(f"{name}: texture_index must be integers, got dtype "
+                        f"{np.asarray(visual.texture_index).dtype}")
+    factor = np.asarray(visual.factor)
+    if factor.dtype.kind not in "fiu" or factor.shape != (3,) or not (np.isfinite(factor).all()
+                                                                      and (factor >= 0).all()):
+        raise ValueError(f"{name}: factor must be three finite numbers >= 0 (linear RGB), got {visual.factor!r}")
+
+
 def _checked(visual: MeshVisual, name: str) -> list:
     """The arrays :func:`_check_finite` checks for ``name``."""
     if visual.texture_index is not None and name == "texture":
@@ -472,6 +513,7 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
     out = np.ones((len(f), 3))
     if visual is None or len(f) == 0:
         return out
+    _check_arrays(visual, visual.source)
     b = np.asarray(bary, dtype=np.float64)
     if visual.colours is not None:
         _check_finite(visual, "colours")
@@ -487,7 +529,7 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
             for k in np.unique(which[which >= 0]):
                 sel = which == k
                 out[sel] *= _bilinear(visual.textures[k], uv[sel])
-    return out * visual.factor.astype(np.float64)
+    return out * np.asarray(visual.factor, np.float64)
 
 
 def surface_colours(items, item, face, bary) -> np.ndarray:

@@ -20,7 +20,7 @@ import trimesh
 
 from . import _cl
 from ._cl import launch
-from ._validate import check_int, squared_lengths
+from ._validate import check_int, flag, squared_lengths
 from ._compat import keyword_only
 from .mesh import bounding_sphere, load_mesh
 from .views import ViewSet
@@ -45,6 +45,30 @@ def _check_resolution_layers(resolution, layers):
         raise ValueError(f"resolution must be in 1..{MAX_RESOLUTION}, got {resolution}")
     if isinstance(layers, bool) or not isinstance(layers, (int, np.integer)) or layers not in (1, 2, 3):
         raise ValueError(f"layers must be 1, 2 or 3, got {layers!r}")
+
+
+def _check_bases(bases) -> np.ndarray:
+    """``bases`` as (B, 3, 3) float64: finite, right-handed orthonormal rows ``(u, v, d)`` to
+    :data:`pyshadow.views.BASIS_TOL` (a ViewSet's rule); others gave every texel ``+inf`` (NaN) or depths
+    outside [0, 1] (a scaled basis), without a word."""
+    from .views import BASIS_TOL
+
+    b = np.asarray(bases)
+    if b.dtype.kind not in "iuf":
+        raise TypeError(f"bases must hold real numbers, got dtype {b.dtype}")
+    if b.size % 9:
+        raise ValueError(f"bases must have shape (B, 3, 3), got {b.shape}")
+    b = b.astype(np.float64).reshape(-1, 3, 3)
+    if not np.isfinite(b).all():
+        raise ValueError(f"bases: {int((~np.isfinite(b)).any(axis=(1, 2)).sum())} bases are not finite")
+    with np.errstate(over="ignore", invalid="ignore"):
+        err = np.abs(np.einsum("nij,nkj->nik", b, b) - np.eye(3)).max(axis=(1, 2)) if len(b) else np.zeros(0)
+        bad = ~(err <= BASIS_TOL) | ~(np.linalg.det(b) > 0 if len(b) else np.zeros(0, bool))
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise ValueError(f"bases: {int(bad.sum())} are not right-handed orthonormal (rows u, v, d; tolerance "
+                         f"{BASIS_TOL:g}), first: basis {k}, {b[k].tolist()}")
+    return b
 
 
 def _both_sides(both_sides, n_faces: int, facing: bool) -> np.ndarray:
@@ -142,10 +166,11 @@ class DepthRenderer:
 
     def __init__(self, mesh, resolution: int = 128, layers: int = 2, *, frame=None, facing: bool = False,
                  both_sides=None):
+
         _check_resolution_layers(resolution, layers)
         self.resolution = int(resolution)
         self.layers = int(layers)
-        self.facing = bool(facing)
+        self.facing = flag(facing, "facing")        # the string "no" was true
         verts, faces = _prepare_mesh(mesh, frame)
         self.n_faces = len(faces)
         pad = launch.TRIANGLE_PAD
@@ -180,7 +205,7 @@ class DepthRenderer:
         or it is one of ``both_sides``), else 0 (also where there is no
         surface).
         """
-        bases = np.asarray(bases, dtype=np.float64).reshape(-1, 3, 3)
+        bases = _check_bases(bases)
         n = len(bases)
         if n == 0:
             raise ValueError("no views to render")
@@ -262,6 +287,7 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     """
     _check_args(views, resolution, layers)
     renderer = DepthRenderer(mesh, resolution, layers, frame=frame, facing=facing, both_sides=both_sides)
+    facing = renderer.facing
     D = len(views)
     if block is None:
         block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
@@ -341,7 +367,9 @@ def render_depth_reference(mesh, views: ViewSet, *, resolution: int = 32, layers
     screen-space area (counter-clockwise positive) is positive, or it is one
     of ``both_sides`` (:class:`DepthRenderer`).
     """
+
     _check_args(views, resolution, layers)
+    facing = flag(facing, "facing")
     verts, faces = _prepare_mesh(mesh, frame)
     both = np.zeros(len(faces), bool) if both_sides is None else _both_sides(both_sides, len(faces), facing)
     R = int(resolution)

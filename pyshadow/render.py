@@ -150,13 +150,24 @@ def ground_quad(scene, size: float | None = None):
                      (inst.world_sphere() for inst in scene.instances)] or [1.0])
         size = 16.0 * reach
     if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) or not (
-            np.isfinite(size) and size > 0):
+            _finite_float(size) and size > 0):
         raise ValueError(f"ground_size must be a finite number > 0 (world units), got {size!r}")
     h = 0.5 * float(size)
     cx, cz = anchor[0], anchor[2]
     v = np.array([[cx - h, scene.ground, cz - h], [cx + h, scene.ground, cz - h],
                   [cx + h, scene.ground, cz + h], [cx - h, scene.ground, cz + h]])
+    if not (v[1, 0] > v[0, 0] and v[2, 2] > v[1, 2]):      # a quad of no area draws no ground
+        raise ValueError(f"ground_size {size!r} is too small to draw at the scene's anchor {anchor.tolist()}: "
+                         f"the quad's corners coincide in float64")
     return trimesh.Trimesh(v, [[0, 2, 1], [0, 3, 2]], process=False)
+
+
+def _finite_float(x) -> bool:
+    """Whether the real number ``x`` is finite as a float (a Python int beyond float64's range is not)."""
+    try:
+        return bool(np.isfinite(float(x)))
+    except OverflowError:
+        return False
 
 
 def draw_items(scene, ground_size: float | None = None):
@@ -257,6 +268,11 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
         As in :func:`surface_points`.
     """
     ao_scale = _check_ao_scale(ao_scale)
+    H, W = camera.height, camera.width
+    for name, a, shape in (("object_id", object_id, (H, W)), ("gbuffer['depth']", gbuffer["depth"], (H, W)),
+                           ("gbuffer['normal']", gbuffer["normal"], (H, W, 3))):
+        if np.shape(a) != shape:        # a transposed image, or another camera's, picked other pixels
+            raise ValueError(f"{name} has shape {np.shape(a)}; the camera needs {shape}")
     hit = object_id != -1
     if ao_scale != 1:
         sub = np.zeros((camera.height, camera.width), bool)
@@ -321,7 +337,7 @@ def _put_pixels(image, index, values) -> None:
 
 
 def _check_render_options(denoise, ao_scale, sampling):
-    if denoise is not None and denoise not in DENOISERS:
+    if denoise is not None and not (isinstance(denoise, str) and denoise in DENOISERS):   # an array: no truth value
         raise ValueError(f"denoise must be None, 'bilateral', 'separable' or 'box', got {denoise!r}")
     ao_scale = _check_ao_scale(ao_scale)
     if sampling is None:
@@ -400,7 +416,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     from .gbuffer import render_gbuffer
 
     ao_scale, sampling = _check_render_options(denoise, ao_scale, sampling)
-    if normals not in NORMAL_MODES:
+    if not (isinstance(normals, str) and normals in NORMAL_MODES):      # an array's ``in`` has no truth value
         raise ValueError(f"normals must be 'flat' or 'smooth', got {normals!r}")
     crease_angle = check_crease_angle(crease_angle)
     phong = False

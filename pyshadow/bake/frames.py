@@ -27,11 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from .._files import write_bytes_atomic
+from .._validate import check_int
 from .._version import __version__
 from .assets import csm_file_bytes
+from .motion import _check as _check_motion
 from .params import code_digest
 from .records import done, store
-from .runner import close_executor, executor_info, open_executor, sweep_temporaries
+from .runner import _TEMPORARY, close_executor, executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
@@ -151,6 +153,41 @@ def render_chunk(frames, transforms, payload) -> list:
     return results
 
 
+def _check_parts(parts) -> None:
+    """Raise for a body whose name cannot be its CSM's file stem in ``out/csm/``.
+
+    TypeError for a name that is no str; ValueError for an empty one, one
+    with a path separator or NUL (``../x`` would be written outside
+    ``out/csm/``) or one shaped like an atomic write's temporary file
+    (removed again at the end of the run), and for two casters of different meshes named alike up
+    to case: their CSMs would be one file (the second replacing the first;
+    on a case-insensitive file system also ``A`` and ``a``). Bodies that
+    share one mesh may share its name.
+    """
+    seps = {"\0", os.sep} | ({os.altsep} if os.altsep else set())
+    seen = {}                           # lower-case name -> (index, mesh) of the first caster
+    for i, (name, mesh, casts) in enumerate(parts):
+        if not isinstance(name, str):
+            raise TypeError(f"parts[{i}]: the name must be a str, got {name!r}")
+        if not name or any(c in name for c in seps) or _TEMPORARY.match(f"{name}.csm"):
+            raise ValueError(f"parts[{i}]: the name {name!r} cannot be a file name (csm/<name>.csm): it is "
+                             f"empty, holds a path separator or NUL, or is shaped like a temporary file "
+                             f"(.x.<12 hex>.tmp) that a run removes")
+        if not casts:
+            continue
+        j, other = seen.setdefault(name.lower(), (i, mesh))
+        if other is not mesh and not (np.array_equal(other.vertices, mesh.vertices)
+                                      and np.array_equal(other.faces, mesh.faces)):
+            raise ValueError(f"parts[{j}] and parts[{i}] are different meshes named {parts[j][0]!r} and "
+                             f"{name!r}: their CSMs would be one file, csm/{name}.csm; rename one")
+
+
+def _frame_files(f: int) -> set:
+    """The outputs of frame ``f`` (relative paths): a done record must list these, no other files (a
+    hand-edited one listing none, or files elsewhere, proves nothing about them)."""
+    return {f"{kind}/frame_{f:04d}.{kind}" for kind in ("exr", "png")}
+
+
 def _frame_key(payload_key: str, T: np.ndarray, code: str) -> str:
     h = hashlib.sha256(payload_key.encode())
     h.update(np.ascontiguousarray(T, "<f8").tobytes())
@@ -196,8 +233,16 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     Raises
     ------
     ValueError
-        ``transforms`` of the wrong shape, ``chunk`` not a positive int or
-        ``ground`` not a finite number: before any CSM is built.
+        ``transforms`` of the wrong shape or without frames, one of them
+        not finite or not rigid (the message names the frame and body),
+        ``chunk`` not a positive int, ``ground`` not a finite number,
+        ``samples``, ``lookup`` or ``denoise`` not one ``Scene.render``
+        takes, or a part's name that cannot be its CSM's file name (or the
+        same as another caster's of a different mesh): before any CSM is
+        built.
+    TypeError
+        ``transforms`` not real numbers, ``samples`` not an int, a part's
+        name not a str.
     KeyboardInterrupt
         After the manifest is written (the frames not finished marked
         'interrupted'), also for one that lands while the executor shuts
@@ -213,15 +258,22 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
 
     t_start = time.perf_counter()
     log = log or (lambda msg: None)
-    T = np.asarray(transforms, np.float64)
-    if T.ndim != 4 or T.shape[1:] != (len(parts), 4, 4):
+    T = np.asarray(transforms)
+    if T.ndim != 4 or T.shape[1:] != (len(parts), 4, 4) or len(T) < 1:
         raise ValueError(f"transforms must have shape (frames, {len(parts)}, 4, 4) for {len(parts)} bodies, "
-                         f"got {T.shape}")
-    if isinstance(chunk, bool) or int(chunk) < 1:
-        raise ValueError(f"chunk must be a positive int, got {chunk!r}")
+                         f"at least one frame, got {T.shape}")
+    T, _ = _check_motion(T, None, "transforms")     # real numbers, each finite and rigid (as Scene.set_transform)
+    _check_parts(parts)
+    try:
+        chunk = check_int(chunk, "chunk", 1)
+    except (TypeError, ValueError):     # not 2.5 (a slice of floats), nor "3"; one error type, as documented
+        raise ValueError(f"chunk must be a positive int, got {chunk!r}") from None
     if ground is not None and (isinstance(ground, bool) or not isinstance(ground, numbers.Real)
                                or not math.isfinite(ground)):
         raise ValueError(f"ground must be a finite number or None, got {ground!r}")
+    if isinstance(ground, np.generic):  # np.float32 is no JSON (the scene's key, the manifest)
+        ground = ground.item()
+    _check_render(samples, lookup, denoise)
     out = Path(out_dir).expanduser()
     out.mkdir(parents=True, exist_ok=True)
     sweep_temporaries(out)
@@ -249,7 +301,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         for f in range(len(T)):
             keys[f] = _frame_key(payload["key"], T[f], code)
             rec = done(out, f"records/frame_{f:04d}.json", keys[f])
-            if rec is not None:
+            if rec is not None and rec.get("frame") == f and set(rec["outputs"]) == _frame_files(f):
                 entries[f] = dict(rec, action="skipped")
             else:
                 todo.append(f)
@@ -297,6 +349,20 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         if stopped is not None:
             raise stopped
     return manifest
+
+
+def _check_render(samples, lookup, denoise) -> None:
+    """The render options of :func:`bake_frames` as :meth:`pyshadow.Scene.render` checks them, but before
+    the CSMs are built (not each frame failing after): TypeError or ValueError naming the option."""
+    from ..render import DENOISERS
+    from ..sampling import Sampling
+    from ..scene import LOOKUPS
+
+    Sampling(samples)                   # an int in 1 .. MAX_SAMPLES (2.5 was cut to 2, "3" read as 3)
+    if not isinstance(lookup, str) or lookup not in LOOKUPS:
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    if denoise is not None and denoise not in DENOISERS:
+        raise ValueError(f"denoise must be None, 'bilateral', 'separable' or 'box', got {denoise!r}")
 
 
 def auto_camera(parts, transforms, *, width=640, height=480, fov_y=40.0):

@@ -22,10 +22,10 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 from .._version import __version__
-from .assets import bake_asset
+from .assets import bake_asset, output_names
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
-from .runner import close_executor, executor_info, open_executor, sweep_temporaries
+from .runner import _TEMPORARY, close_executor, executor_info, open_executor, sweep_temporaries
 
 __all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
 
@@ -54,7 +54,10 @@ def find_assets(sources) -> tuple[list, list]:
         Sorted by path. ``name`` (output file stem) is the file's stem with
         characters other than letters, digits, ``.``, ``_`` and ``-``
         replaced by ``_``; stems that collide (``a.obj`` and ``a.ply``)
-        get their extension appended (``a_obj``, ``a_ply``).
+        get their extension appended (``a_obj``, ``a_ply``). A stem shaped
+        like an atomic write's temporary file (``.a.<12 hex>.tmp``), whose
+        outputs every run would remove as a killed run's leftovers, gets a
+        leading ``_``.
     ignored : list of str
         Files of a folder that are not meshes.
 
@@ -86,6 +89,7 @@ def find_assets(sources) -> tuple[list, list]:
         seen.setdefault(f.parent.resolve() / f.name, f)
     files = sorted(seen.values())
     stems = [re.sub(r"[^A-Za-z0-9._-]", "_", f.stem) or "mesh" for f in files]
+    stems = ["_" + s if _TEMPORARY.match(f"{s}.json") else s for s in stems]    # else swept away as a temporary
     lower = [s.lower() for s in stems]
     names = [s if lower.count(s.lower()) == 1 else f"{s}_{f.suffix.lstrip('.').lower()}"
              for s, f in zip(stems, files)]
@@ -147,12 +151,21 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         ``action`` ('baked', 'skipped' (done before, unchanged), 'failed' or
         'interrupted').
 
+    Raises
+    ------
+    TypeError
+        ``params`` not an :class:`AssetParams`, before anything is written.
+    ValueError
+        ``params.samples`` above :data:`pyshadow.sampling.MAX_SAMPLES`,
+        before anything is written.
+
     Notes
     -----
     Rerunning with the same sources and parameters bakes nothing; a
-    changed, new, failed or damaged asset (an output missing or altered)
-    is baked again. A failed asset (unreadable, empty, not a mesh) is
-    reported in the manifest and does not stop the others. On
+    changed, new, failed or damaged asset (an output missing or altered,
+    or a record that does not list exactly its outputs) is baked again.
+    A failed asset (unreadable, empty, not a mesh) is reported in the
+    manifest and does not stop the others. On
     ``KeyboardInterrupt`` (while tasks run, or while the executor shuts
     down) the tasks are cancelled, temporary files removed and the
     manifest written (the assets not finished marked 'interrupted') before
@@ -163,6 +176,13 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     t_start = time.perf_counter()
     log = log or (lambda msg: None)
     params = params if params is not None else AssetParams()
+    if not isinstance(params, AssetParams):     # a dict: AssetParams.from_dict(d)
+        raise TypeError(f"params must be an AssetParams (or None), got {type(params).__name__}")
+    from ..sampling import MAX_SAMPLES
+
+    if params.samples > MAX_SAMPLES:            # else every asset fails, after its CSM is built
+        raise ValueError(f"params.samples must be at most {MAX_SAMPLES} (the AO kernels' limit), got "
+                         f"{params.samples}")
     out = Path(out_dir).expanduser()
     for sub in ("", "csm", "meshes", "records"):
         if (out / sub).exists() and not (out / sub).is_dir():
@@ -182,7 +202,10 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
             entries[name] = dict(_failed(name, path, None, f"{type(e).__name__}: {e}"), action="failed")
             continue
         rec = done(out, f"records/{name}.json", key)
-        if rec is not None:
+        # trusted only when it lists exactly this asset's outputs, under its name (a hand-edited record may
+        # list none, or files elsewhere: ../x, /abs)
+        outputs = set(output_names(name, params).values())
+        if rec is not None and rec.get("name") == name and set(rec["outputs"]) == outputs:
             entries[name] = dict(rec, action="skipped")
         else:
             todo.append((name, path, key))

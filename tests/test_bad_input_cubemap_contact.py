@@ -313,3 +313,16 @@ def test_seed_filter_needs_real_images(name):
     args[name] = np.real(args[name]).astype(str)
     with pytest.raises(TypeError, match=rf"^{name} must hold real numbers, got dtype <U"):
         seed_box_filter(**args)
+
+
+@pytest.mark.parametrize("options, error", [(dict(thickness=-1.0), ValueError), (dict(step=True), TypeError),
+                                            (dict(max_steps=0), ValueError), (dict(stride=2), TypeError)])
+def test_march_options_are_checked_before_any_probe(small_scene, options, error):
+    """``CubeMapAO(scene, 1.0, thickness=-1)`` was accepted; the error came from add_probe, after the probe's
+    six faces were rendered (or, for place(), after the camera's G-buffer)."""
+    from pyshadow.cubemap import CubeMapAO
+
+    with pytest.raises(error):
+        CubeMapAO(small_scene, 1.0, resolution=16, **options)
+    assert CubeMapAO(small_scene, 1.0, resolution=16, thickness=0.5, step=2.0).options == dict(thickness=0.5,
+                                                                                                  step=2.0)

@@ -243,7 +243,9 @@ class CubeMapAO:
                  **options):
         if estimator is not None and estimator not in ESTIMATORS:
             raise ValueError(f"estimator must be one of {ESTIMATORS} or None, got {estimator!r}")
-        self.max_distance = march_defaults(max_distance)["max_distance"]
+        march = {k: v for k, v in options.items() if k not in ("directions", "steps")}
+        # checked before a probe is rendered (add_probe's march raised only after the render)
+        self.max_distance = march_defaults(max_distance, **(march if estimator == "raymarch" else {}))["max_distance"]
         _check_resolution(resolution)
         device = flag(device, "device")         # "no" was true: the device ran
         self.scene, self.resolution, self.estimator = scene, int(resolution), estimator

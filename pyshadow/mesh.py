@@ -408,11 +408,20 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     unit = float32_unit(extent)
     if unit == 1.0 and 0.0 < extent < 2.0 ** -10:     # qhull's absolute tolerances fail it below about 5e-5
         unit = float(2.0 ** -np.round(np.log2(extent)))
-    fit = mesh if unit == 1.0 else trimesh.Trimesh(verts * unit, np.asarray(mesh.faces), process=False)
+    # far from the origin (beyond 2**20 extents) the fit sees the mesh moved to its box's centre, exactly
+    # (Sterbenz: each coordinate within a factor 2 of it): qhull on raw coordinates 1e12 extents away fell
+    # back to the box's centre, a sphere 5 % wider than the same mesh's at the origin
+    shift = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
+    if not float(np.abs(shift).max()) > 2.0 ** 20 * extent:
+        shift = None
+    fit = mesh if unit == 1.0 and shift is None else trimesh.Trimesh(
+        (verts if shift is None else verts - shift) * unit, np.asarray(mesh.faces), process=False)
     try:
         with np.errstate(all="ignore"):
             centre, _ = trimesh.nsphere.minimum_nsphere(fit)
         centre = np.asarray(centre, dtype=np.float64) / unit
+        if shift is not None:
+            centre = centre + shift
         if not np.isfinite(centre).all():
             raise ValueError
     except Exception:

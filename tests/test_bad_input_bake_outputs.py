@@ -190,14 +190,20 @@ def test_a_name_shaped_like_a_temporary_file_keeps_its_outputs(tmp_path):
         _bake(tmp_path / "frames", parts=[(".a.0123456789ab.tmp", BOX, True)], csm_for=_never)
 
 
-def test_assets_samples_beyond_the_kernels_limit_is_refused_first(tmp_path):
+def test_assets_samples_beyond_the_kernels_limit_is_refused_first(tmp_path, capsys):
     """AssetParams(samples=5000) (pyshadow-bake assets --samples 5000, which the command line accepts up to
     65536) built every asset's CSM and then failed each one with "samples must be in 1..4096"."""
     from pyshadow.sampling import MAX_SAMPLES
 
     (tmp_path / "src").mkdir()
     BOX.export(tmp_path / "src/box.obj")
-    params = AssetParams(theta=2, phi=2, resolution=8, samples=MAX_SAMPLES + 1)
-    with pytest.raises(ValueError, match=f"params.samples must be at most {MAX_SAMPLES}"):
-        bake_assets(tmp_path / "src", tmp_path / "out", params, executor="serial", progress=False)
+    with pytest.raises(ValueError, match=f"AssetParams.samples must be at most {MAX_SAMPLES}"):
+        AssetParams(theta=2, phi=2, resolution=8, samples=MAX_SAMPLES + 1)
+    assert AssetParams(theta=2, phi=2, resolution=8, samples=MAX_SAMPLES).samples == MAX_SAMPLES
+    from pyshadow.bake.cli import main
+
+    with pytest.raises(SystemExit) as exit_:            # the command line refuses it before any work (usage error)
+        main(["assets", str(tmp_path / "src"), "--out", str(tmp_path / "out"), "--samples", str(MAX_SAMPLES + 1)])
+    assert exit_.value.code == 2
+    assert f"--samples must be in 1..{MAX_SAMPLES}, got {MAX_SAMPLES + 1}" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()

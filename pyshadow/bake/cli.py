@@ -21,6 +21,7 @@ from pathlib import Path
 
 from .._files import writable_folder
 from ..bench.config import _int_range, _maps, _positive_float, _size
+from ..sampling import MAX_SAMPLES
 from .params import AssetParams
 from .runner import EXECUTORS
 
@@ -90,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mesh files, or folders (their files with a mesh extension)")
     a.add_argument("-o", "--out", required=True, metavar="DIR", help="output folder")
     _csm_options(a)
-    a.add_argument("--samples", type=_int_range(1, 65536, "--samples"), default=64,
+    a.add_argument("--samples", type=_int_range(1, MAX_SAMPLES, "--samples"), default=64,
                    help="AO samples per vertex (default 64)")
     a.add_argument("--ground", action="store_true", help="bake with a ground plane under each asset")
     a.add_argument("--fill-holes", action="store_true", help="close the meshes' holes first")
@@ -110,7 +111,7 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=60,
                    help="frames of the bundled scene's default motion (default 60)")
     f.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
-    f.add_argument("--samples", type=_int_range(1, 65536, "--samples"), default=36,
+    f.add_argument("--samples", type=_int_range(1, MAX_SAMPLES, "--samples"), default=36,
                    help="AO samples per pixel (default 36)")
     f.add_argument("--denoise", choices=("bilateral", "separable", "box"), default=None)
     f.add_argument("--ground", type=_finite_float, default=0.0, metavar="Y", help="ground plane height (default 0)")

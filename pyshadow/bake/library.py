@@ -155,9 +155,6 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     ------
     TypeError
         ``params`` not an :class:`AssetParams`, before anything is written.
-    ValueError
-        ``params.samples`` above :data:`pyshadow.sampling.MAX_SAMPLES`,
-        before anything is written.
 
     Notes
     -----
@@ -178,11 +175,6 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     params = params if params is not None else AssetParams()
     if not isinstance(params, AssetParams):     # a dict: AssetParams.from_dict(d)
         raise TypeError(f"params must be an AssetParams (or None), got {type(params).__name__}")
-    from ..sampling import MAX_SAMPLES
-
-    if params.samples > MAX_SAMPLES:            # else every asset fails, after its CSM is built
-        raise ValueError(f"params.samples must be at most {MAX_SAMPLES} (the AO kernels' limit), got "
-                         f"{params.samples}")
     out = Path(out_dir).expanduser()
     for sub in ("", "csm", "meshes", "records"):
         if (out / sub).exists() and not (out / sub).is_dir():

@@ -65,6 +65,11 @@ class AssetParams:
             v = getattr(self, f)
             if isinstance(v, bool) or not isinstance(v, int) or v < 1:
                 raise ValueError(f"AssetParams.{f} must be a positive int, got {v!r}")
+        from ..sampling import MAX_SAMPLES
+
+        if self.samples > MAX_SAMPLES:          # else every asset failed, after its CSM was built
+            raise ValueError(f"AssetParams.samples must be at most {MAX_SAMPLES} (the AO kernels' limit), got "
+                             f"{self.samples}")
         if self.theta < 2 or self.phi < 2:
             raise ValueError(f"AssetParams: at least 2x2 maps, got {self.theta}x{self.phi}")
         d = self.depth_bits         # 16.0 == 16: a bake alike under another key (and np.int64 no JSON)

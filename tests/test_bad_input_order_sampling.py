@@ -3,13 +3,14 @@ import re
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
 from pyshadow.camera import Camera
 from pyshadow.csm.exposure import both_sided_faces, escape_fractions, exposed_back_faces
 from pyshadow.sampling import local_directions
 from pyshadow.visibility import order
+
+from test_exposure import _box, _open_box
 
 
 # ------------------------------------------------------------------------------------ coherent order
@@ -91,16 +92,6 @@ def test_local_directions_take_real_numbers(points, dtype):
 
 
 # ------------------------------------------------------------------------------------- exposed backs
-def _box(size=(1, 1, 1), centre=(0, 0.5, 0)):
-    return trimesh.creation.box(size, trimesh.transformations.translation_matrix(centre))
-
-
-def _open_box():
-    box = _box()
-    f = np.asarray(box.faces)[box.face_normals[:, 1] < 0.5]
-    return trimesh.Trimesh(np.asarray(box.vertices), f, process=False)
-
-
 @pytest.mark.parametrize("directions, exc, msg", [
     (0, ValueError, "directions must be >= 1 (the rays of the lattice), got 0"),
     (-3, ValueError, "directions must be >= 1 (the rays of the lattice), got -3"),

@@ -54,6 +54,8 @@ import math
 
 import numpy as np
 
+from ._checks import _floats
+
 __all__ = ["PhongLighting", "AO_MODES", "phong_colour", "phong_shade", "vertex_terms", "display",
            "light_terms"]
 
@@ -61,9 +63,21 @@ __all__ = ["PhongLighting", "AO_MODES", "phong_colour", "phong_shade", "vertex_t
 AO_MODES = ("ao", "off", "normal")
 
 
+def _reals(x, name: str, what: str) -> np.ndarray:
+    """``x`` as a float64 array; ValueError naming ``name`` where it holds text ("0.5" would read as 0.5),
+    complex numbers (NumPy would drop their imaginary part) or a ragged list."""
+    try:
+        text = isinstance(x, (str, bytes)) or np.asarray(x).dtype.kind in "SU"
+    except ValueError:                      # ragged: _floats names it
+        text = False
+    if text:
+        raise ValueError(f"{name}: expected {what} (got {x!r})")
+    return _floats(x, name, what)
+
+
 def _colour(x, name: str) -> np.ndarray:
-    v = np.asarray(x, dtype=np.float64) if not isinstance(x, (str, bytes)) else None
-    if v is None or v.shape not in ((3,), ()):
+    v = _reals(x, name, "an RGB colour of shape (3,) or a scalar")
+    if v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB colour of shape (3,) or a scalar (got {x!r})")
     v = np.broadcast_to(v, (3,)).copy()
     if not np.isfinite(v).all() or (v < 0).any():
@@ -72,7 +86,7 @@ def _colour(x, name: str) -> np.ndarray:
 
 
 def _exponent(p) -> float:
-    if isinstance(p, (bool, str, bytes)):
+    if isinstance(p, (bool, np.bool_, str, bytes)):
         raise ValueError(f"exponent: expected a finite number > 0 (got {p!r})")
     try:
         v = float(p)
@@ -133,8 +147,8 @@ class PhongLighting:
                 raise ValueError(f"light: the thesis's model has a point light; got a sphere light of radius "
                                  f"{light.radius:g}")
             light = light.position
-        pos = np.asarray(light, dtype=np.float64) if not isinstance(light, (str, bytes)) else None
-        if pos is None or pos.shape != (3,) or not np.isfinite(pos).all():
+        pos = _reals(light, "light", "a finite 3-vector position or a PointLight")
+        if pos.shape != (3,) or not np.isfinite(pos).all():
             raise ValueError(f"light: expected a finite 3-vector position or a PointLight (got {light!r})")
         if ao is True or ao is False:
             ao = "ao" if ao else "off"
@@ -260,19 +274,31 @@ def _rows_and_lengths(v):
 
 def _point_albedo(albedo, n: int) -> np.ndarray:
     """``phong_shade``'s ``albedo=``: a scalar, an RGB triple or (n, 3) values in [0, 1], as (n, 3) float64."""
-    try:
-        a = np.asarray(albedo, np.float64)
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape not in ((), (3,), (n, 3)):
-        raise ValueError(f"albedo: expected a scalar, an RGB triple or ({n}, 3) values (got "
-                         f"{'shape ' + str(a.shape) if a is not None else repr(albedo)})")
+    a = _reals(albedo, "albedo", f"a scalar, an RGB triple or ({n}, 3) values")
+    if a.shape not in ((), (3,), (n, 3)):
+        raise ValueError(f"albedo: expected a scalar, an RGB triple or ({n}, 3) values (got shape {a.shape})")
     bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
     if bad.any():
         raise ValueError(f"albedo: must be finite and lie in [0, 1] per channel ({int(bad.sum())} value(s) do not, "
                          f"e.g. {float(a[bad][0])!r})" if a.ndim else f"albedo: must be finite and lie in [0, 1] "
                          f"(got {float(a)!r})")
     return np.broadcast_to(a, (n, 3))
+
+
+def _terms(terms, n: int):
+    """``phong_shade``'s ``terms=``: two arrays of n finite values, as (n,) float64."""
+    if not isinstance(terms, (tuple, list)) or len(terms) != 2:
+        raise ValueError(f"terms: expected a pair (diffuse, spec) of ({n},) arrays (got {type(terms).__name__}"
+                         f"{' of ' + str(len(terms)) if isinstance(terms, (tuple, list)) else ''})")
+    out = []
+    for t, name in zip(terms, ("diffuse", "spec")):
+        v = _reals(t, f"terms: {name}", f"({n},) finite values")
+        if v.size != n:
+            raise ValueError(f"terms: {name}: expected ({n},) values (got shape {v.shape})")
+        if not np.isfinite(v).all():
+            raise ValueError(f"terms: {name}: {int((~np.isfinite(v)).sum())} value(s) are not finite")
+        out.append(v.reshape(n))
+    return out
 
 
 def _check_light_off_surfaces(scene, p, position):
@@ -334,7 +360,9 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         Before any ray is traced: a light at a shaded point or on the ground
         plane (on a surface), a light inside a caster's bounding sphere with
         ``straddle="error"`` (from :func:`pyshadow.visibility.visible`), bad
-        points, normals, eye or AO values (missing with ``ao="ao"``).
+        points, normals, eye or AO values (missing with ``ao="ao"``), bad
+        ``albedo`` or ``terms``, ``surface_ids`` not one int per point
+        (complex numbers and text are refused, not read as reals).
 
     Examples
     --------
@@ -356,25 +384,28 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     p = rows3(points, "points")
     n = len(p)
     nrm = unit_normals(normals, n)
-    try:
-        eye = np.asarray(eye, np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})") from None
+    eye = _reals(eye, "eye", "a finite 3-vector")
     if eye.shape != (3,) or not np.isfinite(eye).all():
         raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})")
     _check_light_off_surfaces(scene, p, lighting.position)
     if lighting.ao == "ao":
         if ao is None:
             raise ValueError("ao: the AO values are needed with ao='ao'")
-        a = np.asarray(ao, np.float64)
-        if a.shape != (n,) or not np.isfinite(a).all() or (a < 0).any() or (a > 1).any():
+        a = _reals(ao, "ao", f"({n},) values in [0, 1]")
+        if a.shape != (n,):
             raise ValueError(f"ao: expected ({n},) values in [0, 1] (got shape {a.shape})")
-    c_r = lighting.albedo_of(surface_ids, n) if albedo is None else _point_albedo(albedo, n)
+        bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
+        if bad.any():
+            raise ValueError(f"ao: expected ({n},) values in [0, 1] ({int(bad.sum())} value(s) are not, e.g. "
+                             f"{float(a[bad][0])!r} at point {int(np.argmax(bad))})")
+    c_r = lighting.albedo_of(surface_ids, n)         # also checks surface_ids against the points
+    if albedo is not None:
+        c_r = _point_albedo(albedo, n)
     geo = None if geometric_normals is None else unit_normals(geometric_normals, n, "geometric_normals")
     if terms is None:
         diffuse, spec = light_terms(p, nrm, eye, lighting.position, lighting.exponent)
     else:
-        diffuse, spec = (np.asarray(t, np.float64).reshape(n) for t in terms)
+        diffuse, spec = _terms(terms, n)
     ids = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
     to_light, dist = _rows_and_lengths(lighting.position - p)
     facing = np.einsum("ij,ij->i", nrm, to_light) > 0

@@ -88,8 +88,9 @@ MAX_SUN_RADIUS = math.pi / 4
 
 
 def _albedo(a, name: str) -> np.ndarray:
-    try:
-        v = np.asarray(a, dtype=np.float64) if not isinstance(a, (str, bytes)) else None
+    try:        # text ("0.5", read as 0.5) and complex numbers (the imaginary part dropped) are no albedo
+        v = None if isinstance(a, (str, bytes)) or np.asarray(a).dtype.kind in "SUc" \
+            else np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         v = None
     if v is None or v.shape not in ((3,), ()):

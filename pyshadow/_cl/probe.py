@@ -8,13 +8,18 @@ builtin library, so 16-wide kernels crash, hang or come out wrong there. So
 each width is tried in a child process (``probe_child.py``: build, run,
 compare with NumPy) that can crash or hang without taking the caller along;
 the verdicts are cached per (platform version, device name, driver version,
-probe sources), so later runs pay nothing.
+probe sources), so later runs pay nothing. A width whose child timed out or
+was killed (SIGKILL: the kernel's out-of-memory killer, say) is the
+exception: the machine, not the device, may have been to blame, so later runs
+probe that width again until it has failed so in :data:`TIMEOUT_RUNS` runs in
+a row.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -24,7 +29,7 @@ from pathlib import Path
 
 from . import pocl_cpu
 
-__all__ = ["LANE_WIDTHS", "PROBE_TIMEOUT_S", "DeviceNotSupportedError", "parse_override",
+__all__ = ["LANE_WIDTHS", "PROBE_TIMEOUT_S", "TIMEOUT_RUNS", "DeviceNotSupportedError", "parse_override",
            "verdicts", "cache_file"]
 
 LANE_WIDTHS = (16, 8, 4, 1)
@@ -34,6 +39,14 @@ LANE_WIDTHS = (16, 8, 4, 1)
 # and still ends a compiler that hangs (seen: more than 5 minutes), once per
 # device and driver
 PROBE_TIMEOUT_S = 60.0
+# runs in a row in which a width must time out (or be killed) before that
+# verdict is cached as final: one timeout may be a loaded machine (four
+# children compiling at once on two cores, and whatever else runs), one
+# SIGKILL the out-of-memory killer, and cached as final either would narrow
+# the width, or refuse the device, until the driver changes
+TIMEOUT_RUNS = 2
+_TIMEOUT_WHY = "no answer within "
+_KILLED_WHY = f"the child process died of signal {getattr(signal, 'SIGKILL', 9):d}"
 _CHILD = Path(__file__).with_name("probe_child.py")
 
 
@@ -46,9 +59,11 @@ def parse_override(value: str | None) -> int | None:
     """``PYSHADOW_LANES`` as an int, None when unset; ValueError when not 1, 4, 8 or 16."""
     if value is None or not value.strip():
         return None
+    text = value.strip()
     try:
-        n = int(value.strip())
-    except ValueError:
+        # ASCII digits only: int() also reads "1_6" as 16, and other scripts' digits
+        n = int(text) if re.fullmatch(r"\+?[0-9]+", text) else None
+    except ValueError:          # more digits than int() converts
         n = None
     if n not in LANE_WIDTHS:
         raise ValueError(f"PYSHADOW_LANES={value!r} is not one of 1, 4, 8, 16 "
@@ -57,10 +72,13 @@ def parse_override(value: str | None) -> int | None:
 
 
 def cache_file() -> Path:
-    """``$PYSHADOW_CACHE/lanes.json``, else in ``platformdirs.user_cache_dir("pyshadow")``."""
+    """``$PYSHADOW_CACHE/lanes.json`` (``~`` expanded, as for the CSM cache:
+    :func:`pyshadow.cache.default_cache_dir`), else in ``platformdirs.user_cache_dir("pyshadow")``."""
+    # not default_cache_dir() itself: that would make cache.py a module a CSM build runs
+    # (tests/test_cache.py, test_code_digest_covers_every_module_a_build_runs)
     env = os.environ.get("PYSHADOW_CACHE", "").strip()
     if env:
-        return Path(env) / "lanes.json"
+        return Path(env).expanduser() / "lanes.json"
     import platformdirs
 
     return Path(platformdirs.user_cache_dir("pyshadow")) / "lanes.json"
@@ -179,7 +197,7 @@ def _collect(procs, timeout):
                 p.communicate(timeout=5.0)
             except subprocess.TimeoutExpired:   # a process that left the group still holds the pipes
                 p.wait()
-            out[w] = {"ok": False, "why": f"no answer within {timeout:g} s (the compiler or "
+            out[w] = {"ok": False, "why": f"{_TIMEOUT_WHY}{timeout:g} s (the compiler or "
                                           "the kernel hung; the child was killed)"}
             continue
         try:
@@ -205,18 +223,50 @@ def _tail(text: str) -> str:
     return f": {lines[-1][:200]}" if lines else ""
 
 
+def _timed_out(verdict: dict) -> bool:
+    """The width failed by a timeout or a SIGKILL from outside: not final on its own (:data:`TIMEOUT_RUNS`)."""
+    why = verdict["why"]
+    return not verdict["ok"] and (why.startswith(_TIMEOUT_WHY) or why == _KILLED_WHY
+                                  or why.startswith(_KILLED_WHY + ":"))
+
+
+def _cached_timeouts(entry) -> dict:
+    """An entry's {width: runs in a row that width timed out or was killed}; {} where it holds none
+    (older entries)."""
+    t = entry.get("timeouts") if isinstance(entry, dict) else None
+    if not isinstance(t, dict):
+        return {}
+    return {int(w): n for w, n in t.items()
+            if w in {str(x) for x in LANE_WIDTHS} and type(n) is int and n > 0}
+
+
 def verdicts(platform_index, device_index, platform, device, job, *, refresh=False):
     """Every width's verdict for a device, from the cache or a fresh probe.
+
+    A cached verdict that a width timed out or was killed is not final:
+    that width (with any other such, the rest taken from the cache) is
+    probed again until it has failed so in :data:`TIMEOUT_RUNS` runs in a row.
 
     Returns ``(verdicts, source)`` with ``source`` 'cache' or 'probe'.
     """
     key = _key(platform, device, job)
-    if not refresh:
-        cached = _cached_verdicts(_read_cache().get(key))
-        if cached is not None:
+    entry = None if refresh else _read_cache().get(key)
+    cached = _cached_verdicts(entry)
+    runs = _cached_timeouts(entry) if cached is not None else {}
+    if cached is None:
+        again = LANE_WIDTHS
+        found = run_probe(platform_index, device_index, job)
+    else:
+        again = [w for w in LANE_WIDTHS if _timed_out(cached[w]) and runs.get(w, 0) < TIMEOUT_RUNS]
+        if not again:
             return cached, "cache"
-    found = run_probe(platform_index, device_index, job)
-    _write_cache(key, {"device": device.name.strip(), "platform": platform.version.strip(),
-                       "driver": device.driver_version.strip(),
-                       "verdicts": {str(w): v for w, v in found.items()}})
+        fresh = run_probe(platform_index, device_index, job, widths=again)
+        found = {w: fresh.get(w, cached[w]) for w in LANE_WIDTHS}
+    for w in again:
+        runs[w] = runs.get(w, 0) + 1 if _timed_out(found[w]) else 0
+    entry = {"device": device.name.strip(), "platform": platform.version.strip(),
+             "driver": device.driver_version.strip(), "verdicts": {str(w): v for w, v in found.items()}}
+    if any(runs.values()):
+        entry["timeouts"] = {str(w): n for w, n in runs.items() if n}
+    _write_cache(key, entry)
     return found, "probe"

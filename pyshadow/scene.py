@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
-from ._validate import FLOAT32_MAX, check_transform, uniform_scale
+from ._validate import FLOAT32_MAX, check_transform, flag, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.choose import _max_error
@@ -41,7 +41,7 @@ def _query_options(where, args, old, sampling, return_bent_normals, lookup, back
     """(sampling, return_bent_normals, backend name) of a Scene query, old forms included."""
     filtered = old.pop("filtered", None)
     sampling, extra = legacy_sampling(where, args, order, sampling, old, default, stacklevel=5)
-    bent = bool(extra.get("bent_normals", return_bent_normals))
+    bent = flag(extra.get("bent_normals", return_bent_normals), "return_bent_normals")   # "False" was true
     return sampling, bent, _backend(where, lookup, backend, filtered, stacklevel=5)
 
 

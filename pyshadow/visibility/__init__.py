@@ -17,6 +17,7 @@ in :mod:`pyshadow.visibility.base`.
 """
 from __future__ import annotations
 
+from .._validate import flag
 from . import finite
 from .base import VisibilityBackend, backends, check_bias, get_backend, register
 from .csm import CSMVisibility
@@ -168,5 +169,5 @@ def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, r
     if max_distance is not None or obscurance is not None:     # other backends answer the default query
         extra = dict(max_distance=max_distance, obscurance=obscurance, quadrature=quadrature, straddle=straddle)
     return get_backend(backend).ambient_occlusion(scene, points, normals, sampling=sampling,
-                                                  return_bent_normals=bool(return_bent_normals), bias=bias,
-                                                  indices=indices, surface_ids=surface_ids, **extra)
+                                                  return_bent_normals=flag(return_bent_normals, "return_bent_normals"),
+                                                  bias=bias, indices=indices, surface_ids=surface_ids, **extra)

@@ -54,6 +54,23 @@ def _outward(lo: np.ndarray, hi: np.ndarray):
     return lo32, hi32
 
 
+def spheres(centres, radii, name: str):
+    """Validated spheres of :func:`instance_bvh` and :func:`.grid.instance_grid`: float64 ``(N, 3)`` centres,
+    ``(N,)`` radii, N >= 1, all finite and the radii >= 0 (a NaN or infinite sphere was silently left out of
+    every cell of the grid and made the tree's boxes NaN: the caster was never asked)."""
+    c = np.asarray(centres, np.float64).reshape(-1, 3)
+    r = np.asarray(radii, np.float64).reshape(-1)
+    n = len(c)
+    if n < 1 or len(r) != n:
+        raise ValueError(f"{name}: {n} centres and {len(r)} radii")
+    bad = ~(np.isfinite(c).all(axis=1) & np.isfinite(r) & (r >= 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(f"{name}: sphere {i} (of {int(bad.sum())} bad) has centre {c[i].tolist()}, radius {r[i]}: "
+                         f"centres must be finite, radii finite and >= 0")
+    return c, r
+
+
 def instance_bvh(centres, radii):
     """The tree over spheres (anchor-relative centres, radii) as the kernels read it.
 
@@ -73,11 +90,8 @@ def instance_bvh(centres, radii):
     depth : int
         Levels of the tree (the traversal stack needs ``depth - 1`` slots).
     """
-    c = np.asarray(centres, np.float64).reshape(-1, 3)
-    r = np.asarray(radii, np.float64).reshape(-1)
+    c, r = spheres(centres, radii, "instance_bvh")
     n = len(c)
-    if n < 1 or len(r) != n:
-        raise ValueError(f"instance_bvh: {n} centres and {len(r)} radii")
     order = np.argsort(_morton(c), kind="stable").astype(np.int32)
     lo, hi = c[order] - r[order, None], c[order] + r[order, None]
     starts = np.arange(0, n, LEAF)

@@ -99,7 +99,7 @@ def check_max_distance(max_distance, n: int):
 
 def check_straddle(straddle) -> str:
     """Validate ``straddle`` (one of :data:`STRADDLE`)."""
-    if straddle not in STRADDLE:
+    if not isinstance(straddle, str) or straddle not in STRADDLE:     # (an array's ``in``: "truth value ambiguous")
         raise ValueError(f"straddle must be one of {STRADDLE}, got {straddle!r}")
     return straddle
 
@@ -252,7 +252,7 @@ def check_ao_options(obscurance, quadrature, straddle):
             raise ValueError(f"obscurance (tau) must be finite and > 0, got {tau}")
     if isinstance(quadrature, bool) or not isinstance(quadrature, (int, np.integer)) or not 1 <= quadrature <= 256:
         raise ValueError(f"quadrature must be an int in 1..256, got {quadrature!r}")
-    if straddle not in AO_STRADDLE:
+    if not isinstance(straddle, str) or straddle not in AO_STRADDLE:
         raise ValueError(f"straddle must be one of {AO_STRADDLE}, got {straddle!r}")
     return tau, int(quadrature), straddle
 

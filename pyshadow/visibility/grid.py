@@ -37,6 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._cl.tables import GRID, GRID_PACKET
+from .bvh import spheres
 
 __all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin", "grid_packets"]
 
@@ -106,11 +107,9 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
     None
         When the grid would be unbalanced (see the module's notes).
     """
-    c = np.asarray(centres, np.float64).reshape(-1, 3)
-    r = np.asarray(radii, np.float64).reshape(-1)
-    n = len(c)
-    if n < 1 or len(r) != n:
-        raise ValueError(f"instance_grid: {n} centres and {len(r)} radii")
+    c, r = spheres(centres, radii, "instance_grid")
+    if not (margin >= 0 and np.isfinite(margin)):
+        raise ValueError(f"instance_grid: margin must be finite and >= 0, got {margin}")
     lo = (c - r[:, None]).min(axis=0) - 2.0 * margin
     hi = (c + r[:, None]).max(axis=0) + 2.0 * margin
     # no narrower than twice the margin: a sphere grown by a margin that dwarfs it (queries far from the

@@ -117,6 +117,20 @@ def uniform_scale(A):
     return s
 
 
+def point3(x, label: str) -> np.ndarray:
+    """``x`` as 3 finite float64 numbers, a new (3,) array (any shape holding 3 values); ValueError
+    "``label`` must be 3 finite numbers" otherwise (bools, strings and complex numbers are no
+    coordinates: ``(True, False, True)`` was read as ``(1, 0, 1)``)."""
+    try:
+        a = np.asarray(x)
+        a = a.astype(np.float64).reshape(-1) if a.dtype.kind in "iuf" else None
+    except (TypeError, ValueError):     # ragged
+        a = None
+    if a is None or a.shape != (3,) or not np.isfinite(a).all():
+        raise ValueError(f"{label} must be 3 finite numbers, got {x!r}")
+    return a
+
+
 def flag(value, name: str) -> bool:
     """``value`` as a bool: True or False (Python or NumPy); TypeError naming ``name`` for anything else
     (the string "no" or "False" would be true, an array's truth is ambiguous, None or 0 may mean a default)."""

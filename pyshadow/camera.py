@@ -3,22 +3,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._validate import squared_lengths
+from ._validate import point3, squared_lengths
 
 __all__ = ["Camera"]
 
 
 def _vec3(x, name):
-    """``x`` as 3 finite float64 numbers; ValueError naming ``name`` otherwise (bools and strings of
-    digits are no coordinates: ``(True, False, True)`` was read as ``(1, 0, 1)``)."""
-    try:
-        a = np.asarray(x)
-        a = np.asarray(a, dtype=np.float64).reshape(-1) if a.dtype.kind in "iuf" else None
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape != (3,) or not np.isfinite(a).all():
-        raise ValueError(f"Camera: {name} must be 3 finite numbers, got {x!r}")
-    return a
+    """``x`` as 3 finite float64 numbers (:func:`pyshadow._validate.point3`), naming ``name``."""
+    return point3(x, f"Camera: {name}")
 
 
 def _unit(v):

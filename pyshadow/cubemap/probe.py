@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_int
+from .._validate import check_int, point3
 from ..camera import Camera, axis_camera
 from ..gbuffer import render_gbuffer
 from ..scene import GROUND_ID
@@ -145,12 +145,9 @@ class CubeProbe:
         from ..render import draw_items
 
         self.resolution = R = _check_resolution(resolution)
-        c = np.asarray(centre)
         # strings were converted ("1" as 1.0, "abc" an error naming nothing), complex numbers lost their
         # imaginary part with a ComplexWarning and booleans were read as 0 and 1
-        c = c.astype(np.float64).reshape(-1) if c.dtype.kind in "iuf" else None
-        if c is None or c.shape != (3,) or not np.isfinite(c).all():
-            raise ValueError(f"CubeProbe: centre must be 3 finite numbers, got {centre!r}")
+        c = point3(centre, "CubeProbe: centre")
         if scene.ground is not None and c[1] < scene.ground:
             raise ValueError(f"CubeProbe: centre {c.tolist()} lies below the ground plane y = {scene.ground}")
         self.centre = c

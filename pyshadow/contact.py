@@ -10,15 +10,15 @@ thinner than a texel (the silhouette's limit; ``benchmarks/README.md``, "The
 extremes"). The footprint is known exactly from the mesh and its pose, so
 the CSM backends answer those points from it (:func:`contact_mask`).
 
-The tolerance is the ground plane's own: a point within ``1e-5`` of the
-scene's scale (:meth:`pyshadow.Scene.scale`) of the plane counts as on it in
-the kernels, and a face that close to it lies on it here. A point counts as
-inside the footprint when it lies in one of the contact faces (seen from
-above) and farther than that tolerance from the footprint's outline, so the
-points of the body's sides just above the ground stay the CSM's. A point's
-height is allowed one float32 spacing at the plane's height where that is
-larger: far from ``y = 0`` the float32 points of the plane lie off it by more
-than the tolerance.
+A face lies on the ground within ``1e-5`` of the scene's scale
+(:meth:`pyshadow.Scene.scale`) of the plane. A point lies on it within the
+plane's tolerance for points (:func:`ground_tolerance`), which every
+backend's ground test reads: the same, or one float32 spacing at the plane's
+height where that is larger (far from ``y = 0`` the float32 points of the
+plane lie off it by more). A point counts as inside the footprint when it
+lies in one of the contact faces (seen from above) and farther than
+``1e-5`` of the scale from the footprint's outline, so the points of the
+body's sides just above the ground stay the CSM's.
 
 Only casters added with their mesh (:meth:`pyshadow.Scene.add` from a mesh,
 or a CSM with ``mesh=``) whose surface is closed have a footprint (every edge
@@ -52,21 +52,36 @@ _SURFACES = weakref.WeakKeyDictionary()
 
 
 def ground_tolerance(scene) -> float:
-    """Distance to the ground plane within which a point or a face lies on it: ``1e-5 * scene.scale()``.
+    """Distance to the ground plane within which a point lies on it (world units): :func:`plane_tolerance`
+    of the scene's scale and ground height.
 
     The one definition: the kernels' ground test (``ground_eps``), the float64 mirror, Embree's ground
-    test, the shadow maps' and the footprints all read it.
+    test, the shadow maps' and the footprints' points all read it (a face lies on the plane within
+    ``1e-5 * scene.scale()``: :func:`_face_tolerance`).
     """
+    return plane_tolerance(scene.scale(), scene.ground)
+
+
+def _face_tolerance(scene) -> float:
+    """Distance to the ground plane within which a caster's face lies on it, and the footprint's outline
+    margin: ``1e-5 * scene.scale()`` (the mesh and its pose are float64; a float32 spacing at a far
+    plane's height, a metre at y = 1e7, would rest a lifted body on it)."""
     return 1e-5 * scene.scale()
 
 
-def _ground_band(scene):
-    """Distance to the plane within which points count as the ground's here: the :func:`ground_tolerance`,
-    or one float32 spacing at the plane's height where that is larger. Points come as float32 (a
-    G-buffer's), the nearest of which lies up to half a spacing off the plane: at y = 1000.2, 1.2e-5
-    above it beside a tolerance of 8.7e-6 for unit bodies, and the footprint's points were left out
-    (such a point lies inside the body: its rays upwards are occluded all the same)."""
-    return max(ground_tolerance(scene), float(np.spacing(np.float32(abs(scene.ground)))))
+def plane_tolerance(scale, ground) -> float:
+    """``1e-5 * scale``, or one float32 spacing at the plane's height ``ground`` where that is larger.
+
+    Points come as float32 (a G-buffer's, a user's array), the nearest of which lies up to half a
+    spacing off the plane: at y = 1000.1 up to 2.4e-5 below it beside ``1e-5 * scale`` = 8.7e-6 for unit
+    bodies, so every ray of such a point upwards crossed the plane and was occluded (AO 0 where the
+    float64 points read 1). The spacing exceeds ``1e-5 * scale`` only where ``|ground|`` exceeds about
+    ``84 * scale``; nearer planes keep ``1e-5 * scale`` exactly. ``ground`` None: no plane, the first term.
+    """
+    tol = 1e-5 * float(scale)
+    if ground is None:
+        return tol
+    return max(tol, float(np.spacing(np.float32(abs(ground)))))
 
 
 def _closed_surface(mesh):
@@ -147,7 +162,7 @@ def _on_ground(scene, name, make):
     held = scene_arrays(scene)
     key = (name, float(scene.ground))
     if key not in held:
-        tol = ground_tolerance(scene)
+        tol = _face_tolerance(scene)
         lowest = held["world_centre"][:, 1] - held["world_radius"]
         near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
         near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
@@ -215,9 +230,9 @@ def ground_sheet_slots(scene, points, own):
     from the body's own side (Embree's do). Asked as the ground, with no
     self-bias against the body, the coincident face shadowed about half of
     them. A point whose slot is the ground's or a receiver's (-2), within
-    :func:`ground_tolerance` of the plane (or of one float32 spacing at its
-    height, where that is larger: the rounding of float32 points) and inside
-    (or on) such a face seen from above takes that caster's slot.
+    :func:`ground_tolerance` of the plane (which covers the rounding of
+    float32 points) and inside (or on) such a face seen from above takes
+    that caster's slot.
 
     Returns
     -------
@@ -236,7 +251,7 @@ def ground_sheet_slots(scene, points, own):
     if not found:
         return own
     cand = np.flatnonzero((np.asarray(own) == -2)
-                          & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= _ground_band(scene)))
+                          & (np.abs(p[:, 1].astype(np.float64) - scene.ground) <= ground_tolerance(scene)))
     out = own
     q_all = p[cand][:, [0, 2]].astype(np.float64)
     for slot, tri in found:
@@ -309,19 +324,17 @@ def contact_mask(scene, points):
     -------
     ndarray of bool, shape (N,), or None
         True where the point lies within :func:`ground_tolerance` of the
-        ground plane (or within one float32 spacing at its height, where
-        that is larger: the rounding of float32 points), inside one of the
-        contact faces seen from above and
-        farther than that tolerance from the footprint's outline. None when
+        ground plane, inside one of the contact faces seen from above and
+        farther than ``1e-5 * scene.scale()`` from the footprint's outline. None when
         the scene has no footprint (nothing to test).
     """
     p = check_rows(points, "points")
     fps = _on_ground(scene, "contact", _footprint)     # footprints(scene), with the casters' slots
     if not fps:
         return None
-    tol = ground_tolerance(scene)
+    tol = _face_tolerance(scene)
     mask = np.zeros(len(p), bool)
-    cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= _ground_band(scene))
+    cand = np.flatnonzero(np.abs(p[:, 1].astype(np.float64) - scene.ground) <= ground_tolerance(scene))
     if not len(cand):
         return mask
     q_all = p[cand][:, [0, 2]].astype(np.float64)

@@ -256,7 +256,7 @@ def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.nda
     -------
     ndarray, shape (N,), bool
         True where the plane y = ``scene.ground`` blocks the ray: a point on or
-        above it (within 1e-5 of the scene's largest radius) looking down, or
+        above it (within :func:`pyshadow.contact.ground_tolerance`) looking down, or
         a point below it looking up. All False without a ground plane.
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)

@@ -213,7 +213,8 @@ def test_reference_ground_occludes_world_and_anchored():
     bunny = load("stanford-bunny.obj")
     scene = pyshadow.Scene(ground=1.0e4)
     scene.add(bunny, on_ground(bunny, unit_frame(bunny, offset=(3.0e4, 1.0e4, -2.0e4))))
-    eps = 1e-5 * scene.scale()
+    eps = pyshadow.contact.ground_tolerance(scene)      # one float32 spacing at y = 1e4: 9.8e-4
+    assert eps == float(np.spacing(np.float32(1.0e4))) > 1e-5 * scene.scale()
     p = np.array([[3e4, 1e4 + 1.0, -2e4], [3e4, 1e4 - 1.0, -2e4], [3e4, 1e4 - 0.5 * eps, -2e4],
                   [3e4, 1e4 - 2.0 * eps, -2e4]])
     down, up, flat = [0.1, -1.0, 0.2], [0.1, 1.0, 0.2], [1.0, 0.0, 0.0]

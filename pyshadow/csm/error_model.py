@@ -187,11 +187,12 @@ def _frame(bodies):
 
 def _ground(p, w, ground, scale):
     """The analytic ground plane's answer, by the kernels' rule (:func:`pyshadow.visibility.finite.ground_blocks`)."""
+    from ..contact import plane_tolerance
     from ..visibility.finite import ground_blocks
 
     if ground is None:
         return np.zeros(len(p), bool)
-    return ground_blocks(p[:, 1] - ground, w[:, 1], None, 1e-5 * scale)
+    return ground_blocks(p[:, 1] - ground, w[:, 1], None, plane_tolerance(scale, ground))
 
 
 def _rays(points, directions):

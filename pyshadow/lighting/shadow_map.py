@@ -25,8 +25,8 @@ rendered when first needed and kept while the scene's casters, their
 transforms and the light stay the same (:meth:`Scene.set_transform` makes
 the next query render again). The ground plane is not in the map: it is
 decided analytically for each ray, by the rule every backend applies
-(:func:`pyshadow.visibility.finite.ground_blocks`, tolerance 1e-5 of the
-scene's largest radius), so the ground agrees with the other backends
+(:func:`pyshadow.visibility.finite.ground_blocks`, tolerance
+:func:`pyshadow.contact.ground_tolerance`), so the ground agrees with the other backends
 exactly.
 
 Depth tolerance ε (the bias rule)

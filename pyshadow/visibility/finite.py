@@ -25,8 +25,8 @@ the sphere this is exactly the case split above, and it stays far from its
 float32 rounding boundary except for rays that only graze the sphere.
 
 The ground plane ``y = ground`` blocks a finite ray only where the segment
-crosses it: from a point on or above it (within the kernels' tolerance of
-1e-5 of the scene's largest radius) going down to an end strictly below it,
+crosses it: from a point on or above it (within the kernels' tolerance,
+:func:`pyshadow.contact.ground_tolerance`) going down to an end strictly below it,
 or from a point below it going up to an end strictly above it. A light
 exactly in the plane is therefore not hidden by the plane.
 

@@ -91,35 +91,27 @@ def march_defaults(max_distance: float, thickness=None, step=1.0, bias=1e-3, max
     ValueError
         A value out of its range.
     """
-    D = _real(max_distance, "max_distance")
+    D = _number(max_distance, "max_distance")
     if not (np.isfinite(D) and D > 0):
         raise ValueError(f"max_distance must be a finite distance > 0 (world units), got {max_distance!r}")
     if D > FLOAT32_MAX:
         raise ValueError(f"max_distance must be at most {FLOAT32_MAX:.6g} (the march runs in float32 on the "
                          f"device), got {max_distance!r}")
-    tau = 0.25 * D if thickness is None else _real(thickness, "thickness")
+    tau = 0.25 * D if thickness is None else _number(thickness, "thickness")
     if not (tau >= 0 and np.isfinite(tau)):
         raise ValueError(f"thickness must be >= 0 and finite, got {thickness!r}")
     if tau > FLOAT32_MAX:
         raise ValueError(f"thickness must be at most {FLOAT32_MAX:.6g} (the march runs in float32 on the "
                          f"device), got {thickness!r}")
-    step = _real(step, "step")
+    step = _number(step, "step")
     if not 0 < step <= 4:
         raise ValueError(f"step must be in (0, 4] texels, got {step!r}")
-    bias = _real(bias, "bias")
+    bias = _number(bias, "bias")
     if not 0 <= bias < 0.1:
         raise ValueError(f"bias must be in [0, 0.1), got {bias!r}")
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or not 1 <= max_steps <= 65536:
         raise ValueError(f"max_steps must be an int in 1..65536, got {max_steps!r}")
     return dict(max_distance=D, thickness=tau, step=step, bias=bias, max_steps=int(max_steps))
-
-
-def _real(x, name: str) -> float:
-    """``x`` as a float; TypeError naming ``name`` for what is no real number (a bool, a complex
-    number: ``float`` would drop its imaginary part, an array of more than one value, None)."""
-    if np.iscomplexobj(x):
-        raise TypeError(f"{name}: must be a number (got {x!r})")
-    return _number(x, name)
 
 
 def _check_probe(probe):

@@ -133,19 +133,29 @@ def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
 
 
 def _floats(x, name: str, what: str) -> np.ndarray:
-    """``x`` as a float64 array; ValueError naming ``name`` where it holds what is no number ("abc", a
-    ragged list, complex numbers: NumPy would drop their imaginary part with a ComplexWarning)."""
+    """``x`` as a float64 array; ValueError naming ``name`` where it holds what is no number: text ("0.5"
+    was parsed as 0.5), bools (read as 0 and 1), complex numbers (NumPy would drop their imaginary part
+    with a ComplexWarning) or a ragged list."""
     try:
-        if np.asarray(x).dtype.kind == "c":
+        a = np.asarray(x)
+        if a.dtype.kind not in "iufO" or (a.dtype.kind == "O" and any(map(_not_a_number, a.ravel()))):
             raise TypeError
-        return np.asarray(x, dtype=np.float64)
+        return np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"{name}: expected {what} (got {x!r})") from None
 
 
+def _not_a_number(x) -> bool:
+    """True for what ``float`` reads but is no number here: text, bools, complex numbers."""
+    return isinstance(x, (str, bytes, bool, np.bool_)) or np.iscomplexobj(x)
+
+
 def _number(x, name: str) -> float:
+    """``x`` as a float; TypeError naming ``name`` for what is no real number (a bool: True is no latitude,
+    exposure or radius; text: "2.5" was parsed; a complex number: its imaginary part was dropped; an array
+    of more than one value; None)."""
     try:
-        if isinstance(x, (bool, np.bool_)):             # True is no latitude, exposure or radius
+        if _not_a_number(x):
             raise TypeError
         return float(x)
     except (TypeError, ValueError):

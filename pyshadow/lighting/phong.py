@@ -63,20 +63,8 @@ __all__ = ["PhongLighting", "AO_MODES", "phong_colour", "phong_shade", "vertex_t
 AO_MODES = ("ao", "off", "normal")
 
 
-def _reals(x, name: str, what: str) -> np.ndarray:
-    """``x`` as a float64 array; ValueError naming ``name`` where it holds text ("0.5" would read as 0.5),
-    complex numbers (NumPy would drop their imaginary part) or a ragged list."""
-    try:
-        text = isinstance(x, (str, bytes)) or np.asarray(x).dtype.kind in "SU"
-    except ValueError:                      # ragged: _floats names it
-        text = False
-    if text:
-        raise ValueError(f"{name}: expected {what} (got {x!r})")
-    return _floats(x, name, what)
-
-
 def _colour(x, name: str) -> np.ndarray:
-    v = _reals(x, name, "an RGB colour of shape (3,) or a scalar")
+    v = _floats(x, name, "an RGB colour of shape (3,) or a scalar")
     if v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB colour of shape (3,) or a scalar (got {x!r})")
     v = np.broadcast_to(v, (3,)).copy()
@@ -147,7 +135,7 @@ class PhongLighting:
                 raise ValueError(f"light: the thesis's model has a point light; got a sphere light of radius "
                                  f"{light.radius:g}")
             light = light.position
-        pos = _reals(light, "light", "a finite 3-vector position or a PointLight")
+        pos = _floats(light, "light", "a finite 3-vector position or a PointLight")
         if pos.shape != (3,) or not np.isfinite(pos).all():
             raise ValueError(f"light: expected a finite 3-vector position or a PointLight (got {light!r})")
         if ao is True or ao is False:
@@ -274,7 +262,7 @@ def _rows_and_lengths(v):
 
 def _point_albedo(albedo, n: int) -> np.ndarray:
     """``phong_shade``'s ``albedo=``: a scalar, an RGB triple or (n, 3) values in [0, 1], as (n, 3) float64."""
-    a = _reals(albedo, "albedo", f"a scalar, an RGB triple or ({n}, 3) values")
+    a = _floats(albedo, "albedo", f"a scalar, an RGB triple or ({n}, 3) values")
     if a.shape not in ((), (3,), (n, 3)):
         raise ValueError(f"albedo: expected a scalar, an RGB triple or ({n}, 3) values (got shape {a.shape})")
     bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
@@ -292,7 +280,7 @@ def _terms(terms, n: int):
                          f"{' of ' + str(len(terms)) if isinstance(terms, (tuple, list)) else ''})")
     out = []
     for t, name in zip(terms, ("diffuse", "spec")):
-        v = _reals(t, f"terms: {name}", f"({n},) finite values")
+        v = _floats(t, f"terms: {name}", f"({n},) finite values")
         if v.size != n:
             raise ValueError(f"terms: {name}: expected ({n},) values (got shape {v.shape})")
         if not np.isfinite(v).all():
@@ -384,14 +372,14 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     p = rows3(points, "points")
     n = len(p)
     nrm = unit_normals(normals, n)
-    eye = _reals(eye, "eye", "a finite 3-vector")
+    eye = _floats(eye, "eye", "a finite 3-vector")
     if eye.shape != (3,) or not np.isfinite(eye).all():
         raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})")
     _check_light_off_surfaces(scene, p, lighting.position)
     if lighting.ao == "ao":
         if ao is None:
             raise ValueError("ao: the AO values are needed with ao='ao'")
-        a = _reals(ao, "ao", f"({n},) values in [0, 1]")
+        a = _floats(ao, "ao", f"({n},) values in [0, 1]")
         if a.shape != (n,):
             raise ValueError(f"ao: expected ({n},) values in [0, 1] (got shape {a.shape})")
         bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))

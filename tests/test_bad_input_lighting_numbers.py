@@ -1,6 +1,7 @@
-"""Numbers in the lighting package's checks (pyshadow/lighting/_checks.py ``_floats`` and ``_number``).
+"""The lighting package's inputs: numbers in its checks (pyshadow/lighting/_checks.py) and lights as values (_value.py).
 
-Each test failed on the code before its fix; its docstring says what happened.
+Each test whose docstring starts "Was:" failed on the code before its fix and says what happened; the
+others pin what the fix keeps.
 """
 from __future__ import annotations
 
@@ -50,3 +51,38 @@ def test_numbers_still_read_as_before():
     light = lighting.PointLight(np.array([0, 2, 0], dtype=object), np.array([1, 2.5, 3], dtype=object))
     np.testing.assert_array_equal(light.intensity, [1.0, 2.5, 3.0])
     assert march_defaults(np.float32(2.0), thickness=1)["thickness"] == 1.0
+
+
+def _lights():
+    d = np.array([0.0, 1.0, 0.0])
+    return [lighting.PointLight(np.array([0.0, 2.0, 0.0]), np.array([1.0, 2.0, 3.0])),
+            lighting.SpotLight(np.array([0.0, 2.0, 0.0]), 1.0, direction=-d, angle=0.5),
+            lighting.DirectionalLight(d, np.array([1.0, 1.0, 1.0])),
+            lighting.DiscLight(np.array([0.0, 2.0, 0.0]), -d, 0.5, intensity=1.0),
+            lighting.RectLight(np.array([0.0, 2.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]),
+                               intensity=1.0),
+            lighting.SunLight(d, np.ones(3), 0.01, np.array([3, 4]), np.ones((2, 3)))]
+
+
+@pytest.mark.parametrize("k", range(6))
+def test_a_light_cannot_be_changed_in_place(k):
+    """Was: a light's arrays were writable: ``light.position[1] = nan`` made a light its constructor
+    refuses, and a light changed so while a set held it was no longer found (its hash changed). Now every
+    array field is a read-only copy; the caller's arrays are neither kept nor locked."""
+    light = _lights()[k]
+    held = {light}
+    arrays = {name: v for name, v in vars(light).items() if isinstance(v, np.ndarray)}
+    assert arrays
+    for name, a in arrays.items():
+        with pytest.raises(ValueError, match="read-only"):
+            a[0] = np.nan
+    assert light in held and light == _lights()[k]
+
+
+def test_the_callers_arrays_stay_the_callers():
+    """A light keeps copies: changing the arrays given changes nothing, and they stay writable."""
+    p, e = np.array([0.0, 2.0, 0.0]), np.array([1.0, 2.0, 3.0])
+    light = lighting.PointLight(p, e)
+    p[1], e[0] = 5.0, 9.0
+    np.testing.assert_array_equal(light.position, [0.0, 2.0, 0.0])
+    np.testing.assert_array_equal(light.intensity, [1.0, 2.0, 3.0])

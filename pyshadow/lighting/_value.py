@@ -5,7 +5,9 @@ raises "the truth value of an array ... is ambiguous" (so ``light in
 lights`` and ``lights.remove(light)`` failed), and arrays make them
 unhashable. Two lights are equal when they are of the same class and every
 field is equal (arrays element by element, -0.0 equal to 0.0); equal lights
-hash alike.
+hash alike. Their array fields are read-only copies (:meth:`ArrayValue._set`): a light
+changed in place would have left its checks behind (a NaN position) and changed its hash while a set
+or a dict held it.
 """
 from __future__ import annotations
 
@@ -28,6 +30,19 @@ class ArrayValue:
 
     def __hash__(self):
         return hash((type(self).__qualname__, *(_key(getattr(self, f.name)) for f in fields(self))))
+
+    def __post_init__(self):
+        """Every array field as a read-only copy (classes that check their fields set them by :meth:`_set`)."""
+        for f in fields(self):
+            self._set(f.name, getattr(self, f.name))
+
+    def _set(self, name: str, value) -> None:
+        """Set field ``name`` of the frozen instance: an array as a read-only copy (the caller's array is
+        neither kept nor locked)."""
+        if isinstance(value, np.ndarray):
+            value = value.copy()
+            value.flags.writeable = False
+        object.__setattr__(self, name, value)
 
 
 def _key(v):

@@ -92,10 +92,10 @@ class DiscLight(ArrayValue):
     power: InitVar[object] = None
 
     def __post_init__(self, power):
-        object.__setattr__(self, "position", _position(self.position, "light position"))
-        object.__setattr__(self, "normal", unit_direction(self.normal, "light normal"))
-        object.__setattr__(self, "radius", _extent(self.radius, "disc light radius"))
-        object.__setattr__(self, "intensity", _flux(self, self.intensity, power))
+        self._set("position", _position(self.position, "light position"))
+        self._set("normal", unit_direction(self.normal, "light normal"))
+        self._set("radius", _extent(self.radius, "disc light radius"))
+        self._set("intensity", _flux(self, self.intensity, power))
 
     @property
     def area(self) -> float:
@@ -142,15 +142,15 @@ class RectLight(ArrayValue):
     power: InitVar[object] = None
 
     def __post_init__(self, power):
-        object.__setattr__(self, "position", _position(self.position, "light position"))
+        self._set("position", _position(self.position, "light position"))
         for name in ("u", "v"):
             e = _position(getattr(self, name), f"rectangle light edge {name}")
             _extent(np.linalg.norm(e), f"rectangle light edge {name}: length")
-            object.__setattr__(self, name, e)
+            self._set(name, e)
         nu, nv = np.linalg.norm(self.u), np.linalg.norm(self.v)
         if abs(self.u @ self.v) > 1e-9 * nu * nv:
             raise ValueError(f"rectangle light: edges u and v must be orthogonal (u.v = {self.u @ self.v:.6g})")
-        object.__setattr__(self, "intensity", _flux(self, self.intensity, power))
+        self._set("intensity", _flux(self, self.intensity, power))
 
     @classmethod
     def facing(cls, position, normal, width: float, height: float, *, intensity=None, power=None):

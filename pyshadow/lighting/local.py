@@ -48,15 +48,13 @@ __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance",
 
 def _position(x, name):
     v = _floats(x, name, "a finite 3-vector")
-    if v.shape != (3,) or not np.isfinite(v).all() or np.asarray(x).dtype == bool:     # True is no coordinate
+    if v.shape != (3,) or not np.isfinite(v).all():
         raise ValueError(f"{name}: expected a finite 3-vector (got {x!r})")
-    return v.copy()
+    return v
 
 
 def _intensity(x, name):
     v = _floats(x, name, "an RGB 3-vector or a scalar")
-    if np.asarray(x).dtype == bool:                 # True is no intensity
-        raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got {x!r})")
     if v.shape not in ((3,), ()):
         raise ValueError(f"{name}: expected an RGB 3-vector or a scalar (got shape {v.shape})")
     v = np.broadcast_to(v, (3,)).copy()
@@ -86,12 +84,12 @@ class PointLight(ArrayValue):
     radius: float = 0.0
 
     def __post_init__(self):
-        object.__setattr__(self, "position", _position(self.position, "light position"))
-        object.__setattr__(self, "intensity", _intensity(self.intensity, "light intensity"))
+        self._set("position", _position(self.position, "light position"))
+        self._set("intensity", _intensity(self.intensity, "light intensity"))
         r = _number(self.radius, "light radius")
         if not (math.isfinite(r) and r >= 0):
             raise ValueError(f"light radius: must be finite and >= 0 (got {self.radius!r})")
-        object.__setattr__(self, "radius", r)
+        self._set("radius", r)
 
     def factor(self, to_point) -> np.ndarray:
         """Angular factor of the intensity towards unit directions light -> point, (N,) (1 here)."""
@@ -122,12 +120,12 @@ class SpotLight(PointLight):
         super().__post_init__()
         if self.direction is None:
             raise ValueError("spot direction: required (a unit 3-vector)")
-        object.__setattr__(self, "direction", unit_direction(self.direction, "spot direction"))
+        self._set("direction", unit_direction(self.direction, "spot direction"))
         a = _number(self.angle, "spot angle")
         if not (math.isfinite(a) and 0 < a <= math.pi / 2):
             raise ValueError(f"spot angle: must lie in (0, pi/2] (got {self.angle!r})")
-        object.__setattr__(self, "angle", a)
-        object.__setattr__(self, "falloff", in_range(self.falloff, "spot falloff", 0.0, a))
+        self._set("angle", a)
+        self._set("falloff", in_range(self.falloff, "spot falloff", 0.0, a))
 
     def factor(self, to_point) -> np.ndarray:
         """Cone factor in [0, 1] of unit directions light -> point, (N,)."""

@@ -130,9 +130,9 @@ class DirectionalLight(ArrayValue):
         if not np.isfinite(e).all() or (e < 0).any():
             raise ValueError(f"sun irradiance: must be finite and >= 0 (got {e.tolist()})")
         r = in_range(self.angular_radius, "sun angular_radius", 0.0, MAX_SUN_RADIUS)
-        object.__setattr__(self, "direction", d)
-        object.__setattr__(self, "irradiance", e.copy())
-        object.__setattr__(self, "angular_radius", r)
+        self._set("direction", d)
+        self._set("irradiance", e)
+        self._set("angular_radius", r)
 
     @classmethod
     def of(cls, light) -> "DirectionalLight":

@@ -25,7 +25,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from .._validate import FLOAT32_MAX
+from .._validate import FLOAT32_MAX, flag
 
 __all__ = ["VisibilityBackend", "register", "get_backend", "backends", "check_bias"]
 
@@ -57,10 +57,13 @@ def register(name: str, backend, *, replace: bool = False) -> None:
         An object with ``visible`` and ``ambient_occlusion`` as in the
         module docstring.
     replace : bool, optional
-        Allow replacing a registered backend of the same name.
+        Allow replacing a registered backend of the same name (True or
+        False: the string "no" replaced it).
     """
+    replace = flag(replace, "replace")
     if not isinstance(name, str) or not name:
         raise ValueError(f"a backend name must be a non-empty string, got {name!r}")
+    _not_a_class(backend)
     if not isinstance(backend, VisibilityBackend):
         raise TypeError(f"{backend!r} lacks visible/ambient_occlusion: not a visibility backend")
     if name in _REGISTRY and not replace:
@@ -76,9 +79,19 @@ def get_backend(name):
         except KeyError:
             raise ValueError(f"unknown visibility backend {name!r}; registered: "
                              f"{', '.join(sorted(_REGISTRY))}") from None
+    _not_a_class(name)
     if isinstance(name, VisibilityBackend):
         return name
     raise TypeError(f"visibility backend must be a name or a backend object, got {name!r}")
+
+
+def _not_a_class(backend) -> None:
+    """TypeError for a backend class given where its instance is meant (``EmbreeVisibility`` for
+    ``EmbreeVisibility()``: it passed the protocol's check, then a query failed with "missing 1 required
+    positional argument: 'directions'")."""
+    if isinstance(backend, type):
+        raise TypeError(f"visibility backend: got the class {backend.__name__}, not a backend object "
+                        f"(pass an instance, {backend.__name__}(...), or a registered name)")
 
 
 def backends() -> list[str]:
@@ -99,7 +112,12 @@ def check_bias(bias):
     scalar = isinstance(bias, np.ndarray) and bias.ndim == 0 and bias.dtype.kind in "iuf"
     if isinstance(bias, (bool, np.bool_)) or not (scalar or isinstance(bias, numbers.Real)):
         raise TypeError(f"bias must be one real number or None, got {bias!r}")
-    if not abs(float(bias)) <= FLOAT32_MAX:
+    try:
+        value = float(bias)
+    except OverflowError:               # an int beyond float64 (10**400): not a bare "int too large"
+        value = None
+    if value is None or not abs(value) <= FLOAT32_MAX:
+        got = value if value is not None else f"an int of {int(bias).bit_length()} bits"
         raise ValueError(f"bias must be finite and within float32's range (the kernels take it as a "
-                         f"float32), got {float(bias)}")
+                         f"float32), got {got}")
     return bias

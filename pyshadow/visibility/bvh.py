@@ -39,7 +39,13 @@ STACK = 48
 def _morton(c: np.ndarray) -> np.ndarray:
     """30-bit Morton codes of points (N, 3), quantised over their bounding box."""
     lo, hi = c.min(axis=0), c.max(axis=0)
-    q = ((c - lo) / np.where(hi > lo, hi - lo, 1.0) * 1023.0).astype(np.uint32)
+    with np.errstate(over="ignore"):
+        span = hi - lo
+    if not np.isfinite(span).all():     # a box wider than float64 (centres near +-1.8e308): by halves (the
+        # codes only order the leaves: the tree's boxes, hence its answers, do not depend on them)
+        c, lo, hi = c * 0.5, lo * 0.5, hi * 0.5
+        span = hi - lo
+    q = ((c - lo) / np.where(hi > lo, span, 1.0) * 1023.0).astype(np.uint32)
     code = np.zeros(len(c), np.uint32)
     for bit in range(10):
         for axis in range(3):
@@ -48,7 +54,8 @@ def _morton(c: np.ndarray) -> np.ndarray:
 
 
 def _outward(lo: np.ndarray, hi: np.ndarray):
-    lo32, hi32 = lo.astype(np.float32), hi.astype(np.float32)
+    with np.errstate(over="ignore"):    # beyond float32: +-inf, or its largest value on the inner side
+        lo32, hi32 = lo.astype(np.float32), hi.astype(np.float32)
     lo32 = np.where(lo32 > lo, np.nextafter(lo32, np.float32(-np.inf)), lo32)
     hi32 = np.where(hi32 < hi, np.nextafter(hi32, np.float32(np.inf)), hi32)
     return lo32, hi32
@@ -58,11 +65,16 @@ def spheres(centres, radii, name: str):
     """Validated spheres of :func:`instance_bvh` and :func:`.grid.instance_grid`: float64 ``(N, 3)`` centres,
     ``(N,)`` radii, N >= 1, all finite and the radii >= 0 (a NaN or infinite sphere was silently left out of
     every cell of the grid and made the tree's boxes NaN: the caster was never asked)."""
-    c = np.asarray(centres, np.float64).reshape(-1, 3)
-    r = np.asarray(radii, np.float64).reshape(-1)
+    c, r = np.asarray(centres), np.asarray(radii)
+    for a, what in ((c, "centres"), (r, "radii")):
+        if a.dtype.kind not in "iuf":   # complex lost its imaginary part, bools and digit strings passed
+            raise TypeError(f"{name}: {what} must be real numbers, got dtype {a.dtype}")
+    if c.ndim != 2 or c.shape[1] != 3:  # ((3, 4) was read as 4 centres)
+        raise ValueError(f"{name}: centres must have shape (N, 3), got {c.shape}")
+    c, r = c.astype(np.float64), r.astype(np.float64).reshape(-1)
     n = len(c)
-    if n < 1 or len(r) != n:
-        raise ValueError(f"{name}: {n} centres and {len(r)} radii")
+    if n < 1 or len(r) != n or np.ndim(radii) > 1:
+        raise ValueError(f"{name}: {n} centres and radii of shape {np.shape(radii)}: expected N >= 1 and shape (N,)")
     bad = ~(np.isfinite(c).all(axis=1) & np.isfinite(r) & (r >= 0))
     if bad.any():
         i = int(np.argmax(bad))
@@ -93,7 +105,8 @@ def instance_bvh(centres, radii):
     c, r = spheres(centres, radii, "instance_bvh")
     n = len(c)
     order = np.argsort(_morton(c), kind="stable").astype(np.int32)
-    lo, hi = c[order] - r[order, None], c[order] + r[order, None]
+    with np.errstate(over="ignore"):    # beyond float64: -inf / +inf, still the outward bound
+        lo, hi = c[order] - r[order, None], c[order] + r[order, None]
     starts = np.arange(0, n, LEAF)
     levels = [{"lo": np.minimum.reduceat(lo, starts), "hi": np.maximum.reduceat(hi, starts),
                "a": starts.astype(np.int32), "b": -np.diff(np.append(starts, n)).astype(np.int32)}]

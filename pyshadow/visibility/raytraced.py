@@ -6,15 +6,18 @@ and runs to infinity (or to ``max_distance``: every ray is answered, there
 is nothing to ``straddle``; distance AO is exact, from the hit
 distances); the ground plane is tested analytically as the
 kernels do. ``bias`` does not apply (there is no depth to compare) and
-``surface_ids`` is not needed (the lift keeps a ray off its own surface); it,
-and ``visible``'s ``normals``, are still checked as the other backends check them.
+``surface_ids`` is not needed (the lift keeps a ray off its own surface); they,
+``visible``'s ``normals`` and ``straddle``, and the options of distance AO,
+are still checked as the other backends and :func:`pyshadow.visibility.visible`
+check them (a bad value is an error whatever the backend).
 Every caster needs its mesh (``Scene.add(csm, mesh=...)``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .base import register
+from .._validate import flag
+from .base import check_bias, register
 
 __all__ = ["EmbreeVisibility"]
 
@@ -30,7 +33,10 @@ class EmbreeVisibility:
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
                 max_distance=None, straddle="error"):
         from .. import embree
+        from .finite import check_straddle
 
+        check_bias(bias)
+        check_straddle(straddle)
         _check_unused(scene, points, surface_ids, normals)
         return embree.visible(scene, points, directions, max_distance=max_distance)
 
@@ -42,13 +48,15 @@ class EmbreeVisibility:
         from .. import embree
         from .finite import check_ao_options
 
+        check_bias(bias)
+        check_ao_options(obscurance, quadrature, straddle)
+        bent = flag(return_bent_normals, "return_bent_normals")     # the string "False" returned (ao, bent)
         _check_unused(scene, points, surface_ids, None)
         distance = {}
         if max_distance is not None or obscurance is not None:
-            check_ao_options(obscurance, quadrature, straddle)
             distance = {"max_distance": max_distance, "obscurance": obscurance}
         return embree.ambient_occlusion(scene, points, normals, sampling=sampling,
-                                        return_bent_normals=return_bent_normals, indices=indices, **distance)
+                                        return_bent_normals=bent, indices=indices, **distance)
 
 
 def _check_unused(scene, points, surface_ids, normals):

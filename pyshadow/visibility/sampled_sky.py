@@ -32,7 +32,7 @@ class _SampledSky:
             World positions and unit normals (world frame).
         env_radiance : array_like, shape (h, w, 3)
             Lat-long radiance, linear RGB, row 0 at +y (``EnvironmentMap.radiance``);
-            rounded to float32.
+            real numbers, >= 0 and finite when rounded to float32.
         layout_shape : tuple (h, w), optional
             The map's ``grid_shape``; checked against ``env_radiance``.
         sampling : pyshadow.Sampling
@@ -47,13 +47,28 @@ class _SampledSky:
         bent : ndarray, shape (N, 3), float32
             Both bit-identical to :meth:`ambient_occlusion`'s.
         """
+        from ..sampling import Sampling
+
+        if not isinstance(sampling, Sampling):
+            raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
         env = np.asarray(env_radiance)
         if env.ndim != 3 or env.shape[2] != 3 or env.shape[0] < 1 or env.shape[1] < 1:
             raise ValueError(f"env_radiance must be a lat-long map of shape (h, w, 3), got {env.shape}")
-        if layout_shape is not None and tuple(layout_shape) != env.shape[:2]:
-            raise ValueError(f"layout_shape {tuple(layout_shape)} does not match env_radiance {env.shape}")
-        env = np.ascontiguousarray(env, np.float32)
+        if env.dtype.kind not in "iuf":     # complex lost its imaginary part, bools and digit strings passed
+            raise TypeError(f"env_radiance must hold real numbers, got dtype {env.dtype}")
+        if layout_shape is not None:
+            try:
+                shape = tuple(layout_shape)
+            except TypeError:               # (an int: "'int' object is not iterable", not naming it)
+                shape = None
+            if shape != env.shape[:2]:
+                raise ValueError(f"layout_shape {layout_shape!r} does not match env_radiance {env.shape}")
+        with np.errstate(over="ignore"):    # beyond float32: inf, refused below by name
+            env = np.ascontiguousarray(env, np.float32)
         if not np.all(np.isfinite(env)):
             raise ValueError("env_radiance must be finite (in float32)")
+        if (env < 0).any():                 # a sky of negative radiance is no sky (EnvironmentMap refuses it)
+            raise ValueError(f"env_radiance must be >= 0, got {int((env < 0).any(axis=2).sum())} texels below 0 "
+                             f"(least {float(env.min())})")
         sky_env = [_cl.to_device(env), np.int32(env.shape[0]), np.int32(env.shape[1])]
         return self._ao(scene, points, normals, sampling, True, False, bias, indices, surface_ids, sky_env=sky_env)

@@ -115,12 +115,21 @@ def legacy_sampling(where: str, args: tuple, order: tuple, sampling, given: dict
     sampling : Sampling
     extra : dict
         Old non-sampling arguments passed (e.g. ``bent_normals``).
+
+    Raises
+    ------
+    TypeError
+        Too many positional arguments, a :class:`Sampling` among them (it
+        goes by keyword), an unknown keyword, or old and new forms together.
     """
     from .sampling import Sampling
 
     if len(args) > len(order):
         raise TypeError(f"{where} takes at most {len(order)} positional arguments after the data "
                         f"({len(args)} given)")
+    if any(isinstance(a, Sampling) for a in args):     # was "samples must be an int, got Sampling(...)"
+        raise TypeError(f"{where}: pass the Sampling by keyword, sampling=Sampling(...) (positional "
+                        f"arguments after the data are the deprecated {', '.join(order)})")
     old = dict(zip(order, args))
     unknown = sorted(set(given) - set(order))
     if unknown:

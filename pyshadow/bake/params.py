@@ -22,9 +22,10 @@ class AssetParams:
     ----------
     theta, phi : int
         Maps of the ``ViewSet.zigzag(theta, phi)`` view set of the CSM
-        (rows of polar angle, maps per row).
+        (rows of polar angle, maps per row): each 2 .. 65536, ``theta * phi``
+        at most 2**21.
     resolution : int
-        Texels per map side.
+        Texels per map side, 1 .. 4096.
     depth_bits : {16, 32}
         Depth precision of the CSM.
     samples : int
@@ -72,12 +73,22 @@ class AssetParams:
                              f"{self.samples}")
         if self.theta < 2 or self.phi < 2:
             raise ValueError(f"AssetParams: at least 2x2 maps, got {self.theta}x{self.phi}")
+        from ..raster import MAX_RESOLUTION
+        from ..views import MAX_GRID, MAX_MAPS
+
+        # the CSM's own limits: beyond them every asset was loaded, then failed
+        if max(self.theta, self.phi) > MAX_GRID or self.theta * self.phi > MAX_MAPS:
+            raise ValueError(f"AssetParams: theta and phi must be at most {MAX_GRID} and theta * phi at most "
+                             f"{MAX_MAPS} (ViewSet.zigzag's limits), got {self.theta}x{self.phi}")
+        if self.resolution > MAX_RESOLUTION:
+            raise ValueError(f"AssetParams.resolution must be at most {MAX_RESOLUTION} (the CSM builder's limit), "
+                             f"got {self.resolution}")
         d = self.depth_bits         # 16.0 == 16: a bake alike under another key (and np.int64 no JSON)
         if isinstance(d, bool) or not isinstance(d, int) or d not in (16, 32):
             raise ValueError(f"AssetParams.depth_bits must be 16 or 32, got {self.depth_bits!r}")
         if not isinstance(self.lookup, str) or self.lookup not in LOOKUPS:
             raise ValueError(f"AssetParams.lookup must be one of {LOOKUPS}, got {self.lookup!r}")
-        if self.mesh_format not in MESH_FORMATS:
+        if not isinstance(self.mesh_format, str) or self.mesh_format not in MESH_FORMATS:    # np.array("ply")
             raise ValueError(f"AssetParams.mesh_format must be one of {MESH_FORMATS}, got {self.mesh_format!r}")
         for f in ("ground", "fill_holes"):      # a string such as "false" is truthy: a bake of other settings
             v = getattr(self, f)
@@ -104,7 +115,7 @@ class AssetParams:
         names = {f.name for f in dataclasses.fields(cls)}
         extra = set(d) - names
         if extra:
-            raise ValueError(f"unknown bake parameters: {', '.join(sorted(extra))}")
+            raise ValueError(f"unknown bake parameters: {', '.join(sorted(map(repr, extra)))}")
         return cls(**d)
 
 

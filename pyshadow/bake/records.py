@@ -25,12 +25,18 @@ def sha256_file(path) -> str:
 
 
 def done(out: Path, record: str, key: str):
-    """The record at ``out/record`` if it has status 'baked', this ``key`` and every output intact, else None."""
+    """The record at ``out/record`` if it has status 'baked', this ``key`` and every output intact, else None.
+
+    An output listed outside ``out`` (an absolute path, or one through ``..``: a hand-edited or hostile
+    record) makes the record not done; such a file is not read.
+    """
     try:
         rec = json.loads((out / record).read_text())
         if rec.get("status") != "baked" or rec.get("key") != key:
             return None
         for rel, meta in rec["outputs"].items():
+            if Path(rel).is_absolute() or ".." in Path(rel).parts:     # was hashed, and the record trusted
+                return None
             f = out / rel
             if not f.is_file() or f.stat().st_size != meta["bytes"] or sha256_file(f) != meta["sha256"]:
                 return None

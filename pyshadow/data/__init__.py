@@ -109,6 +109,8 @@ def mesh(name: str, fill_holes: bool = False) -> trimesh.Trimesh:
     ------
     ValueError
         If ``name`` is not a bundled mesh; the message lists the available ones.
+    TypeError
+        If ``fill_holes`` is not True or False.
 
     See Also
     --------
@@ -122,9 +124,11 @@ def mesh(name: str, fill_holes: bool = False) -> trimesh.Trimesh:
     >>> m.faces.shape, bool(m.is_watertight)
     ((5750, 3), True)
     """
+    from .._validate import flag
     from ..mesh import load_mesh
 
     full = _mesh_name(name)
+    fill_holes = flag(fill_holes, "fill_holes")      # "no" is truthy: the holes were closed
     raw = trimesh.load(io.BytesIO(mesh_bytes(full)), file_type=full.rsplit(".", 1)[1].lower(),
                        process=False)
     return load_mesh(raw, fill_holes=fill_holes)
@@ -218,18 +222,29 @@ def default_scene(*, views=None, resolution: int = 128, depth_bits: int = 16, la
         Ground plane ``y = 0``; instance ids in the order of
         :data:`DEFAULT_PARTS`.
     camera : pyshadow.Camera
+
+    Raises
+    ------
+    TypeError
+        If ``csm_for`` is not callable, or returns what is not a
+        :class:`pyshadow.CoherentShadowMap` or None.
     """
     from ..camera import Camera
     from ..csm import CoherentShadowMap
     from ..scene import Scene
     from ..views import ViewSet
 
+    if csm_for is not None and not callable(csm_for):
+        raise TypeError(f"csm_for must be a callable csm_for(name, mesh) or None, got {csm_for!r}")
     views = views if views is not None else ViewSet.zigzag(64, 128)
     scene = Scene(ground=0.0, views=views, resolution=resolution, depth_bits=depth_bits,
                   layers=layers, progress=progress)
     for name, mesh, T, casts in default_parts():
         if casts:
             csm = csm_for(name, mesh) if csm_for is not None else None
+            if csm is not None and not isinstance(csm, CoherentShadowMap):    # was: "mesh= is only for CSMs"
+                raise TypeError(f"csm_for({name!r}, mesh) must return a CoherentShadowMap or None, "
+                                f"got {type(csm).__name__}")
             if csm is None:
                 csm = CoherentShadowMap.build(mesh, views, resolution=resolution, depth_bits=depth_bits,
                                               layers=layers, progress=progress)

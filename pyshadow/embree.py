@@ -14,7 +14,7 @@ import trimesh
 
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays
-from ._validate import check_both, check_values, kernel_rows, unit_normals
+from ._validate import check_both, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
@@ -365,7 +365,7 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     sampling, extra = legacy_sampling("embree.ambient_occlusion", args,
                                       ("samples", "strategy", "seed", "patterns", "bent_normals"), sampling,
                                       old, Sampling())
-    bent_normals = bool(extra.get("bent_normals", return_bent_normals))
+    bent_normals = flag(extra.get("bent_normals", return_bent_normals), "return_bent_normals")   # "False" was true
 
     p = np.asarray(kernel_rows(points, "points"), np.float64)
     check_values(p, "points")

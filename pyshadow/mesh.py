@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from ._validate import check_transform
+from ._validate import check_transform, flag
 from .materials import GLTF_SUFFIXES, VISUAL_KEY, _mesh_visual, join_visuals, visual_of
 
 __all__ = [
@@ -179,6 +179,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     >>> m.faces.shape
     (12, 3)
     """
+    fill_holes = flag(fill_holes, "fill_holes")     # "no" closed the holes
     gltf = None             # a mesh object: pyshadow.materials.is_gltf tells
     if isinstance(path_or_trimesh, (trimesh.Trimesh, trimesh.Scene)):
         label = f"<{type(path_or_trimesh).__name__}>"

@@ -157,7 +157,7 @@ class Scene:
         self.ground = ground
         self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128), resolution=resolution,
                                 depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
-        self.progress = progress
+        self.progress = flag(progress, "progress")     # "no" drew progress bars
         self._placed = _Placed()
         self._built: dict = {}           # id(mesh) -> CSM built by add()
         self._version = 0                # advanced by add() and set_transform() (scene_arrays)

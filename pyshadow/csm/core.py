@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .._compat import keyword_only
+from .._validate import flag
 from ..views import ViewSet
 
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK",
@@ -301,6 +302,7 @@ class CoherentShadowMap:
         -------
         CoherentShadowMap
         """
+        progress = flag(progress, "progress")
         if max_error is not None or max_bytes is not None:
             from .choose import build_chosen
             return build_chosen(mesh, views, resolution, frame, footprint, two_sided, max_error=max_error,

@@ -124,11 +124,9 @@ def mesh(name: str, fill_holes: bool = False) -> trimesh.Trimesh:
     >>> m.faces.shape, bool(m.is_watertight)
     ((5750, 3), True)
     """
-    from .._validate import flag
     from ..mesh import load_mesh
 
     full = _mesh_name(name)
-    fill_holes = flag(fill_holes, "fill_holes")      # "no" is truthy: the holes were closed
     raw = trimesh.load(io.BytesIO(mesh_bytes(full)), file_type=full.rsplit(".", 1)[1].lower(),
                        process=False)
     return load_mesh(raw, fill_holes=fill_holes)

@@ -47,7 +47,7 @@ from .._cl import launch
 from .._cl.launch import lane_table
 from .._cl.tables import BVH_NODE, GRID, GRID_PACKET, INSTANCE
 from .._validate import (FLOAT32_MAX, check_both, check_float32_instances, check_float32_points, check_indices,
-                         kernel_rows, rows3, unit_normals)
+                         flag, kernel_rows, rows3, unit_normals)
 from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS, VOTE_BIAS_TEXELS
@@ -428,12 +428,12 @@ class CSMVisibility(_SampledSky):
         AO (:func:`pyshadow.visibility.ambient_occlusion`); without the first
         two, the kernel of before (compiled with ``FINITE_RAYS=0``).
         """
+        bent_normals = flag(return_bent_normals, "return_bent_normals")     # "False" returned (ao, bent)
         if max_distance is not None or obscurance is not None:
-            return _distance_ao(self, scene, points, normals, sampling, bool(return_bent_normals), bias, indices,
+            return _distance_ao(self, scene, points, normals, sampling, bent_normals, bias, indices,
                                      surface_ids, max_distance, *check_ao_options(obscurance, quadrature, straddle))
-        ao, bent, _ = self._ao(scene, points, normals, sampling, bool(return_bent_normals), False, bias, indices,
-                               surface_ids)
-        return (ao, bent) if return_bent_normals else ao
+        ao, bent, _ = self._ao(scene, points, normals, sampling, bent_normals, False, bias, indices, surface_ids)
+        return (ao, bent) if bent_normals else ao
 
     def sh_transfer(self, scene, points, normals, *, sampling, bias=None, indices=None, surface_ids=None):
         """AO, bent normals and the shadowed SH transfer of each point, from one pass of the AO kernel.

@@ -1,5 +1,6 @@
 """Flags that must be True or False (``pyshadow._validate.flag``) where a string or a number was read as
-its truth: load_mesh, Scene, CoherentShadowMap.build, the Embree and CSM backends' AO.
+its truth: load_mesh, Scene, CoherentShadowMap.build, the Embree and CSM backends' AO; and a query's bias, which
+must be >= 0.
 
 Each test failed on the code before its fix; its docstring says what happened.
 """
@@ -61,3 +62,13 @@ def test_return_bent_normals_is_a_flag(scene, ask):
         ask(scene, p, n, sampling=s, return_bent_normals="False")
     ao = ask(scene, p, n, sampling=s, return_bent_normals=np.False_)
     assert isinstance(ao, np.ndarray) and ao.shape == (1,) and 0.5 < ao[0] <= 1.0
+
+
+@pytest.mark.parametrize("backend", ["csm", "csm-vote", "numpy", "embree"])
+def test_a_negative_bias_is_refused(scene, backend):
+    """Was: ``bias=-1.0`` was taken: a ray straight up from the box's lid, open to the sky, came back
+    blocked (CSM and NumPy backends; the shadow map already refused a negative bias). 0 is the least."""
+    p, up = np.array([[0.0, 1.0, 0.0]]), np.array([[0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match="bias must be >= 0"):
+        pyshadow.visibility.visible(scene, p, up, backend=backend, bias=-1.0)
+    assert pyshadow.visibility.visible(scene, p + [0.0, 1e-3, 0.0], up, backend=backend, bias=0.0).tolist() == [True]

@@ -102,7 +102,7 @@ def backends() -> list[str]:
 def check_bias(bias):
     """Validate the ``bias`` of a query (None: the default bias); returns it unchanged.
 
-    One real number (not a bool, a string or an array of several), finite and
+    One real number (not a bool, a string or an array of several), >= 0, finite and
     within float32's range: the kernels take it as a float32 (beyond it the
     cast overflowed), and the mirror must refuse what they refuse (a NaN bias
     made every tap pass there).
@@ -120,4 +120,7 @@ def check_bias(bias):
         got = value if value is not None else f"an int of {int(bias).bit_length()} bits"
         raise ValueError(f"bias must be finite and within float32's range (the kernels take it as a "
                          f"float32), got {got}")
+    if value < 0:                       # -1 shadowed the open rays off a box's lid, in every CSM backend
+        raise ValueError(f"bias must be >= 0 (a depth tolerance: a point counts as in front of a stored "
+                         f"depth within it), got {value}")
     return bias

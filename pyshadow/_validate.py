@@ -131,6 +131,12 @@ def point3(x, label: str) -> np.ndarray:
     return a
 
 
+def real_scalar(value) -> bool:
+    """``value`` is one real number (Python, NumPy or a 0-d array; not a bool, a complex or a string)."""
+    return (not isinstance(value, (bool, np.bool_)) and np.ndim(value) == 0
+            and np.asarray(value).dtype.kind in "iuf")
+
+
 def flag(value, name: str) -> bool:
     """``value`` as a bool: True or False (Python or NumPy); TypeError naming ``name`` for anything else
     (the string "no" or "False" would be true, an array's truth is ambiguous, None or 0 may mean a default)."""

@@ -12,7 +12,7 @@ import pyopencl as cl
 import trimesh
 
 from .. import _cl
-from .._validate import FLOAT32_MAX
+from .._validate import FLOAT32_MAX, real_scalar
 from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from ..raster import DepthRenderer, _check_resolution_layers, check_frame
 from ..views import ViewSet
@@ -92,15 +92,9 @@ def check_arguments(views, resolution, depth_bits, layers="auto") -> None:
     layer_rule(layers)
 
 
-def _real_scalar(value) -> bool:
-    """``value`` is one real number (Python, NumPy or a 0-d array; not a bool, a complex or a string)."""
-    return (not isinstance(value, (bool, np.bool_)) and np.ndim(value) == 0
-            and np.asarray(value).dtype.kind in "iuf")
-
-
 def check_depth_bits(depth_bits) -> None:
     """ValueError naming ``depth_bits`` unless it is 16 or 32 (an array, a complex or a bool is neither)."""
-    if not (_real_scalar(depth_bits) and depth_bits in (16, 32)):
+    if not (real_scalar(depth_bits) and depth_bits in (16, 32)):
         raise ValueError(f"depth_bits must be 16 or 32, got {depth_bits!r}")
 
 
@@ -118,7 +112,7 @@ def layer_rule(layers, mesh=None):
     is only checked, 0 returned); ValueError for anything else."""
     if isinstance(layers, str) and layers == "auto":
         return 0 if mesh is None else 3 if mesh.is_watertight else 2
-    if _real_scalar(layers) and layers in (2, 3):
+    if real_scalar(layers) and layers in (2, 3):
         return int(layers)
     raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
 

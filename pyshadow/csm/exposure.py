@@ -171,6 +171,15 @@ def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
     Returns
     -------
     ndarray, shape (F,), bool, or None
+
+    Raises
+    ------
+    TypeError
+        ``two_sided`` is none of 'auto', True, False; ``layer_rule`` is not an int.
+    ValueError
+        ``layer_rule`` is not 2 or 3.
     """
     rule = check_int(layer_rule, "layer_rule", 2, 3, why="the layers a map keeps per texel")
+    if not (isinstance(two_sided, (bool, np.bool_)) or is_auto(two_sided)):    # as the build ('yes' read as False)
+        raise TypeError(f"two_sided must be True, False or 'auto', got {two_sided!r}")
     return exposed_back_faces(mesh, frame) if is_auto(two_sided) and rule == 2 else None

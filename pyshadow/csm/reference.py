@@ -7,13 +7,38 @@ from __future__ import annotations
 
 import numpy as np
 
-from .build import _real_scalar, check_depth_bits, footprint_scale
+from .._validate import check_int, check_rows, check_values, flag, real_scalar
+from .build import check_depth_bits, footprint_scale
 from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin, query_indices,
                    slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
 __all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",
            "shadow_taps", "shadow_vote"]
+
+
+def _depths(a, name):
+    """Depth maps as float32: real numbers, each in [0, +inf] (+inf: no hit); ValueError or TypeError naming
+    ``name`` (a negative depth or -inf wrapped around the 16-bit keys and was clamped to 0 at 32 bits,
+    complex depths lost their imaginary part, strings were parsed)."""
+    a = np.asarray(a)
+    if a.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must hold real numbers (normalised depths), got dtype {a.dtype}")
+    a = a.astype(np.float32)
+    for bad, what in ((np.isnan(a), "NaN"), (a < 0, "negative")):
+        n = int(np.count_nonzero(bad))
+        if n:
+            raise ValueError(f"{name}: {n} depths are {what} (depths lie in [0, 1]; +inf marks a ray with "
+                             f"fewer hits), first at index {tuple(np.argwhere(bad)[0].tolist())}")
+    return a
+
+
+def _flags(a, name):
+    """A bool array; TypeError naming ``name`` for any other dtype (the strings "False" and 0.5 were True)."""
+    a = np.asarray(a)
+    if a.dtype != bool:
+        raise TypeError(f"{name} must be a bool array (render_depth(..., facing=True)), got dtype {a.dtype}")
+    return a
 
 
 def _keys_at_or_above(z, depth_bits):
@@ -148,7 +173,8 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     ----------
     layers : ndarray, shape (D, L, R, R), float32
         Depth layers in view-set order (:func:`pyshadow.render_depth` with
-        ``L >= rule``; ``+inf`` where a ray has fewer hits).
+        ``L >= rule``): normalised depths in [0, 1], ``+inf`` where a ray
+        has fewer hits.
     front : ndarray, shape (D, L, R, R), bool
         Which layers face the light (``render_depth(..., facing=True)``).
     rule : {2, 3}
@@ -173,29 +199,43 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     depth : ndarray, shape (S,), uint16 or float32
         The arrays of :meth:`CoherentShadowMap.build` for the same maps,
         bit for bit.
+
+    Raises
+    ------
+    TypeError
+        Depths that are no real numbers, facing flags that are not bool,
+        ``two_sided`` not True or False.
+    ValueError
+        Shapes that do not match, depths that are NaN or negative, a
+        ``margin_depth`` that is not a finite number >= 0, ``corners``
+        without ``corner_front``.
     """
-    if not (_real_scalar(rule) and rule in (2, 3)):
+    if not (real_scalar(rule) and rule in (2, 3)):
         raise ValueError(f"rule must be 2 or 3, got {rule!r}")
     check_depth_bits(depth_bits)
-    layers = np.asarray(layers, np.float32)
-    front = np.asarray(front, bool)
+    layers = _depths(layers, "layers")
+    front = _flags(front, "front")
     if layers.ndim != 4 or layers.shape[2] != layers.shape[3] or 0 in layers.shape:
         raise ValueError(f"layers must have shape (D, L, R, R) with D, L, R >= 1, got {layers.shape}")
-    nan = int(np.count_nonzero(np.isnan(layers)))
-    if nan:
-        raise ValueError(f"layers: {nan} depths are NaN (+inf marks a ray with fewer hits)")
     D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
     if corners is not None:
-        corners = np.asarray(corners, np.float32)
-        corner_front = np.asarray(corner_front, bool)
+        if corner_front is None:
+            raise ValueError("corner_front must be given with corners (the corner maps' facing flags)")
+        corners, corner_front = _depths(corners, "corners"), _flags(corner_front, "corner_front")
         if corners.shape[:2] != (D, L) or corners.shape[2:] != (R + 1, R + 1) or corner_front.shape != corners.shape:
-            raise ValueError(f"corners must have shape {(D, L, R + 1, R + 1)}, got {corners.shape}")
+            raise ValueError(f"corners and corner_front must have shape {(D, L, R + 1, R + 1)}, got "
+                             f"{corners.shape} and {corner_front.shape}")
     if L < rule:
         raise ValueError(f"rule {rule} needs {rule} layers, got {L}")
     if front.shape != layers.shape:
         raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
-    margin = front_margin(R) if margin_depth is None else np.float32(margin_depth)
-    two_sided = bool(two_sided)
+    if margin_depth is None:
+        margin = front_margin(R)
+    elif real_scalar(margin_depth) and np.float32(margin_depth) >= 0 and np.isfinite(np.float32(margin_depth)):
+        margin = np.float32(margin_depth)
+    else:       # NaN was cast to a key with a RuntimeWarning; a negative margin moved z2' behind z2
+        raise ValueError(f"margin_depth must be a finite number >= 0 (normalised depth), got {margin_depth!r}")
+    two_sided = flag(two_sided, "two_sided")
     miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
@@ -335,7 +375,7 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         plane through the point with its normal (the receiver's plane), else
         the point is lifted off the surface.
     lift : ndarray of bool, shape (N,), optional
-        The rows of the surface rule.
+        The rows of the surface rule (default: none).
     texel_points : ndarray, shape (N, 3), optional
         Where each point's texel is taken, normalised frame (default ``pn``;
         a point before its chord through the caster: the chord's midpoint,
@@ -346,6 +386,15 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     ndarray, shape (N,), float64
         The summed weights of the shadowing taps; the caster shadows a ray
         where this exceeds one half.
+
+    Raises
+    ------
+    TypeError
+        ``texels`` not an int, ``maps`` not integers.
+    ValueError
+        Rows that are not finite or not (N, 3), ``maps`` outside the view
+        set or of another shape than ``map_weights`` (N, M), a quantum or
+        bias that is not a finite number, ``lift`` not a bool (N,) array.
     """
     R, D = csm.resolution, csm.maps
     # global keys texel * D + i_end are sorted: one searchsorted finds every segment
@@ -378,13 +427,15 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
     :mod:`pyshadow.csm.error_model`. The texel is that of ``texel_points``
     where given (the depth stays that of ``pn``).
     """
-    if texels == 4:      # texel offsets and their bilinear weights (tx, ty)
+    if check_int(texels, "texels", 1, 4) == 4:      # texel offsets and their bilinear weights (tx, ty)
         taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
                 (1, 0, lambda tx, ty: (1 - tx) * ty), (1, 1, lambda tx, ty: tx * ty)]
     elif texels == 1:
         taps = [(0, 0, lambda tx, ty: 1.0)]
     else:
         raise ValueError(f"texels must be 1 or 4, got {texels!r}")
+    lift = _check_taps(len(views), pn, wn, maps, map_weights, quantum, bias, bias_texels, normals, lift,
+                       texel_points)
     # the receiver's plane (rows `lift` with the default bias): each tap's tolerance is that of the plane
     # through the point with its normal, at the tap's texel centre; the other rows are lifted instead
     plane = normals is not None and bias is None
@@ -420,3 +471,34 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
                 rise = (pu * (x0 + dx + 0.5 - fx) + pv * (y0 + dy + 0.5 - fy) + pe) / R
                 bt = np.where(lift, np.maximum(base - rise, quantum), b)
             yield k, row * R + col, col, row, depth, bt, inside, map_weights[:, m] * weight(tx, ty)
+
+
+def _check_taps(D, pn, wn, maps, map_weights, quantum, bias, bias_texels, normals, lift, texel_points):
+    """The checks of :func:`shadow_taps`' arguments (no copy): finite (N, 3) rows, map indices (N, M) of
+    the ``D`` maps with weights of the same shape, finite numbers; ``lift`` as a bool (N,) array (None:
+    no row). A map index -1 was read as the last map, NaN points were cast to texels with a
+    RuntimeWarning, a NaN quantum or bias answered every tap "lit", and ``normals`` with a bias but no
+    ``lift`` failed in ``None & bool``."""
+    n = len(check_rows(pn, "pn"))
+    for a, name in ((pn, "pn"), (wn, "wn"), (normals, "normals"), (texel_points, "texel_points")):
+        if a is not None:
+            check_values(check_rows(a, name, n), name)
+    maps, w = np.asarray(maps), np.asarray(map_weights)
+    if maps.dtype.kind not in "iu":
+        raise TypeError(f"maps must be integer map indices, got dtype {maps.dtype}")
+    if maps.ndim != 2 or len(maps) != n or w.shape != maps.shape:
+        raise ValueError(f"maps and map_weights must have shape (N, M) with N = {n} (the points), got "
+                         f"{maps.shape} and {w.shape}")
+    if maps.size and not (maps.min() >= 0 and maps.max() < D):
+        raise ValueError(f"maps must lie in 0 .. {D - 1} (the view set's maps), got {maps.min()} .. {maps.max()}")
+    if w.dtype.kind not in "iuf" or not np.isfinite(w).all():
+        raise ValueError(f"map_weights must be finite real numbers, got dtype {w.dtype}")
+    for x, name in ((quantum, "quantum"), (bias, "bias"), (bias_texels, "bias_texels")):
+        if x is not None and not (real_scalar(x) and np.isfinite(x)):
+            raise ValueError(f"{name} must be a finite number, got {x!r}")
+    if lift is None:
+        return np.zeros(n, bool)
+    lift = np.asarray(lift)
+    if lift.dtype != bool or lift.shape != (n,):
+        raise ValueError(f"lift must be a bool array of shape ({n},), got dtype {lift.dtype}, shape {lift.shape}")
+    return lift

@@ -89,7 +89,7 @@ def covering_angle(views, lookup: str = "nearest") -> float:
 
     if not isinstance(views, ViewSet):
         raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
-    if lookup not in ("nearest", "vote"):
+    if not (isinstance(lookup, str) and lookup in ("nearest", "vote")):     # an array: unhashable or ambiguous
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
     held = _COVER.setdefault(views, {})
     if lookup not in held:
@@ -118,4 +118,6 @@ def surface_horizon(csm, lookup: str = "nearest") -> float:
     float
         ``sin`` of :func:`covering_angle` of ``csm.views`` (at most 1).
     """
+    if not hasattr(csm, "views"):       # a ViewSet failed with "'ViewSet' object has no attribute 'views'"
+        raise TypeError(f"csm must be a CoherentShadowMap (it has the view set), got {type(csm).__name__}")
     return float(np.sin(min(covering_angle(csm.views, lookup), 0.5 * np.pi)))

@@ -75,10 +75,14 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
         A radius that is not finite and > 0, a kernel size < 1, a bias that
         is not finite.
     TypeError
-        A kernel size that is not an integer.
+        A kernel size that is not an integer, a radius or bias that is no
+        real number (a bool, a string), ``blur`` not True or False.
     """
-    from .._validate import check_int
+    from .._validate import check_int, flag, real_scalar
 
+    for x, name in ((radius, "radius"), (bias, "bias")):    # True was 1 world unit, "0.5" half a unit
+        if not (real_scalar(x) or (name == "bias" and x is None)):
+            raise TypeError(f"{name} must be a real number (world units), got {x!r}")
     radius = float(radius)
     if not (np.isfinite(radius) and radius > 0):
         raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
@@ -86,6 +90,7 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
     bias = 0.02 * radius if bias is None else float(bias)
     if not np.isfinite(bias):
         raise ValueError(f"bias must be finite (world units), got {bias}")
+    blur = flag(blur, "blur")           # the string "no" blurred
     from .plotter import _pv, make_plotter
 
     pv = _pv()
@@ -100,7 +105,7 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
             pl.camera.position, pl.camera.focal_point = tuple(camera.eye), tuple(camera.target)
             pl.camera.up, pl.camera.view_angle = tuple(camera.up), float(camera.fov_y)
             if ssao_on:
-                pl.enable_ssao(radius=radius, bias=bias, kernel_size=kernel_size, blur=bool(blur))
+                pl.enable_ssao(radius=radius, bias=bias, kernel_size=kernel_size, blur=blur)
             pl.show(auto_close=False)            # window and pipeline set up, first render
             t0 = time.perf_counter()
             pl.render()

@@ -37,7 +37,16 @@ def view_set_points(views, radius: float = 1.0, *, path: bool = True):
         ``D`` points ``radius * d_k`` with one vertex cell each (and the
         polyline); point data ``'order'`` float64 ``k / (D - 1)`` in [0, 1]
         (0 for ``D = 1``) and ``'index'`` int64 ``k``.
+
+    Raises
+    ------
+    TypeError
+        ``views`` is no ViewSet, ``radius`` no real number (a bool, a
+        string), ``path`` not True or False.
+    ValueError
+        An empty view set, a radius that is not finite and > 0.
     """
+    from .._validate import flag, real_scalar
     from ..views import ViewSet
 
     pv = _pv()
@@ -46,6 +55,9 @@ def view_set_points(views, radius: float = 1.0, *, path: bool = True):
     D = len(views)
     if D == 0:
         raise ValueError("view_set_points: the view set is empty")
+    if not real_scalar(radius):        # True was radius 1, the string "2" radius 2
+        raise TypeError(f"view_set_points: radius must be a real number, got {radius!r}")
+    path = flag(path, "path")           # the string "no" drew the path
     radius = float(radius)
     if not (np.isfinite(radius) and radius > 0):      # a negative one puts every map on the antipode
         raise ValueError(f"view_set_points: radius must be finite and > 0, got {radius}")
@@ -84,9 +96,9 @@ def add_view_set(plotter, views, *, cmap: str = "turbo", sphere_color: str = "#e
         The actor of the points and path.
     """
     pv = _pv()
+    pts = view_set_points(views, path=path)     # its arguments checked before anything is drawn
     plotter.add_mesh(pv.Sphere(radius=0.985, theta_resolution=48, phi_resolution=48),
                      color=sphere_color, smooth_shading=True)
-    pts = view_set_points(views, path=path)
     w, h = _viewport_pixels(plotter)
     size = float(np.clip(0.45 * min(w, h) / np.sqrt(len(views)), 3.0, 14.0))
     return plotter.add_mesh(pts, scalars="order", cmap=cmap, clim=(0.0, 1.0), point_size=size,

@@ -189,7 +189,11 @@ def test_device_failing_every_width_is_a_clear_error(monkeypatch):
     msg = str(info.value)
     assert repr(_cl.device().name.strip()) in msg
     assert all(f"failed at {w}" in msg for w in _cl.LANE_WIDTHS)
-    assert "PYSHADOW_DEVICE" in msg
+    assert "PYSHADOW_DEVICE" in msg and "delete it" not in msg
+    # read from the cache, it says where the verdicts are kept and how to probe again (it did not)
+    with pytest.raises(pyshadow.DeviceNotSupportedError) as info:
+        _choose(monkeypatch, v, source="cache")
+    assert f"These verdicts were read from {lanes_mod.cache_file()}: delete it to probe" in str(info.value)
 
 
 @pytest.mark.parametrize("value", ["5", "0", "32", "eight", "-8", "8.0"])

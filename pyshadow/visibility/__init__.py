@@ -48,8 +48,8 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
     backend : str or VisibilityBackend, optional
         A registered name (:func:`backends`) or a backend object.
     bias : float, optional
-        Depth tolerance in normalised depth units (1 = the diameter of a
-        CSM's bounding sphere) against every caster. Default: a self-bias
+        Depth tolerance (>= 0) in normalised depth units (1 = the diameter
+        of a CSM's bounding sphere) against every caster. Default: a self-bias
         against the caster a point lies on (see ``surface_ids``), the depth
         quantum against the others (:mod:`pyshadow.visibility.csm` gives
         the rule).

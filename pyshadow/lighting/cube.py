@@ -129,9 +129,25 @@ def cube_lookup(directions, n: int):
     return face, row, col
 
 
+def _cross_shape(layout) -> tuple:
+    """(rows, columns) of a cross ``layout``; ValueError naming it for any other value."""
+    if not isinstance(layout, str) or layout not in CROSS_CELLS_SHAPE:
+        raise ValueError(f"layout: expected 'horizontal-cross' or 'vertical-cross' (got {layout!r})")
+    return CROSS_CELLS_SHAPE[layout]
+
+
 def faces_from_cross(image: np.ndarray, layout: str) -> np.ndarray:
-    """Cut the six faces out of a cross image (H, W, C) -> (6, N, N, C) (a copy)."""
-    rows, cols = CROSS_CELLS_SHAPE[layout]
+    """Cut the six faces out of a cross image (H, W, C) -> (6, N, N, C) (a copy).
+
+    ``image`` (H, W) or (H, W, C) is ``4 N x 3 N`` (W x H) for
+    ``"horizontal-cross"``, ``3 N x 4 N`` for ``"vertical-cross"``, N >= 1;
+    ValueError otherwise, or for another ``layout``.
+    """
+    rows, cols = _cross_shape(layout)
+    image = np.asarray(image)
+    h, w = image.shape[:2] if image.ndim >= 2 else (0, 0)
+    if h < rows or h % rows or w % cols or h // rows != w // cols:
+        raise ValueError(f"image: a {layout} is {cols} N wide and {rows} N tall, N >= 1 (got shape {image.shape})")
     n = image.shape[0] // rows
     faces = np.empty((6, n, n) + image.shape[2:], dtype=image.dtype)
     for f, (i, j, turned) in CROSS_CELLS[layout].items():
@@ -141,8 +157,15 @@ def faces_from_cross(image: np.ndarray, layout: str) -> np.ndarray:
 
 
 def cross_from_faces(faces: np.ndarray, layout: str, fill: float = 0.0) -> np.ndarray:
-    """Lay six faces (6, N, N, C) out as a cross image; unused cells hold ``fill``."""
-    rows, cols = CROSS_CELLS_SHAPE[layout]
+    """Lay six faces (6, N, N, C) out as a cross image; unused cells hold ``fill``.
+
+    ``faces`` (6, N, N) or (6, N, N, C), N >= 1, and ``layout`` one of
+    :data:`CROSS_CELLS` (ValueError otherwise).
+    """
+    rows, cols = _cross_shape(layout)
+    faces = np.asarray(faces)
+    if faces.ndim < 3 or faces.shape[0] != 6 or faces.shape[1] != faces.shape[2] or faces.shape[1] < 1:
+        raise ValueError(f"faces: expected shape (6, N, N) or (6, N, N, C), N >= 1 (got shape {faces.shape})")
     n = faces.shape[1]
     image = np.full((rows * n, cols * n) + faces.shape[3:], fill, dtype=faces.dtype)
     for f, (i, j, turned) in CROSS_CELLS[layout].items():

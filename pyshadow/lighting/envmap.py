@@ -160,8 +160,10 @@ class EnvironmentMap:
         if a.ndim == 4:
             if a.shape[0] != 6 or a.shape[1] != a.shape[2] or a.shape[3] != 3 or a.shape[1] < 1:
                 raise ValueError(f"{name}: cube faces must have shape (6, N, N, 3) (got shape {a.shape})")
-            faces = radiance_array(a.reshape(6 * a.shape[1], a.shape[2], 3), name)
-            self.layout, self.radiance = "cube", faces.reshape(a.shape)
+            faces = np.empty(a.shape)                   # face by face: a texel's row and column are the face's
+            for f, face in enumerate(cube.FACE_NAMES):
+                faces[f] = radiance_array(a[f], f"{name}: face {f} ({face})")
+            self.layout, self.radiance = "cube", faces
             return
         if a.ndim != 3 or a.shape[-1] != 3:
             raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) or cube faces "
@@ -249,7 +251,8 @@ class EnvironmentMap:
         Parameters
         ----------
         directions : array_like, shape (M, 3), float
-            Unit vectors, y up.
+            Unit vectors, y up (length 1 +- 1e-6; the texel is that of the
+            direction whatever its length, at the poles too).
 
         Returns
         -------
@@ -258,7 +261,8 @@ class EnvironmentMap:
         d = unit_rows(directions, "directions")
         if self.layout == "latlong":
             h, w = self.grid_shape
-            th = np.arccos(np.clip(d[:, 1], -1.0, 1.0))
+            # atan2, not arccos(y): the angle at any length (arccos is 1.3e-3 rad off at the zenith at 1 - 9e-7)
+            th = np.arctan2(np.hypot(d[:, 0], d[:, 2]), d[:, 1])
             ph = np.mod(np.arctan2(d[:, 2], d[:, 0]), 2.0 * math.pi)
             i = np.clip(np.floor(th * (h / math.pi)), 0, h - 1).astype(np.int64)
             j = np.floor(ph * (w / (2.0 * math.pi))).astype(np.int64) % w

@@ -119,10 +119,11 @@ def irradiance_sh(coefficients, normals) -> np.ndarray:
         quadratic form grows with the square of the length: a normal of
         length 5 would give some 25 times the irradiance).
     TypeError
-        Either array is not numeric.
+        Either array does not hold real numbers (bools included: True was
+        read as a coefficient of 1).
     """
-    L = np.asarray(coefficients)
-    if L.dtype.kind not in "biuf":
+    L = _array(coefficients, "coefficients")
+    if L.dtype.kind not in "iuf":
         raise TypeError(f"coefficients: expected real numbers (got dtype {L.dtype})")
     L = L.astype(np.float64, copy=False)
     if L.ndim != 2 or L.shape[0] != SH_COUNT:
@@ -132,11 +133,19 @@ def irradiance_sh(coefficients, normals) -> np.ndarray:
         raise ValueError(f"coefficients: {int((~np.isfinite(L)).sum())} entries are not finite "
                          f"(first L[{bad[0]}, {bad[1]}] = {float(L[tuple(bad)])})")
     bounded_sh(L, "coefficients")
-    n = np.asarray(normals)
-    if n.dtype.kind not in "biuf":
+    n = _array(normals, "normals")
+    if n.dtype.kind not in "iuf":
         raise TypeError(f"normals: expected real numbers (got dtype {n.dtype})")
     rows = unit_rows(n, "normals")
     return _irradiance(L, rows if n.ndim == 2 else rows[0])
+
+
+def _array(x, name: str) -> np.ndarray:
+    """``np.asarray(x)``; ValueError naming ``name`` for a ragged sequence (NumPy's names nothing)."""
+    try:
+        return np.asarray(x)
+    except ValueError:
+        raise ValueError(f"{name}: expected real numbers in rows of equal length (got a ragged sequence)") from None
 
 
 def _irradiance(L, normals) -> np.ndarray:

@@ -31,7 +31,10 @@ CURVES = ("srgb", "exponential")
 
 
 def _radiance(radiance, name: str = "radiance") -> np.ndarray:
-    a = np.asarray(radiance)
+    try:
+        a = np.asarray(radiance)
+    except ValueError:                          # a ragged list
+        raise ValueError(f"{name}: expected shape (H, W, 3) (got a ragged sequence)") from None
     if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] < 1 or a.shape[1] < 1:
         raise ValueError(f"{name}: expected shape (H, W, 3) (got shape {a.shape})")
     if not np.issubdtype(a.dtype, np.floating):
@@ -56,7 +59,7 @@ def tonemap(radiance, exposure: float = 1.0, curve: str = "srgb", *, gamma: floa
     """
     a = _radiance(radiance)
     s = positive(exposure, "exposure")
-    if curve not in CURVES:
+    if not isinstance(curve, str) or curve not in CURVES:     # (an array's `in` is no answer)
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")
     with np.errstate(over="ignore"):            # beyond float64: +inf, white as documented
         x = np.maximum(a.astype(np.float64) * s, 0.0)

@@ -85,3 +85,40 @@ def test_a_body_rests_on_a_far_ground_within_the_scale_tolerance_only(lift, rest
     s.add(trimesh.creation.box((1.0, 1.0, 1.0)),
           trimesh.transformations.translation_matrix([0, GROUND + 0.5 + lift, 0]))
     assert len(contact.footprints(s)) == int(rests)
+
+
+def test_the_lid_of_a_slab_resting_on_a_far_ground_sees_the_sky():
+    """Was: with the plane at y = 1e7 (float32 spacing 1) the float64 points of a 0.5-high slab's lid lay
+    within one float32 spacing of the plane, so the footprint test took them for ground under the slab:
+    every ray of theirs upwards was occluded (0 of 100 open, AO 0.0, on the kernel and the NumPy mirror;
+    Embree 100 and 1.0). A height float32 holds exactly may carry half a float32 spacing of rounding, any
+    other height one float64 spacing (contact._on_plane); now 100 open, AO 1, as at y = 0."""
+    slab = trimesh.creation.box((2.0, 0.5, 2.0))
+    rng = np.random.default_rng(0)
+    lid = np.column_stack([rng.uniform(-0.9, 0.9, 100), np.full(100, 0.5), rng.uniform(-0.9, 0.9, 100)])
+    up = np.tile([0.0, 1.0, 0.0], (100, 1))
+    for y in (0.0, 1e7):
+        s = pyshadow.Scene(ground=y, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+        s.add(slab, trimesh.transformations.translation_matrix([0, y + 0.25, 0]))
+        p = lid + [0.0, y, 0.0]
+        assert not contact.contact_mask(s, p).any()
+        for backend in ("csm", "numpy"):
+            assert visibility.visible(s, p, up, backend=backend, surface_ids=0, normals=up).all()
+            ao = visibility.ambient_occlusion(s, p, up, backend=backend, sampling=SAMPLING, surface_ids=0)
+            assert ao.min() > 0.9, (y, backend)
+
+
+@pytest.mark.parametrize("backend", ["csm", "numpy", "csm-vote", "numpy-vote"])
+def test_rays_along_the_ground_from_under_a_resting_body_are_occluded(backend):
+    """Was: a ray exactly along the ground (w_y = 0) from a point under a resting box (inside its contact
+    footprint) kept the CSM's answer, undefined inside a solid: 84 of 1000 read open with the one-texel
+    lookup, 324 with the vote (Embree: 0). The footprint's rule now takes them too: all occluded."""
+    s = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    s.add(trimesh.creation.box((1.0, 1.0, 1.0)), trimesh.transformations.translation_matrix([0, 0.5, 0]))
+    rng = np.random.default_rng(0)
+    g = rng.uniform(-0.45, 0.45, (400, 3))
+    g[:, 1] = 0.0
+    assert contact.contact_mask(s, g).all()
+    a = rng.uniform(0.0, 2.0 * np.pi, len(g))
+    along = np.column_stack([np.cos(a), np.zeros(len(g)), np.sin(a)])
+    assert not visibility.visible(s, g, along, backend=backend, surface_ids=-2).any()

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import squared_lengths
 from ..scene_arrays import scene_arrays
 
 __all__ = ["STRADDLE", "AO_STRADDLE", "check_max_distance", "check_straddle", "unit_directions", "straddling",
@@ -140,11 +141,18 @@ def straddling(scene, points, directions, tmax):
     arr = scene_arrays(scene)
     casters = np.flatnonzero(arr["casts"])
     fin = np.flatnonzero(np.isfinite(tmax))
+    centres = arr["world_centre"][casters]
+    radii = arr["world_radius"][casters] * (1 + 1e-6)      # the kernels' radius
+    if len(casters) and len(fin):
+        # a ray longer than twice the distance to the far corner of the spheres' box ends beyond them all
+        # (and ends beyond 1e154 overflowed the k-d tree's squared distances: SciPy's "value of p too large")
+        q = np.asarray(points, np.float64)[fin]
+        lo, hi = (centres - radii[:, None]).min(axis=0), (centres + radii[:, None]).max(axis=0)
+        reach = np.sqrt(squared_lengths(np.maximum(np.abs(q - lo), np.abs(q - hi))))
+        fin = fin[~(tmax[fin] > 2.0 * reach)]
     if not len(casters) or not len(fin):
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     ends = np.asarray(points, np.float64)[fin] + tmax[fin, None] * directions[fin]
-    centres = arr["world_centre"][casters]
-    radii = arr["world_radius"][casters] * (1 + 1e-6)      # the kernels' radius
     owner = np.full(len(fin), -1, np.int64)
     if len(casters) <= 32:
         for k in range(len(casters) - 1, -1, -1):          # lowest id wins
@@ -243,8 +251,8 @@ def check_ao_options(obscurance, quadrature, straddle):
     tau = None
     if obscurance is not None:
         try:
-            if isinstance(obscurance, (bool, np.bool_, str, bytes)):     # True (tau 1), "2": not rates
-                raise TypeError
+            if isinstance(obscurance, (bool, np.bool_, str, bytes)) or np.iscomplexobj(obscurance):
+                raise TypeError         # True (tau 1), "2", 2+1j (tau 2, its imaginary part dropped): not rates
             tau = float(obscurance)
         except (TypeError, ValueError):
             raise TypeError(f"obscurance must be a number (tau, 1 / world units), got {obscurance!r}") from None

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_indices, rows3, unit_normals
+from .._validate import check_indices, flag, rows3, unit_normals
 from ..contact import ground_tolerance, occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
-from ..sampling import ao_from_samples, sample_directions_reference
+from ..sampling import Sampling, ao_from_samples, sample_directions_reference
 from .base import check_bias, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
                      rays_ao)
@@ -42,9 +42,9 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     surface. With ``max_distance``, finite rays by the rules of
     :mod:`pyshadow.visibility.finite` (``straddle`` as there).
     """
-    if lookup not in ("nearest", "vote"):
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    _check_lookup(lookup)
     check_bias(bias)                    # as the kernels: a NaN bias answered every ray open here
+    check_straddle(straddle)            # as visibility.visible: also where unused (no max_distance, no rays)
     p = rows3(points, "points")
     w = unit_normals(directions, len(p), "directions")     # any length: huge or tiny rows scaled first
     own = scene.caster_slots(surface_ids, len(p), p)
@@ -52,9 +52,14 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     tmax = check_max_distance(max_distance, len(p))
     if tmax is None or not len(p):
         return _visible_reference(scene, p, w, own, m, lookup, bias, None)
-    check_straddle(straddle)
     return answer_finite(scene, p, w, tmax, straddle,
                          lambda: _visible_reference(scene, p, w, own, m, lookup, bias, tmax))
+
+
+def _check_lookup(lookup) -> None:
+    """ValueError unless ``lookup`` is the string 'nearest' or 'vote' (an array's ``in`` was its elements')."""
+    if not isinstance(lookup, str) or lookup not in ("nearest", "vote"):
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
 
 
 def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
@@ -134,8 +139,14 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
     taps = dict(quantum=quantum, texels=4 if lookup == "vote" else 1, self_=mine, bias=bias,
                 bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS, normals=mn, lift=up)
+    hit = ~miss                         # missed rows keep far points: their texels overflowed int64
+    if not hit.any():
+        return out
+    if not hit.all():
+        pn, wn, maps, map_w, pt = pn[hit], wn[hit], maps[hit], map_w[hit], pt[hit]
+        taps.update(self_=mine[hit], normals=None if mn is None else mn[hit], lift=None if up is None else up[hit])
     v = vote(csm, pn, wn, maps, map_w, texel_points=pt, **taps)
-    out[np.flatnonzero(act)[(v > 0.5) & ~miss]] = True
+    out[np.flatnonzero(act)[hit][v > 0.5]] = True
     return out
 
 
@@ -192,13 +203,17 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     ``obscurance``: distance AO by the same finite queries and quadrature as
     the CSM backends (:mod:`pyshadow.visibility.finite`), ray by ray.
     """
+    if not isinstance(sampling, Sampling):      # (None or 8: AttributeError 'samples')
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    return_bent_normals = flag(return_bent_normals, "return_bent_normals")     # "no" returned (ao, bent)
+    _check_lookup(lookup)               # (distance AO read any other value as 'nearest')
     check_bias(bias)
+    tau, Q, straddle = check_ao_options(obscurance, quadrature, straddle)     # as visibility.ambient_occlusion
     p = rows3(points, "points")
     n = unit_normals(normals, len(p))
     idx = check_indices(indices, len(p))
     S = sampling.samples
     if max_distance is not None or obscurance is not None:
-        tau, Q, straddle = check_ao_options(obscurance, quadrature, straddle)
         tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
         own = np.repeat(scene.caster_slots(surface_ids, len(p), p), S)
         dirs = sample_directions_reference(n, sampling=sampling, indices=idx)

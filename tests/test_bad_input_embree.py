@@ -314,3 +314,23 @@ def test_the_bounding_sphere_of_a_mesh_in_micrometres_is_that_at_size_1_scaled(n
     b = pyshadow.CoherentShadowMap.build(small, views, resolution=16, progress=False)
     for f in ("offsets", "iend", "depth"):
         assert np.array_equal(getattr(a, f), getattr(b, f)), f
+
+
+def test_float32_surface_points_far_from_the_origin_leave_their_surface():
+    """Was: the vertices of a unit sphere placed at (1e3, 0, -1e3), given as float32, lie up to 0.87 of a
+    float32 spacing there (6e-5) off the sphere, beyond Embree's lift (1e-5, of coordinates relative to
+    the anchor): 209 of 600 outward rays hit their own sphere and the AO fell to 0.81 (float64 points:
+    0 and 1.0). A point float32 holds exactly is now lifted 4 spacings of its own coordinates."""
+    sphere = trimesh.creation.icosphere(subdivisions=3)
+    scene = pyshadow.Scene(views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+    scene.add(sphere, trimesh.transformations.translation_matrix([1e3, 0.0, -1e3]))
+    n = np.asarray(sphere.vertex_normals)[:600]
+    p = (np.asarray(sphere.vertices)[:600] + [1e3, 0.0, -1e3]).astype(np.float32)
+    assert embree.visible(scene, p, n).all()
+    ao = embree.ambient_occlusion(scene, p, n, sampling=pyshadow.Sampling(16))
+    assert ao.min() == 1.0
+    eps = embree.surface_epsilon(scene, p)
+    assert (eps == 4.0 * np.spacing(np.float32(1e3))).all()         # |coordinates| in [512, 1024)
+    # float64 points off the float32 grid keep the lift of before
+    q = p.astype(np.float64) + 1e-9
+    assert (embree.surface_epsilon(scene, q) < eps).all()

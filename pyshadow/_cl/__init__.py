@@ -327,9 +327,8 @@ def _probe_choice(st) -> dict:
         raise DeviceNotSupportedError(
             f"OpenCL device {name!r} ({plat.name.strip()}, driver {dev.driver_version.strip()}) "
             f"cannot run pyshadow's kernels at any lane width ({why}).{hint} Choose another device "
-            f"with PYSHADOW_DEVICE (available: {_describe(_all_devices())})"
-            + (f". These verdicts were read from {_probe.cache_file()}: delete it to probe this device again "
-               f"(a new driver is probed again by itself)" if source == "cache" else ""))
+            f"with PYSHADOW_DEVICE (available: {_describe(_all_devices())})" + (f". These verdicts were read "
+            f"from {_probe.cache_file()}: delete it to probe this device again" if source == "cache" else ""))
     gpu = bool(dev.type & cl.device_type.GPU)
     preferred = 1 if gpu else LANE_WIDTHS[0]
     width = 1 if (gpu and 1 in ok) else ok[0]

@@ -131,6 +131,26 @@ def point3(x, label: str) -> np.ndarray:
     return a
 
 
+#: CSM lookups: ``"nearest"`` (backend ``"csm"``) and ``"vote"`` (``"csm-vote"``).
+LOOKUPS = ("nearest", "vote")
+
+
+def check_lookup(lookup) -> str:
+    """``lookup`` unchanged; ValueError unless it is the string 'nearest' or 'vote' (an array's ``in``
+    tested its elements, or raised NumPy's "truth value ... ambiguous")."""
+    if not isinstance(lookup, str) or lookup not in LOOKUPS:
+        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    return lookup
+
+
+def float32_exact(a) -> np.ndarray:
+    """Elementwise: does float32 hold the value of ``a`` exactly (so it may be a float32 number, carrying
+    float32's rounding)? Beyond float32's range: False."""
+    a = np.asarray(a, np.float64)
+    with np.errstate(over="ignore"):
+        return a.astype(np.float32).astype(np.float64) == a
+
+
 def real_scalar(value) -> bool:
     """``value`` is one real number (Python, NumPy or a 0-d array; not a bool, a complex or a string)."""
     return (not isinstance(value, (bool, np.bool_)) and np.ndim(value) == 0

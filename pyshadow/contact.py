@@ -37,7 +37,7 @@ import weakref
 
 import numpy as np
 
-from ._validate import check_rows
+from ._validate import check_rows, float32_exact
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -82,9 +82,8 @@ def _on_plane(scene, p) -> np.ndarray:
     """
     y = p[:, 1].astype(np.float64)
     g, tol = abs(scene.ground), _face_tolerance(scene)
-    with np.errstate(over="ignore"):        # beyond float32: inf, not held exactly
-        exact32 = y.astype(np.float32).astype(np.float64) == y
-    band = np.where(exact32, max(tol, 0.5 * float(np.spacing(np.float32(g)))), max(tol, float(np.spacing(g))))
+    half32, one64 = 0.5 * float(np.spacing(np.float32(g))), float(np.spacing(g))
+    band = np.where(float32_exact(y), max(tol, half32), max(tol, one64))
     return np.abs(y - scene.ground) <= band
 
 

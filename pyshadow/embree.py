@@ -14,7 +14,7 @@ import trimesh
 
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays
-from ._validate import check_both, check_values, flag, kernel_rows, unit_normals
+from ._validate import check_both, check_values, flag, float32_exact, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
@@ -287,9 +287,8 @@ def surface_epsilon(scene, points=None, anchor=None):
         return float(max(floor, ray_epsilon(extent)))
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     eps = np.maximum(floor, ray_epsilon(np.maximum(np.abs(P - anchor).max(axis=1), scene.scale())))
-    with np.errstate(over="ignore"):    # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
-        f32 = (P.astype(np.float32) == P).all(axis=1)
-    return np.where(f32, np.maximum(eps, 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))), eps)
+    # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
+    return np.where(float32_exact(P).all(axis=1), np.maximum(eps, 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))), eps)
 
 
 def _rays64(points, directions):

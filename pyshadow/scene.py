@@ -17,7 +17,7 @@ import numpy as np
 import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
-from ._validate import FLOAT32_MAX, check_transform, flag, uniform_scale
+from ._validate import FLOAT32_MAX, LOOKUPS, check_lookup, check_transform, flag, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.choose import _max_error
@@ -31,8 +31,6 @@ __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIA
            "VOTE_BIAS_TEXELS", "LOOKUPS"]
 
 GROUND_ID = -2           # object id of the ground plane in rendered images
-#: CSM lookups: ``"nearest"`` (backend ``"csm"``) and ``"vote"`` (``"csm-vote"``).
-LOOKUPS = ("nearest", "vote")
 _AO_ORDER = ("samples", "strategy", "patterns", "seed", "bent_normals")
 _RENDER_ORDER = ("samples", "strategy", "seed", "patterns")
 
@@ -52,8 +50,7 @@ def _backend(where, lookup, backend, filtered, stacklevel=4):
         if lookup != "nearest":
             raise TypeError(f"{where}: pass lookup= or the old filtered=, not both")
         lookup = "vote" if filtered else "nearest"
-    if not isinstance(lookup, str) or lookup not in LOOKUPS:
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    check_lookup(lookup)
     if backend is None:
         return "csm" if lookup == "nearest" else "csm-vote"
     if lookup != "nearest":

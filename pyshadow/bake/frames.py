@@ -356,11 +356,10 @@ def _check_render(samples, lookup, denoise) -> None:
     the CSMs are built (not each frame failing after): TypeError or ValueError naming the option."""
     from ..render import DENOISERS
     from ..sampling import Sampling
-    from ..scene import LOOKUPS
+    from .._validate import check_lookup
 
     Sampling(samples)                   # an int in 1 .. MAX_SAMPLES (2.5 was cut to 2, "3" read as 3)
-    if not isinstance(lookup, str) or lookup not in LOOKUPS:
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    check_lookup(lookup)
     if denoise is not None and denoise not in DENOISERS:
         raise ValueError(f"denoise must be None, 'bilateral', 'separable' or 'box', got {denoise!r}")
 

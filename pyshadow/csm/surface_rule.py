@@ -85,12 +85,12 @@ def covering_angle(views, lookup: str = "nearest") -> float:
     float
         Radians, in ``(0, pi]``.
     """
+    from .._validate import check_lookup
     from ..views import ViewSet
 
     if not isinstance(views, ViewSet):
         raise TypeError(f"views must be a pyshadow.ViewSet, got {type(views).__name__}")
-    if not (isinstance(lookup, str) and lookup in ("nearest", "vote")):     # an array: unhashable or ambiguous
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    check_lookup(lookup)                # an array: unhashable or ambiguous
     held = _COVER.setdefault(views, {})
     if lookup not in held:
         d = _fibonacci_sphere(_COVER_SAMPLES)

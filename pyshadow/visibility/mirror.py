@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_indices, flag, rows3, unit_normals
+from .._validate import check_indices, check_lookup, flag, rows3, unit_normals
 from ..contact import ground_tolerance, occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
@@ -42,7 +42,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
     surface. With ``max_distance``, finite rays by the rules of
     :mod:`pyshadow.visibility.finite` (``straddle`` as there).
     """
-    _check_lookup(lookup)
+    check_lookup(lookup)
     check_bias(bias)                    # as the kernels: a NaN bias answered every ray open here
     check_straddle(straddle)            # as visibility.visible: also where unused (no max_distance, no rays)
     p = rows3(points, "points")
@@ -54,12 +54,6 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
         return _visible_reference(scene, p, w, own, m, lookup, bias, None)
     return answer_finite(scene, p, w, tmax, straddle,
                          lambda: _visible_reference(scene, p, w, own, m, lookup, bias, tmax))
-
-
-def _check_lookup(lookup) -> None:
-    """ValueError unless ``lookup`` is the string 'nearest' or 'vote' (an array's ``in`` was its elements')."""
-    if not isinstance(lookup, str) or lookup not in ("nearest", "vote"):
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
 
 
 def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
@@ -206,7 +200,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     if not isinstance(sampling, Sampling):      # (None or 8: AttributeError 'samples')
         raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
     return_bent_normals = flag(return_bent_normals, "return_bent_normals")     # "no" returned (ao, bent)
-    _check_lookup(lookup)               # (distance AO read any other value as 'nearest')
+    check_lookup(lookup)               # (distance AO read any other value as 'nearest')
     check_bias(bias)
     tau, Q, straddle = check_ao_options(obscurance, quadrature, straddle)     # as visibility.ambient_occlusion
     p = rows3(points, "points")

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import flag
 from .base import check_bias, register
 
 __all__ = ["EmbreeVisibility"]
@@ -50,13 +49,12 @@ class EmbreeVisibility:
 
         check_bias(bias)
         check_ao_options(obscurance, quadrature, straddle)
-        bent = flag(return_bent_normals, "return_bent_normals")     # the string "False" returned (ao, bent)
         _check_unused(scene, points, surface_ids, None)
         distance = {}
         if max_distance is not None or obscurance is not None:
             distance = {"max_distance": max_distance, "obscurance": obscurance}
         return embree.ambient_occlusion(scene, points, normals, sampling=sampling,
-                                        return_bent_normals=bent, indices=indices, **distance)
+                                        return_bent_normals=return_bent_normals, indices=indices, **distance)
 
 
 def _check_unused(scene, points, surface_ids, normals):

@@ -10,14 +10,17 @@ thinner than a texel (the silhouette's limit; ``benchmarks/README.md``, "The
 extremes"). The footprint is known exactly from the mesh and its pose, so
 the CSM backends answer those points from it (:func:`contact_mask`).
 
-A face lies on the ground within ``1e-5`` of the scene's scale
-(:meth:`pyshadow.Scene.scale`) of the plane. A point lies on it within the
-same, or within the rounding its height may carry where that is larger
-(far from ``y = 0`` the float32 points of the plane lie off it by more;
-:func:`_on_plane`). A point counts as inside the footprint when it
-lies in one of the contact faces (seen from above) and farther than
-``1e-5`` of the scale from the footprint's outline, so the points of the
-body's sides just above the ground stay the CSM's.
+A face lies on the ground within ``1e-5`` of its own body's world bounding
+radius (:func:`_face_tolerances`) of the plane. A point lies on a body's
+footprint within the same, or within the rounding its height may carry
+where that is larger (far from ``y = 0`` the float32 points of the plane
+lie off it by more; :func:`_on_plane`). A point counts as inside the
+footprint when it lies in one of the contact faces (seen from above) and
+farther than ``1e-5`` of the body's radius from the footprint's outline, so
+the points of the body's sides just above the ground stay the CSM's. Each
+body's own size, not the scene's: beside a caster 200x larger, the lid of a
+resting 1 mm box lay within the scene's band (2 mm) and counted as ground
+under the box, its rays all occluded.
 
 Only casters added with their mesh (:meth:`pyshadow.Scene.add` from a mesh,
 or a CSM with ``mesh=``) whose surface is closed have a footprint (every edge
@@ -56,35 +59,40 @@ def ground_tolerance(scene) -> float:
 
     The one definition of the ground test of a ray: the kernels' (``ground_eps``), the float64 mirror's,
     Embree's and the shadow maps' all read it. It differs from ``1e-5 * scene.scale()`` only for points
-    below the plane (a point above it is above it either way). A face lies on the plane within
-    ``1e-5 * scene.scale()`` (:func:`_face_tolerance`); the footprints' and sheets' points within the
-    rounding their heights may carry (:func:`_on_plane`).
+    below the plane (a point above it is above it either way). A body's face lies on the plane within
+    ``1e-5`` of the body's radius (:func:`_face_tolerances`); the footprints' and sheets' points within
+    that or the rounding their heights may carry (:func:`_on_plane`).
     """
     return plane_tolerance(scene.scale(), scene.ground)
 
 
-def _face_tolerance(scene) -> float:
-    """Distance to the ground plane within which a caster's face lies on it, and the footprint's outline
-    margin: ``1e-5 * scene.scale()`` (the mesh and its pose are float64; a float32 spacing at a far
-    plane's height, a metre at y = 1e7, would rest a lifted body on it)."""
-    return 1e-5 * scene.scale()
+def _face_tolerances(held) -> np.ndarray:
+    """(n,) distance to the ground plane within which each instance's face lies on it, and its
+    footprint's outline margin: ``1e-5`` of its world bounding radius (``held``: the scene's arrays).
+    The mesh and its pose are float64; a float32 spacing at a far plane's height, a metre at y = 1e7,
+    would rest a lifted body on it."""
+    return 1e-5 * held["world_radius"]
 
 
-def _on_plane(scene, p) -> np.ndarray:
-    """(N,) bool: which points ``p`` (N, 3) lie on the ground plane, for the footprints and sheets.
-
-    Within ``1e-5 * scene.scale()`` of it, or within the rounding the point's height may carry where
-    that is larger: half a float32 spacing at the plane's height for a height float32 holds exactly
-    (a float32 point of a plane far from ``y = 0`` lies up to that far off it; float64 arrays of such
-    points too), one float64 spacing for any other. Not one float32 spacing for every point: a float64
-    point 0.5 above a plane at y = 1e7 (float32 spacing 1), on a resting slab's lid, counted as under
-    the slab and its rays upwards as occluded.
-    """
+def _plane_offsets(scene, p):
+    """(distance to the ground plane, the rounding the height may carry), (N,) float64 each, of points
+    ``p`` (N, 3): half a float32 spacing at the plane's height for a height float32 holds exactly (a
+    float32 point of a plane far from ``y = 0`` lies up to that far off it; float64 arrays of such points
+    too), one float64 spacing for any other."""
     y = p[:, 1].astype(np.float64)
-    g, tol = abs(scene.ground), _face_tolerance(scene)
-    half32, one64 = 0.5 * float(np.spacing(np.float32(g))), float(np.spacing(g))
-    band = np.where(float32_exact(y), max(tol, half32), max(tol, one64))
-    return np.abs(y - scene.ground) <= band
+    g = abs(scene.ground)
+    rounding = np.where(float32_exact(y), 0.5 * float(np.spacing(np.float32(g))), float(np.spacing(g)))
+    return np.abs(y - scene.ground), rounding
+
+
+def _on_plane(offsets, tol) -> np.ndarray:
+    """(N,) bool: which points lie on the ground plane for a body's footprint or sheet of tolerance
+    ``tol`` (float or (N,)), given their :func:`_plane_offsets`: within ``tol`` of it, or within the
+    rounding their heights may carry where that is larger. Not one float32 spacing for every point: a
+    float64 point 0.5 above a plane at y = 1e7 (float32 spacing 1), on a resting slab's lid, counted as
+    under the slab and its rays upwards as occluded."""
+    dist, rounding = offsets
+    return dist <= np.maximum(tol, rounding)
 
 
 def plane_tolerance(scale, ground) -> float:
@@ -169,24 +177,25 @@ def footprints(scene) -> list:
         segments (E, 2, 2). Empty without a ground plane. Kept with the
         scene's arrays until the scene changes.
     """
-    return [x for _, x in _on_ground(scene, "contact", _footprint)]
+    return [x for _, x, _ in _on_ground(scene, "contact", _footprint)]
 
 
 def _on_ground(scene, name, make):
-    """``[(caster slot, make(instance, ground, tol))]`` over the casters whose mesh's box reaches down to
-    the ground plane (within its tolerance), where not None; kept with the scene's arrays as ``name``."""
+    """``[(caster slot, make(instance, ground, tol), tol)]`` over the casters whose mesh's box reaches down
+    to the ground plane (within their own tolerance ``tol``, :func:`_face_tolerances`), where not None;
+    kept with the scene's arrays as ``name``."""
     if scene.ground is None or not scene.instances:
         return []
     held = scene_arrays(scene)
     key = (name, float(scene.ground))
     if key not in held:
-        tol = _face_tolerance(scene)
+        tol = _face_tolerances(held)
         lowest = held["world_centre"][:, 1] - held["world_radius"]
         near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
-        near = near[_box_bottom(scene, held, near) <= scene.ground + tol]
+        near = near[_box_bottom(scene, held, near) <= scene.ground + tol[near]]
         slot = np.cumsum(held["casts"]) - 1            # a caster's position in Scene.casters
-        found = [(int(slot[i]), make(scene.instances[i], scene.ground, tol)) for i in near]
-        held[key] = [(k, x) for k, x in found if x is not None]
+        found = [(int(slot[i]), make(scene.instances[i], scene.ground, float(tol[i])), float(tol[i])) for i in near]
+        held[key] = [(k, x, t) for k, x, t in found if x is not None]
     return held[key]
 
 
@@ -236,7 +245,7 @@ def sheets(scene) -> list:
         those faces (world x, z). Empty without a ground plane. Kept with
         the scene's arrays until the scene changes.
     """
-    return _on_ground(scene, "sheets", _sheet)
+    return [(k, x) for k, x, _ in _on_ground(scene, "sheets", _sheet)]
 
 
 def ground_sheet_slots(scene, points, own):
@@ -248,7 +257,7 @@ def ground_sheet_slots(scene, points, own):
     from the body's own side (Embree's do). Asked as the ground, with no
     self-bias against the body, the coincident face shadowed about half of
     them. A point whose slot is the ground's or a receiver's (-2), within
-    ``1e-5 * scene.scale()`` of the plane (or the rounding its height may
+    ``1e-5`` of that body's radius of the plane (or the rounding its height may
     carry, where larger: :func:`_on_plane`) and inside (or on) such a face seen from above takes
     that caster's slot.
 
@@ -265,15 +274,17 @@ def ground_sheet_slots(scene, points, own):
         own = own.astype(np.int32) if own.dtype.kind in "iu" or not len(own) else own
     if own.dtype.kind not in "iu":
         raise TypeError(f"own must hold integer caster slots, got dtype {own.dtype}")
-    found = sheets(scene) if len(own) else []
+    found = _on_ground(scene, "sheets", _sheet) if len(own) else []
     if not found:
         return own
-    cand = np.flatnonzero((np.asarray(own) == -2)
-                          & _on_plane(scene, p))
+    off = _plane_offsets(scene, p)
+    cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, max(t for _, _, t in found)))
+    off = (off[0][cand], off[1][cand])
     out = own
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    for slot, tri in found:
+    for slot, tri, tol in found:
         for k, hit in _in_chunks(q_all, tri):
+            hit &= _on_plane((off[0][k], off[1][k]), tol)
             if hit.any():
                 out = own.copy() if out is own else out
                 out[cand[k[hit]]] = slot
@@ -341,24 +352,27 @@ def contact_mask(scene, points):
     Returns
     -------
     ndarray of bool, shape (N,), or None
-        True where the point lies on the ground plane (within ``1e-5 *
-        scene.scale()``, or the rounding its height may carry where larger:
-        :func:`_on_plane`), inside one of the contact faces seen from above and
-        farther than ``1e-5 * scene.scale()`` from the footprint's outline. None when
-        the scene has no footprint (nothing to test).
+        True where the point lies on the ground plane (within ``1e-5`` of the
+        resting body's radius, or the rounding its height may carry where
+        larger: :func:`_on_plane`), inside one of that body's contact faces
+        seen from above and farther than ``1e-5`` of its radius from the
+        footprint's outline. None when the scene has no footprint (nothing to
+        test).
     """
     p = check_rows(points, "points")
     fps = _on_ground(scene, "contact", _footprint)     # footprints(scene), with the casters' slots
     if not fps:
         return None
-    tol = _face_tolerance(scene)
     mask = np.zeros(len(p), bool)
-    cand = np.flatnonzero(_on_plane(scene, p))
+    off = _plane_offsets(scene, p)
+    cand = np.flatnonzero(_on_plane(off, max(t for _, _, t in fps)))
     if not len(cand):
         return mask
+    off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    for _, (tri, outline) in fps:
+    for _, (tri, outline), tol in fps:
         for k, hit in _in_chunks(q_all, tri, len(outline)):
+            hit &= _on_plane((off[0][k], off[1][k]), tol)
             if hit.any():
                 hit[hit] = _far_from(q_all[k][hit], outline, tol)
             mask[cand[k[hit]]] = True

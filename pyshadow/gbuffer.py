@@ -3,9 +3,11 @@
 Stage "G-buffer" of the pipeline (DESIGN.md). Triangles of every item are
 moved into camera space on the host in float64 (relative to the eye, so a
 scene far from the world origin keeps its precision), clipped against the
-near plane, then rasterised by ``kernels/gbuffer.cl``: nearest depth, then
-the id of the triangle holding it, then the exact distance along each eye
-ray to that triangle's plane. A scene far from unit size is rasterised
+near plane and, those reaching far outside the view, against a guard band
+twice the view's width (:func:`raster_triangles`), then rasterised by
+``kernels/gbuffer.cl``: nearest depth, then the id of the triangle holding
+it, then the exact distance along each eye ray to the plane of the triangle
+it comes from. A scene far from unit size is rasterised
 scaled by a power of two (:func:`pyshadow.mesh.float32_unit`), which moves
 no pixel; the near plane is 1e-6 of the farthest geometry in view, and a
 vertex in view nearer than that is refused rather than cut away.
@@ -23,7 +25,7 @@ from ._validate import FLOAT32_MAX, check_transform
 from .camera import Camera, points_on_rays
 from .mesh import check_mesh, float32_unit, load_mesh
 
-__all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "check_transform"]
+__all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "raster_triangles", "check_transform"]
 
 
 def _all3(m: np.ndarray) -> np.ndarray:
@@ -58,6 +60,75 @@ def _clip_near(tri: np.ndarray, near: float):
             out.append(np.stack([poly[0], poly[k], poly[k + 1]])[None])
             src.append(np.array([i]))
     return np.concatenate(out), np.concatenate(src)
+
+
+#: Triangles reaching beyond this many half-widths of the view (at their depth) are rasterised clipped to
+#: it, in float64 on the host (a guard band): a triangle crossing the near plane outside the view keeps
+#: corners at 1e-6 of the scene's depth whose screen coordinates reach 1e9 pixels, and the kernel's float32
+#: edge functions and depths at such corners moved the ground's far edge by up to 5 pixels at 640x480 and
+#: let a ground quad reaching behind the camera win the depth test over a plate 1 cm above it.
+GUARD_BAND = 2.0
+
+
+def _guard_pieces(tris: np.ndarray, camera: Camera):
+    """The triangles of ``tris`` (near-clipped, camera space, (N, 3, 3)) reaching beyond :data:`GUARD_BAND`
+    half-widths of the view, clipped to it in float64: (their indices (P,), their first pieces (P, 3, 3),
+    the further pieces (E, 3, 3) and the source of each (E,)), or None where none reaches that far. A
+    triangle clipped away whole keeps a piece of no area (its first corner thrice), which covers nothing."""
+    gx, gy = GUARD_BAND * camera.tan_half * camera.aspect, GUARD_BAND * camera.tan_half
+    x, y, z = tris[..., 0], tris[..., 1], tris[..., 2]
+    beyond = (np.abs(x) > gx * z) | (np.abs(y) > gy * z)
+    idx = np.flatnonzero(beyond[:, 0] | beyond[:, 1] | beyond[:, 2])
+    if not len(idx):
+        return None
+    planes = [np.array(a, np.float64) for a in ((1, 0, -gx), (-1, 0, -gx), (0, 1, -gy), (0, -1, -gy))]
+    first, extra, extra_src = np.repeat(tris[idx, :1], 3, axis=1), [], []
+    for j, i in enumerate(idx):
+        poly = list(tris[i])
+        for a in planes:                    # keep a . p <= 0; an edge cut at the point computed from its
+            cut = []                        # lexicographically smaller end: the triangles sharing it cut it alike
+            for k in range(len(poly)):
+                p, q = poly[k], poly[(k + 1) % len(poly)]
+                fp, fq = a @ p, a @ q
+                if fp <= 0:
+                    cut.append(p)
+                if (fp <= 0) != (fq <= 0):
+                    if tuple(p) > tuple(q):
+                        p, q, fp, fq = q, p, fq, fp
+                    cut.append(p + fp / (fp - fq) * (q - p))
+            poly = cut
+            if len(poly) < 3:
+                break
+        else:
+            first[j] = poly[:3]
+            extra += [np.stack([poly[0], poly[k], poly[k + 1]]) for k in range(2, len(poly) - 1)]
+            extra_src += [i] * (len(poly) - 3)
+    return idx, first, np.array(extra, np.float64).reshape(-1, 3, 3), np.array(extra_src, np.int64)
+
+
+def raster_triangles(tris: np.ndarray, camera: Camera):
+    """The triangles to rasterise of near-clipped camera-space triangles ``tris`` (N, 3, 3): those reaching
+    beyond :data:`GUARD_BAND` half-widths of the view clipped to it (each replaced by its first piece, the
+    further pieces after all of ``tris``); returns (M, 3, 3) float64 and the source triangle of each (M,),
+    or ``tris`` and None where none reaches that far. Each pixel's distance and normal still come from its
+    source triangle's plane."""
+    pieces = _guard_pieces(tris, camera)
+    if pieces is None:
+        return tris, None
+    idx, first, extra, extra_src = pieces
+    raster = np.concatenate([tris, extra])
+    raster[idx] = first
+    return raster, np.concatenate([np.arange(len(tris)), extra_src])
+
+
+def _source_planes(tris, src, unit):
+    """(M, 9) float32: the corners of each raster triangle's source (``src`` from :func:`raster_triangles`:
+    the first ``len(tris)`` are each its own) scaled by ``unit``, read by the kernels for its plane."""
+    out = np.empty((len(src), 9), np.float32)
+    n = len(tris)
+    out[:n] = (tris if unit == 1.0 else tris * unit).reshape(n, 9)
+    out[n:] = (tris[src[n:]] * unit).reshape(-1, 9)
+    return out
 
 
 def _cut_in_view(tri, near: float, tx: float, ty: float):
@@ -293,20 +364,23 @@ def render_gbuffer(items, camera: Camera) -> dict:
     the visible triangle, so positions match a ray tracer's primary hits.
     """
     tris, obj, face, _near = gbuffer_triangles(items, camera)
+    raster, src = raster_triangles(tris, camera)
     H, W = camera.height, camera.width
     npix = H * W
     unit = 1.0
     t = np.full(npix, np.inf, np.float32)
     n_cam = np.zeros((npix, 3), np.float32)
     ids = np.full(npix, np.iinfo(np.int32).max, np.int32)
-    if len(tris):
-        if len(tris) >= 2**31 - 1:
+    if len(raster):
+        if len(raster) >= 2**31 - 1:
             raise ValueError("too many triangles for one G-buffer")
         q = _cl.queue()
         # the kernels multiply up to three coordinates: a scene of any size is rasterised scaled by a
         # power of two (float32_unit; 1 near unit size), which moves no pixel; distances scale back below
         unit = float32_unit(max(abs(float(tris.max())), abs(float(tris.min()))))
-        tb = _cl.to_device((tris if unit == 1.0 else tris * unit).reshape(-1, 9), np.float32)
+        tb = _cl.to_device((raster if unit == 1.0 else raster * unit).reshape(-1, 9), np.float32)
+        # each piece's plane: its source triangle's corners (the raster's own where nothing is clipped)
+        pb = tb if src is None else _cl.to_device(_source_planes(tris, src, unit), np.float32)
         one_pass = _one_pass()
         defines = {"GBUFFER_ATOMIC64": int(one_pass)}
         zbuf = _cl.empty((8 if one_pass else 4) * npix)
@@ -316,13 +390,13 @@ def render_gbuffer(items, camera: Camera) -> dict:
             cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
         fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
         fy = np.float32(H / (2.0 * camera.tan_half))
-        wide, rows = _wide_rows(tris, W, H, float(fx), float(fy))
+        wide, rows = _wide_rows(raster, W, H, float(fx), float(fy))
         wb = _cl.to_device(wide)
         k = _cl.kernel("gbuffer.cl", "gbuffer_raster", defines)
         kr = _cl.kernel("gbuffer.cl", "gbuffer_raster_rows", defines) if len(rows) else None
         rb = _cl.to_device(rows) if len(rows) else None
         for p in (0,) if one_pass else (0, 1):
-            k(q, (len(tris),), None, tb, np.int32(len(tris)), wb, np.int32(W), np.int32(H),
+            k(q, (len(raster),), None, tb, np.int32(len(raster)), wb, np.int32(W), np.int32(H),
               fx, fy, np.int32(p), zbuf, idbuf)
             if kr is not None:
                 kr(q, (len(rows),), None, tb, rb, np.int32(len(rows)), np.int32(W), np.int32(H),
@@ -332,7 +406,7 @@ def render_gbuffer(items, camera: Camera) -> dict:
         t_buf = _cl.empty(4 * npix)
         n_buf = _cl.empty(12 * npix)
         _cl.kernel("gbuffer.cl", "gbuffer_resolve", defines)(
-            q, (npix,), None, tb, np.int32(W), np.int32(H),
+            q, (npix,), None, pb, np.int32(W), np.int32(H),
             np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half),
             idbuf, t_buf, n_buf)
         cl.enqueue_copy(q, ids, idbuf)
@@ -340,6 +414,8 @@ def render_gbuffer(items, camera: Camera) -> dict:
         cl.enqueue_copy(q, n_cam, n_buf)
     hit = ids != np.iinfo(np.int32).max
     tri_idx = np.where(hit, ids, 0)
+    if src is not None:
+        tri_idx = np.take(src, tri_idx)
     o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
     f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
     t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
@@ -387,12 +463,13 @@ def render_gbuffer_reference(items, camera: Camera) -> dict:
     from .raster import covered_samples
 
     tris, obj, face, _near = gbuffer_triangles(items, camera)
+    raster, src = raster_triangles(tris, camera)
     H, W = camera.height, camera.width
     fx = W / (2.0 * camera.tan_half * camera.aspect)
     fy = H / (2.0 * camera.tan_half)
     zbest = np.full((H, W), np.inf)
     win = np.full((H, W), -1, np.int64)
-    for i, tri in enumerate(tris):
+    for i, tri in enumerate(raster):
         s = np.stack(_screen(tri, W, H, fx, fy), axis=1)
         p0, p1, p2 = s
         lo = np.maximum(np.ceil(s.min(0)).astype(int), 0)
@@ -410,6 +487,8 @@ def render_gbuffer_reference(items, camera: Camera) -> dict:
     dirs_cam = camera.ray_directions() @ camera.rotation.T
     t = np.full((H, W), np.inf)
     n_cam = np.zeros((H, W, 3))
+    if src is not None:
+        win = np.where(win >= 0, src[np.maximum(win, 0)], -1)
     hit = win >= 0
     tri = tris[win[hit]]
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])

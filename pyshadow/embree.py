@@ -14,7 +14,8 @@ import trimesh
 
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays
-from ._validate import check_both, check_values, flag, float32_exact, kernel_rows, unit_normals
+from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon
+from ._validate import check_both, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
@@ -22,18 +23,6 @@ from .views import ViewSet
 
 __all__ = ["EmbreeScene", "EmbreeTracer", "caster_scene", "depth_layers", "gbuffer", "ground_occludes",
            "ray_epsilon", "visible", "ambient_occlusion", "render", "surface_epsilon"]
-
-
-def ray_epsilon(scale) -> np.ndarray:
-    """Offset along a ray that safely leaves a surface at coordinates of size ``scale``.
-
-    64 float32 ulps of ``scale`` clipped to ``[1.2e-38, 2**127]`` (float32's normal range): large enough
-    to step over the intersection error of a float32 ray tracer, small against any feature.
-    """
-    # beyond 2**127 (float32's last binade: up to its largest number, and inf) the same spacing, 2**104
-    scale = np.minimum(np.maximum(np.abs(np.asarray(scale, dtype=np.float64)), float(np.finfo(np.float32).tiny)),
-                       2.0 ** 127)
-    return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
 
 
 class EmbreeScene:
@@ -268,29 +257,6 @@ def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.nda
     return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, ground_tolerance(scene))
 
 
-def surface_epsilon(scene, points=None, anchor=None):
-    """Offset that lifts a ray origin off a surface, world units.
-
-    2e-5 of the scene's largest radius, and at least 64 float32 ulps (:func:`ray_epsilon`) of the
-    coordinates Embree sees: relative to the casters' anchor (:func:`caster_scene`; or ``anchor``), those
-    of each point when ``points`` (world, (N, 3)) are given -- a float (N,) array then -- else of the
-    farthest caster, a float. Far from the anchor a float32 ray tracer's intersection error grows with the
-    coordinates, not with the bodies' size: with many bodies spread over a large scene a fixed offset let
-    rays restart behind their own surface. A point float32 holds exactly is lifted at least 4 float32
-    spacings of its own coordinates (up to 0.87 of one off its surface, were it a float32 point).
-    """
-    floor = 2e-5 * scene.scale()
-    anchor = scene.anchor() if anchor is None else anchor
-    if points is None:
-        extent = max([np.linalg.norm(inst.world_sphere()[0] - anchor) + inst.world_sphere()[1]
-                      for inst in scene.instances if inst.casts] or [scene.scale()])
-        return float(max(floor, ray_epsilon(extent)))
-    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    eps = np.maximum(floor, ray_epsilon(np.maximum(np.abs(P - anchor).max(axis=1), scene.scale())))
-    # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
-    return np.where(float32_exact(P).all(axis=1), np.maximum(eps, 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))), eps)
-
-
 def _rays64(points, directions):
     """(N, 3) points and non-zero directions, finite, as float64: refused as the kernels refuse them."""
     p = kernel_rows(points, "points")
@@ -305,8 +271,8 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     Each ray starts at the point moved by :func:`surface_epsilon` along its
     direction (so a point on a surface does not hit that surface) and runs
     to infinity, or with ``max_distance`` (float or (N,), world units, > 0)
-    to ``max_distance - epsilon`` from its moved start (``tfar``: the
-    segment ends at ``p + max_distance w``); the ground plane is tested
+    to the end ``p + max_distance w`` moved back as much (:func:`end_epsilon`:
+    a light on a surface is not hidden by it); the ground plane is tested
     analytically as in the kernel (:mod:`pyshadow.visibility.finite`).
     """
     from .visibility.finite import check_max_distance
@@ -331,7 +297,8 @@ def _visible(scene, p, w, tmax, anchor):
     todo = np.flatnonzero(~occ)
     if len(todo):
         eps = surface_epsilon(scene, p[todo], anchor)
-        tfar = None if tmax is None else np.maximum(tmax[todo] - eps, 0.0)
+        tfar = None if tmax is None else np.maximum(tmax[todo] - eps - end_epsilon(scene, p[todo], w[todo], tmax[todo],
+                                                                                    anchor), 0.0)
         if tfar is not None:            # beyond float32's range: unbounded
             tfar = np.where(tfar > np.finfo(np.float32).max, np.inf, tfar)
         occ[todo] = rays.occluded(rel[todo] + eps[:, None] * w[todo], w[todo], tfar)

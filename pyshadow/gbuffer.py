@@ -131,6 +131,26 @@ def _source_planes(tris, src, unit):
     return out
 
 
+def _edge_on_crossing(tri, near: float):
+    """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) crossing the near plane lie in a plane through
+    the eye (within 1e-12 of their farthest corner, float64's rounding of the camera transform): seen edge-on,
+    they cover no pixel, and are dropped (the ground with the eye in it was refused as reaching into the view,
+    or not, by the rounding of its area on screen); None where there is none."""
+    below = tri[:, :, 2] < near
+    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))
+    if not len(part):
+        return None
+    t = tri[part]
+    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    reach = np.abs(t).reshape(len(t), 9).max(axis=1)
+    flat = np.abs(np.einsum("ij,ij->i", n, t[:, 0])) <= 1e-12 * np.linalg.norm(n, axis=1) * reach
+    if not flat.any():
+        return None
+    out = np.zeros(len(tri), bool)
+    out[part[flat]] = True
+    return out
+
+
 def _cut_in_view(tri, near: float, tx: float, ty: float):
     """Index of the first camera-space triangle of ``tri`` (N, 3, 3) whose part nearer than ``near`` lies
     in the view (half-widths ``tx``, ``ty`` at unit depth) with an area, which :func:`_clip_near` would cut
@@ -246,6 +266,9 @@ def gbuffer_triangles(items, camera: Camera):
         corner = np.take(side, faces)                      # (F, 3); indexing is slower
         keep = np.flatnonzero((corner[:, 0] & corner[:, 1] & corner[:, 2]) == 0)
         tri = np.take(c, faces if len(keep) == len(faces) else np.take(faces, keep, axis=0), axis=0)
+        edge_on = _edge_on_crossing(tri, near)
+        if edge_on is not None:
+            tri, keep = tri[~edge_on], keep[~edge_on]
         lost = _cut_in_view(tri, near, tx, ty)
         if lost is not None:
             raise ValueError(f"render_gbuffer: face {int(keep[lost])} of item {oid} reaches into the view nearer than "

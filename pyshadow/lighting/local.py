@@ -318,7 +318,8 @@ def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", 
     Point, sphere and spot lights through :func:`point_light_radiance`, disc
     and rectangle lights through :func:`pyshadow.lighting.area.area_light_radiance`;
     sphere and area lights take ``lighting.sun_samples`` rays a point, turned
-    by ``lighting.seed``; zeros without local lights.
+    by ``lighting.seed``, and ``lighting.straddle`` decides the shadow rays
+    ending inside a caster's bounding sphere; zeros without local lights.
     """
     from .._validate import check_rows
     from .area import AreaLight, area_light_radiance
@@ -327,7 +328,12 @@ def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", 
     out = np.zeros((len(check_rows(points, "points")), 3))
     for light in _check_lighting(lighting).lights:
         fn = area_light_radiance if isinstance(light, AreaLight) else point_light_radiance
-        out += fn(scene, points, normals, light, albedo, backend=backend, samples=lighting.sun_samples,
-                  surface_ids=surface_ids, indices=indices, seed=lighting.seed, bias=bias,
-                  geometric_normals=geometric_normals)[0]
+        try:
+            out += fn(scene, points, normals, light, albedo, backend=backend, samples=lighting.sun_samples,
+                      surface_ids=surface_ids, indices=indices, seed=lighting.seed, bias=bias,
+                      straddle=lighting.straddle, geometric_normals=geometric_normals)[0]
+        except ValueError as e:          # the visibility's advice names its own keyword: here it is Lighting's
+            if "pass straddle='embree'" not in str(e):
+                raise
+            raise ValueError(str(e).replace("pass straddle='embree'", "pass Lighting(straddle='embree')")) from None
     return out

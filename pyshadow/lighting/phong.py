@@ -290,16 +290,24 @@ def _terms(terms, n: int):
 
 
 def _check_light_off_surfaces(scene, p, position):
-    """Refuse a light at a query point or on the ground plane (its direction is undefined there)."""
-    tol = 1e-9 * max(1.0, float(np.abs(position).max()))
+    """Refuse a light at a query point or on the ground plane (its direction is undefined there).
+
+    "At" is within a few float64 spacings of the coordinates involved (``4 eps`` times the larger
+    coordinate magnitude of the light and the point, or the ground's height): the rounding of a
+    computed surface point, whatever the scene's scale or its distance from the origin.
+    """
+    eps4 = 4.0 * np.finfo(np.float64).eps
+    size = float(np.abs(position).max())
     if len(p):
         with np.errstate(over="ignore"):        # a light beyond about 1e154: inf, far from every point
             d = np.linalg.norm(position - p, axis=1)
-        if d.min() <= tol:
-            i = int(np.argmin(d))
+        at = d <= eps4 * np.maximum(size, np.abs(p).max(axis=1))
+        if at.any():
+            i = int(np.argmin(np.where(at, d, np.inf)))
             raise ValueError(f"light lies on a surface: point {i} is at the light (distance {d[i]:.3g}); "
                              f"its direction to the light is undefined")
-    if scene is not None and scene.ground is not None and abs(position[1] - scene.ground) <= tol:
+    if scene is not None and scene.ground is not None \
+            and abs(position[1] - scene.ground) <= eps4 * max(size, abs(scene.ground)):
         raise ValueError(f"light lies on a surface: the ground plane y = {scene.ground:g}")
 
 

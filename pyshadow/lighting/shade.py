@@ -178,6 +178,9 @@ class Lighting:
         mode samples the sun's real disc), 1 in the others.
     seed : int >= 0, optional
         Seed of the per-point turn of the sun's directions.
+    straddle : {"error", "embree"}, optional
+        The local lights' shadow rays ending inside a caster's bounding sphere
+        (a light inside one): refused or answered by Embree (as ``PhongLighting``'s).
 
     Raises
     ------
@@ -197,7 +200,10 @@ class Lighting:
 
     def __init__(self, sky=None, *, sun=None, albedo=DEFAULT_ALBEDO, albedos=None,
                  ground_albedo=DEFAULT_GROUND_ALBEDO, mode: str = "bent", sun_samples: int | None = None, seed: int = 0,
-                 lights=()):
+                 lights=(), straddle: str = "error"):
+        from ..visibility.finite import check_straddle
+
+        self.straddle = check_straddle(straddle)
         self.lights = light_tuple(lights)
         env = sky if isinstance(sky, EnvironmentMap) else None
         if sky is None:
@@ -267,7 +273,7 @@ class Lighting:
         """The same sky, sun and albedos shaded in another ``mode``, with ``changes`` (``sun_samples``,
         ``seed``) to the constructor's other arguments; checked as in the constructor."""
         kw = dict(sun=self.sun, albedo=self.albedo, albedos=dict(self.albedos), ground_albedo=self.ground_albedo,
-                  sun_samples=self._sun_samples_asked, seed=self.seed, lights=self.lights)
+                  sun_samples=self._sun_samples_asked, seed=self.seed, lights=self.lights, straddle=self.straddle)
         sky = self.env if self.env is not None else (self.sh if self.sh.any() else None)    # zeros: no sky
         return Lighting(sky, mode=mode, **{**kw, **changes})
 

@@ -142,8 +142,9 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     env : EnvironmentMap
         Any layout.
     radius : float
-        Expected angular radius of the sun in rad, in (0, pi / 2] (default:
-        the real sun's).
+        Expected angular radius of the sun in rad, in (0, pi / 4] (default:
+        the real sun's; pi / 4 is :data:`pyshadow.lighting.shade.MAX_SUN_RADIUS`,
+        the largest sun :class:`~pyshadow.lighting.Lighting` takes).
     enlarge : float
         The search starts at ``enlarge * radius`` around the brightest texel
         (plus the texel pitch), for haze and camera blooming (thesis 001
@@ -153,7 +154,7 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
         it holds a texel brighter (in luminance) than ``threshold`` times the
         fitted background there.
     max_radius : float
-        Largest region radius in rad.
+        Largest region radius in rad, in [1e-6, pi / 4] (``MAX_SUN_RADIUS``).
 
     Returns
     -------
@@ -182,7 +183,9 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
        large, faint disc on a graded sky can lie near its edge.
     4. Direction: that weighted mean. Radius: ``sqrt(2 <alpha^2> - pitch^2 / 3)``
        (a uniform disc has ``<alpha^2> = r^2 / 2``; ``pitch^2 / 3`` removes
-       the texels' own spread) when that exceeds the pitch, else ``radius``.
+       the texels' own spread) when that exceeds the pitch, else ``radius``;
+       at most ``MAX_SUN_RADIUS`` (the region reaches a pitch or more past
+       ``max_radius``: on a coarse map it can measure more, a sun Lighting refuses).
     A sky with no sun (overcast) yields a sun of nearly zero irradiance; a
     black map yields none (no texels, zero irradiance), and so does a map too
     coarse for step 2 (fewer than 6 ring texels within pi / 2 of the axis: a
@@ -191,12 +194,15 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
     """
     if not isinstance(env, EnvironmentMap):
         raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
+    from .shade import MAX_SUN_RADIUS
+
     r0 = positive(radius, "radius")
-    if r0 > math.pi / 2:                     # else the sun's angular_radius could be 10 rad (no disc)
-        raise ValueError(f"radius: the sun's angular radius must lie in (0, pi / 2] (got {radius!r})")
+    if r0 > MAX_SUN_RADIUS:                  # else the sun could be one Lighting refuses (or 10 rad: no disc)
+        raise ValueError(f"radius: the sun's angular radius must lie in (0, MAX_SUN_RADIUS = pi / 4 = "
+                         f"{MAX_SUN_RADIUS:.6g}], the largest sun Lighting takes (got {radius!r})")
     k = in_range(enlarge, "enlarge", 1.0, 100.0)
     thr = in_range(threshold, "threshold", 1.0, math.inf)
-    rmax = in_range(max_radius, "max_radius", 1e-6, math.pi / 2)
+    rmax = in_range(max_radius, "max_radius (at most MAX_SUN_RADIUS = pi / 4)", 1e-6, MAX_SUN_RADIUS)
     T0 = env.radiance.reshape(-1, 3)
     # the split is scale-free: work on the map scaled by a power of two to a largest value in [0.5, 1)
     # (exact), so that neither the fit's squares overflow (1e300) nor the weighted mean direction
@@ -231,7 +237,7 @@ def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enla
         a = np.arccos(np.clip(dirs[inside] @ direction, -1.0, 1.0))
         spread = 2.0 * float(w @ a ** 2) / float(w.sum()) - p * p / 3.0
         measured = math.sqrt(max(spread, 0.0))
-        ang_r = measured if measured > p else r0
+        ang_r = min(measured if measured > p else r0, MAX_SUN_RADIUS)
     else:
         direction, ang_r = c / np.linalg.norm(c), r0
     sun = SunLight(direction=direction, irradiance=e_sun, angular_radius=ang_r,

@@ -18,6 +18,12 @@ light:
   A far light's cube (casters' cone under ``FIT_TEXELS`` texels) turns to the
   cone's axis, widened by the largest power of two ``k`` that keeps it in a face:
   texels, ε's texel term ``k`` times finer; ε + ``FIT_ULPS`` float32 ulps of depth.
+  Under ``FAR_TEXELS`` texels (float32 depths from the light hold too little
+  there: at 1e7 they are a world unit apart) :meth:`ShadowMapVisibility.visible`
+  answers from the orthographic map along the cone's axis instead, each point
+  moved across it to where its own ray crosses the casters' mean depth (rays
+  of the cone differ from the axis by under its half-angle: the error is below
+  ``FAR_TEXELS`` / 4 texels over the casters' depth).
 
 Any other ray set is refused with a ``ValueError``. The map holds every
 caster instance (each needs its mesh) placed by its current transform; it is
@@ -86,7 +92,9 @@ BIAS_TEXELS = 1.0
 NO_NORMAL_SLOPE = 2.0
 TAN_MAX = 10.0
 FIT_TEXELS, FIT_ULPS = 2.0, 4.0     # a fitted cube: below this casters' cone (texels across); ε's float32 ulps
+FAR_TEXELS = 2.0 ** -8      # below this cone (texels): a point light's rays answered by the orthographic map
 LIGHT_TOL = 1e-6            # rays of one light: directions / endpoints equal to this (relative)
+LIGHT_ULPS = 8.0            # ... plus this many float64 spacings of a kept point light's coordinates
 CACHE_MAPS = 4              # rendered maps kept per backend object
 
 
@@ -365,8 +373,14 @@ class ShadowMapVisibility:
         p = np.asarray(p, np.float64)
         w = unit_directions(w)
         kind, light = light_of_rays(p, w, tmax, scene.scale())
-        sm = self.shadow_map(scene, **{"direction" if kind == "directional" else "position": light})
-        frac = self._lookup(sm, p, m, 0.0 if b is None else b)
+        axis = self._far_axis(scene, light) if kind == "point" else None
+        if axis is not None:            # a far point light: the map along its casters' cone, rays moved to it
+            sm, wa = self.shadow_map(scene, direction=axis[0]), w @ axis[0]
+            s = np.where(wa > 0, (axis[1] - p) @ axis[0], 0.0)         # to the casters' depth (rays towards it)
+            q = p + (s / np.where(wa > 0, wa, 1.0))[:, None] * w - s[:, None] * axis[0]
+        else:
+            sm, q = self.shadow_map(scene, **{"direction" if kind == "directional" else "position": light}), p
+        frac = self._lookup(sm, q, m, 0.0 if b is None else b)
         if scene.ground is not None:
             blocked = ground_blocks(p[:, 1] - scene.ground, w[:, 1], None if kind == "directional" else tmax,
                                     ground_tolerance(scene))
@@ -378,6 +392,19 @@ class ShadowMapVisibility:
         """Not answerable: a shadow map holds one light's depths, AO asks every direction (any options)."""
         raise ValueError("a shadow map answers the rays of one light (one direction, or one end point); it "
                          "cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree'")
+
+    def _far_axis(self, scene, position):
+        """A point light whose casters' cone spans under ``FAR_TEXELS`` texels (module docstring):
+        (unit direction towards it along the cone's axis, the casters' mean centre); else None."""
+        from .local import _sphere_cone
+
+        arr = scene_arrays(scene)
+        casters = np.flatnonzero(arr["casts"])
+        c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
+        cone, half = _sphere_cone(position, c, r)
+        if not (len(casters) and half < 0.5 and self.resolution * math.tan(half) < FAR_TEXELS):
+            return None
+        return -cone[2], c.mean(axis=0)
 
     # -- maps ----------------------------------------------------------
     def shadow_map(self, scene, *, direction=None, position=None) -> ShadowMap:
@@ -395,7 +422,10 @@ class ShadowMapVisibility:
         -------
         ShadowMap
             Kept (up to ``CACHE_MAPS`` of them) while the casters, their
-            transforms and the light are unchanged.
+            transforms and the light are unchanged: a direction within
+            ``LIGHT_TOL`` of the kept one's, a position within ``LIGHT_TOL``
+            times (its farthest caster's far side plus the scene's scale),
+            plus ``LIGHT_ULPS`` float64 spacings of its coordinates.
         """
         if (direction is None) == (position is None):
             raise ValueError("give exactly one of direction= (a directional light) or position= (a point light)")
@@ -417,7 +447,11 @@ class ShadowMapVisibility:
                                  f"triangles (Scene.add(csm, mesh=...))")
         state = (id(_cl.context()), id(scene), kind, self.resolution,
                  tuple((id(scene.instances[i].mesh), scene.instances[i].transform.tobytes()) for i in casters))
-        tol = LIGHT_TOL * (1.0 if kind == "directional" else float(np.abs(light).max()) + scene.scale())
+        tol = LIGHT_TOL         # a point light: relative to its reach over the casters, not to the world origin
+        if kind == "point":
+            c, r = arr["world_centre"][casters], arr["world_radius"][casters]
+            reach = float((np.linalg.norm(c - light, axis=1) + r).max()) if len(casters) else 0.0
+            tol = LIGHT_TOL * (reach + scene.scale()) + LIGHT_ULPS * float(np.spacing(np.abs(light).max()))
         for key, sm in self._maps.items():
             if key[0] == state and np.abs(sm.light - light).max() <= tol:
                 self._maps.move_to_end(key)
@@ -475,8 +509,8 @@ class ShadowMapVisibility:
     def _render_point(self, scene, casters, position):
         """The cube map at ``position``: six 90 degree faces of the casters' depths (along each face's axis);
         fitted to a narrow cone of casters (module docstring; :class:`ShadowMap`'s ``basis, zoom, slack``)."""
-        from ..gbuffer import gbuffer_triangles
         from .local import _sphere_cone
+        from .shadow_map_cube import face_triangles
 
         R, arr, basis, k, slack = self.resolution, scene_arrays(scene), None, 1.0, 0.0
         c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
@@ -495,7 +529,7 @@ class ShadowMapVisibility:
                                       [np.zeros((1, 3)), np.ones((1, 1))]])) for mesh, T in items]
         eye = np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
         for f, cam in enumerate(cams):
-            tris = gbuffer_triangles(items, cam)[0]
+            tris = face_triangles(items, cam)      # a caster face just beside the light kept (its module)
             self._raster(buf, _cl.to_device(tris.reshape(-1, 9), np.float32), len(tris), eye, 1, f * R * R)
         return ShadowMap("point", position, R, position, frame, buf, None, (basis, k, slack))
 
@@ -522,79 +556,4 @@ class ShadowMapVisibility:
         return out
 
 
-# -- NumPy references of the orthographic map (float64; small inputs, for the tests) ----------------------
-def render_reference(scene, direction, resolution: int) -> np.ndarray:
-    """The orthographic depth map of ``sm_raster`` in NumPy: (R, R) float64 (+inf where no caster).
-
-    Same frame, texel centres and watertight edge rule
-    (:func:`pyshadow.raster.covered_samples`); depth interpolated linearly
-    over each triangle and clamped at 0; the nearest depth per texel kept.
-    """
-    from ..raster import covered_samples
-
-    R = _check_resolution(resolution)
-    direction = np.asarray(direction, np.float64) / np.linalg.norm(direction)
-    casters = np.flatnonzero(scene_arrays(scene)["casts"])
-    A, b, origin, _, _ = _ortho_frame(scene, casters, direction, R)
-    out = np.full((R, R), np.inf)
-    for i in casters:
-        inst = scene.instances[i]
-        T = inst.transform
-        world = np.asarray(inst.mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3]
-        q = (world - origin) @ A.T + b
-        for f in np.asarray(inst.mesh.faces):
-            s = q[f, :2]
-            lo = np.maximum(np.ceil(s.min(axis=0)).astype(int), 0)
-            hi = np.minimum(np.floor(s.max(axis=0)).astype(int), R - 1)
-            if (lo > hi).any():
-                continue
-            cov = covered_samples(s[0], s[1], s[2], lo, hi)
-            if cov is not None:
-                rows, cols, w = cov
-                np.minimum.at(out, (rows, cols), np.maximum(w.T @ q[f, 2], 0.0))
-    return out
-
-
-def lookup_reference(sm: ShadowMap, depth, points, normals=None, *, pcf: int = 1, bias: float = 0.0,
-                     bias_texels: float = BIAS_TEXELS) -> np.ndarray:
-    """``sm_lookup`` of an orthographic map in NumPy (float64): the lit fraction of the PCF taps, (N,).
-
-    Parameters
-    ----------
-    sm : ShadowMap
-        An orthographic map (its float32 frame, read as float64).
-    depth : ndarray, shape (R, R)
-        Its depths (:meth:`ShadowMap.depth` or :func:`render_reference`).
-    points, normals : ndarray, shape (N, 3)
-        World points and unit normals (None: the rule without normals).
-    pcf, bias, bias_texels :
-        As for :class:`ShadowMapVisibility`. The ground plane is not applied.
-    """
-    if sm.kind != "directional":
-        raise ValueError("lookup_reference mirrors the orthographic map only")
-    f = sm.frame.astype(np.float64)
-    U, V, D, tu, tv = f[0:3], f[4:7], f[8:11], f[12], f[13]
-    p = np.asarray(points, np.float64) - sm.origin
-    col, row, z = p @ U + f[3], p @ V + f[7], p @ D + f[11]
-    h = _check_pcf(pcf) // 2
-    texels = bias_texels + (0.0 if normals is not None else NO_NORMAL_SLOPE * (h + math.sqrt(0.5)))
-    eps = bias + texels * max(tu, tv)
-    if normals is not None:
-        n = np.asarray(normals, np.float64)
-        nu, nv, nd = (n @ U) * tu, (n @ V) * tv, n @ D
-    R = depth.shape[0]
-    lit = np.zeros(len(p))
-    for di in range(-h, h + 1):
-        for dj in range(-h, h + 1):
-            tj, ti = np.floor(col + 0.5).astype(np.int64) + dj, np.floor(row + 0.5).astype(np.int64) + di
-            du, dv = (tj - col) * tu, (ti - row) * tv
-            zr = z
-            if normals is not None:
-                lim = TAN_MAX * (np.abs(du) + np.abs(dv))
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    shift = np.clip(-(nu * du + nv * dv) / nd, -lim, lim)
-                zr = np.where(nd < 0, z + shift, z)
-            inside = (tj >= 0) & (tj < R) & (ti >= 0) & (ti < R)
-            stored = np.where(inside, depth[np.clip(ti, 0, R - 1), np.clip(tj, 0, R - 1)], np.inf)
-            lit += ~inside | (zr - eps <= stored)
-    return lit / (2 * h + 1) ** 2
+from .shadow_map_ref import lookup_reference, render_reference  # noqa: E402  (they use this module's frame)

@@ -1,0 +1,85 @@
+"""A point light's cube-face triangles for :mod:`pyshadow.lighting.shadow_map` (camera space, float64).
+
+:func:`pyshadow.gbuffer.gbuffer_triangles` places a face's casters in its
+camera space and clips them at a near plane 1e-6 of the farthest geometry
+in view, refusing a triangle whose part nearer than that lies in view (a
+G-buffer would show what lies behind it there). A shadow map needs no such
+plane: a caster face within 1e-6 of the scene's size from the light (a
+light just above a face) shadows everything behind it. :func:`face_triangles`
+hands such triangles to the raster clipped in float64 to ``GUARD``
+half-widths of the face's view and to ``NEAR_MIN`` of the farthest geometry
+(their screen corners and inverse depths stay finite in float32), and every
+other triangle as ``gbuffer_triangles`` does (clipped at its near plane).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["face_triangles", "GUARD", "NEAR_MIN"]
+
+GUARD = 1.01            # the near triangles, clipped to this many half-widths of the view (texel centres: < 1)
+NEAR_MIN = 2.0 ** -60   # ... and to this fraction of the farthest geometry from the light
+
+
+def _clip(poly, planes):
+    """The convex polygon ``poly`` (list of 3-vectors) clipped to ``a . p >= b`` for each ``(a, b)`` of
+    ``planes`` (Sutherland-Hodgman, float64); [] where less than a triangle is left."""
+    for a, b in planes:
+        out = []
+        for k in range(len(poly)):
+            p, q = poly[k], poly[(k + 1) % len(poly)]
+            fp, fq = a @ p - b, a @ q - b
+            if fp >= 0:
+                out.append(p)
+            if (fp >= 0) != (fq >= 0):
+                out.append(p + fp / (fp - fq) * (q - p))
+        poly = out
+        if len(poly) < 3:
+            return []
+    return poly
+
+
+def _has_area(poly) -> bool:
+    """Does a camera-space polygon (z > 0) cover an area on the screen? Its fan's triangles span a volume
+    with the eye (a polygon in a plane through the eye projects to a line)."""
+    return any(np.linalg.det(np.stack([poly[0], poly[k], poly[k + 1]])) != 0 for k in range(1, len(poly) - 1))
+
+
+def face_triangles(items, camera) -> np.ndarray:
+    """Camera-space triangles of ``items`` for one 90 degree cube face, (M, 3, 3) float64.
+
+    Parameters
+    ----------
+    items : list of (trimesh.Trimesh, ndarray (4, 4))
+        The casters' meshes and world (or fitted cube) transforms.
+    camera : pyshadow.Camera
+        The face's camera (:func:`pyshadow.camera.axis_camera`) at the light.
+
+    Returns
+    -------
+    ndarray, shape (M, 3, 3), float64
+        Those of :func:`pyshadow.gbuffer.gbuffer_triangles` where no
+        triangle's part nearer than its near plane lies in view; else the
+        others clipped at that plane and those clipped to the view
+        (module docstring).
+    """
+    from ..gbuffer import _clip_near, gbuffer_triangles
+
+    tri = [((np.asarray(m.vertices, np.float64) @ T[:3, :3].T + T[:3, 3] - camera.eye) @ camera.rotation.T)
+           [np.asarray(m.faces)] for m, T in items]
+    tri = np.concatenate(tri).reshape(-1, 3, 3) if tri else np.zeros((0, 3, 3))
+    far = float(np.abs(tri).max()) if len(tri) else 0.0
+    near, z = max(1e-6 * far, 1e-30), tri[:, :, 2]
+    view = [(np.array([0.0, 0.0, 1.0]), max(NEAR_MIN * far, 1e-30))]     # first: every corner then has z > 0
+    view += [(np.array(a, np.float64), 0.0) for a in ((-1, 0, GUARD), (1, 0, GUARD), (0, -1, GUARD), (0, 1, GUARD))]
+    close, pieces = [], []
+    for i in np.flatnonzero((z < near).any(axis=1) & (z > 0).any(axis=1)):
+        poly = _clip(list(tri[i]), view)
+        part = _clip(poly, [(np.array([0.0, 0.0, -1.0]), -near)]) if poly else []
+        if part and _has_area(part):
+            close.append(i)
+            pieces += [np.stack([poly[0], poly[k], poly[k + 1]]) for k in range(1, len(poly) - 1)]
+    if not close:
+        return gbuffer_triangles(items, camera)[0]
+    rest = _clip_near(np.delete(tri, close, axis=0), near)[0]
+    return np.concatenate([rest, np.array(pieces).reshape(-1, 3, 3)])

@@ -70,6 +70,27 @@ def _clip_near(tri: np.ndarray, near: float):
 GUARD_BAND = 2.0
 
 
+def clip_polygon(poly, planes) -> list:
+    """The convex polygon ``poly`` (a list of 3-vectors, float64) clipped to ``a . p <= b`` for each ``(a, b)``
+    of ``planes`` (Sutherland-Hodgman); [] where less than a triangle is left. An edge is cut at the point
+    computed from its lexicographically smaller end, so two polygons sharing the edge cut it alike."""
+    for a, b in planes:
+        cut = []
+        for k in range(len(poly)):
+            p, q = poly[k], poly[(k + 1) % len(poly)]
+            fp, fq = a @ p - b, a @ q - b
+            if fp <= 0:
+                cut.append(p)
+            if (fp <= 0) != (fq <= 0):
+                if tuple(p) > tuple(q):
+                    p, q, fp, fq = q, p, fq, fp
+                cut.append(p + fp / (fp - fq) * (q - p))
+        poly = cut
+        if len(poly) < 3:
+            return []
+    return poly
+
+
 def _guard_pieces(tris: np.ndarray, camera: Camera):
     """The triangles of ``tris`` (near-clipped, camera space, (N, 3, 3)) reaching beyond :data:`GUARD_BAND`
     half-widths of the view, clipped to it in float64: (their indices (P,), their first pieces (P, 3, 3),
@@ -81,25 +102,11 @@ def _guard_pieces(tris: np.ndarray, camera: Camera):
     idx = np.flatnonzero(beyond[:, 0] | beyond[:, 1] | beyond[:, 2])
     if not len(idx):
         return None
-    planes = [np.array(a, np.float64) for a in ((1, 0, -gx), (-1, 0, -gx), (0, 1, -gy), (0, -1, -gy))]
+    planes = [(np.array(a, np.float64), 0.0) for a in ((1, 0, -gx), (-1, 0, -gx), (0, 1, -gy), (0, -1, -gy))]
     first, extra, extra_src = np.repeat(tris[idx, :1], 3, axis=1), [], []
     for j, i in enumerate(idx):
-        poly = list(tris[i])
-        for a in planes:                    # keep a . p <= 0; an edge cut at the point computed from its
-            cut = []                        # lexicographically smaller end: the triangles sharing it cut it alike
-            for k in range(len(poly)):
-                p, q = poly[k], poly[(k + 1) % len(poly)]
-                fp, fq = a @ p, a @ q
-                if fp <= 0:
-                    cut.append(p)
-                if (fp <= 0) != (fq <= 0):
-                    if tuple(p) > tuple(q):
-                        p, q, fp, fq = q, p, fq, fp
-                    cut.append(p + fp / (fp - fq) * (q - p))
-            poly = cut
-            if len(poly) < 3:
-                break
-        else:
+        poly = clip_polygon(list(tris[i]), planes)
+        if poly:
             first[j] = poly[:3]
             extra += [np.stack([poly[0], poly[k], poly[k + 1]]) for k in range(2, len(poly) - 1)]
             extra_src += [i] * (len(poly) - 3)
@@ -166,20 +173,8 @@ def _cut_in_view(tri, near: float, tx: float, ty: float):
                                                         ((1, 0, -tx), 0.0), ((-1, 0, -tx), 0.0), ((0, 1, -ty), 0.0),
                                                         ((0, -1, -ty), 0.0))]
     for i in cand:
-        poly = list(tri[i])
-        for a, b in planes:                 # keep a . p <= b
-            out = []
-            for k in range(len(poly)):
-                p, q = poly[k], poly[(k + 1) % len(poly)]
-                fp, fq = a @ p - b, a @ q - b
-                if fp <= 0:
-                    out.append(p)
-                if (fp <= 0) != (fq <= 0):
-                    out.append(p + fp / (fp - fq) * (q - p))
-            poly = out
-            if len(poly) < 3:
-                break
-        else:                               # its area on the screen (the view's [-1, 1]^2): an edge-on
+        poly = clip_polygon(list(tri[i]), planes)
+        if poly:                            # its area on the screen (the view's [-1, 1]^2): an edge-on
             sx = np.array([p[0] / (p[2] * tx) for p in poly])      # plane through the eye has none
             sy = np.array([p[1] / (p[2] * ty) for p in poly])
             if abs(np.dot(sx, np.roll(sy, -1)) - np.dot(np.roll(sx, -1), sy)) > 2e-12:

@@ -21,24 +21,6 @@ GUARD = 1.01            # the near triangles, clipped to this many half-widths o
 NEAR_MIN = 2.0 ** -60   # ... and to this fraction of the farthest geometry from the light
 
 
-def _clip(poly, planes):
-    """The convex polygon ``poly`` (list of 3-vectors) clipped to ``a . p >= b`` for each ``(a, b)`` of
-    ``planes`` (Sutherland-Hodgman, float64); [] where less than a triangle is left."""
-    for a, b in planes:
-        out = []
-        for k in range(len(poly)):
-            p, q = poly[k], poly[(k + 1) % len(poly)]
-            fp, fq = a @ p - b, a @ q - b
-            if fp >= 0:
-                out.append(p)
-            if (fp >= 0) != (fq >= 0):
-                out.append(p + fp / (fp - fq) * (q - p))
-        poly = out
-        if len(poly) < 3:
-            return []
-    return poly
-
-
 def _has_area(poly) -> bool:
     """Does a camera-space polygon (z > 0) cover an area on the screen? Its fan's triangles span a volume
     with the eye (a polygon in a plane through the eye projects to a line)."""
@@ -63,19 +45,19 @@ def face_triangles(items, camera) -> np.ndarray:
         others clipped at that plane and those clipped to the view
         (module docstring).
     """
-    from ..gbuffer import _clip_near, gbuffer_triangles
+    from ..gbuffer import _clip_near, clip_polygon, gbuffer_triangles
 
     tri = [((np.asarray(m.vertices, np.float64) @ T[:3, :3].T + T[:3, 3] - camera.eye) @ camera.rotation.T)
            [np.asarray(m.faces)] for m, T in items]
     tri = np.concatenate(tri).reshape(-1, 3, 3) if tri else np.zeros((0, 3, 3))
     far = float(np.abs(tri).max()) if len(tri) else 0.0
     near, z = max(1e-6 * far, 1e-30), tri[:, :, 2]
-    view = [(np.array([0.0, 0.0, 1.0]), max(NEAR_MIN * far, 1e-30))]     # first: every corner then has z > 0
-    view += [(np.array(a, np.float64), 0.0) for a in ((-1, 0, GUARD), (1, 0, GUARD), (0, -1, GUARD), (0, 1, GUARD))]
+    view = [(np.array([0.0, 0.0, -1.0]), -max(NEAR_MIN * far, 1e-30))]     # first: every corner then has z > 0
+    view += [(np.array(a, np.float64), 0.0) for a in ((1, 0, -GUARD), (-1, 0, -GUARD), (0, 1, -GUARD), (0, -1, -GUARD))]
     close, pieces = [], []
     for i in np.flatnonzero((z < near).any(axis=1) & (z > 0).any(axis=1)):
-        poly = _clip(list(tri[i]), view)
-        part = _clip(poly, [(np.array([0.0, 0.0, -1.0]), -near)]) if poly else []
+        poly = clip_polygon(list(tri[i]), view)
+        part = clip_polygon(poly, [(np.array([0.0, 0.0, 1.0]), near)]) if poly else []
         if part and _has_area(part):
             close.append(i)
             pieces += [np.stack([poly[0], poly[k], poly[k + 1]]) for k in range(1, len(poly) - 1)]

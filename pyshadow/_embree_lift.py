@@ -27,7 +27,7 @@ def ray_epsilon(scale) -> np.ndarray:
     return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
 
 
-def surface_epsilon(scene, points=None, anchor=None):
+def surface_epsilon(scene, points=None, anchor=None, *, float32_points=True):
     """Offset that lifts a ray origin off a surface, world units.
 
     2e-5 of the scene's largest radius, and at least 64 float32 ulps (:func:`ray_epsilon`) of the
@@ -36,7 +36,9 @@ def surface_epsilon(scene, points=None, anchor=None):
     farthest caster, a float. Far from the anchor a float32 ray tracer's intersection error grows with the
     coordinates, not with the bodies' size: with many bodies spread over a large scene a fixed offset let
     rays restart behind their own surface. A point float32 holds exactly is lifted at least 4 float32
-    spacings of its own coordinates (up to 0.87 of one off its surface, were it a float32 point).
+    spacings of its own coordinates (up to 0.87 of one off its surface, were it a float32 point), unless
+    ``float32_points`` is False (points that are no surface's float32 samples: :func:`end_epsilon`'s ends,
+    where a light at x = 1e7 + 2 stopped its rays 4 units short of it).
     """
     floor = 2e-5 * scene.scale()
     anchor = scene.anchor() if anchor is None else anchor
@@ -47,17 +49,20 @@ def surface_epsilon(scene, points=None, anchor=None):
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     eps = np.maximum(floor, ray_epsilon(np.maximum(np.abs(P - anchor).max(axis=1), scene.scale())))
     # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
+    if not float32_points:
+        return eps
     return np.where(float32_exact(P).all(axis=1), np.maximum(eps, 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))), eps)
 
 
 def end_epsilon(scene, points, directions, tmax, anchor=None) -> np.ndarray:
     """(N,) how far before its end ``points + tmax * directions`` each finite ray (world (N, 3) float64,
-    unit directions, lengths (N,)) stops: :func:`surface_epsilon` of the end; 0 for an unbounded ray."""
+    unit directions, lengths (N,)) stops: :func:`surface_epsilon` of the end (not as a float32 point); 0 for an
+    unbounded ray."""
     out = np.zeros(len(points))
     fin = np.flatnonzero(np.isfinite(tmax))
     if len(fin):
         with np.errstate(over="ignore", invalid="ignore"):
             ends = points[fin] + tmax[fin, None] * directions[fin]
         ok = np.isfinite(ends).all(axis=1)
-        out[fin[ok]] = surface_epsilon(scene, ends[ok], anchor)
+        out[fin[ok]] = surface_epsilon(scene, ends[ok], anchor, float32_points=False)
     return out

@@ -69,3 +69,21 @@ def test_a_light_just_inside_the_box_stays_hidden(scene):
     not through a surface: a light 1 mm under the lid, inside the box, is hidden from every point of the sphere."""
     p, w, d = _towards(np.array([1.5, 1.0 - 1e-3, 0.0]))
     assert not visibility.visible(scene, p, w, backend="embree", max_distance=d).any()
+
+
+def test_a_light_far_from_the_origin_ends_its_rays_at_it():
+    """Was (ea0087d, the end moved back as a float32 point's): a light at (1e7 + 2, 3, 0), which float32 holds exactly,
+    was taken for a float32 point of a surface and the rays ended 4 units before it: 50 of 1,600 ground points
+    shadowed by a sphere where the same scene at the origin has 112 (and the infinite rays 112 there too). Now the
+    finite rays answer as at the origin, point for point."""
+    out = []
+    for ox in (0.0, 1e7):
+        s = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+        s.add(SPHERE, trimesh.transformations.translation_matrix([ox, 1, 0]))
+        x, z = np.meshgrid(np.linspace(-3, 3, 40), np.linspace(-3, 3, 40))
+        p = np.c_[x.ravel() + ox, np.zeros(x.size), z.ravel()]
+        w = np.array([ox + 2.0, 3.0, 0.0]) - p
+        d = np.linalg.norm(w, axis=1)
+        out.append(visibility.visible(s, p, w / d[:, None], backend="embree", max_distance=d))
+    assert (~out[0]).sum() == 112
+    np.testing.assert_array_equal(out[1], out[0])

@@ -87,3 +87,19 @@ def test_a_light_far_from_the_origin_ends_its_rays_at_it():
         out.append(visibility.visible(s, p, w / d[:, None], backend="embree", max_distance=d))
     assert (~out[0]).sum() == 112
     np.testing.assert_array_equal(out[1], out[0])
+
+
+@pytest.mark.parametrize("backend", ["embree", "csm"])
+def test_a_lamp_under_a_shade_beside_a_large_body_keeps_its_shadow(backend):
+    """Was (ea0087d .. fc446c0, the end moved back by the scene's lift, 2e-5 of its largest radius): beside a sphere of
+    radius 1000 far away, a lamp 1 cm under a plate (a shade) stopped its rays 3 cm short, before the plate: 10 of the
+    2,000 points over the plate shadowed where every one is (csm answers these rays through Embree). The end now moves
+    back by the lift of the body its sphere lies in (the plate's) and the float32 rounding there."""
+    s = pyshadow.Scene(ground=None, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    s.add(trimesh.creation.box((0.5, 0.002, 0.5)), trimesh.transformations.translation_matrix([0, 2.001, 0]))
+    s.add(trimesh.creation.icosphere(2, 1000.0), trimesh.transformations.translation_matrix([10010.0, 0, 0]))
+    rng = np.random.default_rng(0)
+    p = np.column_stack([rng.uniform(-0.2, 0.2, 2000), np.full(2000, 3.0), rng.uniform(-0.2, 0.2, 2000)])
+    w = np.array([0.0, 1.99, 0.0]) - p
+    d = np.linalg.norm(w, axis=1)
+    assert not visibility.visible(s, p, w / d[:, None], backend=backend, max_distance=d, straddle="embree").any()

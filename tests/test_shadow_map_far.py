@@ -5,6 +5,7 @@ import numpy as np
 import trimesh
 
 import pyshadow
+from pyshadow import visibility
 from pyshadow.lighting.shadow_map import ShadowMapVisibility
 
 
@@ -100,3 +101,25 @@ def test_distant_point_light_keeps_its_shadow():
         miss = np.linalg.norm(c - (c * w).sum(axis=1)[:, None] * w, axis=1)     # ray's distance to the centre
         assert (miss < 0.47).sum() > 80 and not v[miss < 0.47].any()
         assert v[miss > 0.52].all()
+
+
+def test_a_lamp_beside_another_near_a_small_box_gets_its_own_map():
+    """Was (1489bff: a kept map matched within 1e-6 of the light's reach over all casters): with a unit sphere 1e4 away,
+    a lamp 9 mm beside another, 4 cm over a 2 cm box, reused the other's cube map (1 render; 46 of 1,981 ground answers
+    wrong). A kept map now matches within 1e-6 of the light's distance to the nearest caster: 2 renders, and the answers
+    equal a fresh backend's."""
+    s = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    s.add(trimesh.creation.box((0.02, 0.02, 0.02)), trimesh.transformations.translation_matrix([0, 0.01, 0]))
+    s.add(trimesh.creation.icosphere(2, 1.0), trimesh.transformations.translation_matrix([1e4, 1.0, 0]))
+    rng = np.random.default_rng(0)
+    g = np.column_stack([rng.uniform(-0.1, 0.1, 2000), np.zeros(2000), rng.uniform(-0.1, 0.1, 2000)])
+    g = g[np.abs(g[:, [0, 2]]).max(axis=1) > 0.011]
+    kept = ShadowMapVisibility(resolution=512)
+    for light in ([0.0, 0.04, 0.0], [0.009, 0.04, 0.0]):
+        w = np.array(light) - g
+        d = np.linalg.norm(w, axis=1)
+        got = visibility.visible(s, g, w / d[:, None], max_distance=d, backend=kept, surface_ids=-2)
+        fresh = visibility.visible(s, g, w / d[:, None], max_distance=d, backend=ShadowMapVisibility(resolution=512),
+                                   surface_ids=-2)
+        np.testing.assert_array_equal(got, fresh)
+    assert kept.renders == 2

@@ -424,8 +424,10 @@ class ShadowMapVisibility:
             Kept (up to ``CACHE_MAPS`` of them) while the casters, their
             transforms and the light are unchanged: a direction within
             ``LIGHT_TOL`` of the kept one's, a position within ``LIGHT_TOL``
-            times (its farthest caster's far side plus the scene's scale),
-            plus ``LIGHT_ULPS`` float64 spacings of its coordinates.
+            times its distance to the nearest caster's bounding sphere, plus
+            ``LIGHT_ULPS`` float64 spacings of its coordinates or its reach
+            over the casters (a lamp 4 cm from a small box in a scene with a
+            body 1e4 away reused a lamp 9 mm beside it at 0.01).
         """
         if (direction is None) == (position is None):
             raise ValueError("give exactly one of direction= (a directional light) or position= (a point light)")
@@ -447,11 +449,13 @@ class ShadowMapVisibility:
                                  f"triangles (Scene.add(csm, mesh=...))")
         state = (id(_cl.context()), id(scene), kind, self.resolution,
                  tuple((id(scene.instances[i].mesh), scene.instances[i].transform.tobytes()) for i in casters))
-        tol = LIGHT_TOL         # a point light: relative to its reach over the casters, not to the world origin
-        if kind == "point":
+        tol = LIGHT_TOL         # a point light: relative to its distance to the nearest caster (its shadows move by
+        if kind == "point":     # that fraction), not to the world origin or the scene's size
             c, r = arr["world_centre"][casters], arr["world_radius"][casters]
-            reach = float((np.linalg.norm(c - light, axis=1) + r).max()) if len(casters) else 0.0
-            tol = LIGHT_TOL * (reach + scene.scale()) + LIGHT_ULPS * float(np.spacing(np.abs(light).max()))
+            dist = np.linalg.norm(c - light, axis=1)
+            near = float(np.maximum(dist - r, 0.0).min()) if len(casters) else 0.0
+            reach = float((dist + r).max()) if len(casters) else 0.0
+            tol = LIGHT_TOL * near + LIGHT_ULPS * float(np.spacing(max(float(np.abs(light).max()), reach)))
         for key, sm in self._maps.items():
             if key[0] == state and np.abs(sm.light - light).max() <= tol:
                 self._maps.move_to_end(key)

@@ -74,15 +74,15 @@ typedef struct {
 #if GROUND
 /* lanes (-1) whose ray crosses the ground plane y = ground_y; within
  * ground_eps of the plane counts as on it (above). A finite ray's end counts
- * as on it within ground_eps plus 2^-20 of the start's height (the rounding
- * of an end computed from the start: a light in the plane), as
- * visibility.finite.ground_blocks */
+ * as on it within ground_eps plus 2^-20 of the start's height and of the
+ * plane's (both relative to the anchor: the rounding of an end computed from
+ * the start, a light in the plane), as visibility.finite.ground_blocks */
 inline iv ground_v(const scene_t *S, fv py, fv wy TMAX_PARAM)
 {
     const fv h = py - S->ground_y;
 #if FINITE_RAYS
     const fv e = h + tm * wy;             /* the segment's end's height */
-    const fv te = (fv)(S->ground_eps) + VABS(h) * 9.5367431640625e-7f;
+    const fv te = (fv)(S->ground_eps) + (VABS(h) + fabs(S->ground_y)) * 9.5367431640625e-7f;
     return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f) & MASK(e < -te))
            | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f) & MASK(e > te));
 #else

@@ -257,9 +257,10 @@ def ground_occludes(scene, points, directions, anchor=None, tmax=None) -> np.nda
     if scene.ground is None:
         return np.zeros(len(points), bool)
     level = scene.ground - (0.0 if anchor is None else anchor[1])
-    from .visibility.finite import ground_blocks
+    from .visibility.finite import ground_blocks, ground_offsets
 
-    return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, ground_tolerance(scene))
+    offset = 0.0 if tmax is None else abs(level) if anchor is not None else ground_offsets(scene, points)
+    return ground_blocks(points[:, 1] - level, directions[:, 1], tmax, ground_tolerance(scene), offset)
 
 
 def _rays64(points, directions):

@@ -93,3 +93,21 @@ def test_the_end_rule_in_numbers():
     np.testing.assert_array_equal(ground_blocks(h, wy, t, eps), [False, True, False, True])
     np.testing.assert_array_equal(ground_blocks(h, wy, None, eps), [True] * 4)
     np.testing.assert_array_equal(ground_blocks(np.zeros(2), np.zeros(2), np.array([1.0, np.inf]), eps), [False] * 2)
+
+
+@pytest.mark.parametrize("height", [50.0, 300.0, 500.0])
+def test_a_light_in_the_plane_under_a_caster_far_above(height):
+    """Was (9c64835): with a unit sphere (and so the kernels' anchor) 256-512 units above the plane, the float32 rounding of
+    the points' anchored heights reached 1.5e-5, past the end's allowance (1.2e-5): the kernel hid 269 of 2,000 rays to
+    lights in the plane at 300 (the mirror and Embree none). The allowance now adds 2^-20 of the plane's distance from
+    the anchor, on every backend."""
+    s = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    s.add(trimesh.creation.icosphere(2, 1.0), trimesh.transformations.translation_matrix([0, height, 0]))
+    rng = np.random.default_rng(1)
+    h = rng.uniform(0.01, 2.0, 2000)
+    p = np.column_stack([rng.uniform(5, 50, 2000), h, rng.uniform(-50, 50, 2000)])
+    light = np.column_stack([rng.uniform(5, 50, 2000), np.zeros(2000), rng.uniform(-50, 50, 2000)])
+    w = light - p
+    d = np.linalg.norm(w, axis=1)
+    for backend in ("csm", "numpy", "embree"):
+        assert visibility.visible(s, p, w / d[:, None], backend=backend, max_distance=d).all(), backend

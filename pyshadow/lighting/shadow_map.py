@@ -355,7 +355,8 @@ class ShadowMapVisibility:
             Bad shapes or values, rays of more than one light, a caster
             without its mesh; before anything is rendered or launched.
         """
-        from ..visibility.finite import check_max_distance, check_straddle, ground_blocks, unit_directions
+        from ..visibility.finite import (check_max_distance, check_straddle, ground_blocks, ground_offsets,
+                                         unit_directions)
 
         p = kernel_rows(points, "points")
         w = kernel_rows(directions, "directions", len(p))
@@ -382,8 +383,9 @@ class ShadowMapVisibility:
             sm, q = self.shadow_map(scene, **{"direction" if kind == "directional" else "position": light}), p
         frac = self._lookup(sm, q, m, 0.0 if b is None else b)
         if scene.ground is not None:
-            blocked = ground_blocks(p[:, 1] - scene.ground, w[:, 1], None if kind == "directional" else tmax,
-                                    ground_tolerance(scene))
+            point = kind != "directional"
+            blocked = ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax if point else None, ground_tolerance(scene),
+                                    ground_offsets(scene, p) if point else 0.0)
             frac[blocked] = 0.0
         return frac
 

@@ -29,9 +29,11 @@ crosses it: from a point on or above it (within the kernels' tolerance,
 :func:`pyshadow.contact.ground_tolerance`) going down to an end below it,
 or from a point below it going up to an end above it. The end counts as on
 the plane within that tolerance plus ``END_ROUNDING`` (2^-20) of the start's
-height: an end computed from the start (a light in the plane, ``p + t w``
-with ``t`` and ``w`` rounded) lies off the plane by the rounding of that
-height, about 1e-7 of it in float32, and a light exactly in the plane is
+height and of the plane's distance from the anchor the kernels read the
+point relative to: an end computed from the start (a light in the plane,
+``p + t w`` with ``t`` and ``w`` rounded, the anchored height in float32)
+lies off the plane by the rounding of those, about 1e-7 of them in
+float32, and a light exactly in the plane is
 therefore not hidden by the plane (before, 35 % of the rays from points
 above the ground to lights in it were hidden, at random, differently by
 each backend).
@@ -60,7 +62,7 @@ from .._validate import squared_lengths
 from ..scene_arrays import scene_arrays
 
 __all__ = ["END_ROUNDING", "STRADDLE", "AO_STRADDLE", "check_max_distance", "check_straddle", "unit_directions",
-           "straddling", "ground_blocks", "answer_finite", "check_ao_options", "ao_nodes", "obscurance_weight", "shell_clear",
+           "straddling", "ground_blocks", "ground_offsets", "answer_finite", "check_ao_options", "ao_nodes", "obscurance_weight", "shell_clear",
            "answer_finite_ao", "rays_ao"]
 
 #: The rounding a finite ray's end may carry off the ground plane, as a fraction of its start's height
@@ -177,17 +179,32 @@ def straddling(scene, points, directions, tmax):
     return fin[inside], owner[inside]
 
 
-def ground_blocks(h, wy, tmax, eps) -> np.ndarray:
+def ground_blocks(h, wy, tmax, eps, offset=0.0) -> np.ndarray:
     """The ground rule of a ray (float64): ``h`` the height above the plane, ``wy`` the
-    unit direction's y, ``tmax`` the lengths (None: unbounded), ``eps`` the plane's tolerance.
+    unit direction's y, ``tmax`` the lengths (None: unbounded), ``eps`` the plane's tolerance,
+    ``offset`` (float or (N,)) the plane's distance from the anchor the kernels read the ray's
+    point relative to (:func:`ground_offsets`).
 
-    A finite ray's end counts as on the plane within ``eps + END_ROUNDING * |h|`` (see the module)."""
+    A finite ray's end counts as on the plane within ``eps + END_ROUNDING * (|h| + offset)``
+    (see the module)."""
     if tmax is None:
         return ((h >= -eps) & (wy < 0)) | ((h < -eps) & (wy > 0))
     with np.errstate(invalid="ignore"):
         e = h + tmax * wy
-    te = eps + END_ROUNDING * np.abs(h)
+    te = eps + END_ROUNDING * (np.abs(h) + offset)
     return ((h >= -eps) & (wy < 0) & (e < -te)) | ((h < -eps) & (wy > 0) & (e > te))
+
+
+def ground_offsets(scene, points) -> np.ndarray:
+    """(N,) the ground plane's distance from the anchor each of ``points`` (world (N, 3)) is asked relative to
+    (:func:`pyshadow.scene_arrays.anchor_groups`): the kernels' ``|ground_y|``, whose float32 rounding and that
+    of the point's anchored height a finite ray's end may carry off the plane (:func:`ground_blocks`)."""
+    from ..scene_arrays import anchor_groups
+
+    out = np.empty(len(points))
+    for rows, anchor in anchor_groups(scene, np.asarray(points, np.float64)):
+        out[slice(None) if rows is None else rows] = abs(scene.ground - anchor[1])
+    return out
 
 
 def answer_finite(scene, points, directions, tmax, straddle, answer) -> np.ndarray:

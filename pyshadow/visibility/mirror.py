@@ -19,7 +19,7 @@ from ..csm.surface_rule import surface_horizon
 from ..sampling import Sampling, ao_from_samples, sample_directions_reference
 from .base import check_bias, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
-                     rays_ao)
+                     ground_offsets, rays_ao)
 
 __all__ = ["NumPyVisibility", "visible_reference", "ambient_occlusion_reference", "caster_occludes"]
 
@@ -60,7 +60,8 @@ def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
     """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None)."""
     occ = np.zeros(len(p), bool)
     if scene.ground is not None:
-        occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, ground_tolerance(scene))
+        occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, ground_tolerance(scene),
+                             0.0 if tmax is None else ground_offsets(scene, p))
     types, _ = scene.caster_types()
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7

@@ -83,7 +83,8 @@ inline iv ground_v(const scene_t *S, fv py, fv wy TMAX_PARAM)
 #if FINITE_RAYS
     const fv e = h + tm * wy;             /* the segment's end's height */
     const fv te = (fv)(S->ground_eps) + (VABS(h) + fabs(S->ground_y)) * 9.5367431640625e-7f;
-    return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f) & MASK(e < -te))
+    /* a point on the plane going down enters the ground at once, whatever the ray's length */
+    return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f) & (MASK(e < -te) | MASK(h <= S->ground_eps)))
            | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f) & MASK(e > te));
 #else
     return (MASK(h >= -S->ground_eps) & MASK(wy < 0.0f)) | (MASK(h < -S->ground_eps) & MASK(wy > 0.0f));

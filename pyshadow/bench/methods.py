@@ -130,7 +130,7 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
         Points or directions not (n, 3) finite rows of one count, a zero
         direction, or ``max_distance`` not a finite number > 0.
     """
-    from pyshadow.embree import ground_occludes, surface_epsilon
+    from pyshadow.embree import end_epsilon, ground_occludes, surface_epsilon
 
     p = rows3(points, "points")
     w = nonzero(rows3(directions, "directions", len(p)), "directions")
@@ -142,7 +142,8 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
     if len(todo) == 0:
         return occ
     eps = surface_epsilon(tracer.scene, p[todo])
-    tfar = np.maximum(D - eps, 0.0)          # float64: EmbreeScene.occluded converts (copies) it
+    # the end moved back as embree.visible's (float64: EmbreeScene.occluded converts, copies, it)
+    tfar = np.maximum(D - eps - end_epsilon(tracer.scene, p[todo], w[todo], np.full(len(todo), D), tracer.anchor), 0.0)
     o32 = (rel[todo] + eps[:, None] * w[todo]).astype(np.float32)
     d32 = w[todo].astype(np.float32)
     res = np.empty(len(todo), bool)

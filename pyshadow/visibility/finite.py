@@ -27,7 +27,9 @@ float32 rounding boundary except for rays that only graze the sphere.
 The ground plane ``y = ground`` blocks a finite ray only where the segment
 crosses it: from a point on or above it (within the kernels' tolerance,
 :func:`pyshadow.contact.ground_tolerance`) going down to an end below it,
-or from a point below it going up to an end above it. The end counts as on
+or from a point below it going up to an end above it; a point on the plane
+(within that tolerance) going down enters the ground at once, whatever the
+ray's length. The end counts as on
 the plane within that tolerance plus ``END_ROUNDING`` (2^-20) of the start's
 height and of the plane's distance from the anchor the kernels read the
 point relative to: an end computed from the start (a light in the plane,
@@ -192,7 +194,7 @@ def ground_blocks(h, wy, tmax, eps, offset=0.0) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         e = h + tmax * wy
     te = eps + END_ROUNDING * (np.abs(h) + offset)
-    return ((h >= -eps) & (wy < 0) & (e < -te)) | ((h < -eps) & (wy > 0) & (e > te))
+    return ((h >= -eps) & (wy < 0) & ((e < -te) | (h <= eps))) | ((h < -eps) & (wy > 0) & (e > te))
 
 
 def ground_offsets(scene, points) -> np.ndarray:

@@ -51,7 +51,8 @@ def surface_epsilon(scene, points=None, anchor=None, *, float32_points=True):
     # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
     if not float32_points:
         return eps
-    return np.where(float32_exact(P).all(axis=1), np.maximum(eps, 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))), eps)
+    own = 4.0 * np.spacing(np.abs(P).max(axis=1).astype(np.float32))
+    return np.where(float32_exact(P).all(axis=1), np.maximum(eps, own), eps)
 
 
 def end_epsilon(scene, points, directions, tmax, anchor=None) -> np.ndarray:

@@ -163,7 +163,8 @@ def gbuffer(items, camera) -> dict:
     # a triangle in a plane through the eye (the ground with the eye in it) is seen edge-on: no pixel, as in
     # render_gbuffer; traced from the eye it was met at t = 0 by every ray
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    seen = np.abs(np.einsum("ij,ij->i", n, tris[:, 0])) > 1e-12 * np.linalg.norm(n, axis=1) * np.abs(tris).max(axis=(1, 2))
+    reach = np.abs(tris).max(axis=(1, 2))
+    seen = np.abs(np.einsum("ij,ij->i", n, tris[:, 0])) > 1e-12 * np.linalg.norm(n, axis=1) * reach
     tris, obj, face = tris[seen], obj[seen], face[seen]
     scene = EmbreeScene(tris)
     dirs = camera.ray_directions().reshape(-1, 3)

@@ -154,7 +154,7 @@ def test_extract_sun_radius_is_an_angle_below_a_hemisphere():
     with pytest.raises(ValueError, match=r"radius: the sun's angular radius must lie in \(0, MAX_SUN_RADIUS"):
         extract_sun(EnvironmentMap(a), radius=10.0)
     with pytest.raises(ValueError, match=r"radius: the sun's angular radius must lie in \(0, MAX_SUN_RADIUS"):
-        extract_sun(EnvironmentMap(a), radius=math.pi / 2)     # a sun Lighting refuses (see test_lighting_straddle_scale)
+        extract_sun(EnvironmentMap(a), radius=math.pi / 2)     # a sun Lighting refuses
     assert extract_sun(EnvironmentMap(a), radius=math.pi / 4)[0].irradiance.max() > 0
 
 

@@ -38,9 +38,9 @@ def _under(n=300, seed=0):
 
 @pytest.mark.parametrize("backend", ["csm", "numpy"])
 def test_the_lid_of_a_small_box_beside_a_large_caster_is_not_ground(backend):
-    """Was: the lid (1 mm up) lay within the scene's band of 2 mm, so its points counted as ground under the box: all 200
-    rays straight up from it occluded (Embree: 200 open). Now the box's own band (1e-5 of its 0.87 mm radius) holds only
-    the plane: 200 open."""
+    """Was: the lid (1 mm up) lay within the scene's band of 2 mm, so its points counted as ground under the box: all
+    200 rays straight up from it occluded (Embree: 200 open). Now the box's own band (1e-5 of its 0.87 mm radius) holds
+    only the plane: 200 open."""
     s = _scene(200.0)
     rng = np.random.default_rng(1)
     lid = rng.uniform(-0.4 * BOX, 0.4 * BOX, (200, 3))
@@ -52,8 +52,9 @@ def test_the_lid_of_a_small_box_beside_a_large_caster_is_not_ground(backend):
 
 @pytest.mark.parametrize("backend", ["csm", "numpy"])
 def test_a_small_box_lifted_a_tenth_of_its_size_does_not_rest_beside_a_large_caster(backend):
-    """Was: a box lifted 0.1 mm counted as resting (its underside within 2 mm), and the ground under it as its footprint:
-    all 300 low rays through the gap under it occluded, where Embree has 298 open. Now 298 open on each backend."""
+    """Was: a box lifted 0.1 mm counted as resting (its underside within 2 mm), and the ground under it as its
+    footprint: all 300 low rays through the gap under it occluded, where Embree has 298 open. Now 298 open on each
+    backend."""
     s = _scene(200.0, lift=1e-4)
     g, d = _under()
     assert contact.contact_mask(s, g) is None

@@ -71,7 +71,8 @@ def test_a_clipped_triangle_keeps_its_own_plane(monkeypatch):
     (nothing crosses the near plane, so each face is one triangle), and a sphere before it."""
     wall = trimesh.Trimesh([[-100, -100, -3], [100, -100, -3], [100, 100, -3], [-100, 100, -3]], [[0, 1, 2], [0, 2, 3]],
                            process=False)
-    items = [(wall, np.eye(4)), (trimesh.creation.icosphere(2, 0.5), trimesh.transformations.translation_matrix([.3, 0, -2]))]
+    ball = trimesh.creation.icosphere(2, 0.5)
+    items = [(wall, np.eye(4)), (ball, trimesh.transformations.translation_matrix([0.3, 0, -2]))]
     cam = pyshadow.Camera([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], width=160, height=120)
     tris = gbuffer.gbuffer_triangles(items, cam)[0]
     raster, src = gbuffer.raster_triangles(tris, cam)

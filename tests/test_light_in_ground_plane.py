@@ -43,9 +43,10 @@ def _rays(ground, light_y, below=False, one_light=False, n=1500, seed=3):
 @pytest.mark.parametrize("ground", [0.0, 0.3, -7.77, 1000.1])
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_light_in_the_plane_is_not_hidden_by_the_plane(ground, backend):
-    """Was: about a third of the rays from points above the ground to a light in the plane were hidden, at random, by every
-    backend (plane at 0: csm 924 open of 1,488 where the scene without its ground has 1,405; NumPy 994; Embree 971 of its
-    1,403). Each backend now answers exactly as it does in the same scene without a ground: the plane takes no ray."""
+    """Was: about a third of the rays from points above the ground to a light in the plane were hidden, at random, by
+    every backend (plane at 0: csm 924 open of 1,488 where the scene without its ground has 1,405; NumPy 994; Embree 971
+    of its 1,403). Each backend now answers exactly as it does in the same scene without a ground: the plane takes no
+    ray."""
     p, w, d = _rays(ground, ground)
     with_plane = visibility.visible(_scene(ground), p, w, max_distance=d, straddle="embree", backend=backend)
     without = visibility.visible(_scene(ground, False), p, w, max_distance=d, straddle="embree", backend=backend)
@@ -75,7 +76,8 @@ def test_a_light_a_millimetre_off_the_plane_is_still_across_it(backend):
     """What the fix leaves alone: the end's allowance (the plane's tolerance, 1e-5 of the scale here, plus 2^-20 of the
     start's height, at most 3e-6 for these points) is far below 1 mm, so a light 1 mm under the plane is hidden from
     every point above it, and one 1 mm above it from every point below."""
-    how = dict(backend=ShadowMapVisibility(256)) if backend == "shadow-map" else dict(backend=backend, straddle="embree")
+    how = (dict(backend=ShadowMapVisibility(256)) if backend == "shadow-map"
+           else dict(backend=backend, straddle="embree"))
     one = backend == "shadow-map"                       # a shadow map answers the rays of one light
     p, w, d = _rays(0.0, -1e-3, one_light=one)
     assert not visibility.visible(_scene(0.0), p, w, max_distance=d, **how).any()
@@ -97,10 +99,10 @@ def test_the_end_rule_in_numbers():
 
 @pytest.mark.parametrize("height", [50.0, 300.0, 500.0])
 def test_a_light_in_the_plane_under_a_caster_far_above(height):
-    """Was (9c64835): with a unit sphere (and so the kernels' anchor) 256-512 units above the plane, the float32 rounding of
-    the points' anchored heights reached 1.5e-5, past the end's allowance (1.2e-5): the kernel hid 269 of 2,000 rays to
-    lights in the plane at 300 (the mirror and Embree none). The allowance now adds 2^-20 of the plane's distance from
-    the anchor, on every backend."""
+    """Was (9c64835): with a unit sphere (and so the kernels' anchor) 256-512 units above the plane, the float32
+    rounding of the points' anchored heights reached 1.5e-5, past the end's allowance (1.2e-5): the kernel hid 269 of
+    2,000 rays to lights in the plane at 300 (the mirror and Embree none). The allowance now adds 2^-20 of the plane's
+    distance from the anchor, on every backend."""
     s = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
     s.add(trimesh.creation.icosphere(2, 1.0), trimesh.transformations.translation_matrix([0, height, 0]))
     rng = np.random.default_rng(1)

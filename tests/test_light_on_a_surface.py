@@ -40,9 +40,9 @@ def _towards(light, n=1200):
 
 @pytest.mark.parametrize("backend", ["embree", "csm"])
 def test_a_point_light_on_the_lid_lights_what_it_lights_just_above_it(scene, backend):
-    """Was: Embree's segment ended exactly on the lid, which hid it by rounding: of the sphere's points facing a light at
-    the lid's centre, 62 of 400 lit where the light 1e-6 above lights 222 (the CSM answers these rays, which end inside
-    the box's bounding sphere, through Embree). Now the same points are lit, ray for ray."""
+    """Was: Embree's segment ended exactly on the lid, which hid it by rounding: of the sphere's points facing a light
+    at the lid's centre, 62 of 400 lit where the light 1e-6 above lights 222 (the CSM answers these rays, which end
+    inside the box's bounding sphere, through Embree). Now the same points are lit, ray for ray."""
     on, above = np.array([1.5, 1.0, 0.0]), np.array([1.5, 1.0 + 1e-6, 0.0])
     p, w, d = _towards(on)
     lit_on = visibility.visible(scene, p, w, backend=backend, max_distance=d, straddle="embree")
@@ -53,9 +53,9 @@ def test_a_point_light_on_the_lid_lights_what_it_lights_just_above_it(scene, bac
 
 
 def test_a_disc_light_lying_on_the_lid_is_not_hidden_by_it(scene):
-    """Was: a disc light of radius 0.3 lying on the lid, facing up, lit the sphere's points with a mean lit share of 0.30
-    (233 points; its samples' rays ended on the lid), where raised 1e-7 it lights 241 with 0.996. Now the shares equal
-    those of the raised disc within 1e-6 (the samples move 1e-7)."""
+    """Was: a disc light of radius 0.3 lying on the lid, facing up, lit the sphere's points with a mean lit share of
+    0.30 (233 points; its samples' rays ended on the lid), where raised 1e-7 it lights 241 with 0.996. Now the shares
+    equal those of the raised disc within 1e-6 (the samples move 1e-7)."""
     p, _, _ = _towards(np.array([1.5, 1.3, 0.0]))
     n = (p - [0, 1, 0]) / 0.5
     share = [area_light_radiance(scene, p, n, DiscLight([1.5, y, 0.0], [0, 1, 0], 0.3, intensity=1.0), 0.5,

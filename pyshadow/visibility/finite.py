@@ -29,16 +29,15 @@ crosses it: from a point on or above it (within the kernels' tolerance,
 :func:`pyshadow.contact.ground_tolerance`) going down to an end below it,
 or from a point below it going up to an end above it; a point on the plane
 (within that tolerance) going down enters the ground at once, whatever the
-ray's length. The end counts as on
-the plane within that tolerance plus ``END_ROUNDING`` (2^-20) of the start's
-height and of the plane's distance from the anchor the kernels read the
-point relative to: an end computed from the start (a light in the plane,
-``p + t w`` with ``t`` and ``w`` rounded, the anchored height in float32)
-lies off the plane by the rounding of those, about 1e-7 of them in
-float32, and a light exactly in the plane is
-therefore not hidden by the plane (before, 35 % of the rays from points
-above the ground to lights in it were hidden, at random, differently by
-each backend).
+ray's length. The end counts as on the plane within that tolerance plus
+``END_ROUNDING`` (2^-20) of the start's height and of the plane's distance
+from the anchor the kernels read the point relative to: an end computed
+from the start (a light in the plane, ``p + t w`` with ``t`` and ``w``
+rounded, the anchored height in float32) lies off the plane by the rounding
+of those, about 1e-7 of them in float32. A light exactly in the plane is
+therefore not hidden by the plane (before, about a third of the rays from
+points above the ground to lights in it were hidden, at random, differently
+by each backend).
 
 Every backend applies these rules (the kernel under ``FINITE_RAYS=1``, the
 NumPy mirror in float64, Embree with ``tfar``); ``max_distance=None`` (or
@@ -64,11 +63,11 @@ from .._validate import squared_lengths
 from ..scene_arrays import scene_arrays
 
 __all__ = ["END_ROUNDING", "STRADDLE", "AO_STRADDLE", "check_max_distance", "check_straddle", "unit_directions",
-           "straddling", "ground_blocks", "ground_offsets", "answer_finite", "check_ao_options", "ao_nodes", "obscurance_weight", "shell_clear",
-           "answer_finite_ao", "rays_ao"]
+           "straddling", "ground_blocks", "ground_offsets", "answer_finite", "check_ao_options", "ao_nodes",
+           "obscurance_weight", "shell_clear", "answer_finite_ao", "rays_ao"]
 
-#: The rounding a finite ray's end may carry off the ground plane, as a fraction of its start's height
-#: (:func:`ground_blocks`; the kernels' ``ground_v`` writes the same number).
+#: The rounding a finite ray's end may carry off the ground plane, as a fraction of its start's height and of
+#: the plane's distance from the anchor (:func:`ground_blocks`; the kernels' ``ground_v`` writes the same number).
 END_ROUNDING = 2.0 ** -20
 #: What to do with rays that end inside a caster's bounding sphere.
 STRADDLE = ("error", "embree")

@@ -147,7 +147,7 @@ def gbuffer(items, camera) -> dict:
     coordinates first (float64), so Embree's float32 stays precise for scenes
     far from the world origin.
     """
-    from .gbuffer import check_transform
+    from .gbuffer import check_transform, through_eye
 
     tris, obj, face = [], [], []
     for oid, item in enumerate(items):
@@ -162,9 +162,7 @@ def gbuffer(items, camera) -> dict:
     face = np.concatenate(face) if face else np.zeros(0, np.int64)
     # a triangle in a plane through the eye (the ground with the eye in it) is seen edge-on: no pixel, as in
     # render_gbuffer; traced from the eye it was met at t = 0 by every ray
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    reach = np.abs(tris).max(axis=(1, 2))
-    seen = np.abs(np.einsum("ij,ij->i", n, tris[:, 0])) > 1e-12 * np.linalg.norm(n, axis=1) * reach
+    seen = ~through_eye(tris)
     tris, obj, face = tris[seen], obj[seen], face[seen]
     scene = EmbreeScene(tris)
     dirs = camera.ray_directions().reshape(-1, 3)

@@ -138,19 +138,23 @@ def _source_planes(tris, src, unit):
     return out
 
 
+def through_eye(tri) -> np.ndarray:
+    """(N,) bool: which eye-relative triangles ``tri`` (N, 3, 3) lie in a plane through the eye, within 1e-12 of
+    their farthest corner (float64's rounding of the camera transform): seen edge-on, they cover no pixel."""
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    reach = np.abs(tri).reshape(len(tri), 9).max(axis=1)
+    return np.abs(np.einsum("ij,ij->i", n, tri[:, 0])) <= 1e-12 * np.linalg.norm(n, axis=1) * reach
+
+
 def _edge_on_crossing(tri, near: float):
     """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) crossing the near plane lie in a plane through
-    the eye (within 1e-12 of their farthest corner, float64's rounding of the camera transform): seen edge-on,
-    they cover no pixel, and are dropped (the ground with the eye in it was refused as reaching into the view,
+    the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the eye in it was refused as reaching into the view,
     or not, by the rounding of its area on screen); None where there is none."""
     below = tri[:, :, 2] < near
     part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))
     if not len(part):
         return None
-    t = tri[part]
-    n = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    reach = np.abs(t).reshape(len(t), 9).max(axis=1)
-    flat = np.abs(np.einsum("ij,ij->i", n, t[:, 0])) <= 1e-12 * np.linalg.norm(n, axis=1) * reach
+    flat = through_eye(tri[part])
     if not flat.any():
         return None
     out = np.zeros(len(tri), bool)

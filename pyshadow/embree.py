@@ -164,9 +164,15 @@ def gbuffer(items, camera) -> dict:
     # render_gbuffer; traced from the eye it was met at t = 0 by every ray
     seen = ~through_eye(tris)
     tris, obj, face = tris[seen], obj[seen], face[seen]
-    scene = EmbreeScene(tris)
+    # rays start where they reach the triangles' bounding sphere (float64), triangles relative to its centre:
+    # from a far eye, float32 coordinates relative to the eye would round corners by 6e-8 of the distance
+    centre = 0.5 * (tris.min(axis=(0, 1)) + tris.max(axis=(0, 1))) if len(tris) else np.zeros(3)
+    reach = float(np.sqrt(((tris - centre) ** 2).sum(axis=2).max())) if len(tris) else 0.0
     dirs = camera.ray_directions().reshape(-1, 3)
-    t, prim, _ng = scene.intersect(np.zeros_like(dirs), dirs)
+    skip = np.maximum(dirs @ centre - reach, 0.0)
+    scene = EmbreeScene(tris - centre)
+    t, prim, _ng = scene.intersect(skip[:, None] * dirs - centre, dirs)
+    t = t + skip
     hit = prim >= 0
     p = np.where(hit, prim, 0)
     if not len(tris):           # no triangles: every pixel misses (one zero row for the lookups below)

@@ -25,7 +25,8 @@ from ._validate import FLOAT32_MAX, check_transform
 from .camera import Camera, points_on_rays
 from .mesh import check_mesh, float32_unit, load_mesh
 
-__all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "raster_triangles", "check_transform"]
+__all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "raster_triangles", "on_face_planes",
+           "check_transform"]
 
 
 def _all3(m: np.ndarray) -> np.ndarray:
@@ -303,6 +304,63 @@ def _finish(camera, t, n_cam, obj, face):
         "face": (face if every else np.where(hit, face, -1)).astype(np.int32).reshape(H, W),
         "depth": (t if every else np.where(hit, t, np.inf)).astype(np.float32),
     }
+
+
+def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0.0) -> dict:
+    """``gbuffer`` with each covered pixel's point on the plane of its face, where float32 depths could miss it.
+
+    A G-buffer's float32 ``depth`` puts a pixel's point ``eye + depth * ray`` off its surface by about
+    a float32 spacing of the depth: from a far camera, more than a ray tracer's lift off a surface or
+    the ground plane's tolerance (then rays start behind the surface). The pixel's face (``object_id``,
+    ``face``; world corners in float64, relative to the eye) and its ray give the distance to float64
+    rounding.
+
+    Parameters
+    ----------
+    items : sequence of (mesh, transform)
+        The drawn items the G-buffer's ``object_id`` indexes.
+    gbuffer : dict
+        :func:`render_gbuffer`'s form; without ``face`` it is returned as it is.
+    camera : pyshadow.Camera
+    covered : ndarray, shape (H, W), bool
+        The pixels to place (``object_id != -1``).
+    tolerance : float, optional
+        World units: the depths are kept while 16 float32 spacings of the farthest covered depth stay
+        within it (0: always placed).
+
+    Returns
+    -------
+    dict
+        ``gbuffer`` itself, or a shallow copy whose ``depth`` is float64 (H, W): along the unit rays
+        of :meth:`pyshadow.Camera.ray_directions` to the face's plane on covered pixels, where that is
+        within 1e-3 of the float32 depth (not a face seen edge-on); the float32 depth elsewhere.
+    """
+    depth = np.asarray(gbuffer["depth"])
+    keep = np.asarray(covered).reshape(-1)
+    if "face" not in gbuffer or not keep.any() or \
+            16.0 * float(np.spacing(np.float32(np.max(depth, where=covered, initial=0.0)))) <= tolerance:
+        return gbuffer
+    index = np.flatnonzero(keep)
+    out = depth.astype(np.float64).reshape(-1)
+    item = np.asarray(gbuffer["object_id"]).reshape(-1)[index]
+    face = np.asarray(gbuffer["face"]).reshape(-1)[index]
+    dirs = camera._rays().reshape(-1, 3)[index]
+    for i in np.unique(item):
+        sel = np.flatnonzero(item == i)
+        mesh, T = items[i]
+        f = face[sel]
+        if f.min() < 0 or f.max() >= len(mesh.faces):
+            raise ValueError(f"gbuffer['face'] holds faces {int(f.min())}..{int(f.max())} of item {int(i)}, whose "
+                             f"mesh has {len(mesh.faces)} faces (the G-buffer was rendered from other items)")
+        T = np.asarray(T, np.float64)
+        w = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + (T[:3, 3] - camera.eye)
+        a, b, c = np.moveaxis(w[np.asarray(mesh.faces)[f]], 1, 0)
+        n = np.cross(b - a, c - a)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.einsum("ij,ij->i", a, n) / np.einsum("ij,ij->i", dirs[sel], n)
+        d = out[index[sel]]
+        out[index[sel]] = np.where(np.abs(t - d) <= 1e-3 * d, t, d)     # NaN t (a sliver's zero normal) fails
+    return {**gbuffer, "depth": out.reshape(depth.shape)}
 
 
 #: Triangles whose screen box holds more pixels than this are rasterised a row to a work-item

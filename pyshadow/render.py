@@ -109,7 +109,9 @@ class SurfacePoints:
     index : ndarray, shape (K,), int64
         Flat pixel index ``r * W + c`` of each point (its sample-pattern index).
     points : ndarray, shape (K, 3), float64
-        World positions ``eye + depth * ray direction``.
+        World positions ``eye + depth * ray direction``; on the plane of the pixel's face in float64
+        where the float32 depth could miss it (:func:`pyshadow.gbuffer.on_face_planes`: renders for
+        Embree, and from a camera far from the scene, whose ``gbuffer`` then holds float64 depths).
     normals : ndarray, shape (K, 3), float32
         World normals facing the camera.
     surface_ids : ndarray, shape (K,), int32
@@ -210,7 +212,17 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
     ao_scale = _check_ao_scale(ao_scale)
     items, ids = scene.draw_items(ground_size)
     g = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
-    return covered_pixels(camera, g, _instance_ids(g, ids), ao_scale=ao_scale)
+    obj = _instance_ids(g, ids)
+    return covered_pixels(camera, _on_faces(scene, items, g, camera, obj != -1), obj, ao_scale=ao_scale)
+
+
+def _on_faces(scene, items, g, camera, covered, exact=False) -> dict:
+    """``g``, or a copy whose float64 depths put the covered pixels on their faces' planes: for a ray tracer
+    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera)."""
+    from .contact import ground_tolerance
+    from .gbuffer import on_face_planes
+
+    return on_face_planes(items, g, camera, covered, 0.0 if exact else ground_tolerance(scene))
 
 
 def _instance_ids(g, ids) -> np.ndarray:
@@ -447,7 +459,9 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     g = render_gbuffer(drawn, camera) if gbuffer is None else gbuffer
     obj = _instance_ids(g, ids)
     hit = obj != -1
-    sp = _points_at(camera, g, obj, hit if ao_scale == 1 else _ao_pass(hit, ao_scale))   # where AO is computed
+    exact = getattr(vis.get_backend(visibility), "exact_surface_points", False)    # a ray tracer's small lift
+    sp = _points_at(camera, _on_faces(scene, drawn, g, camera, hit, exact), obj,
+                    hit if ao_scale == 1 else _ao_pass(hit, ao_scale))   # where AO is computed
     geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)

@@ -25,6 +25,9 @@ class EmbreeVisibility:
     """Exact visibility by Embree occlusion rays (embreex)."""
 
     name = "embree"
+    #: Renders give it points on their faces' planes in float64 (:func:`pyshadow.gbuffer.surface_depths`):
+    #: its lift off a surface (:mod:`pyshadow._embree_lift`) is smaller than a float32 depth's rounding far away.
+    exact_surface_points = True
 
     def __repr__(self) -> str:
         return "<EmbreeVisibility 'embree'>"

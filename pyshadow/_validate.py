@@ -269,13 +269,14 @@ def unit_normals(normals, n: int, name: str = "normals", dtype=np.float64) -> np
     (:func:`squared_lengths`: the value ``np.linalg.norm(m, axis=1)``
     gives), in float64 whatever ``dtype``, which gets the rounded quotients
     (the values of the float64 result cast to it). A row whose squared
-    length underflows to zero or overflows (components below about 1e-154
-    or above 1e154) is first scaled by its largest component, so that it
-    still comes out a unit vector; a row of zeros is refused.
+    length underflows (to zero or to a subnormal, which keeps fewer digits:
+    components below about 1e-154) or overflows (above 1e154) is first
+    scaled by its largest component, so that it still comes out a unit
+    vector; a row of zeros is refused.
     """
     m = rows3(normals, name, n)
     ss = squared_lengths(m)
-    odd = np.flatnonzero(~(ss > 0.0) | (ss == np.inf))
+    odd = np.flatnonzero(~(ss >= np.finfo(np.float64).tiny) | (ss == np.inf))     # subnormal squares lose digits
     if len(odd):
         big = np.abs(m[odd]).max(axis=1)
         if not big.all():

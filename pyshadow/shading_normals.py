@@ -83,11 +83,12 @@ def _vertices(mesh) -> np.ndarray:
     """The mesh's vertices as float64, scaled by a power of two (exactly: no direction or angle changes)
     to a largest |coordinate| in [0.5, 1) where it lies outside [2**-60, 2**60]: the squared lengths of
     the faces' cross products under- or overflowed below about 1e-77 or above 1e77 (corner normals of
-    length 1e-206 at 1e-102, NaN ones beyond 1e154)."""
+    length 1e-206 at 1e-102, NaN ones beyond 1e154). ``np.ldexp``: the factor of a mesh whose coordinates
+    are all subnormal (below 2**-1022) is beyond float64 (``2.0 ** 1030`` raised OverflowError)."""
     v = np.asarray(mesh.vertices, dtype=np.float64)
     big = float(np.abs(v).max()) if v.size else 0.0
     if 0.0 < big < 2.0**-60 or 2.0**60 < big < np.inf:
-        v = v * 2.0 ** -math.frexp(big)[1]
+        v = np.ldexp(v, -math.frexp(big)[1])
     return v
 
 

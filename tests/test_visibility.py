@@ -334,6 +334,18 @@ def test_unit_normals_of_tiny_and_huge_rows():
     assert got.dtype == np.float32 and np.array_equal(got, want)
 
 
+def test_unit_normals_of_rows_whose_squares_are_subnormal():
+    """Was: only rows whose squared length was exactly 0 or inf were rescaled; a row with components between about
+    1e-162 and 1e-154 squared to a subnormal, which keeps fewer digits, and came out up to 6e-6 off unit length
+    ((3e-160, 0, -4e-160): 1.0000055664551362). Now such rows are scaled by their largest component first."""
+    from pyshadow._validate import unit_normals
+
+    odd = np.array([[3e-160, 0.0, -4e-160], [0.0, 1e-158, 1e-158], [2e-155, 2e-155, 1e-155]])
+    h = 0.5 ** 0.5
+    expect = np.array([[0.6, 0.0, -0.8], [0.0, h, h], [2 / 3, 2 / 3, 1 / 3]])
+    np.testing.assert_allclose(unit_normals(odd, len(odd)), expect, rtol=1e-15, atol=0)
+
+
 # ---------------------------------------------------------------------------
 # dtypes, batch sizes, launch shapes, the portable code path
 # ---------------------------------------------------------------------------

@@ -249,9 +249,12 @@ def gbuffer_triangles(items, camera: Camera):
         cut = (z > 0) & (z < near) & (np.abs(c[:, 0]) <= tx * z) & (np.abs(c[:, 1]) <= ty * z)
         if cut.any():
             raise ValueError(f"render_gbuffer: item {oid} has a vertex in view {float(z[cut].min()):.3g} from the eye, "
-                             f"nearer than the near plane {near:.3g} (1e-6 of the farthest geometry in view, "
-                             f"{far:.3g}: the depth range float32's rasteriser places in one view); draw the bodies "
-                             "near the camera as a scene of their own")
+                             f"nearer than the near plane {near:.3g} " + (
+                                 f"(1e-6 of the farthest geometry in view, {far:.3g}: the depth range float32's "
+                                 "rasteriser places in one view); draw the bodies near the camera as a scene of "
+                                 "their own" if near > 1e-30 else
+                                 f"(the smallest the G-buffer takes; the farthest geometry in view is {far:.3g} from "
+                                 "the eye); scale the scene and the camera up"))
     all_tri, all_obj, all_face = [], [], []
     for c, faces, oid in per:
         if len(faces) == 0:

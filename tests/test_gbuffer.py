@@ -213,3 +213,13 @@ def test_check_transform_rigid():
     P[3, 0] = 0.1
     with pytest.raises(ValueError, match="affine"):
         check_transform(P)
+
+
+def test_a_scene_below_the_smallest_near_plane_is_told_to_scale_up():
+    """Was: a box of side 2**-120 seen from 3 of its sides away was refused as "nearer than the near plane 1e-30
+    (1e-6 of the farthest geometry in view, 3.04e-36 ...)": 1e-30 is not 1e-6 of 3e-36. Now the message names the
+    G-buffer's smallest near plane and asks for the scene scaled up."""
+    m = trimesh.creation.box((2.0**-120,) * 3)
+    cam = pyshadow.Camera(eye=(0, 0, 3 * 2.0**-120), target=(0, 0, 0), width=8, height=6)
+    with pytest.raises(ValueError, match=r"near plane 1e-30 \(the smallest the G-buffer takes; .* scale the scene"):
+        pyshadow.render_gbuffer([(m, np.eye(4))], cam)

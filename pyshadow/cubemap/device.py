@@ -22,8 +22,7 @@ def probe_buffers(probe):
     bufs = _BUFFERS.get(probe)
     if bufs is None:
         n = probe.normal.reshape(-1, 3).astype(np.float64)
-        P = probe.position.reshape(-1, 3).astype(np.float64) - probe.centre
-        h = np.einsum("ij,ij->i", n, np.nan_to_num(P))
+        h = np.einsum("ij,ij->i", n, np.nan_to_num(probe.texel_offsets()))
         plane = np.concatenate([n, h[:, None]], axis=1).astype(np.float32)
         bufs = (_cl.to_device(plane, np.float32), _cl.to_device(probe.depth.reshape(-1), np.float32),
                 _cl.to_device(probe.occluder.reshape(-1), np.uint8), _cl.to_device(_FRAMES, np.float32))

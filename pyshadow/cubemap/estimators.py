@@ -13,7 +13,8 @@ step function of seed 002's section 4.3.1 in place of its ``rho(L)``.
     distance ``r`` near a face centre). Each ``q_k`` is looked up in its
     texel (nearest, :func:`~pyshadow.cubemap.probe.direction_texels`); the
     texel's surface depth along the exact direction ``u`` of ``q_k`` is that
-    of the texel's plane (position, normal), ``z(u) = n.(P - c) / n.u``, or
+    of the texel's plane (position, normal), ``z(u) = n.(P - c) / n.u``
+    (``P - c`` from the centre depth, :meth:`CubeProbe.texel_offsets`), or
     the stored centre depth where the plane is grazing (``|n.u| < 0.1``).
 
     **Occlusion rule.** ``q_k`` is occluded when its texel shows a caster and
@@ -144,9 +145,9 @@ def _rays(probe, points, directions):
 
 
 def _plane_offset(probe):
-    """``n . (P - c)`` per texel, (6 R^2,) float64 (NaN where nothing is seen)."""
-    P = probe.position.reshape(-1, 3).astype(np.float64) - probe.centre
-    return np.einsum("ij,ij->i", probe.normal.reshape(-1, 3).astype(np.float64), P)
+    """``n . (P - c)`` per texel, (6 R^2,) float64 (NaN where nothing is seen; ``P - c`` from the depth,
+    :meth:`CubeProbe.texel_offsets`)."""
+    return np.einsum("ij,ij->i", probe.normal.reshape(-1, 3).astype(np.float64), probe.texel_offsets())
 
 
 def _surface_depth(probe, h, flat, u):

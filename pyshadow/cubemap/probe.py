@@ -173,7 +173,7 @@ class CubeProbe:
             self.normal[f] = g["normal"]
             self.object_id[f] = np.where(hit, ids[np.maximum(item, 0)] if len(ids) else -1, -1)
             self.occluder[f] = hit & (casts[np.maximum(item, 0)] if len(casts) else False)
-            back[f], owner[f] = _back_faces(items, g, c)
+            back[f], owner[f] = _back_faces(items, g, self.texel_offsets(np.arange(f * R * R, (f + 1) * R * R)))
         self._check_outside(back, owner, items, ids)
 
     # ------------------------------------------------------------------
@@ -216,11 +216,29 @@ class CubeProbe:
             Unit normals facing the probe.
         """
         index = np.flatnonzero(np.isfinite(self.depth).reshape(-1))
-        u = self.texel_directions(index)
-        pts = self.centre + self.depth.reshape(-1)[index, None].astype(np.float64) * u
+        pts = self.centre + self.texel_offsets(index)
         n = self.normal.reshape(-1, 3)[index].astype(np.float64)
         n /= np.linalg.norm(n, axis=1, keepdims=True)
         return index, pts, n
+
+    def texel_offsets(self, index=None) -> np.ndarray:
+        """Surface point of flat texels ``index`` (default all) relative to the centre, ``depth * u``.
+
+        From the distance, not from :attr:`position`: a float32 world
+        position far from the origin is rounded by far more than the
+        distance (0.06 at 1e6), and planes or vectors taken from it moved
+        the answers of a scene under a rigid motion.
+
+        Returns
+        -------
+        ndarray, shape (K, 3), float64
+            NaN where the texel sees nothing.
+        """
+        R = self.resolution
+        index = np.arange(6 * R * R) if index is None else np.asarray(index, dtype=np.int64)
+        d = self.depth.reshape(-1)[index].astype(np.float64)
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isfinite(d)[:, None], d[:, None] * self.texel_directions(index), np.nan)
 
     def texel_directions(self, index) -> np.ndarray:
         """Unit world direction of the centre ray of flat texels ``index``, (K, 3) float64."""
@@ -238,8 +256,12 @@ class CubeProbe:
         return f"CubeProbe(centre={self.centre.tolist()}, resolution={self.resolution}, stale={self.stale})"
 
 
-def _back_faces(items, g, centre):
-    """Which texels of one face show a mesh face whose winding normal points away from the probe."""
+def _back_faces(items, g, offsets):
+    """Which texels of one face show a mesh face whose winding normal points away from the probe.
+
+    ``offsets`` (R^2, 3): the texels' points relative to the probe's centre (:meth:`CubeProbe.texel_offsets`;
+    ``g["position"] - centre`` read float32 world points, 0.5 off at 1e7: a probe inside a 0.3 box there passed).
+    """
     item, face = g["object_id"], g["face"]
     back = np.zeros(item.shape, bool)
     hit = item >= 0
@@ -248,7 +270,7 @@ def _back_faces(items, g, centre):
         if not sel.any():
             continue
         fn = np.asarray(mesh.face_normals, dtype=np.float64)[face[sel]] @ np.asarray(T, np.float64)[:3, :3].T
-        back[sel] = np.einsum("ij,ij->i", fn, g["position"][sel].astype(np.float64) - centre) > 0
+        back[sel] = np.einsum("ij,ij->i", fn, offsets[sel.reshape(-1)]) > 0
     return back, np.where(hit, item, -1)
 
 

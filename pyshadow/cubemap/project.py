@@ -121,7 +121,7 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
         n = probe.normal.reshape(-1, 3)[fl].astype(np.float64)
         den = np.einsum("ij,ij->i", n, uh)
         zc = probe.depth.reshape(-1)[fl].astype(np.float64)
-        P = probe.position.reshape(-1, 3)[fl].astype(np.float64) - c
+        P = probe.texel_offsets(fl)                       # P - c from the depth (float32 world P moves far out)
         with np.errstate(divide="ignore", invalid="ignore"):
             zp = np.einsum("ij,ij->i", n, P) / den
         z = np.where((np.abs(den) >= GRAZING) & (zp > 0) & np.isfinite(zc), zp, zc)

@@ -124,6 +124,30 @@ def _run_passes(names, defines: dict, image: np.ndarray, guides, scalars, size) 
     return out
 
 
+def _value_scale(image: np.ndarray, surf: np.ndarray, fill: float = 0.0) -> float:
+    """A power of two that brings the largest ``|value|`` of ``image`` where ``surf`` (and ``|fill|``)
+    down to ``2**100`` (1.3e30), 1 where it is no larger.
+
+    The kernels sum up to 65 x 65 weighted taps in float32: values beyond about
+    8e34 overflowed there to inf (an edge-aware box over values of 1e37: 84 of
+    240 pixels inf, every pixel for values of 3e38) although their mean is
+    finite. A weighted mean scales with its values, and a power of two changes
+    no significand: the filter of the scaled image, scaled back, is the
+    filter's answer (values below ``2**-126 / scale`` become subnormal and keep
+    fewer bits).
+    """
+    top = max(float(np.max(np.abs(image), where=surf, initial=0.0)), abs(fill))
+    return 1.0 if top <= 2.0 ** 100 else float(2.0 ** (100 - np.ceil(np.log2(top))))
+
+
+def _unscale(out: np.ndarray, scale: float, background: np.ndarray, kept) -> np.ndarray:
+    """``out / scale``, with ``kept`` (the unscaled input or ``fill``) restored where ``background``."""
+    if scale != 1.0:
+        out = out / np.float32(scale)
+        out[background] = kept[background] if isinstance(kept, np.ndarray) else kept
+    return out
+
+
 def _row_range(W: int, H: int):
     """The range of the bilateral and box kernels: LANES pixels of a row a work-item."""
     return lambda lanes: (-(-W // lanes), H)
@@ -212,8 +236,11 @@ def bilateral(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=
     if radius == 0:
         return ao.copy()
     passes = ("bilateral_rows", "bilateral_cols") if separable else ("bilateral_2d",)
-    return _run_passes(passes, {"RADIUS": radius}, ao, (depth, _planes(normal)),
-                       (np.int32(W), np.int32(H), _inv(ss), _inv(sz), _inv(sn)), _row_range(W, H))
+    k = _value_scale(ao, np.isfinite(depth))
+    out = _run_passes(passes, {"RADIUS": radius}, ao if k == 1.0 else ao * np.float32(k),
+                      (depth, _planes(normal)),
+                      (np.int32(W), np.int32(H), _inv(ss), _inv(sz), _inv(sn)), _row_range(W, H))
+    return _unscale(out, k, ~np.isfinite(depth), ao)
 
 
 # --------------------------------------------------------------------------
@@ -274,8 +301,11 @@ def edge_aware_box(ao, depth, normal, *, size=7, depth_threshold=0.02,
     ao, depth, normal, size, dt, nt = box_inputs(ao, depth, normal, size, depth_threshold,
                                                  normal_threshold)
     H, W = depth.shape
-    return _run_passes(("edge_aware_box",), {"HALF": size // 2}, ao, (depth, _planes(normal)),
-                       (np.int32(W), np.int32(H), np.float32(dt), np.float32(nt)), _row_range(W, H))
+    k = _value_scale(ao, np.isfinite(depth))
+    out = _run_passes(("edge_aware_box",), {"HALF": size // 2},
+                      ao if k == 1.0 else ao * np.float32(k), (depth, _planes(normal)),
+                      (np.int32(W), np.int32(H), np.float32(dt), np.float32(nt)), _row_range(W, H))
+    return _unscale(out, k, ~np.isfinite(depth), ao)
 
 
 # --------------------------------------------------------------------------
@@ -374,7 +404,10 @@ def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None,
     # taps for consecutive low-res columns as whole vectors
     guides = (depth, normal, np.ascontiguousarray(depth[::scale, ::scale]),
               _planes(normal[::scale, ::scale]))
-    return _run_passes(("upsample_joint_bilateral",), defines, ao_low, guides,
-                       (np.int32(W), np.int32(H), np.int32(Wl), np.int32(Hl),
-                        _inv(ss), _inv(sz), _inv(sn), np.float32(fill)),
-                       lambda lanes: (scale * -(-Wl // lanes), H))
+    k = _value_scale(ao_low, np.isfinite(guides[2]), fill)
+    out = _run_passes(("upsample_joint_bilateral",), defines,
+                      ao_low if k == 1.0 else ao_low * np.float32(k), guides,
+                      (np.int32(W), np.int32(H), np.int32(Wl), np.int32(Hl),
+                       _inv(ss), _inv(sz), _inv(sn), np.float32(fill * k)),
+                      lambda lanes: (scale * -(-Wl // lanes), H))
+    return _unscale(out, k, ~np.isfinite(depth), np.float32(fill))

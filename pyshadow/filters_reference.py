@@ -113,14 +113,26 @@ def separable_reference(ao, depth, normal, *, radius=None, sigma_spatial=2.0, si
 @keyword_only("pyshadow.filters.edge_aware_box_reference")
 def edge_aware_box_reference(ao, depth, normal, *, size=7, depth_threshold=0.02,
                              normal_threshold=0.9) -> np.ndarray:
-    """NumPy version of :func:`edge_aware_box` (same rules, float64 arithmetic)."""
+    """NumPy version of :func:`edge_aware_box` (same rules; the mean in float64).
+
+    Which neighbours count is decided in float32 as on the device: the
+    quotient ``|z_q - z_p| / z_p`` against ``float32(depth_threshold)`` and
+    the dot product ``(x x' + y y') + z z'`` against
+    ``float32(normal_threshold)``. Decided in float64, a neighbour within
+    float32 rounding of a threshold could count here and not there (433 of
+    400,000 depth pairs near the default 0.02, 17,632 of 400,000 normal
+    pairs near 0.9: a 1 x 2 image gave 0.5 here, 0 on the device).
+    """
     ao, depth, normal, size, dt, nt = box_inputs(ao, depth, normal, size, depth_threshold,
                                                  normal_threshold)
     h = size // 2
 
     def counted(dy, dx, zp, zq, np_, nq):
-        with np.errstate(invalid="ignore"):
-            same = (np.abs(zq - zp) / zp < dt) & (np.sum(np_ * nq, axis=-1) > nt)
+        zp, zq = zp.astype(np.float32), zq.astype(np.float32)
+        p, q = np_.astype(np.float32), nq.astype(np.float32)
+        with np.errstate(all="ignore"):         # background taps (inf, any normal) are dropped below
+            dot = (p[..., 0] * q[..., 0] + p[..., 1] * q[..., 1]) + p[..., 2] * q[..., 2]
+            same = (np.abs(zq - zp) / zp < np.float32(dt)) & (dot > np.float32(nt))
         return (same & np.isfinite(zq)).astype(np.float64)
 
     offsets = [(dy, dx) for dy in range(-h, h + 1) for dx in range(-h, h + 1) if (dy, dx) != (0, 0)]

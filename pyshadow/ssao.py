@@ -42,6 +42,7 @@ from .sampling import MAX_SAMPLES, Sampling, direction_table, pattern_indices, s
 __all__ = ["screen_space_ao", "screen_space_ao_reference", "view_depth"]
 
 _MIN_DEPTH = float(np.finfo(np.float32).tiny)
+_TINY = float(np.finfo(np.float64).tiny)     # floor of the margins' divisors (was 1e-30: not scale-free)
 
 
 def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
@@ -83,12 +84,38 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
         raise ValueError(f"gbuffer['normal'] must be finite and non-zero wherever depth is finite ({e})") from None
     dirs = camera.ray_directions().reshape(-1, 3)
     rel = np.where(hit[:, None], np.where(hit, depth, 0.0)[:, None] * dirs, 0.0)
+    unit_scale = _fit_float32(rel, radius, bias)
+    rel, depth, radius, bias = rel * unit_scale, depth * unit_scale, radius * unit_scale, bias * unit_scale
     n = np.zeros_like(normal)
     n[hit] = unit
     n[~hit] = (0.0, 1.0, 0.0)
     return (rel.astype(np.float32), n.astype(np.float32), _view_depth(depth, camera).reshape(-1), radius,
             Sampling(int(samples), seed=seed), np.float32(bias),
             np.float32(radius if range_check else np.inf))
+
+
+def _fit_float32(rel, radius: float, bias: float) -> float:
+    """A power of two that keeps the lengths of the SSAO kernel finite and normal in float32, 1 if they are.
+
+    A sample point ``p + radius * w`` has coordinates up to ``|p|_1 + radius``
+    (``|p|_1`` the sum of the absolute coordinates of a surface point ``p``
+    relative to the eye), and its view coordinates up to ``sqrt(3)`` times
+    that: where ``max |p|_1 + radius + bias`` exceeds ``2**125`` (4.3e37) they
+    could overflow float32 (a G-buffer 3e38 away with a radius of 1.5e38 left
+    84 of 768 pixels up to 0.16 off the unit scene's). SSAO does not change when
+    every length is scaled by a power of two (no significand changes), so
+    scaling them down by the least one that brings that sum to ``2**125`` keeps
+    the answer; below it nothing is scaled. Scenes whose sum lies below
+    ``2**-100`` (8e-31) are scaled up to it, so that neither a length (a small
+    bias, a coordinate near 0) nor a product in the kernel is rounded to a
+    float32 subnormal.
+    """
+    top = float(np.abs(rel).sum(axis=1).max(initial=0.0)) + radius + bias
+    if top < 2.0 ** -100:               # likewise up: no length rounded to a float32 subnormal
+        return float(2.0 ** (-100 - np.floor(np.log2(top))))
+    if top <= 2.0 ** 125:
+        return 1.0
+    return float(2.0 ** (125 - np.ceil(np.log2(top))))
 
 
 def _number(value, name: str, what: str) -> float:
@@ -264,13 +291,13 @@ def screen_space_ao_reference(gbuffer, camera, radius, *, samples: int = 16, see
         occ = known & (zb < zc - bias) & (np.abs(zp - zb) <= rng)
         ao[pix] = np.float32(1.0) - occ.sum(axis=1).astype(np.float32) / np.float32(sampling.samples)
         if return_margin:
-            scale = np.maximum(np.abs(zc), 1e-30)
+            scale = np.maximum(np.abs(zc), _TINY)            # only 0 floored: margins are scale-free
             with np.errstate(invalid="ignore"):
                 m = np.minimum.reduce([
                     np.abs(col - np.round(col)), np.abs(row - np.round(row)),
                     np.where(known, np.abs(zb - (zc - bias)) / scale, np.inf),
                     np.where(known & np.isfinite(rng), np.abs(np.abs(zp - zb) - rng) / scale, np.inf),
-                    np.abs(zc) / np.maximum(np.linalg.norm(q, axis=2), 1e-30)])
+                    np.abs(zc) / np.maximum(np.linalg.norm(q, axis=2), _TINY)])
             margin[pix] = np.nanmin(np.where(np.isnan(m), 0.0, m), axis=1)
     ao = ao.reshape(H, W)
     return (ao, margin.reshape(H, W)) if return_margin else ao

@@ -73,7 +73,8 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
     ------
     ValueError
         A radius that is not finite and > 0, a kernel size < 1, a bias that
-        is not finite.
+        is not finite, a camera image narrower or lower than 16 pixels (VTK
+        renders in a window of its size) or wider or higher than 16384.
     TypeError
         A kernel size that is not an integer, a radius or bias that is no
         real number (a bool, a string), ``blur`` not True or False.
@@ -91,7 +92,12 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
     if not np.isfinite(bias):
         raise ValueError(f"bias must be finite (world units), got {bias}")
     blur = flag(blur, "blur")           # the string "no" blurred
-    from .plotter import _pv, make_plotter
+    from .plotter import MAX_WINDOW_SIDE, _pv, make_plotter
+
+    if not (16 <= camera.width <= MAX_WINDOW_SIDE and 16 <= camera.height <= MAX_WINDOW_SIDE):
+        # (the error was make_plotter's, about a window_size the caller never gave)
+        raise ValueError(f"camera must be 16..{MAX_WINDOW_SIDE} pixels wide and high for VTK's SSAO pass "
+                         f"(it renders in a window of the camera's size), got {camera.width}x{camera.height}")
 
     pv = _pv()
     items, _ = scene.draw_items()

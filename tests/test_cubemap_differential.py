@@ -121,3 +121,17 @@ def test_probe_inside_a_body_is_refused_far_from_the_origin(shift):
     with pytest.raises(ValueError, match=r"inside instance 0 \(99% of its texels"):
         CubeProbe(scene, np.array([0.0, 5.0, -0.25]) + shift, R)
     CubeProbe(scene, np.array([0.8, 0.15, 0.9]) + shift, R)           # 0.05 in front of the box: outside
+
+
+@pytest.mark.parametrize("shift", [1e3, 1e6])
+def test_horizon_estimator_is_invariant_under_a_rigid_motion(probes, shift):
+    """Was: the thesis's horizon estimator took its texels' points and the horizon samples from the float32 world
+    positions: at R = 64 moved by 1e3, 2,810 of 17,716 texels changed by up to 0.086 (by up to 0.21 at 1e6). Now
+    from the depths (texel_offsets): the same bits wherever the scene lies. (At the origin 658 texels moved by up to
+    0.061; against Embree's distance-limited AO of the same points, 256 rays each, the mean error stays 0.0207.)"""
+    from pyshadow.cubemap import texel_ao
+
+    base = texel_ao(probes[0.0], D, estimator="horizon")
+    moved = texel_ao(probes[shift], D, estimator="horizon")
+    assert np.isfinite(base).sum() > 3000
+    np.testing.assert_array_equal(moved, base)

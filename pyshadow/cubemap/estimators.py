@@ -331,7 +331,7 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
     for name, val, hi in (("directions", directions, 64), ("steps", steps, 256)):
         if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or not 1 <= val <= hi:
             raise ValueError(f"{name} must be an int in 1..{hi}, got {val!r}")
-    R, c = probe.resolution, probe.centre
+    R = probe.resolution
     out = np.full((6, R, R), np.nan, np.float32)
     theta = 2.0 * np.pi * np.arange(directions) / directions
     dirs2 = np.stack([np.cos(theta), np.sin(theta)], axis=1)            # (Nd, 2): +u right, +v down
@@ -341,7 +341,7 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
         rows, cols = np.nonzero(np.isfinite(probe.depth[f]))
         if len(rows) == 0:
             continue
-        P = probe.position[f, rows, cols].astype(np.float64)
+        P = probe.texel_offsets(f * R * R + rows * R + cols)           # relative to the centre, from the depth
         n = probe.normal[f, rows, cols].astype(np.float64)
         n /= np.linalg.norm(n, axis=1, keepdims=True)
         uv = np.stack([(cols + 0.5) / R, (rows + 0.5) / R], axis=1)     # (K, 2)
@@ -351,10 +351,10 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
             uv2 = uv + d2 / R
             ray = fr[2] + (2 * uv2[:, :1] - 1) * fr[0] + (1 - 2 * uv2[:, 1:]) * fr[1]
             with np.errstate(divide="ignore", invalid="ignore"):
-                s = np.einsum("ij,ij->i", n, P - c) / np.einsum("ij,ij->i", n, ray)
-                tang = c + s[:, None] * ray - P
+                s = np.einsum("ij,ij->i", n, P) / np.einsum("ij,ij->i", n, ray)
+                tang = s[:, None] * ray - P
                 tang /= np.linalg.norm(tang, axis=1, keepdims=True)
-            u1, v1 = _project_uv(fr, P + dw * tang - c)
+            u1, v1 = _project_uv(fr, P + dw * tang)
             step_uv = np.hypot(u1 - uv[:, 0], v1 - uv[:, 1])
             ok = np.isfinite(step_uv) & (s > 0)
             for j in range(steps):
@@ -363,7 +363,7 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
                 ok = inside                                             # Listing 4.14: break at the border
                 er = np.clip(np.floor(e[:, 1] * R), 0, R - 1).astype(int)
                 ec = np.clip(np.floor(e[:, 0] * R), 0, R - 1).astype(int)
-                E = probe.position[f, er, ec].astype(np.float64)
+                E = probe.texel_offsets(f * R * R + er * R + ec)
                 En = probe.normal[f, er, ec].astype(np.float64)
                 v = E - P
                 dist = np.linalg.norm(v, axis=1)

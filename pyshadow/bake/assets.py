@@ -8,19 +8,20 @@ shared file system, and only the driver writes files (atomically).
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import socket
 import tempfile
 import time
 import traceback
 import warnings
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
 from .params import AssetParams
 
-__all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "csm_file_bytes"]
+__all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "csm_file_bytes", "side_files"]
 
 
 def output_names(name: str, params: AssetParams) -> dict:
@@ -30,6 +31,47 @@ def output_names(name: str, params: AssetParams) -> dict:
 
 def _sha256(b: bytes) -> str:
     return hashlib.sha256(b).hexdigest()
+
+
+def _beside(uri: str) -> bool:
+    """True for a file name that lies in its mesh file's folder or below it (not ``data:``, absolute or ``..``)."""
+    rel = PurePosixPath(uri)
+    return (bool(rel.parts) and not rel.is_absolute() and ".." not in rel.parts and "base64," not in uri
+            and not uri.startswith("data:"))
+
+
+def side_files(path) -> dict:
+    """The files a mesh file reads besides itself, which must travel with it to a worker.
+
+    A ``.gltf`` names its binary buffers and images by ``uri``, files of
+    its folder (the usual export: ``model.gltf`` and ``model.bin``); a
+    worker reads the mesh from a temporary folder, where they must be too.
+    Other formats give their geometry in the one file (an OBJ's
+    materials hold none).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The mesh file.
+
+    Returns
+    -------
+    dict
+        ``uri`` (as the file names it) -> path, for each one that is a
+        file in the mesh file's folder or below it; empty for other
+        formats and for a ``.gltf`` that cannot be read (its bake then
+        reports the error).
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".gltf":
+        return {}
+    try:
+        doc = json.loads(path.read_bytes())
+        uris = [item["uri"] for key in ("buffers", "images") for item in doc.get(key, [])
+                if isinstance(item, dict) and isinstance(item.get("uri"), str)]
+    except (OSError, ValueError, TypeError, AttributeError, RecursionError):
+        return {}
+    return {uri: path.parent / uri for uri in uris if _beside(uri) and (path.parent / uri).is_file()}
 
 
 def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
@@ -119,20 +161,28 @@ def csm_file_bytes(csm) -> bytes:
         return path.read_bytes()
 
 
-def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> dict:
+def _source_name(name: str, suffix: str) -> str:
+    """The source file's name in messages: ``name`` (its stem) and ``suffix``, whose first of two
+    extensions (``.tar.gz``, ``.ply.bz2``) ends the stem already."""
+    head, dot, tail = suffix[1:].partition(".")
+    return f"{name}.{tail}" if dot and name.lower().endswith(f".{head}") else name + suffix
+
+
+def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str, side: dict | None = None) -> dict:
     """Bake one asset: build its CSM, bake per-vertex AO and bent normals.
 
     The task function of :func:`pyshadow.bake.bake_assets`; it never raises
     for a bad asset (the error is returned) and writes nothing but a
-    temporary copy of the source (the mesh readers want a file).
+    temporary copy of the source and its side files (the mesh readers want
+    files).
 
     Parameters
     ----------
     name : str
         The asset's name (output file stem).
     suffix : str
-        The source file's extension with its dot (``".obj"``): tells the
-        reader the format.
+        The source file's extension with its dot (``".obj"``; a compressed
+        file's last two, ``".ply.bz2"``): tells the reader the format.
     data : bytes
         The source file's content.
     params : dict
@@ -140,6 +190,9 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> d
     key : str
         :func:`pyshadow.bake.params.asset_key` of this asset (stored in the
         record).
+    side : dict, optional
+        The files the mesh file reads besides itself (:func:`side_files`):
+        ``uri`` -> bytes, written beside the temporary copy of the source.
 
     Returns
     -------
@@ -161,6 +214,10 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> d
     src = None
     try:
         with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+            for uri, content in (side or {}).items():
+                if _beside(uri):        # never outside the temporary folder
+                    (Path(d) / uri).parent.mkdir(parents=True, exist_ok=True)
+                    (Path(d) / uri).write_bytes(content)
             src = Path(d) / f"asset{suffix}"
             src.write_bytes(data)
             with warnings.catch_warnings(record=True) as caught:
@@ -197,7 +254,7 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str) -> d
         record["status"] = "baked"
     except Exception as e:          # a bad asset is reported, never fatal to the job
         message = f"{type(e).__name__}: {e}"
-        record["error"] = message.replace(str(src), name + suffix) if src is not None else message
+        record["error"] = message.replace(str(src), _source_name(name, suffix)) if src is not None else message
         record["traceback"] = traceback.format_exc(limit=6)
         files = {}
     record["timings"]["total_s"] = time.perf_counter() - t0

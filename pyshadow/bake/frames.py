@@ -68,7 +68,7 @@ def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
         f = np.ascontiguousarray(mesh.faces, np.int64)
         csm = csm_file_bytes(csm_for(name, mesh)) if casts else None
         out.append({"name": name, "casts": bool(casts), "vertices": v, "faces": f, "csm": csm})
-        for b in (name.encode(), bytes([casts]), v.tobytes(), f.tobytes(), csm or b""):
+        for b in (name.encode(), bytes([bool(casts)]), v.tobytes(), f.tobytes(), csm or b""):    # np.bool_ too
             h.update(hashlib.sha256(b).digest())
     cam = _camera_dict(camera)
     h.update(json.dumps({"camera": cam, "ground": ground, "render": render}, sort_keys=True).encode())

@@ -15,6 +15,7 @@ it lists is present with the recorded SHA-256.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import time
@@ -22,7 +23,7 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 from .._version import __version__
-from .assets import bake_asset, output_names
+from .assets import bake_asset, output_names, side_files
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
 from .runner import _TEMPORARY, close_executor, executor_info, open_executor, sweep_temporaries
@@ -36,6 +37,13 @@ def _mesh_suffixes() -> set:
     import trimesh
 
     return {"." + f.lower() for f in trimesh.available_formats()}
+
+
+def _reader_suffix(path: Path) -> str:
+    """The extension that tells the mesh reader a file's format: the last one, or the last two for a
+    compressed file (``.tar.gz``, ``.ply.bz2``: its archive's, or the format of the mesh it holds)."""
+    last = path.suffix.lower()
+    return "".join(path.suffixes[-2:]).lower() if last in (".gz", ".bz2") and len(path.suffixes) > 1 else last
 
 
 def find_assets(sources) -> tuple[list, list]:
@@ -74,7 +82,7 @@ def find_assets(sources) -> tuple[list, list]:
         p = Path(s).expanduser()
         if p.is_dir():
             for f in sorted(p.iterdir()):
-                if f.is_file() and not f.name.startswith(".") and f.suffix.lower() in suffixes:
+                if f.is_file() and not f.name.startswith(".") and {f.suffix.lower(), _reader_suffix(f)} & suffixes:
                     files.append(f)
                 elif not f.name.startswith(".") and not f.is_dir():    # also a broken link, a FIFO
                     ignored.append(str(f))
@@ -104,6 +112,15 @@ def _size(path: Path) -> int:
         return path.stat().st_size
     except OSError:
         return 0
+
+
+def _source_sha256(path: Path, side: dict) -> str:
+    """SHA-256 of a mesh file, and of its side files where it has any (a changed buffer is a changed asset)."""
+    digest = sha256_file(path)
+    if not side:
+        return digest
+    spec = {"file": digest, "side": {uri: sha256_file(p) for uri, p in sorted(side.items())}}
+    return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
 
 
 def _failed(name: str, path: Path, key, error: str) -> dict:
@@ -160,7 +177,9 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     -----
     Rerunning with the same sources and parameters bakes nothing; a
     changed, new, failed or damaged asset (an output missing or altered,
-    or a record that does not list exactly its outputs) is baked again.
+    or a record that does not list exactly its outputs) is baked again;
+    a ``.gltf`` also when a buffer or image file it names has changed
+    (they travel with it: :func:`pyshadow.bake.assets.side_files`).
     A failed asset (unreadable, empty, not a mesh) is reported in the
     manifest and does not stop the others. On
     ``KeyboardInterrupt`` (while tasks run, or while the executor shuts
@@ -186,10 +205,11 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         log(f"removed a temporary file of an interrupted run: {p}")
     assets, ignored = find_assets(sources)
     code = code_digest()
-    entries, todo = {}, []
+    entries, todo, sides = {}, [], {}
     for name, path in assets:
         try:
-            key = asset_key(sha256_file(path), params, code)
+            sides[name] = side_files(path)      # a .gltf's buffers: they go to the worker with it
+            key = asset_key(_source_sha256(path, sides[name]), params, code)
         except OSError as e:
             entries[name] = dict(_failed(name, path, None, f"{type(e).__name__}: {e}"), action="failed")
             continue
@@ -202,17 +222,19 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         else:
             todo.append((name, path, key))
     # largest first: the long tasks start early and the short ones fill in the tail (LPT order)
-    todo.sort(key=lambda t: (-_size(t[1]), t[0]))
+    todo.sort(key=lambda t: (-_size(t[1]) - sum(map(_size, sides[t[0]].values())), t[0]))
     log(f"{len(assets)} assets: {len(todo)} to bake, {len(entries)} done or unreadable")
 
     def tasks():
         for name, path, key in todo:
             try:
                 data = path.read_bytes()
+                side = {uri: p.read_bytes() for uri, p in sides[name].items()}
             except OSError as e:
                 entries[name] = dict(_failed(name, path, key, f"{type(e).__name__}: {e}"), action="failed")
                 continue
-            yield (name, path, key), (name, path.suffix.lower(), data, params.to_dict(), key)
+            args = (name, _reader_suffix(path), data, params.to_dict(), key)
+            yield (name, path, key), args + ((side,) if side else ())
 
     ex = None
     bar = tqdm(total=len(todo), unit="asset", desc="baking", disable=not progress or not todo)

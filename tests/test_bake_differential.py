@@ -8,6 +8,7 @@ import json
 import tarfile
 
 import numpy as np
+import pytest
 import trimesh
 
 import pyshadow
@@ -209,3 +210,24 @@ def test_compressed_meshes_bake_like_loaded_directly(tmp_path):
             baked = trimesh.load(tmp_path / out / "meshes" / f"{name}.ply", process=False)
             np.testing.assert_array_equal(baked.metadata["_ply_raw"]["vertex"]["data"]["ao"],
                                           scene.vertex_ao(0, sampling=pyshadow.Sampling(16)))
+
+
+def test_frames_match_a_motion_files_bodies_by_name():
+    """Was: pyshadow-bake frames applied a motion file's transforms in its order whatever its ``names``: a file
+    listing the bundled scene's bodies in another order moved each body by another's transforms. Now names that
+    are the bodies' in another order reorder the transforms; other names (labels) keep the order, as before."""
+    from pyshadow.bake.cli import _bodies_in_order
+
+    parts = [("bunny", None, True), ("torus", None, True), ("wall", None, False)]
+    T = np.random.default_rng(1).normal(size=(3, 3, 4, 4))
+    said = []
+    got = _bodies_in_order(T, ["wall", "bunny", "torus"], parts, "--motion m.npz", "the bundled scene has",
+                           said.append)
+    np.testing.assert_array_equal(got, T[:, [1, 2, 0]])
+    assert said == ["--motion m.npz lists its bodies as ['wall', 'bunny', 'torus']: matched to "
+                    "['bunny', 'torus', 'wall'] by name"]
+    for names in (None, ["bunny", "torus", "wall"], ["a", "b", "c"]):
+        assert _bodies_in_order(T, names, parts, "m", "x", said.append) is T
+    assert len(said) == 1
+    with pytest.raises(ValueError, match=r"--motion m.npz moves 3 bodies, --mesh gives 2 \(bunny, torus\)"):
+        _bodies_in_order(T, None, parts[:2], "--motion m.npz", "--mesh gives", said.append)

@@ -106,8 +106,10 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--mesh", action="append", metavar="PATH",
                    help="a body of the scene (repeatable; all cast shadows); default: the bundled scene")
     f.add_argument("--motion", metavar="FILE",
-                   help="per-frame transforms (.npz or .json, pyshadow.bake.motion); required with --mesh, "
-                        "default for the bundled scene: its bodies turning (pyshadow-bake motion)")
+                   help="per-frame transforms (.npz or .json, pyshadow.bake.motion), matched to the bodies by "
+                        "the file's names where they are the bodies' (--mesh file stems) in another order, else "
+                        "in order; required with --mesh, default for the bundled scene: its bodies turning "
+                        "(pyshadow-bake motion)")
     f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=60,
                    help="frames of the bundled scene's default motion (default 60)")
     f.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
@@ -165,6 +167,18 @@ def assets_table(m: dict) -> str:
     return "\n".join(lines)
 
 
+def _bodies_in_order(T, names, parts, source: str, have: str, log):
+    """The motion's (F, N, 4, 4) transforms ``T`` in the order of ``parts``: by position, or by name where the
+    motion file's ``names`` are the parts' names in another order (each body was moved by another's)."""
+    want = [p[0] for p in parts]
+    if T.shape[1] != len(parts):
+        raise ValueError(f"{source} moves {T.shape[1]} bodies, {have} {len(parts)} ({', '.join(want)})")
+    if names is None or names == want or sorted(names) != sorted(want) or len(set(want)) != len(want):
+        return T
+    log(f"{source} lists its bodies as {names}: matched to {want} by name")
+    return T[:, [names.index(n) for n in want]]
+
+
 def _frames(args) -> int:
     import numpy as np
 
@@ -182,18 +196,14 @@ def _frames(args) -> int:
         if args.motion is None:
             raise ValueError("--mesh needs --motion: the per-frame transforms of the meshes")
         parts = [(name, mesh, True) for name, mesh in _load_meshes(args.mesh)]
-        T, _ = read_motion(args.motion)
-        if T.shape[1] != len(parts):
-            raise ValueError(f"--motion {args.motion} moves {T.shape[1]} bodies, --mesh gives {len(parts)}")
+        T = _bodies_in_order(*read_motion(args.motion), parts, f"--motion {args.motion}", "--mesh gives", log)
         camera = auto_camera(parts, T, width=W, height=H)
     else:
         from ..data import default_parts
 
         parts = [(n, m, c) for n, m, _, c in default_parts()]
-        T = read_motion(args.motion)[0] if args.motion else default_motion(args.frames)[0]
-        if T.shape[1] != len(parts):
-            raise ValueError(f"--motion {args.motion} moves {T.shape[1]} bodies, the bundled scene has "
-                             f"{len(parts)} ({', '.join(p[0] for p in parts)})")
+        T = _bodies_in_order(*(read_motion(args.motion) if args.motion else default_motion(args.frames)), parts,
+                             f"--motion {args.motion}", "the bundled scene has", log)
         camera = Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], fov_y=45.0, width=W, height=H)
     cache = CSMCache(None if args.no_cache else (args.cache_dir or default_cache_dir()), log=log)
     views = ViewSet.zigzag(*args.maps)

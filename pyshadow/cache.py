@@ -261,15 +261,23 @@ class CSMCache:
             unusable cache file; ``seconds``: time spent in this call;
             ``build_seconds``: time of the original build (None when a
             cached CSM's sidecar is missing or stale); ``file``: the CSM's
-            path as str (None when not cached); ``stats``: ``csm.stats``.
+            path as str (None when not cached: also where ``views`` has
+            other bases than its layout's, which a file cannot hold);
+            ``stats``: ``csm.stats``.
         """
         from . import CoherentShadowMap
         from .csm.build import layer_rule
+        from .csm.fileformat import check_layout_bases
         from .mesh import mesh_hash as _mesh_hash
 
         mh = _mesh_hash(mesh)
         key = self.csm_key(mh, views, resolution, depth_bits, layers)
-        d = self._dir("csm")
+        try:        # the file keeps the layout alone: a CSM of other bases would load with the layout's
+            check_layout_bases(views)
+            d = self._dir("csm")
+        except ValueError as e:
+            self.log(f"cache: not caching the CSM of {name} ({e})")
+            d = None
         path = d / f"{mh[:12]}-{key[:24]}.csm" if d is not None else None
         side = path.with_suffix(".json") if path is not None else None
         source = "built"

@@ -426,6 +426,8 @@ class CoherentShadowMap:
         Layout in :mod:`pyshadow.csm.fileformat`: 16-bit depth ``k`` means ``k / 65534``,
         ``65535`` a miss; float32 ``+inf`` a miss. ``reproducible=True`` leaves the measured
         build time out (``null``), so equal CSMs give equal bytes (:mod:`pyshadow.bake`).
+        The file holds the view set as its layout and parameters: a CSM built with other bases on
+        that grid (``ViewSet(d, bases, "zigzag", params)``) is a ValueError, before anything is written.
         """
         from .fileformat import save
 

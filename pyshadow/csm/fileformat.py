@@ -39,10 +39,10 @@ import numpy as np
 from .._files import atomic_path
 from .._validate import FLOAT32_MAX
 from .._version import __version__
-from ..views import ZIGZAG_ROW_OFFSETS, ViewSet
+from ..views import BASIS_TOL, MAX_MAPS, ZIGZAG_ROW_OFFSETS, ViewSet
 from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype, _offsets_dtype
 
-__all__ = ["MAGIC", "FORMAT_VERSION", "save", "load"]
+__all__ = ["MAGIC", "FORMAT_VERSION", "save", "load", "check_layout_bases"]
 
 MAGIC = b"PYSHCSM\x00"
 FORMAT_VERSION = 1
@@ -91,9 +91,30 @@ def array_layout(start: int, resolution: int, maps: int, segments: int, depth_bi
     return out, pos
 
 
+def check_layout_bases(views) -> None:
+    """ValueError naming the first map whose basis is not the one its layout's parameters give.
+
+    A file stores a view set as its layout and parameters, and :func:`load` rebuilds the bases from
+    them (:meth:`ViewSet.from_params`): the maps of a ViewSet given other bases on the same grid (other
+    ``u, v`` about each direction, to :data:`pyshadow.views.BASIS_TOL`) would come back turned, and
+    every lookup would read the wrong texels.
+    """
+    want = ViewSet.from_params(views.layout, views.params).bases
+    err = np.abs(np.asarray(views.bases, np.float64) - want).max(axis=(1, 2))
+    if not (err <= BASIS_TOL).all():
+        k = int(np.argmax(~(err <= BASIS_TOL)))
+        raise ValueError(f"the view set's bases are not those of its {views.layout} layout (params "
+                         f"{dict(views.params)!r}; map {k} off by {float(err[k]):.3g}, "
+                         f"{int((~(err <= BASIS_TOL)).sum())} of {len(err)} maps): a .csm file stores only the "
+                         "layout, whose bases load would give back; build with ViewSet.from_params(layout, "
+                         "params) to save the CSM")
+
+
 def save(csm, path, reproducible: bool = False) -> Path:
-    """:meth:`CoherentShadowMap.save` (which documents the layout)."""
+    """:meth:`CoherentShadowMap.save` (which documents the layout); ValueError where the view set's
+    bases are not its layout's (:func:`check_layout_bases`), before anything is written."""
     path = Path(path)
+    check_layout_bases(csm.views)
     head = json.dumps(header(csm, reproducible), sort_keys=True).encode()
     start = 16 + len(head)
     layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments,
@@ -161,6 +182,11 @@ def _number(x, lo=-np.inf, hi=np.inf) -> bool:
     except OverflowError:               # an integer beyond float64
         return False
     return abs(v) <= FLOAT32_MAX and lo <= v <= hi
+
+
+def _integer(x) -> bool:
+    """Whether a header value is an integer (JSON's ``true`` is a bool, which ViewSet refuses)."""
+    return isinstance(x, int) and not isinstance(x, bool)
 
 
 def _from_header(cls, path, head, start, raw):
@@ -235,10 +261,10 @@ def _from_header(cls, path, head, start, raw):
             if isinstance(off, bool) or not isinstance(off, (int, float)) or off not in ZIGZAG_ROW_OFFSETS:
                 raise CSMFormatError(f"{path}: zigzag row_offset must be 0 or 0.5, got {off!r}")
             ok = set(params) - {"row_offset"} == {"theta", "phi"} and all(
-                isinstance(params[k], int) and 1 <= params[k] <= 1 << 16 for k in ("theta", "phi"))
+                _integer(params[k]) and 1 <= params[k] <= 1 << 16 for k in ("theta", "phi"))
         else:
             ok = (set(params) in ({"level"}, {"level", "hemispheres"})
-                  and isinstance(params["level"], int) and 0 <= params["level"] <= 10
+                  and _integer(params["level"]) and 0 <= params["level"] <= 10
                   and params.get("hemispheres", True) is True)
         if not ok:
             raise ValueError
@@ -249,10 +275,13 @@ def _from_header(cls, path, head, start, raw):
     layout_maps = ViewSet.maps_for(layout, params)
     if layout_maps != D:
         raise CSMFormatError(f"{path}: {D} maps in the header but the {layout} layout has {layout_maps}")
-    if not D <= S or S > 2**40:
-        raise CSMFormatError(f"{path}: {S} segments cannot cover {D} maps")
+    if D > MAX_MAPS:
+        raise CSMFormatError(f"{path}: {D} maps, beyond the {MAX_MAPS} of the largest view set")
     if S < R * R:
         raise CSMFormatError(f"{path}: {S} segments for {R * R} texels (every texel needs one)")
+    if S > D * R * R or S > 2**40:      # a run of maps per segment: fewer segments than maps is common
+        raise CSMFormatError(f"{path}: {S} segments for {D} maps of {R * R} texels (at most one per map "
+                             "and texel)")
     arrays, end = array_layout(start, R, D, S, bits, odt)
     if end + 32 != (size := len(raw)):
         raise CSMFormatError(f"{path}: size {size} bytes does not match the header "

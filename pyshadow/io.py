@@ -126,6 +126,7 @@ def _write_oiio(tmp: Path, data: np.ndarray, kind: str):
     spec.alpha_channel = 3 if C == 4 else -1
     if kind == "exr":
         spec.attribute("compression", "zip")
+        spec.attribute("DateTime", "")      # else the time of writing: equal images gave other bytes
     else:
         spec.attribute("oiio:UnassociatedAlpha", 1)
         spec.attribute("oiio:ColorSpace", "sRGB")

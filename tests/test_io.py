@@ -65,6 +65,19 @@ def test_write_image_exr_round_trip_is_bit_exact(tmp_path, shape, names):
     assert stored_names == names and fmt == oiio.TypeFloat
 
 
+def test_write_image_exr_bytes_carry_no_time_of_writing(tmp_path):
+    """Was: OpenImageIO stamped each EXR with the time it was written (a ``DateTime`` / capDate header): equal
+    images written a second apart gave other bytes, so a bake's recorded SHA-256 of a frame changed from run to
+    run. Now the header holds no time: equal images, equal bytes."""
+    a = np.linspace(0.0, 1.0, 48, dtype=np.float32).reshape(6, 8)
+    write_image(tmp_path / "a.exr", a)
+    inp = oiio.ImageInput.open(str(tmp_path / "a.exr"))
+    names = [x.name for x in inp.spec().extra_attribs]
+    inp.close()
+    assert "DateTime" not in names and "capDate" not in names, names
+    np.testing.assert_array_equal(read_image(tmp_path / "a.exr"), a)
+
+
 def test_write_image_exr_keeps_inf_background_depth(tmp_path):
     depth = np.full((6, 8), np.inf, np.float32)
     depth[2:5, 1:6] = np.linspace(0.5, 3.5, 15, dtype=np.float32).reshape(3, 5)

@@ -33,8 +33,8 @@ def test_save_refuses_a_view_set_whose_bases_the_file_cannot_hold(box, tmp_path)
     """Before: a CSM built on ViewSet.zigzag(2, 4)'s grid with its maps turned a quarter was saved
     without a word; load rebuilt the layout's own bases, so every map of the loaded CSM was read turned
     (in a zigzag(4, 8) CSM of this box at 16^2, rays from points below it disagreed with Embree on 502
-    of 4000, against 237 for the CSM as built). Now save is a ValueError naming the bases, and writes nothing; the layout's own view set
-    still comes back bit for bit."""
+    of 4000, against 237 for the CSM as built). Now save is a ValueError naming the bases, and writes
+    nothing; the layout's own view set still comes back bit for bit."""
     views = ViewSet.zigzag(2, 4)
     turned = _turned(views)
     csm = CoherentShadowMap.build(box, turned, resolution=4, progress=False)

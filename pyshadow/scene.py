@@ -11,6 +11,7 @@ The queries (:meth:`Scene.visible`, :meth:`Scene.ambient_occlusion`,
 """
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -77,6 +78,18 @@ class _Placed(list):
         return _Placed, (list(self),)
 
 
+def _copied(scene):
+    """``copy.copy`` of a :class:`Scene`: its own list of its own :class:`Instance` objects (sharing the
+    CSMs, meshes and read-only transforms). The default copy shared the list and the instances: moving an
+    instance of the copy moved the original's, whose kept tables (its version unchanged) went on answering
+    from the old place, and adding to the copy added to the original."""
+    other = object.__new__(type(scene))
+    other.__dict__.update(scene.__dict__)
+    other._placed = _Placed([copy.copy(inst) for inst in scene._placed])
+    other._built, other.csm_options = dict(scene._built), dict(scene.csm_options)
+    return other
+
+
 @dataclass(eq=False)
 class Instance:
     """One placed object of a :class:`Scene` (compared by identity; its fields are read-only once placed:
@@ -87,8 +100,9 @@ class Instance:
     csm: CoherentShadowMap | None = None
     mesh: trimesh.Trimesh | None = None
     # mesh data derived once (object frame)
-    _normals: np.ndarray | None = field(default=None, repr=False)
     _sphere: tuple | None = field(default=None, repr=False)
+    # trimesh's hash of a caster's mesh as placed: pyshadow.scene_arrays.check_meshes
+    _stamp: int | None = field(default=None, repr=False)
 
     @property
     def scale(self) -> float:
@@ -159,6 +173,7 @@ class Scene:
         self._built: dict = {}           # id(mesh) -> CSM built by add()
         self._version = 0                # advanced by add() and set_transform() (scene_arrays)
 
+    __copy__ = _copied                  # its own instance list and instances (see _copied)
     instances = property(lambda self: self._placed, doc="The placed :class:`Instance` objects, by instance id "
                          "(a read-only list: :meth:`add` places, :meth:`set_transform` moves).")
 
@@ -336,11 +351,10 @@ class Scene:
         inst = self._instance(instance_id)
         if inst.mesh is None:
             raise ValueError(f"instance {instance_id} was added as a CSM without its mesh (pass mesh=)")
-        if inst._normals is None:
-            inst._normals = np.asarray(inst.mesh.vertex_normals, dtype=np.float64)
         T = inst.transform
         pts = np.asarray(inst.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
-        nrm = inst._normals @ inst.rotation.T
+        # trimesh's own cache of the normals, which it drops when the mesh changes (a copy kept here did not)
+        nrm = np.asarray(inst.mesh.vertex_normals, dtype=np.float64) @ inst.rotation.T
         return pts, nrm
 
     def vertex_ao(self, instance_id: int, *args, sampling: Sampling | None = None,
@@ -455,7 +469,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             if (digest := mesh_hash(mesh)) != obj.mesh_hash:
                 raise ValueError("mesh does not match the CSM (different mesh hash)")
             _check_csm_frame(obj, mesh, digest)
-        inst = Instance(T, True, csm=obj, mesh=mesh)
+        inst = Instance(T, True, csm=obj, mesh=mesh, _stamp=None if mesh is None else hash(mesh))
     else:
         if mesh is not None:
             raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
@@ -477,7 +491,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             scene._built[key] = csm
         elif max_error is not None:
             raise ValueError("max_error= chooses a caster's CSM; a receiver (casts=False) has none")
-        inst = Instance(T, bool(casts), csm=csm, mesh=obj)
+        inst = Instance(T, bool(casts), csm=csm, mesh=obj, _stamp=hash(obj) if casts else None)
     return inst
 
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._validate import FLOAT32_MAX, check_float32_points, uniform_scale
 
-__all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "points_bound"]
+__all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "points_bound", "check_meshes"]
 
 _HELD = weakref.WeakKeyDictionary()
 
@@ -37,6 +37,7 @@ def scene_arrays(scene) -> dict:
         ``type_index`` (``{id(csm): index}``), ``itype`` (n,) int32 (each
         instance's type, -1 for a receiver). Callers may keep derived data
         of their own in the dict (it is dropped with it when the scene changes).
+        ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`).
     """
     version = getattr(scene, "_version", None)
     held = _HELD.get(scene)
@@ -58,13 +59,40 @@ def scene_arrays(scene) -> dict:
             index[id(inst.csm)] = len(types)
             types.append(inst.csm)
     itype = np.array([index[id(i.csm)] if i.casts else -1 for i in insts], np.int32)
+    meshes = {}
+    for k, inst in enumerate(insts):    # the casters' distinct meshes, each with an instance placing it
+        if inst.casts and inst.mesh is not None and id(inst.mesh) not in meshes:
+            meshes[id(inst.mesh)] = (k, inst.mesh)
     out = {"types": tuple(types), "type_index": index, "itype": itype, "version": version, "n": n, "transform": T, "scale": scale, "object_centre": c, "object_radius": r,
-           "world_centre": wc, "world_radius": r * scale, "casts": np.array([i.casts for i in insts], bool)}
+           "world_centre": wc, "world_radius": r * scale, "casts": np.array([i.casts for i in insts], bool),
+           "meshes": tuple(meshes.values())}
     for v in out.values():
         if isinstance(v, np.ndarray):
             v.flags.writeable = False
     _HELD[scene] = out
     return out
+
+
+def check_meshes(scene) -> None:
+    """Raise ValueError where a caster's mesh was changed in place after ``Scene.add``.
+
+    Its CSM was built from (or checked against) the mesh as it was placed: Embree and the drawn image
+    followed the changed mesh while the CSM backends answered for the old one. trimesh's hash of the
+    mesh (cheap while it is unchanged: trimesh tracks writes through its arrays) is compared with the
+    one it was placed with; where they differ, the mesh's SHA-256 with its CSM's decides (a hash
+    computed by another trimesh build, after pickling, is not a change).
+    """
+    if not scene.instances:
+        return
+    from .mesh import mesh_hash
+
+    for k, mesh in scene_arrays(scene)["meshes"]:
+        inst = scene.instances[k]
+        if inst._stamp is not None and hash(mesh) != inst._stamp:
+            if mesh_hash(mesh) != inst.csm.mesh_hash:
+                raise ValueError(f"the mesh of instance {k} was changed in place after Scene.add: its CSM holds "
+                                 "the mesh as it was placed (build a new scene with the changed mesh)")
+            object.__setattr__(inst, "_stamp", hash(mesh))     # the same mesh, hashed differently
 
 
 #: How far from its anchor a query point may lie, in radii of the scene's smallest caster, before it
@@ -105,7 +133,13 @@ def anchor_groups(scene, points, bound=None):
         ``(rows, anchor)``: the row indices (int64) of each group, or None
         for all rows (the common case, one group: the scene's anchor), and
         its world anchor (3,) float64.
+
+    Raises
+    ------
+    ValueError
+        A caster's mesh was changed in place after it was placed (:func:`check_meshes`).
     """
+    check_meshes(scene)                 # (once a query of the kernels and Embree)
     anchor = scene.anchor(points)
     arr = scene_arrays(scene) if scene.instances else None
     if arr is None or not arr["casts"].any() or not len(points):

@@ -17,6 +17,7 @@ from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_bo
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import Sampling, ao_from_samples, sample_directions_reference
+from ..scene_arrays import check_meshes
 from .base import check_bias, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
                      ground_offsets, rays_ao)
@@ -58,6 +59,7 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
 
 def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
     """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None)."""
+    check_meshes(scene)                 # a caster's mesh changed in place: refused, as on the other backends
     occ = np.zeros(len(p), bool)
     if scene.ground is not None:
         occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, ground_tolerance(scene),

@@ -170,7 +170,7 @@ class Scene:
                                 depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
         self.progress = flag(progress, "progress")     # "no" drew progress bars
         self._placed = _Placed()
-        self._built: dict = {}           # id(mesh) -> CSM built by add()
+        self._built: dict = {}           # id(mesh) -> (mesh, CSM built by add())
         self._version = 0                # advanced by add() and set_transform() (scene_arrays)
 
     __copy__ = _copied                  # its own instance list and instances (see _copied)
@@ -479,7 +479,8 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         csm = None
         if casts:
             key = id(obj) if max_error is None else (id(obj), _max_error(max_error), lookup)   # checked first
-            csm = scene._built.get(key)
+            held = scene._built.get(key)        # (mesh, CSM): an id outlives its mesh in a scene's copy
+            csm = held[1] if held is not None and held[0] is obj else None
             o = scene.csm_options
             if csm is None and max_error is not None:
                 csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"],
@@ -488,7 +489,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
                 csm = CoherentShadowMap.build(obj, o["views"], resolution=o["resolution"],
                                               depth_bits=o["depth_bits"], layers=o["layers"],
                                               progress=scene.progress, footprint=o["footprint"])
-            scene._built[key] = csm
+            scene._built[key] = (obj, csm)
         elif max_error is not None:
             raise ValueError("max_error= chooses a caster's CSM; a receiver (casts=False) has none")
         inst = Instance(T, bool(casts), csm=csm, mesh=obj, _stamp=hash(obj) if casts else None)

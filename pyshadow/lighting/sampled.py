@@ -9,7 +9,9 @@ backend instead sums, inside the AO kernel (``SKY_SAMPLED=1``,
 counts as open: :meth:`pyshadow.visibility.csm.CSMVisibility.sampled_sky`.
 
 The kernel route is taken for a CSM backend, a lat-long map whose radiance
-is finite in float32, and no ``geometric_normals``. Everything else --
+is finite in float32 and small enough that the kernel's float32 sum of the
+S samples' texels cannot overflow (largest texel times S at most half
+float32's largest value), and no ``geometric_normals``. Everything else --
 cube-layout maps (their face lookup is not on the device; resampling them
 to lat-long would change the values), shading normals, other backends --
 takes the host route, unchanged. The two agree to float32 rounding except
@@ -63,5 +65,7 @@ def device_sampled_sky(scene, points, normals, env, *, backend, sampling, indice
         rad = env.radiance.astype(np.float32)
     if not np.all(np.isfinite(rad)):              # beyond float32's range: the float64 host route
         return None
+    if float(rad.max(initial=0.0)) * sampling.samples > 0.5 * float(np.finfo(np.float32).max):
+        return None                               # the kernel's float32 sum of S texels could overflow to inf
     return b.sampled_sky(scene, points, normals, rad, env.grid_shape, sampling=sampling, bias=bias,
                          indices=indices, surface_ids=surface_ids)

@@ -149,8 +149,9 @@ def through_eye(tri) -> np.ndarray:
 
 def _edge_on_crossing(tri, near: float):
     """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) crossing the near plane lie in a plane through
-    the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the eye in it was refused as reaching into the view,
-    or not, by the rounding of its area on screen); None where there is none."""
+    the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the eye in
+    it was refused as reaching into the view, or not, by the rounding of its area on screen); None where there is
+    none."""
     below = tri[:, :, 2] < near
     part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))
     if not len(part):
@@ -309,6 +310,21 @@ def _finish(camera, t, n_cam, obj, face):
     }
 
 
+def face_corners(items, item: int, face, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """(K, 3, 3) float64 world corners, minus ``origin`` (3,), of the faces ``face`` (K,) of drawn item ``item``
+    of ``items``; a ValueError naming a face its mesh does not have (a G-buffer rendered from other items), not
+    an IndexError or a face counted from the end."""
+    mesh, T = items[item]
+    face = np.asarray(face)
+    bad = (face < 0) | (face >= len(mesh.faces))
+    if bad.any():
+        raise ValueError(f"gbuffer['face'] holds face {int(face[bad][0])} of item {int(item)}, whose mesh has "
+                         f"{len(mesh.faces)} faces (the G-buffer was rendered from other items)")
+    T = np.asarray(T, dtype=np.float64)
+    w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + (T[:3, 3] - np.asarray(origin, np.float64))
+    return w[np.asarray(mesh.faces)[face]]
+
+
 def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0.0) -> dict:
     """``gbuffer`` with each covered pixel's point on the plane of its face, where float32 depths could miss it.
 
@@ -350,14 +366,7 @@ def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0
     dirs = camera._rays().reshape(-1, 3)[index]
     for i in np.unique(item):
         sel = np.flatnonzero(item == i)
-        mesh, T = items[i]
-        f = face[sel]
-        if f.min() < 0 or f.max() >= len(mesh.faces):
-            raise ValueError(f"gbuffer['face'] holds faces {int(f.min())}..{int(f.max())} of item {int(i)}, whose "
-                             f"mesh has {len(mesh.faces)} faces (the G-buffer was rendered from other items)")
-        T = np.asarray(T, np.float64)
-        w = np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + (T[:3, 3] - camera.eye)
-        a, b, c = np.moveaxis(w[np.asarray(mesh.faces)[f]], 1, 0)
+        a, b, c = np.moveaxis(face_corners(items, i, face[sel], camera.eye), 1, 0)
         n = np.cross(b - a, c - a)
         with np.errstate(divide="ignore", invalid="ignore"):
             t = np.einsum("ij,ij->i", a, n) / np.einsum("ij,ij->i", dirs[sel], n)

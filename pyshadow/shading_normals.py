@@ -49,6 +49,7 @@ import weakref
 import numpy as np
 
 from ._validate import check_indices, check_rows, check_values
+from .gbuffer import face_corners
 from .materials import barycentrics
 
 __all__ = ["NORMAL_MODES", "DEFAULT_CREASE_ANGLE", "corner_normals", "check_crease_angle", "shading_gbuffer",
@@ -197,15 +198,8 @@ def pixel_surface(items, gbuffer, camera):
     p = camera.eye + np.asarray(gbuffer["depth"]).reshape(-1)[index, None].astype(np.float64) * dirs
     bary = np.zeros((len(index), 3))
     for i in np.unique(item):
-        mesh, T = items[i]
         sel = np.flatnonzero(item == i)
-        bad = (face[sel] < 0) | (face[sel] >= len(mesh.faces))     # else an IndexError, or a face from the end
-        if bad.any():
-            raise ValueError(f"gbuffer['face'] holds face {int(face[sel][bad][0])} of item {int(i)}, whose mesh "
-                             f"has {len(mesh.faces)} faces (the G-buffer was rendered from other items)")
-        T = np.asarray(T, dtype=np.float64)
-        w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + T[:3, 3]
-        bary[sel] = barycentrics(p[sel], w[np.asarray(mesh.faces)[face[sel]]])
+        bary[sel] = barycentrics(p[sel], face_corners(items, i, face[sel]))
     return index, item, face, bary
 
 

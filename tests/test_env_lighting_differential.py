@@ -1,6 +1,4 @@
 """Image-based lighting against independent computations: brute-force SH integrals, the white furnace."""
-import math
-
 import numpy as np
 import pytest
 

@@ -85,7 +85,8 @@ def _check(gbuffer, camera, radius, samples, seed, bias, range_check):
     dirs = camera.ray_directions().reshape(-1, 3)
     rel = np.where(hit[:, None], np.where(hit, depth, 0.0)[:, None] * dirs, 0.0)
     unit_scale = _fit_float32(rel, radius, bias)
-    rel, depth, radius, bias = rel * unit_scale, depth * unit_scale, radius * unit_scale, bias * unit_scale
+    if unit_scale != 1.0:               # (ordinary scenes: nothing to scale)
+        rel, depth, radius, bias = rel * unit_scale, depth * unit_scale, radius * unit_scale, bias * unit_scale
     n = np.zeros_like(normal)
     n[hit] = unit
     n[~hit] = (0.0, 1.0, 0.0)

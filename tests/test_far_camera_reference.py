@@ -61,7 +61,7 @@ def test_far_csm_render_keeps_its_ground(scene, near_ao):
     assert abs(csm - near_ao) < 0.005, (csm, near_ao)
 
 
-def test_surface_depths_put_points_on_their_faces(scene):
+def test_on_face_planes_put_points_on_their_faces(scene):
     """From 1e6 radii, eye + depth * ray lies on its face's plane to float64 rounding of the distance (4e-10 here,
     asserted below 1e-14 of it), where the float32 depth leaves it up to 0.1 off (0.025 the median); pixels without
     a face keep their depth."""

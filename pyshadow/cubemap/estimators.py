@@ -341,7 +341,8 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
         rows, cols = np.nonzero(np.isfinite(probe.depth[f]))
         if len(rows) == 0:
             continue
-        P = probe.texel_offsets(f * R * R + rows * R + cols)           # relative to the centre, from the depth
+        off = probe.texel_offsets(np.arange(f * R * R, (f + 1) * R * R)).reshape(R, R, 3)  # from the depths
+        P = off[rows, cols]                                             # relative to the centre
         n = probe.normal[f, rows, cols].astype(np.float64)
         n /= np.linalg.norm(n, axis=1, keepdims=True)
         uv = np.stack([(cols + 0.5) / R, (rows + 0.5) / R], axis=1)     # (K, 2)
@@ -363,7 +364,7 @@ def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: in
                 ok = inside                                             # Listing 4.14: break at the border
                 er = np.clip(np.floor(e[:, 1] * R), 0, R - 1).astype(int)
                 ec = np.clip(np.floor(e[:, 0] * R), 0, R - 1).astype(int)
-                E = probe.texel_offsets(f * R * R + er * R + ec)
+                E = off[er, ec]
                 En = probe.normal[f, er, ec].astype(np.float64)
                 v = E - P
                 dist = np.linalg.norm(v, axis=1)

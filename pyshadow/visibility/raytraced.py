@@ -25,7 +25,7 @@ class EmbreeVisibility:
     """Exact visibility by Embree occlusion rays (embreex)."""
 
     name = "embree"
-    #: Renders give it points on their faces' planes in float64 (:func:`pyshadow.gbuffer.surface_depths`):
+    #: Renders give it points on their faces' planes in float64 (:func:`pyshadow.gbuffer.on_face_planes`):
     #: its lift off a surface (:mod:`pyshadow._embree_lift`) is smaller than a float32 depth's rounding far away.
     exact_surface_points = True
 

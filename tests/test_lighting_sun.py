@@ -241,3 +241,34 @@ def test_from_environment_takes_the_discs_radius():
     light = Lighting.from_environment(env, sun_radius=0.2)
     np.testing.assert_allclose(light.sun.irradiance, E, rtol=1e-9)
     assert np.degrees(np.arccos(min(1.0, float(light.sun.direction @ d)))) < 0.05
+
+
+@pytest.mark.parametrize("elevation, height, most", [(2.0, 128, 1.03), (2.0, 256, 1.01), (1.0, 128, 1.07),
+                                                     (1.0, 256, 1.03)])
+def test_a_sun_by_the_horizon_is_not_taken_with_the_skys_glow(elevation, height, most):
+    """Was: the background ring reached below the horizon, where the clear sky steps down to its ground,
+    and no quadratic followed the step: the glow just above the horizon was taken for sun. Extracted
+    luminance over sun_irradiance's, sun 2 degrees up: 1.124 (128 rows), 1.047 (256); 1 degree up:
+    1.53, 1.23. The ring now keeps to the sun's side of the horizon: 1.017, 1.005, 1.059, 1.019 (the
+    bounds hold those with room; the fit still sees the glow's rise inside its ring)."""
+    e = math.radians(elevation)
+    d = np.array([math.cos(e), math.sin(e), 0.0])
+    sun, _ = extract_sun(clear_sky(d, 3.0, height=height))
+    ratio = (LUMINANCE_WEIGHTS @ sun.irradiance) / (LUMINANCE_WEIGHTS @ sun_irradiance(d, 3.0))
+    assert 0.99 < ratio < most, ratio
+    assert math.degrees(math.acos(min(1.0, sun.direction @ d))) < 180.0 / height      # within a pitch
+
+
+def test_a_single_bright_texel_is_the_whole_sun():
+    """Was: on a uniform sky of ones with one texel of 1000, 26 texels around it joined the sun with
+    excesses of 4e-16 to 8e-16 (the background fit's rounding; with the ring kept to one side of the
+    horizon, which of them did changed when the map was scaled by 1e300). An excess within 256 float64
+    spacings of a texel's radiance is no sun."""
+    a = np.ones((16, 32, 3))
+    a[5, 5] = 1000.0
+    env = EnvironmentMap(a)
+    sun, sky = extract_sun(env)
+    assert sun.texels.tolist() == [5 * 32 + 5]
+    np.testing.assert_allclose(sun.excess, [[999.0] * 3], rtol=1e-12)
+    np.testing.assert_allclose(sun.irradiance, 999.0 * env.solid_angles()[5, 5], rtol=1e-12)
+    np.testing.assert_array_equal(np.delete(sky.radiance.reshape(-1, 3), 165, axis=0), 1.0)

@@ -45,6 +45,10 @@ from .sun import _GOLDEN
 
 __all__ = ["PointLight", "SpotLight", "point_light_radiance", "lights_radiance", "light_directions"]
 
+#: Spot half-angles (rad) below this have their cone factor from the angle (as ``-2 sin^2(angle / 2)``,
+#: ``cos - 1`` without its rounding) rather than from the cosine.
+NARROW_SPOT = 1e-3
+
 
 def _position(x, name):
     v = _floats(x, name, "a finite 3-vector")
@@ -129,10 +133,14 @@ class SpotLight(PointLight):
 
     def factor(self, to_point) -> np.ndarray:
         """Cone factor in [0, 1] of unit directions light -> point, (N,)."""
-        c = np.asarray(to_point, np.float64) @ self.direction
+        t = np.asarray(to_point, np.float64)
+        c = t @ self.direction
         lo, hi = math.cos(self.angle), math.cos(self.angle - self.falloff)
-        if hi <= lo:
-            return (c >= lo).astype(np.float64)
+        if self.angle < NARROW_SPOT:    # cos(angle) rounds towards 1 (to 1 below 1.5e-8 rad): compare minus
+            b = np.arctan2(np.linalg.norm(np.cross(t, self.direction), axis=-1), c)  # versines, same order
+            c, lo, hi = (-2.0 * np.sin(0.5 * x) ** 2 for x in (b, self.angle, self.angle - self.falloff))
+        if hi <= lo:                    # hard edge, the edge itself lit; cos(pi / 2) rounds to 6e-17, not 0
+            return (c >= (0.0 if self.angle == math.pi / 2 else lo)).astype(np.float64)
         x = np.clip((c - lo) / (hi - lo), 0.0, 1.0)
         return np.where(c >= lo, x * x * (3.0 - 2.0 * x), 0.0)
 

@@ -401,6 +401,12 @@ def barycentrics(points, triangles) -> np.ndarray:
     p = np.asarray(points, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.float64)
     e1, e2, d = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
+    # each triangle scaled by a power of two to edges of about 1 (exact: the weights are those of the
+    # unscaled triangle): the Gram determinant's fourth powers of the size underflowed to 0 below about
+    # 1e-77 (every point got a's weight) and overflowed above about 1e77
+    m = np.maximum(np.abs(e1).max(axis=1, initial=0.0), np.abs(e2).max(axis=1, initial=0.0))
+    k = -np.frexp(np.where((m > 0) & (m < np.inf), m, 1.0))[1][:, None]
+    e1, e2, d = np.ldexp(e1, k), np.ldexp(e2, k), np.ldexp(d, k)
     d11, d12, d22 = (np.einsum("ij,ij->i", x, y) for x, y in ((e1, e1), (e1, e2), (e2, e2)))
     d1, d2 = np.einsum("ij,ij->i", d, e1), np.einsum("ij,ij->i", d, e2)
     gram = d11 * d22 - d12 * d12

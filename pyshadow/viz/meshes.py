@@ -65,7 +65,13 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     if len(mesh.vertices) == 0:
         raise ValueError("mesh_to_polydata: mesh has no vertices")
     pts = np.asarray(mesh.vertices, dtype=np.float64)
-    nrm = np.asarray(mesh.vertex_normals, dtype=np.float64)
+    extent = float(np.ptp(pts, axis=0).max())
+    if 0.0 < extent < 2.0 ** -10:       # trimesh zeroes normals of faces below ~1e-12 (a 1e-6 sphere drew black):
+        unit = float(2.0 ** -np.round(np.log2(extent)))         # a power of two changes no normal's bits
+        nrm = trimesh.Trimesh(pts * unit, np.asarray(mesh.faces), process=False).vertex_normals
+        nrm = np.asarray(nrm, dtype=np.float64)
+    else:
+        nrm = np.asarray(mesh.vertex_normals, dtype=np.float64)
     if transform is not None:
         T = check_transform(transform, name="mesh_to_polydata: transform")
         pts = pts @ T[:3, :3].T + T[:3, 3]

@@ -415,7 +415,7 @@ def run_max_error(args, base: Config, factory: SceneFactory, cache: CSMCache, lo
         return scene.render(camera, sampling=Sampling(S, strat, pat, sd), denoise=f, lookup=base.lookup)
 
     # the G-buffer and the converged reference first: a traced reference does not sit between timings
-    gb = GBuffer.from_render(render(1, None, seed), camera)
+    gb = GBuffer.from_render(render(1, None, seed), camera, scene)
     if gb.n == 0:
         raise RuntimeError("the camera sees no surface: nothing to measure")
     conv, conv_s, conv_src = _reference(cache, scene, gb, args, log)

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..cache import CSMCache
 from ..embree import EmbreeTracer
-from ..render import covered_pixels
+from ..render import covered_pixels, surface_points
 from .common import _bar, _fig, cached_ao
 
 
@@ -45,12 +45,23 @@ class GBuffer:
     object_id: np.ndarray
 
     @classmethod
-    def from_render(cls, out, camera):
-        """The G-buffer of ``out = scene.render(camera, ...)`` (its depth, normal and object_id)."""
+    def from_render(cls, out, camera, scene=None):
+        """The G-buffer of ``out = scene.render(camera, ...)`` (its depth, normal and object_id).
+
+        ``out``'s depth is float32: from a far camera its points lie off their faces by a float32
+        spacing of the depth, where ``Scene.render`` shades points on the faces' planes in float64
+        (:func:`pyshadow.surface_points`); given ``scene`` (the rendered one), the points are those.
+        """
         sp = covered_pixels(camera, out, out["object_id"])      # the points Scene.render shades
+        points = sp.points
+        if scene is not None:
+            on = surface_points(scene, camera)
+            if not np.array_equal(on.index, sp.index):
+                raise ValueError("scene does not draw the covered pixels of out as seen by camera")
+            points = on.points
         n = np.asarray(sp.normals, np.float64)
         n = n / np.linalg.norm(n, axis=1, keepdims=True)
-        return cls(camera.height, camera.width, sp.index.astype(np.int64), sp.points, n,
+        return cls(camera.height, camera.width, sp.index.astype(np.int64), points, n,
                    sp.surface_ids.astype(np.int32), out["object_id"])
 
     @property

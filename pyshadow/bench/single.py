@@ -93,7 +93,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
         return scene.render(camera, sampling=sampling, denoise=cfg.filter, lookup=cfg.lookup)
 
     out = render()                       # also the warm-up: kernel builds
-    gb = GBuffer.from_render(out, camera)
+    gb = GBuffer.from_render(out, camera, scene)
     N = gb.n
     if N == 0:
         raise RuntimeError("the camera sees no surface: nothing to measure")

@@ -89,7 +89,7 @@ def run_sweep(args, base: Config, factory: SceneFactory, cache: CSMCache, log) -
         f"{factory.size[0]}x{factory.size[1]}, {args.repeats} timed runs each")
     # the G-buffer does not depend on the CSMs: one G-buffer, one converged reference
     scene0, camera, infos0 = factory(base)
-    gb = GBuffer.from_render(scene0.render(camera, sampling=Sampling(1, strat, pat, seed)), camera)
+    gb = GBuffer.from_render(scene0.render(camera, sampling=Sampling(1, strat, pat, seed)), camera, scene0)
     if gb.n == 0:
         raise RuntimeError("the camera sees no surface: nothing to measure")
     tracer = EmbreeTracer(scene0, args.threads)

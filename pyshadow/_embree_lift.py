@@ -12,7 +12,7 @@ import numpy as np
 
 from ._validate import float32_exact
 
-__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon"]
+__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -27,10 +27,40 @@ def ray_epsilon(scale) -> np.ndarray:
     return 64.0 * np.spacing(scale.astype(np.float32)).astype(np.float64)
 
 
+def body_size(scene, points) -> np.ndarray:
+    """(N,) the radius (world units) of the caster each point's rays may leave, for its lift.
+
+    The largest world bounding-sphere radius of the casters whose sphere holds the point (to 1e-6 of
+    that radius), else that of the caster whose sphere lies nearest; the scene's largest radius
+    (:meth:`pyshadow.Scene.scale`) where every instance has one radius or there is no caster. With the
+    scene's largest radius for every point, a 1 cm box beside a 1 km one was lifted over by its own rays
+    (the ground's Embree AO around it 0.9998 instead of 0.913).
+    """
+    from .scene_arrays import scene_arrays
+
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not scene.instances:
+        return np.full(len(P), scene.scale())
+    arr = scene_arrays(scene)
+    r_all = arr["world_radius"]
+    c, r = arr["world_centre"][arr["casts"]], r_all[arr["casts"]]
+    if not len(r) or r_all.min() == r_all.max():
+        return np.full(len(P), scene.scale())
+    out = np.empty(len(P))
+    step = max(1, (1 << 22) // len(r))          # at most 4 M point-sphere pairs at a time
+    for s in range(0, len(P), step):
+        gap = np.linalg.norm(P[s:s + step, None, :] - c[None], axis=2) - r * (1.0 + 1e-6)     # < 0: inside
+        inside = gap <= 0.0
+        held = np.where(inside, r, 0.0).max(axis=1)
+        out[s:s + step] = np.where(inside.any(axis=1), held, r[np.argmin(gap, axis=1)])
+    return out
+
+
 def surface_epsilon(scene, points=None, anchor=None, *, float32_points=True):
     """Offset that lifts a ray origin off a surface, world units.
 
-    2e-5 of the scene's largest radius, and at least 64 float32 ulps (:func:`ray_epsilon`) of the
+    2e-5 of the radius of the body a point's rays leave (:func:`body_size`; of the scene's largest
+    instance without ``points``), and at least 64 float32 ulps (:func:`ray_epsilon`) of the
     coordinates Embree sees: relative to the casters' anchor (:func:`caster_scene`; or ``anchor``), those
     of each point when ``points`` (world, (N, 3)) are given -- a float (N,) array then -- else of the
     farthest caster, a float. Far from the anchor a float32 ray tracer's intersection error grows with the
@@ -40,14 +70,15 @@ def surface_epsilon(scene, points=None, anchor=None, *, float32_points=True):
     ``float32_points`` is False (points that are no surface's float32 samples: :func:`end_epsilon`'s ends,
     where a light at x = 1e7 + 2 stopped its rays 4 units short of it).
     """
-    floor = 2e-5 * scene.scale()
     anchor = scene.anchor() if anchor is None else anchor
     if points is None:
+        floor = 2e-5 * scene.scale()
         extent = max([np.linalg.norm(inst.world_sphere()[0] - anchor) + inst.world_sphere()[1]
                       for inst in scene.instances if inst.casts] or [scene.scale()])
         return float(max(floor, ray_epsilon(extent)))
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    eps = np.maximum(floor, ray_epsilon(np.maximum(np.abs(P - anchor).max(axis=1), scene.scale())))
+    size = body_size(scene, P)
+    eps = np.maximum(2e-5 * size, ray_epsilon(np.maximum(np.abs(P - anchor).max(axis=1), size)))
     # float32 points at x = 1e3: 209 of 600 outward rays hit their sphere
     if not float32_points:
         return eps

@@ -448,7 +448,8 @@ class EmbreeTracer:
     anchor : ndarray, shape (3,), float64
         World point subtracted from every ray origin.
     eps : float
-        :func:`surface_epsilon` of the scene, world units.
+        :func:`surface_epsilon` of the scene, world units (the largest; :meth:`prepare` lifts each
+        point by its own, as :func:`ambient_occlusion` does).
     threads : int
     """
 
@@ -546,7 +547,8 @@ class EmbreeTracer:
                              "pyshadow.embree.ambient_occlusion asks them relative to anchors of their own")
         rel = points - self.anchor
         ground = ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
-        origins = np.repeat((rel + self.eps * normals).astype(np.float32), S, axis=0)
+        lift = surface_epsilon(self.scene, points, self.anchor)[:, None]     # ambient_occlusion's, point by point
+        origins = np.repeat((rel + lift * normals).astype(np.float32), S, axis=0)
         todo = np.flatnonzero(~ground)
         return ground, todo, origins[todo], dirs32[todo]
 

@@ -270,7 +270,7 @@ def _reference_key(scene, gb: GBuffer, samples, strategy, seed, patterns) -> str
     import pyshadow
     from pyshadow.embree import surface_epsilon
 
-    h = hashlib.sha256(b"pyshadow-bench converged reference v1")
+    h = hashlib.sha256(b"pyshadow-bench converged reference v2")     # v2: each point lifted by its own body
     h.update(gb.digest().encode())
     h.update(json.dumps([int(samples), strategy, int(seed), int(patterns), scene.ground,
                          surface_epsilon(scene), pyshadow.__version__]).encode())

@@ -141,7 +141,7 @@ def _region(dirs, T, lum, omega, c, p, rad, rmax, thr):
     inside = np.flatnonzero(ang <= rad + p)
     bg = np.clip(fit(dirs[inside])[:, 1:], 0.0, T[inside])
     excess = T[inside] - bg
-    keep = (excess > _ROUNDING * T[inside]).any(axis=1)     # not the fit's rounding (3e-16 on a uniform map)
+    keep = (excess > _ROUNDING * T[inside]).any(axis=1)     # not the fit's rounding (4e-16..8e-16 on a flat sky)
     return inside[keep], bg[keep], excess[keep]
 
 

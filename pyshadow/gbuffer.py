@@ -511,9 +511,10 @@ def render_gbuffer(items, camera: Camera) -> dict:
     o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
     f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
     t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
+    n64 = n_cam.astype(np.float64).reshape(H, W, 3)
     if len(tris):
-        _far_corner_distances(tris, tri_idx, hit, t64, camera)
-    return _finish(camera, t64, n_cam.astype(np.float64).reshape(H, W, 3), o, f)
+        _far_corner_distances(tris, tri_idx, hit, t64, camera, n64)
+    return _finish(camera, t64, n64, o, f)
 
 
 #: A pixel whose triangle has a corner farther from the eye than this many times the pixel's own distance
@@ -522,19 +523,23 @@ def render_gbuffer(items, camera: Camera) -> dict:
 #: pixel, relative error 6e-8 times the ratio (below 2e-5 here; a ground quad of side 2e5 seen from 1.5 m
 #: put points 4 mm off the ground, half of them below it, and their AO came out 0).
 FAR_CORNER_RATIO = 256.0
+#: A pixel whose triangle lies farther from the eye than this many times its size (sums of absolute coordinates)
+#: gets its normal from float64 too: float32 corners tilt the kernel's by up to 1e-7 times the ratio.
+FAR_NORMAL_RATIO = 16384.0
 
 
-def _far_corner_distances(tris, tri_idx, hit, t, camera) -> None:
-    """Replace in ``t`` (H, W) float64 the distances of the pixels whose triangle (``tris`` camera space,
-    float64, index ``tri_idx`` per pixel) reaches beyond :data:`FAR_CORNER_RATIO` times their distance by
-    the float64 intersection of their ray with that triangle's plane (as the kernel's, exact)."""
+def _far_corner_distances(tris, tri_idx, hit, t, camera, normal) -> None:
+    """Replace in ``t`` (H, W) float64 the distances, and in ``normal`` (H, W, 3) the camera-space normals, of the
+    pixels whose triangle (``tris`` camera space, float64, index ``tri_idx`` per pixel) reaches beyond
+    :data:`FAR_CORNER_RATIO` times their distance, or lies beyond :data:`FAR_NORMAL_RATIO` times its size from
+    the eye, by the float64 intersection of their ray with that triangle's plane and its normal (as the kernel's)."""
     flat = t.reshape(-1)
-    if max(float(tris.max()), -float(tris.min())) <= FAR_CORNER_RATIO * float(flat.min()):
+    size = sum(np.abs(tris[:, k, j] - tris[:, 0, j]) for k in (1, 2) for j in range(3))    # by columns: faster
+    small = np.abs(tris[:, 0, 0]) + np.abs(tris[:, 0, 1]) + np.abs(tris[:, 0, 2]) > FAR_NORMAL_RATIO * size
+    if not small.any() and max(float(tris.max()), -float(tris.min())) <= FAR_CORNER_RATIO * float(flat.min()):
         return                              # no corner so far (a frame's usual case: two passes, no temporaries)
     reach = np.abs(tris.reshape(len(tris), 9)).max(axis=1)
-    sel = np.flatnonzero(hit & (np.take(reach, tri_idx) > FAR_CORNER_RATIO * flat))
-    if not len(sel):
-        return
+    sel = np.flatnonzero(hit & ((np.take(reach, tri_idx) > FAR_CORNER_RATIO * flat) | np.take(small, tri_idx)))
     tri = np.take(tris, tri_idx[sel], axis=0)
     d = camera._rays().reshape(-1, 3)[sel] @ camera.rotation.T
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -542,6 +547,8 @@ def _far_corner_distances(tris, tri_idx, hit, t, camera) -> None:
         exact = np.einsum("ij,ij->i", n, tri[:, 0]) / np.einsum("ij,ij->i", n, d)
     ok = np.isfinite(exact) & (exact > 0)
     flat[sel[ok]] = exact[ok]
+    n = n[ok] / np.linalg.norm(n[ok], axis=1, keepdims=True)     # turned to face the eye, as the kernel's
+    normal.reshape(-1, 3)[sel[ok]] = np.where((np.einsum("ij,ij->i", n, d[ok]) > 0)[:, None], -n, n)
 
 
 def render_gbuffer_reference(items, camera: Camera) -> dict:

@@ -26,16 +26,19 @@ light's position for a point light: ``max_distance`` = the distance):
 * ``shadow-map R`` at equal memory: the classic scene shadow map
   (:class:`pyshadow.lighting.ShadowMapVisibility`, hard lookup, its bias
   rule) whose float32 texels take as many bytes as the scene's CSMs (one
-  R x R map for a sun, six R x R faces for a point light), and the common
-  1024 x 1024 (per face) beside it.
+  R x R map for a sun, six R x R faces for a point light; R at most
+  8192, the largest a shadow map takes), and the common 1024 x 1024 (per
+  face) beside it.
 
 Each is compared with Embree on the same rays (agreement, and the share of
 rays wrongly shadowed and wrongly lit). Time per frame (medians of
 ``--repeats`` interleaved rounds, each a few frames): *moving*, one
 :meth:`Scene.set_transform` of the first caster (a turn about its own
 vertical axis) before every query, so the shadow map renders again while the
-CSM redoes nothing; *static*, the query alone. The G-buffer stays the first
-frame's (the same points for every method: only the light's part is timed).
+CSM redoes nothing (a shadow map's kept maps are forgotten, untimed, before
+each moving frame: the turn revisits its poses); *static*, the query alone.
+The G-buffer stays the first frame's (the same points for every method: only
+the light's part is timed).
 ``shadow.png`` shows the pixels: lit (grey by n.l), shadowed (dark blue), and
 where the one-texel CSM disagrees with Embree (red: wrongly shadowed; yellow:
 wrongly lit); covered pixels facing away from the light are dark grey.
@@ -201,6 +204,7 @@ def light_pass(args, scene, camera, csm_bytes: int, light: dict, out_dir: Path, 
     import pyshadow
     from .. import embree, visibility
     from ..lighting import ShadowMapVisibility
+    from ..lighting.shadow_map import MAX_RESOLUTION, MIN_RESOLUTION
 
     light = place_light(light, scene)
     sp = pyshadow.render.surface_points(scene, camera)
@@ -211,7 +215,7 @@ def light_pass(args, scene, camera, csm_bytes: int, light: dict, out_dir: Path, 
         raise RuntimeError(f"--light {light['spec']}: no covered pixel faces the light (n.l >= {MIN_COSINE})")
     truth = embree.visible(scene, P, W, max_distance=T)
     faces = 1 if light["kind"] == "sun" else 6
-    equal = max(8, int(math.sqrt(csm_bytes / (4 * faces))))
+    equal = min(MAX_RESOLUTION, max(MIN_RESOLUTION, int(math.sqrt(csm_bytes / (4 * faces)))))
     methods = {"csm": "csm", "csm-vote": "csm-vote",
                f"shadow-map {equal}": ShadowMapVisibility(equal),
                f"shadow-map {COMMON_RESOLUTION}": ShadowMapVisibility(COMMON_RESOLUTION)}
@@ -243,6 +247,8 @@ def light_pass(args, scene, camera, csm_bytes: int, light: dict, out_dir: Path, 
                     continue
                 for _ in range(FRAMES_PER_ROUND):
                     frame += 1
+                    if not isinstance(b, str):      # the turn revisits its poses: a map kept from an earlier
+                        b.clear()                   # one would answer without rendering (cleared untimed)
                     t0 = time.perf_counter()
                     scene.set_transform(mover, _turned(T0, centre, TURN_DEG * (frame % 7 - 3)))
                     ask(b)

@@ -32,7 +32,8 @@ radiance over the covered pixels::
 
 (``|.|`` the RGB vector's length): a pure visibility error, since both
 renders shade alike. The lit frame is timed beside the AO frame alone
-(interleaved rounds, medians).
+(interleaved rounds, medians); Embree's lit frame once per mode, after an
+untimed warm-up frame.
 
 Exposure of ``lit.png`` (:func:`auto_exposure`), unless ``--exposure``
 gives one: the 99th percentile of the Rec. 709 luminance of the covered
@@ -173,6 +174,7 @@ def lit_pass(args, cfg, scene, camera, sampling, lighting, sky_record, out_dir: 
     files["lit.png"] = str(out_dir / "lit.png")
 
     records = {}
+    lit(lights[modes[0]], "embree")         # Embree's warm-up (its first frame builds kernels), untimed
     for m in modes:
         t0 = time.perf_counter()
         ref = lit(lights[m], "embree")

@@ -41,7 +41,9 @@ def format_table(r: dict) -> str:
     """The table of a single benchmark's ``results.json`` record, as printed (no final newline).
 
     A figure whose value is missing (``null`` in results.json: it was not
-    finite, or not measured) prints as "n/a".
+    finite, or not measured) prints as "n/a". The AO time names the pixels
+    it was measured on when they are fewer than the covered ones
+    (``timed_pixels``).
     """
     f = {k: v["value"] for k, v in r["figures"].items()}
     c, env = r["config"], r["environment"]
@@ -54,6 +56,9 @@ def format_table(r: dict) -> str:
     else:
         build = f"{num(f['csm_time'], '.1f')} s ({r['csm']['source']})"
     rs = c["reference_samples"]
+    n, k = f["covered_pixels"], f.get("timed_pixels")      # AO timed on the first k pixels when k < n
+    px = (f"; {num(n, 'd')} px" if n is None or k is None or k >= n else
+          f" on the first {num(k, 'd')} of {num(n, 'd')} px")
     conv_t = "cached" if r["converged_source"] == "cached" else f"{num(f['converged_time'], '.1f')} s"
     rows = [
         ("device", f"{env['device']} ({env['platform']}, {env['device_type']}, "
@@ -61,7 +66,7 @@ def format_table(r: dict) -> str:
         ("CSM build", build),
         ("CSM size, ratio", f"{num(f['csm_size'], '.2f')} MB, {num(f['csm_ratio'], '.1f')}:1"),
         ("AO", f"{num(f['ao_throughput'], '.2f')} Msamples/s; frame {num(f['frame_time'], '.0f', 1e3)} ms "
-               f"(AO {num(f['ao_time'], '.0f', 1e3)} ms; {num(f['covered_pixels'], 'd')} px)"
+               f"(AO {num(f['ao_time'], '.0f', 1e3)} ms{px})"
                + ("" if f.get("frame_time_interleaved") is None else
                   f"; {num(f['frame_time_interleaved'], '.0f', 1e3)} ms a frame between Embree's timings")),
         (f"Embree, same rays ({env['embree_threads']} thr)",

@@ -229,7 +229,6 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
         lit_record, lit_files = lit_pass(args, cfg, scene, camera, sampling, lighting[0], lighting[1],
                                          out_dir, log)
         files.update(lit_files)
-    figures["total_time"] = _fig(time.perf_counter() - t_start, "s", "wall time of this run")
     result = {
         "schema": SCHEMA,
         "mode": args.mode,
@@ -260,6 +259,7 @@ def run_main(args, cfg: Config, factory: SceneFactory, cache: CSMCache, log, lig
 
         result["light"], light_files = light_pass(args, scene, camera, csm["bytes"], light, out_dir, log)
         files.update(light_files)
+    figures["total_time"] = _fig(time.perf_counter() - t_start, "s", "wall time of this run")   # light pass included
     if methods is not None:
         result["methods"] = methods
     return result

@@ -8,11 +8,12 @@ on the body). :func:`choose_csm` walks :data:`~pyshadow.csm.error_model.CANDIDAT
 from the smallest predicted size up, predicts each candidate's
 disagreement with Embree (:func:`pyshadow.csm.error_model.predict`: the
 body's own AO rays and the rays of bodies around it, the larger counts),
-and builds the first predicted to meet the target. With ``verify`` (the
-default) the built CSM is measured on rays drawn independently of the
-model's; where it misses, the model's miss on this body (measured over
-predicted) is carried to the remaining candidates and the walk goes on.
-Without it, the prediction must meet the target widened by the model's
+and builds the first predicted to meet the target (where none is, the one
+predicted nearest it, not the largest). With ``verify`` (the default) the
+built CSM is measured on rays drawn independently of the model's; where
+it misses, the model's miss on this body (measured over predicted) is
+carried to the remaining candidates and the walk goes on. Without it,
+the prediction must meet the target widened by the model's
 measured range (:data:`~pyshadow.csm.error_model.MODEL_RATIO`). Everything predicted, built and measured is returned
 for ``csm.stats["choice"]``.
 """
@@ -26,6 +27,7 @@ import warnings
 import numpy as np
 
 from .._validate import check_int
+from .core import _iend_dtype, _offsets_dtype
 from .error_model import CANDIDATES, LARGE_WORK, MODEL_RATIO, _count, predict, rays_for
 
 __all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model", "PILOTS"]
@@ -86,6 +88,17 @@ def _candidates(candidates, name):
     return tuple(out)
 
 
+def _nearest_target(tried, need) -> int:
+    """Index in ``tried`` of the candidate not built yet whose prediction lies nearest the target: the
+    least disagreement over ``need`` of its lookup (the target the walk still asks, narrowed by the misses
+    measured); the later of equals."""
+    def shortfall(j):
+        p = tried[j]["predicted"]
+        want = need[p["lookup"]]
+        return (p["disagreement"] / want if want > 0 else math.inf, -j)
+    return min((j for j, t in enumerate(tried) if "bytes" not in t), key=shortfall)
+
+
 def _build(mesh, cand, depth_bits, layers, progress, built):
     """The CSM of candidate ``(theta, phi, resolution)``, built once (``built`` keeps them)."""
     from ..views import ViewSet
@@ -104,8 +117,9 @@ def size_model(mesh, depth_bits: int = 16, layers="auto", built: dict | None = N
 
     Segments ``S = S0 (R / 64)^a (D / 512)^g``, with ``a`` and ``g`` measured
     from the pilots (resolution doubled, maps quadrupled); bytes are the
-    segments times their stored size plus the offset table (``R^2 + 1``
-    entries of 4 bytes).
+    segments times their stored size (the depth, and the map index: 2 bytes,
+    4 beyond 65,536 maps) plus the offset table (``R^2 + 1`` entries of 4
+    bytes, 8 from 2^32 segments on).
 
     Returns
     -------
@@ -119,11 +133,14 @@ def size_model(mesh, depth_bits: int = 16, layers="auto", built: dict | None = N
     s0, s_maps, s_res = (max(c.segments, 1) for c, _ in pil)
     a = float(np.log2(s_res / s0))
     g = float(np.log(s_maps / s0) / np.log(4.0))
-    per = pil[0][0].depth.itemsize + pil[0][0].iend.itemsize
+    depth = pil[0][0].depth.itemsize
 
     def predict(theta, phi, resolution):
         seg = s0 * (resolution / 64.0) ** a * (theta * phi / 512.0) ** g
-        return float(seg * per + (resolution * resolution + 1) * 4)
+        # as the candidate stores them, not as the pilots (<= 2048 maps) do: a segment's map index takes
+        # 32 bits beyond 65,536 maps, an offset 64 bits from 2^32 segments on
+        return float(seg * (depth + _iend_dtype(theta * phi).itemsize)
+                     + (resolution * resolution + 1) * _offsets_dtype(seg).itemsize)
     return predict, {"a": a, "g": g, "segments0": int(s0), "pilot_seconds": sum(t for _, t in pil)}
 
 
@@ -189,7 +206,9 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     Returns
     -------
     csm : CoherentShadowMap
-        The choice; the last candidate's, with a ``UserWarning``, when none meets the target.
+        The choice; when none meets the target, the last built, with a ``UserWarning``: where no
+        candidate left is predicted to meet it, the one predicted nearest it (its disagreement over
+        the target, narrowed by the misses measured), not the last by predicted size.
     choice : dict
         ``target``, ``lookup`` (the one chosen), ``met``, ``verified``, ``maps``,
         ``resolution``, ``depth_bits``, ``predicted`` (the model's record),
@@ -221,9 +240,13 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)
         entry = {"predicted": pred, "predicted_bytes": size(*cand)}
         tried.append(entry)
-        if pred["disagreement"] > need[lk] and i < len(order) - 1:
-            continue
-        _keep(built, {c for c, _ in order[i:]})
+        if pred["disagreement"] > need[lk]:
+            if i < len(order) - 1:
+                continue
+            # the last misses too: build the one predicted nearest the target, not the largest by size
+            j = _nearest_target(tried, need)
+            (cand, lk), entry = order[j], tried[j]
+        _keep(built, {c for c, _ in order[i:]} | {cand})
         csm = None                     # the last miss: not held while the next one is built
         csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
         entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
@@ -250,7 +273,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         else:
             got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
                    "with the model's range")
-        warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last tried, {p['layout']} "
+        warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last built, {p['layout']} "
                       f"({p['lookup']}): {got}", UserWarning, stacklevel=3)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],

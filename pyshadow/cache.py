@@ -380,8 +380,8 @@ class CSMCache:
         a = np.asarray(a)
         if a.dtype.kind not in "biuf":
             raise TypeError(f"put_array: the array must hold real numbers, got {a.dtype}")
-        with np.errstate(over="ignore"):
-            a32 = np.ascontiguousarray(a, dtype=np.float32)
+        with np.errstate(over="ignore"):        # (ascontiguousarray made a 0-d array one of shape (1,))
+            a32 = np.ascontiguousarray(a, dtype=np.float32).reshape(a.shape)
         if a.dtype.kind == "f" and (np.isinf(a32) & np.isfinite(a)).any():
             raise ValueError("put_array: the array holds finite values beyond float32's range")
         a = a32

@@ -99,10 +99,12 @@ class Instance:
     casts: bool
     csm: CoherentShadowMap | None = None
     mesh: trimesh.Trimesh | None = None
-    # mesh data derived once (object frame)
+    # a receiver's sphere (object frame)
     _sphere: tuple | None = field(default=None, repr=False)
     # trimesh's hash of a caster's mesh as placed: pyshadow.scene_arrays.check_meshes
     _stamp: int | None = field(default=None, repr=False)
+    # trimesh's hash of the receiver's mesh its _sphere was found for (a mesh changed in place: found again)
+    _sphere_stamp: int | None = field(default=None, repr=False)
 
     @property
     def scale(self) -> float:
@@ -121,8 +123,9 @@ class Instance:
     def object_sphere(self):
         if self.csm is not None:
             return self.csm.centre, self.csm.radius
-        if self._sphere is None:                # a receiver: its mesh's sphere, found once (a convex hull)
-            self._sphere = bounding_sphere(self.mesh)
+        stamp = hash(self.mesh)                 # a receiver: its mesh's sphere (a convex hull), found again
+        if self._sphere is None or self._sphere_stamp != stamp:     # where the mesh was changed in place
+            self._sphere, self._sphere_stamp = bounding_sphere(self.mesh), stamp
         return self._sphere
 
     def world_sphere(self):

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._validate import FLOAT32_MAX, check_float32_points, uniform_scale
 
-__all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "points_bound", "check_meshes"]
+__all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "cube_groups", "points_bound", "check_meshes"]
 
 _HELD = weakref.WeakKeyDictionary()
 
@@ -37,15 +37,18 @@ def scene_arrays(scene) -> dict:
         ``type_index`` (``{id(csm): index}``), ``itype`` (n,) int32 (each
         instance's type, -1 for a receiver). Callers may keep derived data
         of their own in the dict (it is dropped with it when the scene changes).
-        ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`).
+        ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`);
+        ``receivers``: ``(mesh, trimesh's hash)`` of each distinct receiver mesh: one changed in place
+        (a receiver's may be) makes the arrays anew, with its sphere.
     """
     version = getattr(scene, "_version", None)
     held = _HELD.get(scene)
     if held is not None and version is not None and held["version"] == version \
-            and held["n"] == len(scene.instances):
+            and held["n"] == len(scene.instances) and all(hash(m) == h for m, h in held["receivers"]):
         return held
     insts = scene.instances
     n = len(insts)
+    receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts}
     T = np.stack([inst.transform for inst in insts]) if n else np.zeros((0, 4, 4))
     spheres = [inst.object_sphere() for inst in insts]
     c = np.array([np.asarray(s[0], np.float64) for s in spheres]).reshape(n, 3)
@@ -65,7 +68,7 @@ def scene_arrays(scene) -> dict:
             meshes[id(inst.mesh)] = (k, inst.mesh)
     out = {"types": tuple(types), "type_index": index, "itype": itype, "version": version, "n": n, "transform": T, "scale": scale, "object_centre": c, "object_radius": r,
            "world_centre": wc, "world_radius": r * scale, "casts": np.array([i.casts for i in insts], bool),
-           "meshes": tuple(meshes.values())}
+           "meshes": tuple(meshes.values()), "receivers": tuple(receivers.values())}
     for v in out.values():
         if isinstance(v, np.ndarray):
             v.flags.writeable = False
@@ -144,7 +147,13 @@ def anchor_groups(scene, points, bound=None):
     arr = scene_arrays(scene) if scene.instances else None
     if arr is None or not arr["casts"].any() or not len(points):
         return [(None, anchor)]
-    reach = ANCHOR_REACH_RADII * float(arr["world_radius"][arr["casts"]].min())
+    return cube_groups(points, anchor, ANCHOR_REACH_RADII * float(arr["world_radius"][arr["casts"]].min()), bound)
+
+
+def cube_groups(points, anchor, reach: float, bound=None):
+    """:func:`anchor_groups` of ``points`` (N, 3) float64 around the world ``anchor`` (3,): the points
+    within ``reach`` (world units) of it are asked relative to it, the others relative to the centre of
+    their cube of a power-of-two side (half diagonal at most ``reach``)."""
     bound = (points_bound(points) if bound is None else bound) + float(np.abs(anchor).max())
     if bound <= reach:
         return [(None, anchor)]                 # the cheap bound: every point within reach

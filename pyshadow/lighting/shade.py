@@ -74,7 +74,7 @@ __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms
 
 #: Shading modes.
 MODES = ("bent", "transfer", "sampled")
-#: Rays per visibility call of the "sampled" sky (points are taken in chunks of this many rays).
+#: Rays per visibility call of the "sampled" sky and of the "transfer" sky's host route (points in chunks of as many).
 SAMPLED_CHUNK_RAYS = 1 << 20
 #: Sun rays a point in mode "sampled" unless ``Lighting(sun_samples=)`` says otherwise: over the real disc a
 #: shadow edge's pixel then differs from the reference by steps of 1/16 of the sun's term, not all of it.
@@ -326,7 +326,8 @@ class ShadedPoints:
     bent_normal : (N, 3) float32
         Normalised sum of the visible directions, as ``ao``.
     sun_visibility : (N,) float32
-        Fraction of the K sun directions that reach the sky (1 without a sun).
+        Fraction of the K sun directions that reach the sky from above the
+        surface (1 without a sun).
     """
 
     radiance: np.ndarray
@@ -478,7 +479,8 @@ def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend=
     """The sun term and the visible fraction of its directions: ((N, 3) float64, (N,) float64).
 
     ``points`` (N, 3), ``normals`` (N, 3) unit, ``albedo`` (N, 3); zero
-    radiance and visibility 1 without a sun. One :func:`pyshadow.visibility.visible`
+    radiance and visibility 1 without a sun. A direction at or below the
+    surface's plane (``n . l <= 0``) is not visible. One :func:`pyshadow.visibility.visible`
     call of N K rays, asked with the normals; with ``geometric_normals`` (N, 3)
     (``normals`` then shading normals) directions at or below the geometric
     plane are shadowed (:mod:`pyshadow.shading_normals`).
@@ -497,8 +499,9 @@ def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend=
     k = dirs.shape[1]
     cos = np.maximum(np.einsum("nkj,nj->nk", dirs, nrm), 0.0)
     ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,)), k)
+    # cos > 0: a sun behind the face does not reach it (the CSM let some such rays through the body, Embree none)
     lit = vis.visible(scene, np.repeat(p, k, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
-                      surface_ids=ids, normals=np.repeat(nrm, k, axis=0)).reshape(n, k)
+                      surface_ids=ids, normals=np.repeat(nrm, k, axis=0)).reshape(n, k) & (cos > 0)
     if geometric_normals is not None:
         from ..shading_normals import below_geometric
 

@@ -39,7 +39,8 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
         World positions and unit surface normals (world frame).
     backend : str or VisibilityBackend, optional
         A backend with ``sh_transfer`` (the CSM kernels) answers in one pass;
-        any other through ``visible`` on the AO directions.
+        any other through ``visible`` on the AO directions, in chunks of
+        :data:`pyshadow.lighting.shade.SAMPLED_CHUNK_RAYS` rays.
     sampling : pyshadow.Sampling, optional
         Default ``Sampling()``.
     surface_ids, indices, bias : optional
@@ -76,13 +77,21 @@ def sh_transfer(scene, points, normals, *, backend="csm", sampling=None, surface
     b = vis.get_backend(backend)
     if hasattr(b, "sh_transfer") and geometric_normals is None:
         return b.sh_transfer(scene, p, n, sampling=sampling, bias=bias, indices=idx, surface_ids=surface_ids)
-    S = sampling.samples
-    dirs, lit = sample_visibility(scene, p, n, backend=b, sampling=sampling, indices=idx,
-                                  surface_ids=surface_ids, bias=bias, geometric_normals=geometric_normals)
-    Y = sh_basis(dirs.astype(np.float64))                                        # (N, S, 9)
-    transfer = (math.pi / S) * np.einsum("ns,nsk->nk", lit.astype(np.float64), Y)
-    ao, bent = ao_from_samples(dirs, lit, n.astype(np.float32), return_bent_normals=True)
-    return ao, bent, transfer.astype(np.float32)
+    from .shade import SAMPLED_CHUNK_RAYS
+
+    N, S = len(p), sampling.samples
+    ids = _surface_ids(surface_ids, N)
+    ao, bent, transfer = np.ones(N, np.float32), np.zeros((N, 3), np.float32), np.zeros((N, SH_COUNT), np.float32)
+    step = max(1, SAMPLED_CHUNK_RAYS // S)      # points in chunks of rays, as the "sampled" sky: all N S rays at
+    for a in range(0, N, step):                 # once took 190 bytes a ray (25 GB: a 1080p frame at 64 samples)
+        c = slice(a, min(N, a + step))
+        dirs, lit = sample_visibility(scene, p[c], n[c], backend=b, sampling=sampling, indices=idx[c],
+                                      surface_ids=ids if np.ndim(ids) == 0 else ids[c], bias=bias,
+                                      geometric_normals=None if geometric_normals is None else geometric_normals[c])
+        Y = sh_basis(dirs.astype(np.float64))                                    # (m, S, 9)
+        transfer[c] = (math.pi / S) * np.einsum("ns,nsk->nk", lit.astype(np.float64), Y)
+        ao[c], bent[c] = ao_from_samples(dirs, lit, n[c].astype(np.float32), return_bent_normals=True)
+    return ao, bent, transfer
 
 
 def sample_visibility(scene, points, normals, *, backend, sampling, indices, surface_ids=None, bias=None,
@@ -102,9 +111,8 @@ def sample_visibility(scene, points, normals, *, backend, sampling, indices, sur
     n = np.asarray(normals, dtype=np.float64)
     S = sampling.samples
     dirs = sample_directions(n, sampling=sampling, indices=indices)
-    if surface_ids is not None and np.shape(surface_ids) not in ((), (1,), (len(p),)):   # as the CSM backends say
-        raise ValueError(f"surface_ids must be one id or {len(p)} (one a query), got shape {np.shape(surface_ids)}")
-    ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (len(p),)), S)
+    ids = _surface_ids(surface_ids, len(p))
+    ids = None if ids is None else np.repeat(np.broadcast_to(ids, (len(p),)), S)
     if geometric_normals is None:
         lit = vis.visible(scene, np.repeat(p, S, axis=0), dirs.reshape(-1, 3), backend=backend, bias=bias,
                           surface_ids=ids, normals=np.repeat(n, S, axis=0)).reshape(len(p), S)
@@ -116,6 +124,17 @@ def sample_visibility(scene, points, normals, *, backend, sampling, indices, sur
     lit[up] = vis.visible(scene, np.repeat(p, S, axis=0)[up], dirs.reshape(-1, 3)[up], backend=backend, bias=bias,
                           surface_ids=None if ids is None else ids[up], normals=np.repeat(n, S, axis=0)[up])
     return dirs, lit.reshape(len(p), S)
+
+
+def _surface_ids(surface_ids, n: int):
+    """``surface_ids`` as an array of shape () or (n,) (one of shape (1,) as ()), or None; ValueError
+    for any other shape, as the CSM backends say."""
+    if surface_ids is None:
+        return None
+    if np.shape(surface_ids) not in ((), (1,), (n,)):
+        raise ValueError(f"surface_ids must be one id or {n} (one a query), got shape {np.shape(surface_ids)}")
+    ids = np.asarray(surface_ids)
+    return ids.reshape(()) if ids.shape == (1,) and n != 1 else ids
 
 
 def transfer_irradiance(coefficients, transfer) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 
 from ._validate import float32_exact
 
-__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size"]
+__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size", "sphere_size", "off_own_surface"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -46,6 +46,13 @@ def body_size(scene, points) -> np.ndarray:
     c, r = arr["world_centre"][arr["casts"]], r_all[arr["casts"]]
     if not len(r) or r_all.min() == r_all.max():
         return np.full(len(P), scene.scale())
+    return sphere_size(P, c, r)
+
+
+def sphere_size(points, centres, radii) -> np.ndarray:
+    """(N,) :func:`body_size`'s rule among the spheres ``centres`` (M, 3), ``radii`` (M,), M >= 1: the
+    largest radius of the spheres holding each point (to 1e-6 of that radius), else the nearest sphere's."""
+    P, c, r = points, centres, radii
     out = np.empty(len(P))
     step = max(1, (1 << 22) // len(r))          # at most 4 M point-sphere pairs at a time
     for s in range(0, len(P), step):
@@ -124,3 +131,54 @@ def _smallest_sphere(scene, p) -> np.ndarray:
                       else np.flatnonzero(np.einsum("ij,ij->i", p - c[k], p - c[k]) <= r[k] ** 2))
             out[inside] = r[k]
     return np.where(np.isinf(out), 0.0, out)
+
+
+def off_own_surface(rays, rel, w, eps, tfar, occ, ends=None) -> np.ndarray:
+    """``occ`` (N,) of :func:`pyshadow.embree.visible`'s rays, with each ray whose first hit is a triangle
+    whose plane holds its own point (within its lift) traced again from the point lifted off that plane,
+    and each whose first hit lies in the plane of its end (the surface a light stands on) answered open.
+
+    ``rays`` is the :class:`pyshadow.embree.EmbreeScene`; ``rel`` the points relative to its anchor, ``w``
+    their unit directions, ``eps`` (N,) their lifts, ``tfar`` (N,) or None the lengths from the lifted
+    origins ``rel + eps w``; ``ends`` None or the ends (N, 3) (relative, not finite for unbounded rays) and
+    how far before them the rays stop (N,) (:func:`end_epsilon`). A ray meets a plane holding its point
+    (its end) only there, so such a hit is float32's rounding: lifted along itself only, a ray leaving its
+    surface at a grazing angle stayed within it, and the surface (that triangle or a coplanar neighbour) hid
+    it (25-61 % of the rays 0.01 degrees above a plate turned by 30-77 degrees; none unturned), and so hid
+    a light standing on a turned plate (a ray's first hit: nothing lies before it). Again from ``rel + eps
+    w`` moved ``eps`` off that plane, to the side the ray leaves (behind it for a ray into the surface, as a
+    steep one starts); up to three planes (a point on an edge or a corner). Rays stopped elsewhere keep
+    their answer.
+    """
+    occ = occ.copy()
+    rows = np.flatnonzero(occ)
+    lift = np.zeros((len(rows), 3))
+    for k in range(4):
+        if not len(rows):
+            break
+        _, prim, _ = rays.intersect(rel[rows] + eps[rows, None] * w[rows] + lift, w[rows],
+                                    None if tfar is None else tfar[rows])
+        if k:                       # traced again: its new first hit decides
+            occ[rows] = prim >= 0
+        if ends is not None:        # the plane the light stands on
+            with np.errstate(invalid="ignore"):
+                occ[rows[_holding_normals(rays, prim, ends[0][rows], ends[1][rows]).any(axis=1)]] = False
+        n = _holding_normals(rays, prim, rel[rows], eps[rows]) if k < 3 else np.zeros((len(rows), 3))
+        own = n.any(axis=1) & occ[rows]
+        side = np.where(np.einsum("ij,ij->i", n, w[rows]) < 0.0, -1.0, 1.0)
+        lift = (lift + (eps[rows] * side)[:, None] * n)[own]
+        rows = rows[own]
+    return occ
+
+
+def _holding_normals(rays, prim, points, tol) -> np.ndarray:
+    """(N, 3) the unit normal of each hit triangle ``prim`` (N,) of ``rays`` whose plane lies within ``tol``
+    (N,) of its point ``points`` (N, 3) (both relative to the scene's anchor, world units); 0 for a triangle
+    farther, a miss or no area."""
+    u = rays.unit
+    tri = rays.triangles[np.maximum(prim, 0)].astype(np.float64)     # Embree's, in its units (exact)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area = np.linalg.norm(n, axis=1)
+    n /= np.where(area > 0.0, area, 1.0)[:, None]
+    held = (prim >= 0) & (area > 0.0) & (np.abs(np.einsum("ij,ij->i", points * u - tri[:, 0], n)) <= tol * u)
+    return np.where(held[:, None], n, 0.0)

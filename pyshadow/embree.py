@@ -14,7 +14,7 @@ import trimesh
 
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays
-from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon
+from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon, off_own_surface
 from ._validate import check_both, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
@@ -55,7 +55,7 @@ class EmbreeScene:
         # coordinates of any size: Embree sees them scaled by a power of two (1 near unit size)
         self.unit = float32_unit(np.abs(tri).max()) if len(tri) else 1.0
         tri = np.ascontiguousarray(tri * self.unit, dtype=np.float32)
-        self.n_triangles = len(tri)
+        self.n_triangles, self.triangles = len(tri), tri        # (T, 3, 3) float32: Embree's, in its units
         self._scene = rtcs.EmbreeScene()
         if len(tri):
             TriangleMesh(self._scene, tri)
@@ -283,7 +283,9 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     direction (so a point on a surface does not hit that surface) and runs
     to infinity, or with ``max_distance`` (float or (N,), world units, > 0)
     to the end ``p + max_distance w`` moved back as much (:func:`end_epsilon`:
-    a light on a surface is not hidden by it); the ground plane is tested
+    a light on a surface is not hidden by it); a ray that grazes the surface
+    its point or its end lies on is not hidden by it either
+    (:func:`pyshadow._embree_lift.off_own_surface`); the ground plane is tested
     analytically as in the kernel (:mod:`pyshadow.visibility.finite`).
     """
     from .visibility.finite import check_max_distance
@@ -308,11 +310,16 @@ def _visible(scene, p, w, tmax, anchor):
     todo = np.flatnonzero(~occ)
     if len(todo):
         eps = surface_epsilon(scene, p[todo], anchor)
-        tfar = None if tmax is None else np.maximum(tmax[todo] - eps - end_epsilon(scene, p[todo], w[todo], tmax[todo],
-                                                                                    anchor), 0.0)
-        if tfar is not None:            # beyond float32's range: unbounded
-            tfar = np.where(tfar > np.finfo(np.float32).max, np.inf, tfar)
+        tfar = ends = None
+        if tmax is not None:
+            back = end_epsilon(scene, p[todo], w[todo], tmax[todo], anchor)
+            tfar = np.maximum(tmax[todo] - eps - back, 0.0)
+            tfar = np.where(tfar > np.finfo(np.float32).max, np.inf, tfar)     # beyond float32's range: unbounded
+            with np.errstate(over="ignore", invalid="ignore"):      # unbounded rays: no end
+                ends = (rel[todo] + tmax[todo, None] * w[todo], back)
         occ[todo] = rays.occluded(rel[todo] + eps[:, None] * w[todo], w[todo], tfar)
+        # a ray stopped by the surface its point or its end lies on (grazing it): again, off that surface
+        occ[todo] = off_own_surface(rays, rel[todo], w[todo], eps, tfar, occ[todo], ends)
     return ~occ
 
 

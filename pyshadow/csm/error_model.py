@@ -209,21 +209,34 @@ def truth_visible(bodies, points, directions, *, ground: float | None = None) ->
     ndarray of bool, shape (N,)
         True where the ray reaches the sky.
     """
+    from .._embree_lift import off_own_surface, sphere_size
     from ..embree import EmbreeScene, ray_epsilon
     from ..mesh import float32_unit
+    from ..scene_arrays import ANCHOR_REACH_RADII, cube_groups
 
     p, w = _rays(points, directions)
     casters, anchor, scale = _frame(bodies)
     occ = _ground(p, w, ground, scale)
+    if not casters:
+        return ~occ
+    centres, radii = (np.array(x) for x in zip(*(b.world_sphere() for b in casters)))
+    # each ray lifted by its own body's size (pyshadow.embree's rule, _embree_lift.body_size): by the
+    # largest, a small body's rays stepped over it
+    size = np.full(len(p), scale) if radii.min() == radii.max() else sphere_size(p, centres, radii)
     # traced at unit size, scaled by a power of two (1 near it: exact): ray_epsilon is at least float32's
     # smallest normal number, which lifted the rays off a body below 1e-38 units past every surface
     unit = float32_unit(scale)
-    rel = (p - anchor) * unit
-    world = EmbreeScene(np.concatenate([b.world_triangles(anchor) * unit for b in casters]) if casters
-                        else np.zeros((0, 3, 3)))
-    eps = np.maximum(2e-5 * scale * unit, ray_epsilon(np.maximum(np.abs(rel).max(axis=1), scale * unit)))
-    todo = np.flatnonzero(~occ)
-    occ[todo] = world.occluded(rel[todo] + eps[todo, None] * w[todo], w[todo])
+    # points far from the anchor (bodies far apart) relative to anchors of their own, as pyshadow.embree's
+    for rows, a in cube_groups(p, anchor, ANCHOR_REACH_RADII * radii.min()):
+        rows = np.arange(len(p)) if rows is None else rows
+        todo = rows[~occ[rows]]
+        rel = (p[todo] - a) * unit
+        lift = size[todo] * unit
+        eps = np.maximum(2e-5 * lift, ray_epsilon(np.maximum(np.abs(rel).max(axis=1), lift)))
+        world = EmbreeScene(np.concatenate([b.world_triangles(a) * unit for b in casters]))
+        # a ray grazing the surface its point lies on traced again off that surface, as embree.visible's
+        hit = world.occluded(rel + eps[:, None] * w[todo], w[todo])
+        occ[todo] = off_own_surface(world, rel, w[todo], eps, None, hit)
     return ~occ
 
 

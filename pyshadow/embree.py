@@ -15,7 +15,7 @@ import trimesh
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays
 from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon, off_own_surface
-from ._validate import check_both, check_values, flag, kernel_rows, unit_normals
+from ._validate import check_both, check_indices, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
 from .scene_arrays import ANCHOR_REACH_RADII, anchor_groups
@@ -361,43 +361,45 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
 
         tau = check_ao_options(obscurance, 1, "error")[0]
         tmax = check_max_distance(np.inf if max_distance is None else max_distance, len(p))
-    dirs = sample_directions(n, sampling=sampling, indices=indices).astype(np.float64)
-    N, S = dirs.shape[:2]
-    if distance:
-        weights = np.empty((N, S))
-        for rows, a in anchor_groups(scene, p):  # one group but where points lie far apart
-            rows = slice(None) if rows is None else rows
-            weights[rows] = _distance_weights(scene, a, p[rows], n[rows], dirs[rows], tmax[rows], tau)
-        return ao_from_samples(dirs, weights, n, bent_normals)
-    occ = np.empty((N, S), bool)
-    for rows, a in anchor_groups(scene, p):
-        rows = slice(None) if rows is None else rows
-        occ[rows] = _occluded_samples(scene, a, p[rows], n[rows], dirs[rows])
-    return ao_from_samples(dirs, ~occ, n, bent_normals)
+    idx = check_indices(indices, len(p))
+    out = (np.empty(len(p), np.float32), np.empty((len(p), 3), np.float32))
+    step = max(1, _CHUNK_RAYS // sampling.samples)     # points a chunk: all N S rays at once took 100 bytes a ray
+    for rows, a in anchor_groups(scene, p):  # one group but where points lie far apart
+        rays, a = caster_scene(scene, a)
+        rows = np.arange(len(p)) if rows is None else rows
+        for r in (rows[s:s + step] for s in range(0, len(rows), step)):
+            dirs = sample_directions(n[r], sampling=sampling, indices=idx[r]).astype(np.float64)
+            w = (_distance_weights(scene, rays, a, p[r], n[r], dirs, tmax[r], tau) if distance
+                 else ~_occluded_samples(scene, rays, a, p[r], n[r], dirs))
+            got = ao_from_samples(dirs, w, n[r], bent_normals)
+            out[0][r], out[1][r] = got if bent_normals else (got, 0.0)
+    return out if bent_normals else out[0]
 
 
-def _occluded_samples(scene, anchor, p, n, dirs):
-    """(N, S) bool: which of the AO sample rays ``dirs`` (N, S, 3) from ``p`` an occluder stops (relative to ``anchor``)."""
-    rays, anchor = caster_scene(scene, anchor)
+_CHUNK_RAYS = 1 << 21   # AO rays a chunk of ambient_occlusion's points, and a call of Embree
+
+
+def _occluded_samples(scene, rays, anchor, p, n, dirs):
+    """(N, S) bool: which of the AO sample rays ``dirs`` (N, S, 3) from ``p`` an occluder stops (``rays``:
+    :func:`caster_scene` relative to ``anchor``)."""
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
     # the ground is tested at the point itself, as the kernel does
     occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
     origins = np.repeat(p - anchor + surface_epsilon(scene, p, anchor)[:, None] * n, S, axis=0)
     todo = np.flatnonzero(~occ)
-    chunk = 1 << 21
+    chunk = _CHUNK_RAYS
     for s in range(0, len(todo), chunk):
         sel = todo[s:s + chunk]
         occ[sel] = rays.occluded(origins[sel], flat[sel])
     return occ.reshape(N, S)
 
 
-def _distance_weights(scene, anchor, p, n, dirs, tmax, tau):
+def _distance_weights(scene, rays, anchor, p, n, dirs, tmax, tau):
     """:func:`ambient_occlusion`'s distance AO weights (N, S) from first-hit distances (float64), relative to
-    ``anchor``."""
+    ``anchor`` (``rays``: :func:`caster_scene` there)."""
     from .visibility.finite import obscurance_weight
 
-    rays, anchor = caster_scene(scene, anchor)
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
     L = np.full(N * S, np.inf)
@@ -411,7 +413,7 @@ def _distance_weights(scene, anchor, p, n, dirs, tmax, tau):
             L = np.where(down, np.maximum(h, 0.0) / -wy, L)
             L = np.where(up, -h / wy, L)
     origins = np.repeat(p - anchor + surface_epsilon(scene, p, anchor)[:, None] * n, S, axis=0)
-    chunk = 1 << 21
+    chunk = _CHUNK_RAYS
     for s in range(0, N * S, chunk):
         t, _, _ = rays.intersect(origins[s:s + chunk], flat[s:s + chunk])
         L[s:s + chunk] = np.minimum(L[s:s + chunk], t)

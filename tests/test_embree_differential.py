@@ -138,3 +138,28 @@ def test_a_light_on_a_turned_plate_is_seen_at_grazing_angles(plate, angle):
     assert embree.visible(scene, (q + 2.0 * d) @ R.T, -d @ R.T, max_distance=2.0).all()
     below = d * [1.0, -1.0, 1.0]
     assert not embree.visible(scene, (q + 2.0 * below) @ R.T, -below @ R.T, max_distance=2.0).any()
+
+
+@pytest.mark.parametrize("options", [{}, {"max_distance": 0.4, "obscurance": 3.0}])
+def test_ambient_occlusion_traces_its_points_in_chunks_with_identical_answers(monkeypatch, options):
+    """Was: every point's S directions, origins and answers at once (float64, about 100 bytes a ray: 544 MB
+    at peak for 100,000 points at 64 samples, 11 GB for a 1080p frame); now chunks of ``_CHUNK_RAYS`` rays
+    (300 MB there), the same answers to the bit."""
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(2, 4), resolution=8)
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    box.apply_translation([0.0, 0.5, 0.0])
+    scene.add(box)
+    rng = np.random.default_rng(5)
+    p = np.column_stack([rng.uniform(-1.5, 1.5, 500), np.zeros(500), rng.uniform(-1.5, 1.5, 500)])
+    n = np.tile([0.0, 1.0, 0.0], (500, 1))
+    sampling = pyshadow.Sampling(16)
+    whole = embree.ambient_occlusion(scene, p, n, sampling=sampling, return_bent_normals=True, **options)
+    sizes, real = [], pyshadow.sampling.sample_directions
+    monkeypatch.setattr(pyshadow.sampling, "sample_directions",
+                        lambda nrm, **kw: sizes.append(len(nrm)) or real(nrm, **kw))
+    monkeypatch.setattr(embree, "_CHUNK_RAYS", 16 * 37)
+    parts = embree.ambient_occlusion(scene, p, n, sampling=sampling, return_bent_normals=True, **options)
+    assert max(sizes) == 37 and sum(sizes) == 500
+    assert 0.5 < whole[0].mean() < 0.99                 # the box shades part of the ground
+    for a, b in zip(whole, parts):
+        np.testing.assert_array_equal(a, b)

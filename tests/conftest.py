@@ -166,6 +166,44 @@ def two_object_scene(bunny_scene):
     return scene
 
 
+def far_sphere_scene():
+    """A sphere of radius 1 (icosphere, edges about 0.08) at the origin above a ground plane at y = -0.9."""
+    import trimesh
+
+    import pyshadow
+
+    s = pyshadow.Scene(ground=-0.9, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    s.add(trimesh.creation.icosphere(3, radius=1.0))
+    return s
+
+
+def far_camera(distance: float):
+    """A 40x30 view of :func:`far_sphere_scene` from ``distance`` radii, its field of view framing 1.3 radii."""
+    import pyshadow
+
+    fov = float(np.degrees(2.0 * np.arctan(1.3 / distance)))
+    return pyshadow.Camera(eye=(0.3 * distance, 0.5 * distance, distance), target=(0.0, 0.0, 0.0), fov_y=fov,
+                           width=40, height=30)
+
+
+def box_and_ball(maps, resolution: int, subdivisions: int, size):
+    """A unit box and a ball of radius 0.5 on the ground (zigzag ``maps`` CSMs at ``resolution``, the ball an
+    icosphere of ``subdivisions``), a camera of ``size`` (width, height) on them, and the CSMs' bytes."""
+    import trimesh
+
+    import pyshadow
+
+    scene = pyshadow.Scene(ground=0.0)
+    views = pyshadow.ViewSet.zigzag(*maps)
+    box = trimesh.creation.box((1.0, 1.0, 1.0))
+    ball = trimesh.creation.icosphere(subdivisions, 0.5)
+    for mesh, pos in ((box, (0.0, 0.5, 0.0)), (ball, (1.6, 0.5, 0.3))):
+        csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=resolution, progress=False)
+        scene.add(csm, trimesh.transformations.translation_matrix(pos), mesh=mesh)
+    cam = pyshadow.Camera([4.0, 3.0, 5.0], [0.8, 0.3, 0.0], width=size[0], height=size[1])
+    return scene, cam, sum(scene.instances[i].csm.stats["bytes"] for i in scene.casters)
+
+
 @pytest.fixture
 def small_scene():
     """A unit box on the ground, CSM of 4x8 maps at 16^2: quick to build and to ask."""

@@ -6,25 +6,16 @@ import types
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
+from conftest import box_and_ball
 from pyshadow.bench.light import light_pass, parse_light, place_light
 
 
 @pytest.fixture(scope="module")
 def small():
     """A box and a sphere on the ground, small CSMs, a 96x72 camera."""
-    scene = pyshadow.Scene(ground=0.0)
-    views = pyshadow.ViewSet.zigzag(16, 32)
-    box = trimesh.creation.box((1.0, 1.0, 1.0))
-    ball = trimesh.creation.icosphere(3, 0.5)
-    for mesh, pos in ((box, (0.0, 0.5, 0.0)), (ball, (1.6, 0.5, 0.3))):
-        csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=64, progress=False)
-        scene.add(csm, trimesh.transformations.translation_matrix(pos), mesh=mesh)
-    cam = pyshadow.Camera([4.0, 3.0, 5.0], [0.8, 0.3, 0.0], width=96, height=72)
-    nbytes = sum(scene.instances[i].csm.stats["bytes"] for i in scene.casters)
-    return scene, cam, nbytes
+    return box_and_ball((16, 32), 64, 3, (96, 72))
 
 
 def test_parse_light_forms():

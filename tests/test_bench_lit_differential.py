@@ -9,6 +9,7 @@ import pytest
 import trimesh
 
 import pyshadow
+from conftest import box_and_ball
 import pyshadow.lighting
 from pyshadow.bench import light as bench_light
 
@@ -16,16 +17,7 @@ from pyshadow.bench import light as bench_light
 @pytest.fixture(scope="module")
 def small():
     """A box and a sphere on the ground, small CSMs, a 48x36 camera."""
-    scene = pyshadow.Scene(ground=0.0)
-    views = pyshadow.ViewSet.zigzag(8, 16)
-    box = trimesh.creation.box((1.0, 1.0, 1.0))
-    ball = trimesh.creation.icosphere(2, 0.5)
-    for mesh, pos in ((box, (0.0, 0.5, 0.0)), (ball, (1.6, 0.5, 0.3))):
-        csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=32, progress=False)
-        scene.add(csm, trimesh.transformations.translation_matrix(pos), mesh=mesh)
-    cam = pyshadow.Camera([4.0, 3.0, 5.0], [0.8, 0.3, 0.0], width=48, height=36)
-    nbytes = sum(scene.instances[i].csm.stats["bytes"] for i in scene.casters)
-    return scene, cam, nbytes
+    return box_and_ball((8, 16), 32, 2, (48, 36))
 
 
 @pytest.mark.parametrize("spec", ["sun:40,35", "point"])

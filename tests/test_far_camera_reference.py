@@ -8,26 +8,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
+from conftest import far_camera, far_sphere_scene
 from pyshadow import embree
 from pyshadow.gbuffer import on_face_planes
 
 
 @pytest.fixture(scope="module")
 def scene():
-    """A sphere of radius 1 centred at the origin, above a ground plane at y = -0.9."""
-    s = pyshadow.Scene(ground=-0.9, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
-    s.add(trimesh.creation.icosphere(3, radius=1.0))
-    return s
-
-
-def _camera(distance: float) -> pyshadow.Camera:
-    """A 40x30 view of the sphere from ``distance`` radii, its field of view framing 1.3 radii."""
-    fov = float(np.degrees(2.0 * np.arctan(1.3 / distance)))
-    return pyshadow.Camera(eye=(0.3 * distance, 0.5 * distance, distance), target=(0.0, 0.0, 0.0), fov_y=fov,
-                           width=40, height=30)
+    return far_sphere_scene()
 
 
 def _mean_ao(frame) -> float:
@@ -37,7 +27,7 @@ def _mean_ao(frame) -> float:
 @pytest.fixture(scope="module")
 def near_ao(scene):
     """Embree's mean AO over the covered pixels (every one) from 300 radii: 0.8233 (the CSM's 0.8238)."""
-    return _mean_ao(embree.render(scene, _camera(300.0), sampling=pyshadow.Sampling(16)))
+    return _mean_ao(embree.render(scene, far_camera(300.0), sampling=pyshadow.Sampling(16)))
 
 
 @pytest.mark.parametrize("distance", [1e4, 1e5])
@@ -47,7 +37,7 @@ def test_embree_reference_keeps_its_ao_from_far_away(scene, near_ao, distance):
     point 2e-5 of the scene's scale, so its AO rays started behind their surface: mean AO 0.823 from 300 radii,
     0.509 from 1e4 and 0.601 from 1e5. Now each point lies on its face's plane in float64 and the primary rays
     start by the scene: the mean moves by less than 0.005 (one ray in 200)."""
-    far = _mean_ao(embree.render(scene, _camera(distance), sampling=pyshadow.Sampling(16)))
+    far = _mean_ao(embree.render(scene, far_camera(distance), sampling=pyshadow.Sampling(16)))
     assert abs(far - near_ao) < 0.005, (far, near_ao)
 
 
@@ -57,7 +47,7 @@ def test_far_csm_render_keeps_its_ground(scene, near_ao):
     the ground: mean AO 0.506 from 1e4 radii, where Embree's from 300 radii is 0.823. Now the
     frame's points lie on their faces' planes once 16 float32 spacings of the farthest depth exceed that
     tolerance: from 1e4 radii the CSM's mean is within 0.005 of Embree's from 300 (0.8236 against 0.8233)."""
-    csm = _mean_ao(scene.render(_camera(1e4), sampling=pyshadow.Sampling(16)))
+    csm = _mean_ao(scene.render(far_camera(1e4), sampling=pyshadow.Sampling(16)))
     assert abs(csm - near_ao) < 0.005, (csm, near_ao)
 
 
@@ -65,7 +55,7 @@ def test_on_face_planes_put_points_on_their_faces(scene):
     """From 1e6 radii, eye + depth * ray lies on its face's plane to float64 rounding of the distance (4e-10 here,
     asserted below 1e-14 of it), where the float32 depth leaves it up to 0.1 off (0.025 the median); pixels without
     a face keep their depth."""
-    cam = _camera(1e6)
+    cam = far_camera(1e6)
     items = scene.draw_items()[0]
     g = pyshadow.render_gbuffer(items, cam)
     index = np.flatnonzero(g["object_id"].reshape(-1) == 0)

@@ -9,25 +9,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
+from conftest import far_camera, far_sphere_scene
 from pyshadow import embree
 
 
 @pytest.fixture(scope="module")
 def scene():
-    """A sphere of radius 1 (icosphere, edges about 0.08) at the origin above a ground plane at y = -0.9."""
-    s = pyshadow.Scene(ground=-0.9, views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
-    s.add(trimesh.creation.icosphere(3, radius=1.0))
-    return s
-
-
-def _far_camera(distance: float) -> pyshadow.Camera:
-    """A 40x30 view of the sphere from ``distance`` radii, its field of view framing 1.3 radii."""
-    fov = float(np.degrees(2.0 * np.arctan(1.3 / distance)))
-    return pyshadow.Camera(eye=(0.3 * distance, 0.5 * distance, distance), target=(0.0, 0.0, 0.0), fov_y=fov,
-                           width=40, height=30)
+    return far_sphere_scene()
 
 
 def _same_face(g, e):
@@ -44,7 +34,7 @@ def test_far_camera_normals_agree_with_embree(scene, distance, bound):
     Embree's to float32 rounding (6e-8 measured); from 1e5 the ground quad's (a ratio under the threshold)
     stay the kernel's, 5e-5 off."""
     items = scene.draw_items()[0]
-    cam = _far_camera(distance)
+    cam = far_camera(distance)
     g = pyshadow.render_gbuffer(items, cam)
     e = embree.gbuffer(items, cam)
     same = _same_face(g, e)
@@ -59,7 +49,7 @@ def test_far_camera_ao_agrees_with_embrees_gbuffer(scene):
     faces) by more than 0.1 on 99 of 1198 pixels (up to 0.875).
     Now one pixel differs, by one of the 16 samples."""
     items = scene.draw_items()[0]
-    cam = _far_camera(1e6)
+    cam = far_camera(1e6)
     e = embree.gbuffer(items, cam)
     ours = pyshadow.render.render(scene, cam, sampling=pyshadow.Sampling(16))
     ref = pyshadow.render.render(scene, cam, sampling=pyshadow.Sampling(16), gbuffer=e)
@@ -73,7 +63,7 @@ def test_near_camera_normals_stay_the_kernels(scene):
     """From 300 radii no triangle is that far for its size: the normals are the kernel's float32 ones, as the
     NumPy reference's within the kernel's rounding (2e-4 measured against Embree), not moved by the fix."""
     items = scene.draw_items()[0]
-    cam = _far_camera(300.0)
+    cam = far_camera(300.0)
     g = pyshadow.render_gbuffer(items, cam)
     e = embree.gbuffer(items, cam)
     same = _same_face(g, e)

@@ -211,6 +211,49 @@ def visibility_pass(scene, gb: GBuffer, samples, strategy, seed, patterns, embre
             "ao": ao, "disagree": disagree}
 
 
+def ao_rays_visible(scene, backend, points, directions, surface_ids, normals, max_distance=None) -> np.ndarray:
+    """A CSM backend's answer for each ray, as its AO (:func:`pyshadow.visibility.ambient_occlusion`) asks it.
+
+    Unbounded rays: :func:`pyshadow.visibility.visible`. Rays of length ``max_distance``: the rule of
+    :func:`pyshadow.visibility.finite.answer_finite_ao` with ``straddle='embree'``: a ray ending inside a
+    caster's bounding sphere is asked unbounded first and traced by Embree only where the CSM finds it
+    occluded. (:func:`~pyshadow.visibility.visible` traces every such ray: its answers leave out the CSM's
+    own errors on them, and averaged per pixel they are not the AO.)
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    backend : {'csm', 'csm-vote'}
+    points : ndarray, shape (n, 3), float64
+        World ray origins on the surfaces.
+    directions : ndarray, shape (n, 3)
+        Unit directions.
+    surface_ids : ndarray, shape (n,), int
+    normals : ndarray, shape (n, 3)
+        The points' unit normals.
+    max_distance : float, optional
+        Ray length ``D``, world units (None: unbounded).
+
+    Returns
+    -------
+    ndarray, shape (n,), bool
+        True where the ray is free (up to ``max_distance``).
+    """
+    from pyshadow import visibility
+    from pyshadow.visibility.finite import answer_finite_ao, unit_directions
+
+    def answer(rows, lengths):        # lengths: all D, or all inf (the straddling rays asked unbounded)
+        return visibility.visible(scene, points[rows], w[rows], backend=backend, surface_ids=surface_ids[rows],
+                                  normals=normals[rows], max_distance=None if np.isinf(lengths).all() else lengths,
+                                  straddle="embree")
+
+    if max_distance is None:
+        return visibility.visible(scene, points, directions, backend=backend, surface_ids=surface_ids,
+                                  normals=normals)
+    w = unit_directions(directions)
+    return answer_finite_ao(scene, points, w, np.full(len(w), float(max_distance)), "embree", answer)
+
+
 def by_surface(gb: GBuffer, names: dict, samples: int, disagree, ao, ref_ao, conv_ao) -> list:
     """Per surface (instance or ground): pixels, ray agreement, AO bias and errors.
 

@@ -178,6 +178,26 @@ def sweep_probe_resolutions(resolution: int) -> list:
                    for r in (resolution // 2, resolution, 2 * resolution)})
 
 
+def check_camera(methods, camera) -> None:
+    """Refuse, before any work, an image that ``vtk-ssao`` among ``methods`` cannot render.
+
+    :func:`pyshadow.viz.ssao_pass.vtk_ssao` renders in a VTK window of the camera's size.
+
+    Raises
+    ------
+    pyshadow.bench.common.UsageError
+        ``vtk-ssao`` in ``methods`` and the camera narrower or lower than 16 pixels, or wider or
+        higher than :data:`pyshadow.viz.plotter.MAX_WINDOW_SIDE`.
+    """
+    from ..viz.plotter import MAX_WINDOW_SIDE
+    from .common import UsageError
+
+    w, h = camera.width, camera.height
+    if "vtk-ssao" in methods and not (16 <= w <= MAX_WINDOW_SIDE and 16 <= h <= MAX_WINDOW_SIDE):
+        raise UsageError(f"--size {w}x{h}: --method vtk-ssao renders in a VTK window of the image's size, "
+                         f"which must be 16..{MAX_WINDOW_SIDE} pixels wide and high")
+
+
 def sweep_methods(args, scene, camera, gb, tracer, cache, conv, csm, samples, log) -> dict:
     """The ``methods`` entry of ``sweep.json``: every ``--method`` at the sweep's sample counts.
 
@@ -201,12 +221,18 @@ def sweep_methods(args, scene, camera, gb, tracer, cache, conv, csm, samples, lo
     dict
         ``distance``, ``rule``, ``limited_reference_source``,
         ``probe_resolutions`` and :func:`summary` of the points.
+
+    Raises
+    ------
+    pyshadow.bench.common.UsageError
+        ``vtk-ssao`` asked of an image VTK cannot render (:func:`check_camera`), before any work.
     """
     from .common import _fig
     from .methods import method_context, selected_methods
 
-    ctx, rule, _, src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
     methods = selected_methods(args.method)
+    check_camera(methods, camera)
+    ctx, rule, _, src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
     log(f"sweep: methods {', '.join(methods)} at D = {ctx.D:.4g} ({rule})")
     res = sweep_probe_resolutions(args.probe_resolution)
     pts = method_points(ctx, methods, samples, res, args.repeats, probe_samples=args.samples, csm=csm, log=log)

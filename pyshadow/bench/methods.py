@@ -15,7 +15,8 @@ Every method shades the covered pixels of the benchmark's camera (the same
 * **agreement** -- the fraction of the identical rays (pyshadow's sample
   directions of every pixel) on which the method's visibility equals
   Embree's: unbounded rays for the unlimited definition, rays ending at
-  ``D`` for the distance-limited one. SSAO answers no rays ("n/a").
+  ``D`` for the distance-limited one (a CSM's as its AO asks them:
+  :func:`~pyshadow.bench.measure.ao_rays_visible`). SSAO answers no rays ("n/a").
 * **AO RMSE** against both converged Embree references: the unlimited one
   of the single benchmark and the distance-limited one (same ``D``, same
   reference sample count, cached like the other).
@@ -59,7 +60,7 @@ from .._validate import FLOAT32_MAX, check_int, nonzero, rows3
 from ..lighting._checks import positive
 from .common import _fig, _num, cached_ao
 from .config import positive_number
-from .measure import GBuffer, _errors, _ray_chunks, _reference_key
+from .measure import GBuffer, _errors, _ray_chunks, _reference_key, ao_rays_visible
 
 #: Method names of ``--method``.
 METHODS = ("csm", "csm-vote", "cubemap", "cubemap-horizon", "ssao", "vtk-ssao", "embree")
@@ -108,8 +109,8 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
     """Embree occlusion of rays ending at ``max_distance``, on the tracer's thread pool.
 
     The rays of :func:`pyshadow.embree.visible` (start moved by the surface
-    epsilon along the direction, analytic ground plane), traced with the
-    tracer's BVH.
+    epsilon along the direction, analytic ground plane, a ray grazing its own
+    surface traced again off it), traced with the tracer's BVH.
 
     Parameters
     ----------
@@ -130,7 +131,7 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
         Points or directions not (n, 3) finite rows of one count, a zero
         direction, or ``max_distance`` not a finite number > 0.
     """
-    from pyshadow.embree import end_epsilon, ground_occludes, surface_epsilon
+    from pyshadow.embree import end_epsilon, ground_occludes, off_own_surface, surface_epsilon
 
     p = rows3(points, "points")
     w = nonzero(rows3(directions, "directions", len(p)), "directions")
@@ -143,14 +144,17 @@ def embree_limited(tracer, points, directions, max_distance) -> np.ndarray:
         return occ
     eps = surface_epsilon(tracer.scene, p[todo])
     # the end moved back as embree.visible's (float64: EmbreeScene.occluded converts, copies, it)
-    tfar = np.maximum(D - eps - end_epsilon(tracer.scene, p[todo], w[todo], np.full(len(todo), D), tracer.anchor), 0.0)
-    o32 = (rel[todo] + eps[:, None] * w[todo]).astype(np.float32)
-    d32 = w[todo].astype(np.float32)
+    back = end_epsilon(tracer.scene, p[todo], w[todo], np.full(len(todo), D), tracer.anchor)
+    tfar = np.maximum(D - eps - back, 0.0)
+    rt, wt = rel[todo], w[todo]
+    o32, d32 = (rt + eps[:, None] * wt).astype(np.float32), wt.astype(np.float32)
     res = np.empty(len(todo), bool)
     step = max(4096, -(-len(todo) // (4 * tracer.threads)))
 
-    def work(s):
-        res[s:s + step] = tracer.rays.occluded(o32[s:s + step], d32[s:s + step], tfar[s:s + step])
+    def work(s):        # as embree.visible: a ray stopped by the surface its point or end lies on, again off it
+        q = slice(s, s + step)
+        hit = tracer.rays.occluded(o32[q], d32[q], tfar[q])
+        res[q] = off_own_surface(tracer.rays, rt[q], wt[q], eps[q], tfar[q], hit, (rt[q] + D * wt[q], back[q]))
 
     list(tracer.pool.map(work, range(0, len(todo), step)))
     occ[todo] = res
@@ -272,7 +276,8 @@ def _embree_share(ctx: Context, backend: str, samples: int) -> float:
 
     The rule of :func:`pyshadow.visibility.finite.answer_finite_ao`: a ray
     ending inside a caster's bounding sphere (``straddling``) is asked
-    unbounded first; only where that ray is occluded is it traced.
+    unbounded first; only where that ray is occluded is it traced. With no
+    rays the fraction is NaN (null in the records), as :func:`_agreement`'s.
     """
     from pyshadow import visibility
     from pyshadow.visibility.finite import straddling, unit_directions
@@ -286,7 +291,7 @@ def _embree_share(ctx: Context, backend: str, samples: int) -> float:
             nrm = np.repeat(ctx.gb.normals[s:e], S, axis=0)[rows]
             free = visibility.visible(ctx.scene, p[rows], w[rows], backend=backend, surface_ids=ids, normals=nrm)
             n += int(np.count_nonzero(~free))
-    return n / max(1, ctx.gb.n * S)
+    return n / (ctx.gb.n * S or float("nan"))       # no rays: no fraction (not 0 %)
 
 
 def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: int = 128, csm=None):
@@ -328,13 +333,11 @@ def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: in
                                                     indices=gb.sel, surface_ids=gb.ids, max_distance=md,
                                                     straddle=st)
 
-            def vis(md=md, st=st):
+            def vis(md=md):       # the rays as the AO asks them (straddling: Embree only where occluded)
                 out = np.empty(gb.n * S, bool)
                 for s, e, p, d in ctx.rays(S):
-                    out[s * S:e * S] = visibility.visible(scene, p, d, backend=method,
-                                                          surface_ids=np.repeat(gb.ids[s:e], S),
-                                                          normals=np.repeat(gb.normals[s:e], S, axis=0),
-                                                          max_distance=md, straddle=st)
+                    out[s * S:e * S] = ao_rays_visible(scene, method, p, d, np.repeat(gb.ids[s:e], S),
+                                                       np.repeat(gb.normals[s:e], S, axis=0), md)
                 return out
 
             row = {"method": method, "definition": definition, "setting": setting, "precompute_s": pre,
@@ -346,7 +349,8 @@ def method_runs(ctx: Context, method: str, samples: int, *, probe_resolution: in
         from pyshadow.embree import caster_scene
 
         t0 = time.perf_counter()
-        _, _ = caster_scene(scene)
+        rays, _ = caster_scene(scene)       # Embree builds the BVH at the first ray: part of the precompute
+        rays.occluded(np.zeros((1, 3), np.float32), np.array([[0.0, 1.0, 0.0]], np.float32))
         pre = time.perf_counter() - t0
         nbytes = 0
         for i in scene.casters:
@@ -450,6 +454,7 @@ def measure_row(ctx: Context, row, names=None, agreement=None) -> dict:
         agreement = _agreement(row["visible"](), ctx.embree_rays(S, row["definition"] == "limited"), S)
     cov = row["coverage"]
     cov = cov.get("coverage") if isinstance(cov, dict) else cov
+    cov = cov if gb.n else float("nan")       # no pixels: no fraction shaded (not all of them)
     rmse_u, mae_u = _errors(a, ctx.conv)
     rmse_d, mae_d = _errors(a, ctx.conv_d)
     na = "n/a (answers no rays)"
@@ -552,7 +557,10 @@ def methods_pass(args, scene, camera, gb: GBuffer, tracer, cache, csm, conv, vis
     -------
     dict
     """
+    from .method_sweep import check_camera
+
     methods = selected_methods(args.method)
+    check_camera(methods, camera)       # vtk-ssao's window: a UsageError before any work or output
     ctx, rule, conv_d_s, conv_d_src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
     D, conv_d = ctx.D, ctx.conv_d
     log(f"methods: {', '.join(methods)} at D = {D:.4g} ({rule}), {args.samples} samples")

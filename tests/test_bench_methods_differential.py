@@ -236,3 +236,20 @@ def test_embree_limited_is_embree_visible_on_grazing_rays(tiny, degrees):
         truth = ~embree.visible(ctx.scene, gb.points, d, max_distance=D)
         assert np.count_nonzero(truth) > 250                  # the rays meet occluders: the test has teeth
         assert np.count_nonzero(occ != truth) == 0, (degrees, D)
+
+
+@pytest.mark.parametrize("mode", [[], ["--sweep"]])
+def test_vtk_ssao_size_is_refused_when_the_arguments_are_read(monkeypatch, capsys, tmp_path, mode):
+    """Was: the single benchmark ran whole and the sweep traced its reference and timed its grid before
+    ``--size 8x6`` was refused for vtk-ssao (the sweep with a traceback: its UsageError was not caught);
+    now the arguments are refused before any scene is made."""
+    from pyshadow.bench import cli
+
+    def never(*args, **kwargs):
+        raise AssertionError("the benchmark ran")
+
+    monkeypatch.setattr(cli, "SceneFactory", never)
+    with pytest.raises(SystemExit) as e:
+        cli.main([*mode, "--size", "8x6", "--method", "vtk-ssao", "--quiet", "--out", str(tmp_path), "--no-cache"])
+    assert e.value.code == 2
+    assert "--size 8x6: --method vtk-ssao renders in a VTK window" in capsys.readouterr().err

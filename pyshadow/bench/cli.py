@@ -289,6 +289,15 @@ def _run(argv) -> int:
             args.repeats = 3          # renders per model configuration: 1 untimed, 2 timed
     cfg = Config(tuple(args.maps), args.resolution, args.depth_bits, args.samples,
                  None if args.filter == "none" else args.filter, bool(args.filtered_lookup))
+    if args.method:                 # vtk-ssao's window holds the image: refused here, not after the run
+        from types import SimpleNamespace
+
+        from .method_sweep import check_camera
+        from .methods import selected_methods
+        try:
+            check_camera(selected_methods(args.method), SimpleNamespace(width=args.size[0], height=args.size[1]))
+        except UsageError as e:
+            ap.error(str(e))
 
     if args.no_cache:
         cache_root = None

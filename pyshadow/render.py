@@ -218,11 +218,14 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
 
 def _on_faces(scene, items, g, camera, covered, exact=False) -> dict:
     """``g``, or a copy whose float64 depths put the covered pixels on their faces' planes: for a ray tracer
-    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera)."""
+    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera). The kernel's
+    float32 ray of a pixel is off by about a float32 spacing times the tangent of its angle off the axis, so
+    that tolerance is divided by the image's largest such tangent (beyond 1: a wide or very wide image)."""
     from .contact import ground_tolerance
     from .gbuffer import on_face_planes
 
-    return on_face_planes(items, g, camera, covered, 0.0 if exact else ground_tolerance(scene))
+    wide = max(1.0, camera.tan_half * max(1.0, camera.aspect))
+    return on_face_planes(items, g, camera, covered, 0.0 if exact else ground_tolerance(scene) / wide)
 
 
 def _instance_ids(g, ids) -> np.ndarray:

@@ -359,26 +359,28 @@ class CSMVisibility(_SampledSky):
                                  lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
         return self._visible(scene, p, w, own, m, bias, None)
 
-    def _visible(self, scene, p, w, own, m, bias, tmax):
+    def _visible(self, scene, p, w, own, m, bias, tmax, ground=True):
         """:meth:`_visible_kernel`, then the footprints of bodies resting on the ground (:mod:`pyshadow.contact`)."""
-        return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax))
+        return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax, ground=ground))
 
-    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True, anchor=None):
+    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True, anchor=None, ground=True):
         """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`;
-        ``anchor``: the rows' anchor, or None: :func:`~pyshadow.scene_arrays.anchor_groups`'s)."""
+        ``anchor``: the rows' anchor, or None: :func:`~pyshadow.scene_arrays.anchor_groups`'s; ``ground``
+        False: the casters alone, the kernel compiled with ``GROUND=0``)."""
         n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
             return out
         if coherent and order.enabled(n) and self.query_defines(scene, "scene_visible") is not None:
-            return order.reordered(lambda *r: self._visible_kernel(scene, *r[:4], bias, r[4], False),
+            return order.reordered(lambda *r: self._visible_kernel(scene, *r[:4], bias, r[4], False, ground=ground),
                                    p, w, own, m, tmax)
         fp64 = _cl.has_fp64()
         # float64 inputs are read as such where the device has doubles (else the host rounds them below)
         defines = self.query_defines(scene, "scene_visible", HAVE_FP64=int(fp64),
                                      POINTS_F64=int(fp64 and p.dtype == np.float64),
                                      DIRS_F64=int(fp64 and w.dtype == np.float64),
-                                     SURFACE_NORMALS=int(m is not None), FINITE_RAYS=int(tmax is not None))
+                                     SURFACE_NORMALS=int(m is not None), FINITE_RAYS=int(tmax is not None),
+                                     **({} if ground else {"GROUND": 0}))
         if defines is None:             # nothing occludes: no kernel
             out[:] = True
             return out
@@ -389,7 +391,7 @@ class CSMVisibility(_SampledSky):
             if len(groups) > 1:             # points far apart: each group relative to an anchor of its own
                 for rows, a in groups:
                     out[rows] = self._visible_kernel(scene, p[rows], w[rows], own[rows], None if m is None else m[rows],
-                                                     bias, None if tmax is None else tmax[rows], False, a)
+                                                     bias, None if tmax is None else tmax[rows], False, a, ground)
                 return out
             anchor = groups[0][1]
         if not fp64:
@@ -546,10 +548,11 @@ def _distance_ao(backend, scene, points, normals, sampling, bent, bias, indices,
             P, W = np.repeat(p[sel], S, axis=0), dirs.reshape(-1, 3)
             own_r, m_r = np.repeat(own[sel], S), np.repeat(n[sel].astype(np.float32), S, axis=0)
 
-            def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r):
-                return backend._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t))
+            def answer(k, t, P=P, W=W, own_r=own_r, m_r=m_r, ground=True):
+                return backend._visible(scene, P[k], W[k], own_r[k], m_r[k], bias, _float32_lengths(t), ground)
 
-            weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer, sel)
+            weights = rays_ao(scene, p[sel], n[sel], dirs, cols[s:s + step], straddle, answer, sel,
+                              lambda k, a=answer: a(k, np.full(len(k), np.inf), ground=False))
             res = ao_from_samples(dirs.astype(np.float64), weights, n[sel], True)
             res_ao[s:s + step], res_bent[s:s + step] = res
         return res_ao, res_bent

@@ -342,7 +342,7 @@ def shell_clear(scene, points, tmax) -> np.ndarray:
     return ok
 
 
-def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=None) -> np.ndarray:
+def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=None, casters=None) -> np.ndarray:
     """Finite AO rays by a CSM backend: ``answer(rows, lengths)`` -> (K,) bool for the rows it is given.
 
     Rays that do not straddle (:func:`straddling`) are answered at their
@@ -352,7 +352,13 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=Non
     ``straddle`` then says: ``'error'`` raise a ``ValueError`` naming the
     instance, ``'embree'`` trace those rays with Embree (exact; needs the
     meshes), ``'infinite'`` keep the unbounded answer (occluded: AO too dark
-    by the occluders met beyond the end, never too bright).
+    by the occluders met beyond the end, never too bright). The ground plane
+    is decided exactly (:func:`ground_blocks`): a straddling ray it blocks
+    within its length is occluded; one it blocks only beyond its end (one
+    that ends short of the plane it heads for) is asked ``casters``, but
+    with ``'embree'``, which traces it as before. (Before, the plane left
+    such a ray undecided: a box resting on the ground read AO 0.5 on its
+    sides with ``'infinite'``, where 1.0 is right, and ``'error'`` refused.)
 
     Parameters
     ----------
@@ -366,6 +372,10 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=Non
     name : callable, optional
         ``name(i)``: how the ``'error'`` message names ray ``i`` to the
         caller (default ``"AO ray i"``).
+    casters : callable, optional
+        ``casters(rows)`` -> (K,) bool, the backend's unbounded answer for
+        the rays ``rows`` without the ground plane (default: none, such rays
+        stay undecided).
 
     Returns
     -------
@@ -383,8 +393,20 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=Non
     if not len(rows):
         return vis
     vis[rows] = answer(rows, np.full(len(rows), np.inf))
-    open_ = vis[rows]
-    amb, owner = rows[~open_], inst[~open_]
+    if scene.ground is not None:
+        from ..contact import ground_tolerance
+
+        h, wy = points[rows, 1] - scene.ground, directions[rows, 1]
+        eps, off = ground_tolerance(scene), ground_offsets(scene, points[rows])
+        hit = ground_blocks(h, wy, tmax[rows], eps, off)      # within the length: occluded, exactly
+        beyond = ground_blocks(h, wy, None, eps) & ~hit       # only beyond the end: the casters decide
+        vis[rows[hit]] = False
+        if casters is not None and straddle != "embree" and beyond.any():     # ('embree': traced, exact)
+            vis[rows[beyond]] = casters(rows[beyond])
+        done = vis[rows] | hit
+    else:
+        done = vis[rows]
+    amb, owner = rows[~done], inst[~done]
     if not len(amb) or straddle == "infinite":
         return vis
     meshes = all(scene.instances[i].mesh is not None for i in np.flatnonzero(scene_arrays(scene)["casts"]))
@@ -403,7 +425,7 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=Non
     return vis
 
 
-def rays_ao(scene, points, normals, directions, nodes, straddle, answer, point_ids=None):
+def rays_ao(scene, points, normals, directions, nodes, straddle, answer, point_ids=None, casters=None):
     """Per-sample weights rho_Q of distance AO from finite visibility queries.
 
     Parameters
@@ -421,6 +443,9 @@ def rays_ao(scene, points, normals, directions, nodes, straddle, answer, point_i
     point_ids : ndarray, shape (N,), optional
         The caller's index of each point, for the ``'error'`` message
         (default ``0 .. N-1``).
+    casters : callable, optional
+        ``casters(rows)``: the unbounded visibility of the flattened rays
+        ``rows`` without the ground plane (:func:`answer_finite_ao`).
 
     Returns
     -------
@@ -440,6 +465,6 @@ def rays_ao(scene, points, normals, directions, nodes, straddle, answer, point_i
     for j in range(Q):
         t = np.repeat(nodes[:, j], S)
         if vis is None or not np.array_equal(t, prev):      # equal lengths: the same answers
-            vis, prev = answer_finite_ao(scene, P, W, t, straddle, answer, name), t
+            vis, prev = answer_finite_ao(scene, P, W, t, straddle, answer, name, casters), t
         weight += vis
     return (weight / Q).reshape(N, S)

@@ -57,11 +57,12 @@ def visible_reference(scene, points, directions, *, bias: float | None = None,
                          lambda: _visible_reference(scene, p, w, own, m, lookup, bias, tmax))
 
 
-def _visible_reference(scene, p, w, own, m, lookup, bias, tmax):
-    """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None)."""
+def _visible_reference(scene, p, w, own, m, lookup, bias, tmax, ground=True):
+    """:func:`visible_reference` of validated rows (``tmax``: (N,) lengths or None; ``ground`` False: the
+    casters alone, as the kernel compiled with ``GROUND=0``)."""
     check_meshes(scene)                 # a caster's mesh changed in place: refused, as on the other backends
     occ = np.zeros(len(p), bool)
-    if scene.ground is not None:
+    if ground and scene.ground is not None:
         occ |= ground_blocks(p[:, 1] - scene.ground, w[:, 1], tmax, ground_tolerance(scene),
                              0.0 if tmax is None else ground_offsets(scene, p))
     types, _ = scene.caster_types()
@@ -219,7 +220,10 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
         def answer(k, t):
             return _visible_reference(scene, P[k], W[k], own[k], M[k], lookup, bias, t)
 
-        weights = rays_ao(scene, p, n, dirs, ao_nodes(tmax, tau, Q), straddle, answer)
+        def casters(k):                 # unbounded, without the plane (finite.answer_finite_ao)
+            return _visible_reference(scene, P[k], W[k], own[k], M[k], lookup, bias, None, ground=False)
+
+        weights = rays_ao(scene, p, n, dirs, ao_nodes(tmax, tau, Q), straddle, answer, None, casters)
         return ao_from_samples(dirs, weights, n, return_bent_normals)
     dirs = sample_directions_reference(n, sampling=sampling, indices=idx)
     scene.caster_slots(surface_ids, len(p))     # checked before the broadcast below (numpy's message)

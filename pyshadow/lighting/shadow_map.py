@@ -14,7 +14,9 @@ light:
   light (texels are square only when that rectangle is);
 * rays that end at one common point (``points + directions * max_distance``
   equal to 1e-6 of the rays' length plus the scene's size: a point or spot
-  light): a cube map of six 90 degree faces, R x R texels each, at that point.
+  light): a cube map of six 90 degree faces, R x R texels each, at that point
+  (caster faces nearer it than ``NEAR_CUT`` of its reach plus ``NEAR_ULPS`` float64
+  spacings of its coordinates are cut: a lamp standing on a face).
   A far light's cube (casters' cone under ``FIT_TEXELS`` texels) turns to the
   cone's axis, widened by the largest power of two ``k`` that keeps it in a face:
   texels, ε's texel term ``k`` times finer; ε + ``FIT_ULPS`` float32 ulps of depth.
@@ -96,6 +98,10 @@ FAR_TEXELS = 2.0 ** -8      # below this cone (texels): a point light's rays ans
 LIGHT_TOL = 1e-6            # rays of one light: directions / endpoints equal to this (relative)
 LIGHT_ULPS = 8.0            # ... plus this many float64 spacings of a kept point light's coordinates
 CACHE_MAPS = 4              # rendered maps kept per backend object
+NEAR_CUT, NEAR_ULPS = 2.0 ** -32, 4096.0   # faces nearer a point light than this times its reach, plus as many
+#   float64 spacings of its coordinates, are cut
+#   (a lamp on a wall, rebuilt from its rays' ends, lies float64 spacings inside the wall as often as not, and
+#   the face then hid every ray crossing it within that over the sine of its angle: all of them at 1 ulp)
 
 
 def _check_resolution(resolution) -> int:
@@ -173,7 +179,8 @@ def light_of_rays(points, directions, max_distance=None, scale=1.0):
         raise ValueError("a shadow map answers the rays of one light: max_distance must be finite for every ray "
                          "(a point light) or infinite for every ray (a directional light), not a mix")
     ends = points + max_distance[:, None] * directions
-    light = ends.mean(axis=0)
+    light = ends[0] + (ends - ends[0]).mean(axis=0)     # not ends.mean(axis=0): its sum rounds N times at the
+    #                                                   # ends' size (1.3e-13 off at 4,000 rays 3 from the origin)
     dev = np.abs(ends - light).max(axis=1)
     tol = LIGHT_TOL * (float(max_distance.max()) + float(scale))
     if float(dev.max()) > tol:
@@ -221,6 +228,21 @@ def _ortho_frame(scene, casters, direction, R):
     b = np.array([-lo[0] / tu - 0.5, -lo[1] / tv - 0.5, -lo[2]])
     frame = np.concatenate([A[0], [b[0]], A[1], [b[1]], A[2], [b[2]], [tu, tv]]).astype(np.float32)
     return A, b, origin, frame, float(max(tu, tv))
+
+
+def _beyond(tris, end):
+    """Camera-space triangles (M, 3, 3) float64 clipped to depths ``>= end`` (those wholly beyond as given):
+    a caster face within the rounding of the light's position is no occluder (``NEAR_CUT``)."""
+    from ..gbuffer import clip_polygon
+
+    cut = (tris[:, :, 2] < end).any(axis=1)
+    if not cut.any():
+        return tris
+    keep = [tris[~cut]]
+    for tri in tris[cut]:
+        poly = clip_polygon(list(tri), [(np.array([0.0, 0.0, -1.0]), -end)])
+        keep += [np.stack([poly[0], poly[k], poly[k + 1]])[None] for k in range(1, len(poly) - 1)]
+    return np.concatenate(keep)
 
 
 class ShadowMap:
@@ -534,8 +556,10 @@ class ShadowMapVisibility:
             items = [(mesh, np.block([[basis @ T[:3, :3], (basis @ (T[:3, 3] - position))[:, None]],
                                       [np.zeros((1, 3)), np.ones((1, 1))]])) for mesh, T in items]
         eye = np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
+        reach = float((np.linalg.norm(c - position, axis=1) + r).max())
+        end = 0.0 if basis is not None else NEAR_CUT * reach + NEAR_ULPS * float(np.spacing(np.abs(position).max()))
         for f, cam in enumerate(cams):
-            tris = face_triangles(items, cam)      # a caster face just beside the light kept (its module)
+            tris = _beyond(face_triangles(items, cam), end)     # a face just beside the light kept (its module)
             self._raster(buf, _cl.to_device(tris.reshape(-1, 9), np.float32), len(tris), eye, 1, f * R * R)
         return ShadowMap("point", position, R, position, frame, buf, None, (basis, k, slack))
 

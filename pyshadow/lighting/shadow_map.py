@@ -230,6 +230,13 @@ def _ortho_frame(scene, casters, direction, R):
     return A, b, origin, frame, float(max(tu, tv))
 
 
+def _near_cut(centres, radii, position) -> float:
+    """The depth before which a point light's cube cuts its casters' faces (``NEAR_CUT``): that fraction of
+    the farthest caster sphere's reach plus ``NEAR_ULPS`` float64 spacings of the light's coordinates."""
+    reach = float((np.linalg.norm(centres - position, axis=1) + radii).max())
+    return NEAR_CUT * reach + NEAR_ULPS * float(np.spacing(np.abs(position).max()))
+
+
 def _beyond(tris, end):
     """Camera-space triangles (M, 3, 3) float64 clipped to depths ``>= end`` (those wholly beyond as given):
     a caster face within the rounding of the light's position is no occluder (``NEAR_CUT``)."""
@@ -556,8 +563,7 @@ class ShadowMapVisibility:
             items = [(mesh, np.block([[basis @ T[:3, :3], (basis @ (T[:3, 3] - position))[:, None]],
                                       [np.zeros((1, 3)), np.ones((1, 1))]])) for mesh, T in items]
         eye = np.concatenate([np.eye(3), np.zeros((3, 1))], axis=1)
-        reach = float((np.linalg.norm(c - position, axis=1) + r).max())
-        end = 0.0 if basis is not None else NEAR_CUT * reach + NEAR_ULPS * float(np.spacing(np.abs(position).max()))
+        end = 0.0 if basis is not None else _near_cut(c, r, position)
         for f, cam in enumerate(cams):
             tris = _beyond(face_triangles(items, cam), end)     # a face just beside the light kept (its module)
             self._raster(buf, _cl.to_device(tris.reshape(-1, 9), np.float32), len(tris), eye, 1, f * R * R)

@@ -194,8 +194,10 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
         return;
     }
     const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), c = row3(tris, 3 * t + 2);
-    const float3 dir = normalize3((float3)((2.0f * (col + 0.5f) / W - 1.0f) * tan_x,
-                                           (1.0f - 2.0f * (r + 0.5f) / H) * tan_y, 1.0f));
+    /* the pixel centre's offset from the image centre as one exact integer over the size: one rounding
+       (2 (col + 0.5) / W - 1 rounds twice, off by a float32 spacing near the centre of a wide image) */
+    const float3 dir = normalize3((float3)((float)(2 * col + 1 - W) / (float)W * tan_x,
+                                           (float)(H - 1 - 2 * r) / (float)H * tan_y, 1.0f));
     float3 n = normalize3(cross3(b - a, c - a));
     const float dn = dot3(n, dir);
     t_out[pix] = dot3(n, a) / dn;

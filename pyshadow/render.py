@@ -218,9 +218,9 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
 
 def _on_faces(scene, items, g, camera, covered, exact=False) -> dict:
     """``g``, or a copy whose float64 depths put the covered pixels on their faces' planes: for a ray tracer
-    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera). The kernel's
-    float32 ray of a pixel is off by about a float32 spacing times the tangent of its angle off the axis, so
-    that tolerance is divided by the image's largest such tangent (beyond 1: a wide or very wide image)."""
+    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera). That tolerance
+    is divided by the image's largest tangent (beyond 1: a wide image), a margin from when the kernel's pixel
+    ray rounded by a float32 spacing times it: it only sends more of such an image's pixels to float64."""
     from .contact import ground_tolerance
     from .gbuffer import on_face_planes
 

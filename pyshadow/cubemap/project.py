@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import nonzero, rows3
+from .._validate import check_int, nonzero, rows3
 from ..lighting._checks import _number, flag
 from ..sampling import Sampling
 from .estimators import ESTIMATORS, GRAZING, march_defaults, texel_ao
@@ -319,8 +319,6 @@ class CubeMapAO:
             A stale probe (:attr:`stale`: the scene moved since it was
             rendered; :meth:`refresh`): it answers for the scene as it was.
         """
-        from ..render import surface_points
-
         if lookup not in ("nearest", "bilinear"):
             raise ValueError(f"lookup must be 'nearest' or 'bilinear', got {lookup!r}")
         if on_empty not in ("raise", "fallback"):
@@ -332,12 +330,18 @@ class CubeMapAO:
         if self.estimator is None:
             raise ValueError("CubeMapAO.project: built with estimator=None, the probes hold no AO")
         self._warn_stale("project")
+        return self._project(camera, gbuffer, lookup, float(tolerance), fill, on_empty)
+
+    def _project(self, camera, gbuffer, lookup, tolerance, fill, on_empty):
+        """:meth:`project` past its checks; with ``estimator=None`` (for :meth:`place`) AO 0 where covered."""
+        from ..render import surface_points
+
         sp = surface_points(self.scene, camera, ground_size=self.ground_size, gbuffer=gbuffer)
         H, W = camera.height, camera.width
         pts = sp.points
         nrm = sp.normals.astype(np.float64)
         nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-        best_i, best_q, best_ao = self._best(pts, nrm, sp.surface_ids, float(tolerance), lookup)
+        best_i, best_q, best_ao = self._best(pts, nrm, sp.surface_ids, tolerance, lookup)
         covered_pts = best_i >= 0
         if len(pts) and not covered_pts.any() and on_empty == "raise":
             raise ValueError(f"no probe sees any of the camera's {len(pts)} surface pixels "
@@ -419,15 +423,22 @@ class CubeMapAO:
     def place(self, camera, *, threshold: float = 0.75, grid: int = 8, gbuffer=None) -> bool:
         """Seed 002, 4.6: add a probe at ``camera.eye`` when under ``threshold`` of the image is shaded.
 
-        The shaded fraction is :func:`coverage_grid` of the projection (a
-        ``grid x grid`` count); with no probe yet, a probe is always placed.
-        Returns True when a probe was added (a UserWarning when a probe is stale: :meth:`project`).
+        The shaded fraction is :func:`coverage_grid` (a ``grid x grid``
+        count, ``grid`` an int >= 1; an image with fewer rows or columns is
+        counted pixel by pixel along them) of the pixels :meth:`project` with
+        its defaults shades (with ``estimator=None`` too: the pixels a probe
+        sees); with no probe yet, a probe is always placed. Returns True when a
+        probe was added (a UserWarning when a probe is stale: :meth:`project`).
         """
         if not 0 < _number(threshold, "threshold") <= 1:
             raise ValueError(f"threshold must be in (0, 1], got {threshold!r}")
+        grid = check_int(grid, "grid", 1)
         if self.probes:
-            pr = self.project(camera, gbuffer=gbuffer, on_empty="fallback")
-            if coverage_grid(pr.covered, pr.probe == -2, grid) >= threshold:
+            self._warn_stale("project")
+            # (through project(), maps built with estimator=None raised: "the probes hold no AO")
+            pr = self._project(camera, gbuffer, "nearest", 0.02, np.nan, "fallback")     # project's defaults
+            # (the default 8 x 8 refused every camera under 8 pixels a side: "grid must be an int in 1..4, got 8")
+            if coverage_grid(pr.covered, pr.probe == -2, min(grid, *pr.covered.shape)) >= threshold:
                 return False
         self.add_probe(camera.eye)
         return True

@@ -229,7 +229,8 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     scene : pyshadow.Scene
     points : array_like, shape (N, 3)
         World positions (none may coincide with the light's centre or lie
-        within a sphere light).
+        within a sphere light; on its surface they may: their rays to it have
+        no length and reach it).
     normals : array_like, shape (N, 3)
         World unit surface normals (normalised here; zero rows are an error).
     light : PointLight or SpotLight
@@ -279,7 +280,7 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
         i = int(np.argmax(~np.isfinite(d)))
         raise ValueError(f"point {i} lies too far from the light (point {p[i].tolist()}, light "
                          f"{light.position.tolist()}): their distance overflows float64")
-    if n and not (d > light.radius).all():
+    if n and not ((d >= light.radius) & (d > 0)).all():     # on a sphere light's surface: E = I / R^2 facing it
         i = int(np.argmin(d - light.radius))
         raise ValueError(f"point {i} lies {'at the light' if light.radius == 0 else 'within the sphere light'} "
                          f"(distance {d[i]:.6g}, light radius {light.radius:g}): its irradiance is undefined")
@@ -300,10 +301,14 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
         s2 = (np.cross(dirs[rows], axis[rows][:, None, :]) ** 2).sum(axis=2)
         tmax = d[rows][:, None] * (c - np.sqrt(np.maximum(rho[rows][:, None] ** 2 - s2, 0.0)))
         ids = None if surface_ids is None else np.repeat(np.broadcast_to(np.asarray(surface_ids), (n,))[rows], k)
-        lit[rows] = vis.visible(scene, np.repeat(p[rows], k, axis=0), dirs[rows].reshape(-1, 3), backend=backend,
-                                bias=bias, surface_ids=ids, normals=np.repeat(nrm[rows], k, axis=0),
-                                max_distance=tmax.reshape(-1),
-                                straddle=straddle).reshape(len(rows), k)
+        t = tmax.reshape(-1)
+        go = t > 0              # a ray of no length (from a point on the sphere's surface) reaches it: not traced
+        flat = np.ones(len(t), bool)
+        if go.any():
+            flat[go] = vis.visible(scene, np.repeat(p[rows], k, axis=0)[go], dirs[rows].reshape(-1, 3)[go],
+                                   backend=backend, bias=bias, surface_ids=None if ids is None else ids[go],
+                                   normals=np.repeat(nrm[rows], k, axis=0)[go], max_distance=t[go], straddle=straddle)
+        lit[rows] = flat.reshape(len(rows), k)
     if geometric_normals is not None:
         from ..shading_normals import below_geometric
 
@@ -313,8 +318,12 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     # Omega = 2 pi (1 - cos a) = 4 pi sin^2(a / 2), so f = 2 sin(a / 2) / R (-> 1 / d as R / d -> 0,
     # where 1 - cos a would round to 0); I f (f shaded) neither squares d nor R. One ray (K = 1) to a sphere's
     # centre: its cosine is not the cone's mean cosine (that is cos (1 + cos a) / 2), so f = 1 / d, the exact
-    # I cos / d^2 of a sphere above the horizon, as the K-ray mean converges to
-    f = 2.0 * np.sin(0.5 * half) / light.radius if light.radius > 0 and k > 1 else 1.0 / d
+    # I cos / d^2 of a sphere above the horizon, as the K-ray mean converges to. Where R / d < 1e-8, f is 1 / d
+    # to within (R / d)^2 / 8 < 2e-17, and 2 sin(a / 2) / R would lose R's digits: a radius of 5e-324 (a
+    # subnormal R / d rounds to 0) made the light black
+    f = 1.0 / d
+    if light.radius > 0 and k > 1:
+        f = np.where(rho < 1e-8, f, 2.0 * np.sin(0.5 * half) / light.radius)
     e = (light.intensity[None, :] * f[:, None]) * (f * shaded)[:, None]
     return alb / math.pi * e, np.where(live, lit.mean(axis=1), 0.0)
 

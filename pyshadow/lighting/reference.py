@@ -72,7 +72,7 @@ def reference_radiance(scene, points, normals, lighting: Lighting, *, samples: i
     Returns
     -------
     ndarray, shape (N, 3), float32
-        ``sky + sun``.
+        ``sky + sun`` (+inf beyond float32's range, as :func:`~pyshadow.lighting.shade.shade`).
 
     Raises
     ------
@@ -106,4 +106,5 @@ def reference_radiance(scene, points, normals, lighting: Lighting, *, samples: i
                           indices=idx)
     sun += lights_radiance(scene, p, nrm, light, albedo, backend=REFERENCE_BACKEND, surface_ids=surface_ids,
                            indices=idx)
-    return (sky + sun).astype(np.float32)
+    with np.errstate(over="ignore"):        # beyond float32: +inf, as shade_terms (no overflow warning)
+        return (sky + sun).astype(np.float32)

@@ -279,7 +279,11 @@ def sample_directions_reference(normals, *args, sampling: Sampling | None = None
     local = local_directions(sample_patterns(samples, strategy, patterns, seed))
     idx = check_indices(indices, len(n))
     loc = local[pattern_indices(idx, patterns, seed)]       # (N, S, 3)
-    t, b = hemisphere_frame(n)
+    # the kernels take the frame's branch on the float32 n_z: -7e-46 < n_z < 0 is -0.0 there, s = +1
+    # (here s = -1 gave another frame: directions up to 1.97 apart)
+    m = n.copy()
+    m[m[:, 2].astype(np.float32) == 0, 2] = 0.0
+    t, b = hemisphere_frame(m)
     return loc[..., 0:1] * t[:, None] + loc[..., 1:2] * n[:, None] + loc[..., 2:3] * b[:, None]
 
 

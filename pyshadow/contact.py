@@ -314,7 +314,7 @@ def _box_bottom(scene, held, ids):
     T = held["transform"][ids]
     row = T[:, 1, :3]                                   # world y = row . v + t_y (scale included)
     with np.errstate(invalid="ignore"):
-        low = np.nan_to_num(np.minimum(row * lo, row * hi), nan=0.0).sum(axis=1)
+        low = np.nan_to_num(np.minimum(row * lo, row * hi), nan=0.0, neginf=-np.inf).sum(axis=1)  # -inf: no mesh
     return low + T[:, 1, 3]
 
 

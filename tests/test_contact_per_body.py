@@ -12,6 +12,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import contact, visibility
+from pyshadow.scene_arrays import scene_arrays
 
 BOX = 1e-3
 
@@ -71,3 +72,19 @@ def test_a_resting_box_keeps_its_footprint_whatever_its_neighbour(big_radius):
     assert contact.contact_mask(s, g).all()
     for backend in ("csm", "numpy"):
         assert not visibility.visible(s, g, d, backend=backend, surface_ids=-2).any()
+
+
+def test_a_turned_csm_without_its_mesh_reaching_below_the_ground_queries_quietly():
+    """Was: a caster added as a CSM without ``mesh=``, turned and reaching below the ground, has no box; its
+    lowest height, summed from -inf bounds made finite (-1.8e308 each), overflowed: every query warned
+    "overflow encountered in reduce" (an error under this suite's filterwarnings). The answer was right and
+    stays so: -inf, no footprint to read, and a ray straight up from the ground 3 radii away is open."""
+    csm = pyshadow.CoherentShadowMap.build(trimesh.creation.box((1.0, 1.0, 1.0)), pyshadow.ViewSet.zigzag(4, 8),
+                                           resolution=16, progress=False)
+    pose = np.eye(4)
+    pose[:3, :3] = trimesh.transformations.rotation_matrix(0.5, [1.0, 0.0, 0.0])[:3, :3]
+    pose[1, 3] = 0.5 * csm.radius                   # its bounding sphere reaches below the ground
+    scene = pyshadow.Scene(ground=0.0)
+    scene.add(csm, pose)
+    assert scene.visible([[3.0 * csm.radius, 0.0, 0.0]], [[0.0, 1.0, 0.0]]).tolist() == [True]
+    assert contact._box_bottom(scene, scene_arrays(scene), np.array([0])).tolist() == [-np.inf]

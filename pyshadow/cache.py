@@ -226,13 +226,14 @@ class CSMCache:
         """
         from .csm import FORMAT_VERSION
         from .csm.build import check_arguments
+        from .csm.fileformat import file_params
 
         # build's checks first: a key of int(8.7) would find the CSM of resolution 8
         check_arguments(views, resolution, depth_bits, layers)
         if self._code is None:
             self._code = _code_digest()
         spec = {"mesh": mesh_hash, "layout": views.layout,
-                "params": {k: views.params[k] for k in sorted(views.params)}, "maps": len(views),
+                "params": file_params(views), "maps": len(views),         # JSON numbers, as a file holds them
                 "resolution": int(resolution), "depth_bits": int(depth_bits),
                 "layers": layers if isinstance(layers, str) else str(int(layers)),
                 "format": FORMAT_VERSION, "code": self._code}
@@ -267,7 +268,7 @@ class CSMCache:
         """
         from . import CoherentShadowMap
         from .csm.build import layer_rule
-        from .csm.fileformat import check_layout_bases
+        from .csm.fileformat import check_layout_bases, file_params
         from .mesh import mesh_hash as _mesh_hash
 
         mh = _mesh_hash(mesh)
@@ -289,7 +290,7 @@ class CSMCache:
                                          ("resolution", int(resolution)),
                                          ("depth_bits", int(depth_bits)))
                        if getattr(csm, f) != want]
-                if csm.views.layout != views.layout or csm.views.params != views.params:
+                if csm.views.layout != views.layout or csm.views.params != file_params(views):
                     bad.append("views")
                 if csm.layer_rule != layer_rule(layers, mesh):
                     bad.append("layer_rule")

@@ -20,7 +20,8 @@ bytes     content
           ("auto", true or false) and both_sided_faces (an integer
           >= 0; both default none), build_seconds;
           zigzag layout_params may hold row_offset (0 or 0.5;
-          default 0, the thesis's grid)
+          default 0, the thesis's grid), hilbert's hemispheres
+          (true or false; default false)
 aligned   arrays at 64-byte boundaries after the header, in order:
           offsets (R*R+1, uint32 or uint64), iend (S, uint16 when
           D <= 65536 else uint32), depth (S, uint16 or float32)
@@ -39,10 +40,11 @@ import numpy as np
 from .._files import atomic_path
 from .._validate import FLOAT32_MAX
 from .._version import __version__
+from .._views_checks import _layout_args
 from ..views import BASIS_TOL, MAX_MAPS, ZIGZAG_ROW_OFFSETS, ViewSet
 from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype, _offsets_dtype
 
-__all__ = ["MAGIC", "FORMAT_VERSION", "save", "load", "check_layout_bases"]
+__all__ = ["MAGIC", "FORMAT_VERSION", "save", "load", "check_layout_bases", "file_params"]
 
 MAGIC = b"PYSHCSM\x00"
 FORMAT_VERSION = 1
@@ -58,7 +60,7 @@ def header(csm, reproducible: bool = False) -> dict:
         "resolution": csm.resolution,
         "maps": csm.maps,
         "layout": csm.views.layout,
-        "layout_params": csm.views.params,
+        "layout_params": file_params(csm.views),
         "centre": [float(x) for x in csm.centre],
         "radius": csm.radius,
         "depth_bits": csm.depth_bits,
@@ -73,6 +75,22 @@ def header(csm, reproducible: bool = False) -> dict:
         "offsets_dtype": csm.offsets.dtype.str,
         "build_seconds": seconds,
     }
+
+
+def file_params(views) -> dict:
+    """The layout parameters a file holds for ``views``, as :func:`load` reads them: ``theta``, ``phi``
+    (and ``row_offset`` where given) of a zigzag set, ``level`` (and ``hemispheres``, only when true) of a
+    hilbert set, as JSON numbers.
+
+    A ViewSet may be given its layout's parameters as NumPy numbers, ``hemispheres`` False or 1, or with
+    other keys beside them (:class:`pyshadow.ViewSet`); written as given, the NumPy numbers failed in
+    ``json`` and load refused the rest.
+    """
+    args = _layout_args(views.layout, views.params)
+    if views.layout == "zigzag":
+        return {"theta": int(args[0]), "phi": int(args[1]),
+                **({"row_offset": float(args[2])} if "row_offset" in views.params else {})}
+    return {"level": int(args[0]), **({"hemispheres": True} if args[1] else {})}
 
 
 def array_layout(start: int, resolution: int, maps: int, segments: int, depth_bits: int,
@@ -263,9 +281,10 @@ def _from_header(cls, path, head, start, raw):
             ok = set(params) - {"row_offset"} == {"theta", "phi"} and all(
                 _integer(params[k]) and 1 <= params[k] <= 1 << 16 for k in ("theta", "phi"))
         else:
+            # hemispheres false: as save wrote a ViewSet given {"level": k, "hemispheres": False} before file_params
             ok = (set(params) in ({"level"}, {"level", "hemispheres"})
                   and _integer(params["level"]) and 0 <= params["level"] <= 10
-                  and params.get("hemispheres", True) is True)
+                  and isinstance(params.get("hemispheres", True), bool))
         if not ok:
             raise ValueError
     except (ValueError, KeyError, TypeError):

@@ -33,7 +33,8 @@ from .assets import csm_file_bytes
 from .motion import _check as _check_motion
 from .params import code_digest
 from .records import done, store
-from .runner import _TEMPORARY, close_executor, executor_info, open_executor, sweep_temporaries
+from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
+                     sweep_temporaries)
 
 __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
@@ -68,7 +69,9 @@ def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
         f = np.ascontiguousarray(mesh.faces, np.int64)
         csm = csm_file_bytes(csm_for(name, mesh)) if casts else None
         out.append({"name": name, "casts": bool(casts), "vertices": v, "faces": f, "csm": csm})
-        for b in (name.encode(), bytes([bool(casts)]), v.tobytes(), f.tobytes(), csm or b""):    # np.bool_ too
+        # a name from a file name that is no UTF-8 (os.fsdecode: 'caf\udce9') hashes as its bytes
+        for b in (name.encode("utf-8", "surrogateescape"), bytes([bool(casts)]), v.tobytes(), f.tobytes(),
+                  csm or b""):          # np.bool_ too
             h.update(hashlib.sha256(b).digest())
     cam = _camera_dict(camera)
     h.update(json.dumps({"camera": cam, "ground": ground, "render": render}, sort_keys=True).encode())
@@ -124,7 +127,10 @@ def render_chunk(frames, transforms, payload) -> list:
     list of dict
         Per frame: ``frame``, ``files`` (``exr/frame_NNNN.exr`` and
         ``png/frame_NNNN.png`` -> bytes), ``seconds`` (render),
-        ``ao_mean`` (over covered pixels), ``worker``.
+        ``ao_mean`` (over covered pixels), ``worker``; for a frame that
+        failed (e.g. a render refused for that frame's placement) only
+        ``frame``, ``error`` ('Type: message') and ``worker``: the chunk's
+        other frames are rendered as they would be alone.
     """
     import socket
 
@@ -134,22 +140,28 @@ def render_chunk(frames, transforms, payload) -> list:
     scene, camera = _scene(payload)
     r = payload["render"]
     results = []
+    worker = f"{socket.gethostname()}:{os.getpid()}"
     for f, T in zip(frames, transforms):
         t0 = time.perf_counter()
-        for i, M in enumerate(T):
-            scene.set_transform(i, M)
-        frame = scene.render(camera, sampling=Sampling(r["samples"]), lookup=r["lookup"], denoise=r["denoise"])
-        seconds = time.perf_counter() - t0
-        files = {}
-        with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
-            for kind in ("exr", "png"):
-                p = Path(d) / f"frame.{kind}"
-                write_image(p, frame.ao)
-                files[f"{kind}/frame_{f:04d}.{kind}"] = p.read_bytes()
+        try:                            # one frame's failure is its own, not its chunk's (each sets every body)
+            for i, M in enumerate(T):
+                scene.set_transform(i, M)
+            frame = scene.render(camera, sampling=Sampling(r["samples"]), lookup=r["lookup"],
+                                 denoise=r["denoise"])
+            seconds = time.perf_counter() - t0
+            files = {}
+            with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:
+                for kind in ("exr", "png"):
+                    p = Path(d) / f"frame.{kind}"
+                    write_image(p, frame.ao)
+                    files[f"{kind}/frame_{f:04d}.{kind}"] = p.read_bytes()
+        except Exception as e:
+            results.append({"frame": int(f), "error": f"{type(e).__name__}: {e}", "worker": worker})
+            continue
         covered = frame.object_id >= 0
         results.append({"frame": int(f), "files": files, "seconds": seconds,
                         "ao_mean": float(frame.ao[covered].mean()) if covered.any() else None,
-                        "worker": f"{socket.gethostname()}:{os.getpid()}"})
+                        "worker": worker})
     return results
 
 
@@ -276,7 +288,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     _check_render(samples, lookup, denoise)
     out = Path(out_dir).expanduser()
     out.mkdir(parents=True, exist_ok=True)
-    sweep_temporaries(out)
+    sweep_temporaries(out, STALE_SECONDS)
     if csm_for is None:
         from ..csm import CoherentShadowMap
         from ..views import ViewSet
@@ -318,6 +330,10 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                                       "error": f"{type(err).__name__}: {err}"}
                 else:
                     for r in res:
+                        if r.get("error") is not None:      # this frame alone failed
+                            entries[r["frame"]] = {"frame": r["frame"], "key": keys[r["frame"]], "status": "failed",
+                                                   "action": "failed", "error": r["error"]}
+                            continue
                         rec = {"frame": r["frame"], "key": keys[r["frame"]], "status": "baked",
                                "seconds": r["seconds"], "ao_mean": r["ao_mean"], "worker": r["worker"]}
                         rec = store(out, f"records/frame_{r['frame']:04d}.json", rec, r["files"])
@@ -327,7 +343,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         if bar is not None:
             bar.close()
         stopped = close_executor(ex)        # a Ctrl-C while it closes: raised once the manifest is written
-        sweep_temporaries(out)
+        sweep_temporaries(out, STALE_SECONDS)
         for f in range(len(T)):             # not rendered, nor found done, in this run
             entries.setdefault(f, {"frame": f, "key": keys.get(f), "status": "failed", "action": "interrupted",
                                    "error": "interrupted before it finished"})

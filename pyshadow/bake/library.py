@@ -11,7 +11,9 @@ Only the driver writes, each file atomically (temporary file, then rename),
 the record after the outputs it lists; so an interrupted or killed run
 leaves complete files or none, and a rerun trusts an asset only when its
 record holds the same key (source hash, parameters, code) and every output
-it lists is present with the recorded SHA-256.
+it lists is present with the recorded SHA-256. A run removes the temporary
+files a killed run left once they are an hour old (``STALE_SECONDS``): a
+younger one may be the write in progress of another bake into this folder.
 """
 from __future__ import annotations
 
@@ -26,7 +28,8 @@ from .._version import __version__
 from .assets import bake_asset, output_names, side_files
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
-from .runner import _TEMPORARY, close_executor, executor_info, open_executor, sweep_temporaries
+from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
+                     sweep_temporaries)
 
 __all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
 
@@ -183,7 +186,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     A failed asset (unreadable, empty, not a mesh) is reported in the
     manifest and does not stop the others. On
     ``KeyboardInterrupt`` (while tasks run, or while the executor shuts
-    down) the tasks are cancelled, temporary files removed and the
+    down) the tasks are cancelled, this run's temporary files removed and the
     manifest written (the assets not finished marked 'interrupted') before
     the interrupt propagates.
     """
@@ -201,7 +204,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         (out / sub).mkdir(parents=True, exist_ok=True)
     if (out / "manifest.json").exists() and not (out / "manifest.json").is_file():     # found now, not after the bake
         raise FileExistsError(f"{out / 'manifest.json'} is not a file, and the manifest is written there")
-    for p in sweep_temporaries(out):
+    for p in sweep_temporaries(out, STALE_SECONDS):
         log(f"removed a temporary file of an interrupted run: {p}")
     assets, ignored = find_assets(sources)
     code = code_digest()
@@ -218,7 +221,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         # list none, or files elsewhere: ../x, /abs)
         outputs = set(output_names(name, params).values())
         if rec is not None and rec.get("name") == name and set(rec["outputs"]) == outputs:
-            entries[name] = dict(rec, action="skipped")
+            entries[name] = dict(rec, source=str(path), action="skipped")     # this run's file (it may have moved)
         else:
             todo.append((name, path, key))
     # largest first: the long tasks start early and the short ones fill in the tail (LPT order)
@@ -255,7 +258,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     finally:
         bar.close()
         stopped = close_executor(ex)        # a Ctrl-C while it closes: raised once the manifest is written
-        for p in sweep_temporaries(out):
+        for p in sweep_temporaries(out, STALE_SECONDS):
             log(f"removed a temporary file: {p}")
         for name, path, key in todo:
             entries.setdefault(name, dict(_failed(name, path, key, "interrupted before it finished"),

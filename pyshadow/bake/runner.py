@@ -17,6 +17,7 @@ import json
 import logging
 import os
 import re
+import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
@@ -25,12 +26,15 @@ from pathlib import Path
 from .._validate import check_int
 
 __all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
-           "dask_available", "WorkerDied"]
+           "dask_available", "WorkerDied", "STALE_SECONDS"]
 
 EXECUTORS = ("dask", "process", "serial")
 
 # the temporary names of pyshadow._files.atomic_path: ".<stem>.<12 hex>.tmp<suffix>"
 _TEMPORARY = re.compile(r"^\..+\.[0-9a-f]{12}\.tmp(\.[^.]*)?$")
+# a bake sweeps only temporaries unchanged for this long: a younger one may be the write in progress of
+# another bake into the same folder (removed, its rename failed and that bake lost the output)
+STALE_SECONDS = 3600.0
 
 
 def dask_available() -> bool:
@@ -53,15 +57,27 @@ def thread_env(threads: int) -> dict:
     return {"POCL_MAX_PTHREAD_COUNT": n, "POCL_CPU_MAX_CU_NUM": n, "OMP_NUM_THREADS": n}
 
 
-def sweep_temporaries(root) -> list[Path]:
-    """Remove the temporary files atomic writes left under ``root`` (a killed run's); returns them."""
+def sweep_temporaries(root, min_age: float = 0.0) -> list[Path]:
+    """Remove the temporary files atomic writes left under ``root`` (a killed run's); returns them.
+
+    Parameters
+    ----------
+    root : str or path-like
+    min_age : float
+        Seconds since a temporary file was last modified before it is removed (0: every one). The bakes
+        pass :data:`STALE_SECONDS`, so that two bakes into one folder keep each other's writes in
+        progress; a killed run's younger leftovers go in a later run.
+    """
     root = Path(root)
     gone = []
     if not root.is_dir():
         return gone
+    now = time.time()
     for path in root.rglob(".*"):
         if path.is_file() and _TEMPORARY.match(path.name):
             try:
+                if min_age > 0 and now - path.stat().st_mtime < min_age:
+                    continue
                 path.unlink()
                 gone.append(path)
             except OSError:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import math
 import os
 import shutil
 import site
@@ -90,6 +91,40 @@ def deprecations_warn_every_test():
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+# ---------------------------------------------------------------------------
+# references shared by the sun-disc tests and the filter tests
+# ---------------------------------------------------------------------------
+def disc_texel_shares(env, d, r, n=400_000):
+    """The solid angle (sr) of a disc (unit centre ``d``, angular radius ``r``) in every texel of ``env``,
+    independently of add_sun_disc: n sunflower points, uniform in solid angle over the cap, each
+    Omega_disc / n into the texel it falls in (texel_index)."""
+    from pyshadow.lighting import disc_solid_angle
+
+    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    e1 = np.cross(d, a)
+    e1 = e1 / np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    j = np.arange(n)
+    u = (j + 0.5) / n * (2.0 * math.sin(0.5 * r) ** 2)                 # 1 - cos(rho)
+    ph = 2.0 * math.pi * np.mod(j * (math.sqrt(5.0) - 1.0) / 2.0, 1.0)
+    s = np.sqrt(u * (2.0 - u))
+    p = (1.0 - u)[:, None] * d + (s * np.cos(ph))[:, None] * e1 + (s * np.sin(ph))[:, None] * e2
+    idx = env.texel_index(p / np.linalg.norm(p, axis=1, keepdims=True))
+    return np.bincount(idx, minlength=int(np.prod(env.grid_shape))) * (disc_solid_angle(r) / n)
+
+
+def filter_guide(H=12, W=20, seed=2):
+    """A G-buffer guide with two depth levels, tilted unit normals (float32) and background pixels
+    (rows 0, 5, 10 x columns 0, 7, 14), and an AO image in [0.5, 1): (ao, depth, normal)."""
+    rng = np.random.default_rng(seed)
+    depth = np.where(np.arange(W) < W // 2, 2.0, 2.03).astype(np.float32) * np.ones((H, 1), np.float32)
+    depth[::5, ::7] = np.inf
+    n = rng.normal(size=(H, W, 3))
+    n[..., 2] += 4
+    n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
+    return rng.uniform(0.5, 1.0, (H, W)).astype(np.float32), depth, n
 
 
 # ---------------------------------------------------------------------------

@@ -1,31 +1,17 @@
 """Environment lighting against independent computations, second pass: a disc drawn into a cube map
 (add_sun_disc) against its exact texel shares, from symmetry and from dense points over the disc."""
-import math
 
 import numpy as np
 import pytest
 
 from pyshadow.lighting import EnvironmentMap, add_sun_disc, disc_solid_angle
 
+from conftest import disc_texel_shares
+
 
 def unit(v):
     v = np.asarray(v, dtype=np.float64)
     return v / np.linalg.norm(v)
-
-
-def exact_shares(env, d, r, n=400_000):
-    """The disc's share of every texel (sr), independently of add_sun_disc: n sunflower points, uniform
-    in solid angle over the cap, each Omega_disc / n into the texel it falls in (texel_index)."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    e1 = unit(np.cross(d, a))
-    e2 = np.cross(d, e1)
-    j = np.arange(n)
-    u = (j + 0.5) / n * (2.0 * math.sin(0.5 * r) ** 2)                  # 1 - cos(rho)
-    ph = 2.0 * math.pi * np.mod(j * (math.sqrt(5.0) - 1.0) / 2.0, 1.0)
-    s = np.sqrt(u * (2.0 - u))
-    p = (1.0 - u)[:, None] * d + (s * np.cos(ph))[:, None] * e1 + (s * np.sin(ph))[:, None] * e2
-    idx = env.texel_index(p / np.linalg.norm(p, axis=1, keepdims=True))
-    return np.bincount(idx, minlength=int(np.prod(env.grid_shape))) * (disc_solid_angle(r) / n)
 
 
 @pytest.mark.parametrize("radius", [0.1, 0.01])
@@ -62,6 +48,6 @@ def test_cube_disc_lights_the_walls_as_its_exact_texel_shares(d, radius_in_pitch
     d = unit(d)
     r = radius_in_pitches * env.pitch
     got = add_sun_disc(env, d, np.ones(3), r).irradiance(WALLS)[:, 0]
-    shares = exact_shares(env, d, r) / env.solid_angles().reshape(-1)
+    shares = disc_texel_shares(env, d, r) / env.solid_angles().reshape(-1)
     ref = env.with_radiance(np.repeat(shares[:, None], 3, axis=1).reshape(env.radiance.shape)).irradiance(WALLS)
     assert np.abs(got - ref[:, 0]).max() <= 1e-4 * disc_solid_angle(r)

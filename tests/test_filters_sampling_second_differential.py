@@ -14,20 +14,10 @@ import pytest
 from pyshadow import filters as F
 from pyshadow import sampling as SA
 
+from conftest import filter_guide
+
 _TINY = np.float32(2.0 ** -140)         # values of 2**-141 .. 2**-140: float32 subnormals
 _ULP = 2.0 ** -149                      # float32's smallest subnormal, the spacing of the subnormals
-
-
-def _guide(H=12, W=20, seed=2):
-    """A G-buffer with two depth levels, tilted unit normals (float32) and background pixels
-    (rows 0, 5, 10 x columns 0, 7, 14), and an AO image in [0.5, 1)."""
-    rng = np.random.default_rng(seed)
-    depth = np.where(np.arange(W) < W // 2, 2.0, 2.03).astype(np.float32) * np.ones((H, 1), np.float32)
-    depth[::5, ::7] = np.inf
-    n = rng.normal(size=(H, W, 3))
-    n[..., 2] += 4
-    n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
-    return rng.uniform(0.5, 1.0, (H, W)).astype(np.float32), depth, n
 
 
 def _call(name, ao, depth, normal, kw):
@@ -69,7 +59,7 @@ def test_filters_of_normals_of_any_accepted_length_equal_those_of_unit_normals(n
     up to 0.097 (0.117); the separable filter's up to 0.098 (0.196), the upsampling's 0.27
     (0.44). Now every pixel is the unit normals' answer to float32 rounding (the rescaled normals
     are the unit ones to an ulp), and the reference agrees."""
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     surf = np.isfinite(depth)
     want = _call(name, ao, depth, n, kw)
     scaled = n * np.float32(length)
@@ -87,7 +77,7 @@ def test_unit_normals_of_float32_rounding_are_used_as_given():
     normalisation, rounded to float32."""
     from pyshadow.filters_validate import bilateral_inputs
 
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     bg = ~np.isfinite(depth)
     for given in (n, np.nextafter(n, np.float32(2.0))):
         given = given.copy()
@@ -117,7 +107,7 @@ def test_filters_of_subnormal_values_are_the_scaled_filter(name, kw):
     scaled up by a power of two and scale back: within one subnormal ulp of the unit image's
     answer scaled down, and of the reference, for every filter (the 2-D bilateral filter and the
     box were within an ulp before as well)."""
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     surf = np.isfinite(depth)
     img = ao * _TINY
     img[~surf] = 3e38                                   # background: passed through, never read or scaled
@@ -138,7 +128,7 @@ def test_filters_of_smallest_subnormal_values_are_not_zero():
     at 28 of its 231 surface pixels, and separably bilateral-filtered at 1, where the reference
     gives the nearest subnormal (never 0, as every value is positive). Now they agree with the
     reference to a subnormal ulp and none is 0."""
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     surf = np.isfinite(depth)
     tiny = np.where(ao < 0.75, np.float32(_ULP), np.float32(2 * _ULP)).astype(np.float32)
     for name, kw in (("bilateral", {}), ("bilateral", {"separable": True}), ("upsample", {"scale": 2})):

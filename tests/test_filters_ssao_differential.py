@@ -11,6 +11,8 @@ from pyshadow import filters as F
 from pyshadow import ssao as S
 from pyshadow.camera import Camera
 
+from conftest import filter_guide
+
 
 def _corner(scale, H=24, W=32):
     """Analytic G-buffer of three planes meeting in a corner (ground y = 0, walls
@@ -54,17 +56,6 @@ def test_ssao_scaling_keeps_ordinary_scenes_bit_identical():
         np.testing.assert_array_equal(S.screen_space_ao(g, c, 0.5 * s, samples=16), unit)
 
 
-def _guide(H=12, W=20, seed=2):
-    """A G-buffer with two depth levels, tilted normals and background pixels, and a unit AO image."""
-    rng = np.random.default_rng(seed)
-    depth = np.where(np.arange(W) < W // 2, 2.0, 2.03).astype(np.float32) * np.ones((H, 1), np.float32)
-    depth[::5, ::7] = np.inf
-    n = rng.normal(size=(H, W, 3))
-    n[..., 2] += 4
-    n = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
-    return rng.uniform(0.5, 1.0, (H, W)).astype(np.float32), depth, n
-
-
 @pytest.mark.parametrize("name, kw", [("bilateral", {}), ("bilateral", {"separable": True, "radius": 3}),
                                       ("edge_aware_box", {}),
                                       ("upsample", {"scale": 2, "sigma_spatial": 100.0}),
@@ -77,7 +68,7 @@ def test_filters_of_values_near_float32_max(name, kw):
     while the float64 reference gave finite means. Now the filter of the scaled image is the
     unit image's answer scaled by 2**127 bit for bit (weights do not depend on the values),
     background pixels keep their input (here NaN), and it agrees with the reference."""
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     ao[~np.isfinite(depth)] = np.nan                      # background: anything, passed through
     f, ref = getattr(F, name), getattr(F, name + "_reference")
     if name == "upsample":
@@ -98,7 +89,7 @@ def test_filters_ignore_background_values_when_scaling():
     """Huge values on background pixels (which never contribute) do not rescale the
     surface values: tiny surface AO (1e-36) beside a background of 3e38 filters to
     the same bits as beside a background of 0 (so does HEAD, which never rescaled)."""
-    ao, depth, n = _guide()
+    ao, depth, n = filter_guide()
     ao = ao * np.float32(1e-36)
     bg = ~np.isfinite(depth)
     for f in (F.bilateral, F.edge_aware_box):

@@ -9,6 +9,8 @@ from pyshadow.lighting import (SUN_ANGULAR_RADIUS, EnvironmentMap, add_sun_disc,
                                sun_position)
 from pyshadow.lighting.sky import LUMINANCE_WEIGHTS
 
+from conftest import disc_texel_shares
+
 
 def unit(v):
     v = np.asarray(v, dtype=np.float64)
@@ -166,18 +168,8 @@ def test_sky_height_that_is_no_number_is_named(height):
 
 
 def _cap_coverage_map(env, d, r, n=400_000):
-    """The disc's exact share of every texel, independently of add_sun_disc: n sunflower points,
-    uniform in solid angle over the cap, each Omega_disc / n into the texel it falls in."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    e1 = unit(np.cross(d, a))
-    e2 = np.cross(d, e1)
-    j = np.arange(n)
-    u = (j + 0.5) / n * (2.0 * math.sin(0.5 * r) ** 2)                 # 1 - cos(rho)
-    ph = 2.0 * math.pi * np.mod(j * (math.sqrt(5.0) - 1.0) / 2.0, 1.0)
-    s = np.sqrt(u * (2.0 - u))
-    p = (1.0 - u)[:, None] * d + (s * np.cos(ph))[:, None] * e1 + (s * np.sin(ph))[:, None] * e2
-    idx = env.texel_index(p / np.linalg.norm(p, axis=1, keepdims=True))
-    cov = np.bincount(idx, minlength=int(np.prod(env.grid_shape))) * (disc_solid_angle(r) / n)
+    """The disc's exact share of every texel as a map (:func:`conftest.disc_texel_shares`)."""
+    cov = disc_texel_shares(env, d, r, n)
     val = cov / env.solid_angles().reshape(-1)
     return env.with_radiance(np.repeat(val[:, None], 3, axis=1).reshape(env.radiance.shape))
 

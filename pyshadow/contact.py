@@ -142,7 +142,7 @@ def _edges(f):
 def _footprint(inst, ground, tol):
     """(triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z) of one instance, or None.
 
-    The body must rest on the ground (no vertex below it by more than ``tol``: the side above its
+    The body must rest on the ground (no vertex of its faces below it by more than ``tol``: the side above its
     faces on the plane is its inside) and its surface must be closed (every edge of its distinct
     faces shared by two), whatever its winding: every ray leaving such a face upwards meets the
     surface again."""
@@ -156,7 +156,7 @@ def _footprint(inst, ground, tol):
     T = inst.transform
     u = u @ T[:3, :3].T + T[:3, 3]
     h = u[:, 1] - ground
-    if h.min() < -tol:
+    if h[f].min() < -tol:       # the surface's vertices: a stray vertex below the plane lost the footprint
         return None                                     # sunk into the ground: not resting on it
     f = f[(h <= tol)[f].all(axis=1)]
     if not len(f):

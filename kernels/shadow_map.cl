@@ -51,7 +51,7 @@
 #include "raster_common.h"
 
 #ifndef TAN_MAX
-#define TAN_MAX 10.0f
+#define TAN_MAX 1e4f                    /* the host passes pyshadow.lighting.shadow_map.TAN_MAX */
 #endif
 
 __kernel void sm_raster(__global const float *tris, const int n_tris, __global const float *m,

@@ -12,7 +12,8 @@ import numpy as np
 
 from ._validate import float32_exact
 
-__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size", "sphere_size", "off_own_surface"]
+__all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size", "sphere_size", "off_own_surface",
+           "off_crossed_planes", "point_surfaces"]
 
 
 def ray_epsilon(scale) -> np.ndarray:
@@ -182,3 +183,71 @@ def _holding_normals(rays, prim, points, tol) -> np.ndarray:
     n /= np.where(area > 0.0, area, 1.0)[:, None]
     held = (prim >= 0) & (area > 0.0) & (np.abs(np.einsum("ij,ij->i", points * u - tri[:, 0], n)) <= tol * u)
     return np.where(held[:, None], n, 0.0)
+
+
+def off_crossed_planes(rays, origins, w, surface=None) -> np.ndarray:
+    """(N,) first-hit distances (inf: a miss) of AO rays from the lifted ``origins`` (N, 3) along ``w``
+    (N, 3), both relative to the anchor of ``rays`` (:class:`pyshadow.embree.EmbreeScene`), with each ray
+    whose first hit is a triangle whose plane holds its origin traced again from the origin moved off that
+    plane; up to three planes (an origin on an edge or a corner).
+
+    An origin lifted along its normal stays in the plane of a face perpendicular to that normal: a point on
+    the ground (or a lid) at the foot of a wall. A ray meets a plane holding its origin only there, so such
+    a hit is float32's rounding: every AO ray of such a point was hidden by the wall at t = 0 (AO 0 at the
+    foot of a box's side instead of 0.5). "Holds" is within 8 float32 spacings of the larger of the
+    origin's and the triangle's coordinates (Embree's units), far below the lift off the point's own
+    surface (:func:`surface_epsilon`, at least 64); the move is :func:`ray_epsilon` of the same, to the side
+    of the plane the point's own surface lies on where ``surface`` tells it (:func:`_surface_side`: inside
+    a room of walls without thickness), else to the side the ray leaves (beside a solid, whose inside
+    hides the rays into it). Origins are taken as the float32 numbers Embree traces.
+
+    ``surface``: None, or the points' :func:`point_surfaces` followed by each ray's point (N,) int.
+    """
+    u = rays.unit
+    t, prim, _ = rays.intersect(origins, w)
+    o = np.asarray(origins, dtype=np.float32).astype(np.float64) * u       # Embree's units (exact)
+    w = np.asarray(w, dtype=np.float64)
+    rows = np.flatnonzero(prim >= 0)
+    prim = prim[rows]
+    for _ in range(3):
+        if not len(rows):
+            break
+        tri = rays.triangles[prim].astype(np.float64)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        area = np.linalg.norm(n, axis=1)
+        n /= np.where(area > 0.0, area, 1.0)[:, None]
+        size = np.maximum(np.abs(o[rows]).max(axis=1), np.abs(tri).max(axis=(1, 2)))
+        held = (area > 0.0) & (np.abs(np.einsum("ij,ij->i", o[rows] - tri[:, 0], n)) <= 0.125 * ray_epsilon(size))
+        rows, n, step = rows[held], n[held], ray_epsilon(size[held])
+        side = np.where(np.einsum("ij,ij->i", n, w[rows]) < 0.0, -1.0, 1.0)
+        if surface is not None and len(rows):
+            own = _surface_side(rays, o[rows], n, step, *(a[surface[3][rows]] for a in surface[:3]))
+            side = np.where(own != 0.0, own, side)
+        o[rows] += (step * side)[:, None] * n
+        t[rows], prim, _ = rays.intersect(o[rows] / u, w[rows])
+        rows, prim = rows[prim >= 0], prim[prim >= 0]
+    return t
+
+
+def point_surfaces(scene, points, normals, lifts):
+    """``surface`` of :func:`off_crossed_planes` for AO points (N, 3, world) lifted ``lifts`` (N,) along their
+    unit ``normals`` (N, 3): those two and whether each point lies on the scene's ground plane (within
+    :func:`pyshadow.contact.ground_tolerance`)."""
+    from .contact import ground_tolerance
+
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    on = (np.zeros(len(P), bool) if scene.ground is None
+          else np.abs(P[:, 1] - scene.ground) <= ground_tolerance(scene))
+    return np.asarray(normals, dtype=np.float64), np.asarray(lifts, dtype=np.float64), on
+
+
+def _surface_side(rays, o, n, step, normals, lifts, on_ground) -> np.ndarray:
+    """(N,) the side (+1: along ``n``, -1: against it, 0: both or neither) of the planes ``n`` (N, 3) holding
+    the origins ``o`` (N, 3, Embree's units) on which the surface the origins were lifted off lies: a
+    triangle met by a ray from ``o`` moved ``step`` (N,) to that side, back along the point's normal
+    ``normals`` (N, 3) as far as twice its lift ``lifts`` (N,, world units); both sides for a point on the
+    ground plane (``on_ground`` (N,) bool: the plane extends under the wall and beside it)."""
+    u = rays.unit
+    d = -np.asarray(normals, dtype=np.float64)
+    hit = [rays.occluded((o + (s * step)[:, None] * n) / u, d, 2.0 * lifts) | on_ground for s in (1.0, -1.0)]
+    return np.where(hit[0] == hit[1], 0.0, np.where(hit[0], 1.0, -1.0))

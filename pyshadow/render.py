@@ -40,8 +40,8 @@ class Frame(Mapping):
     bent_normal : ndarray, shape (H, W, 3), float32
         World-frame bent normals, 0 on the background. With ``ao_scale`` > 1
         only the AO pass's pixels hold theirs (every ``ao_scale``-th pixel of
-        every ``ao_scale``-th row, and covered pixels that no such pixel's
-        upsampling reaches); the other covered pixels hold 0. The lighting
+        every ``ao_scale``-th row, and covered pixels whose upsampling window
+        holds no such pixel of their instance); the other covered pixels hold 0. The lighting
         stage upsamples them like the AO where it needs them (the sky term);
         :func:`pyshadow.filters.upsample` of each channel with ``fill=0``
         does the same for a caller.
@@ -216,16 +216,16 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
     return covered_pixels(camera, _on_faces(scene, items, g, camera, obj != -1), obj, ao_scale=ao_scale)
 
 
-def _on_faces(scene, items, g, camera, covered, exact=False) -> dict:
+def _on_faces(scene, items, g, camera, covered, exact=False, factor=1.0) -> dict:
     """``g``, or a copy whose float64 depths put the covered pixels on their faces' planes: for a ray tracer
-    (``exact``), or once a float32 depth's rounding nears the ground's tolerance (a far camera). That tolerance
-    is divided by the image's largest tangent (beyond 1: a wide image), a margin from when the kernel's pixel
-    ray rounded by a float32 spacing times it: it only sends more of such an image's pixels to float64."""
+    (``exact``), or once a float32 depth's rounding nears ``factor`` times the ground's tolerance (a far camera;
+    :func:`render`'s barycentrics: 100, normals then off by up to ~1e-3 rad), over the image's largest tangent
+    (beyond 1: a wide image), a margin from when the kernel's pixel ray rounded by a float32 spacing times it."""
     from .contact import ground_tolerance
     from .gbuffer import on_face_planes
 
     wide = max(1.0, camera.tan_half * max(1.0, camera.aspect))
-    return on_face_planes(items, g, camera, covered, 0.0 if exact else ground_tolerance(scene) / wide)
+    return on_face_planes(items, g, camera, covered, 0.0 if exact else factor * ground_tolerance(scene) / wide)
 
 
 def _instance_ids(g, ids) -> np.ndarray:
@@ -313,23 +313,23 @@ def _points_at(camera, gbuffer, object_id, keep) -> SurfacePoints:
                          normals=pick(gbuffer["normal"], 3), surface_ids=pick(object_id, 1))
 
 
-def _ao_pass(hit, scale: int) -> np.ndarray:
+def _ao_pass(obj, scale: int) -> np.ndarray:
     """(H, W) bool: the pixels :func:`render` computes AO at for ``ao_scale=scale``: every ``scale``-th
     covered pixel (the low-res samples of :func:`pyshadow.filters.upsample`) and every covered pixel
-    whose upsampling window (``_UPSAMPLE_RADIUS`` low-res taps per side) holds no covered sample, which
-    upsampling would give its ``fill`` value (unoccluded) instead of an AO."""
-    H, W = hit.shape
-    low = hit[::scale, ::scale]
-    Hl, Wl = low.shape
-    c = np.zeros((Hl + 1, Wl + 1), np.int64)
-    c[1:, 1:] = low.cumsum(0).cumsum(1)                 # covered samples in [0, i) x [0, j)
-    i, j = np.arange(Hl), np.arange(Wl)
-    ia, ib = np.clip(i - _UPSAMPLE_RADIUS + 1, 0, Hl), np.minimum(i + _UPSAMPLE_RADIUS + 1, Hl)
-    ja, jb = np.clip(j - _UPSAMPLE_RADIUS + 1, 0, Wl), np.minimum(j + _UPSAMPLE_RADIUS + 1, Wl)
-    n = c[ib][:, jb] - c[ia][:, jb] - c[ib][:, ja] + c[ia][:, ja]
-    keep = np.repeat(np.repeat(n == 0, scale, 0), scale, 1)[:H, :W]
-    keep[::scale, ::scale] = True
-    return keep & hit
+    whose upsampling window (``_UPSAMPLE_RADIUS`` low-res taps per side) holds no sample of its own
+    instance (``obj``, (H, W) ids, -1 background), which upsampling would give its ``fill`` value
+    (unoccluded: no covered sample) or another surface's AO (a thin pole before the ground)."""
+    (H, W), R = obj.shape, _UPSAMPLE_RADIUS
+    low = np.pad(obj[::scale, ::scale], R, constant_values=-1)      # no tap beyond the border
+    own = np.repeat(np.repeat(obj[::scale, ::scale], scale, 0), scale, 1)[:H, :W]      # each pixel's block's sample
+    r, c = np.nonzero(obj != own)                                   # the others hold a tap of their own instance
+    v, lonely = obj[r, c], np.ones(len(r), bool)
+    for di in range(1 - R, R + 1):
+        for dj in range(1 - R, R + 1):
+            lonely &= low[r // scale + R + di, c // scale + R + dj] != v
+    keep = np.zeros((H, W), bool)
+    keep[r[lonely], c[lonely]] = keep[::scale, ::scale] = True
+    return keep & (obj != -1)
 
 
 def _put_pixels(image, index, values) -> None:
@@ -382,8 +382,8 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         Compute AO at 1/ao_scale resolution and upsample it with the
         full-resolution G-buffer (joint bilateral upsampling,
         :func:`pyshadow.filters.upsample`; bent normals: ``Frame``). A covered pixel whose
-        upsampling window holds no covered low-res pixel (a small object
-        between them, a tiny image) gets its own AO instead of ``fill``.
+        upsampling window holds no low-res pixel of its own instance (a thin
+        object, a tiny image) gets its own AO, not another surface's or ``fill``.
     ground_size : float, optional
         Side of the drawn ground quad (:meth:`pyshadow.Scene.ground_quad`).
     bias : float, optional
@@ -452,9 +452,9 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     if smooth or gouraud or any(visual_of(mesh) is not None for mesh, _ in items):
         from .materials import surface_colours
         from .shading_normals import pixel_surface, shading_gbuffer
-
         gbuffer = render_gbuffer(items, camera) if gbuffer is None else gbuffer
-        surface = pixel_surface(items, gbuffer, camera)
+        placed = _on_faces(scene, items, gbuffer, camera, gbuffer["object_id"] >= 0, factor=100.0)  # a far camera
+        surface = pixel_surface(items, placed, camera)      # the pixels' faces and barycentrics at those points
         if smooth:
             gbuffer = shading_gbuffer(items, gbuffer, camera, crease_angle, surface)
         if lighting is not None:
@@ -464,7 +464,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     hit = obj != -1
     exact = getattr(vis.get_backend(visibility), "exact_surface_points", False)    # a ray tracer's small lift
     sp = _points_at(camera, _on_faces(scene, drawn, g, camera, hit, exact), obj,
-                    hit if ao_scale == 1 else _ao_pass(hit, ao_scale))   # where AO is computed
+                    hit if ao_scale == 1 else _ao_pass(obj, ao_scale))   # where AO is computed
     geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)

@@ -134,7 +134,8 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     if origin == "upper":
         img, keep = img[::-1], keep[::-1]
     grid = pv.ImageData(dimensions=(W + 1, H + 1, 1))
-    grid.cell_data[name] = img.reshape(H * W, 3) if rgb else img.reshape(-1)
+    # a copy: with origin='lower' the grid kept the caller's array (editing it later changed the panel)
+    grid.cell_data[name] = np.array(img.reshape(H * W, 3) if rgb else img.reshape(-1))
     actor = None
     if keep.any():
         shown = grid if keep.all() else grid.extract_cells(np.flatnonzero(keep.reshape(-1)))
@@ -174,8 +175,22 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     return actor
 
 
+def _label_format(lo: float, hi: float, n_labels: int) -> str:
+    """``'%.2f'`` where it prints each of ``n_labels`` evenly spaced labels on ``[lo, hi]`` within 2 % of
+    the step between them, else the shortest ``'%.{k}g'`` that does (``'%.2f'`` wrote 0.00 for every
+    label of a range (0, 0.004))."""
+    if n_labels < 2:
+        return "%.2f"
+    values = np.linspace(lo, hi, int(n_labels))
+    tol = 0.02 * (hi - lo) / (int(n_labels) - 1)
+    for fmt in ["%.2f"] + [f"%.{k}g" for k in range(3, 18)]:
+        if max(abs(float(fmt % v) - v) for v in values) <= tol:
+            return fmt
+    return "%.17g"
+
+
 def colour_bar(plotter, title: str, *, cmap: str = "gray", clim=(0.0, 1.0), n_labels: int = 5,
-               fmt: str = "%.2f"):
+               fmt: str | None = None):
     """A horizontal colour bar filling the active subplot (a strip under panels).
 
     Meshes and images drawn with the same ``cmap`` and ``clim`` share it.
@@ -189,7 +204,9 @@ def colour_bar(plotter, title: str, *, cmap: str = "gray", clim=(0.0, 1.0), n_la
     clim : (float, float), optional
     n_labels : int, optional
     fmt : str, optional
-        printf-style label format.
+        printf-style label format; default ``'%.2f'`` where that prints every
+        label within 2 % of the step between labels, else the shortest
+        ``'%.{k}g'`` that does (a range (0, 0.004) is labelled 0, 0.001, ...).
 
     Returns
     -------
@@ -201,6 +218,8 @@ def colour_bar(plotter, title: str, *, cmap: str = "gray", clim=(0.0, 1.0), n_la
         ``clim`` reversed, equal or not finite.
     """
     clim = _check_clim(clim, "colour_bar")
+    if fmt is None:
+        fmt = _label_format(clim[0], clim[1], n_labels)
     w, h = _viewport_pixels(plotter)
     size = int(np.clip(round(min(h / 3.2, w / 30.0)), 6, 16))
     key, n = title, 1

@@ -42,7 +42,8 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     Returns
     -------
     pyvista.PolyData
-        Points float64 (V, 3); active point normals ``'Normals'`` float32
+        Points float64 (V, 3), a copy of the mesh's vertices (editing one
+        leaves the other alone); active point normals ``'Normals'`` float32
         (V, 3) -- the mesh's area-weighted vertex normals, so the mapper
         shades smoothly without filters between this object and the screen,
         and :func:`update_scalars` changes what is drawn.
@@ -64,7 +65,7 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
         raise TypeError(f"mesh_to_polydata: mesh must be a trimesh.Trimesh, got {type(mesh).__name__}")
     if len(mesh.vertices) == 0:
         raise ValueError("mesh_to_polydata: mesh has no vertices")
-    pts = np.asarray(mesh.vertices, dtype=np.float64)
+    pts = np.array(mesh.vertices, dtype=np.float64)     # a copy: VTK would share (and edit) the mesh's own
     extent = float(np.ptp(pts, axis=0).max())
     if 0.0 < extent < 2.0 ** -10:       # trimesh zeroes normals of faces below ~1e-12 (a 1e-6 sphere drew black):
         unit = float(2.0 ** -np.round(np.log2(extent)))         # a power of two changes no normal's bits
@@ -96,6 +97,8 @@ def update_scalars(poly, values, name: str = "ao"):
     poly : pyvista.PolyData
         ``V`` points.
     values : array_like, shape (V,) or (V, 3)
+        Copied (changing the caller's array later changes nothing drawn);
+        float16 is stored as float32.
     name : str, optional
 
     Raises
@@ -103,7 +106,9 @@ def update_scalars(poly, values, name: str = "ao"):
     ValueError
         ``values`` does not have one row per point.
     """
-    v = np.asarray(values)
+    v = np.array(values)                # a copy: pyvista keeps the array, later edits of values would show
+    if v.dtype == np.float16:           # no VTK type for it: widened exactly
+        v = v.astype(np.float32)
     if v.ndim not in (1, 2) or len(v) != poly.n_points:
         raise ValueError(f"update_scalars: expected ({poly.n_points},) or ({poly.n_points}, k) "
                          f"values, got shape {v.shape}")

@@ -220,7 +220,8 @@ def save_screenshot(plotter, path):
     beside it, then a rename); the plotter stays open.
 
     pyvista's ``Plotter.screenshot`` renders only before the first image,
-    so frames of an animation must come through here.
+    so frames of an animation must come through here. The format follows the
+    suffix in any case (``.PNG`` is a PNG); a path without one gets a PNG.
 
     Returns
     -------
@@ -233,9 +234,17 @@ def save_screenshot(plotter, path):
     parent = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(parent):
         raise FileNotFoundError(f"screenshot directory does not exist: {parent}")
+    suffix = os.path.splitext(path)[1].lower() or ".png"     # pyvista's writers know lower-case suffixes only
     plotter.render()
     with atomic_path(path) as tmp:          # a failed write leaves the earlier image, no partial file
-        plotter.screenshot(str(tmp))
+        shot = tmp if tmp.suffix == suffix else tmp.with_name(tmp.name + suffix)
+        try:
+            plotter.screenshot(str(shot))
+            if shot != tmp:
+                os.replace(shot, tmp)
+        finally:
+            if shot != tmp and os.path.exists(shot):
+                os.unlink(shot)
     return path
 
 

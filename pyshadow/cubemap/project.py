@@ -152,6 +152,10 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
     return seen, ao
 
 
+#: The default relative depth tolerance of a probe's visibility test (:meth:`CubeMapAO.project`, ``assign``, ``place``).
+TOLERANCE = 0.02
+
+
 def check_tolerance(tolerance) -> float:
     """The relative depth tolerance of the visibility test as a float in (0, 1) (ValueError otherwise)."""
     try:
@@ -287,7 +291,7 @@ class CubeMapAO:
         """Bytes of the probes' maps and AO maps."""
         return sum(p.nbytes for p in self.probes) + sum(a.nbytes for a in self.ao_maps if a is not None)
 
-    def project(self, camera, *, gbuffer=None, lookup: str = "nearest", tolerance: float = 0.02,
+    def project(self, camera, *, gbuffer=None, lookup: str = "nearest", tolerance: float = TOLERANCE,
                 fallback: float | None = None, on_empty: str = "raise") -> Projection:
         """AO of ``camera``'s pixels from the best probe that sees each (module docstring).
 
@@ -379,7 +383,7 @@ class CubeMapAO:
             best_q[better], best_ao[better], best_i[better] = q[better], ao[better], i
         return best_i, best_q, best_ao
 
-    def assign(self, points, normals=None, surface_ids=None, *, tolerance: float = 0.02):
+    def assign(self, points, normals=None, surface_ids=None, *, tolerance: float = TOLERANCE):
         """Which probe answers each world point: the best-quality one that sees it.
 
         Parameters
@@ -436,7 +440,7 @@ class CubeMapAO:
         if self.probes:
             self._warn_stale("project")
             # (through project(), maps built with estimator=None raised: "the probes hold no AO")
-            pr = self._project(camera, gbuffer, "nearest", 0.02, np.nan, "fallback")     # project's defaults
+            pr = self._project(camera, gbuffer, "nearest", TOLERANCE, np.nan, "fallback")    # project's defaults
             # (the default 8 x 8 refused every camera under 8 pixels a side: "grid must be an int in 1..4, got 8")
             if coverage_grid(pr.covered, pr.probe == -2, min(grid, *pr.covered.shape)) >= threshold:
                 return False

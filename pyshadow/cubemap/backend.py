@@ -30,7 +30,8 @@ class CubeMapVisibility:
     ----------
     maps : CubeMapAO
         Probes of the scene that will be queried (its estimator does not
-        matter: rays are always marched, ``"raymarch"`` rule).
+        matter: rays are always marched, ``"raymarch"`` rule, with its
+        :attr:`~CubeMapAO.march_options`).
     unseen : {'error', 'open'}, optional
         Points no probe sees: ``ValueError`` naming how many (default), or
         every ray from them answered as unoccluded.
@@ -81,7 +82,7 @@ class CubeMapVisibility:
         for i in np.unique(probe_of[probe_of >= 0]):
             sel = np.flatnonzero(probe_of == i)
             vis[sel] = raymarch_visible(self.maps.probes[i], points[sel], directions[sel], D,
-                                        device=self.maps.device, **self.maps.options)
+                                        device=self.maps.device, **self.maps.march_options)
         return vis
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,

@@ -66,10 +66,10 @@ import numpy as np
 from .._validate import FLOAT32_MAX, unit_normals
 from ..lighting._checks import _number
 from ..sampling import Sampling, ao_from_samples, sample_directions
-from .probe import CubeProbe, _FRAMES, direction_texels
+from .probe import CubeProbe, _FRAMES, _direction_texels
 
 __all__ = ["ESTIMATORS", "GRAZING", "texel_ao", "raymarch_visible", "raymarch_visible_reference",
-           "horizon_ao_reference", "march_defaults"]
+           "horizon_ao_reference", "horizon_defaults", "march_defaults"]
 
 ESTIMATORS = ("raymarch", "horizon")
 
@@ -204,7 +204,7 @@ def raymarch_visible_reference(probe, points, directions, max_distance, **option
         q = p[alive] + tn[:, None] * w[alive] - c
         rn = np.linalg.norm(q, axis=1)
         un = q / np.maximum(rn, 1e-300)[:, None]
-        face, row, col, _x, _y = direction_texels(un, R)
+        face, row, col, _x, _y = _direction_texels(un, R)
         flat = (face * R + row) * R + col
         z = _surface_depth(probe, h, flat, un)
         zprev = _surface_depth(probe, h, flat, uh[alive])
@@ -297,8 +297,7 @@ def texel_ao(probe, max_distance, *, estimator: str = "raymarch", sampling: Samp
     R = probe.resolution
     out = np.full(6 * R * R, np.nan, np.float32)
     if estimator == "horizon":
-        if options:
-            raise TypeError(f"the horizon estimator takes no {', '.join(options)}")
+        horizon_defaults(**options)
         return horizon_ao_reference(probe, max_distance, directions=directions, steps=steps)
     sampling = Sampling() if sampling is None else sampling
     index, pts, nrm = probe.texel_points()
@@ -324,13 +323,22 @@ def _project_uv(frame, v):
     return np.where(bad, np.nan, 0.5 * (x + 1.0)), np.where(bad, np.nan, 0.5 * (1.0 - y))
 
 
+def horizon_defaults(directions=12, steps=16, **others) -> dict:
+    """Validated options of the horizon estimator, as a dict: ``directions`` 1..64, ``steps`` 1..256
+    (ValueError otherwise); any other option is a TypeError (the march's, e.g. ``thickness``)."""
+    if others:
+        raise TypeError(f"the horizon estimator takes no {', '.join(others)}")
+    for name, val, hi in (("directions", directions, 64), ("steps", steps, 256)):
+        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or not 1 <= val <= hi:
+            raise ValueError(f"{name} must be an int in 1..{hi}, got {val!r}")
+    return dict(directions=int(directions), steps=int(steps))
+
+
 def horizon_ao_reference(probe, max_distance, *, directions: int = 12, steps: int = 16) -> np.ndarray:
     """The ``"horizon"`` estimator (module docstring) for every covered texel, (6, R, R) float32."""
     _check_probe(probe)
     D = march_defaults(max_distance)["max_distance"]
-    for name, val, hi in (("directions", directions, 64), ("steps", steps, 256)):
-        if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or not 1 <= val <= hi:
-            raise ValueError(f"{name} must be an int in 1..{hi}, got {val!r}")
+    horizon_defaults(directions, steps)
     R = probe.resolution
     out = np.full((6, R, R), np.nan, np.float32)
     theta = 2.0 * np.pi * np.arange(directions) / directions

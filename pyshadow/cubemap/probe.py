@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._validate import check_int, point3
+from .._validate import check_int, point3, rows3
 from ..camera import Camera, axis_camera
 from ..gbuffer import render_gbuffer
 from ..scene import GROUND_ID
@@ -59,8 +59,10 @@ def direction_texels(directions, resolution: int):
 
     Parameters
     ----------
-    directions : ndarray, shape (N, 3), float
-        World directions (any length; a zero vector gets a valid texel of face 0).
+    directions : array_like, shape (N, 3) or (3,), real
+        World directions (any length; a zero vector gets a valid texel of face 0). Finite real numbers:
+        ValueError for another shape or a NaN or infinite entry (a NaN row had no face: it read the
+        centre texel of face 4), TypeError for bools, complex numbers, strings.
     resolution : int
 
     Returns
@@ -70,7 +72,13 @@ def direction_texels(directions, resolution: int):
         The face-plane coordinates in ``[-1, 1]``.
     """
     R = check_int(resolution, "resolution", 1)
-    d = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    a = np.asarray(directions)
+    d = rows3(a.reshape(1, 3) if a.shape == (3,) else a, "direction_texels: directions")
+    return _direction_texels(d, R)
+
+
+def _direction_texels(d, R):
+    """:func:`direction_texels` of checked float64 directions (N, 3) (the lookups' own, every march step)."""
     a = np.abs(d)
     axis = np.where((a[:, 0] >= a[:, 1]) & (a[:, 0] >= a[:, 2]), 0, np.where(a[:, 1] >= a[:, 2], 1, 2))
     neg = d[np.arange(len(d)), axis] < 0

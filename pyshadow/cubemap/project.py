@@ -37,8 +37,8 @@ import numpy as np
 from .._validate import check_int, nonzero, rows3
 from ..lighting._checks import _number, flag
 from ..sampling import Sampling
-from .estimators import ESTIMATORS, GRAZING, march_defaults, texel_ao
-from .probe import CubeProbe, _check_resolution, direction_texels
+from .estimators import ESTIMATORS, GRAZING, horizon_defaults, march_defaults, texel_ao
+from .probe import CubeProbe, _check_resolution, _direction_texels
 
 __all__ = ["CubeMapAO", "Projection", "quality", "coverage_grid", "seed_box_filter", "normal_hash"]
 
@@ -115,7 +115,7 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
     uh = u / np.maximum(r, 1e-300)[:, None]
     if normals is None:                                   # no normals: every point faces the probe
         normals = -uh
-    face, row, col, x, y = direction_texels(uh, R)
+    face, row, col, x, y = _direction_texels(uh, R)
 
     def test(fl):
         n = probe.normal.reshape(-1, 3)[fl].astype(np.float64)
@@ -211,6 +211,15 @@ def _mask(a, name):
     return a
 
 
+#: Options of the horizon estimator alone (:func:`pyshadow.cubemap.texel_ao`); the rest are the march's.
+HORIZON_OPTIONS = ("directions", "steps")
+
+
+def _march_options(options: dict) -> dict:
+    """``options`` without :data:`HORIZON_OPTIONS` (what :func:`~pyshadow.cubemap.raymarch_visible` takes)."""
+    return {k: v for k, v in options.items() if k not in HORIZON_OPTIONS}
+
+
 class CubeMapAO:
     """Cube-map AO of a scene: probes, their per-texel AO, projection onto cameras.
 
@@ -232,7 +241,14 @@ class CubeMapAO:
     ground_size : float, optional
         Side of the drawn ground quad.
     **options
-        Estimator options (:func:`pyshadow.cubemap.texel_ao`).
+        Estimator options (:func:`pyshadow.cubemap.texel_ao`), checked here: the march's
+        (:func:`~pyshadow.cubemap.march_defaults`; also with ``estimator=None``, the
+        :class:`CubeMapVisibility` march's) or the horizon estimator's ``directions`` and ``steps``.
+
+    Raises
+    ------
+    ValueError, TypeError
+        An unknown estimator, a bad distance, resolution or option.
 
     Attributes
     ----------
@@ -247,9 +263,12 @@ class CubeMapAO:
                  **options):
         if estimator is not None and estimator not in ESTIMATORS:
             raise ValueError(f"estimator must be one of {ESTIMATORS} or None, got {estimator!r}")
-        march = {k: v for k, v in options.items() if k not in ("directions", "steps")}
-        # checked before a probe is rendered (add_probe's march raised only after the render)
-        self.max_distance = march_defaults(max_distance, **(march if estimator == "raymarch" else {}))["max_distance"]
+        # checked before a probe is rendered (add_probe's march raised only after the render); with
+        # estimator=None too: CubeMapVisibility marches with them
+        march = _march_options(options) if estimator != "horizon" else {}
+        self.max_distance = march_defaults(max_distance, **march)["max_distance"]
+        if estimator == "horizon":
+            horizon_defaults(**options)         # (raised only after the first probe's render)
         _check_resolution(resolution)
         device = flag(device, "device")         # "no" was true: the device ran
         self.scene, self.resolution, self.estimator = scene, int(resolution), estimator
@@ -271,6 +290,13 @@ class CubeMapAO:
         self.ao_maps.append(ao)
         self.timings.append({"render_s": t1 - t0, "ao_s": t2 - t1})
         return len(self.probes) - 1
+
+    @property
+    def march_options(self) -> dict:
+        """The ``"raymarch"`` rule's options among :attr:`options` (``thickness``, ``step``, ``bias``,
+        ``max_steps``), those :class:`CubeMapVisibility` marches rays with: the horizon estimator's
+        ``directions`` and ``steps`` left out."""
+        return _march_options(self.options)
 
     @property
     def stale(self) -> bool:

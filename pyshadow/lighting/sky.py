@@ -231,9 +231,14 @@ def clear_sky(sun_direction, turbidity: float = 3.0, *, height: int = 128, sun: 
     sun : bool
         Draw the sun's disc (radius :data:`SUN_ANGULAR_RADIUS`, irradiance
         :func:`sun_irradiance`) into the map. True or False (Python or NumPy
-        bools); anything else raises TypeError.
+        bools); anything else raises TypeError. False is the sky to pair with
+        the sun as a directional light
+        (:meth:`pyshadow.lighting.Lighting.clear_sky`): only the
+        disc is left out, the sky's glow and the ground are as with True.
     ground_albedo : float
-        Albedo in [0, 1] of the grey ground below the horizon.
+        Albedo in [0, 1] of the grey ground below the horizon, lit by the
+        sky's and the sun's horizontal illuminance (the sun's with or
+        without its disc in the map).
 
     Returns
     -------
@@ -273,7 +278,7 @@ def clear_sky(sun_direction, turbidity: float = 3.0, *, height: int = 128, sun: 
     Y, x, y = val["Y"], val["x"], val["y"]
     XYZ = np.stack([x * Y / y, Y, (1.0 - x - y) * Y / y], axis=-1)
     rgb = np.clip(XYZ @ _XYZ_TO_RGB.T, 0.0, None)
-    e_sun = sun_irradiance(s, T) if sun else np.zeros(3)
+    e_sun = sun_irradiance(s, T)        # lights the ground whether or not its disc is drawn
     rgb = _ground(rgb, dirs, omega, albedo, float(LUMINANCE_WEIGHTS @ e_sun) * s[1])
     env = EnvironmentMap(rgb, "latlong", name="clear sky")
     if sun:
@@ -344,7 +349,8 @@ def _latlong_coverage(h: int, w: int, d: np.ndarray, r: float):
     on the meridian's great circle, ``cos r = cos delta cos beta`` with ``delta`` the distance of
     ``d`` from that circle), which is cut at the row boundaries in closed form. Nothing depends on
     how narrow the texels get towards a pole: a cap around a pole crosses every meridian, and the
-    nodes are then ``_PER_TEXEL`` per column, the same in every column. Otherwise the nodes span
+    nodes are then the same whole number per column in every column (``_PER_TEXEL``, more where that
+    leaves fewer than ``_MIN_NODES``). Otherwise the nodes span
     the cap's azimuths ``phi_c +- D``, ``D = asin(sin r / sin theta_c)``, as ``phi = phi_c + D sin t``
     (no square-root end points), ``t`` evenly spaced within each column's piece, at least
     ``_PER_TEXEL`` per column and ``_MIN_NODES`` over the cap.
@@ -356,7 +362,7 @@ def _latlong_coverage(h: int, w: int, d: np.ndarray, r: float):
     ph_c = math.atan2(d[2], d[0])
     col = 2.0 * math.pi / w
     if th_c <= r or th_c >= math.pi - r:                      # around a pole: every meridian
-        n = max(_MIN_NODES, _PER_TEXEL * w)
+        n = w * max(_PER_TEXEL, -(-_MIN_NODES // w))      # a whole number a column: none straddles an edge
         phi = (np.arange(n) + 0.5) * (2.0 * math.pi / n)
         dphi = np.full(n, 2.0 * math.pi / n)
     else:

@@ -18,6 +18,7 @@ import trimesh
 
 from ._validate import check_transform, flag
 from .materials import GLTF_SUFFIXES, VISUAL_KEY, _mesh_visual, join_visuals, visual_of
+from .mesh_files import read_mesh_file
 
 __all__ = [
     "MeshCleanupWarning",
@@ -127,7 +128,10 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     ----------
     path_or_trimesh : str, os.PathLike, trimesh.Trimesh or trimesh.Scene
         A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
-        object. A scene (GLB/GLTF, an OBJ with several materials) is
+        object. OBJ's relative (negative) indices count back from the line
+        that holds them, an OBJ's concave faces of 5 or more corners are
+        tiled, and a binary PLY may mix triangles and larger polygons
+        (:mod:`pyshadow.mesh_files`). A scene (GLB/GLTF, an OBJ with several materials) is
         flattened: every node's transform is applied and the meshes are
         concatenated (as ``Scene.to_geometry``), each keeping its own colours,
         material colour and texture.
@@ -165,8 +169,11 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     FileNotFoundError
         If ``path_or_trimesh`` is a path that does not exist.
     ValueError
-        If the format is unknown, the file has no triangles, or a vertex is
-        NaN or infinite; the message names the path and the reason.
+        If the format is unknown, the file has no triangles, a vertex is
+        NaN or infinite, or a glTF stores its geometry in a way trimesh
+        reads wrongly (:func:`pyshadow.mesh_files.check_gltf`: Draco
+        without DracoPy, meshopt, normalised or sparse positions, triangle
+        fans); the message names the path and the reason.
 
     Warns
     -----
@@ -193,14 +200,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         if not path.is_file():
             raise ValueError(f"{path}: not a regular file")
         gltf = True if path.suffix.lower() in GLTF_SUFFIXES else None
-        try:
-            raw = trimesh.load(str(path), process=False)
-        except (NotImplementedError, KeyError) as exc:
-            raise ValueError(
-                f"{path}: unknown or unsupported mesh format {path.suffix!r} ({exc})"
-            ) from exc
-        except Exception as exc:  # parsers raise anything on garbage input
-            raise ValueError(f"{path}: could not be read as a mesh ({exc})") from exc
+        raw = read_mesh_file(path, label)       # OBJ's relative indices as OBJ means them
     else:
         raise TypeError(
             "load_mesh expects a path or a trimesh.Trimesh/Scene, "

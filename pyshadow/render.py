@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .ao_pass import ao_pass
 from .camera import points_on_rays
 from .materials import visual_of
 from .sampling import Sampling
@@ -41,8 +42,9 @@ class Frame(Mapping):
         World-frame bent normals, 0 on the background. With ``ao_scale`` > 1
         only the AO pass's pixels hold theirs (every ``ao_scale``-th pixel of
         every ``ao_scale``-th row, and covered pixels whose upsampling window
-        holds no such pixel of their instance); the other covered pixels hold 0. The lighting
-        stage upsamples them like the AO where it needs them (the sky term);
+        holds no such pixel on their own surface: :func:`pyshadow.ao_pass.ao_pass`); the other
+        covered pixels hold 0. The lighting stage upsamples them like the AO where it needs
+        them (the sky term);
         :func:`pyshadow.filters.upsample` of each channel with ``fill=0``
         does the same for a caller.
     depth : ndarray, shape (H, W), float32
@@ -313,25 +315,6 @@ def _points_at(camera, gbuffer, object_id, keep) -> SurfacePoints:
                          normals=pick(gbuffer["normal"], 3), surface_ids=pick(object_id, 1))
 
 
-def _ao_pass(obj, scale: int) -> np.ndarray:
-    """(H, W) bool: the pixels :func:`render` computes AO at for ``ao_scale=scale``: every ``scale``-th
-    covered pixel (the low-res samples of :func:`pyshadow.filters.upsample`) and every covered pixel
-    whose upsampling window (``_UPSAMPLE_RADIUS`` low-res taps per side) holds no sample of its own
-    instance (``obj``, (H, W) ids, -1 background), which upsampling would give its ``fill`` value
-    (unoccluded: no covered sample) or another surface's AO (a thin pole before the ground)."""
-    (H, W), R = obj.shape, _UPSAMPLE_RADIUS
-    low = np.pad(obj[::scale, ::scale], R, constant_values=-1)      # no tap beyond the border
-    own = np.repeat(np.repeat(obj[::scale, ::scale], scale, 0), scale, 1)[:H, :W]      # each pixel's block's sample
-    r, c = np.nonzero(obj != own)                                   # the others hold a tap of their own instance
-    v, lonely = obj[r, c], np.ones(len(r), bool)
-    for di in range(1 - R, R + 1):
-        for dj in range(1 - R, R + 1):
-            lonely &= low[r // scale + R + di, c // scale + R + dj] != v
-    keep = np.zeros((H, W), bool)
-    keep[r[lonely], c[lonely]] = keep[::scale, ::scale] = True
-    return keep & (obj != -1)
-
-
 def _put_pixels(image, index, values) -> None:
     """``image.reshape(H * W, -1)[index] = values`` for an (H, W) or (H, W, k) image and the
     sorted, distinct flat pixel indices ``index`` (:attr:`SurfacePoints.index`).
@@ -382,8 +365,8 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         Compute AO at 1/ao_scale resolution and upsample it with the
         full-resolution G-buffer (joint bilateral upsampling,
         :func:`pyshadow.filters.upsample`; bent normals: ``Frame``). A covered pixel whose
-        upsampling window holds no low-res pixel of its own instance (a thin
-        object, a tiny image) gets its own AO, not another surface's or ``fill``.
+        upsampling window holds no low-res pixel on its own surface (:func:`pyshadow.ao_pass.ao_pass`:
+        a thin object, a face seen edge-on, a tiny image) gets its own AO, not another surface's or ``fill``.
     ground_size : float, optional
         Side of the drawn ground quad (:meth:`pyshadow.Scene.ground_quad`).
     bias : float, optional
@@ -464,7 +447,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     hit = obj != -1
     exact = getattr(vis.get_backend(visibility), "exact_surface_points", False)    # a ray tracer's small lift
     sp = _points_at(camera, _on_faces(scene, drawn, g, camera, hit, exact), obj,
-                    hit if ao_scale == 1 else _ao_pass(obj, ao_scale))   # where AO is computed
+                    hit if ao_scale == 1 else ao_pass(obj, g["depth"], g["normal"], ao_scale, _UPSAMPLE_RADIUS))
     geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
     ao = np.ones((H, W), np.float32)

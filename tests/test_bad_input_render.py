@@ -7,6 +7,7 @@ import pytest
 import pyshadow
 from pyshadow import Sampling, embree
 from pyshadow import render as render_stage
+from pyshadow.ao_pass import ao_pass
 
 
 def small_camera(width=48, height=32):
@@ -16,9 +17,10 @@ def small_camera(width=48, height=32):
 
 @pytest.mark.parametrize("ao_scale", [2, 4])
 def test_ao_scale_bent_normals_are_the_ao_passs_and_the_sky_term_upsamples_them(small_scene, ao_scale):
-    """With ao_scale > 1, Frame.bent_normal holds the AO pass's bent normals (the full render's, unit)
-    and 0 on the other pixels, as documented; the sky term upsamples them like the AO, channel by
-    channel with fill 0, made unit (the render's radiance equals that computed by hand)."""
+    """With ao_scale > 1, Frame.bent_normal holds the AO pass's bent normals (the full render's, unit: its
+    grid and its pixels off the grid, pyshadow.ao_pass) and 0 on the other pixels, as documented; the sky
+    term upsamples them like the AO, channel by channel with fill 0, made unit, except at the pass's
+    pixels off its grid, which keep their own (the render's radiance equals that computed by hand)."""
     from pyshadow.lighting import Lighting, overcast_sky
     from pyshadow.lighting.shade import sky_radiance
 
@@ -31,11 +33,13 @@ def test_ao_scale_bent_normals_are_the_ao_passs_and_the_sky_term_upsamples_them(
     grid = np.zeros(hit.shape, bool)
     grid[::ao_scale, ::ao_scale] = True
     assert (hit & grid).any() and (hit & ~grid).any()
-    np.testing.assert_array_equal(frame.bent_normal[grid], full.bent_normal[grid])
-    np.testing.assert_allclose(np.linalg.norm(frame.bent_normal[hit & grid], axis=-1), 1, atol=1e-5)
-    assert (frame.bent_normal[~grid] == 0).all()
+    own = ao_pass(full.object_id, full.depth, full.normal, ao_scale, 2) & ~grid    # the pass's pixels off its grid
+    np.testing.assert_array_equal(frame.bent_normal[grid | own], full.bent_normal[grid | own])
+    np.testing.assert_allclose(np.linalg.norm(frame.bent_normal[hit & (grid | own)], axis=-1), 1, atol=1e-5)
+    assert (frame.bent_normal[~grid & ~own] == 0).all()
     up = np.stack([pyshadow.filters.upsample(frame.bent_normal[::ao_scale, ::ao_scale, c], frame.depth,
                                              frame.normal, scale=ao_scale, fill=0.0) for c in range(3)], axis=2)
+    up[own] = frame.bent_normal[own]                # those keep their own, as their AO
     b = up[hit].astype(np.float64)
     b /= np.linalg.norm(b, axis=1, keepdims=True)
     want = sky_radiance(light, frame.ao[hit], b, np.full((int(hit.sum()), 3), 0.5))

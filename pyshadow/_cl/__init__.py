@@ -23,7 +23,8 @@ Kernels that work on lane vectors are built with ``-DLANES`` = 1, 4, 8 or 16
 if set, else the widest width the device passed in a probe run in child
 processes (:mod:`pyshadow._cl.probe`; 1 on GPUs, one query per work-item),
 cached on disk per device and driver. A width that failed the probe is never
-used unless ``PYSHADOW_LANES`` asks for it; a device that fails them all
+used (``PYSHADOW_LANES`` naming a width whose failure is cached raises
+:class:`DeviceNotSupportedError`); a device that fails them all
 raises :class:`DeviceNotSupportedError` naming it. Launch shapes (batches,
 work-groups, chunks) come from :func:`pyshadow._cl.launch.shape`.
 """
@@ -47,25 +48,9 @@ from .launch import check_alloc
 from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
 __all__ = [
-    "DeviceNotFoundError",
-    "DeviceNotSupportedError",
-    "KernelBuildError",
-    "LaneWidthWarning",
-    "LANE_WIDTHS",
-    "lanes",
-    "lane_choice",
-    "use_lanes",
-    "use_device",
-    "devices",
-    "context",
-    "queue",
-    "device",
-    "device_info",
-    "kernel",
-    "kernel_dir",
-    "kernel_source",
-    "build_source",
-    "program",
+    "DeviceNotFoundError", "DeviceNotSupportedError", "KernelBuildError", "LaneWidthWarning", "LANE_WIDTHS",
+    "lanes", "lane_choice", "use_lanes", "use_device", "devices", "context", "queue", "device", "device_info",
+    "kernel", "kernel_dir", "kernel_source", "build_source", "program",
 ]
 
 _lock = threading.RLock()
@@ -296,9 +281,12 @@ def lane_choice() -> dict:
     st = _init()
     override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
     if override is not None:
-        # no probe at all: a device known to crash it need not run it
+        # no probe run (a device known to crash it need not run it); a cached verdict against it is an error
+        if st.get("override_checked") != override:
+            _probe.check_override(override, st["platform"], st["device"], _probe_job(st["device"]))
+            st["override_checked"] = override
         choice = {"lanes": override, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
-                  "reason": f"PYSHADOW_LANES={override} (the probe is not consulted)"}
+                  "reason": f"PYSHADOW_LANES={override} (no probe run)"}
     else:
         with _lock:
             cached = st.get("lane_choice")

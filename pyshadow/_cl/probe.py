@@ -240,6 +240,21 @@ def _cached_timeouts(entry) -> dict:
             if w in {str(x) for x in LANE_WIDTHS} and type(n) is int and n > 0}
 
 
+def check_override(width: int, platform, device, job: dict) -> None:
+    """Raise :class:`DeviceNotSupportedError` where ``PYSHADOW_LANES=width`` names a width this device's
+    cached verdicts (the same key as :func:`verdicts`) say fails; nothing is probed (no verdict: no error).
+
+    Such a width failed at its first kernel, or the process aborted as it exited (README, lane width)."""
+    cached = _cached_verdicts(_read_cache().get(_key(platform, device, job)))
+    if cached is None or cached[width]["ok"] or _timed_out(cached[width]):
+        return
+    ok = [w for w in LANE_WIDTHS if cached[w]["ok"]]
+    raise DeviceNotSupportedError(
+        f"PYSHADOW_LANES={width}: {width}-lane kernels failed the probe on OpenCL device {device.name.strip()!r} "
+        f"({cached[width]['why']}); widths that passed: {', '.join(map(str, ok)) or 'none'}. Unset "
+        f"PYSHADOW_LANES or set it to one of those (verdicts cached in {cache_file()})")
+
+
 def verdicts(platform_index, device_index, platform, device, job, *, refresh=False):
     """Every width's verdict for a device, from the cache or a fresh probe.
 

@@ -166,7 +166,7 @@ def measure(csm, mesh, rays: dict, lookup: str = "nearest") -> dict:
         own = r["n"] is not None
         ids = np.full(len(r["p"]), 0 if own else GROUND_ID, np.int64)
         ours = scene.visible(r["p"], r["d"], surface_ids=ids, normals=r["n"] if own else None, lookup=lookup)
-        out[name] = _count(r["truth"], ours, r["w"])
+        out[name] = _count(r["truth"], ours, r["w"], r.get("group", 1))
     out["disagreement"] = max(out[name]["disagreement"] for name in rays)
     return out
 

@@ -26,7 +26,7 @@ against Embree's, and the footprint option. How far its predictions
 lie from measured CSMs on the shared meshes is measured by
 ``benchmarks/error_model.py`` and stated as :data:`MODEL_RATIO` (the range of
 measured / predicted); the sampling uncertainty of each prediction is the
-Wilson interval of its count.
+Wilson interval of its count, counted as the independent rays its rays per point are worth.
 """
 from __future__ import annotations
 
@@ -287,9 +287,35 @@ def model_visible(bodies, points, directions, normals=None, owner=None, *, looku
     return ~occ
 
 
-def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
+#: the last mesh's :func:`_open_backs` (its hash: the faces)
+_BACKS: dict = {}
+
+
+def _open_backs(mesh):
+    """The faces of an open mesh whose back side a ray from outside reaches (the build's ``two_sided='auto'``
+    faces, :func:`pyshadow.csm.exposure.exposed_back_faces` in the bounding sphere's frame), or None: a
+    watertight mesh (its backs lie inside the solid) or none found."""
+    from ..mesh import bounding_sphere, mesh_hash
+    from .exposure import exposed_back_faces
+
+    if mesh.is_watertight or not len(mesh.faces):
+        return None
+    key = mesh_hash(mesh)
+    if key not in _BACKS:           # the model's rays and the check's are drawn on the same mesh: traced once
+        _BACKS.clear()
+        _BACKS[key] = exposed_back_faces(mesh, bounding_sphere(mesh))
+    backs = _BACKS[key]
+    return backs.copy() if backs.any() else None
+
+
+def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7, *, backs: bool = False):
     """A body's own AO rays: ``points`` area-uniform surface points, ``samples`` cosine-weighted directions each.
 
+    The surface is every face's front; with ``backs`` (as :func:`rays_for`
+    draws them), on an open mesh also the back of each face a ray from
+    outside reaches (:func:`_open_backs`: the inside of a shell, a box
+    without a lid), the points there with the reversed normal: AO is asked
+    there too, and the CSM keeps a margin for those faces.
     ``points`` and ``seed`` are ints, ``points >= 1``; the mesh must have some area (ValueError).
 
     Returns
@@ -312,6 +338,10 @@ def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7):
     if not fit.area > 0:
         raise ValueError(f"ao_rays: the mesh has no surface area (its {len(mesh.faces)} faces are all degenerate): "
                          "there are no AO rays to draw on it")
+    backs = _open_backs(mesh) if backs else None
+    if backs is not None:       # the surface a ray from outside reaches: the backs the build keeps a margin for too
+        faces = np.asarray(mesh.faces)
+        fit = trimesh.Trimesh(fit.vertices, np.concatenate([faces, faces[backs][:, ::-1]]), process=False)
     local, face = trimesh.sample.sample_surface(fit, points, seed=seed)
     local = local / unit
     nrm = np.asarray(fit.face_normals, np.float64)[face]
@@ -377,28 +407,45 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
 def rays_for(mesh, *, points: int = 2000, samples: int = 16, near: int = 16000, seed: int = 7) -> dict:
     """The rays a body's CSM is judged on, with Embree's answers: ``{"own": ..., "near": ...}``.
 
-    ``own``: its AO rays (:func:`ao_rays`, ``points * samples``); ``near``:
+    ``own``: its AO rays (:func:`ao_rays`, ``points * samples``, the backs
+    of an open mesh's faces that a ray from outside reaches included); ``near``:
     :func:`near_rays` (``near``; none when 0). Each a dict ``p, d, n``
     (normals or None), ``truth`` (bool), ``w`` (weights, or None), in the
-    object's frame, no ground.
+    object's frame, no ground; ``own`` also ``group`` (its rays per point: ``samples``).
     """
     check_int(near, "near", 0)
     body = [Body(mesh, np.eye(4), Layout.for_mesh(mesh))]
-    p, d, nrm = ao_rays(mesh, points, samples, seed)
-    out = {"own": {"p": p, "d": d, "n": nrm, "truth": truth_visible(body, p, d), "w": None}}
+    p, d, nrm = ao_rays(mesh, points, samples, seed, backs=True)
+    out = {"own": {"p": p, "d": d, "n": nrm, "truth": truth_visible(body, p, d), "w": None, "group": samples}}
     if near:
         q, e, w = near_rays(mesh, near, seed)
         out["near"] = {"p": q, "d": e, "n": None, "truth": truth_visible(body, q, e), "w": w}
     return out
 
 
-def _count(truth, answer, weights=None) -> dict:
-    """Disagreement of ``answer`` with ``truth``: the share (or weighted mean) and its 95 % interval."""
+def _effective_rays(flip, group) -> float:
+    """How many independent rays ``flip`` (bool, (N,)) is worth when it comes in runs of ``group`` rays from one
+    point: N over the design effect, from the spread of the points' shares (a point's rays agree or not
+    together: AO rays about one normal), within [N / group, N]; N where ``group`` is 1 or does not divide N."""
+    n = len(flip)
+    if group <= 1 or n % group or n // group < 2:
+        return float(n)
+    share = flip.reshape(-1, group).mean(axis=1)
+    p, var = float(share.mean()), float(share.var(ddof=1)) / len(share)
+    if not 0.0 < p < 1.0 or var <= 0.0:
+        return float(n)
+    return min(float(n), max(n / group, p * (1.0 - p) / var))
+
+
+def _count(truth, answer, weights=None, group: int = 1) -> dict:
+    """Disagreement of ``answer`` with ``truth``: the share (or weighted mean) and its 95 % interval, the
+    Wilson interval of the rays' worth as independent ones (``group``: rays per point, :func:`_effective_rays`)."""
     flip = truth != answer
     n = len(flip)
     if weights is None:
         k = int(np.count_nonzero(flip))
-        return {"disagreement": k / max(n, 1), "interval": wilson(k, n), "rays": n}
+        m = _effective_rays(flip, group)
+        return {"disagreement": k / max(n, 1), "interval": wilson(k * m / max(n, 1), m), "rays": n}
     x = np.asarray(weights, np.float64) * flip
     e = float(x.mean()) if n else 0.0
     half = 1.96 * float(x.std()) / math.sqrt(max(n, 1))
@@ -428,7 +475,7 @@ def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, l
         Per ray set (``own``: the body's AO rays; ``near``: rays of
         bodies around it, :func:`near_rays`), ``disagreement`` (fraction),
         ``interval``
-        (Wilson 95 %), ``rays``; and at the top ``disagreement`` (the larger
+        (Wilson 95 %, of the rays' worth as independent ones), ``rays``; and at the top ``disagreement`` (the larger
         of the two), ``range`` (times :data:`MODEL_RATIO`: where the
         measured value is expected), ``layout`` (label), ``lookup``,
         ``seconds`` (the model's own cost, without drawing the rays).
@@ -449,7 +496,8 @@ def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, l
            "depth_bits": int(depth_bits), "lookup": lookup}
     for name, r in rays.items():
         owner = np.zeros(len(r["p"]), np.int64) if r["n"] is not None else np.full(len(r["p"]), -2)
-        out[name] = _count(r["truth"], model_visible(body, r["p"], r["d"], r["n"], owner, lookup=lookup), r["w"])
+        out[name] = _count(r["truth"], model_visible(body, r["p"], r["d"], r["n"], owner, lookup=lookup), r["w"],
+                           r.get("group", 1))
     e = max(out[name]["disagreement"] for name in rays)
     out.update(disagreement=e, range=[e * MODEL_RATIO[0], e * MODEL_RATIO[1]], seconds=time.perf_counter() - t0)
     return out

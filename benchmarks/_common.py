@@ -30,6 +30,39 @@ def load_mesh(spec, fill_holes: bool = False):
     return pyshadow.load_mesh(spec, fill_holes=fill_holes)
 
 
+def parse_grid(ap, text: str, option: str = "--maps", least: int = 1) -> tuple:
+    """``(a, b)`` of ``"AxB"`` (two integers >= ``least``), else ``ap.error`` naming ``option`` (exit status 2)."""
+    parts = str(text).lower().split("x")
+    try:
+        out = tuple(int(x) for x in parts)
+    except ValueError:
+        out = ()
+    if len(out) != 2 or min(out) < least:
+        ap.error(f"{option} must be two integers >= {least} as AxB (e.g. 64x128), got {text!r}")
+    return out
+
+
+def parse_ints(ap, text: str, option: str, least: int = 1, even: bool = False) -> list:
+    """The integers of a comma-separated list (at least one, each >= ``least``, even with ``even``),
+    else ``ap.error`` naming ``option`` (exit status 2)."""
+    try:
+        out = [int(x) for x in str(text).split(",") if x.strip()]
+    except ValueError:
+        out = []
+    if not out or min(out) < least or (even and any(x % 2 for x in out)):
+        ap.error(f"{option} must be a comma-separated list of {'even ' if even else ''}integers >= {least}, "
+                 f"got {text!r}")
+    return out
+
+
+def check_counts(ap, args, *names: str, least: int = 1) -> None:
+    """``ap.error`` (exit status 2) unless every integer option ``names`` (attribute names) is >= ``least``."""
+    for name in names:
+        value = getattr(args, name)
+        if value < least:
+            ap.error(f"--{name.replace('_', '-')} must be >= {least}, got {value}")
+
+
 def median_time(fn, repeats: int = 3, warmup: int = 1):
     """Run ``fn`` ``warmup`` times untimed, then ``repeats`` times; return (median s, all)."""
     for _ in range(warmup):

@@ -34,7 +34,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _common import emit, environment
+from _common import check_counts, emit, environment
 
 
 def _assets_run(src, workers, threads):
@@ -80,6 +80,7 @@ def main(argv=None) -> int:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "rounds", "frames")
     configs = [("1 worker x 1 thread", 1, 1), ("2 workers x 1 thread", 2, 1), ("1 worker x 2 threads", 1, 2)]
     with tempfile.TemporaryDirectory(prefix="bake-src-") as d:
         src = Path(d)

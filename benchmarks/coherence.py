@@ -134,13 +134,15 @@ def main(argv=None):
                     help="random-ray batch sizes for the threshold sweep, csm only ('' for none)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    from _common import emit, environment
+    from _common import check_counts, emit, environment, parse_grid
+
+    check_counts(ap, args, "rounds")
 
     from pyshadow.camera import Camera
     from pyshadow.visibility import order
 
-    W, H = (int(x) for x in args.size.split("x"))
-    SW, SH = (int(x) for x in args.sun_size.split("x"))
+    W, H = parse_grid(ap, args.size, "--size")
+    SW, SH = parse_grid(ap, args.sun_size, "--sun-size")
     scene, cam = bundled_scene(W, H)
     rows = []
     for wl in (x for x in args.workloads.split(",") if x):

@@ -227,8 +227,9 @@ def main(argv=None):
     result["placement"] = placement(bundled, D, args.width, args.height, args.orbit)
     result["runtime_s"] = time.perf_counter() - t_start
     if args.out:
-        with open(args.out, "w") as fh:
-            json.dump(result, fh, indent=2)
+        from pyshadow._files import write_bytes_atomic
+
+        write_bytes_atomic(args.out, json.dumps(result, indent=2).encode())
     if args.json:
         emit(result, True)
         return result

@@ -159,6 +159,8 @@ def main(argv=None):
     ap.add_argument("--meshes-only", action="store_true", help="part 1 only")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.targets and not all(0 < t < 1 for t in args.targets):
+        ap.error(f"--targets must lie in (0, 1) (a disagreement, 0.01 = 1 %), got {args.targets}")
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
     names = ("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick else pyshadow.data.MESHES

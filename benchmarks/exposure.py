@@ -31,7 +31,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from _common import emit, environment, load_mesh
+from _common import emit, environment, load_mesh, parse_grid
 
 LATTICES = (32, 64, 128, 256, 512, 1024)
 STRATA = ("sealed", "narrow", "open")
@@ -125,7 +125,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    rows, cols = (int(x) for x in args.maps.lower().split("x"))
+    rows, cols = parse_grid(ap, args.maps)
     views = pyshadow.ViewSet.zigzag(rows, cols)
     res = {"benchmark": "exposure", **environment(), "counts": {}, "inner": {}}
     for name in filter(None, args.meshes.split(",")):

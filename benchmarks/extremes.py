@@ -37,7 +37,7 @@ import sys
 import numpy as np
 import trimesh
 
-from _common import emit, environment
+from _common import emit, environment, parse_grid
 
 #: the bound a false-shadow fraction is held to: the visibility disagreement of
 #: the CSM on AO rays of the bunny (0.5 %, benchmarks/README.md)
@@ -229,7 +229,7 @@ def main(argv=None, groups=None, benchmark: str = "extremes", detail=None) -> in
     unknown = [r for r in names if r not in groups]
     if unknown:
         ap.error(f"unknown rows {unknown}; choose from {', '.join(groups)}")
-    t, p = (int(x) for x in args.maps.lower().split("x"))
+    t, p = parse_grid(ap, args.maps)
     args.views = pyshadow.ViewSet.zigzag(t, p)
     rows = []
     for name in names:

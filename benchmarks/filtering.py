@@ -8,8 +8,8 @@ each filter of pyshadow.filters (bilateral, separable bilateral, the seed's
 pixels, the RMSE within 2 pixels of a depth discontinuity (relative depth
 jump above 5 %, or a surface next to the background), and the filter's
 throughput in Mpixel/s (median of several runs). Then AO computed at 1/2 and
-1/4 resolution and brought back with joint bilateral upsampling: time and RMSE
-against full-resolution AO.
+1/4 resolution and brought back with joint bilateral upsampling: its time and its
+RMSE against the converged reference, beside the full-resolution image's.
 
     python benchmarks/filtering.py [--width 640 --height 480] [--reference-samples 1024] [--json]
 """
@@ -23,7 +23,7 @@ from scipy import ndimage
 
 import pyshadow
 from pyshadow import Sampling, embree, filters
-from _common import emit, environment, load_mesh, median_time
+from _common import check_counts, emit, environment, load_mesh, median_time
 
 
 def edge_mask(depth, width=2, jump=0.05):
@@ -50,6 +50,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "repeats")
 
     bunny = load_mesh("stanford-bunny.obj")
     T = pyshadow.stand_on_ground(bunny)

@@ -15,7 +15,7 @@ import argparse
 import numpy as np
 
 import pyshadow.filters as F
-from _common import emit, environment, median_time
+from _common import check_counts, emit, environment, median_time
 
 
 def synthetic_gbuffer(height: int, width: int, seed: int = 1):
@@ -48,6 +48,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "repeats")
 
     ao, depth, normal = synthetic_gbuffer(args.height, args.width)
     low2 = ao[::2, ::2].copy()

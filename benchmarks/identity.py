@@ -167,7 +167,10 @@ def main(argv=None) -> int:
         warnings.simplefilter("ignore", DeprecationWarning)
         out = record(args.mesh, args.quick)
     if args.save:
-        np.savez_compressed(args.save, **out)
+        from pyshadow._files import atomic_path
+
+        with atomic_path(args.save) as tmp, open(tmp, "wb") as fh:     # the name as given (savez adds .npz)
+            np.savez_compressed(fh, **out)
         print(f"recorded {len(out)} arrays ({sum(a.nbytes for a in out.values()) / 1e6:.1f} MB) "
               f"into {args.save}")
         return 0

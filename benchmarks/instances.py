@@ -98,6 +98,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.rounds < 1 or min(args.counts) < 1:
+        ap.error(f"--rounds and every --counts must be >= 1, got {args.rounds} and {args.counts}")
     mesh = pyshadow.data.mesh("spot")
     csm = pyshadow.CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False)
     rng = np.random.default_rng(1)

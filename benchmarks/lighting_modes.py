@@ -50,7 +50,7 @@ import time
 
 import numpy as np
 
-from _common import emit, environment
+from _common import check_counts, emit, environment, parse_grid
 
 MODES = ("bent", "transfer", "sampled")
 
@@ -242,11 +242,12 @@ def main(argv=None) -> int:
                     help="only 'sampled' at 256 samples, CSM against Embree on identical directions")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "repeats")
 
     def log(msg):
         print(msg, file=sys.stderr if args.json else sys.stdout, flush=True)
 
-    t, p = (int(x) for x in args.maps.split("x"))
+    t, p = parse_grid(ap, args.maps)
     scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height,
                                              views=pyshadow.ViewSet.zigzag(t, p), resolution=args.resolution)
     rows = [measure_sky(s, scene, cam, args, log) for s in (args.sky or ["clear", "overcast"])]

@@ -268,9 +268,14 @@ def plot(rows, spacing, path):
     bx.legend(fontsize=7)
     fig.suptitle("Soft shadows on the bundled scene: where the CSM's map spacing stops resolving the penumbra")
     fig.tight_layout()
+    from pyshadow._files import atomic_path
+
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
 
 
 def ratio(a, b):

@@ -38,7 +38,7 @@ SCENES = ("open sky", "ground", "far caster", "both")
 GROUND_Y = -10.0
 CASTER_Y = -1000.0
 SAMPLES = 16
-# (slower, faster) pairs of the comparisons: the second has a feature less, and must not cost more
+# (fewer features, more features) pairs of the comparisons: the first has a feature less, and must not cost more
 RATIOS = {"no ground / ground (far caster)": ("far caster", "both"),
           "no caster / far caster (ground)": ("ground", "both"),
           "nothing / ground only": ("open sky", "ground")}
@@ -131,6 +131,8 @@ def main(argv=None) -> int:
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.rays < 1 or args.rounds < 1:
+        ap.error(f"--rays and --rounds must be >= 1, got {args.rays} and {args.rounds}")
     sc = scenes()
     P, D, pts, nrm = workload(args.rays)
     times = measure(sc, P, D, pts, nrm, args.rounds)

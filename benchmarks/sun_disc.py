@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from _common import emit, environment
+from _common import emit, environment, parse_ints
 
 NORMALS = np.array([[1.0, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1], [0, 1, 0]])
 GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
@@ -101,7 +101,7 @@ def main():
     ap.add_argument("--heights", default="16,32,64,128,256,512", help="lat-long heights (cubes: half)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
-    rows = run([int(x) for x in args.heights.split(",")])
+    rows = run(parse_ints(ap, args.heights, "--heights", least=2, even=True))
     if args.json:
         emit({"benchmark": "sun_disc", **environment(), "rows": rows}, True)
         return

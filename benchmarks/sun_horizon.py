@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from _common import emit, environment
+from _common import emit, environment, parse_ints
 
 ELEVATIONS = (30.0, 10.0, 5.0, 3.0, 2.0, 1.0, 0.5)
 
@@ -44,7 +44,7 @@ def main():
     ap.add_argument("--heights", default="64,128,256", help="lat-long heights")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
-    rows = run([int(x) for x in args.heights.split(",")])
+    rows = run(parse_ints(ap, args.heights, "--heights", least=2))
     if args.json:
         emit({"benchmark": "sun_horizon", **environment(), "rows": rows}, True)
         return

@@ -26,7 +26,7 @@ from contextlib import contextmanager
 import numpy as np
 import trimesh
 
-from _common import emit, environment
+from _common import emit, environment, parse_grid
 
 
 def _unit_on_ground(name, views, resolution):
@@ -98,7 +98,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    t, p = (int(x) for x in args.maps.lower().split("x"))
+    t, p = parse_grid(ap, args.maps)
     views = pyshadow.ViewSet.zigzag(t, p)
     rows = []
     for name in args.meshes.split(","):

@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from _common import emit, environment
+from _common import emit, environment, parse_grid
 
 OFFSETS = (0.0, 0.5)
 
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    T, P = (int(x) for x in args.maps.lower().split("x"))
+    T, P = parse_grid(ap, args.maps)
     angles = nearest_angles(T, P)
     rows = [mesh_row(name, T, P, args.resolution) for name in pyshadow.data.MESHES]
     if args.json:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import sys
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -174,3 +175,15 @@ def in_range(x, name: str, lo: float, hi: float) -> float:
     if not (math.isfinite(v) and lo <= v <= hi):
         raise ValueError(f"{name}: must lie in [{lo:g}, {hi:g}] (got {x!r})")
     return v
+
+
+@contextmanager
+def straddle_advice(owner: str):
+    """Inside the block, the visibility's advice "pass straddle='embree'" (a keyword the caller's function
+    does not take) names ``owner``'s instead: "pass Lighting(straddle='embree')"."""
+    try:
+        yield
+    except ValueError as e:
+        if "pass straddle='embree'" not in str(e):
+            raise
+        raise ValueError(str(e).replace("pass straddle='embree'", f"pass {owner}(straddle='embree')")) from None

@@ -340,17 +340,14 @@ def lights_radiance(scene, points, normals, lighting, albedo, *, backend="csm", 
     """
     from .._validate import check_rows
     from .area import AreaLight, area_light_radiance
+    from ._checks import straddle_advice
     from .shade import _check_lighting
 
     out = np.zeros((len(check_rows(points, "points")), 3))
     for light in _check_lighting(lighting).lights:
         fn = area_light_radiance if isinstance(light, AreaLight) else point_light_radiance
-        try:
+        with straddle_advice("Lighting"):      # the visibility's advice names its own keyword: here Lighting's
             out += fn(scene, points, normals, light, albedo, backend=backend, samples=lighting.sun_samples,
                       surface_ids=surface_ids, indices=indices, seed=lighting.seed, bias=bias,
                       straddle=lighting.straddle, geometric_normals=geometric_normals)[0]
-        except ValueError as e:          # the visibility's advice names its own keyword: here it is Lighting's
-            if "pass straddle='embree'" not in str(e):
-                raise
-            raise ValueError(str(e).replace("pass straddle='embree'", "pass Lighting(straddle='embree')")) from None
     return out

@@ -54,7 +54,7 @@ import math
 
 import numpy as np
 
-from ._checks import _floats
+from ._checks import _floats, straddle_advice
 
 __all__ = ["PhongLighting", "AO_MODES", "phong_colour", "phong_shade", "vertex_terms", "display",
            "light_terms"]
@@ -412,9 +412,10 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         v = np.zeros(n)
         rows = np.flatnonzero(facing)
         if len(rows):
-            v[rows] = vis.visible(scene, p[rows], to_light[rows], backend=backend, bias=bias,
-                                  surface_ids=None if ids is None else ids[rows], normals=nrm[rows],
-                                  max_distance=dist[rows], straddle=lighting.straddle)
+            with straddle_advice("PhongLighting"):    # the visibility's advice: here PhongLighting's keyword
+                v[rows] = vis.visible(scene, p[rows], to_light[rows], backend=backend, bias=bias,
+                                      surface_ids=None if ids is None else ids[rows], normals=nrm[rows],
+                                      max_distance=dist[rows], straddle=lighting.straddle)
     if lighting.ao == "ao":
         amb = a
     elif lighting.ao == "off":

@@ -9,13 +9,18 @@ Usage::
     pyshadow-bake motion motion.npz --frames 60            # the bundled scene's motion, as a file
 
 Exit status: 0 when every asset or frame is done, 1 when one failed, 2 on
-bad arguments, 130 when interrupted (Ctrl-C).
+bad arguments, 130 when interrupted (Ctrl-C), 128 + the signal's number when
+stopped by SIGTERM or SIGHUP (143, 129: ``kill``, ``timeout``, a job
+scheduler, a closed terminal), which are handled as Ctrl-C is: the workers
+stopped, the manifest written.
 """
 from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+import threading
 import warnings
 from pathlib import Path
 
@@ -74,7 +79,8 @@ def _csm_options(p, maps="64x128"):
                    help=f"zigzag view set (default {maps})")
     g.add_argument("--resolution", type=_int_range(8, 4096, "--resolution"), default=128,
                    help="texels per map side (default 128)")
-    g.add_argument("--depth-bits", type=int, choices=(16, 32), default=16)
+    g.add_argument("--depth-bits", type=int, choices=(16, 32), default=16,
+                   help="depth precision of the CSM: 16 (default) or 32 bits a texel")
     g.add_argument("--lookup", choices=("nearest", "vote"), default="nearest",
                    help="CSM lookup of the AO rays (default nearest)")
 
@@ -110,8 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "the file's names where they are the bodies' (--mesh file stems) in another order, else "
                         "in order; required with --mesh, default for the bundled scene: its bodies turning "
                         "(pyshadow-bake motion)")
-    f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=60,
-                   help="frames of the bundled scene's default motion (default 60)")
+    f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=None,
+                   help="frames of the bundled scene's default motion (default 60; not with --motion, whose "
+                        "file gives the frames)")
     f.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
     f.add_argument("--samples", type=_int_range(1, MAX_SAMPLES, "--samples"), default=36,
                    help="AO samples per pixel (default 36)")
@@ -190,6 +197,9 @@ def _frames(args) -> int:
 
     log = _log(args.quiet)
     W, H = args.size
+    if args.motion is not None and args.frames is not None:       # else ignored: every frame of the file rendered
+        raise ValueError(f"--frames {args.frames} sets the length of the bundled scene's default motion; "
+                         f"--motion {args.motion} gives the frames itself (write fewer to it to render fewer)")
     if args.mesh:
         from ..bench.scenes import _load_meshes
 
@@ -202,7 +212,7 @@ def _frames(args) -> int:
         from ..data import default_parts
 
         parts = [(n, m, c) for n, m, _, c in default_parts()]
-        T = _bodies_in_order(*(read_motion(args.motion) if args.motion else default_motion(args.frames)), parts,
+        T = _bodies_in_order(*(read_motion(args.motion) if args.motion else default_motion(args.frames or 60)), parts,
                              f"--motion {args.motion}", "the bundled scene has", log)
         camera = Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], fov_y=45.0, width=W, height=H)
     cache = CSMCache(None if args.no_cache else (args.cache_dir or default_cache_dir()), log=log)
@@ -224,12 +234,34 @@ def _frames(args) -> int:
     return 1 if s["failed"] or s["interrupted"] else 0
 
 
+def _stop_on_signals(caught: list) -> dict:
+    """Make SIGTERM and SIGHUP raise KeyboardInterrupt, as Ctrl-C does, appending their number to ``caught``;
+    returns the handlers replaced: only default ones (``nohup`` ignores SIGHUP, which stays ignored), and none
+    outside the main thread, where no handler can be set.
+
+    Their default action ends the process at once: no manifest, and the workers of a process pool left
+    running, orphaned, holding the command's output pipes open (``timeout 60 pyshadow-bake ... | tee``
+    never returned).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+
+    def stop(signum, frame):
+        caught.append(signum)
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    sigs = [getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    return {s: signal.signal(s, stop) for s in sigs if signal.getsignal(s) is signal.SIG_DFL}
+
+
 def main(argv=None) -> int:
     """Entry point of ``pyshadow-bake``; returns the exit status."""
     ap = build_parser()
     args = ap.parse_args(argv)
     if args.command in ("assets", "frames"):
         _check_out(ap, args.out)
+    caught = []
+    replaced = _stop_on_signals(caught)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")       # mesh cleanup notes go to the manifest
@@ -245,12 +277,15 @@ def main(argv=None) -> int:
             return 0
     except KeyboardInterrupt:
         print("interrupted: finished outputs are kept, nothing half-written; rerun to continue", file=sys.stderr)
-        return 130
+        return 128 + caught[0] if caught else 130
     except (ValueError, FileNotFoundError, ImportError) as e:
         ap.error(str(e))
     except OSError as e:                # an output that cannot be written, a folder that cannot be read
         print(f"pyshadow-bake: error: {e}", file=sys.stderr)
         return 1
+    finally:
+        for sig, handler in replaced.items():
+            signal.signal(sig, handler)
     return 2
 
 

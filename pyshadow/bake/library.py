@@ -117,12 +117,19 @@ def _size(path: Path) -> int:
         return 0
 
 
-def _source_sha256(path: Path, side: dict) -> str:
-    """SHA-256 of a mesh file, and of its side files where it has any (a changed buffer is a changed asset)."""
-    digest = sha256_file(path)
+def _source_sha256(path, side: dict) -> str:
+    """SHA-256 of a mesh file, and of its side files where it has any (a changed buffer is a changed asset).
+
+    ``path`` and the values of ``side`` (``uri`` -> file) are paths, or the files' bytes as read for the bake:
+    the same digest from either.
+    """
+    def sha(x):
+        return hashlib.sha256(x).hexdigest() if isinstance(x, bytes) else sha256_file(x)
+
+    digest = sha(path)
     if not side:
         return digest
-    spec = {"file": digest, "side": {uri: sha256_file(p) for uri, p in sorted(side.items())}}
+    spec = {"file": digest, "side": {uri: sha(p) for uri, p in sorted(side.items())}}
     return hashlib.sha256(json.dumps(spec, sort_keys=True).encode()).hexdigest()
 
 
@@ -236,6 +243,9 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
             except OSError as e:
                 entries[name] = dict(_failed(name, path, key, f"{type(e).__name__}: {e}"), action="failed")
                 continue
+            # the key of the bytes baked: a file changed since the scan was stored under its old content's key,
+            # and a rerun with that content back took the outputs of the other for it
+            key = asset_key(_source_sha256(data, side), params, code)
             args = (name, _reader_suffix(path), data, params.to_dict(), key)
             yield (name, path, key), args + ((side,) if side else ())
 

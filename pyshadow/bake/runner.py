@@ -17,6 +17,7 @@ import json
 import logging
 import os
 import re
+import threading
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -85,8 +86,22 @@ def sweep_temporaries(root, min_age: float = 0.0) -> list[Path]:
     return gone
 
 
-def _init_process_worker(env: dict) -> None:
+def _init_process_worker(env: dict, parent: int | None = None) -> None:
     os.environ.update(env)
+    if parent is not None:
+        threading.Thread(target=_exit_with_parent, args=(parent,), name="pyshadow-parent-watch", daemon=True).start()
+
+
+def _exit_with_parent(parent: int, every: float = 1.0) -> None:
+    """End this worker process once its parent ``parent`` (the driver) is gone.
+
+    A pool's idle worker waits on a queue whose writing end it holds itself, so it never sees the driver
+    die: a driver killed (SIGKILL, the out-of-memory killer) left its workers running for good, holding
+    their memory and the driver's output pipes (a ``... | tee`` of the command never returned).
+    """
+    while os.getppid() == parent:
+        time.sleep(every)
+    os._exit(1)
 
 
 class WorkerDied(RuntimeError):
@@ -121,7 +136,8 @@ class _Pool:
 
     def _new_pool(self):
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=get_context("spawn"),
-                                   initializer=_init_process_worker, initargs=(thread_env(self.threads),))
+                                   initializer=_init_process_worker,
+                                   initargs=(thread_env(self.threads), os.getpid()))
 
     def run(self, fn, tasks, shared=None, window=None):
         window = window or 2 * self.workers

@@ -120,6 +120,12 @@ class Instance:
                                  "(move an instance with Scene.set_transform; add another for a new object)")
         object.__setattr__(self, name, value)
 
+    def __setstate__(self, state):
+        """Restored by pickle or deepcopy: the transform read-only again (NumPy does not keep the flag)."""
+        self.__dict__.update(state)
+        if isinstance(self.__dict__.get("transform"), np.ndarray):
+            self.transform.flags.writeable = False
+
     def object_sphere(self):
         if self.csm is not None:
             return self.csm.centre, self.csm.radius
@@ -132,6 +138,15 @@ class Instance:
         c, r = self.object_sphere()
         T = self.transform
         return T[:3, :3] @ c + T[:3, 3], r * self.scale
+
+
+def _set_ground(scene, height) -> None:
+    """``scene.ground = height``, checked as :class:`Scene` checks its ``ground``: a NaN set later dropped the
+    plane silently (every ray passed it) and 1e40 overflowed float32 in the kernels."""
+    height = None if height is None else float(height)
+    if height is not None and not abs(height) <= FLOAT32_MAX:       # the kernels take it as a float32
+        raise ValueError(f"ground must be a finite height within float32's range, got {height}")
+    scene._ground = height
 
 
 class Scene:
@@ -163,12 +178,9 @@ class Scene:
     def __init__(self, ground: float | None = None, *, views: ViewSet | None = None,
                  resolution: int = 128, depth_bits: int = 16, layers="auto", footprint: bool = False,
                  progress: bool = False):
-        ground = None if ground is None else float(ground)
-        if ground is not None and not abs(ground) <= FLOAT32_MAX:       # the kernels take it as a float32
-            raise ValueError(f"ground must be a finite height within float32's range, got {ground}")
+        self.ground = ground                # checked (_set_ground)
         if not isinstance(footprint, (bool, np.bool_)):
             raise TypeError(f"footprint must be True or False, got {footprint!r}")
-        self.ground = ground
         self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128), resolution=resolution,
                                 depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
         self.progress = flag(progress, "progress")     # "no" drew progress bars
@@ -177,6 +189,8 @@ class Scene:
         self._version = 0                # advanced by add() and set_transform() (scene_arrays)
 
     __copy__ = _copied                  # its own instance list and instances (see _copied)
+    ground = property(lambda self: self._ground, _set_ground,
+                      doc="Height of the ground plane (float, world units) or None; settable, checked as in __init__.")
     instances = property(lambda self: self._placed, doc="The placed :class:`Instance` objects, by instance id "
                          "(a read-only list: :meth:`add` places, :meth:`set_transform` moves).")
 

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -202,6 +203,22 @@ def write_image(path, array) -> None:
 _ORIENT = {1: lambda x: x, 2: lambda x: x[:, ::-1], 3: lambda x: x[::-1, ::-1], 4: lambda x: x[::-1],
            5: lambda x: x.transpose(1, 0, 2), 6: lambda x: x.transpose(1, 0, 2)[:, ::-1],
            7: lambda x: x.transpose(1, 0, 2)[::-1, ::-1], 8: lambda x: x.transpose(1, 0, 2)[::-1]}
+#: A Radiance HDR resolution line (major axis first) -> its EXIF orientation code. OpenImageIO swaps
+#: 6 and 8 (``+X W +Y H``, whose scanline x is column x from the bottom up, is 8, not 6).
+_RADIANCE_ORIENT = {b"-Y+X": 1, b"-Y-X": 2, b"+Y-X": 3, b"+Y+X": 4,
+                    b"+X-Y": 5, b"-X-Y": 6, b"-X+Y": 7, b"+X+Y": 8}
+_RADIANCE_RESOLUTION = re.compile(rb"\n\n([-+][XY]) +\d+ +([-+][XY]) +\d+ *\r?\n")
+
+
+def _orientation(inp, spec, path: Path) -> int:
+    """The EXIF orientation code of the open file; a Radiance HDR's from its own resolution line."""
+    code = spec.get_int_attribute("Orientation", 1)
+    if inp.format_name() == "hdr":
+        with open(path, "rb") as f:
+            m = _RADIANCE_RESOLUTION.search(f.read(1 << 16))
+        if m:
+            code = _RADIANCE_ORIENT.get(m.group(1) + m.group(2), code)
+    return code
 
 
 def _display_window(data: np.ndarray, spec) -> np.ndarray:
@@ -262,7 +279,8 @@ def read_image(path) -> np.ndarray:
         No file at ``path``.
     ValueError
         ``path`` is not a file or OpenImageIO cannot read it (the message
-        names the path and OpenImageIO's reason).
+        names the path and OpenImageIO's reason), or it is a truncated JPEG
+        (whose decoder would fill the missing part with grey).
 
     Notes
     -----
@@ -305,10 +323,14 @@ def read_image(path) -> np.ndarray:
             native, top = inp.read_image(oiio.TypeFloat), 1.0
         if native is None:
             raise ValueError(f"cannot read image {path}: {inp.geterror() or oiio.geterror()}")
+        warning = inp.geterror()        # a non-fatal decoder complaint, the pixels returned all the same
+        if "premature end" in warning.lower():      # libjpeg: data missing, the rest filled with grey
+            raise ValueError(f"cannot read image {path}: it is truncated ({warning.strip()})")
+        orientation = _orientation(inp, spec, path)
     finally:
         inp.close()
     data = _display_window(np.asarray(native).reshape(spec.height, spec.width, C), spec)
-    data = _ORIENT.get(spec.get_int_attribute("Orientation", 1), _ORIENT[1])(data)
+    data = _ORIENT.get(orientation, _ORIENT[1])(data)
     if top is not None:
         enc = data.astype(np.float64) / top
         colour = [c for c in range(C) if c != alpha]

@@ -14,8 +14,8 @@ each part keeps its own colours, material colour and texture.
 Colour convention: linear RGB in [0, 1]; alpha is ignored. Texture images
 and an OBJ material's ``Kd`` are sRGB-encoded and decoded with
 :func:`pyshadow.io.srgb_to_linear`, and so are the vertex and face colours
-of every format but glTF (PLY, OBJ, OFF, ...: display-encoded, as their
-viewers show them). glTF is linear where its specification says so: the
+of every format but glTF (PLY, OBJ, ...: display-encoded, as their
+viewers show them; trimesh reads no colours from OFF files). glTF is linear where its specification says so: the
 ``COLOR_0`` vertex colours ("an additional linear multiplier to base
 color", glTF 2.0 section 3.9.2) and ``baseColorFactor`` are used as they
 are; its base colour texture is sRGB like any image. A mesh counts as glTF
@@ -47,6 +47,7 @@ and so do the faces of a part without colours in a joined scene.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
@@ -147,9 +148,24 @@ def _linear(rgb, srgb: bool = True) -> np.ndarray:
     uint16 is over 65535, float as it is (clipped to [0, 1]), any other type over 255; then decoded
     with :func:`pyshadow.io.srgb_to_linear` unless ``srgb`` is False (glTF's linear ``COLOR_0``).
     """
+    a = np.asarray(rgb)[..., :3]
+    if a.dtype in (np.uint8, np.uint16):    # a table of every code: float64 copies of a 4096^2 image took 2.4 GB
+        return _code_table(a.dtype.itemsize, bool(srgb))[a]
+    return _decode(a, srgb)
+
+
+@lru_cache(maxsize=None)
+def _code_table(itemsize: int, srgb: bool) -> np.ndarray:
+    """:func:`_linear` of every 8-bit (``itemsize`` 1) or 16-bit code, (256,) or (65536,) float32, read-only."""
+    table = _decode(np.arange(1 << (8 * itemsize), dtype=np.uint8 if itemsize == 1 else np.uint16), srgb)
+    table.setflags(write=False)
+    return table
+
+
+def _decode(a, srgb) -> np.ndarray:
+    """:func:`_linear` of the array ``a`` (..., 3), elementwise in float64."""
     from .io import srgb_to_linear
 
-    a = np.asarray(rgb)[..., :3]
     scale = 1.0 if a.dtype.kind == "f" else 65535.0 if a.dtype == np.uint16 else 255.0
     a = a.astype(np.float64)
     ok = np.isfinite(a)

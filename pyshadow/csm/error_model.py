@@ -44,8 +44,8 @@ from .reference import shadow_taps
 __all__ = ["Layout", "Body", "MODEL_RATIO", "CANDIDATES", "LARGE_WORK", "traced_vote", "truth_visible", "model_visible",
            "ao_rays", "near_rays", "rays_for", "predict", "wilson"]
 
-#: measured / predicted disagreement on the shared meshes (benchmarks/error_model.py: 0.67-1.23 over
-#: 27 rows, the vote's at high resolution the lowest): the range a prediction is stated with; an
+#: measured / predicted disagreement on the shared meshes (benchmarks/error_model.py: 0.78-1.11 over
+#: 27 rows, 0.67-1.23 before open meshes' insides were drawn): the range a prediction is stated with; an
 #: unverified choice aims at ``target / MODEL_RATIO[1]``
 MODEL_RATIO = (0.65, 1.3)
 

@@ -34,19 +34,12 @@ lid, a sheet) coincide with the ground under them instead: a point of the
 ground there is a point of the caster's surface, asked as one
 (:func:`ground_sheet_slots`, through :meth:`pyshadow.Scene.caster_slots`).
 
-A body resting on another body closes in the face under it the same way: a
-point lying on a closed caster's face (within ``1e-5`` of its radius, or its
-float32 rounding) and farther than that from the outline of its faces in that
-plane that touch another body is occluded on every ray into the body, and its
-AO is 0 where its normal faces into the body (a lower box's lid under an upper
-box, the upper box's underside over the lower; a point of the body's own face,
-its normal out of it, keeps the CSM's answer). Only faces that touch another
-body with a mesh (a receiver too), facing and overlapping it, are asked (``_body_patches``, once per scene change:
-about a millisecond per pair of touching bodies; two bodies whose faces in the
-other's box make more than ``_PAIRS`` pairs pass through each other: not
-searched); each closed part's winding is turned by the sign of its volume
-(inverted meshes and cavities count). The CSM alone let light through within a
-texel of the upper body's edge (AO up to 0.56 at 32 samples; Embree: 0).
+A body resting on another body closes in the face under it the same way (:mod:`pyshadow.contact_bodies`): a
+point on a closed caster's face (within ``1e-5`` of its radius, or its float32 rounding) that touches another
+body's face (a receiver's too), farther than that from the touching region's outline, is occluded on every ray
+into the body, and its AO is 0 where its normal faces into the body (a lower box's lid under an upper box; a
+point of the body's own face, its normal out of it, keeps the CSM's answer). The CSM alone let light through
+within a texel of the upper body's edge (AO up to 0.56 at 32 samples; Embree: 0).
 """
 from __future__ import annotations
 
@@ -404,7 +397,7 @@ def _in_place(a, name):
 
 def occlude_contacts(scene, points, directions, visible):
     """``visible`` (N,) bool with the rays that leave a footprint's point upwards or along the ground, and a
-    body's contact face into the body (:func:`_body_hits`), set occluded (in place).
+    body's contact face into the body (:func:`pyshadow.contact_bodies.body_hits`), set occluded (in place).
 
     The points of :func:`contact_mask`; a ray downwards keeps its answer (the
     ground plane's). A ray along the ground (``w_y = 0``) runs inside the
@@ -418,14 +411,16 @@ def occlude_contacts(scene, points, directions, visible):
                          f"{np.shape(directions)} and {np.shape(visible)}")
     if mask is not None:
         visible[mask & (np.asarray(directions)[:, 1] >= 0)] = False
-    for k, n in _body_hits(scene, points):           # on a body's contact face, going into it
+    from .contact_bodies import body_hits
+
+    for k, n in body_hits(scene, points):            # on a body's contact face, going into it
         visible[k[np.asarray(directions, np.float64)[k] @ n > 0]] = False
     return visible
 
 
 def close_contacts(scene, points, normals, ao, bent, *zero):
     """The AO kernel's outputs of the footprint's points, and of the points on a body's contact face whose
-    normal faces into the body (:func:`_body_hits`), set to "no open sample" (in place).
+    normal faces into the body (:func:`pyshadow.contact_bodies.body_hits`), set to "no open sample" (in place).
 
     ``ao`` (N,) 0, ``bent`` (N, 3) the ``normals`` (what the kernel gives
     a point with no open sample), every array of ``zero`` (None: skipped)
@@ -434,166 +429,14 @@ def close_contacts(scene, points, normals, ao, bent, *zero):
     for name, out in (("ao", ao), ("bent", bent), *((f"zero[{k}]", z) for k, z in enumerate(zero) if z is not None)):
         _in_place(out, name)
     mask = contact_mask(scene, points) if len(points) else None
-    for k, n in _body_hits(scene, points):           # on a body's contact face, facing into it
+    from .contact_bodies import FACING, body_hits
+
+    for k, n in body_hits(scene, points):            # on a body's contact face, facing into it
         mask = np.zeros(len(points), bool) if mask is None else mask
-        mask[k[np.asarray(normals, np.float64)[k] @ n >= _FACING]] = True
+        mask[k[np.asarray(normals, np.float64)[k] @ n >= FACING]] = True
     if mask is None or not mask.any():
         return
     ao[mask], bent[mask] = 0.0, normals[mask]
     for out in zero:
         if out is not None:
             out[mask] = 0.0
-
-
-# ----------------------------------------------------------------------------------------------------------
-# bodies resting on bodies: a point on a closed body's face, facing into it, is closed in
-# ----------------------------------------------------------------------------------------------------------
-_FACING = 1.0 - 1e-6        # a normal (or ray) this close (cosine) to a contact face's inward normal faces into it
-_ORIENTED = weakref.WeakKeyDictionary()         # mesh -> _outward(mesh)
-_PAIRS = 1 << 18            # face pairs of two bodies compared at most (about 10 ms; two boxes: 144)
-
-
-def _cross(a, b):
-    """``np.cross`` along the last axis, without its per-call cost (small arrays, many calls)."""
-    return a[..., [1, 2, 0]] * b[..., [2, 0, 1]] - a[..., [2, 0, 1]] * b[..., [1, 2, 0]]
-
-
-def _outward(mesh):
-    """The closed surface's distinct vertices (U, 3) and its faces (F, 3) wound so that their normals point
-    out of the part they bound (each part, faces joined by edges, turned by its volume's sign: a ray into
-    a part meets it again, in a cavity too), or None: the surface is open, or its winding inconsistent
-    (an edge run the same way by both its faces). Found once per mesh (:data:`_ORIENTED`)."""
-    if mesh in _ORIENTED or _closed_surface(mesh) is None:
-        return _ORIENTED.get(mesh)
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    u, _, wf = _SURFACES[mesh]
-    got = None
-    d = np.concatenate([wf[:, [0, 1]], wf[:, [1, 2]], wf[:, [2, 0]]])
-    if len(np.unique(d, axis=0)) == len(d):
-        _, edge = np.unique(np.sort(d, axis=1), axis=0, return_inverse=True)       # each edge: two faces
-        pair = np.tile(np.arange(len(wf)), 3)[np.argsort(edge.ravel(), kind="stable")].reshape(-1, 2)
-        k, label = connected_components(coo_matrix((np.ones(len(pair)), tuple(pair.T)), shape=(len(wf),) * 2))
-        c = u - u.mean(axis=0)
-        vol = np.bincount(label, np.einsum("ij,ij->i", c[wf[:, 0]], _cross(c[wf[:, 1]], c[wf[:, 2]])), k)
-        if (np.abs(vol) > 1e-12 * np.ptp(c, axis=0).max() ** 3).all():        # else a part encloses nothing
-            got = u, np.where((vol[label] > 0)[:, None], wf, wf[:, ::-1])
-    _ORIENTED[mesh] = got
-    return got
-
-
-def _unit_normals(tri):
-    """(K, 3) unit normals of triangles (K, 3, 3) by their winding (0 for a degenerate one)."""
-    n = _cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-
-
-def _touching(b, a, tol):
-    """(K,) bool: which of body B's outward faces lie within ``tol`` of the plane of one of body A's faces
-    facing them (opposite normals; either way where A's are not known outwards) and overlap it in that
-    plane by more than ``tol`` (the lids of two boxes side by side do not touch). ``b``, ``a``: world faces
-    (K, 3, 3), their unit normals (K, 3) and whether they are wound outwards (:func:`_body_patches`)."""
-    (tri_b, n_b, _, b_lo, b_hi), (tri_a, n_a, oriented, a_lo, a_hi) = b, a     # with each face's box
-    out = np.zeros(len(tri_b), bool)
-    near = np.flatnonzero(((b_hi >= a_lo.min(axis=0) - tol) & (b_lo <= a_hi.max(axis=0) + tol)).all(axis=1))
-    if not len(near):
-        return out
-    keep = ((a_hi >= b_lo[near].min(axis=0) - tol) & (a_lo <= b_hi[near].max(axis=0) + tol)).all(axis=1)
-    tri_a, n_a = tri_a[keep], n_a[keep]
-    if len(near) * len(tri_a) > _PAIRS:
-        return out                  # faces deep in each other's box: bodies that pass through, not resting
-    step = max(1, _CHUNK // max(3 * len(tri_a), 1))
-    for s in range(0, len(near), step):
-        k = near[s:s + step]
-        off = np.einsum("kvj,mj->kmv", tri_b[k], n_a) - np.einsum("mj,mj->m", tri_a[:, 0], n_a)[None, :, None]
-        cos = n_b[k] @ n_a.T
-        ok = (np.abs(off) <= tol).all(axis=2) & ((-cos if oriented else np.abs(cos)) >= _FACING)
-        e1 = tri_b[k, 1] - tri_b[k, 0]
-        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-        for e in (e1, _cross(n_b[k], e1)):              # the faces' extents along two axes of B's face
-            pb, pa = np.einsum("kvj,kj->kv", tri_b[k], e), np.einsum("mvj,kj->kmv", tri_a, e)
-            ok &= np.minimum(pb.max(axis=1)[:, None], pa.max(axis=2)) - np.maximum(pb.min(axis=1)[:, None],
-                                                                                    pa.min(axis=2)) > tol
-        out[k] = ok.any(axis=1)
-    return out
-
-
-def _body_patches(scene):
-    """Per plane of a closed caster's faces touching another body (both with meshes; a receiver too): (inward unit
-    normal (3,), offset ``n . x``, tolerance, 3D box (2, 3), plane basis (2, 3), faces in it (K, 3, 2) and the
-    outline of their union (E, 2, 2)); kept with the scene's arrays. Ground contacts: :func:`footprints`."""
-    held = scene_arrays(scene)
-    if "bodies" in held:
-        return held["bodies"]
-    held["bodies"] = out = []
-    ids = [i for i, s in enumerate(scene.instances) if s.mesh is not None and len(s.mesh.faces)]
-    if len(ids) < 2:
-        return out
-    from scipy.spatial import cKDTree
-
-    c, r, tol = held["world_centre"][ids], held["world_radius"][ids], _face_tolerances(held)[ids]
-    pairs = cKDTree(c).query_pairs(2 * (r.max() + tol.max()), output_type="ndarray")
-    pairs = pairs[np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) <= (r + tol)[pairs].sum(axis=1)]
-    world = {}
-
-    def body(i):
-        """Instance ``ids[i]``'s world vertices (U, 3) and faces (F, 3) (wound outwards where closed), its
-        faces (F, 3, 3), their unit normals and whether they are outwards, and its world box (2, 3)."""
-        if i not in world:
-            inst = scene.instances[ids[i]]
-            got = _outward(inst.mesh)
-            v, f = got if got is not None else (np.asarray(inst.mesh.vertices, np.float64), np.asarray(inst.mesh.faces))
-            v = v @ inst.transform[:3, :3].T + inst.transform[:3, 3]
-            world[i] = v, f, (v[f], _unit_normals(v[f]), got is not None, v[f].min(axis=1), v[f].max(axis=1)), \
-                np.array([v.min(axis=0), v.max(axis=0)])
-        return world[i]
-
-    touched = {}
-    for b, a in np.concatenate([pairs, pairs[:, ::-1]]):
-        if not scene.instances[ids[b]].casts:
-            continue                                    # a receiver closes nothing in
-        (B, A), t = (body(b), body(a)), tol[a] + tol[b]
-        if B[2][2] and (B[3][0] <= A[3][1] + t).all() and (A[3][0] <= B[3][1] + t).all():      # boxes meet
-            touched[b] = touched.get(b, np.zeros(len(B[1]), bool)) | _touching(B[2], A[2], tol[b])
-    for b, hit in touched.items():
-        v, wf, (tri_b, n_b, *_), _ = body(b)
-        while hit.any():                                # one plane at a time
-            n = -n_b[np.flatnonzero(hit)[0]]
-            d = float(tri_b[hit][0, 0] @ n)
-            same = hit & (-n_b @ n >= _FACING) & (np.abs(tri_b @ n - d) <= tol[b]).all(axis=1)
-            hit &= ~same
-            e1 = _cross(n, np.eye(3)[np.argmin(np.abs(n))])
-            basis = np.array([e1 / np.linalg.norm(e1), _cross(n, e1 / np.linalg.norm(e1))])
-            edges, count = _edges(np.sort(wf[same], axis=1))
-            flat, box = v @ basis.T, np.array([tri_b[same].min(axis=(0, 1)), tri_b[same].max(axis=(0, 1))])
-            out.append((n, d, float(tol[b]), box, basis, flat[wf[same]], flat[edges[count == 1]]))
-    return out
-
-
-def _body_hits(scene, points):
-    """``[(rows, inward unit normal (3,))]``: per contact patch (:func:`_body_patches`), the points lying on it
-    farther than its tolerance from its outline (a point between two bodies lies on a patch of each)."""
-    patches = _body_patches(scene) if len(points) and scene.instances else []
-    if not patches:
-        return []
-    p = np.asarray(points, np.float64)
-    big = np.abs(p).max(axis=1)
-    # float32 points of a plane away from the origin lie off it by up to their rounding
-    rounding = np.where(float32_exact(p).all(axis=1), np.spacing(big.astype(np.float32)).astype(np.float64),
-                        np.spacing(big))
-    out, order, most = [], {}, rounding.max()
-    for n, d, tol, box, basis, flat, seg in patches:
-        lo, hi = box[0] - tol - most, box[1] + tol + most
-        j = int(np.argmin(hi - lo))                     # the points in the box's thinnest slab, by sorting
-        if j not in order:
-            order[j] = (lambda o: (o, p[o, j]))(np.argsort(p[:, j], kind="stable"))
-        k = order[j][0][np.searchsorted(order[j][1], lo[j]):np.searchsorted(order[j][1], hi[j], side="right")]
-        k = k[np.all((p[k] >= box[0] - tol - rounding[k, None]) & (p[k] <= box[1] + tol + rounding[k, None]), axis=1)]
-        k = k[np.abs(p[k] @ n - d) <= np.maximum(tol, rounding[k])]
-        q = p[k] @ basis.T
-        for j, hit in _in_chunks(q, flat, len(seg)):
-            if hit.any():
-                hit[hit] = _far_from(q[j][hit], seg, tol)
-            out.append((k[j[hit]], n))
-    return out

@@ -1,6 +1,7 @@
 """Helpers shared by the benchmark scripts: meshes, timing, device name, JSON output."""
 from __future__ import annotations
 
+import argparse
 import json
 import platform
 import statistics
@@ -31,15 +32,14 @@ def load_mesh(spec, fill_holes: bool = False):
 
 
 def parse_grid(ap, text: str, option: str = "--maps", least: int = 1) -> tuple:
-    """``(a, b)`` of ``"AxB"`` (two integers >= ``least``), else ``ap.error`` naming ``option`` (exit status 2)."""
-    parts = str(text).lower().split("x")
+    """``(a, b)`` of ``"AxB"`` (two integers >= ``least``) by pyshadow-bench's own parser
+    (``pyshadow.bench.config._pair``), else ``ap.error`` naming ``option`` (exit status 2)."""
+    from pyshadow.bench.config import _pair
+
     try:
-        out = tuple(int(x) for x in parts)
-    except ValueError:
-        out = ()
-    if len(out) != 2 or min(out) < least:
-        ap.error(f"{option} must be two integers >= {least} as AxB (e.g. 64x128), got {text!r}")
-    return out
+        return _pair(str(text), option, least, 1 << 20)
+    except argparse.ArgumentTypeError as e:
+        ap.error(str(e))
 
 
 def parse_ints(ap, text: str, option: str, least: int = 1, even: bool = False) -> list:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .filters import SIGMA_DEPTH as _SIGMA_DEPTH, SIGMA_NORMAL as _SIGMA_NORMAL     # upsample's, render's
+
 __all__ = ["ao_pass", "ON_SURFACE_WEIGHT"]
 
 #: A low-res sample lies on a pixel's own surface when it is of the same instance and its range weight in
@@ -17,7 +19,6 @@ __all__ = ["ao_pass", "ON_SURFACE_WEIGHT"]
 #: same normal at a relative depth difference up to 8.6 %. A sample on the face of a box at a right angle to
 #: the pixel's, or on the far part of a face seen edge-on, is not.
 ON_SURFACE_WEIGHT = 1e-4
-_SIGMA_DEPTH, _SIGMA_NORMAL = 0.02, 0.2        # pyshadow.filters.upsample's defaults, which render uses
 _LIMIT = -2.0 * float(np.log(ON_SURFACE_WEIGHT))      # the weight's exponent at that weight, times -2
 
 

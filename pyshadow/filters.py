@@ -82,6 +82,8 @@ __all__ = [
 # the weight is 0 * inf (see kernels/filters.cl); it changes no weight that
 # float32 can tell apart from 0 or 1 for sigmas in [1e-18, 1e30]
 _INV_SIGMA_RANGE = (1e-30, 1e18)
+#: the range terms' default sigmas of bilateral and upsample (relative depth, 1 - n.n); pyshadow.ao_pass reads them
+SIGMA_DEPTH, SIGMA_NORMAL = 0.02, 0.2
 
 
 def _inv(sigma: float) -> np.float32:
@@ -174,8 +176,8 @@ def _row_range(W: int, H: int):
 # Bilateral filter
 # --------------------------------------------------------------------------
 @keyword_only("pyshadow.bilateral", old=4)
-def bilateral(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=0.02,
-              sigma_normal=0.2, separable=False) -> np.ndarray:
+def bilateral(ao, depth, normal, *, radius=None, sigma_spatial=2.0, sigma_depth=SIGMA_DEPTH,
+              sigma_normal=SIGMA_NORMAL, separable=False) -> np.ndarray:
     """Joint bilateral filter of an AO image guided by depth and normal.
 
     ``out_p = 1/W_p sum_q G(|p - q|, sigma_spatial) G(|z_q - z_p| / z_p, sigma_depth)
@@ -329,8 +331,8 @@ def edge_aware_box(ao, depth, normal, *, size=7, depth_threshold=0.02,
 # Joint bilateral upsampling
 # --------------------------------------------------------------------------
 @keyword_only("pyshadow.upsample", old=5)
-def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None, sigma_depth=0.02,
-             sigma_normal=0.2, fill=1.0) -> np.ndarray:
+def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None, sigma_depth=SIGMA_DEPTH,
+             sigma_normal=SIGMA_NORMAL, fill=1.0) -> np.ndarray:
     """Joint bilateral upsampling of a low-resolution AO image (Kopf et al. 2007).
 
     Sampling convention: low-res pixel ``(i, j)`` holds the AO of full-res

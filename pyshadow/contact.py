@@ -144,8 +144,11 @@ def _closed_surface(mesh):
 
 
 def _edges(f):
-    """Edges (sorted index pairs) of faces with sorted rows, and how many faces share each."""
-    return np.unique(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [0, 2]]]), axis=0, return_counts=True)
+    """Edges (sorted index pairs, in order) of faces with sorted rows, and how many faces share each."""
+    e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [0, 2]]]).astype(np.int64)
+    m = int(e.max()) + 1 if len(e) else 1          # an edge's key: its pair's place in that order
+    key, count = np.unique(e[:, 0] * m + e[:, 1], return_counts=True)
+    return np.stack([key // m, key % m], axis=1).astype(f.dtype, copy=False), count
 
 
 def _footprint(inst, ground, tol):
@@ -329,24 +332,29 @@ def _box_bottom(scene, held, ids):
 
 def _in_triangles(q, tri):
     """(n,) bool: points ``q`` (n, 2) inside or on one of the triangles ``tri`` (K, 3, 2)."""
-    a, b, c = tri[None, :, 0], tri[None, :, 1], tri[None, :, 2]
-    x = q[:, None, :]
+    return _inside(tri[None, :, 0], tri[None, :, 1], tri[None, :, 2], q[:, None, :]).any(axis=1)
 
+
+def _inside(a, b, c, x):
+    """bool: points ``x`` inside or on triangles ``a, b, c`` (corners; all (..., 2), broadcast)."""
     def side(u, v):
         return (v[..., 0] - u[..., 0]) * (x[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (x[..., 0] - u[..., 0])
 
     s0, s1, s2 = side(a, b), side(b, c), side(c, a)
-    inside = ((s0 >= 0) & (s1 >= 0) & (s2 >= 0)) | ((s0 <= 0) & (s1 <= 0) & (s2 <= 0))
-    return inside.any(axis=1)
+    return ((s0 >= 0) & (s1 >= 0) & (s2 >= 0)) | ((s0 <= 0) & (s1 <= 0) & (s2 <= 0))
 
 
 def _far_from(q, seg, tol):
     """(n,) bool: points ``q`` (n, 2) farther than ``tol`` from every segment ``seg`` (E, 2, 2)."""
-    a, d = seg[None, :, 0], seg[None, :, 1] - seg[None, :, 0]
-    x = q[:, None, :] - a
-    t = np.clip(np.sum(x * d, axis=2) / np.maximum(np.sum(d * d, axis=2), 1e-300), 0.0, 1.0)
+    return (_square_distance(q[:, None, :], seg[None, :, 0], seg[None, :, 1]) > tol * tol).all(axis=1)
+
+
+def _square_distance(x, a, b):
+    """Squared distance of points ``x`` to segments ``a``-``b`` (all (..., 2), broadcast)."""
+    d, x = b - a, x - a
+    t = np.clip(np.sum(x * d, axis=-1) / np.maximum(np.sum(d * d, axis=-1), 1e-300), 0.0, 1.0)
     r = x - t[..., None] * d
-    return (np.sum(r * r, axis=2) > tol * tol).all(axis=1)
+    return np.sum(r * r, axis=-1)
 
 
 def contact_mask(scene, points):

@@ -12,7 +12,7 @@ import weakref
 import numpy as np
 
 from ._validate import float32_exact
-from .contact import _CHUNK, _SURFACES, _closed_surface, _edges, _face_tolerances, _far_from, _in_chunks
+from .contact import _CHUNK, _SURFACES, _closed_surface, _face_tolerances, _inside, _square_distance
 from .scene_arrays import scene_arrays
 
 __all__ = ["FACING", "body_patches", "body_hits"]
@@ -58,34 +58,90 @@ def _unit_normals(tri):
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
 
 
-def _touching(b, a, tol):
-    """(K,) bool: which of body B's outward faces lie within ``tol`` of the plane of one of body A's faces
-    facing them (opposite normals; either way where A's are not known outwards) and overlap it in that
-    plane by more than ``tol`` (the lids of two boxes side by side do not touch). ``b``, ``a``: world faces
-    (K, 3, 3), their unit normals (K, 3) and whether they are wound outwards (:func:`body_patches`)."""
-    (tri_b, n_b, _, b_lo, b_hi), (tri_a, n_a, oriented, a_lo, a_hi) = b, a     # with each face's box
-    out = np.zeros(len(tri_b), bool)
-    near = np.flatnonzero(((b_hi >= a_lo.min(axis=0) - tol) & (b_lo <= a_hi.max(axis=0) + tol)).all(axis=1))
-    if not len(near):
+def _ragged(counts):
+    """(group of each item, item's index within its group) for groups of ``counts`` items, group by group."""
+    g = np.repeat(np.arange(len(counts)), counts)
+    return g, np.arange(len(g)) - np.repeat(np.cumsum(counts) - counts, counts)
+
+
+def _touching(faces, pairs, tol):
+    """(sum F,) bool over the faces of every body (``faces``: their arrays, :func:`body_patches`'s ``body``,
+    concatenated in body order, with each body's first face ``first``): which of body B's outward faces lie
+    within ``tol[B]`` of the plane of one of body A's faces facing them (opposite normals; either way where
+    A's are not known outwards) and overlap it in that plane by more than ``tol[B]`` (the lids of two boxes
+    side by side do not touch), for every pair ``(B, A)`` of ``pairs`` (P, 2), all pairs at once."""
+    tri, n, oriented, lo, hi, first, count, blo, bhi = faces[:9]
+    out = np.zeros(len(tri), bool)
+    b, a = pairs.T
+    t = tol[b]
+    # B's faces within A's faces' box (grown by tol), then A's faces within those faces' box
+    p, k = _ragged(count[b])
+    fb = first[b][p] + k
+    ok = ((hi[fb] >= blo[a][p] - t[p, None]) & (lo[fb] <= bhi[a][p] + t[p, None])).all(axis=1)
+    p, fb = p[ok], fb[ok]
+    nb = np.bincount(p, minlength=len(b))
+    has = np.flatnonzero(nb)
+    if not len(has):
         return out
-    keep = ((a_hi >= b_lo[near].min(axis=0) - tol) & (a_lo <= b_hi[near].max(axis=0) + tol)).all(axis=1)
-    tri_a, n_a = tri_a[keep], n_a[keep]
-    if len(near) * len(tri_a) > _PAIRS:
-        return out                  # faces deep in each other's box: bodies that pass through, not resting
-    step = max(1, _CHUNK // max(3 * len(tri_a), 1))
-    for s in range(0, len(near), step):
-        k = near[s:s + step]
-        off = np.einsum("kvj,mj->kmv", tri_b[k], n_a) - np.einsum("mj,mj->m", tri_a[:, 0], n_a)[None, :, None]
-        cos = n_b[k] @ n_a.T
-        ok = (np.abs(off) <= tol).all(axis=2) & ((-cos if oriented else np.abs(cos)) >= FACING)
-        e1 = tri_b[k, 1] - tri_b[k, 0]
-        e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-        for e in (e1, _cross(n_b[k], e1)):              # the faces' extents along two axes of B's face
-            pb, pa = np.einsum("kvj,kj->kv", tri_b[k], e), np.einsum("mvj,kj->kmv", tri_a, e)
-            ok &= np.minimum(pb.max(axis=1)[:, None], pa.max(axis=2)) - np.maximum(pb.min(axis=1)[:, None],
-                                                                                    pa.min(axis=2)) > tol
-        out[k] = ok.any(axis=1)
+    start = np.cumsum(nb) - nb
+    near_lo, near_hi = np.minimum.reduceat(lo[fb], start[has]), np.maximum.reduceat(hi[fb], start[has])
+    q, k = _ragged(count[a][has])
+    fa = first[a][has][q] + k
+    ok = ((hi[fa] >= near_lo[q] - t[has][q, None]) & (lo[fa] <= near_hi[q] + t[has][q, None])).all(axis=1)
+    na = np.zeros(len(b), np.intp)
+    na[has] = np.bincount(q[ok], minlength=len(has))
+    fa, a_start = fa[ok], np.zeros(len(b), np.intp)
+    a_start[has] = np.cumsum(na[has]) - na[has]
+    # faces deep in each other's box: bodies that pass through, not resting
+    use = (na[p] > 0) & (nb[p] * na[p] <= _PAIRS)
+    p, fb = p[use], fb[use]
+    e1 = tri[fb, 1] - tri[fb, 0]
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = _cross(n[fb], e1)
+    for s, _, i, j in _expanded(na[p]):                 # near face s + i of B against A's j-th kept face
+        i += s
+        m = fa[a_start[p[i]] + j]
+        cos = np.einsum("kj,kj->k", n[fb[i]], n[m])
+        i, m = (x[np.where(oriented[a[p[i]]], -cos, np.abs(cos)) >= FACING] for x in (i, m))    # facing first
+        bi, pi = fb[i], p[i]
+        off = np.einsum("kvj,kj->kv", tri[bi], n[m]) - np.einsum("kj,kj->k", tri[m, 0], n[m])[:, None]
+        hit = (np.abs(off) <= t[pi, None]).all(axis=1)
+        for ax in (e1, e2):                              # the faces' extents along two axes of B's face
+            pb, pa = np.einsum("kvj,kj->kv", tri[bi], ax[i]), np.einsum("kvj,kj->kv", tri[m], ax[i])
+            hit &= np.minimum(pb.max(axis=1), pa.max(axis=1)) - np.maximum(pb.min(axis=1), pa.min(axis=1)) > t[pi]
+        out[bi[hit]] = True
     return out
+
+
+def _world_bodies(instances):
+    """Per instance (each with a mesh): its world vertices (U, 3) and faces (F, 3) (wound outwards where
+    closed), and for all of them, in order: the world faces (sum F, 3, 3), their unit normals, whether each
+    instance's faces are wound outwards (n,), the faces' boxes' corners (sum F, 3) x 2, each instance's first
+    face and face count (n,), its faces' box (n, 3) x 2 and its world box (n, 2, 3). Instances sharing a mesh
+    are moved together (the same values as one at a time)."""
+    groups = {}
+    for i, inst in enumerate(instances):
+        groups.setdefault(id(inst.mesh), []).append(i)
+    world, parts = [None] * len(instances), [None] * len(instances)
+    for rows in groups.values():
+        mesh = instances[rows[0]].mesh
+        got = _outward(mesh)
+        v, f = got if got is not None else (np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces))
+        T = np.array([instances[i].transform for i in rows])
+        vs = np.matmul(v[None], T[:, :3, :3].transpose(0, 2, 1)) + T[:, None, :3, 3]
+        tri = vs[:, f]
+        n = _unit_normals(tri.reshape(-1, 3, 3)).reshape(tri.shape[:3])
+        lo, hi = tri.min(axis=2), tri.max(axis=2)
+        for k, i in enumerate(rows):
+            world[i] = vs[k], f
+            parts[i] = tri[k], n[k], got is not None, lo[k], hi[k], vs[k].min(axis=0), vs[k].max(axis=0)
+    nface = np.array([len(w[1]) for w in world], np.intp)
+    tri, n, oriented, lo, hi, vlo, vhi = zip(*parts)
+    lo, hi = np.concatenate(lo), np.concatenate(hi)
+    first = np.cumsum(nface) - nface
+    return world, (np.concatenate(tri), np.concatenate(n), np.array(oriented, bool), lo, hi, first, nface,
+                   np.minimum.reduceat(lo, first), np.maximum.reduceat(hi, first),
+                   np.stack([np.array(vlo), np.array(vhi)], axis=1))
 
 
 def body_patches(scene):
@@ -110,40 +166,68 @@ def body_patches(scene):
     keep = (r[j] < r[i]) | ((r[j] == r[i]) & (j < i))
     pairs = np.stack([i[keep], j[keep]], axis=1)
     pairs = pairs[np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) <= (r + tol)[pairs].sum(axis=1)]
-    world = {}
-
-    def body(i):
-        """Instance ``ids[i]``'s world vertices (U, 3) and faces (F, 3) (wound outwards where closed), its
-        faces (F, 3, 3), their unit normals and whether they are outwards, and its world box (2, 3)."""
-        if i not in world:
-            inst = scene.instances[ids[i]]
-            got = _outward(inst.mesh)
-            v, f = got if got is not None else (np.asarray(inst.mesh.vertices, np.float64), np.asarray(inst.mesh.faces))
-            v = v @ inst.transform[:3, :3].T + inst.transform[:3, 3]
-            world[i] = v, f, (v[f], _unit_normals(v[f]), got is not None, v[f].min(axis=1), v[f].max(axis=1)), \
-                np.array([v.min(axis=0), v.max(axis=0)])
-        return world[i]
-
-    touched = {}
-    for b, a in np.concatenate([pairs, pairs[:, ::-1]]):
-        if not scene.instances[ids[b]].casts:
-            continue                                    # a receiver closes nothing in
-        (B, A), t = (body(b), body(a)), tol[a] + tol[b]
-        if B[2][2] and (B[3][0] <= A[3][1] + t).all() and (A[3][0] <= B[3][1] + t).all():      # boxes meet
-            touched[b] = touched.get(b, np.zeros(len(B[1]), bool)) | _touching(B[2], A[2], tol[b])
-    for b, hit in touched.items():
-        v, wf, (tri_b, n_b, *_), _ = body(b)
+    both = np.concatenate([pairs, pairs[:, ::-1]])
+    both = both[[scene.instances[ids[b]].casts for b in both[:, 0]]] if len(both) else both  # a receiver closes nothing in
+    if not len(both):
+        held["bodies"] = out
+        return out
+    used = np.unique(both)
+    world, faces = _world_bodies([scene.instances[ids[i]] for i in used])
+    row = np.full(len(ids), -1)
+    row[used] = np.arange(len(used))
+    b, a = row[both].T
+    t = (tol[both[:, 0]] + tol[both[:, 1]])[:, None]
+    oriented, box = faces[2], faces[9]
+    meet = oriented[b] & ((box[b, 0] <= box[a, 1] + t) & (box[a, 0] <= box[b, 1] + t)).all(axis=1)    # boxes meet
+    b, a = b[meet], a[meet]
+    hit_all = _touching(faces, np.stack([b, a], axis=1), tol[used])
+    first, nface = faces[5:7]
+    got = []                                            # (body, inward normal, offset, its faces' numbers)
+    for i in b[np.sort(np.unique(b, return_index=True)[1])]:      # in the order the bodies were first met
+        s = slice(first[i], first[i] + nface[i])
+        hit, tri_b, n_b = hit_all[s], faces[0][s], faces[1][s]
         while hit.any():                                # one plane at a time
-            n = -n_b[np.flatnonzero(hit)[0]]
-            d = float(tri_b[hit][0, 0] @ n)
-            same = hit & (-n_b @ n >= FACING) & (np.abs(tri_b @ n - d) <= tol[b]).all(axis=1)
+            n = -n_b[np.argmax(hit)]
+            d = float(tri_b[np.argmax(hit), 0] @ n)
+            same = hit & (-n_b @ n >= FACING) & (np.abs(tri_b @ n - d) <= tol[used[i]]).all(axis=1)
             hit &= ~same
-            e1 = _cross(n, np.eye(3)[np.argmin(np.abs(n))])
-            basis = np.array([e1 / np.linalg.norm(e1), _cross(n, e1 / np.linalg.norm(e1))])
-            edges, count = _edges(np.sort(wf[same], axis=1))
-            flat, box = v @ basis.T, np.array([tri_b[same].min(axis=(0, 1)), tri_b[same].max(axis=(0, 1))])
-            out.append((n, d, float(tol[b]), box, basis, flat[wf[same]], flat[edges[count == 1]]))
+            got.append((i, n, d, np.flatnonzero(same)))
+    if got:
+        out.extend(_planes(got, world, faces[0], first, tol[used]))
     held["bodies"] = out
+    return out
+
+
+def _planes(got, world, tri, first, tol):
+    """:func:`body_patches`'s patches of the planes ``got`` ``[(body, inward normal, offset, faces)]``
+    (``world``, ``tri``, ``first``: :func:`_world_bodies`'s), all planes at once but each one's plane basis
+    and flattening as one plane alone (the same values)."""
+    body = np.array([g[0] for g in got])
+    n = np.array([g[1] for g in got])
+    size = np.array([len(g[3]) for g in got])
+    # the planes' faces, by plane: numbers into ``tri`` and the faces' vertex numbers (sorted rows)
+    k = np.concatenate([g[3] for g in got]) + np.repeat(first[body], size)
+    wf = np.concatenate([world[g[0]][1][g[3]] for g in got]).astype(np.int64)
+    start = np.cumsum(size) - size
+    lo, hi = np.minimum.reduceat(tri[k].min(axis=1), start), np.maximum.reduceat(tri[k].max(axis=1), start)
+    # the outline: the edges of one face only, per plane (the edges in the order of their vertex numbers)
+    e = np.sort(wf, axis=1)
+    e, pid = np.concatenate([e[:, [0, 1]], e[:, [1, 2]], e[:, [0, 2]]]), np.tile(np.repeat(np.arange(len(got)), size), 3)
+    key = e[:, 0] * (int(e.max()) + 1) + e[:, 1]
+    o = np.lexsort((key, pid))
+    pid, key, e = pid[o], key[o], e[o]
+    new = np.r_[True, (pid[1:] != pid[:-1]) | (key[1:] != key[:-1])]
+    cnt = np.diff(np.r_[np.flatnonzero(new), len(key)])
+    edge, epid = e[new][cnt == 1], pid[new][cnt == 1]
+    ecut = np.searchsorted(epid, np.arange(len(got) + 1))
+    e1 = _cross(n, np.eye(3)[np.argmin(np.abs(n), axis=1)])
+    out = []
+    for j, (i, nj, d, _) in enumerate(got):
+        unit = e1[j] / np.linalg.norm(e1[j])
+        basis = np.array([unit, _cross(nj, unit)])
+        flat = world[i][0] @ basis.T
+        out.append((nj, d, float(tol[i]), np.array([lo[j], hi[j]]), basis, flat[wf[start[j]:start[j] + size[j]]],
+                    flat[edge[ecut[j]:ecut[j + 1]]]))
     return out
 
 
@@ -173,15 +257,49 @@ def body_hits(scene, points):
     ok[ok] = np.abs(np.einsum("ij,ij->i", p[rows[ok]], normal[pid[ok]]) - offset[pid[ok]]) <= \
         np.maximum(tol[pid[ok]], rounding[rows[ok]])
     pid, rows = pid[ok], rows[ok]
-    out = []
-    for i, k in zip(*_groups(pid, rows)):                      # the patches with points on them
-        n, _, t, _, basis, flat, seg = patches[i]
-        q = p[k] @ basis.T
-        for j, hit in _in_chunks(q, flat, len(seg)):
-            if hit.any():
-                hit[hit] = _far_from(q[j][hit], seg, t)
-            out.append((k[j[hit]], n))
-    return out
+    if not len(pid):
+        return []
+    # in the patch's plane (each patch's points flattened as that patch's alone), in its faces' box
+    q = np.concatenate([p[k] @ patches[i][4].T for i, k in zip(*_groups(pid, rows))])
+    tri, tri_first, tri_count = _ragged_parts([x[5] for x in patches])
+    seg, seg_first, seg_count = _ragged_parts([x[6] for x in patches])
+    flat_lo, flat_hi = _part_boxes(tri, tri_first, tri_count)
+    ok = np.all((q >= flat_lo[pid]) & (q <= flat_hi[pid]), axis=1)
+    pid, rows, q = pid[ok], rows[ok], q[ok]
+    # inside one of its faces, then farther than its tolerance from every segment of its outline
+    ok = np.zeros(len(pid), bool)
+    for s, e, c, j in _expanded(tri_count[pid]):
+        a, b, v = np.moveaxis(tri[tri_first[pid[c + s]] + j], 1, 0)
+        ok[s:e] = np.bincount(c, _inside(a, b, v, q[c + s]), minlength=e - s) > 0
+    pid, rows, q = pid[ok], rows[ok], q[ok]
+    tol = np.array([x[2] for x in patches])
+    ok = np.ones(len(pid), bool)
+    for s, e, c, j in _expanded(seg_count[pid]):
+        ends, t = seg[seg_first[pid[c + s]] + j], tol[pid[c + s]]
+        ok[s:e] = np.bincount(c, ~(_square_distance(q[c + s], ends[:, 0], ends[:, 1]) > t * t), minlength=e - s) == 0
+    pid, rows = pid[ok], rows[ok]
+    return [(k, patches[i][0]) for i, k in zip(*_groups(pid, rows))]
+
+
+def _ragged_parts(parts):
+    """The arrays ``parts`` end to end, each one's first row and its row count."""
+    count = np.array([len(x) for x in parts], np.intp)
+    return np.concatenate(parts), np.cumsum(count) - count, count
+
+
+def _part_boxes(a, first, count):
+    """(P, 2) x 2 corners of each part's box of the (K, 3, 2) rows ``a`` (each part at least one row)."""
+    return np.minimum.reduceat(a.min(axis=1), first), np.maximum.reduceat(a.max(axis=1), first)
+
+
+def _expanded(counts):
+    """Items with ``counts`` parts each, in runs of about ``_CHUNK`` (item, part) pairs: (first item, end,
+    each pair's item from the first, its part's number in its item)."""
+    end = np.cumsum(counts)
+    cut = np.searchsorted(end, np.arange(_CHUNK, end[-1] + _CHUNK, _CHUNK) if len(end) else [], side="right")
+    for s, e in zip(np.r_[0, cut[:-1]].astype(np.intp), cut):
+        if e > s:
+            yield (s, e, *_ragged(counts[s:e]))
 
 
 def _patch_arrays(patches):

@@ -11,7 +11,8 @@ a GLB or a multi-material OBJ loads) gets one visual per mesh, joined per
 face corner in the order its meshes are concatenated (:func:`join_visuals`):
 each part keeps its own colours, material colour and texture.
 
-Colour convention: linear RGB in [0, 1]; alpha is ignored. Texture images
+Colour convention: linear RGB in [0, 1]; alpha (glTF's ``alphaMode``, ``alphaCutoff``: a MASK
+cutout is no hole) and glTF's emissive colour are not used. Texture images
 and an OBJ material's ``Kd`` are sRGB-encoded and decoded with
 :func:`pyshadow.io.srgb_to_linear`, and so are the vertex and face colours
 of every format but glTF (PLY, OBJ, ...: display-encoded, as their
@@ -36,7 +37,9 @@ The colour of a surface point (:func:`point_colours`) is the product of
 what its mesh has, as glTF defines a base colour: the barycentric
 interpolation of its face's corner colours, times the texture's bilinear
 sample at the interpolated UV (repeat wrap; ``v = 0`` is the image's
-bottom row), times the material's base colour factor. UVs that are not
+bottom row; a glTF file's sampler, UV set and ``KHR_texture_transform``,
+and its ``COLOR_0`` at full precision, as :mod:`pyshadow.gltf_materials`
+reads them), times the material's base colour factor. UVs that are not
 finite (an OBJ's ``vt nan nan``) are kept by :func:`pyshadow.load_mesh`
 (the geometry, shadows and AO do not need them) and refused with a
 ValueError naming the source where the texture is applied. A lit render
@@ -50,6 +53,8 @@ from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import numpy as np
+
+from .gltf_materials import DEFAULT_SAMPLER, primitive_details, sample
 
 __all__ = ["MeshVisual", "VISUAL_KEY", "GLTF_SUFFIXES", "is_gltf", "mesh_visual", "join_visuals", "visual_of",
            "point_colours", "surface_colours", "barycentrics"]
@@ -87,6 +92,11 @@ class MeshVisual:
         None then. Empty otherwise.
     texture_index : ndarray, shape (T,), int32, or None
         With ``textures``: the image each face samples, -1 for none (colour 1).
+    sampler : tuple
+        How ``texture`` is sampled: glTF's ``(wrapS, wrapT, nearest)``
+        (:data:`pyshadow.gltf_materials.DEFAULT_SAMPLER`: repeat, bilinear).
+    samplers : tuple of tuple
+        With ``textures``: the sampler of each image.
     """
 
     colours: np.ndarray | None
@@ -96,6 +106,8 @@ class MeshVisual:
     source: str = "mesh"
     textures: tuple = ()
     texture_index: np.ndarray | None = None
+    sampler: tuple = DEFAULT_SAMPLER
+    samplers: tuple = ()
     # which of colours, uv and texture hold only finite values: found once per visual (a copy made by
     # take or with_fans finds its own), not on every point_colours call
     _finite: dict = field(default_factory=dict, init=False, repr=False)
@@ -288,13 +300,19 @@ def _mesh_visual(mesh, source, gltf, images) -> MeshVisual | None:
     srgb = not (is_gltf(mesh) if gltf is None else bool(gltf))
     colours = uv = texture = None
     factor = np.ones(3, np.float32)
+    more = None if srgb else primitive_details(mesh)        # what trimesh's glTF reader lost
     if isinstance(visual, trimesh.visual.ColorVisuals):
         if visual.kind == "vertex":
-            colours = _linear(visual.vertex_colors, srgb)[faces]
+            raw = visual.vertex_colors
+            if more is not None and more["colour_0"] is not None and not more["material"] and np.array_equal(
+                    trimesh.visual.color.to_rgba(more["colour_0"].copy()), raw):   # trimesh's 8 bits of it
+                raw = more["colour_0"]
+            colours = _linear(raw, srgb)[faces]
         elif visual.kind == "face":
             colours = np.repeat(_linear(visual.face_colors, srgb)[:, None, :], 3, axis=1)
     elif isinstance(visual, trimesh.visual.TextureVisuals):
-        has_uv = visual.uv is not None and len(visual.uv) == len(mesh.vertices)
+        uv_of = visual.uv if more is None or more["uv"] is None else more["uv"]
+        has_uv = uv_of is not None and len(uv_of) == len(mesh.vertices)
         material = visual.material
         per_face = getattr(visual, "face_materials", None)
         if isinstance(material, trimesh.visual.material.MultiMaterial):
@@ -307,14 +325,15 @@ def _mesh_visual(mesh, source, gltf, images) -> MeshVisual | None:
         else:
             texture, factor = _texture(material, sample=has_uv, images=images)
         if has_uv:
-            uv = np.asarray(visual.uv, dtype=np.float32)[faces]
+            uv = np.asarray(uv_of, dtype=np.float32)[faces]
         col = visual.vertex_attributes.get("color") if hasattr(visual, "vertex_attributes") else None
         if col is not None and len(col) == len(mesh.vertices):
             c = _linear(col, srgb)[faces]
             colours = c if colours is None else colours * c
     if colours is None and uv is None and bool((factor == 1).all()):
         return None
-    return MeshVisual(colours, uv, texture, factor, str(source))
+    return MeshVisual(colours, uv, texture, factor, str(source),
+                      sampler=DEFAULT_SAMPLER if more is None or texture is None else more["sampler"])
 
 
 def join_visuals(parts, source: str = "mesh") -> MeshVisual | None:
@@ -356,12 +375,14 @@ def join_visuals(parts, source: str = "mesh") -> MeshVisual | None:
         uv = np.concatenate([np.zeros((n, 3, 2), np.float32) if v is None or v.uv is None else v.uv
                              for v, n in parts]).astype(np.float32)
     images: list = []
+    samplers: list = []
 
-    def slot(image):                       # index of ``image`` in ``images`` (the same array: the same slot)
+    def slot(image, sampler):              # index of ``image`` in ``images`` (the same array and sampler: one slot)
         for k, known in enumerate(images):
-            if known is image:
+            if known is image and samplers[k] == sampler:
                 return k
         images.append(image)
+        samplers.append(sampler)
         return len(images) - 1
 
     index = []
@@ -369,17 +390,19 @@ def join_visuals(parts, source: str = "mesh") -> MeshVisual | None:
         if v is None or v.uv is None:
             index.append(np.full(n, -1, np.int32))
         elif v.texture_index is not None:
-            remap = np.array([slot(t) for t in v.textures] + [-1], np.int32)
+            remap = np.array([slot(t, s) for t, s in zip(v.textures, v.samplers or [DEFAULT_SAMPLER] * len(v.textures))]
+                             + [-1], np.int32)
             index.append(remap[v.texture_index])               # -1 stays -1 (the last entry)
         else:
-            index.append(np.full(n, -1 if v.texture is None else slot(v.texture), np.int32))
+            index.append(np.full(n, -1 if v.texture is None else slot(v.texture, v.sampler), np.int32))
     index = np.concatenate(index)
-    texture, textures, texture_index = None, (), None
+    texture, textures, texture_index, sampler = None, (), None, DEFAULT_SAMPLER
     if len(images) == 1 and (index == 0).all():
-        texture = images[0]
+        texture, sampler = images[0], samplers[0]
     elif images:
         textures, texture_index = tuple(images), index
-    return MeshVisual(colours, uv, texture, factors[0] if same else one, str(source), textures, texture_index)
+    return MeshVisual(colours, uv, texture, factors[0] if same else one, str(source), textures, texture_index,
+                      sampler, tuple(samplers) if textures else ())
 
 
 def visual_of(mesh) -> MeshVisual | None:
@@ -445,8 +468,11 @@ def barycentrics(points, triangles) -> np.ndarray:
     return np.where(s > 0, b / np.where(s > 0, s, 1.0), 1.0 / 3.0)
 
 
-def _bilinear(image, uv) -> np.ndarray:
-    """Bilinear lookup of (h, w, 3) ``image`` at (N, 2) ``uv`` (repeat wrap, v up), (N, 3) float64."""
+def _bilinear(image, uv, sampler=DEFAULT_SAMPLER) -> np.ndarray:
+    """Bilinear lookup of (h, w, 3) ``image`` at (N, 2) ``uv`` (repeat wrap, v up), (N, 3) float64; another
+    glTF sampler by :func:`pyshadow.gltf_materials.sample`."""
+    if tuple(sampler) != DEFAULT_SAMPLER:
+        return sample(image, uv, tuple(sampler))
     h, w = image.shape[:2]
     x = np.mod(uv[:, 0], 1.0) * w - 0.5
     y = (1.0 - np.mod(uv[:, 1], 1.0)) * h - 0.5
@@ -545,12 +571,13 @@ def point_colours(visual: MeshVisual | None, faces, bary) -> np.ndarray:
         _check_finite(visual, "texture")
         uv = np.einsum("nk,nkc->nc", b, visual.uv[f].astype(np.float64))
         if visual.texture_index is None:
-            out *= _bilinear(visual.texture, uv)
+            out *= _bilinear(visual.texture, uv, visual.sampler)
         else:                                   # a joined scene: each face its part's texture, or none
             which = visual.texture_index[f]
             for k in np.unique(which[which >= 0]):
                 sel = which == k
-                out[sel] *= _bilinear(visual.textures[k], uv[sel])
+                out[sel] *= _bilinear(visual.textures[k], uv[sel], visual.samplers[k] if visual.samplers
+                                      else DEFAULT_SAMPLER)
     return out * np.asarray(visual.factor, np.float64)
 
 

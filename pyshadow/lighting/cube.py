@@ -39,7 +39,7 @@ import numpy as np
 from .._validate import check_int, check_values, rows3
 
 __all__ = ["FACE_NAMES", "FACE_FRAMES", "CROSS_CELLS", "face_directions", "face_solid_angles",
-           "cube_lookup", "faces_from_cross", "cross_from_faces", "cube_basis_integrals"]
+           "cube_lookup", "faces_from_cross", "cross_from_faces", "cube_basis_integrals", "texel_moments"]
 
 FACE_NAMES = ("+X", "-X", "+Y", "-Y", "+Z", "-Z")
 #: (c, r, dn) of each face, shape (6, 3, 3).
@@ -173,6 +173,66 @@ def cross_from_faces(faces: np.ndarray, layout: str, fill: float = 0.0) -> np.nd
     return image
 
 
+def _texel_weights(n: int, order: int, r0: int, r1: int, exact: np.ndarray):
+    """Gauss points (S, T) of texel rows r0..r1 of a face, weights scaled per texel to ``exact`` (n, n) Omega."""
+    g, w = np.polynomial.legendre.leggauss(order)
+    h = 1.0 / n                                     # half a texel in face units
+    q = (_coords(n)[:, None] + h * g[None, :]).reshape(-1)          # (n * order,)
+    wq = np.tile(h * w, n)
+    S, T = np.meshgrid(q, q[r0 * order:r1 * order])
+    W = wq[None, :] * wq[r0 * order:r1 * order, None] / (1.0 + S * S + T * T) ** 1.5
+    W = W.reshape(r1 - r0, order, n, order)
+    return S, T, (W * (exact[r0:r1] / W.sum(axis=(1, 3)))[:, None, :, None]).reshape(S.shape)
+
+
+def texel_moments(n: int, order: int = 4, *, block: int = 64):
+    """Solid angle, first and second moments of the direction over the texels of a face.
+
+    In a face's own frame (c, r, dn) a texel's unit directions are
+    ``v / |v|`` with ``v = (1, s, t)``: the same on all six faces. Integrated
+    by ``order`` x ``order`` Gauss-Legendre points a texel, weights scaled to
+    the texel's exact solid angle (as :func:`cube_basis_integrals`). A face
+    with frame rows ``F = (c, r, dn)`` has world moments ``m1 @ F`` and
+    ``F^T m2 F``.
+
+    Parameters
+    ----------
+    n : int
+        Face size in texels, >= 1.
+    order : int
+        Gauss points a texel side, >= 1.
+    block : int
+        Texel rows per yielded block (memory O(block n order^2)).
+
+    Yields
+    ------
+    rows : slice
+        The texel rows of the block.
+    M : ndarray, shape (len(rows), n, 13), float64
+        Per texel: ``M[..., 0]`` = m0 = ``integral dOmega`` (sr);
+        ``M[..., 1:4]`` = m1 = ``integral d dOmega``; ``M[..., 4:]`` = m2 =
+        ``integral d d^T dOmega`` flattened row-major (symmetric, trace m0);
+        d in face coordinates (components along c, r, dn).
+    """
+    n, order = check_int(n, "n", 1), check_int(order, "order", 1)
+    exact, ones = face_solid_angles(n)[0], np.ones(order)
+    for r0 in range(0, n, block):
+        r1 = min(n, r0 + block)
+        S, T, W = _texel_weights(n, order, r0, r1, exact)
+        inv = 1.0 / (1.0 + S * S + T * T)         # 1 / |v|^2
+        W1, W2, v = W * np.sqrt(inv), W * inv, (1.0, S, T)
+
+        def texels(a):                            # sum over each texel's order x order points (a matmul sums
+            return a.reshape(r1 - r0, order, n * order).sum(axis=1).reshape(r1 - r0, n, order) @ ones  # fast)
+        M = np.empty((r1 - r0, n, 13))
+        M[..., 0] = texels(W)
+        for a in range(3):
+            M[..., 1 + a] = texels(W1 * v[a])
+            for b in range(a, 3):
+                M[..., 4 + 3 * a + b] = M[..., 4 + 3 * b + a] = texels(W2 * v[a] * v[b])
+        yield slice(r0, r1), M
+
+
 def cube_basis_integrals(n: int, basis, order: int = 4, *, block: int = 64):
     """Integrals of ``basis`` over texels, by ``order`` x ``order`` Gauss-Legendre points.
 
@@ -188,18 +248,10 @@ def cube_basis_integrals(n: int, basis, order: int = 4, *, block: int = 64):
         Blocks of at most ``block`` texel rows, so that memory stays
         O(block n order^2) for any face size.
     """
-    g, w = np.polynomial.legendre.leggauss(order)
-    h = 1.0 / n                                     # half a texel in face units
-    centres = _coords(n)
-    q = (centres[:, None] + h * g[None, :]).reshape(-1)          # (n * order,)
-    wq = np.tile(h * w, n)
     exact = face_solid_angles(n)[0]
     for r0 in range(0, n, block):
         r1 = min(n, r0 + block)
-        S, T = np.meshgrid(q, q[r0 * order:r1 * order])
-        W = wq[None, :] * wq[r0 * order:r1 * order, None] / (1.0 + S * S + T * T) ** 1.5
-        W = W.reshape(r1 - r0, order, n, order)
-        W = (W * (exact[r0:r1] / W.sum(axis=(1, 3)))[:, None, :, None]).reshape(S.shape)
+        S, T, W = _texel_weights(n, order, r0, r1, exact)
         for f in range(6):
             c, r, dn = FACE_FRAMES[f]
             d = c + S[..., None] * r + T[..., None] * dn

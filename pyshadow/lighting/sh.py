@@ -148,6 +148,19 @@ def _array(x, name: str) -> np.ndarray:
         raise ValueError(f"{name}: expected real numbers in rows of equal length (got a ragged sequence)") from None
 
 
+def _sh_of_moments(m0, m1, m2) -> np.ndarray:
+    """``integral Y_k dOmega`` from the moments of the direction over a region (the basis of :func:`sh_basis`).
+
+    ``m0`` (C,) ``integral dOmega``, ``m1`` (3, C) ``integral d``, ``m2`` (3, 3, C)
+    ``integral d d^T`` (world frame, any trailing axis C, e.g. radiance-weighted
+    per channel); returns (9, C). Exact for any region: every Y_k is a
+    polynomial of degree <= 2 of the unit direction (``3 y^2 - 1`` is
+    ``3 y^2 - |d|^2`` on the sphere).
+    """
+    return np.stack([_C00 * m0, _C1 * m1[2], _C1 * m1[1], _C1 * m1[0], _C2 * m2[0, 2], _C2 * m2[1, 2],
+                     _C20 * (3.0 * m2[1, 1] - m0), _C2 * m2[0, 1], _C22 * (m2[0, 0] - m2[2, 2])])
+
+
 def _irradiance(L, normals) -> np.ndarray:
     """:func:`irradiance_sh` unchecked: ``L`` (9, C) float64, any normals (zero rows give band 0)."""
     return sh_basis(normals) @ (KERNEL_BANDS[BAND_OF][:, None] * L)

@@ -11,7 +11,10 @@ light:
 * rays that share one direction (unbounded: a directional light): an
   orthographic depth map along the light, R x R texels, fitted to the
   rectangle that holds the casters' world bounding spheres seen from the
-  light (texels are square only when that rectangle is);
+  light (texels are square only when that rectangle is); casters far apart
+  across the light get maps of their own, each point answered by its cell's
+  (:mod:`pyshadow.lighting.shadow_fit`: one map over a 1 m box and one 1 km away
+  had 0.53 m texels);
 * rays that end at one common point (``points + directions * max_distance``
   equal to 1e-6 of the rays' length plus the scene's size: a point or spot
   light): a cube map of six 90 degree faces, R x R texels each, at that point
@@ -93,6 +96,7 @@ from .._validate import check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
 from ..scene_arrays import check_meshes, scene_arrays
 from ._checks import _floats
+from .shadow_fit import _ortho_frame, cell_points, part_limit, split_casters
 from .shadow_map_checks import PCF_SIZES, _check_bias, _check_pcf
 
 __all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
@@ -181,14 +185,6 @@ def light_of_rays(points, directions, max_distance=None, scale=1.0):
     return "point", light
 
 
-def _light_frame(direction):
-    """Orthonormal (u, v, d) with d = -direction (the light's travel direction)."""
-    d = -np.asarray(direction, np.float64)
-    u = np.cross(np.eye(3)[int(np.argmin(np.abs(d)))], d)
-    u /= np.linalg.norm(u)
-    return u, np.cross(d, u), d
-
-
 #: the six cube faces: (forward, up) in face order +X, -X, +Y, -Y, +Z, -Z (the kernel's cube_face)
 _CUBE_FACES = (((1, 0, 0), (0, 1, 0)), ((-1, 0, 0), (0, 1, 0)), ((0, 1, 0), (0, 0, 1)),
                ((0, -1, 0), (0, 0, 1)), ((0, 0, 1), (0, 1, 0)), ((0, 0, -1), (0, 1, 0)))
@@ -198,26 +194,6 @@ def _cube_cameras(position, resolution):
     from ..camera import axis_camera
 
     return [axis_camera(position, f, u, resolution) for f, u in _CUBE_FACES]
-
-
-def _ortho_frame(scene, casters, direction, R):
-    """The orthographic map's affine world-to-texel map ``q = A (p - origin) + b`` (float64), the kernel's
-    frame (float32) and the texel size: the rectangle of the casters' spheres seen along the light."""
-    u, v, d = _light_frame(direction)
-    arr = scene_arrays(scene)
-    c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
-    origin = c.mean(axis=0) if len(casters) else np.zeros(3)
-    rel = c - origin
-    if len(casters):
-        lo = np.array([(rel @ u - r).min(), (rel @ v - r).min(), (rel @ d - r).min()])
-        hi = np.array([(rel @ u + r).max(), (rel @ v + r).max()])
-    else:
-        lo, hi = -np.ones(3), np.ones(2)
-    tu, tv = (hi - lo[:2]) / R
-    A = np.stack([u / tu, v / tv, d])
-    b = np.array([-lo[0] / tu - 0.5, -lo[1] / tv - 0.5, -lo[2]])
-    frame = np.concatenate([A[0], [b[0]], A[1], [b[1]], A[2], [b[2]], [tu, tv]]).astype(np.float32)
-    return A, b, origin, frame, float(max(tu, tv))
 
 
 def _near_cut(centres, radii, position) -> float:
@@ -262,17 +238,28 @@ class ShadowMap:
     basis, zoom, slack : ndarray (3, 3) or None, float, float
         A fitted cube's map of light-relative offsets, its ``k`` and ε's float32 term (None, 1, 0 if none).
     nbytes : int
-        Bytes of the depth buffer (float32 per texel; 0 without casters).
+        Bytes of the depth buffers (float32 per texel; 0 without casters).
+    parts, axes, cells : tuple of ShadowMap, ndarray (2, 3), list of (lo, hi)
+        An orthographic map split over groups of casters far apart (:mod:`.shadow_fit`): its maps, the world
+        axes u, v across the light and each map's cell ``lo <= (p . u, p . v) < hi``; its own frame and
+        texel are those of one map over all (no buffer). Empty, None, None if not split.
     """
 
-    def __init__(self, kind, light, resolution, origin, frame, buffer, texel=None, fit=(None, 1.0, 0.0)):
+    def __init__(self, kind, light, resolution, origin, frame, buffer, texel=None, fit=(None, 1.0, 0.0),
+                 split=((), None, None)):
         self.kind, self.light, self.resolution = kind, light, resolution
         self.origin, self.frame, self.buffer, self.texel = origin, frame, buffer, texel
         self.basis, self.zoom, self.slack = fit
+        self.parts, self.axes, self.cells = split
         self.nbytes = 0 if buffer is None else 4 * (6 if kind == "point" else 1) * resolution ** 2
+        self.nbytes += sum(part.nbytes for part in self.parts)
 
     def depth(self) -> np.ndarray:
-        """A host copy of the depths, float32 (R, R) or (6, R, R) (+inf where no caster)."""
+        """A host copy of the depths, float32 (R, R) or (6, R, R) (+inf where no caster); of a split map,
+        ValueError (its :attr:`parts` each have theirs)."""
+        if self.parts:
+            raise ValueError(f"this map is split into {len(self.parts)} maps over casters far apart: "
+                             f"read each one's depth() (ShadowMap.parts)")
         R = self.resolution
         out = np.full((6, R, R) if self.kind == "point" else (R, R), np.inf, np.float32)
         if self.buffer is not None:
@@ -527,10 +514,19 @@ class ShadowMapVisibility:
             k(_cl.queue(), (n_tris,), None, tris, np.int32(n_tris), _cl.to_device(m.reshape(12), np.float32),
               np.int32(self.resolution), np.int32(cube), np.int32(zoff), buf)
 
-    def _render_directional(self, scene, casters, direction):
-        """The orthographic map fitted to the casters' world spheres seen along ``direction``."""
+    def _render_directional(self, scene, casters, direction, whole=True):
+        """The orthographic map fitted to the casters' world spheres seen along ``direction``; split over
+        groups of them far apart (:mod:`.shadow_fit`) where ``whole``."""
         R = self.resolution
         A, b, origin, frame, texel = _ortho_frame(scene, casters, direction, R)
+        if whole and len(casters) > 1:
+            arr = scene_arrays(scene)
+            axes, groups = split_casters(arr["world_centre"][casters], arr["world_radius"][casters], direction,
+                                         part_limit(R))
+            if len(groups) > 1:
+                parts = tuple(self._render_directional(scene, casters[k], direction, False) for k, _, _ in groups)
+                return ShadowMap("directional", direction, R, origin, frame, None, texel,
+                                 split=(parts, axes, [(lo, hi) for _, lo, hi in groups]))
         if not len(casters):
             return ShadowMap("directional", direction, R, origin, frame, None, texel)
         buf = self._new_depth(1)
@@ -573,6 +569,12 @@ class ShadowMapVisibility:
     def _lookup(self, sm, p, m, bias):
         """Lit fraction of the PCF taps of each point, (N,) float32 (validated float64 rows)."""
         n = len(p)
+        if sm.parts:                    # a split map: each point answered by its cell's map
+            out = np.ones(n, np.float32)
+            for part, k in zip(sm.parts, cell_points(p, sm.axes, sm.cells)):
+                if len(k):
+                    out[k] = self._lookup(part, p[k], None if m is None else m[k], bias)
+            return out
         if sm.buffer is None:
             return np.ones(n, np.float32)
         half = self.pcf // 2

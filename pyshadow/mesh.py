@@ -129,8 +129,8 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     path_or_trimesh : str, os.PathLike, trimesh.Trimesh or trimesh.Scene
         A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
         object. OBJ's relative (negative) indices count back from the line
-        that holds them, an OBJ's concave faces of 5 or more corners are
-        tiled, and a binary PLY may mix triangles and larger polygons
+        that holds them, concave faces of 5 or more corners (OBJ, PLY, OFF)
+        are tiled, and a binary PLY may mix triangles and larger polygons
         (:mod:`pyshadow.mesh_files`). A scene (GLB/GLTF, an OBJ with several materials) is
         flattened: every node's transform is applied and the meshes are
         concatenated (as ``Scene.to_geometry``), each keeping its own colours,

@@ -20,7 +20,12 @@ first one, so a binary PLY of triangles and quads (Blender writes its
 n-gons so) failed ("PLY is unexpected length!"). Where it fails on a binary
 PLY, :func:`ply_ascii` turns the file into the same PLY in ASCII, which
 trimesh reads with faces of any size (every number written so it reads back
-to the same bits).
+to the same bits), also where the sizes add up and trimesh misread it. PLY
+and OFF polygons were fanned as OBJ's, PLY face colours not split with their
+polygons (IndexError), an OFF of pentagons beside triangles failed, and an
+OFF comment after data shifted the lines after it: :func:`ply_polygons` and
+:func:`off_text` rewrite such files. A binary STL whose facet count is not
+its length's (0, as some CAD exporters write) "held no geometry" (read now).
 
 trimesh reads a glTF whose geometry it cannot decode wrongly or fails on it
 unclearly: a Draco-compressed mesh without DracoPy was read as zeros ("every
@@ -43,7 +48,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-__all__ = ["read_mesh_file", "obj_text", "obj_polygons", "ply_ascii", "check_gltf"]
+__all__ = ["read_mesh_file", "obj_text", "obj_polygons", "ply_ascii", "ply_polygons", "off_text", "check_gltf"]
 
 # an element line holding a negative index, or a data line indented or with a tab after its keyword
 # (a false alarm only costs the rewrite, which changes nothing then); searched in "\n" + text: a literal
@@ -220,7 +225,30 @@ def _absolute(word: bytes, counts, label: str, number: int) -> bytes:
 _PLY_TYPES = {"char": "b", "int8": "b", "uchar": "B", "uint8": "B", "short": "h", "int16": "h", "ushort": "H",
               "uint16": "H", "int": "i", "int32": "i", "uint": "I", "uint32": "I", "float": "f", "float32": "f",
               "double": "d", "float64": "d"}
+_PLY_COLOURS = ("red", "green", "blue", "alpha")        # an element has colours where 3 are its properties
 _PLY_TEXT = {"b": "%d", "B": "%d", "h": "%d", "H": "%d", "i": "%d", "I": "%d", "f": "%.9g", "d": "%.17g"}
+
+
+def _ply_header(data: bytes):
+    """A PLY file's format, where its data start and its elements [(name, count, [(property, item code,
+    list count code or None)])]; None where ``data`` is no PLY with a header it can read."""
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        return None
+    start = data.find(b"\n", end) + 1
+    words = [line.split() for line in data[:start].decode("ascii", "replace").splitlines()]
+    form = next((w[1] for w in words if w[:1] == ["format"] and len(w) > 1), "")
+    elements = []
+    try:
+        for w in words:
+            if w[:1] == ["element"]:
+                elements.append((w[1], int(w[2]), []))
+            elif w[:1] == ["property"]:
+                elements[-1][2].append((w[-1], _PLY_TYPES[w[3]], _PLY_TYPES[w[2]]) if w[1] == "list"
+                                       else (w[2], _PLY_TYPES[w[1]], None))
+    except (IndexError, KeyError, ValueError):
+        return None
+    return form, start, elements
 
 
 def ply_ascii(data: bytes) -> bytes | None:
@@ -240,32 +268,17 @@ def ply_ascii(data: bytes) -> bytes | None:
         from element to element. None where the format is not binary or the
         data ends before the header's elements do.
     """
-    end = data.find(b"end_header")
-    if not data.startswith(b"ply") or end < 0:
+    head = _ply_header(data)
+    if head is None or head[0] not in ("binary_little_endian", "binary_big_endian"):
         return None
-    start = data.find(b"\n", end) + 1
-    head = data[:start].decode("ascii", "replace").splitlines()
-    words = [line.split() for line in head]
-    form = next((w[1] for w in words if w[:1] == ["format"] and len(w) > 1), "")
-    if form not in ("binary_little_endian", "binary_big_endian"):
-        return None
-    order = "<" if form == "binary_little_endian" else ">"
-    elements = []                               # (count, [(item code, list count code or None)])
+    form, start, elements = head
+    out, pos, order = [], start, "<" if form == "binary_little_endian" else ">"
     try:
-        for w in words:
-            if w[:1] == ["element"]:
-                elements.append((int(w[2]), []))
-            elif w[:1] == ["property"]:
-                elements[-1][1].append((_PLY_TYPES[w[3]], _PLY_TYPES[w[2]]) if w[1] == "list"
-                                       else (_PLY_TYPES[w[1]], None))
-        out = ["\n".join("format ascii 1.0" if w[:1] == ["format"] else line
-                         for w, line in zip(words, head)) + "\n"]
-        pos = start
-        for count, props in elements:
-            pos = _ply_element(data, pos, order, count, props, out)
-    except (IndexError, KeyError, ValueError, struct.error):
+        for _, count, props in elements:
+            pos = _ply_element(data, pos, order, count, [(code, n) for _, code, n in props], out)
+    except (ValueError, struct.error):
         return None
-    return "".join(out).encode("ascii")
+    return re.sub(rb"\nformat[ \t]+binary_\w+", b"\nformat ascii", data[:start], 1) + "".join(out).encode("ascii")
 
 
 def _ply_element(data: bytes, pos: int, order: str, count: int, props, out: list) -> int:
@@ -291,6 +304,143 @@ def _ply_element(data: bytes, pos: int, order: str, count: int, props, out: list
             row.extend(_PLY_TEXT[code] % v for v in values)
         out.append(" ".join(row) + "\n")
     return pos
+
+
+def _tiled(index: list, xyz: np.ndarray) -> dict:
+    """The ear clippings {face number: triangles (corner numbers)} of the faces (corner lists ``index`` into
+    ``xyz`` (V, 3)) of 5 or more corners that a fan from corner 0 does not tile (as :func:`obj_polygons`)."""
+    big = [k for k, face in enumerate(index) if len(face) >= 5]
+    if not big or min(min(index[k]) for k in big) < 0 or max(max(index[k]) for k in big) >= len(xyz):
+        return {}
+    tiles = {big[k]: _ears(_plane(xyz[index[big[k]]])) for k in _concave([index[k] for k in big], xyz)}
+    return {k: t for k, t in tiles.items() if t is not None}
+
+
+def ply_polygons(text: bytes) -> bytes | None:
+    """An ASCII PLY with its faces split into triangles where trimesh's split would be wrong, or None.
+
+    Parameters
+    ----------
+    text : bytes
+        An ASCII PLY file's contents (:func:`ply_ascii`'s for a binary one).
+
+    Returns
+    -------
+    bytes or None
+        ``text`` with each concave face of 5 or more corners replaced by rows
+        of an ear clipping (as :func:`obj_polygons`), and, where faces have
+        colours, each of 4 or more corners by rows of a fan (where convex),
+        those of under 3 dropped; each row keeps its face's properties (of a
+        per-corner list such as ``texcoord``, its corners'). None where no
+        face needs it.
+    """
+    head = _ply_header(text)
+    if head is None or head[0] != "ascii":
+        return None
+    _, start, elements = head
+    lines, rows, at = text[start:].splitlines(), {}, 0
+    for name, count, props in elements:
+        rows[name], at = (at, count, props), at + count
+    if "vertex" not in rows or "face" not in rows:
+        return None
+    (v0, nv, vprops), (f0, nf, fprops) = rows["vertex"], rows["face"]
+    names = [name for name, _, _ in vprops]
+    lists = [k for k, (name, _, n) in enumerate(fprops) if n is not None]
+    key = next((k for k in lists if fprops[k][0] in ("vertex_indices", "vertex_index")), lists[0] if lists else None)
+    if key is None or any(n is not None for _, _, n in vprops) or not {"x", "y", "z"} <= set(names):
+        return None
+    try:
+        xyz = np.array(b" ".join(lines[v0:v0 + nv]).split(), np.float64).reshape(nv, -1)[
+            :, [names.index(c) for c in "xyz"]]
+        spans, index = [], []                   # each face's words per property; its corners
+        for line in lines[f0:f0 + nf]:
+            words, span, at = line.split(), [], 0
+            for _, _, n in fprops:
+                size = 1 if n is None else int(words[at]) + 1
+                span.append(words[at:at + size])
+                at += size
+            spans.append(span)
+            index.append([int(w) for w in span[key][1:]])
+    except (IndexError, ValueError):
+        return None
+    tiles = _tiled(index, xyz)
+    split = sum(c in [p[0] for p in fprops] for c in _PLY_COLOURS) > 2 and any(len(f) != 3 for f in index)
+    if not (tiles or split):
+        return None
+    out = []
+    for k, span in enumerate(spans):
+        n = len(index[k])
+        if not (k in tiles or split and n != 3):
+            out.append(b" ".join(itertools.chain.from_iterable(span)))
+            continue
+        for tri in tiles.get(k) or [(0, j, j + 1) for j in range(1, n - 1)]:
+            row = []
+            for p, words in enumerate(span):
+                m = (len(words) - 1) // n if p in lists and n and (len(words) - 1) % n == 0 else 0
+                row += [str(3 * m).encode()] + [w for c in tri for w in words[1 + m * c:1 + m * c + m]] if m else words
+            out.append(b" ".join(row))
+    header = re.sub(rb"(\nelement[ \t]+face[ \t]+)\d+", lambda h: h.group(1) + str(len(out)).encode(), text[:start], 1)
+    return b"\n".join([header[:-1]] + lines[:f0] + out + lines[f0 + nf:]) + b"\n"
+
+
+_OFF_POLYGON = re.compile(rb"\n[ \t]*(?:[5-9]|[1-9][0-9]+)(?:[ \t]+[0-9]+){5}")        # a line that may be one
+
+
+def off_text(data: bytes) -> bytes | None:
+    """OFF text without comments and with its faces of 5 or more corners split into triangles, or None.
+
+    Parameters
+    ----------
+    data : bytes
+        An OFF file's contents.
+
+    Returns
+    -------
+    bytes or None
+        ``data`` without comments (``#`` to its line's end), each face of 5
+        or more corners replaced by lines of triangles with its colour: an
+        ear clipping where a fan from corner 0 would not tile it (as
+        :func:`obj_polygons`), else that fan (trimesh's). None where there
+        is no comment and no such face, or the file does not read as OFF.
+    """
+    if b"#" not in data and not _OFF_POLYGON.search(b"\n" + data):
+        return None
+    text = "\n".join(line.split("#", 1)[0] for line in data.decode("utf-8", "replace").splitlines())
+    key = re.search("COFF|OFF", text)
+    if key is None:
+        return None
+    lines = [line.strip() for line in text[key.end():].splitlines() if line.strip()]
+    try:
+        counts = lines[0].split()
+        nv, nf = int(counts[0]), int(counts[1])
+        xyz = np.array([line.split()[:3] for line in lines[1:nv + 1]], np.float64).reshape(nv, 3)
+        faces = [line.split() for line in lines[nv + 1:nv + nf + 1]]
+        index = [[int(w) for w in face[1:int(face[0]) + 1]] for face in faces]
+    except (IndexError, ValueError):
+        return None
+    if b"#" not in data and max(map(len, index), default=0) < 5:
+        return None
+    tiles, out = _tiled(index, xyz), []
+    for k, face in enumerate(faces):
+        n, tail = len(index[k]), face[len(index[k]) + 1:]
+        out += [" ".join(["3"] + [face[1 + c] for c in tri] + tail)
+                for tri in tiles.get(k) or [(0, j, j + 1) for j in range(1, n - 1)]] if n >= 5 else [" ".join(face)]
+    counts[1] = str(len(out))
+    body = [text[:key.end()], " ".join(counts)] + lines[1:nv + 1] + out + lines[nv + nf + 1:]
+    return "\n".join(body).encode() + b"\n"
+
+
+def _stl_binary(data: bytes, label: str) -> bytes | None:
+    """A binary STL with the count of the 50-byte facets after its 84 bytes (the header's where they are no
+    whole number: bytes after them left out), or None (ASCII, no facets); ValueError where it is cut short."""
+    if len(data) <= 84 or b"\0" not in data and data.lstrip()[:5].lower() == b"solid":
+        return None
+    count, size = struct.unpack_from("<I", data, 80)[0], len(data) - 84
+    count = size // 50 if size % 50 == 0 else count
+    if not 0 < 50 * count <= size:
+        raise ValueError(f"{label}: a binary STL whose header counts {count} facets ({50 * count} bytes) but "
+                         f"which holds {size} bytes of facets (cut short?)")
+    return data[:80] + struct.pack("<I", count) + data[84:84 + 50 * count]
 
 
 def _gltf_json(data: bytes):
@@ -365,6 +515,46 @@ def check_gltf(data: bytes, label: str = "glTF") -> None:
                              "(gltfpack: -noq)")
 
 
+def _ply_suspect(mesh) -> str:
+    """Why trimesh's read of a PLY may be wrong: "misread" (binary lists not all as long as the first, as trimesh
+    takes them), "split" (faces of 5+ corners, or of 4 with colours: :func:`ply_polygons`), or ""."""
+    face = ((getattr(mesh, "metadata", None) or {}).get("_ply_raw") or {}).get("face") or {}
+    data, props = face.get("data"), face.get("properties") or {}
+    lists = [name for name, dtype in props.items() if "," in dtype]
+    name = next((k for k in lists if k in ("vertex_indices", "vertex_index")), lists[0] if lists else None)
+    try:
+        column = data[name]
+        if isinstance(data, np.ndarray) and data.dtype.names:
+            if (column["f0"] != column["f1"].shape[1]).any():
+                return "misread"
+            most = column["f1"].shape[1]
+        else:
+            most = column.shape[1] if column.ndim == 2 else max(map(len, column), default=0)
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError):
+        return ""
+    return "split" if most >= 5 or most >= 4 and sum(c in props for c in _PLY_COLOURS) > 2 else ""
+
+
+def _read_ply(path: Path):
+    """What trimesh reads from the PLY file ``path``, where needed from :func:`ply_ascii`'s, ply_polygons' text."""
+    try:
+        mesh = trimesh.load(str(path), process=False)
+        why, error = _ply_suspect(mesh), None
+        if not why:
+            return mesh
+    except Exception as exc:                    # faces of several sizes in a binary PLY: read as ASCII
+        mesh, why, error = None, "misread", exc
+    data = path.read_bytes()
+    text = ply_ascii(data)
+    if text is None and mesh is None:
+        raise error
+    fixed = ply_polygons(text or data)
+    if fixed is None and (text is None or why != "misread"):
+        return mesh
+    return trimesh.load(io.BytesIO(fixed or text), file_type="ply", process=False,
+                        resolver=trimesh.resolvers.FilePathResolver(str(path)))
+
+
 def read_mesh_file(path: Path, label: str):
     """What trimesh reads from the file ``path`` (no processing); OBJ text made plain first (:func:`obj_text`),
     a binary PLY trimesh cannot read read as ASCII (:func:`ply_ascii`).
@@ -373,14 +563,16 @@ def read_mesh_file(path: Path, label: str):
     """
     try:
         if path.suffix.lower() == ".ply":
-            try:
-                return trimesh.load(str(path), process=False)
-            except Exception:                   # faces of several sizes in a binary PLY: read as ASCII
-                text = ply_ascii(path.read_bytes())
-                if text is None:
-                    raise
-            return trimesh.load(io.BytesIO(text), file_type="ply", process=False,
-                                resolver=trimesh.resolvers.FilePathResolver(str(path)))
+            return _read_ply(path)
+        if path.suffix.lower() == ".off":
+            fixed = off_text(path.read_bytes())
+            if fixed is not None:
+                return trimesh.load(io.BytesIO(fixed), file_type="off", process=False)
+        if path.suffix.lower() == ".stl":
+            mesh = trimesh.load(str(path), process=False)
+            fixed = _stl_binary(path.read_bytes(), label) if isinstance(mesh, trimesh.Scene) and \
+                not mesh.geometry else None
+            return mesh if fixed is None else trimesh.load(io.BytesIO(fixed), file_type="stl", process=False)
         if path.suffix.lower() in (".glb", ".gltf"):
             check_gltf(_gltf_head(path), label)
         if path.suffix.lower() != ".obj":

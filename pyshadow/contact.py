@@ -48,13 +48,13 @@ import weakref
 import numpy as np
 
 from ._validate import check_rows, float32_exact
+from .contact_parts import _CHUNK, _in_parts, _inside, _outlines, _ragged_parts, _slab_pairs
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
            "ground_sheet_slots"]
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
-_CHUNK = 1 << 16
 # mesh -> its closed surface's distinct vertices and faces, or (None, None) where it is open (a mesh
 # changed in place hashes differently and misses)
 _SURFACES = weakref.WeakKeyDictionary()
@@ -151,31 +151,35 @@ def _edges(f):
     return np.stack([key // m, key % m], axis=1).astype(f.dtype, copy=False), count
 
 
-def _footprint(inst, ground, tol):
-    """(triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z) of one instance, or None.
+def _footprints(scene, ids, ground, tols):
+    """Per instance ``ids[k]``: (triangles (K, 3, 2), outline segments (E, 2, 2)) in the ground's (x, z), or None.
 
-    The body must rest on the ground (no vertex of its faces below it by more than ``tol``: the side above its
-    faces on the plane is its inside) and its surface must be closed (every edge of its distinct
-    faces shared by two), whatever its winding: every ray leaving such a face upwards meets the
-    surface again."""
-    mesh = inst.mesh
-    if mesh is None or not inst.casts or len(mesh.faces) == 0:
-        return None
-    surface = _closed_surface(mesh)
-    if surface is None:
-        return None                                     # open: it encloses nothing
-    u, f = surface
-    T = inst.transform
-    u = u @ T[:3, :3].T + T[:3, 3]
-    h = u[:, 1] - ground
-    if h[f].min() < -tol:       # the surface's vertices: a stray vertex below the plane lost the footprint
-        return None                                     # sunk into the ground: not resting on it
-    f = f[(h <= tol)[f].all(axis=1)]
-    if not len(f):
-        return None
-    edges, count = _edges(f)
-    xz = u[:, [0, 2]]
-    return xz[f], xz[edges[count == 1]]                 # edges of one contact face: the outline
+    The body must rest on the ground (no vertex of its faces below it by more than its ``tols[k]``: the side
+    above its faces on the plane is its inside) and its surface must be closed (every edge of its distinct
+    faces shared by two), whatever its winding: every ray leaving such a face upwards meets the surface
+    again. Instances sharing a mesh are moved together (the same values as one at a time)."""
+    out, found, groups = [None] * len(ids), [], {}
+    for k, i in enumerate(ids):
+        inst = scene.instances[i]
+        if inst.mesh is not None and inst.casts and len(inst.mesh.faces):
+            groups.setdefault(id(inst.mesh), []).append(k)
+    for rows in groups.values():
+        surface = _closed_surface(scene.instances[ids[rows[0]]].mesh)
+        if surface is None:
+            continue                                    # open: it encloses nothing
+        u, f = surface
+        T = np.array([scene.instances[ids[k]].transform for k in rows])
+        u = np.matmul(u[None], T[:, :3, :3].transpose(0, 2, 1)) + T[:, None, :3, 3]
+        h, t = u[:, :, 1] - ground, np.asarray(tols)[rows]
+        # the surface's vertices: a stray vertex below the plane lost the footprint (sunk: not resting on it)
+        on = (h <= t[:, None])[:, f].all(axis=2) & (h[:, f].min(axis=(1, 2)) >= -t)[:, None]
+        found += [(rows[j], u[j][:, [0, 2]], f[on[j]]) for j in np.flatnonzero(on.any(axis=1))]
+    if found:
+        faces = np.concatenate([x[2] for x in found])
+        edge, cut = _outlines(faces, np.repeat(np.arange(len(found)), [len(x[2]) for x in found]), len(found))
+        for j, (k, xz, fk) in enumerate(found):
+            out[k] = xz[fk], xz[edge[cut[j]:cut[j + 1]]]        # edges of one contact face: the outline
+    return out
 
 
 def footprints(scene) -> list:
@@ -189,13 +193,13 @@ def footprints(scene) -> list:
         segments (E, 2, 2). Empty without a ground plane. Kept with the
         scene's arrays until the scene changes.
     """
-    return [x for _, x, _ in _on_ground(scene, "contact", _footprint)]
+    return [x for _, x, _ in _on_ground(scene, "contact", _footprints)]
 
 
 def _on_ground(scene, name, make):
-    """``[(caster slot, make(instance, ground, tol), tol)]`` over the casters whose mesh's box reaches down
-    to the ground plane (within their own tolerance ``tol``, :func:`_face_tolerances`), where not None;
-    kept with the scene's arrays as ``name``."""
+    """``[(caster slot, x, tol)]`` over the casters whose mesh's box reaches down to the ground plane (within
+    their own tolerance ``tol``, :func:`_face_tolerances`), ``x`` of ``make(scene, instance numbers, ground,
+    tolerances)``'s list where not None; kept with the scene's arrays as ``name``."""
     if scene.ground is None or not scene.instances:
         return []
     held = scene_arrays(scene)
@@ -206,9 +210,14 @@ def _on_ground(scene, name, make):
         near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
         near = near[_box_bottom(scene, held, near) <= scene.ground + tol[near]]
         slot = np.cumsum(held["casts"]) - 1            # a caster's position in Scene.casters
-        found = [(int(slot[i]), make(scene.instances[i], scene.ground, float(tol[i])), float(tol[i])) for i in near]
-        held[key] = [(k, x, t) for k, x, t in found if x is not None]
+        found = make(scene, near, scene.ground, tol[near])
+        held[key] = [(int(slot[i]), x, float(tol[i])) for i, x in zip(near, found) if x is not None]
     return held[key]
+
+
+def _sheets(scene, ids, ground, tols):
+    """:func:`_sheet` of each instance ``ids[k]`` with its tolerance ``tols[k]``."""
+    return [_sheet(scene.instances[i], ground, float(t)) for i, t in zip(ids, tols)]
 
 
 def _sheet(inst, ground, tol):
@@ -257,7 +266,7 @@ def sheets(scene) -> list:
         those faces (world x, z). Empty without a ground plane. Kept with
         the scene's arrays until the scene changes.
     """
-    return [(k, x) for k, x, _ in _on_ground(scene, "sheets", _sheet)]
+    return [(k, x) for k, x, _ in _on_ground(scene, "sheets", _sheets)]
 
 
 def ground_sheet_slots(scene, points, own):
@@ -286,7 +295,7 @@ def ground_sheet_slots(scene, points, own):
         own = own.astype(np.int32) if own.dtype.kind in "iu" or not len(own) else own
     if own.dtype.kind not in "iu":
         raise TypeError(f"own must hold integer caster slots, got dtype {own.dtype}")
-    found = _on_ground(scene, "sheets", _sheet) if len(own) else []
+    found = _on_ground(scene, "sheets", _sheets) if len(own) else []
     if not found:
         return own
     off = _plane_offsets(scene, p)
@@ -335,28 +344,6 @@ def _in_triangles(q, tri):
     return _inside(tri[None, :, 0], tri[None, :, 1], tri[None, :, 2], q[:, None, :]).any(axis=1)
 
 
-def _inside(a, b, c, x):
-    """bool: points ``x`` inside or on triangles ``a, b, c`` (corners; all (..., 2), broadcast)."""
-    def side(u, v):
-        return (v[..., 0] - u[..., 0]) * (x[..., 1] - u[..., 1]) - (v[..., 1] - u[..., 1]) * (x[..., 0] - u[..., 0])
-
-    s0, s1, s2 = side(a, b), side(b, c), side(c, a)
-    return ((s0 >= 0) & (s1 >= 0) & (s2 >= 0)) | ((s0 <= 0) & (s1 <= 0) & (s2 <= 0))
-
-
-def _far_from(q, seg, tol):
-    """(n,) bool: points ``q`` (n, 2) farther than ``tol`` from every segment ``seg`` (E, 2, 2)."""
-    return (_square_distance(q[:, None, :], seg[None, :, 0], seg[None, :, 1]) > tol * tol).all(axis=1)
-
-
-def _square_distance(x, a, b):
-    """Squared distance of points ``x`` to segments ``a``-``b`` (all (..., 2), broadcast)."""
-    d, x = b - a, x - a
-    t = np.clip(np.sum(x * d, axis=-1) / np.maximum(np.sum(d * d, axis=-1), 1e-300), 0.0, 1.0)
-    r = x - t[..., None] * d
-    return np.sum(r * r, axis=-1)
-
-
 def contact_mask(scene, points):
     """Which points lie on the ground inside a closed body's footprint (all their rays are occluded).
 
@@ -377,7 +364,7 @@ def contact_mask(scene, points):
         test).
     """
     p = check_rows(points, "points")
-    fps = _on_ground(scene, "contact", _footprint)     # footprints(scene), with the casters' slots
+    fps = _on_ground(scene, "contact", _footprints)     # footprints(scene), with the casters' slots
     if not fps:
         return None
     mask = np.zeros(len(p), bool)
@@ -387,12 +374,14 @@ def contact_mask(scene, points):
         return mask
     off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    for _, (tri, outline), tol in fps:
-        for k, hit in _in_chunks(q_all, tri, len(outline)):
-            hit &= _on_plane((off[0][k], off[1][k]), tol)
-            if hit.any():
-                hit[hit] = _far_from(q_all[k][hit], outline, tol)
-            mask[cand[k[hit]]] = True
+    tris, segs = _ragged_parts([tri for _, (tri, _), _ in fps]), _ragged_parts([seg for _, (_, seg), _ in fps])
+    tol = np.array([t for _, _, t in fps])
+    lo = np.minimum.reduceat(tris[0].min(axis=1), tris[1])      # the footprints' boxes
+    hi = np.maximum.reduceat(tris[0].max(axis=1), tris[1])
+    pid, rows = _slab_pairs(q_all, lo, hi)
+    ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
+    pid, rows = pid[ok], rows[ok]
+    mask[cand[rows[_in_parts(q_all[rows], pid, tris, segs, tol)]]] = True
     return mask
 
 

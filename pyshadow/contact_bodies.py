@@ -12,7 +12,8 @@ import weakref
 import numpy as np
 
 from ._validate import float32_exact
-from .contact import _CHUNK, _SURFACES, _closed_surface, _face_tolerances, _inside, _square_distance
+from .contact import _SURFACES, _closed_surface, _face_tolerances
+from .contact_parts import _expanded, _in_parts, _outlines, _ragged, _ragged_parts, _slab_pairs
 from .scene_arrays import scene_arrays
 
 __all__ = ["FACING", "body_patches", "body_hits"]
@@ -56,12 +57,6 @@ def _unit_normals(tri):
     """(K, 3) unit normals of triangles (K, 3, 3) by their winding (0 for a degenerate one)."""
     n = _cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-
-
-def _ragged(counts):
-    """(group of each item, item's index within its group) for groups of ``counts`` items, group by group."""
-    g = np.repeat(np.arange(len(counts)), counts)
-    return g, np.arange(len(g)) - np.repeat(np.cumsum(counts) - counts, counts)
 
 
 def _touching(faces, pairs, tol):
@@ -210,16 +205,7 @@ def _planes(got, world, tri, first, tol):
     wf = np.concatenate([world[g[0]][1][g[3]] for g in got]).astype(np.int64)
     start = np.cumsum(size) - size
     lo, hi = np.minimum.reduceat(tri[k].min(axis=1), start), np.maximum.reduceat(tri[k].max(axis=1), start)
-    # the outline: the edges of one face only, per plane (the edges in the order of their vertex numbers)
-    e = np.sort(wf, axis=1)
-    e, pid = np.concatenate([e[:, [0, 1]], e[:, [1, 2]], e[:, [0, 2]]]), np.tile(np.repeat(np.arange(len(got)), size), 3)
-    key = e[:, 0] * (int(e.max()) + 1) + e[:, 1]
-    o = np.lexsort((key, pid))
-    pid, key, e = pid[o], key[o], e[o]
-    new = np.r_[True, (pid[1:] != pid[:-1]) | (key[1:] != key[:-1])]
-    cnt = np.diff(np.r_[np.flatnonzero(new), len(key)])
-    edge, epid = e[new][cnt == 1], pid[new][cnt == 1]
-    ecut = np.searchsorted(epid, np.arange(len(got) + 1))
+    edge, ecut = _outlines(np.sort(wf, axis=1), np.repeat(np.arange(len(got)), size), len(got))   # the outlines
     e1 = _cross(n, np.eye(3)[np.argmin(np.abs(n), axis=1)])
     out = []
     for j, (i, nj, d, _) in enumerate(got):
@@ -243,15 +229,10 @@ def body_hits(scene, points):
     rounding = np.where(float32_exact(p).all(axis=1), np.spacing(big.astype(np.float32)).astype(np.float64),
                         np.spacing(big))
     normal, offset, tol, lo, hi = _patch_arrays(patches)
-    # the candidates of each patch by sorting, along the axis whose slab of its grown box holds the fewest points
-    # (not its thin axis: a floor's points lie in its plane)
-    order, grow = np.argsort(p, axis=0, kind="stable"), tol + rounding.max()
-    ends = np.stack([[np.searchsorted(p[order[:, j], j], lo[:, j] - grow),
-                      np.searchsorted(p[order[:, j], j], hi[:, j] + grow, side="right")] for j in range(3)], axis=2)
-    slab = np.argmin(ends[1] - ends[0], axis=1)
-    a, b = ends[:, np.arange(len(patches)), slab]
-    pid = np.repeat(np.arange(len(patches)), b - a)             # (patch, point) candidate pairs, by patch
-    rows = order[np.arange(len(pid)) + np.repeat(a - (np.cumsum(b - a) - (b - a)), b - a), slab[pid]]
+    # the candidates of each patch along the axis whose slab of its grown box holds the fewest points (not its
+    # thin axis: a floor's points lie in its plane)
+    grow = (tol + rounding.max())[:, None]
+    pid, rows = _slab_pairs(p, lo - grow, hi + grow)
     g = (tol[pid] + rounding[rows])[:, None]                     # within the patch's box and its plane
     ok = np.all((p[rows] >= lo[pid] - g) & (p[rows] <= hi[pid] + g), axis=1)
     ok[ok] = np.abs(np.einsum("ij,ij->i", p[rows[ok]], normal[pid[ok]]) - offset[pid[ok]]) <= \
@@ -259,47 +240,12 @@ def body_hits(scene, points):
     pid, rows = pid[ok], rows[ok]
     if not len(pid):
         return []
-    # in the patch's plane (each patch's points flattened as that patch's alone), in its faces' box
+    # in the patch's plane (each patch's points flattened as that patch's alone), inside one of its faces and
+    # farther than its tolerance from its outline
     q = np.concatenate([p[k] @ patches[i][4].T for i, k in zip(*_groups(pid, rows))])
-    tri, tri_first, tri_count = _ragged_parts([x[5] for x in patches])
-    seg, seg_first, seg_count = _ragged_parts([x[6] for x in patches])
-    flat_lo, flat_hi = _part_boxes(tri, tri_first, tri_count)
-    ok = np.all((q >= flat_lo[pid]) & (q <= flat_hi[pid]), axis=1)
-    pid, rows, q = pid[ok], rows[ok], q[ok]
-    # inside one of its faces, then farther than its tolerance from every segment of its outline
-    ok = np.zeros(len(pid), bool)
-    for s, e, c, j in _expanded(tri_count[pid]):
-        a, b, v = np.moveaxis(tri[tri_first[pid[c + s]] + j], 1, 0)
-        ok[s:e] = np.bincount(c, _inside(a, b, v, q[c + s]), minlength=e - s) > 0
-    pid, rows, q = pid[ok], rows[ok], q[ok]
-    tol = np.array([x[2] for x in patches])
-    ok = np.ones(len(pid), bool)
-    for s, e, c, j in _expanded(seg_count[pid]):
-        ends, t = seg[seg_first[pid[c + s]] + j], tol[pid[c + s]]
-        ok[s:e] = np.bincount(c, ~(_square_distance(q[c + s], ends[:, 0], ends[:, 1]) > t * t), minlength=e - s) == 0
+    ok = _in_parts(q, pid, _ragged_parts([x[5] for x in patches]), _ragged_parts([x[6] for x in patches]), tol)
     pid, rows = pid[ok], rows[ok]
     return [(k, patches[i][0]) for i, k in zip(*_groups(pid, rows))]
-
-
-def _ragged_parts(parts):
-    """The arrays ``parts`` end to end, each one's first row and its row count."""
-    count = np.array([len(x) for x in parts], np.intp)
-    return np.concatenate(parts), np.cumsum(count) - count, count
-
-
-def _part_boxes(a, first, count):
-    """(P, 2) x 2 corners of each part's box of the (K, 3, 2) rows ``a`` (each part at least one row)."""
-    return np.minimum.reduceat(a.min(axis=1), first), np.maximum.reduceat(a.max(axis=1), first)
-
-
-def _expanded(counts):
-    """Items with ``counts`` parts each, in runs of about ``_CHUNK`` (item, part) pairs: (first item, end,
-    each pair's item from the first, its part's number in its item)."""
-    end = np.cumsum(counts)
-    cut = np.searchsorted(end, np.arange(_CHUNK, end[-1] + _CHUNK, _CHUNK) if len(end) else [], side="right")
-    for s, e in zip(np.r_[0, cut[:-1]].astype(np.intp), cut):
-        if e > s:
-            yield (s, e, *_ragged(counts[s:e]))
 
 
 def _patch_arrays(patches):

@@ -1,5 +1,5 @@
 """The contact rule's cost benchmark (benchmarks/contact_cost.py) and the batched search behind it
-(pyshadow/contact_bodies.py: every touching pair's faces at once, in runs of ``_CHUNK`` face pairs)."""
+(pyshadow/contact_parts.py: pairs in runs of ``_CHUNK``)."""
 from __future__ import annotations
 
 import sys
@@ -15,7 +15,7 @@ def test_runs_cover_every_item_whatever_the_total():
     """Every (item, part) pair comes once, in runs that end on item boundaries: a total of exactly
     ``_CHUNK`` pairs (a boundary found on the wrong side of an equal sum would drop the last item), items
     of no parts, one item larger than a run."""
-    from pyshadow.contact_bodies import _CHUNK, _expanded
+    from pyshadow.contact_parts import _CHUNK, _expanded
 
     rng = np.random.default_rng(0)
     for counts in ([_CHUNK], [1, _CHUNK - 1], [0, _CHUNK, 0, 3], [2 * _CHUNK + 1], [0, 0], [],

@@ -210,16 +210,16 @@ class DepthRenderer:
         if n == 0:
             raise ValueError("no views to render")
         nbytes = n * self.bytes_per_map
+        fbytes = n * self.facing_bytes_per_map
+        if out is not None and out.size < nbytes:
+            raise ValueError(f"output buffer holds {out.size} bytes, {nbytes} needed")
+        if self.facing and (front is None or front.size < fbytes):     # before `out` is overwritten
+            raise ValueError(f"facing=True needs a front buffer of {fbytes} bytes")
         if out is None:
             out = _cl.empty(nbytes)
-        elif out.size < nbytes:
-            raise ValueError(f"output buffer holds {out.size} bytes, {nbytes} needed")
         q = _cl.queue()
         cl.enqueue_fill_buffer(q, out, np.float32(np.inf), 0, nbytes)
         if self.facing:
-            fbytes = n * self.facing_bytes_per_map
-            if front is None or front.size < fbytes:
-                raise ValueError(f"facing=True needs a front buffer of {fbytes} bytes")
             cl.enqueue_fill_buffer(q, front, np.uint8(0), 0, fbytes)
         bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
         group = launch.shape().raster_group      # why: pyshadow._cl.launch
@@ -276,7 +276,9 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     ------
     ValueError
         Empty view set, resolution outside 1..4096, layers not in {1, 2, 3},
-        or an invalid mesh. Nothing is launched.
+        block below 1, or an invalid mesh. Nothing is launched.
+    TypeError
+        A resolution or block that is no int; progress or facing not True or False.
 
     Examples
     --------
@@ -286,12 +288,14 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     (8, 2, 8, 8)
     """
     _check_args(views, resolution, layers)
+    progress = flag(progress, "progress")           # the string "no" showed a bar
+    if block is not None:                           # checked before the kernel is built
+        block = check_int(block, "block", 1)
     renderer = DepthRenderer(mesh, resolution, layers, frame=frame, facing=facing, both_sides=both_sides)
     facing = renderer.facing
     D = len(views)
     if block is None:
         block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
-    block = check_int(block, "block", 1)
     out = np.empty((D, renderer.layers, renderer.resolution, renderer.resolution), np.float32)
     buf = _cl.empty(min(block, D) * renderer.bytes_per_map)
     fout = np.empty(out.shape, np.uint8) if facing else None

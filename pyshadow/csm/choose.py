@@ -8,8 +8,10 @@ on the body). :func:`choose_csm` walks :data:`~pyshadow.csm.error_model.CANDIDAT
 from the smallest predicted size up, predicts each candidate's
 disagreement with Embree (:func:`pyshadow.csm.error_model.predict`: the
 body's own AO rays and the rays of bodies around it, the larger counts),
-and builds the first predicted to meet the target (where none is, the one
-predicted nearest it, not the largest). With ``verify`` (the default) the
+and builds the first predicted to meet the target (where none is, the
+smallest of those predicted about as near as the one predicted nearest it,
+announced first where its build is long; ``max_bytes`` caps the sizes
+looked at). With ``verify`` (the default) the
 built CSM is measured on rays drawn independently of the model's; where
 it misses, the model's miss on this body (measured over predicted) is
 carried to the remaining candidates and the walk goes on. Without it,
@@ -34,6 +36,15 @@ __all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model
 
 #: the pilot builds of :func:`size_model`: (theta, phi, resolution)
 PILOTS = ((16, 32, 64), (32, 64, 64), (16, 32, 128))
+
+#: (seconds, bytes): a build for a target no candidate is predicted to meet, predicted to take either or more,
+#: is announced before it starts (:func:`choose_csm`)
+LONG_BUILD = (30.0, 2 ** 30)
+
+#: where no candidate is predicted to meet the target, a smaller one is built in place of the one predicted nearest
+#: it if predicted within this factor of it (and within its 95 % interval): the predictions of two candidates on the
+#: same rays differ by less than their intervals say, so the interval alone kept candidates plainly worse
+NEAR_ENOUGH = 1.1
 
 
 def _work(cand) -> int:
@@ -88,15 +99,63 @@ def _candidates(candidates, name):
     return tuple(out)
 
 
+def _upper(p) -> float:
+    """The upper end of the 95 % interval of prediction ``p``'s disagreement (of the ray set that gives it); the
+    disagreement itself where ``p`` has no interval."""
+    sets = [v for v in p.values() if isinstance(v, dict) and "interval" in v and "disagreement" in v]
+    top = max(sets, key=lambda v: v["disagreement"], default=None)
+    return p["disagreement"] if top is None else max(p["disagreement"], float(top["interval"][1]))
+
+
+def _announce(max_error, tried, entry, verify):
+    """Warn, before it starts, of a build for a target no candidate is predicted to meet that is predicted to take
+    :data:`LONG_BUILD` seconds or bytes or more: what it is predicted to reach, what it costs, the most accurate
+    prediction (and its cost) where that is another candidate."""
+    sec, nbytes = entry["predicted_seconds"], entry["predicted_bytes"]
+    if sec < LONG_BUILD[0] and nbytes < LONG_BUILD[1]:
+        return
+    p = entry["predicted"]
+    warnings.warn(f"no candidate CSM is predicted to meet max_error={max_error:g}: building {p['layout']} "
+                  f"({p['lookup']}), predicted {p['disagreement']:.4f}, about {_mb(nbytes)} and "
+                  f"{sec:.0f} s{' before its check' if verify else ''}{_most_accurate(tried, entry)}"
+                  f"{_most_accurate(tried, entry, 0.25, 'a quarter of the size or less')}; "
+                  "pyshadow.csm.choose_csm(..., max_bytes=) caps the size", UserWarning, stacklevel=3)
+
+
+def _most_accurate(tried, entry, share=None, within="") -> str:
+    """'; the most accurate predicted, ...': the candidate of ``tried`` not measured with the least predicted
+    disagreement and its estimated cost, where that is less than ``entry``'s (with ``share``: of those at most
+    ``share`` times its predicted bytes, where there is one); '' otherwise."""
+    cap = math.inf if share is None else share * entry["predicted_bytes"]
+    best = min((t for t in tried if "measured" not in t and t["predicted_bytes"] <= cap),
+               key=lambda t: t["predicted"]["disagreement"], default=None)
+    if best is None or (share is None and best["predicted"]["disagreement"] >= entry["predicted"]["disagreement"]):
+        return ""
+    b = best["predicted"]
+    return (f"; the most accurate predicted{' at ' + within if within else ''}, {b['disagreement']:.4f}, is "
+            f"{b['layout']} ({b['lookup']}, about {_mb(best['predicted_bytes'])} and "
+            f"{best.get('predicted_seconds', 0.0):.0f} s to build)")
+
+
+def _mb(nbytes) -> str:
+    return f"{nbytes / 1e6:.0f} MB" if nbytes >= 1e7 else f"{nbytes / 1e6:.2g} MB"
+
+
 def _nearest_target(tried, need) -> int:
-    """Index in ``tried`` of the candidate not built yet whose prediction lies nearest the target: the
-    least disagreement over ``need`` of its lookup (the target the walk still asks, narrowed by the misses
-    measured); the later of equals."""
-    def shortfall(j):
+    """Index in ``tried`` of the candidate to build where none not built yet is predicted to meet the target:
+    of those predicted as near as the one nearest the target (the least disagreement over ``need`` of its
+    lookup, the target the walk still asks, narrowed by the misses measured), within :data:`NEAR_ENOUGH` times
+    its disagreement and the upper end of its 95 % interval, the smallest by predicted bytes; the later of
+    equals."""
+    def shortfall(j, value=lambda p: p["disagreement"]):
         p = tried[j]["predicted"]
         want = need[p["lookup"]]
-        return (p["disagreement"] / want if want > 0 else math.inf, -j)
-    return min((j for j, t in enumerate(tried) if "bytes" not in t), key=shortfall)
+        return value(p) / want if want > 0 else math.inf
+    todo = [j for j, t in enumerate(tried) if "bytes" not in t]
+    best = min(todo, key=lambda j: (shortfall(j), -j))
+    reach = min(shortfall(best, _upper), NEAR_ENOUGH * shortfall(best))
+    return min((j for j in todo if shortfall(j) <= reach or j == best),
+               key=lambda j: (tried[j]["predicted_bytes"], -j))
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -126,7 +185,11 @@ def size_model(mesh, depth_bits: int = 16, layers="auto", built: dict | None = N
     predict : callable
         ``predict(theta, phi, resolution) -> bytes`` (float).
     info : dict
-        ``a``, ``g``, ``segments0`` and the pilots' build seconds.
+        ``a``, ``g``, ``segments0``, the pilots' build seconds and
+        ``seconds_per_work``: the least of theirs per map x texel, what a
+        candidate's build time is estimated from (``predicted_seconds`` in a
+        choice's ``tried``; within a factor 2-3 where other work shares the
+        device).
     """
     built = {} if built is None else built
     pil = [_build(mesh, c, depth_bits, layers, False, built) for c in PILOTS]
@@ -141,7 +204,9 @@ def size_model(mesh, depth_bits: int = 16, layers="auto", built: dict | None = N
         # 32 bits beyond 65,536 maps, an offset 64 bits from 2^32 segments on
         return float(seg * (depth + _iend_dtype(theta * phi).itemsize)
                      + (resolution * resolution + 1) * _offsets_dtype(seg).itemsize)
-    return predict, {"a": a, "g": g, "segments0": int(s0), "pilot_seconds": sum(t for _, t in pil)}
+    # the pilot with the least fixed cost (the first build's compiling, small ones' launches) per unit of work
+    return predict, {"a": a, "g": g, "segments0": int(s0), "pilot_seconds": sum(t for _, t in pil),
+                     "seconds_per_work": min(t / _work(c) for c, (_, t) in zip(PILOTS, pil))}
 
 
 def measure(csm, mesh, rays: dict, lookup: str = "nearest") -> dict:
@@ -173,7 +238,7 @@ def measure(csm, mesh, rays: dict, lookup: str = "nearest") -> dict:
 
 def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: int = 16, layers="auto",
                verify: bool = True, points: int = 2000, samples: int = 16, near: int = 16000, seed: int = 7,
-               progress: bool = False, candidates=CANDIDATES):
+               progress: bool = False, candidates=CANDIDATES, max_bytes: int | None = None):
     """The cheapest CSM of ``mesh`` predicted (and, with ``verify``, measured) to meet ``max_error``.
 
     Parameters
@@ -202,31 +267,54 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         Tried by increasing predicted size (:func:`size_model`); those above
         :data:`~pyshadow.csm.error_model.LARGE_WORK` maps x texels only after
         every other candidate has missed with every lookup.
+    max_bytes : int, optional
+        A cap on the CSM's size, bytes: candidates predicted
+        (:func:`size_model`, within about 15 %) above it are never built.
+        Verifying a CSM holds about ten times its bytes while the check's
+        scene is set up (a 433 MB CSM: 4.1 GB more).
 
     Returns
     -------
     csm : CoherentShadowMap
         The choice; when none meets the target, the last built, with a ``UserWarning``: where no
-        candidate left is predicted to meet it, the one predicted nearest it (its disagreement over
-        the target, narrowed by the misses measured), not the last by predicted size.
+        candidate left is predicted to meet it, the smallest of those predicted as near as the one
+        predicted nearest it (its disagreement over the target, narrowed by the misses measured;
+        within :data:`NEAR_ENOUGH` times that one's and its 95 % interval), not the last by predicted
+        size. A build predicted to take :data:`LONG_BUILD` seconds or bytes or more for a target no
+        candidate is predicted to meet is announced before it starts (a ``UserWarning``: the accuracy
+        predicted, the estimated cost, the most accurate candidate a quarter its size or less).
     choice : dict
         ``target``, ``lookup`` (the one chosen), ``met``, ``verified``, ``maps``,
         ``resolution``, ``depth_bits``, ``predicted`` (the model's record),
         ``measured`` (or None), ``tried`` (every candidate looked at:
-        prediction and predicted bytes, and bytes, build seconds and
-        measurement where built), ``size_model``, ``seconds`` (model,
-        pilots, builds and checks together).
+        prediction, predicted bytes and build seconds (estimated from the
+        pilots), and bytes, build seconds and measurement where built),
+        ``size_model``, ``seconds`` (model, pilots, builds and checks
+        together).
+
+    Raises
+    ------
+    ValueError
+        ``max_error`` outside (0, 1) or NaN; no candidate predicted within ``max_bytes`` (the message gives
+        the smallest predicted size).
     """
     max_error = _max_error(max_error)
     if lookup not in ("nearest", "vote", "auto"):
         raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
     candidates = _candidates(candidates, "choose_csm")
+    max_bytes = None if max_bytes is None else _max_bytes(max_bytes)
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     rays = rays_for(mesh, seed=seed, **draw)
     check = rays_for(mesh, seed=seed + 1, **draw) if verify else None
     built = {}
     size, size_info = size_model(mesh, depth_bits, layers, built)
+    if max_bytes is not None:
+        small = min(size(*c) for c in candidates)
+        candidates = [c for c in candidates if size(*c) <= max_bytes]
+        if not candidates:
+            raise ValueError(f"no candidate CSM fits in max_bytes={max_bytes} (the smallest is predicted at "
+                             f"{small:.0f} bytes)")
     lookups = ("nearest", "vote") if lookup == "auto" else (lookup,)
     # by predicted size, every lookup's; a layout above LARGE_WORK only after every smaller one of every lookup
     ranked = sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))
@@ -238,14 +326,17 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     tried, csm, entry = [], None, None
     for i, (cand, lk) in enumerate(order):
         pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)
-        entry = {"predicted": pred, "predicted_bytes": size(*cand)}
+        entry = {"predicted": pred, "predicted_bytes": size(*cand),
+                 "predicted_seconds": size_info.get("seconds_per_work", 0.0) * _work(cand)}
         tried.append(entry)
         if pred["disagreement"] > need[lk]:
             if i < len(order) - 1:
                 continue
-            # the last misses too: build the one predicted nearest the target, not the largest by size
+            # the last misses too: the smallest predicted about as near as the one predicted nearest the target
             j = _nearest_target(tried, need)
             (cand, lk), entry = order[j], tried[j]
+            if cand not in built:
+                _announce(max_error, tried, entry, verify)
         _keep(built, {c for c, _ in order[i:]} | {cand})
         csm = None                     # the last miss: not held while the next one is built
         csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
@@ -274,7 +365,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
             got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
                    "with the model's range")
         warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last built, {p['layout']} "
-                      f"({p['lookup']}): {got}", UserWarning, stacklevel=3)
+                      f"({p['lookup']}): {got}{_most_accurate(tried, entry)}", UserWarning, stacklevel=3)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,

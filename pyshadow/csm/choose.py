@@ -457,3 +457,17 @@ def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_er
                    else choose_within(mesh, max_bytes, **kw))
     csm.choice = choice
     return csm
+
+
+def warn_unchosen_lookup(scene, lookup: str) -> None:
+    """A UserWarning where a caster's CSM was chosen for an accuracy (``max_error``) with the other lookup than
+    ``lookup``, the one a query asks (``Scene.add(mesh, max_error=..., lookup="auto")`` may choose the vote;
+    queries ask ``"nearest"`` unless told): the accuracy chosen holds for its own lookup only. Asked once
+    per scene change and lookup (:class:`pyshadow.visibility.CSMVisibility`)."""
+    for csm in scene.caster_types()[0]:
+        choice = getattr(csm, "choice", None) or {}
+        if "target" in choice and choice.get("lookup", lookup) != lookup:
+            warnings.warn(f"a CSM of this scene was chosen for max_error={choice['target']:g} with "
+                          f"lookup={choice['lookup']!r}; this query asks lookup={lookup!r}, whose error the choice "
+                          f"did not measure: pass lookup={choice['lookup']!r} to the query", UserWarning, stacklevel=2)
+            return

@@ -50,6 +50,7 @@ from .._validate import (FLOAT32_MAX, check_both, check_float32_instances, check
                          flag, kernel_rows, rows3, unit_normals)
 from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
+from ..csm.choose import warn_unchosen_lookup
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from ..csm.device import scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
@@ -333,6 +334,7 @@ class CSMVisibility(_SampledSky):
         nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
         # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points)
         held = held_at(scene, anchor)
+        _kept(held, ("lookup checked", self.lookup), lambda: warn_unchosen_lookup(scene, self.lookup))
         dev = (lambda a: _on_device(held, a)) if ninst else _cl.to_device
         args = [*atlas["buffers"], dev(rows), dev(itype), np.int32(ninst), np.float32(gy),
                 np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),

@@ -500,8 +500,8 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             csm = held[1] if held is not None and held[0] is obj else None
             o = scene.csm_options
             if csm is None and max_error is not None:
-                csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"],
-                                              progress=scene.progress, max_error=max_error, lookup=lookup)
+                csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"], lookup=lookup,
+                                              progress=scene.progress, max_error=max_error, footprint=o["footprint"])
             elif csm is None:
                 csm = CoherentShadowMap.build(obj, o["views"], resolution=o["resolution"],
                                               depth_bits=o["depth_bits"], layers=o["layers"],

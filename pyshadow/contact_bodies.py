@@ -162,7 +162,8 @@ def body_patches(scene):
     pairs = np.stack([i[keep], j[keep]], axis=1)
     pairs = pairs[np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) <= (r + tol)[pairs].sum(axis=1)]
     both = np.concatenate([pairs, pairs[:, ::-1]])
-    both = both[[scene.instances[ids[b]].casts for b in both[:, 0]]] if len(both) else both  # a receiver closes nothing in
+    if len(both):                                       # a receiver closes nothing in
+        both = both[[scene.instances[ids[b]].casts for b in both[:, 0]]]
     if not len(both):
         held["bodies"] = out
         return out

@@ -22,6 +22,7 @@ detected by its checksum and replaced.
 """
 from __future__ import annotations
 
+import errno
 import hashlib
 import io
 import json
@@ -159,8 +160,9 @@ class CSMCache:
     that fails to load (checksum, truncation, format) or holds a CSM that
     does not match its key (mesh, views, resolution, depth bits, layer
     rule, the build's defaults) is removed and rebuilt; a cache directory that
-    cannot be created or written only disables caching (one warning through
-    ``log``), it never fails a call.
+    cannot be created, searched (a 0700 folder of another user in a shared
+    cache) or written only disables caching (one warning through ``log``),
+    it never fails a call.
 
     Parameters
     ----------
@@ -196,9 +198,12 @@ class CSMCache:
         d = self.root / sub
         try:
             d.mkdir(parents=True, exist_ok=True)
+            # a folder of another user (0700 in a shared cache): looking up its files raised PermissionError
+            if not os.access(d, os.X_OK):
+                raise PermissionError(errno.EACCES, "no permission to look up its files", str(d))
         except OSError as e:
             if not self._warned:
-                self.log(f"warning: cache directory {d} cannot be created ({e}); not caching")
+                self.log(f"warning: cache directory {d} cannot be created or used ({e}); not caching")
                 self._warned = True
             return None
         return d

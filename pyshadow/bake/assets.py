@@ -19,7 +19,7 @@ from pathlib import Path, PurePosixPath
 
 import numpy as np
 
-from .params import AssetParams
+from .params import AssetParams, code_digest
 
 __all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "csm_file_bytes", "side_files"]
 
@@ -199,8 +199,10 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str, side
     dict
         ``record``: the asset's manifest entry (``status`` 'baked' or
         'failed', ``error``, ``notes`` (cleanup warnings), ``mesh``, ``csm``
-        and ``ao`` summaries, ``timings`` in seconds, ``worker``); ``files``:
-        relative output path -> bytes (empty when failed).
+        and ``ao`` summaries, ``timings`` in seconds, ``worker``, ``code``:
+        :func:`pyshadow.bake.params.code_digest` of the code that ran it,
+        which the driver compares with its own); ``files``: relative output
+        path -> bytes (empty when failed).
     """
     from ..mesh import load_mesh
     from ..sampling import Sampling
@@ -210,7 +212,7 @@ def bake_asset(name: str, suffix: str, data: bytes, params: dict, key: str, side
     p = AssetParams.from_dict(params)
     record = {"name": name, "key": key, "source_sha256": _sha256(data), "params": p.to_dict(),
               "status": "failed", "error": None, "notes": [], "timings": {},
-              "worker": f"{socket.gethostname()}:{os.getpid()}"}
+              "worker": f"{socket.gethostname()}:{os.getpid()}", "code": code_digest()}
     src = None
     try:
         with tempfile.TemporaryDirectory(prefix="pyshadow-bake-") as d:

@@ -21,6 +21,7 @@ import hashlib
 import json
 import re
 import time
+import unicodedata
 from pathlib import Path
 
 from .._files import write_bytes_atomic
@@ -62,13 +63,14 @@ def find_assets(sources) -> tuple[list, list]:
     Returns
     -------
     assets : list of (name, pathlib.Path)
-        Sorted by path. ``name`` (output file stem) is the file's stem with
-        characters other than letters, digits, ``.``, ``_`` and ``-``
-        replaced by ``_``; stems that collide (``a.obj`` and ``a.ply``)
-        get their extension appended (``a_obj``, ``a_ply``). A stem shaped
-        like an atomic write's temporary file (``.a.<12 hex>.tmp``), whose
-        outputs every run would remove as a killed run's leftovers, gets a
-        leading ``_``.
+        Sorted by path. ``name`` (output file stem) is the file's stem
+        (NFC-composed) with characters other than letters and digits of any
+        script, ``.``, ``_`` and ``-`` replaced by ``_`` (``Stühle`` and
+        ``椅子`` stay, ``a b`` is ``a_b``); stems that collide (``a.obj``
+        and ``a.ply``) get their extension appended (``a_obj``, ``a_ply``).
+        A stem shaped like an atomic write's temporary file
+        (``.a.<12 hex>.tmp``), whose outputs every run would remove as a
+        killed run's leftovers, gets a leading ``_``.
     ignored : list of str
         Files of a folder that are not meshes.
 
@@ -99,7 +101,9 @@ def find_assets(sources) -> tuple[list, list]:
     for f in files:
         seen.setdefault(f.parent.resolve() / f.name, f)
     files = sorted(seen.values())
-    stems = [re.sub(r"[^A-Za-z0-9._-]", "_", f.stem) or "mesh" for f in files]
+    # letters and digits of any script (a name in ASCII letters only made every CJK stem of one length the same
+    # name, '__', and a clash that refused the whole bake), composed: macOS spells 'é' as 'e' and an accent
+    stems = [re.sub(r"[^\w.-]", "_", unicodedata.normalize("NFC", f.stem)) or "mesh" for f in files]
     stems = ["_" + s if _TEMPORARY.match(f"{s}.json") else s for s in stems]    # else swept away as a temporary
     lower = [s.lower() for s in stems]
     names = [s if lower.count(s.lower()) == 1 else f"{s}_{f.suffix.lstrip('.').lower()}"
@@ -191,7 +195,10 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     a ``.gltf`` also when a buffer or image file it names has changed
     (they travel with it: :func:`pyshadow.bake.assets.side_files`).
     A failed asset (unreadable, empty, not a mesh) is reported in the
-    manifest and does not stop the others. On
+    manifest and does not stop the others; so is one baked by a worker
+    that runs other pyshadow code than this process (a Dask cluster's
+    worker with another version: kept under this code's key, its outputs
+    would pass for this code's in every rerun). On
     ``KeyboardInterrupt`` (while tasks run, or while the executor shuts
     down) the tasks are cancelled, this run's temporary files removed and the
     manifest written (the assets not finished marked 'interrupted') before
@@ -259,7 +266,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
                     entries[name] = dict(_failed(name, path, key, f"{type(err).__name__}: {err}"), action="failed")
                 else:
                     try:
-                        entries[name] = _store(out, path, res)
+                        entries[name] = _store(out, path, res, code)
                     except OSError as e:    # unwritable, disk full: this asset failed, the others go on
                         entries[name] = dict(_failed(name, path, key, f"writing its outputs: {type(e).__name__}: "
                                                                       f"{e}"), action="failed")
@@ -280,11 +287,20 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     return manifest
 
 
-def _store(out: Path, path: Path, res: dict) -> dict:
-    """Write a finished task's outputs, then its record; returns its manifest entry."""
+def _store(out: Path, path: Path, res: dict, code: str) -> dict:
+    """Write a finished task's outputs, then its record; returns its manifest entry.
+
+    Outputs of a worker that ran other code than ``code`` (another pyshadow on a Dask cluster's worker)
+    are not written: stored under this code's key, a rerun would keep them as this code's.
+    """
     rec = dict(res["record"], source=str(path))
+    worker_code = rec.pop("code", None)
     if rec["status"] != "baked":
         return dict(rec, action="failed")
+    if worker_code != code:
+        why = (f"its worker {rec.get('worker')} runs other pyshadow code (digest {str(worker_code)[:12]}, here "
+               f"{code[:12]}): install the same pyshadow on every worker")
+        return dict(_failed(rec["name"], path, rec["key"], why), worker=rec.get("worker"), action="failed")
     return dict(store(out, f"records/{rec['name']}.json", rec, res["files"]), action="baked")
 
 

@@ -17,7 +17,8 @@ pile       ``--pile`` x ``--pile`` columns of 4 unit boxes, stacked     ground y
 
 Per scene: **change**, the time to find the touching faces after a scene
 change (``scene.set_transform`` of one instance to its own pose, then
-``contact_bodies.body_patches``), the median of ``--rounds``; **query**, AO
+``contact_bodies.body_patches``: bodies on bodies, and ``contact.footprints``:
+bodies on the ground), medians of ``--rounds``; **query**, AO
 of ``--points`` points on the floor, the ground or the plane between the pile's second and third layers (up
 normals, 16 samples) with the faces already found, against **no rule**:
 the same CSMs added without meshes (nothing to close in), interleaved
@@ -97,19 +98,22 @@ def points(extent, height: float, n: int, seed: int = 0) -> np.ndarray:
 def measure(entry, n_points: int, rounds: int) -> dict:
     """Medians (s) of the scene change and of the AO query with and without the rule; closed-in points."""
     import pyshadow
+    from pyshadow.contact import footprints
     from pyshadow.contact_bodies import body_patches
 
     ruled, bare, extent, height = entry
     p = points(extent, height, n_points)
     up = np.tile([0.0, 1.0, 0.0], (n_points, 1))
     sampling = pyshadow.Sampling(SAMPLES)
-    change, query, plain = [], [], []
+    change, ground, query, plain = [], [], [], []
     patches = body_patches(ruled)
     for r in range(-1, rounds):                 # one untimed round: kernel builds
         ruled.set_transform(1, ruled.instances[1].transform)
         t0 = time.perf_counter()
         patches = body_patches(ruled)
         t1 = time.perf_counter()
+        feet = footprints(ruled)
+        ground_s = time.perf_counter() - t1
         order = ((ruled, query), (bare, plain)) if r % 2 else ((bare, plain), (ruled, query))
         for scene, times in order:
             t2 = time.perf_counter()
@@ -122,9 +126,11 @@ def measure(entry, n_points: int, rounds: int) -> dict:
                 ao_bare = ao
         if r >= 0:
             change.append(t1 - t0)
-    return {"instances": len(ruled.instances), "patches": len(patches),
+            ground.append(ground_s)
+    return {"instances": len(ruled.instances), "patches": len(patches), "footprints": len(feet),
             "closed_in_points": int(np.count_nonzero(ao_ruled != ao_bare)),
-            "change_s": statistics.median(change), "query_s": statistics.median(query),
+            "change_s": statistics.median(change), "ground_change_s": statistics.median(ground),
+            "query_s": statistics.median(query),
             "query_without_rule_s": statistics.median(plain)}
 
 

@@ -35,7 +35,8 @@ def test_patches_of_the_three_scenes():
     """Boxes 1 m apart touch nothing; each of four boxes on a floor mesh touches it with its underside
     (one patch each: the floor is a receiver, which closes nothing in); a 2 x 2 pile of columns of four unit
     boxes: every box has two neighbours beside it, the three lower layers a box above, the three upper a
-    box below (the ground is not a body): 16 * 2 + 12 + 12 = 56 patches, each of two triangles."""
+    box below (the ground is not a body): 16 * 2 + 12 + 12 = 56 patches, each of two triangles; the
+    bodies on the ground (all four apart, the pile's lowest four) have footprints, the floor's none."""
     import contact_cost
     from pyshadow.contact_bodies import body_patches
 
@@ -43,5 +44,8 @@ def test_patches_of_the_three_scenes():
     assert [len(body_patches(sc[k][0])) for k in ("apart", "floor", "pile")] == [0, 4, 56]
     assert all(len(p[5]) == 2 and len(p[6]) == 4 for p in body_patches(sc["pile"][0]))
     assert [len(body_patches(sc[k][1])) for k in ("apart", "floor", "pile")] == [0, 0, 0]   # no meshes
+    from pyshadow.contact import footprints
+
+    assert [len(footprints(sc[k][0])) for k in ("apart", "floor", "pile")] == [4, 0, 4]     # no ground: none
     normals = np.array([p[0] for p in body_patches(sc["floor"][0])])
     assert np.array_equal(normals, np.tile([0.0, 1.0, 0.0], (4, 1)))     # into the box above the floor

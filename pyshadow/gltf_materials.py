@@ -25,7 +25,6 @@ import json
 import os
 import struct
 from functools import lru_cache
-from urllib.parse import unquote
 
 import numpy as np
 
@@ -190,7 +189,7 @@ def _needed(tree) -> bool:
 def _document(path, mtime_ns, size):
     """(JSON tree, buffers) of a glTF file that :func:`_needed`, else None; cached by path, time and size
     (the last file only: its buffers are as large as the file). Only the JSON is read of other files."""
-    from .mesh_files import _gltf_head
+    from .gltf_files import GltfResolver, _gltf_head
 
     head = _gltf_head(path)
     glb = head[:4] == b"glTF"
@@ -200,7 +199,8 @@ def _document(path, mtime_ns, size):
     if glb:
         with open(path, "rb") as fh:
             fh.seek(len(head))
-            n, kind = struct.unpack("<II", fh.read(8))
+            chunk = fh.read(8)              # none: a GLB whose buffers are all files (or data:)
+            n, kind = struct.unpack("<II", chunk) if len(chunk) == 8 else (0, 0)
             glb = fh.read(n) if kind == 0x004E4942 else None
     buffers = []
     for b in tree.get("buffers") or []:
@@ -209,9 +209,8 @@ def _document(path, mtime_ns, size):
             buffers.append(glb)
         elif uri.startswith("data:"):
             buffers.append(base64.b64decode(uri.split(",", 1)[1]))
-        else:
-            with open(os.path.join(os.path.dirname(path), unquote(uri)), "rb") as fh:
-                buffers.append(fh.read())
+        else:                                   # the file trimesh read (a percent-decoded name)
+            buffers.append(GltfResolver(str(path)).get(uri))
     return tree, buffers
 
 

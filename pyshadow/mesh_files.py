@@ -27,20 +27,13 @@ OFF comment after data shifted the lines after it: :func:`ply_polygons` and
 :func:`off_text` rewrite such files. A binary STL whose facet count is not
 its length's (0, as some CAD exporters write) "held no geometry" (read now).
 
-trimesh reads a glTF whose geometry it cannot decode wrongly or fails on it
-unclearly: a Draco-compressed mesh without DracoPy was read as zeros ("every
-face is degenerate"), normalised integer positions (``KHR_mesh_quantization``)
-as the integers (32767 times too large for int16), sparse positions without
-their sparse values, a triangle-fan primitive was left out, and a
-meshopt-compressed file failed with "list index out of range".
-:func:`check_gltf` refuses such a file first, saying why.
+glTF files are read by :mod:`pyshadow.gltf_files` (:func:`check_gltf` refuses geometry trimesh
+reads wrongly; buffer and image files are found by their percent-decoded names).
 """
 from __future__ import annotations
 
-import importlib.util
 import io
 import itertools
-import json
 import re
 import struct
 from pathlib import Path
@@ -48,7 +41,10 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from .gltf_files import _gltf_head, _gltf_json, check_gltf, read_gltf
+
 __all__ = ["read_mesh_file", "obj_text", "obj_polygons", "ply_ascii", "ply_polygons", "off_text", "check_gltf"]
+_GLTF_HELPERS = (_gltf_head, _gltf_json)        # moved to gltf_files, still importable from here
 
 # an element line holding a negative index, or a data line indented or with a tab after its keyword
 # (a false alarm only costs the rewrite, which changes nothing then); searched in "\n" + text: a literal
@@ -443,78 +439,6 @@ def _stl_binary(data: bytes, label: str) -> bytes | None:
     return data[:80] + struct.pack("<I", count) + data[84:84 + 50 * count]
 
 
-def _gltf_json(data: bytes):
-    """The JSON of a GLB's first chunk or of a ``.gltf`` file, or None where there is none to read."""
-    try:
-        if data[:4] == b"glTF":
-            length, kind = struct.unpack_from("<II", data, 12)
-            return json.loads(data[20:20 + length]) if kind == 0x4E4F534A else None
-        return json.loads(data)
-    except (ValueError, struct.error):
-        return None
-
-
-def _gltf_head(path: Path) -> bytes:
-    """A GLB's header and JSON chunk (not its binary chunk), or a ``.gltf`` file's text."""
-    with open(path, "rb") as fh:
-        head = fh.read(20)
-        if head[:4] != b"glTF" or len(head) < 20:
-            return head + fh.read()
-        return head + fh.read(struct.unpack_from("<I", head, 12)[0])
-
-
-def check_gltf(data: bytes, label: str = "glTF") -> None:
-    """Raise ValueError where a glTF's geometry is stored in a way trimesh reads wrongly.
-
-    Parameters
-    ----------
-    data : bytes
-        A ``.glb`` file's contents (its first chunk suffices) or a ``.gltf``
-        file's text; anything else passes.
-    label : str
-        Names the file in the message.
-
-    Raises
-    ------
-    ValueError
-        A primitive is compressed with ``KHR_draco_mesh_compression`` and
-        DracoPy is not installed (trimesh would read zeros); the file requires
-        ``EXT_meshopt_compression`` or ``KHR_meshopt_compression`` (trimesh
-        fails on them); a ``POSITION`` accessor is ``normalized`` integers
-        (trimesh would not scale them); a primitive's positions or indices
-        are a sparse accessor (trimesh ignores the sparse values); or a
-        primitive is a triangle fan (mode 6, which trimesh leaves out).
-    """
-    tree = _gltf_json(data)
-    if not isinstance(tree, dict):
-        return
-    prims = [p for m in tree.get("meshes") or [] if isinstance(m, dict)
-             for p in m.get("primitives") or [] if isinstance(p, dict)]
-    used = set(tree.get("extensionsRequired") or []) | {e for p in prims for e in p.get("extensions") or {}}
-    if "KHR_draco_mesh_compression" in used and importlib.util.find_spec("DracoPy") is None:
-        raise ValueError(f"{label}: its meshes are Draco-compressed (KHR_draco_mesh_compression), which trimesh "
-                         "decodes only with DracoPy (pip install DracoPy); or export the file without Draco")
-    meshopt = used & {"EXT_meshopt_compression", "KHR_meshopt_compression"}
-    if meshopt:
-        raise ValueError(f"{label}: it requires {sorted(meshopt)[0]}, which trimesh cannot decode; "
-                         "export the file without meshopt compression (gltfpack: leave out -c/-cc)")
-    accessors = tree.get("accessors") or []
-    for p in prims:
-        if p.get("mode") == 6:
-            raise ValueError(f"{label}: a primitive is a triangle fan (mode 6), which trimesh leaves out; "
-                             "export triangles")
-        for k in ((p.get("attributes") or {}).get("POSITION"), p.get("indices")):
-            acc = accessors[k] if isinstance(k, int) and 0 <= k < len(accessors) else None
-            if isinstance(acc, dict) and acc.get("sparse"):
-                raise ValueError(f"{label}: accessor {k} of a primitive's positions or indices is sparse, "
-                                 "which trimesh reads without its sparse values; export dense accessors")
-        k = (p.get("attributes") or {}).get("POSITION")
-        if isinstance(k, int) and 0 <= k < len(accessors) and (accessors[k] or {}).get("normalized"):
-            raise ValueError(f"{label}: its positions are normalized integers (accessor {k}, "
-                             "KHR_mesh_quantization), which trimesh reads unscaled; export float positions "
-                             "(gltfpack: -noq)")
-
-
 def _ply_suspect(mesh) -> str:
     """Why trimesh's read of a PLY may be wrong: "misread" (binary lists not all as long as the first, as trimesh
     takes them), "split" (faces of 5+ corners, or of 4 with colours: :func:`ply_polygons`), or ""."""
@@ -574,7 +498,7 @@ def read_mesh_file(path: Path, label: str):
                 not mesh.geometry else None
             return mesh if fixed is None else trimesh.load(io.BytesIO(fixed), file_type="stl", process=False)
         if path.suffix.lower() in (".glb", ".gltf"):
-            check_gltf(_gltf_head(path), label)
+            return read_gltf(path, label)
         if path.suffix.lower() != ".obj":
             return trimesh.load(str(path), process=False)
         data = path.read_bytes()

@@ -57,21 +57,25 @@ def side_files(path) -> dict:
     Returns
     -------
     dict
-        ``uri`` (as the file names it) -> path, for each one that is a
-        file in the mesh file's folder or below it; empty for other
-        formats and for a ``.gltf`` that cannot be read (its bake then
-        reports the error).
+        Name -> path, for each file a ``uri`` means that is in the mesh
+        file's folder or below it, found as the mesh reader finds it
+        (:class:`pyshadow.gltf_files.GltfResolver`: a percent-encoded
+        ``my%20chair.bin`` is the file ``my chair.bin``); the name is the
+        one found, relative to the folder (the ``uri`` as written where it
+        names the file as it is). Empty for other formats and for a
+        ``.gltf`` that cannot be read (its bake then reports the error).
     """
     path = Path(path)
     if path.suffix.lower() != ".gltf":
         return {}
+    from ..gltf_files import GltfResolver, gltf_file_uris
+
     try:
-        doc = json.loads(path.read_bytes())
-        uris = [item["uri"] for key in ("buffers", "images") for item in doc.get(key, [])
-                if isinstance(item, dict) and isinstance(item.get("uri"), str)]
+        uris = gltf_file_uris(json.loads(path.read_bytes()), every=True)
+        found = [GltfResolver(str(path)).match(uri) for _, _, uri in uris]
     except (OSError, ValueError, TypeError, AttributeError, RecursionError):
         return {}
-    return {uri: path.parent / uri for uri in uris if _beside(uri) and (path.parent / uri).is_file()}
+    return {name: file for name, file in filter(None, found) if _beside(name)}
 
 
 def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
@@ -151,6 +155,19 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
     out.vertex_attributes["ao"] = ao
     out.vertex_attributes["bent_normal"] = bent
     return out.export(file_type="glb")
+
+
+def other_code(worker_code, code: str, worker) -> str | None:
+    """Why outputs a worker made must not be stored under ``code``'s key, or None when they may.
+
+    ``worker_code`` is the :func:`pyshadow.bake.params.code_digest` the task reported (None: it reported
+    none); another one (a Dask cluster's worker running another pyshadow) would make a rerun keep those
+    outputs as this code's for good. Used by the asset and the frame bake alike.
+    """
+    if worker_code == code:
+        return None
+    return (f"its worker {worker} runs other pyshadow code (digest {str(worker_code)[:12]}, here "
+            f"{code[:12]}): install the same pyshadow on every worker, and leave it unchanged while a bake runs")
 
 
 def csm_file_bytes(csm) -> bytes:

@@ -29,7 +29,7 @@ import numpy as np
 from .._files import write_bytes_atomic
 from .._validate import check_int
 from .._version import __version__
-from .assets import csm_file_bytes
+from .assets import csm_file_bytes, other_code
 from .motion import _check as _check_motion
 from .params import code_digest
 from .records import done, store
@@ -127,7 +127,9 @@ def render_chunk(frames, transforms, payload) -> list:
     list of dict
         Per frame: ``frame``, ``files`` (``exr/frame_NNNN.exr`` and
         ``png/frame_NNNN.png`` -> bytes), ``seconds`` (render),
-        ``ao_mean`` (over covered pixels), ``worker``; for a frame that
+        ``ao_mean`` (over covered pixels), ``worker``, ``code``
+        (:func:`pyshadow.bake.params.code_digest` of the code that rendered
+        it, which the driver compares with its own); for a frame that
         failed (e.g. a render refused for that frame's placement) only
         ``frame``, ``error`` ('Type: message') and ``worker``: the chunk's
         other frames are rendered as they would be alone.
@@ -136,8 +138,10 @@ def render_chunk(frames, transforms, payload) -> list:
 
     from ..io import write_image
     from ..sampling import Sampling
+    from .params import code_digest as worker_code
 
     scene, camera = _scene(payload)
+    code = worker_code()
     r = payload["render"]
     results = []
     worker = f"{socket.gethostname()}:{os.getpid()}"
@@ -161,7 +165,7 @@ def render_chunk(frames, transforms, payload) -> list:
         covered = frame.object_id >= 0
         results.append({"frame": int(f), "files": files, "seconds": seconds,
                         "ao_mean": float(frame.ao[covered].mean()) if covered.any() else None,
-                        "worker": worker})
+                        "worker": worker, "code": code})
     return results
 
 
@@ -238,7 +242,9 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     dict
         The manifest (also ``out_dir/manifest.json``): ``schema``,
         ``frames`` (per frame ``frame``, ``action`` 'rendered', 'skipped',
-        'failed' or 'interrupted', ``outputs``, ``seconds``, ``error``),
+        'failed' or 'interrupted', ``outputs``, ``seconds``, ``error``; a
+        frame a worker of other pyshadow code rendered is 'failed', not
+        stored: under this code's key a rerun would keep it),
         ``summary``, ``seconds`` (wall), ``frames_per_minute``, ``csm``
         (file per caster), ``executor``.
 
@@ -333,6 +339,11 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                         if r.get("error") is not None:      # this frame alone failed
                             entries[r["frame"]] = {"frame": r["frame"], "key": keys[r["frame"]], "status": "failed",
                                                    "action": "failed", "error": r["error"]}
+                            continue
+                        why = other_code(r.get("code"), code, r["worker"])
+                        if why is not None:                 # under this code's key it would be skipped for good
+                            entries[r["frame"]] = {"frame": r["frame"], "key": keys[r["frame"]], "status": "failed",
+                                                   "action": "failed", "error": why, "worker": r["worker"]}
                             continue
                         rec = {"frame": r["frame"], "key": keys[r["frame"]], "status": "baked",
                                "seconds": r["seconds"], "ao_mean": r["ao_mean"], "worker": r["worker"]}

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 from .._version import __version__
-from .assets import bake_asset, output_names, side_files
+from .assets import bake_asset, other_code, output_names, side_files
 from .params import AssetParams, asset_key, code_digest
 from .records import done, sha256_file, store
 from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
@@ -297,9 +297,8 @@ def _store(out: Path, path: Path, res: dict, code: str) -> dict:
     worker_code = rec.pop("code", None)
     if rec["status"] != "baked":
         return dict(rec, action="failed")
-    if worker_code != code:
-        why = (f"its worker {rec.get('worker')} runs other pyshadow code (digest {str(worker_code)[:12]}, here "
-               f"{code[:12]}): install the same pyshadow on every worker")
+    why = other_code(worker_code, code, rec.get("worker"))
+    if why is not None:
         return dict(_failed(rec["name"], path, rec["key"], why), worker=rec.get("worker"), action="failed")
     return dict(store(out, f"records/{rec['name']}.json", rec, res["files"]), action="baked")
 

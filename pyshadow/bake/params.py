@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import json
 import numbers
@@ -119,13 +120,17 @@ class AssetParams:
         return cls(**d)
 
 
+@functools.lru_cache(maxsize=1)
 def code_digest() -> str:
     """SHA-256 (hex) of pyshadow's version, every module of the package and every kernel source.
 
     A baked output depends on the CSM builder, the AO kernels and the host
     code around them; hashing all of it (:func:`pyshadow.cache.source_digest`)
     makes a code change produce new keys, so a rerun redoes the assets
-    instead of keeping stale ones.
+    instead of keeping stale ones. Read once per process: the code it
+    loaded (files changed on disk during a bake, an editable install being
+    edited, made every later asset fail as a worker's "other code", the
+    serial bake's too).
     """
     from ..cache import source_digest
 

@@ -173,12 +173,15 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
         NaN or infinite, or a glTF stores its geometry in a way trimesh
         reads wrongly (:func:`pyshadow.mesh_files.check_gltf`: Draco
         without DracoPy, meshopt, normalised or sparse positions, triangle
-        fans); the message names the path and the reason.
+        fans), or names a buffer file not in its folder; the message names
+        the path and the reason.
 
     Warns
     -----
     MeshCleanupWarning
         When faces were removed, with their counts.
+    UserWarning
+        A glTF's image file not in its folder (read without it).
 
     Examples
     --------

@@ -3,22 +3,9 @@ over, their cells; scenes of bodies close together keep their one map."""
 import numpy as np
 import trimesh
 
-import pyshadow
 from pyshadow.lighting.shadow_fit import MAX_PARTS, SPLIT_RATIO, cell_points, split_casters
 from pyshadow.lighting.shadow_map import ShadowMapVisibility
-
-
-def sun(azimuth_deg, elevation_deg):
-    a, e = np.radians(azimuth_deg), np.radians(elevation_deg)
-    return np.array([np.cos(e) * np.cos(a), np.sin(e), np.cos(e) * np.sin(a)])
-
-
-def boxes(*xz, size=1.0):
-    """1 m boxes (``size``) standing on the ground plane y = 0 at the given (x, z)."""
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(2, 4), resolution=8)
-    for x, z in xz:
-        scene.add(trimesh.creation.box((size,) * 3), trimesh.transformations.translation_matrix([x, size / 2, z]))
-    return scene
+from test_sunfit_far import boxes, sun
 
 
 def test_close_bodies_keep_one_map():

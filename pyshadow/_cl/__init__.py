@@ -44,7 +44,7 @@ import pyopencl as cl
 
 from . import pocl_cpu as _pocl_cpu
 from . import probe as _probe
-from .launch import check_alloc
+from .launch import Kernel, check_alloc, new_buffer
 from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
 __all__ = [
@@ -526,14 +526,16 @@ def kernel(source_file: str, name: str, defines: dict | None = None) -> cl.Kerne
     """The kernel ``name`` of ``source_file`` built with ``defines`` (memoised).
 
     The same ``Kernel`` object is returned for the same arguments, so argument
-    setting and pyopencl's per-kernel caches are reused.
+    setting and pyopencl's per-kernel caches are reused. It is a
+    :class:`pyshadow._cl.launch.Kernel`: a launch the device refuses for want
+    of memory or work-items raises :class:`DeviceNotSupportedError`.
     """
     defines = _with_lanes(source_file, defines)
     key = (id(context()), source_file, name, _options(defines))
     with _lock:
         k = _kernels.get(key)
         if k is None:
-            k = cl.Kernel(program(source_file, defines), name)
+            k = Kernel(program(source_file, defines), name)
             _kernels[key] = k
         return k
 
@@ -544,8 +546,7 @@ def to_device(array: np.ndarray, dtype=None) -> cl.Buffer:
     mf = cl.mem_flags
     if a.nbytes == 0:
         a = np.zeros(1, dtype=a.dtype)
-    check_alloc(a.nbytes)
-    return cl.Buffer(context(), mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a)
+    return new_buffer(context(), mf.READ_ONLY | mf.COPY_HOST_PTR, a.nbytes, a)
 
 
 def host_buffer(array: np.ndarray, writable: bool = False) -> cl.Buffer:
@@ -561,9 +562,8 @@ def host_buffer(array: np.ndarray, writable: bool = False) -> cl.Buffer:
     if a.nbytes == 0:
         return to_device(np.zeros(1, a.dtype))
     mf = cl.mem_flags
-    check_alloc(a.nbytes)
     flags = (mf.READ_WRITE if writable else mf.READ_ONLY) | mf.USE_HOST_PTR
-    return cl.Buffer(context(), flags, hostbuf=a)
+    return new_buffer(context(), flags, a.nbytes, a)
 
 
 def sync_host_buffer(buf: cl.Buffer, array: np.ndarray) -> None:
@@ -585,4 +585,4 @@ def has_fp64() -> bool:
 
 def empty(nbytes: int) -> cl.Buffer:
     """A new device buffer of ``nbytes`` (at least 1; see :func:`~pyshadow._cl.launch.check_alloc`)."""
-    return cl.Buffer(context(), cl.mem_flags.READ_WRITE, size=max(check_alloc(nbytes), 4))
+    return new_buffer(context(), cl.mem_flags.READ_WRITE, max(check_alloc(nbytes), 4))

@@ -1,8 +1,9 @@
 """Launch shapes: lane width, batches, work-groups and chunks, per device kind.
 
 Every kernel launch of pyshadow takes its shape from :func:`shape`, so what
-depends on the device lives here and nowhere else: its work-group limits and
-the largest buffer it allocates (:func:`check_alloc`). Each value says why it
+depends on the device lives here and nowhere else: its work-group limits,
+the largest buffer it allocates (:func:`check_alloc`) and what a launch the
+device refuses for want of resources raises (:class:`Kernel`). Each value says why it
 has its value; figures are from benchmarks/README.md.
 """
 from __future__ import annotations
@@ -14,7 +15,8 @@ import pyopencl as cl
 
 from .probe import DeviceNotSupportedError
 
-__all__ = ["LaunchShape", "shape", "grid", "kernel_group_limit", "override", "check_alloc"]
+__all__ = ["LaunchShape", "Kernel", "shape", "grid", "kernel_group_limit", "override", "check_alloc",
+           "new_buffer"]
 
 _overrides: list[dict] = []
 
@@ -230,6 +232,81 @@ def check_alloc(nbytes) -> int:
     if n > limit:
         raise DeviceNotSupportedError(
             f"a buffer of {n:,} bytes is more than OpenCL device {dev.name.strip()!r} allocates at once "
-            f"(max_mem_alloc_size {limit:,} bytes); ask for less at a time, or choose another device "
-            "with PYSHADOW_DEVICE")
+            f"(max_mem_alloc_size {limit:,} bytes); ask for less at a time (fewer or lower-resolution CSMs in "
+            "one scene, fewer points or a smaller image a call, a lower resolution or fewer maps a block), or "
+            "choose another device with PYSHADOW_DEVICE")
     return n
+
+
+# OpenCL error codes of a buffer or launch the device cannot hold: memory (a
+# GPU allocates buffers at their first use, so a scene whose buffers together
+# outgrow its memory fails at a launch, each buffer within max_mem_alloc_size),
+# registers or work-group sizes
+_RESOURCE_ERRORS = {-4: "MEM_OBJECT_ALLOCATION_FAILURE", -5: "OUT_OF_RESOURCES", -6: "OUT_OF_HOST_MEMORY",
+                    -54: "INVALID_WORK_GROUP_SIZE", -55: "INVALID_WORK_ITEM_SIZE", -61: "INVALID_BUFFER_SIZE",
+                    -63: "INVALID_GLOBAL_WORK_SIZE"}
+
+
+class Kernel(cl.Kernel):
+    """A ``pyopencl.Kernel`` (what :func:`pyshadow._cl.kernel` returns) whose
+    launch, when the device refuses it for want of resources, raises
+    :class:`DeviceNotSupportedError` naming the device's limits and what to
+    ask for less of (see :func:`launch_error`); other errors pass unchanged."""
+
+    __slots__ = ()
+
+    def __call__(self, queue, global_size, local_size, *args, **kwargs):
+        try:
+            return super().__call__(queue, global_size, local_size, *args, **kwargs)
+        except cl.Error as exc:
+            err = launch_error(self, exc, global_size, local_size)
+            if err is None:
+                raise
+            raise err from exc
+
+
+def new_buffer(context: cl.Context, flags, nbytes: int, hostbuf=None) -> cl.Buffer:
+    """A ``pyopencl.Buffer`` of ``nbytes`` (checked by :func:`check_alloc`);
+    a device that refuses it for want of memory raises
+    :class:`DeviceNotSupportedError` (see :func:`resource_error`)."""
+    n = check_alloc(nbytes)
+    try:
+        if hostbuf is None:
+            return cl.Buffer(context, flags, size=n)
+        return cl.Buffer(context, flags, hostbuf=hostbuf)
+    except cl.Error as exc:
+        err = resource_error(exc, f"a buffer of {n:,} bytes")
+        if err is None:
+            raise
+        raise err from exc
+
+
+def launch_error(kernel, exc: cl.Error, global_size, local_size) -> DeviceNotSupportedError | None:
+    """The error a failed launch of ``kernel`` raises (:func:`resource_error`), or None."""
+    try:
+        name = repr(kernel.function_name)
+        allows = f", the kernel allowing {kernel_group_limit(kernel):,} a group"
+    except cl.Error:            # a device too broken to answer: the message without it
+        name, allows = "?", ""
+    group = "(driver choice)" if local_size is None else tuple(local_size)
+    return resource_error(exc, f"kernel {name} over {tuple(global_size)} work-items in groups of {group}{allows}")
+
+
+def resource_error(exc: cl.Error, doing: str) -> DeviceNotSupportedError | None:
+    """A :class:`DeviceNotSupportedError` saying the device refused
+    ``doing`` (a buffer, a launch) and naming its limits and what to ask for
+    less of, where the OpenCL error ``exc`` says it lacks the memory or
+    work-items asked for; else None (``exc`` itself is raised)."""
+    from . import device
+
+    what = _RESOURCE_ERRORS.get(getattr(exc, "code", None))
+    if what is None:
+        return None
+    dev = device()
+    return DeviceNotSupportedError(
+        f"OpenCL device {dev.name.strip()!r} refused {doing}: {what} "
+        f"(the device has {int(dev.global_mem_size):,} bytes of global memory and allocates at most "
+        f"{int(dev.max_mem_alloc_size):,} bytes a buffer and {int(dev.max_work_group_size):,} work-items a group). "
+        "Ask for less at once (fewer or lower-resolution CSMs in one scene, fewer points or a smaller "
+        "image a call, a lower resolution or fewer maps a block), free other programs' use of the device, or "
+        "choose another device with PYSHADOW_DEVICE")

@@ -251,7 +251,8 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     frame : (centre, radius), optional
         Normalised frame; default :func:`pyshadow.bounding_sphere` of the mesh.
     block : int, optional
-        Maps per kernel launch; default keeps a launch's output near 64 MiB.
+        Maps per kernel launch; default keeps a launch's output near 64 MiB
+        (or the device's largest buffer, where less).
     progress : bool, optional
         Show a progress bar over the blocks.
     facing : bool, optional
@@ -295,7 +296,7 @@ def render_depth(mesh, views: ViewSet, *, resolution: int = 128, layers: int = 2
     facing = renderer.facing
     D = len(views)
     if block is None:
-        block = max(1, min(D, (64 << 20) // renderer.bytes_per_map))
+        block = max(1, min(D, launch.block_budget(64 << 20) // renderer.bytes_per_map))
     out = np.empty((D, renderer.layers, renderer.resolution, renderer.resolution), np.float32)
     buf = _cl.empty(min(block, D) * renderer.bytes_per_map)
     fout = np.empty(out.shape, np.uint8) if facing else None

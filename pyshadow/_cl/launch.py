@@ -16,7 +16,7 @@ import pyopencl as cl
 from .probe import DeviceNotSupportedError
 
 __all__ = ["LaunchShape", "Kernel", "shape", "grid", "kernel_group_limit", "override", "check_alloc",
-           "new_buffer"]
+           "new_buffer", "block_budget"]
 
 _overrides: list[dict] = []
 
@@ -236,6 +236,15 @@ def check_alloc(nbytes) -> int:
             "one scene, fewer points or a smaller image a call, a lower resolution or fewer maps a block), or "
             "choose another device with PYSHADOW_DEVICE")
     return n
+
+
+def block_budget(nbytes: int) -> int:
+    """The bytes a block of maps' buffers may take: ``nbytes``, or the device's ``max_mem_alloc_size`` where
+    that is less (an embedded-profile device's 32 MiB refused the depth maps' 64 MiB default block; each of a
+    block's buffers is a part of the budget)."""
+    from . import device
+
+    return max(1, min(int(nbytes), int(device().max_mem_alloc_size)))
 
 
 # OpenCL error codes of a buffer or launch the device cannot hold: memory (a

@@ -151,7 +151,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if footprint:
         per_map += rule * (R + 1) ** 2 * 5
     if block is None:
-        block = max(1, min(D, (96 << 20) // per_map))
+        block = max(1, min(D, _cl.launch.block_budget(96 << 20) // per_map))
     elif isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)):
         raise TypeError(f"block must be an int, got {block!r}")
     block = int(block)

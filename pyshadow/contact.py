@@ -48,7 +48,7 @@ import weakref
 import numpy as np
 
 from ._validate import check_rows, float32_exact
-from .contact_parts import _CHUNK, _in_parts, _inside, _outlines, _ragged_parts, _slab_pairs
+from .contact_parts import _CHUNK, _expanded, _in_parts, _inside, _outlines, _ragged_parts, _slab_pairs
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -301,25 +301,32 @@ def ground_sheet_slots(scene, points, own):
     off = _plane_offsets(scene, p)
     cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, max(t for _, _, t in found)))
     off = (off[0][cand], off[1][cand])
-    out = own
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    for slot, tri, tol in found:
-        for k, hit in _in_chunks(q_all, tri):
-            hit &= _on_plane((off[0][k], off[1][k]), tol)
-            if hit.any():
-                out = own.copy() if out is own else out
-                out[cand[k[hit]]] = slot
+    # (sheet, point) candidates from one sort of the points (each point against every sheet's box was
+    # O(sheets x points): 100,000 leaves on the ground); a point on several sheets takes the last one's slot
+    tris = _ragged_parts([tri for _, tri, _ in found])
+    tol = np.array([t for _, _, t in found])
+    lo = np.minimum.reduceat(tris[0].min(axis=1), tris[1])          # the sheets' boxes
+    hi = np.maximum.reduceat(tris[0].max(axis=1), tris[1])
+    pid, rows = _slab_pairs(q_all, lo, hi)
+    ok = np.all((q_all[rows] >= lo[pid]) & (q_all[rows] <= hi[pid]), axis=1)
+    pid, rows = pid[ok], rows[ok]
+    ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
+    pid, rows = pid[ok], rows[ok]
+    hit = np.zeros(len(pid), bool)
+    tri, first, count = tris
+    for s, e, c, j in _expanded(count[pid]):                           # inside or on one of its triangles
+        a, b, v = np.moveaxis(tri[first[pid[c + s]] + j], 1, 0)
+        hit[s:e] = np.bincount(c, _inside(a, b, v, q_all[rows[c + s]]), minlength=e - s) > 0
+    pid, rows = pid[hit], rows[hit]
+    if not len(pid):
+        return own
+    last = np.full(len(cand), -1)
+    np.maximum.at(last, rows, pid)
+    out = own.copy()
+    on = np.flatnonzero(last >= 0)
+    out[cand[on]] = np.array([slot for slot, _, _ in found])[last[on]]
     return out
-
-
-def _in_chunks(q_all, tri, extra=1):
-    """(indices into ``q_all``, inside ``tri``) for the points in the triangles' box, a chunk at a time."""
-    lo, hi = tri.reshape(-1, 2).min(axis=0), tri.reshape(-1, 2).max(axis=0)
-    box = np.flatnonzero(np.all((q_all >= lo) & (q_all <= hi), axis=1))
-    step = max(1, _CHUNK // max(len(tri), extra))
-    for s in range(0, len(box), step):
-        k = box[s:s + step]
-        yield k, _in_triangles(q_all[k], tri)
 
 
 def _box_bottom(scene, held, ids):

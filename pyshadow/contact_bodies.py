@@ -127,9 +127,10 @@ def _world_bodies(instances):
         tri = vs[:, f]
         n = _unit_normals(tri.reshape(-1, 3, 3)).reshape(tri.shape[:3])
         lo, hi = tri.min(axis=2), tri.max(axis=2)
+        vlo, vhi = vs.min(axis=1), vs.max(axis=1)          # each instance's vertices' box, all at once
         for k, i in enumerate(rows):
             world[i] = vs[k], f
-            parts[i] = tri[k], n[k], got is not None, lo[k], hi[k], vs[k].min(axis=0), vs[k].max(axis=0)
+            parts[i] = tri[k], n[k], got is not None, lo[k], hi[k], vlo[k], vhi[k]
     nface = np.array([len(w[1]) for w in world], np.intp)
     tri, n, oriented, lo, hi, vlo, vhi = zip(*parts)
     lo, hi = np.concatenate(lo), np.concatenate(hi)
@@ -163,7 +164,7 @@ def body_patches(scene):
     pairs = pairs[np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) <= (r + tol)[pairs].sum(axis=1)]
     both = np.concatenate([pairs, pairs[:, ::-1]])
     if len(both):                                       # a receiver closes nothing in
-        both = both[[scene.instances[ids[b]].casts for b in both[:, 0]]]
+        both = both[held["casts"][np.asarray(ids)[both[:, 0]]]]
     if not len(both):
         held["bodies"] = out
         return out

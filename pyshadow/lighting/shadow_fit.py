@@ -20,11 +20,13 @@ leaves a small group) keep one map, coarse over each: cascaded maps would be nee
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..scene_arrays import scene_arrays
 
-__all__ = ["SPLIT_RATIO", "MAX_PARTS", "MAX_TEXELS", "part_limit", "split_casters", "cell_points"]
+__all__ = ["SPLIT_RATIO", "MAX_PARTS", "MAX_TEXELS", "part_limit", "split_casters", "cell_points", "far_axis"]
 
 SPLIT_RATIO = 8.0       # a cut where its gap spans over, its smaller side under, 1 / this of the whole across it
 MAX_PARTS = 8           # maps of one directional light at most (each R x R float32) ...
@@ -140,3 +142,18 @@ def cell_points(points, axes, cells):
     a list of int index arrays, one per cell."""
     uv = points @ axes.T
     return [np.flatnonzero(((uv >= lo) & (uv < hi)).all(axis=1)) for lo, hi in cells]
+
+
+def far_axis(scene, position, resolution: int, far_texels: float):
+    """A point light whose casters' cone spans under ``far_texels`` texels at ``resolution``
+    (:mod:`pyshadow.lighting.shadow_map`'s ``FAR_TEXELS``, its module docstring): (unit direction towards it
+    along the cone's axis, the casters' mean centre); else None."""
+    from .local import _sphere_cone
+
+    arr = scene_arrays(scene)
+    casters = np.flatnonzero(arr["casts"])
+    c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
+    cone, half = _sphere_cone(position, c, r)
+    if not (len(casters) and half < 0.5 and resolution * math.tan(half) < far_texels):
+        return None
+    return -cone[2], c.mean(axis=0)

@@ -96,7 +96,7 @@ from .._validate import check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
 from ..scene_arrays import check_meshes, scene_arrays
 from ._checks import _floats
-from .shadow_fit import _ortho_frame, cell_points, part_limit, split_casters
+from .shadow_fit import _ortho_frame, cell_points, far_axis, part_limit, split_casters
 from .shadow_map_checks import PCF_SIZES, _check_bias, _check_pcf
 
 __all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
@@ -395,7 +395,7 @@ class ShadowMapVisibility:
         p = np.asarray(p, np.float64)
         w = unit_directions(w)
         kind, light = light_of_rays(p, w, tmax, scene.scale())
-        axis = self._far_axis(scene, light) if kind == "point" else None
+        axis = far_axis(scene, light, self.resolution, FAR_TEXELS) if kind == "point" else None
         if axis is not None:            # a far point light: the map along its casters' cone, rays moved to it
             sm, wa = self.shadow_map(scene, direction=axis[0]), w @ axis[0]
             s = np.where(wa > 0, (axis[1] - p) @ axis[0], 0.0)         # to the casters' depth (rays towards it)
@@ -415,19 +415,6 @@ class ShadowMapVisibility:
         """Not answerable: a shadow map holds one light's depths, AO asks every direction (any options)."""
         raise ValueError("a shadow map answers the rays of one light (one direction, or one end point); it "
                          "cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree'")
-
-    def _far_axis(self, scene, position):
-        """A point light whose casters' cone spans under ``FAR_TEXELS`` texels (module docstring):
-        (unit direction towards it along the cone's axis, the casters' mean centre); else None."""
-        from .local import _sphere_cone
-
-        arr = scene_arrays(scene)
-        casters = np.flatnonzero(arr["casts"])
-        c, r = arr["world_centre"][casters], arr["world_radius"][casters] * (1 + 1e-6)
-        cone, half = _sphere_cone(position, c, r)
-        if not (len(casters) and half < 0.5 and self.resolution * math.tan(half) < FAR_TEXELS):
-            return None
-        return -cone[2], c.mean(axis=0)
 
     # -- maps ----------------------------------------------------------
     def shadow_map(self, scene, *, direction=None, position=None) -> ShadowMap:

@@ -5,17 +5,7 @@ import numpy as np
 import trimesh
 
 import pyshadow
-from pyshadow import _cl
-
-
-class _SmallDevice:
-    """The device, allocating at most ``limit`` bytes a buffer (an embedded-profile device's 32 MiB)."""
-
-    def __init__(self, dev, limit):
-        self._dev, self.max_mem_alloc_size = dev, limit
-
-    def __getattr__(self, name):
-        return getattr(self._dev, name)
+from test_bad_input_cl import limited
 
 
 def test_default_blocks_fit_a_small_device(monkeypatch):
@@ -27,8 +17,7 @@ def test_default_blocks_fit_a_small_device(monkeypatch):
     views = pyshadow.ViewSet.zigzag(4, 8)
     want = pyshadow.render_depth(mesh, views, resolution=256, layers=3)
     csm = pyshadow.CoherentShadowMap.build(mesh, views, resolution=512, progress=False)
-    real = _cl.device()
-    monkeypatch.setattr(_cl, "device", lambda: _SmallDevice(real, 32 << 20))
+    limited(monkeypatch, max_mem_alloc_size=32 << 20)          # an embedded-profile device's 32 MiB a buffer
     got = pyshadow.render_depth(mesh, views, resolution=256, layers=3)
     small = pyshadow.CoherentShadowMap.build(mesh, views, resolution=512, progress=False)
     assert np.array_equal(got, want)

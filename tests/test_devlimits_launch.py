@@ -13,20 +13,7 @@ import trimesh
 import pyshadow
 from pyshadow import _cl
 from pyshadow._cl import launch
-
-
-def box_scene():
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
-    scene.add(trimesh.creation.box((1.0, 1.0, 1.0)), trimesh.transformations.translation_matrix([0, 0.5, 0]))
-    return scene
-
-
-def queries(n, seed=3):
-    rng = np.random.default_rng(seed)
-    p = np.column_stack([rng.uniform(-2, 2, n), np.zeros(n), rng.uniform(-2, 2, n)])
-    d = rng.normal(size=(n, 3))
-    d[:, 1] = np.abs(d[:, 1]) + 0.1
-    return p, d
+from test_bad_input_cl import box_scene, queries
 
 
 def out_of_memory(code, name):

@@ -48,7 +48,7 @@ import weakref
 import numpy as np
 
 from ._validate import check_rows, float32_exact
-from .contact_parts import _CHUNK, _expanded, _in_parts, _inside, _outlines, _ragged_parts, _slab_pairs
+from .contact_parts import _CHUNK, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines, _slab_pairs
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -304,20 +304,15 @@ def ground_sheet_slots(scene, points, own):
     q_all = p[cand][:, [0, 2]].astype(np.float64)
     # (sheet, point) candidates from one sort of the points (each point against every sheet's box was
     # O(sheets x points): 100,000 leaves on the ground); a point on several sheets takes the last one's slot
-    tris = _ragged_parts([tri for _, tri, _ in found])
+    tris, _, lo, hi = _kept_parts(scene_arrays(scene), ("sheet parts", float(scene.ground)),
+                                  [tri for _, tri, _ in found])
     tol = np.array([t for _, _, t in found])
-    lo = np.minimum.reduceat(tris[0].min(axis=1), tris[1])          # the sheets' boxes
-    hi = np.maximum.reduceat(tris[0].max(axis=1), tris[1])
     pid, rows = _slab_pairs(q_all, lo, hi)
     ok = np.all((q_all[rows] >= lo[pid]) & (q_all[rows] <= hi[pid]), axis=1)
     pid, rows = pid[ok], rows[ok]
     ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
     pid, rows = pid[ok], rows[ok]
-    hit = np.zeros(len(pid), bool)
-    tri, first, count = tris
-    for s, e, c, j in _expanded(count[pid]):                           # inside or on one of its triangles
-        a, b, v = np.moveaxis(tri[first[pid[c + s]] + j], 1, 0)
-        hit[s:e] = np.bincount(c, _inside(a, b, v, q_all[rows[c + s]]), minlength=e - s) > 0
+    hit = _in_triangles_of(q_all[rows], pid, tris)                   # inside or on one of its triangles
     pid, rows = pid[hit], rows[hit]
     if not len(pid):
         return own
@@ -381,14 +376,13 @@ def contact_mask(scene, points):
         return mask
     off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    tris, segs = _ragged_parts([tri for _, (tri, _), _ in fps]), _ragged_parts([seg for _, (_, seg), _ in fps])
+    parts = _kept_parts(scene_arrays(scene), ("contact parts", float(scene.ground)), [tri for _, (tri, _), _ in fps],
+                        [seg for _, (_, seg), _ in fps])
     tol = np.array([t for _, _, t in fps])
-    lo = np.minimum.reduceat(tris[0].min(axis=1), tris[1])      # the footprints' boxes
-    hi = np.maximum.reduceat(tris[0].max(axis=1), tris[1])
-    pid, rows = _slab_pairs(q_all, lo, hi)
+    pid, rows = _slab_pairs(q_all, *parts[2:])                  # in a footprint's box
     ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
     pid, rows = pid[ok], rows[ok]
-    mask[cand[rows[_in_parts(q_all[rows], pid, tris, segs, tol)]]] = True
+    mask[cand[rows[_in_parts(q_all[rows], pid, parts, tol)]]] = True
     return mask
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ._validate import float32_exact
 from .contact import _SURFACES, _closed_surface, _face_tolerances
-from .contact_parts import _expanded, _in_parts, _outlines, _ragged, _ragged_parts, _slab_pairs
+from .contact_parts import _expanded, _in_parts, _kept_parts, _outlines, _ragged, _slab_pairs
 from .scene_arrays import scene_arrays
 
 __all__ = ["FACING", "body_patches", "body_hits"]
@@ -245,7 +245,8 @@ def body_hits(scene, points):
     # in the patch's plane (each patch's points flattened as that patch's alone), inside one of its faces and
     # farther than its tolerance from its outline
     q = np.concatenate([p[k] @ patches[i][4].T for i, k in zip(*_groups(pid, rows))])
-    ok = _in_parts(q, pid, _ragged_parts([x[5] for x in patches]), _ragged_parts([x[6] for x in patches]), tol)
+    ok = _in_parts(q, pid, _kept_parts(scene_arrays(scene), "body parts", [x[5] for x in patches],
+                                       [x[6] for x in patches]), tol)
     pid, rows = pid[ok], rows[ok]
     return [(k, patches[i][0]) for i, k in zip(*_groups(pid, rows))]
 

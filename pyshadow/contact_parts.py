@@ -68,21 +68,36 @@ def _slab_pairs(p, lo, hi):
     return pid, order[np.arange(len(pid)) + np.repeat(a - (np.cumsum(b - a) - (b - a)), b - a), slab[pid]]
 
 
-def _in_parts(q, pid, tris, segs, tol):
-    """(M,) bool: points ``q`` (M, 2), each asked of part ``pid``, in the part's triangles' box, inside or on
-    one of them and farther than ``tol[pid]`` from every segment of its outline. ``tris``, ``segs``:
-    :func:`_ragged_parts` of the parts' triangles (K, 3, 2) and outline segments (E, 2, 2)."""
-    (tri, tri_first, tri_count), (seg, seg_first, seg_count) = tris, segs
+def _kept_parts(held, key, tris, segs=None):
+    """(triangles, outline segments, the parts' boxes' corners lo, hi (P, 2)) of parts with triangles ``tris``
+    [(K, 3, 2)] and outlines ``segs`` [(E, 2, 2)] (None: none), :func:`_ragged_parts` each; made once and kept
+    in ``held`` (a scene's arrays, dropped when it changes) as ``key``, not per query."""
+    if key not in held:
+        tri = _ragged_parts(tris)
+        lo = np.minimum.reduceat(tri[0].min(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
+        hi = np.maximum.reduceat(tri[0].max(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
+        held[key] = tri, None if segs is None else _ragged_parts(segs), lo, hi
+    return held[key]
+
+
+def _in_triangles_of(q, pid, tris):
+    """(M,) bool: points ``q`` (M, 2), each asked of part ``pid``, inside or on one of its triangles ``tris``
+    (:func:`_ragged_parts`)."""
+    tri, first, count = tris
     out = np.zeros(len(q), bool)
-    lo = np.minimum.reduceat(tri.min(axis=1), tri_first) if len(tri) else np.zeros((len(tri_first), 2))
-    hi = np.maximum.reduceat(tri.max(axis=1), tri_first) if len(tri) else np.zeros((len(tri_first), 2))
+    for s, e, c, j in _expanded(count[pid]):
+        a, b, v = np.moveaxis(tri[first[pid[c + s]] + j], 1, 0)
+        out[s:e] = np.bincount(c, _inside(a, b, v, q[c + s]), minlength=e - s) > 0
+    return out
+
+
+def _in_parts(q, pid, parts, tol):
+    """(M,) bool: points ``q`` (M, 2), each asked of part ``pid``, in the part's triangles' box, inside or on
+    one of them and farther than ``tol[pid]`` from every segment of its outline (``parts``: :func:`_kept_parts`)."""
+    tris, (seg, seg_first, seg_count), lo, hi = parts
+    out = np.zeros(len(q), bool)
     live = np.flatnonzero(np.all((q >= lo[pid]) & (q <= hi[pid]), axis=1))
-    ok = np.zeros(len(live), bool)
-    for s, e, c, j in _expanded(tri_count[pid[live]]):
-        k = live[c + s]
-        a, b, v = np.moveaxis(tri[tri_first[pid[k]] + j], 1, 0)
-        ok[s:e] = np.bincount(c, _inside(a, b, v, q[k]), minlength=e - s) > 0
-    live = live[ok]
+    live = live[_in_triangles_of(q[live], pid[live], tris)]
     ok = np.ones(len(live), bool)
     for s, e, c, j in _expanded(seg_count[pid[live]]):
         k = live[c + s]

@@ -107,8 +107,7 @@ def recompute(scene, ids, transforms, sampling):
     """Move the bodies and recompute the AO of every instance (bodies and ground grid).
 
     Returns {instance id: (V,) float32 AO}."""
-    for i, T in zip(ids, transforms):
-        scene.set_transform(i, T)
+    scene.set_transform(np.asarray(ids), np.asarray(transforms))     # all bodies in one call
     return {i: scene.vertex_ao(i, sampling=sampling) for i in range(len(scene.instances))}
 
 

@@ -11,7 +11,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 __all__ = ["rows3", "squared_lengths", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
-           "check_transform", "check_indices", "check_int", "FLOAT32_MAX", "check_float32_points",
+           "check_transform", "check_transforms", "check_indices", "check_int", "FLOAT32_MAX", "check_float32_points",
            "check_float32_instances"]
 
 
@@ -213,6 +213,40 @@ def check_transform(T, *, rigid: bool = False, name: str = "transform") -> np.nd
         if err > RIGID_EXACT:           # rounded digits: the nearest rotation, U V^T of Q's SVD
             U, _, Vt = np.linalg.svd(Q)
             T[:3, :3] = s * (U @ Vt)
+    return T
+
+
+def check_transforms(T, *, rigid: bool = False, name: str = "transforms", label=None) -> np.ndarray:
+    """:func:`check_transform` of every matrix of a stack ``T`` (..., 4, 4) at once, as float64.
+
+    Each matrix gets the same checks and comes back the same, bit for bit, as
+    through :func:`check_transform`: those clearly within its rules are read in
+    one pass over the stack; any other (a failing one, or one near a threshold
+    or off a rotation by more than :data:`RIGID_EXACT`) goes through
+    :func:`check_transform` itself, which raises its error named
+    ``label(index)`` (default ``f"{name}[index]"``, the matrix's index tuple).
+    """
+    T = np.asarray(T)
+    if T.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must hold real numbers, got dtype {T.dtype}")
+    T = T.astype(np.float64)
+    if T.ndim < 2 or T.shape[-2:] != (4, 4):
+        raise ValueError(f"{name} must have shape (..., 4, 4), got {T.shape}")
+    label = label or (lambda k: f"{name}[{', '.join(map(str, k))}]")
+    flat = T.reshape(-1, 4, 4)
+    with np.errstate(all="ignore"):
+        A = flat[:, :3, :3]
+        m = np.abs(A).max(axis=(1, 2))
+        ok = np.isfinite(flat).all(axis=(1, 2)) & (np.abs(flat[:, 3] - [0.0, 0.0, 0.0, 1.0]).max(axis=1) <= 1e-12)
+        ok &= m >= 1e-300
+        d = np.linalg.det(A / np.where(ok, m, 1.0)[:, None, None])
+        ok &= (d > 1e-280) if rigid else (np.abs(d) > 1e-280)     # clear of the singular test, and not mirrored
+        if rigid and ok.any():
+            Q = A / uniform_scale(A)[:, None, None]
+            err = np.abs(np.matmul(Q.transpose(0, 2, 1), Q) - np.eye(3)).max(axis=(1, 2))
+            ok &= err <= 0.5 * RIGID_EXACT                          # kept as given, as check_transform keeps it
+    for k in np.flatnonzero(~ok):
+        flat[k] = check_transform(flat[k], rigid=rigid, name=label(np.unravel_index(k, T.shape[:-2])))
     return T
 
 

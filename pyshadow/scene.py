@@ -18,7 +18,7 @@ import numpy as np
 import trimesh
 
 from ._compat import deprecated, keyword_only, legacy_sampling
-from ._validate import FLOAT32_MAX, LOOKUPS, check_lookup, check_transform, flag, uniform_scale
+from ._validate import FLOAT32_MAX, LOOKUPS, check_lookup, flag, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.choose import _max_error
@@ -26,6 +26,7 @@ from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
+from .scene_moves import held_transform, set_transforms
 from .views import ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
@@ -227,7 +228,7 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
-        T = _held_transform(np.eye(4) if transform is None else transform)
+        T = held_transform(np.eye(4) if transform is None else transform)
         list.append(self._placed, _new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
         return len(self.instances) - 1
@@ -238,10 +239,10 @@ class Scene:
             raise IndexError(f"no instance {instance_id!r} (the scene has {len(self.instances)})")
         return self.instances[int(instance_id)]
 
-    def set_transform(self, instance_id: int, transform) -> None:
-        """Move an instance (rigid transform, as in :meth:`add`). Nothing is rebuilt. (Its held copy is read-only.)"""
-        object.__setattr__(self._instance(instance_id), "transform", _held_transform(transform))
-        self._version += 1
+    def set_transform(self, instance_id, transform) -> None:
+        """Move an instance (id, 4x4 rigid transform as in :meth:`add`) or many: ids (k,), transforms (k, 4, 4).
+        Nothing is rebuilt; all are checked before any moves (:func:`pyshadow.scene_moves.set_transforms`)."""
+        set_transforms(self, instance_id, transform)
 
     def transform(self, instance_id: int) -> np.ndarray:
         """The current 4x4 transform of an instance (a copy)."""
@@ -458,15 +459,6 @@ def _points_anchor(points) -> np.ndarray:
     if points.ndim != 2 or points.shape[1] != 3:
         raise ValueError(f"points must have shape (N, 3), got {points.shape}")
     return points.mean(axis=0) if len(points) else np.zeros(3)
-
-
-def _held_transform(transform) -> np.ndarray:
-    """The scene's own read-only copy of a checked rigid transform: the queries keep tables derived from
-    it until :meth:`Scene.set_transform` (an edit in place would leave them stale, answering from the
-    old place; it raises instead)."""
-    T = check_transform(transform, rigid=True, name="transform").copy()
-    T.flags.writeable = False
-    return T
 
 
 def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from .._files import write_bytes_atomic
-from .._validate import check_int, check_transform
+from .._validate import check_int, check_transforms
 
 __all__ = ["read_motion", "write_motion", "default_motion"]
 
@@ -47,9 +47,7 @@ def _check(transforms, names, label) -> tuple[np.ndarray, list | None]:
     T = T.astype(np.float64)
     if T.ndim != 4 or T.shape[2:] != (4, 4) or T.shape[0] < 1 or T.shape[1] < 1:
         raise ValueError(f"{label}: transforms must have shape (frames, bodies, 4, 4), got {T.shape}")
-    for f in range(T.shape[0]):
-        for b in range(T.shape[1]):
-            check_transform(T[f, b], rigid=True, name=f"{label}: frame {f}, body {b}")
+    check_transforms(T, rigid=True, label=lambda k: f"{label}: frame {k[0]}, body {k[1]}")
     names = _names(names, label)
     if names is not None:
         if len(names) != T.shape[1]:

@@ -173,12 +173,21 @@ def _footprints(scene, ids, ground, tols):
         h, t = u[:, :, 1] - ground, np.asarray(tols)[rows]
         # the surface's vertices: a stray vertex below the plane lost the footprint (sunk: not resting on it)
         on = (h <= t[:, None])[:, f].all(axis=2) & (h[:, f].min(axis=(1, 2)) >= -t)[:, None]
-        found += [(rows[j], u[j][:, [0, 2]], f[on[j]]) for j in np.flatnonzero(on.any(axis=1))]
-    if found:
-        faces = np.concatenate([x[2] for x in found])
-        edge, cut = _outlines(faces, np.repeat(np.arange(len(found)), [len(x[2]) for x in found]), len(found))
-        for j, (k, xz, fk) in enumerate(found):
-            out[k] = xz[fk], xz[edge[cut[j]:cut[j + 1]]]        # edges of one contact face: the outline
+        hit = np.flatnonzero(on.any(axis=1))
+        body, face = np.nonzero(on[hit])                # body by body, its faces in order
+        found.append((np.asarray(rows)[hit], u[hit][:, :, [0, 2]], body, f[face]))
+    nb = np.cumsum([0] + [len(g[0]) for g in found])
+    if nb[-1]:
+        edge, cut = _outlines(np.concatenate([g[3] for g in found]),
+                              np.concatenate([g[2] + b for g, b in zip(found, nb)]), int(nb[-1]))
+        for (ks, xz, body, fk), b in zip(found, nb):    # each group's bodies' triangles and outlines at once
+            tri = xz[body[:, None], fk]                 # (faces, 3, 2)
+            tcut = np.searchsorted(body, np.arange(len(ks) + 1))
+            ecut = cut[b:b + len(ks) + 1]
+            seg = xz[np.repeat(np.arange(len(ks)), np.diff(ecut))[:, None], edge[ecut[0]:ecut[-1]]]
+            ecut = ecut - ecut[0]
+            for j, k in enumerate(ks.tolist()):         # edges of one contact face: the outline
+                out[k] = tri[tcut[j]:tcut[j + 1]], seg[ecut[j]:ecut[j + 1]]
     return out
 
 

@@ -229,7 +229,7 @@ def check_transforms(T, *, rigid: bool = False, name: str = "transforms", label=
     T = np.asarray(T)
     if T.dtype.kind not in "iuf":
         raise TypeError(f"{name} must hold real numbers, got dtype {T.dtype}")
-    T = T.astype(np.float64)
+    T = T.astype(np.float64, order="C")         # (C order: the flat view below writes into T itself)
     if T.ndim < 2 or T.shape[-2:] != (4, 4):
         raise ValueError(f"{name} must have shape (..., 4, 4), got {T.shape}")
     label = label or (lambda k: f"{name}[{', '.join(map(str, k))}]")

@@ -10,6 +10,8 @@ array, checked in one pass (``Scene.set_transform`` one at a time spends about
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from ._validate import check_transform, check_transforms
@@ -47,15 +49,22 @@ def set_transforms(scene, instance_ids, transforms) -> None:
     Raises
     ------
     IndexError
-        An id out of range (it names the id).
+        An id out of range (it names the id), or one id that is not an int
+        (as :meth:`pyshadow.Scene.transform` refuses it).
     TypeError
-        Ids that are not integers (bools included), or transforms that are
-        not real numbers.
+        A sequence of ids that are not integers (bools included), a set or
+        an iterator of ids, or transforms that are not real numbers.
     ValueError
         Shapes that do not match, an id given twice, or a transform that is
         not rigid, not affine, singular, mirrored or not finite (named by
         its position in ``transforms`` and its instance id).
     """
+    if isinstance(instance_ids, np.ndarray) and instance_ids.ndim == 0 and instance_ids.dtype.kind in "iu":
+        instance_ids = int(instance_ids)        # a 0-d int array was "no instance array(2)"
+    elif isinstance(instance_ids, Iterable) and not isinstance(instance_ids, (str, bytes, np.ndarray)) \
+            and np.ndim(instance_ids) == 0:     # a set or an iterator was "no instance {1, 2}"
+        raise TypeError("instance_ids must be an int or a 1-D sequence of ints (a list, tuple, range or array), "
+                        f"got a {type(instance_ids).__name__}")
     if np.ndim(instance_ids) == 0:              # one instance: its 4x4
         inst = scene._instance(instance_ids)
         object.__setattr__(inst, "transform", held_transform(transforms))
@@ -74,6 +83,8 @@ def set_transforms(scene, instance_ids, transforms) -> None:
         u, c = np.unique(ids, return_counts=True)
         raise ValueError(f"instance_ids: instance {u[c > 1][0]} is given more than once")
     T = np.asarray(transforms)
+    if not len(ids) and T.shape == (0,):        # no moves given as two empty lists (a frame that moves none)
+        return
     if T.shape != (len(ids), 4, 4):
         raise ValueError(f"transforms must have shape ({len(ids)}, 4, 4) for {len(ids)} instance ids, got {T.shape}")
     T = check_transforms(T, rigid=True, label=lambda k: f"transforms[{k[0]}] (instance {ids[k[0]]})")

@@ -39,6 +39,9 @@ def test_check_transforms_is_check_transform_matrix_by_matrix():
     assert not np.array_equal(one, T)           # the rounded ones were replaced (the other path was taken)
     nr = T.reshape(30, 100, 4, 4)
     assert np.array_equal(check_transforms(nr, rigid=True).reshape(-1, 4, 4), one)
+    # a stack in another order (frames and bodies swapped): each matrix as one at a time, in place
+    sw = np.swapaxes(nr, 0, 1)
+    assert np.array_equal(check_transforms(sw, rigid=True), np.swapaxes(one.reshape(30, 100, 4, 4), 0, 1))
 
 
 @pytest.mark.parametrize("bad, message", [

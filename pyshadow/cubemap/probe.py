@@ -144,9 +144,10 @@ class CubeProbe:
 
     Notes
     -----
-    The probe records the scene's transforms when rendered; :attr:`stale`
-    is True after any later :meth:`pyshadow.Scene.set_transform` or
-    :meth:`pyshadow.Scene.add`: its maps then no longer show the scene.
+    The probe records the scene's transforms and ground when rendered;
+    :attr:`stale` is True after any later :meth:`pyshadow.Scene.set_transform`,
+    :meth:`pyshadow.Scene.add` or change of ``Scene.ground``: its maps then no
+    longer show the scene.
     """
 
     def __init__(self, scene, centre, resolution: int = 128, *, ground_size: float | None = None):
@@ -162,6 +163,7 @@ class CubeProbe:
         self.scene = scene
         self._version = getattr(scene, "_version", None)
         self._transforms = [inst.transform.copy() for inst in scene.instances]
+        self._ground = scene.ground     # the plane drawn (a height set later was not stale: the old one answered)
         items, ids = draw_items(scene, ground_size)
         casts = np.array([scene.instances[i].casts if i >= 0 else False for i in ids], dtype=bool)
         self.depth = np.full((6, R, R), np.inf, np.float32)
@@ -199,9 +201,11 @@ class CubeProbe:
 
     @property
     def stale(self) -> bool:
-        """True when the scene changed (a transform set, an instance added) since the probe was rendered."""
+        """True when the scene changed (a transform set, an instance added, the ground's height) since the
+        probe was rendered."""
         sc = self.scene
-        if getattr(sc, "_version", None) != self._version or len(sc.instances) != len(self._transforms):
+        if getattr(sc, "_version", None) != self._version or len(sc.instances) != len(self._transforms) \
+                or sc.ground != self._ground:
             return True
         return any(not np.array_equal(inst.transform, T) for inst, T in zip(sc.instances, self._transforms))
 

@@ -169,7 +169,7 @@ def test_stale_probes_are_announced_by_project_assign_and_place():
     before = maps.project(CAMERA, fallback=-1.0).ao
     assert (before == -1.0).sum() == 0
     scene.set_transform(1, trimesh.transformations.translation_matrix([5.0, 0.15, 0.7]))
-    stale = "the probes are stale (the scene moved since they were rendered) and answer for the scene as it was: " \
+    stale = "the probes are stale (the scene changed since they were rendered) and answer for the scene as it was: " \
             "call refresh()"
     with pytest.warns(UserWarning, match=f"^{re.escape(f'CubeMapAO.project: {stale}')}$"):
         old = maps.project(CAMERA, fallback=-1.0).ao

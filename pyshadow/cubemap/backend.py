@@ -55,7 +55,7 @@ class CubeMapVisibility:
         if scene is not self.maps.scene:
             raise ValueError("this cube-map backend was built for another scene")
         if self.maps.stale:
-            raise ValueError("the probes are stale (the scene moved since they were rendered): call refresh()")
+            raise ValueError("the probes are stale (the scene changed since they were rendered): call refresh()")
         if not self.maps.probes:
             raise ValueError("no probe placed yet (add_probe or place first)")
         if max_distance is None:

@@ -300,7 +300,7 @@ class CubeMapAO:
 
     @property
     def stale(self) -> bool:
-        """True when any probe is stale (the scene moved since it was rendered)."""
+        """True when any probe is stale (the scene changed since it was rendered: a body moved or added, the ground)."""
         return any(p.stale for p in self.probes)
 
     def refresh(self) -> int:
@@ -346,7 +346,7 @@ class CubeMapAO:
         Warns
         -----
         UserWarning
-            A stale probe (:attr:`stale`: the scene moved since it was
+            A stale probe (:attr:`stale`: the scene changed since it was
             rendered; :meth:`refresh`): it answers for the scene as it was.
         """
         if lookup not in ("nearest", "bilinear"):
@@ -390,7 +390,7 @@ class CubeMapAO:
     def _warn_stale(self, name):
         """A UserWarning when a probe is stale: its maps show the scene before a move (answers for it)."""
         if self.stale:
-            warnings.warn(f"CubeMapAO.{name}: the probes are stale (the scene moved since they were rendered) and "
+            warnings.warn(f"CubeMapAO.{name}: the probes are stale (the scene changed since they were rendered) and "
                           "answer for the scene as it was: call refresh()", UserWarning, stacklevel=3)
 
     def _best(self, points, normals, ids, tolerance, lookup="nearest"):

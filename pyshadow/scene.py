@@ -26,7 +26,7 @@ from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
-from .scene_moves import held_transform, set_transforms
+from .scene_moves import add_instances, held_transform, placed_vertices, set_transforms
 from .views import ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
@@ -201,7 +201,7 @@ class Scene:
     @keyword_only("Scene.add", old=1)
     def add(self, obj, transform=None, *, casts: bool = True, mesh=None, max_error: float | None = None,
             lookup: str = "nearest") -> int:
-        """Place an object; returns its instance id.
+        """Place an object; returns its instance id, or the ids (k,) int64 of k transforms (k, 4, 4).
 
         Parameters
         ----------
@@ -210,9 +210,11 @@ class Scene:
             buffers), or a mesh. A mesh with ``casts=True`` gets a CSM built
             with the scene's options (once per mesh object); with
             ``casts=False`` it only receives (walls, floors).
-        transform : array_like, shape (4, 4), optional
+        transform : array_like, shape (4, 4) or (k, 4, 4), optional
             Object-to-world transform: rotation (5 decimals suffice: placed as
             the nearest), translation, uniform positive scale. Default identity.
+            A stack places the object k times at once (one CSM, one check of
+            the stack: :func:`pyshadow.scene_moves.add_instances`).
         casts : bool, optional
         mesh : trimesh.Trimesh, optional
             The mesh of a CSM given as ``obj``, needed to draw it
@@ -228,6 +230,8 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
+        if np.ndim(transform) == 3:
+            return add_instances(self, transform, lambda T: _new_instance(self, obj, T, casts, mesh, max_error, lookup))
         T = held_transform(np.eye(4) if transform is None else transform)
         list.append(self._placed, _new_instance(self, obj, T, casts, mesh, max_error, lookup))
         self._version += 1
@@ -366,14 +370,7 @@ class Scene:
     # ------------------------------------------------------------------
     def vertex_points(self, instance_id: int):
         """World vertex positions (V, 3) and unit vertex normals (V, 3) of an instance, float64."""
-        inst = self._instance(instance_id)
-        if inst.mesh is None:
-            raise ValueError(f"instance {instance_id} was added as a CSM without its mesh (pass mesh=)")
-        T = inst.transform
-        pts = np.asarray(inst.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
-        # trimesh's own cache of the normals, which it drops when the mesh changes (a copy kept here did not)
-        nrm = np.asarray(inst.mesh.vertex_normals, dtype=np.float64) @ inst.rotation.T
-        return pts, nrm
+        return placed_vertices(self._instance(instance_id), instance_id)
 
     def vertex_ao(self, instance_id: int, *args, sampling: Sampling | None = None,
                   return_bent_normals: bool = False, lookup: str = "nearest", bias: float | None = None,

@@ -16,7 +16,7 @@ import numpy as np
 
 from ._validate import check_transform, check_transforms
 
-__all__ = ["held_transform", "set_transforms"]
+__all__ = ["add_instances", "held_transform", "placed_vertices", "set_transforms"]
 
 
 def held_transform(transform) -> np.ndarray:
@@ -24,6 +24,56 @@ def held_transform(transform) -> np.ndarray:
     T = check_transform(transform, rigid=True, name="transform").copy()
     T.flags.writeable = False
     return T
+
+
+def add_instances(scene, transforms, place) -> np.ndarray:
+    """Place one object k times in ``scene`` (``Scene.add(obj, transforms)`` with a stack).
+
+    The first instance is made by ``place(T)`` (``Scene.add``'s own checks,
+    and the CSM built or checked once); the others share its CSM, mesh and
+    role. All transforms are checked first, as one array (the same matrices
+    as one ``Scene.add`` each, bit for bit): on an error none is placed.
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    transforms : array_like, shape (k, 4, 4)
+        Object-to-world rigid transforms (world units), as ``Scene.add`` takes one.
+    place : callable
+        ``place(T)`` -> the :class:`pyshadow.scene.Instance` of the object at the held transform ``T``.
+
+    Returns
+    -------
+    ndarray, shape (k,), int64
+        The new instances' ids, in the order of ``transforms``.
+    """
+    T = check_transforms(transforms, rigid=True, label=lambda k: f"transforms[{k[0]}]")
+    if T.ndim != 3:
+        raise ValueError(f"transforms must have shape (k, 4, 4), got {T.shape}")
+    n = len(scene.instances)
+    if not len(T):
+        return np.zeros(0, np.int64)
+    T.flags.writeable = False                   # each instance's transform: a read-only view of one row
+    first = place(T[0])
+    if first.csm is None:                       # a receiver: its mesh's sphere found once, not once per instance
+        first.object_sphere()
+    made = [first] + [type(first)(t, first.casts, csm=first.csm, mesh=first.mesh, _stamp=first._stamp,
+                                  _sphere=first._sphere, _sphere_stamp=first._sphere_stamp) for t in T[1:]]
+    list.extend(scene._placed, made)
+    scene._version += 1
+    return np.arange(n, n + len(T), dtype=np.int64)
+
+
+def placed_vertices(inst, instance_id):
+    """``Scene.vertex_points`` of instance ``inst`` (id ``instance_id``): world vertex positions (V, 3) and
+    unit vertex normals (V, 3) of its mesh, float64."""
+    if inst.mesh is None:
+        raise ValueError(f"instance {instance_id} was added as a CSM without its mesh (pass mesh=)")
+    T = inst.transform
+    pts = np.asarray(inst.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
+    # trimesh's own cache of the normals, which it drops when the mesh changes (a copy kept here did not)
+    nrm = np.asarray(inst.mesh.vertex_normals, dtype=np.float64) @ inst.rotation.T
+    return pts, nrm
 
 
 def set_transforms(scene, instance_ids, transforms) -> None:

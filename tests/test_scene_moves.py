@@ -143,3 +143,42 @@ def test_no_ids_is_no_change(box_csm):
     version = s._version
     s.set_transform([], np.zeros((0, 4, 4)))
     assert s._version == version
+
+
+def test_adding_a_stack_places_the_object_k_times_as_k_adds(box_csm):
+    box, csm = box_csm
+    T = _turned(40)
+    one, many = pyshadow.Scene(ground=0.0), pyshadow.Scene(ground=0.0)
+    ids_one = [one.add(csm, t, mesh=box) for t in T]
+    ids = many.add(csm, T, mesh=box)
+    assert ids.dtype == np.int64 and ids.tolist() == ids_one
+    assert all(np.array_equal(a.transform, b.transform) for a, b in zip(one.instances, many.instances))
+    assert all(b.csm is csm and b.mesh is box for b in many.instances)
+    floor = trimesh.creation.box((2.0, 0.1, 2.0))           # receivers: one mesh placed twice
+    F = np.stack([trimesh.transformations.translation_matrix([x, -0.05, 0.0]) for x in (0.0, 2.0)])
+    assert one.add(floor, F[0], casts=False) == 40 and one.add(floor, F[1], casts=False) == 41
+    assert many.add(floor, F, casts=False).tolist() == [40, 41]
+    (c1, r1), (c2, r2) = many.instances[41].object_sphere(), one.instances[41].object_sphere()
+    assert np.array_equal(c1, c2) and r1 == r2
+    assert many.instances[41]._sphere is many.instances[40]._sphere      # found once for the stack
+    rng = np.random.default_rng(5)
+    p = np.c_[rng.uniform(-1, 9, 400), np.zeros(400), rng.uniform(-1, 6, 400)]
+    up = np.tile([0.0, 1.0, 0.0], (400, 1))
+    S = pyshadow.Sampling(16)
+    np.testing.assert_array_equal(one.ambient_occlusion(p, up, sampling=S), many.ambient_occlusion(p, up, sampling=S))
+    mesh_scene = pyshadow.Scene(views=pyshadow.ViewSet.zigzag(8, 16), resolution=32)
+    assert mesh_scene.add(box, T[:3]).tolist() == [0, 1, 2]             # a mesh: its CSM built once
+    assert len({id(x.csm) for x in mesh_scene.instances}) == 1
+
+
+def test_adding_a_stack_with_a_bad_transform_places_nothing(box_csm):
+    box, csm = box_csm
+    s = _scene(box_csm, 3)
+    T = _turned(6)
+    T[4, :3, 0] *= 3.0
+    with pytest.raises(ValueError, match=r"transforms\[4\] is not rigid"):
+        s.add(csm, T, mesh=box)
+    with pytest.raises(ValueError, match="always casts"):
+        s.add(csm, _turned(6), casts=False)
+    assert len(s.instances) == 3
+    assert s.add(csm, np.zeros((0, 4, 4))).tolist() == [] and len(s.instances) == 3

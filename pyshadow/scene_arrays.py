@@ -98,9 +98,10 @@ def check_meshes(scene) -> None:
             object.__setattr__(inst, "_stamp", hash(mesh))     # the same mesh, hashed differently
 
 
-#: How far from its anchor a query point may lie, in radii of the scene's smallest caster, before it
-#: is given an anchor of its own: float32 rounds a coordinate at distance d by up to d 2**-24, which
-#: stays below the 16-bit depth quantum of that caster (2 r / 65534) up to d = 512 r.
+#: How far from its anchor a query point may always lie, in radii of the scene's smallest caster, before
+#: it may need an anchor of its own: float32 rounds a coordinate at distance d by up to d 2**-24, which
+#: stays below the 16-bit depth quantum of that caster (2 r / 65534) up to d = 512 r. Beyond, a point's
+#: reach is set by the casters near it (:mod:`pyshadow.anchor_reach`): max(512 r_c, its distance to c).
 ANCHOR_REACH_RADII = 512.0
 
 
@@ -115,12 +116,16 @@ def anchor_groups(scene, points, bound=None):
     """The anchors the queries of ``points`` are asked relative to, and the rows of each.
 
     The device reads points relative to an anchor in float32. The scene's
-    anchor (:meth:`pyshadow.Scene.anchor`) serves every point within
-    :data:`ANCHOR_REACH_RADII` radii of its smallest caster; the points
-    beyond (a scene whose bodies lie far apart, asked near one of them) are
-    grouped by cubes of a power-of-two side at most that reach, each asked
-    relative to its cube's centre, so that no point loses more precision
-    than within the reach.
+    anchor (:meth:`pyshadow.Scene.anchor`) serves every point within its
+    reach (:mod:`pyshadow.anchor_reach`): within :data:`ANCHOR_REACH_RADII`
+    radii of every caster nearer to it than the anchor (so always within
+    512 radii of the smallest caster, the common case: one group, decided
+    by a bound on the points' coordinates). The points beyond (near a caster
+    tiny beside their distance from the anchor; a scene whose bodies lie
+    far apart, asked near one of them) are grouped by cubes of a
+    power-of-two side at most their reach, each asked relative to its
+    cube's centre, so that no point loses more precision than within its
+    reach.
 
     Parameters
     ----------
@@ -147,28 +152,50 @@ def anchor_groups(scene, points, bound=None):
     arr = scene_arrays(scene) if scene.instances else None
     if arr is None or not arr["casts"].any() or not len(points):
         return [(None, anchor)]
-    return cube_groups(points, anchor, ANCHOR_REACH_RADII * float(arr["world_radius"][arr["casts"]].min()), bound)
+    return cube_groups(points, anchor, ANCHOR_REACH_RADII * float(arr["world_radius"][arr["casts"]].min()), bound,
+                       lambda: _buckets(arr))
 
 
-def cube_groups(points, anchor, reach: float, bound=None):
+def _buckets(arr) -> list:
+    """:func:`pyshadow.anchor_reach.caster_buckets` of the casters of ``arr``, kept with it."""
+    if "reach_buckets" not in arr:
+        from .anchor_reach import caster_buckets
+
+        arr["reach_buckets"] = caster_buckets(arr["world_centre"][arr["casts"]], arr["world_radius"][arr["casts"]])
+    return arr["reach_buckets"]
+
+
+def cube_groups(points, anchor, reach: float, bound=None, casters=None):
     """:func:`anchor_groups` of ``points`` (N, 3) float64 around the world ``anchor`` (3,): the points
-    within ``reach`` (world units) of it are asked relative to it, the others relative to the centre of
-    their cube of a power-of-two side (half diagonal at most ``reach``)."""
+    within ``reach`` (world units: 512 radii of the smallest caster) of it are asked relative to it. With
+    ``casters`` (a callable returning :func:`pyshadow.anchor_reach.caster_buckets`), so are the others
+    within their own reach (:func:`pyshadow.anchor_reach.reach_bound`); the rest relative to the centre of
+    their cube of a power-of-two side at most their reach (``reach`` without ``casters``)."""
     bound = (points_bound(points) if bound is None else bound) + float(np.abs(anchor).max())
     if bound <= reach:
         return [(None, anchor)]                 # the cheap bound: every point within reach
     if bound > FLOAT32_MAX:                     # points float32 cannot place from the scene: refused, named
         check_float32_points(points, anchor)
-    far = np.abs(np.asarray(points, np.float64) - anchor).max(axis=1) > reach
-    if not far.any():
+    extent = np.abs(np.asarray(points, np.float64) - anchor).max(axis=1)
+    rows = np.flatnonzero(extent > reach)
+    own = np.full(len(rows), reach)             # each far point's reach
+    if casters is not None and len(rows):       # beyond 512 r_min: within the reach of the casters near them?
+        from .anchor_reach import reach_bound
+
+        own = np.maximum(reach_bound(points[rows], extent[rows], casters(), ANCHOR_REACH_RADII), reach)
+        keep = extent[rows] > own
+        rows, own = rows[keep], own[keep]
+    if not len(rows):
         return [(None, anchor)]
-    side = 2.0 ** np.floor(np.log2(reach))      # a cube's half diagonal: 0.87 side <= the reach
-    rows = np.flatnonzero(far)
-    cells = np.floor(points[rows] / side)
-    keys, inverse = np.unique(cells, axis=0, return_inverse=True)
+    far = np.zeros(len(points), bool)
+    far[rows] = True
+    side = 2.0 ** np.floor(np.log2(own))        # a cube's half diagonal: 0.87 side <= the reach
+    cells = np.floor(points[rows] / side[:, None])
+    keys, inverse = np.unique(np.column_stack([side, cells]), axis=0, return_inverse=True)
     inverse = inverse.reshape(-1)
     order = np.argsort(inverse, kind="stable")
     bounds = np.searchsorted(inverse[order], np.arange(len(keys) + 1))
+    anchors = (keys[:, 1:] + 0.5) * keys[:, :1]
     groups = [(np.flatnonzero(~far), anchor)] if (~far).any() else []
-    groups += [(rows[order[bounds[k]:bounds[k + 1]]], (keys[k] + 0.5) * side) for k in range(len(keys))]
+    groups += [(rows[order[bounds[k]:bounds[k + 1]]], anchors[k]) for k in range(len(keys))]
     return groups

@@ -85,7 +85,11 @@ def test_anchor_groups_of_extreme_points(scene):
     assert [(r, tuple(a)) for r, a in anchor_groups(scene, np.zeros((0, 3)))] == [(None, tuple(scene.anchor()))]
     p = np.array([[1e-6, 0.0, 0.0], [1e3, 0.0, 0.0], [1e10, 0.0, 0.0], [1e30, 0.0, 0.0]])
     groups = anchor_groups(scene, p)
-    rows = np.sort(np.concatenate([r for r, _ in groups]))
+    rows = np.sort(np.concatenate([np.arange(len(p)) if r is None else r for r, _ in groups]))
     np.testing.assert_array_equal(rows, np.arange(4))
+    # within reach (pyshadow.anchor_reach): 512 radii of the caster, or its distance to the caster's sphere
+    c, radius = scene.instances[0].world_sphere()
+    reach = np.maximum(512 * radius, np.linalg.norm(p - c, axis=1) - radius)
     for r, a in groups:
-        assert np.abs(p[r] - a).max() <= 512 * scene.scale()
+        r = np.arange(len(p)) if r is None else r
+        assert (np.abs(p[r] - a).max(axis=1) <= reach[r]).all()

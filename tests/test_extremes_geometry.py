@@ -118,22 +118,30 @@ def test_bodies_far_apart_answer_as_each_alone(views, far):
 
 def test_anchor_groups_partition_the_points_within_reach(views):
     """Points within the reach of the scene's anchor keep it (one group: the common case, unchanged);
-    the others are grouped, every point in exactly one group, each within the reach of its anchor."""
+    the others are grouped, every point in exactly one group, each within its reach of its anchor
+    (pyshadow.anchor_reach: 512 radii of each caster, or its distance to that caster's sphere)."""
     from pyshadow.scene_arrays import ANCHOR_REACH_RADII, anchor_groups
 
     box = eg._box_at((1, 1, 1), (0, 0.5, 0))
+    csm = eg._build(box, views, 16)
     scene = pyshadow.Scene(ground=0.0)
-    scene.add(eg._build(box, views, 16), mesh=box)
-    reach = ANCHOR_REACH_RADII * scene.scale()
-    near = np.random.default_rng(1).uniform(-3, 3, (50, 3))
+    scene.add(csm, mesh=box)
+    tiny = np.diag([1e-3, 1e-3, 1e-3, 1.0])
+    tiny[0, 3] = 1e4
+    scene.add(csm, tiny, mesh=box)                      # a 1 mm box 10 km away: the anchor lies halfway
+    near = scene.anchor() + np.random.default_rng(1).uniform(-3, 3, (50, 3))
     (rows, a), = anchor_groups(scene, near)
     assert rows is None and np.array_equal(a, scene.anchor())
-    pts = np.concatenate([near, near + [1e4, 0, 0], near * 100 + [-3e6, 7e5, 2e9]])
+    pts = np.concatenate([near, (near - scene.anchor()) * 1e-3 + [1e4, 0, 0], near * 100 + [-3e6, 7e5, 2e9]])
     groups = anchor_groups(scene, pts)
-    assert np.array_equal(groups[0][0], np.arange(50)) and np.array_equal(groups[0][1], scene.anchor())
+    assert np.isin(np.arange(50), groups[0][0]).all() and np.array_equal(groups[0][1], scene.anchor())
     assert np.array_equal(np.sort(np.concatenate([r for r, _ in groups])), np.arange(len(pts)))
+    c = np.array([scene.instances[k].world_sphere()[0] for k in range(2)])
+    radius = np.array([scene.instances[k].world_sphere()[1] for k in range(2)])
+    reach = np.maximum(ANCHOR_REACH_RADII * radius, np.linalg.norm(pts[:, None] - c, axis=2) - radius).min(axis=1)
+    assert len(groups) > 1 and (reach[50:100] <= ANCHOR_REACH_RADII * radius[1]).all()   # near the 1 mm box
     for r, a in groups:
-        assert np.abs(pts[r] - a).max() <= reach
+        assert (np.abs(pts[r] - a).max(axis=1) <= reach[r]).all()
 
 
 def test_placements_beyond_float32_are_refused(views):

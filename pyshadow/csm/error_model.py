@@ -210,6 +210,7 @@ def truth_visible(bodies, points, directions, *, ground: float | None = None) ->
         True where the ray reaches the sky.
     """
     from .._embree_lift import off_own_surface, sphere_size
+    from ..anchor_reach import caster_buckets
     from ..embree import EmbreeScene, ray_epsilon
     from ..mesh import float32_unit
     from ..scene_arrays import ANCHOR_REACH_RADII, cube_groups
@@ -226,8 +227,10 @@ def truth_visible(bodies, points, directions, *, ground: float | None = None) ->
     # traced at unit size, scaled by a power of two (1 near it: exact): ray_epsilon is at least float32's
     # smallest normal number, which lifted the rays off a body below 1e-38 units past every surface
     unit = float32_unit(scale)
-    # points far from the anchor (bodies far apart) relative to anchors of their own, as pyshadow.embree's
-    for rows, a in cube_groups(p, anchor, ANCHOR_REACH_RADII * radii.min()):
+    # points beyond their reach from the anchor (pyshadow.anchor_reach: near a caster tiny beside their distance
+    # from it, bodies far apart) relative to anchors of their own, as pyshadow.embree's
+    for rows, a in cube_groups(p, anchor, ANCHOR_REACH_RADII * radii.min(),
+                               None, lambda: caster_buckets(centres, radii)):
         rows = np.arange(len(p)) if rows is None else rows
         todo = rows[~occ[rows]]
         rel = (p[todo] - a) * unit

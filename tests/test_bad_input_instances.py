@@ -106,8 +106,9 @@ def test_a_transform_edited_in_place_cannot_leave_the_scene_stale():
 def test_tables_of_far_anchors_are_kept_for_the_last_few_only(monkeypatch):
     """Before: every anchor of far query points (one per region of about 128 m here) kept its instance
     table, grid and their device copies with the scene until it changed: 100 points scattered over
-    +-1e5 m among 10,000 casters kept 809 MB. Now the scene's own anchor and the last FAR_ANCHORS
-    others are kept, and the answers are those of a scene that keeps nothing."""
+    +-1e5 m among 10,000 casters kept 809 MB. Now the scene's own anchor and the most recently used
+    others up to FAR_BYTES (here set to two or three anchors' tables) are kept, and the answers are those
+    of a scene that keeps nothing."""
     from pyshadow.visibility import held as held_mod
 
     rng = np.random.default_rng(2)
@@ -118,17 +119,29 @@ def test_tables_of_far_anchors_are_kept_for_the_last_few_only(monkeypatch):
     C = scene_arrays(s)["world_centre"]
     D = C[rng.integers(0, len(C), m)] - P
     D[1::2, 1] += 5.0                                   # every other ray passes 5 m above its caster
+    # a Spot 2 m beyond each point (behind its ray): the points lie within its reach only from an
+    # anchor of their own (pyshadow.anchor_reach); far from every caster, they would keep the scene's
+    inst = s.instances[0]
+    for q in P:
+        T = inst.transform.copy()
+        T[[0, 2], 3] += q[[0, 2]] * (1.0 + 2.0 / np.hypot(q[0], q[2]))
+        s.add(inst.csm, T, mesh=inst.mesh)
     near = np.c_[rng.uniform(-3, 3, 64), np.zeros(64), rng.uniform(-3, 3, 64)]
     up = np.tile([0.0, 1.0, 0.0], (64, 1))
     S = pyshadow.Sampling(8, seed=1)
-    got = [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(m)]
-    got_ao = s.ambient_occlusion(near, up, sampling=S)
+    got = [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(3)]
     far = scene_arrays(s)["far_anchors"]
-    assert len(far) == held_mod.FAR_ANCHORS
+    assert len(far) == 3                                 # three regions, each its anchor's tables
+    budget = 2.5 * max(held_mod._bytes(t) for t in far.values())
+    monkeypatch.setattr(held_mod, "FAR_BYTES", budget)   # two or three anchors' tables
+    got += [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(3, m)]
+    got_ao = s.ambient_occlusion(near, up, sampling=S)
+    last = next(reversed(far.values()))
+    assert 2 <= len(far) <= 4 and held_mod._bytes(far) - held_mod._bytes(last) <= budget
     assert not any(isinstance(k, tuple) and k[0] == "instance_data" and k[1] != s.anchor().tobytes()
                    for k in scene_arrays(s))            # far anchors' tables only among the last few
-    monkeypatch.setattr(held_mod, "FAR_ANCHORS", 0)      # keep none: every far query builds its own
+    monkeypatch.setattr(held_mod, "FAR_BYTES", 0)        # keep only the last asked: every far query builds its own
     want = [s.visible(P[i:i + 1], D[i:i + 1])[0] for i in range(m)]
-    assert got == want and len(scene_arrays(s)["far_anchors"]) == 0
+    assert got == want and len(scene_arrays(s)["far_anchors"]) == 1
     np.testing.assert_array_equal(got_ao, s.ambient_occlusion(near, up, sampling=S))
     assert sum(got) >= 8 and sum(got) <= m - 8

@@ -106,3 +106,18 @@ def check_item(item, oid):
         return load_mesh(mesh), T
     check_mesh(mesh, f"item {oid}")
     return mesh, T
+
+
+def scene_state(scene) -> tuple:
+    """What an :class:`pyshadow.embree.EmbreeTracer` was built from: the scene's version (advanced by
+    ``Scene.add`` and ``Scene.set_transform``) and ground height."""
+    return getattr(scene, "_version", None), scene.ground
+
+
+def check_unchanged(tracer) -> None:
+    """ValueError where ``tracer``'s scene changed since it was built: its triangles and anchor are those of
+    the scene as it was, while the ground, the anchors of the points and the lift follow the scene now (a
+    tracer half the old scene and half the new)."""
+    if scene_state(tracer.scene) != tracer._state:
+        raise ValueError("EmbreeTracer: the scene changed since the tracer was built (a body moved or added, or "
+                         "the ground); build a new EmbreeTracer for it")

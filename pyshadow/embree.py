@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
-from ._embree_checks import check_frame, check_item, check_threads, float32_rays
+from ._embree_checks import check_frame, check_item, check_threads, check_unchanged, float32_rays, scene_state
 from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon, off_crossed_planes, off_own_surface, point_surfaces
 from ._validate import check_both, check_indices, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
@@ -457,7 +457,7 @@ class EmbreeTracer:
     ----------
     scene : pyshadow.Scene
         Every caster must carry its mesh (``Scene.add(..., mesh=...)``);
-        later changes to the scene are not seen.
+        after a change to the scene :meth:`prepare` raises ValueError.
     threads : int
         Worker threads, >= 1 (e.g. ``os.cpu_count()``).
 
@@ -476,7 +476,7 @@ class EmbreeTracer:
     def __init__(self, scene, threads: int):
         self.threads = check_threads(threads)
         self.scene = scene
-        self.rays, self.anchor = caster_scene(scene)
+        self.rays, self.anchor, self._state = *caster_scene(scene), scene_state(scene)
         self.eps = surface_epsilon(scene)
         self.closed = False
         self.pool = ThreadPoolExecutor(self.threads)
@@ -556,14 +556,15 @@ class EmbreeTracer:
         from ._validate import check_int, rows3
 
         S = check_int(samples, "EmbreeTracer.prepare: samples", 1)
+        check_unchanged(self)
         points = rows3(points, "points")
         normals = rows3(normals, "normals", len(points))
         if np.shape(dirs32) != (len(points) * S, 3):
             raise ValueError(f"EmbreeTracer.prepare: dirs32 must have shape ({len(points) * S}, 3) (samples "
                              f"directions per point), got {np.shape(dirs32)}")
         if anchor_groups(self.scene, points)[0][0] is not None:      # not one group at the scene's anchor
-            raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of the smallest caster "
-                             "from the scene's anchor, where its one anchor loses float32 precision; "
+            raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of a caster nearer to "
+                             "them than the scene's anchor, where its one anchor loses float32 precision; "
                              "pyshadow.embree.ambient_occlusion asks them relative to anchors of their own")
         rel = points - self.anchor
         ground = ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)

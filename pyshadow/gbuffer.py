@@ -10,57 +10,26 @@ it, then the exact distance along each eye ray to the plane of the triangle
 it comes from. A scene far from unit size is rasterised
 scaled by a power of two (:func:`pyshadow.mesh.float32_unit`), which moves
 no pixel; the near plane is 1e-6 of the farthest geometry in view, and a
-vertex in view nearer than that is refused rather than cut away.
+vertex in view nearer than that is refused rather than cut away. The items' triangles and their faces'
+planes come from :mod:`pyshadow.gbuffer_items` (re-exported here), which takes the items sharing a mesh
+object together.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pyopencl as cl
-import trimesh
 
 from . import _cl
-from ._validate import FLOAT32_MAX, check_transform
+from ._validate import check_transform
 from .camera import Camera, points_on_rays
-from .mesh import check_mesh, float32_unit, load_mesh
+from . import gbuffer_items as _items
+from .gbuffer_items import clip_polygon, face_corners, gbuffer_triangles, on_face_planes, through_eye
+from .mesh import float32_unit
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "raster_triangles", "on_face_planes",
-           "check_transform"]
+           "check_transform", "face_corners", "clip_polygon", "through_eye"]
 
-
-def _all3(m: np.ndarray) -> np.ndarray:
-    """``m.all(axis=1)`` of an (N, 3) boolean array, by columns (NumPy's reduction over an axis of
-    three is slower)."""
-    return m[:, 0] & m[:, 1] & m[:, 2]
-
-
-def _clip_near(tri: np.ndarray, near: float):
-    """Clip camera-space triangles (N, 3, 3) to z >= near; returns (M, 3, 3) and source index."""
-    z = tri[:, :, 2]
-    inside = z >= near
-    full = _all3(inside)
-    if full.all():                                  # nothing crosses the near plane
-        return tri, np.arange(len(tri))
-    part = (inside[:, 0] | inside[:, 1] | inside[:, 2]) & ~full
-    out = [tri[full]]
-    src = [np.flatnonzero(full)]
-    for i in np.flatnonzero(part):
-        poly = []
-        for k in range(3):
-            a, b = tri[i, k], tri[i, (k + 1) % 3]
-            ina, inb = a[2] >= near, b[2] >= near
-            if ina:
-                poly.append(a)
-            if ina != inb:
-                s = (near - a[2]) / (b[2] - a[2])
-                p = a + s * (b - a)
-                p[2] = near
-                poly.append(p)
-        for k in range(1, len(poly) - 1):
-            out.append(np.stack([poly[0], poly[k], poly[k + 1]])[None])
-            src.append(np.array([i]))
-    return np.concatenate(out), np.concatenate(src)
+_clip_near = _items._clip_near      # re-exported: pyshadow.lighting.shadow_map_cube imports it from here
 
 
 #: Triangles reaching beyond this many half-widths of the view (at their depth) are rasterised clipped to
@@ -69,27 +38,6 @@ def _clip_near(tri: np.ndarray, near: float):
 #: edge functions and depths at such corners moved the ground's far edge by up to 5 pixels at 640x480 and
 #: let a ground quad reaching behind the camera win the depth test over a plate 1 cm above it.
 GUARD_BAND = 2.0
-
-
-def clip_polygon(poly, planes) -> list:
-    """The convex polygon ``poly`` (a list of 3-vectors, float64) clipped to ``a . p <= b`` for each ``(a, b)``
-    of ``planes`` (Sutherland-Hodgman); [] where less than a triangle is left. An edge is cut at the point
-    computed from its lexicographically smaller end, so two polygons sharing the edge cut it alike."""
-    for a, b in planes:
-        cut = []
-        for k in range(len(poly)):
-            p, q = poly[k], poly[(k + 1) % len(poly)]
-            fp, fq = a @ p - b, a @ q - b
-            if fp <= 0:
-                cut.append(p)
-            if (fp <= 0) != (fq <= 0):
-                if tuple(p) > tuple(q):
-                    p, q, fp, fq = q, p, fq, fp
-                cut.append(p + fp / (fp - fq) * (q - p))
-        poly = cut
-        if len(poly) < 3:
-            return []
-    return poly
 
 
 def _guard_pieces(tris: np.ndarray, camera: Camera):
@@ -139,155 +87,6 @@ def _source_planes(tris, src, unit):
     return out
 
 
-def through_eye(tri) -> np.ndarray:
-    """(N,) bool: which eye-relative triangles ``tri`` (N, 3, 3) lie in a plane through the eye, within 1e-12 of
-    their farthest corner (float64's rounding of the camera transform): seen edge-on, they cover no pixel."""
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    reach = np.abs(tri).reshape(len(tri), 9).max(axis=1)
-    return np.abs(np.einsum("ij,ij->i", n, tri[:, 0])) <= 1e-12 * np.linalg.norm(n, axis=1) * reach
-
-
-def _edge_on_crossing(tri, near: float):
-    """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) crossing the near plane lie in a plane through
-    the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the eye in
-    it was refused as reaching into the view, or not, by the rounding of its area on screen); None where there is
-    none."""
-    below = tri[:, :, 2] < near
-    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))
-    if not len(part):
-        return None
-    flat = through_eye(tri[part])
-    if not flat.any():
-        return None
-    out = np.zeros(len(tri), bool)
-    out[part[flat]] = True
-    return out
-
-
-def _cut_in_view(tri, near: float, tx: float, ty: float):
-    """Index of the first camera-space triangle of ``tri`` (N, 3, 3) whose part nearer than ``near`` lies
-    in the view (half-widths ``tx``, ``ty`` at unit depth) with an area, which :func:`_clip_near` would cut
-    from the image; None if there is none. Only triangles whose box reaches the view's cross-section at
-    ``near`` are clipped (in float64, by Sutherland-Hodgman) to the part of the view between 1e-3 ``near``
-    and ``near``, and count where that part has an area on the screen."""
-    below = tri[:, :, 2] < near
-    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))     # few: by columns first
-    x, y = tri[part, :, 0], tri[part, :, 1]
-    cand = part[(x.min(axis=1) <= tx * near) & (x.max(axis=1) >= -tx * near)
-                & (y.min(axis=1) <= ty * near) & (y.max(axis=1) >= -ty * near)]
-    planes = [(np.array(a, np.float64), b) for a, b in (((0, 0, -1), -1e-3 * near), ((0, 0, 1), near),
-                                                        ((1, 0, -tx), 0.0), ((-1, 0, -tx), 0.0), ((0, 1, -ty), 0.0),
-                                                        ((0, -1, -ty), 0.0))]
-    for i in cand:
-        poly = clip_polygon(list(tri[i]), planes)
-        if poly:                            # its area on the screen (the view's [-1, 1]^2): an edge-on
-            sx = np.array([p[0] / (p[2] * tx) for p in poly])      # plane through the eye has none
-            sy = np.array([p[1] / (p[2] * ty) for p in poly])
-            if abs(np.dot(sx, np.roll(sy, -1)) - np.dot(np.roll(sx, -1), sy)) > 2e-12:
-                return int(i)
-    return None
-
-
-def _outside_view(c, tx, ty) -> bool:
-    """Whether camera-space points ``c`` (N, 3) all lie behind the eye or all beyond one side of the view
-    (half-widths ``tx``, ``ty`` at unit depth): a body there covers no pixel."""
-    x, y, z = c[:, 0], c[:, 1], c[:, 2]
-    return bool((z <= 0).all() or (x > tx * z).all() or (x < -tx * z).all() or (y > ty * z).all()
-                or (y < -ty * z).all())
-
-
-def gbuffer_triangles(items, camera: Camera):
-    """Camera-space, near-clipped triangles of ``items``.
-
-    Returns
-    -------
-    tris : ndarray, shape (M, 3, 3), float64
-        Corners in camera space (x right, y up, z forward, eye at 0).
-    object_id : ndarray, shape (M,), int32
-        Index of the item each triangle comes from.
-    face : ndarray, shape (M,), int64
-        Face index within its item's mesh.
-    near : float
-        The near-plane distance used.
-    """
-    if not isinstance(camera, Camera):
-        raise TypeError(f"camera must be a pyshadow.Camera, got {type(camera).__name__}")
-    items = list(items)
-    R = camera.rotation
-    tx = camera.tan_half * camera.aspect
-    ty = camera.tan_half
-    per = []
-    far = 0.0
-    for oid, item in enumerate(items):
-        try:
-            mesh, T = item
-        except (TypeError, ValueError):
-            raise ValueError(f"item {oid} must be a (mesh, 4x4 transform) pair") from None
-        if not isinstance(mesh, trimesh.Trimesh):
-            mesh = load_mesh(mesh)
-        else:                   # a mesh object is used as it is: NaN vertices or stray faces would drop triangles
-            check_mesh(mesh, f"item {oid}")
-        T = check_transform(T, name=f"transform of item {oid}")
-        v = np.asarray(mesh.vertices, dtype=np.float64)
-        with np.errstate(over="ignore", invalid="ignore"):
-            w = v @ T[:3, :3].T + T[:3, 3]
-            c = (w - camera.eye) @ R.T
-        if not np.isfinite(np.add.reduce(c, axis=None)) and not np.isfinite(c).all():
-            raise ValueError(f"item {oid}: its transform places vertices beyond float64's range from the camera "
-                             f"(largest |vertex| {float(np.abs(v).max()):.3g}, transform scale up to "
-                             f"{float(np.abs(T[:3, :3]).max()):.3g})")
-        if len(c) and not _outside_view(c, tx, ty):    # an item wholly outside the view sets no near plane
-            far = max(far, float(np.abs(c).max()))
-        per.append((c, np.asarray(mesh.faces), oid))
-    reach = float(np.abs(camera.eye).max()) + math.sqrt(3.0) * far
-    if not reach <= FLOAT32_MAX:        # the G-buffer's depths and positions are float32
-        raise ValueError(f"render_gbuffer: the geometry in view lies up to {reach:.3g} from the world origin "
-                         f"(eye {camera.eye.tolist()}, farthest geometry in view {far:.3g} from it); the G-buffer's "
-                         f"float32 depths and positions hold at most {FLOAT32_MAX:.3g}")
-    near = max(far * 1e-6, 1e-30)
-    for c, _, oid in per:       # a vertex in view nearer than the near plane: its triangles would be cut
-        z = c[:, 2]
-        cut = (z > 0) & (z < near) & (np.abs(c[:, 0]) <= tx * z) & (np.abs(c[:, 1]) <= ty * z)
-        if cut.any():
-            raise ValueError(f"render_gbuffer: item {oid} has a vertex in view {float(z[cut].min()):.3g} from the eye, "
-                             f"nearer than the near plane {near:.3g} " + (
-                                 f"(1e-6 of the farthest geometry in view, {far:.3g}: the depth range float32's "
-                                 "rasteriser places in one view); draw the bodies near the camera as a scene of "
-                                 "their own" if near > 1e-30 else
-                                 f"(the smallest the G-buffer takes; the farthest geometry in view is {far:.3g} from "
-                                 "the eye); scale the scene and the camera up"))
-    all_tri, all_obj, all_face = [], [], []
-    for c, faces, oid in per:
-        if len(faces) == 0:
-            continue
-        # drop triangles entirely outside one side of the view frustum: each corner's side
-        # tests as bits of its vertex (the same comparisons of the same values as corner by
-        # corner), a triangle out where its three corners share a bit
-        x, y, z = c[:, 0], c[:, 1], c[:, 2]
-        side = (z < near).astype(np.uint8)
-        for bit, test in enumerate((x > tx * z, x < -tx * z, y > ty * z, y < -ty * z), 1):
-            side |= test.astype(np.uint8) << bit
-        corner = np.take(side, faces)                      # (F, 3); indexing is slower
-        keep = np.flatnonzero((corner[:, 0] & corner[:, 1] & corner[:, 2]) == 0)
-        tri = np.take(c, faces if len(keep) == len(faces) else np.take(faces, keep, axis=0), axis=0)
-        edge_on = _edge_on_crossing(tri, near)
-        if edge_on is not None:
-            tri, keep = tri[~edge_on], keep[~edge_on]
-        lost = _cut_in_view(tri, near, tx, ty)
-        if lost is not None:
-            raise ValueError(f"render_gbuffer: face {int(keep[lost])} of item {oid} reaches into the view nearer than "
-                             f"the near plane {near:.3g} (1e-6 of the farthest geometry in view, {far:.3g}), which "
-                             f"would cut it away there (the pixels would show what lies behind it); draw it "
-                             f"smaller (a smaller ground_size for the ground) or far geometry as a scene of its own")
-        clipped, src = _clip_near(tri, near)
-        all_tri.append(clipped)
-        all_obj.append(np.full(len(clipped), oid, dtype=np.int32))
-        all_face.append(keep[src])
-    if not all_tri:
-        return np.zeros((0, 3, 3)), np.zeros(0, np.int32), np.zeros(0, np.int64), near
-    return np.concatenate(all_tri), np.concatenate(all_obj), np.concatenate(all_face), near
-
-
 def _finish(camera, t, n_cam, obj, face):
     """Assemble the output dict from per-pixel distance, camera normal and ids."""
     H, W = camera.height, camera.width
@@ -308,71 +107,6 @@ def _finish(camera, t, n_cam, obj, face):
         "face": (face if every else np.where(hit, face, -1)).astype(np.int32).reshape(H, W),
         "depth": (t if every else np.where(hit, t, np.inf)).astype(np.float32),
     }
-
-
-def face_corners(items, item: int, face, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """(K, 3, 3) float64 world corners, minus ``origin`` (3,), of the faces ``face`` (K,) of drawn item ``item``
-    of ``items``; a ValueError naming a face its mesh does not have (a G-buffer rendered from other items), not
-    an IndexError or a face counted from the end."""
-    mesh, T = items[item]
-    face = np.asarray(face)
-    bad = (face < 0) | (face >= len(mesh.faces))
-    if bad.any():
-        raise ValueError(f"gbuffer['face'] holds face {int(face[bad][0])} of item {int(item)}, whose mesh has "
-                         f"{len(mesh.faces)} faces (the G-buffer was rendered from other items)")
-    T = np.asarray(T, dtype=np.float64)
-    w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + (T[:3, 3] - np.asarray(origin, np.float64))
-    return w[np.asarray(mesh.faces)[face]]
-
-
-def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0.0) -> dict:
-    """``gbuffer`` with each covered pixel's point on the plane of its face, where float32 depths could miss it.
-
-    A G-buffer's float32 ``depth`` puts a pixel's point ``eye + depth * ray`` off its surface by about
-    a float32 spacing of the depth: from a far camera, more than a ray tracer's lift off a surface or
-    the ground plane's tolerance (then rays start behind the surface). The pixel's face (``object_id``,
-    ``face``; world corners in float64, relative to the eye) and its ray give the distance to float64
-    rounding.
-
-    Parameters
-    ----------
-    items : sequence of (mesh, transform)
-        The drawn items the G-buffer's ``object_id`` indexes.
-    gbuffer : dict
-        :func:`render_gbuffer`'s form; without ``face`` it is returned as it is.
-    camera : pyshadow.Camera
-    covered : ndarray, shape (H, W), bool
-        The pixels to place (``object_id != -1``).
-    tolerance : float, optional
-        World units: the depths are kept while 16 float32 spacings of the farthest covered depth stay
-        within it (0: always placed).
-
-    Returns
-    -------
-    dict
-        ``gbuffer`` itself, or a shallow copy whose ``depth`` is float64 (H, W): along the unit rays
-        of :meth:`pyshadow.Camera.ray_directions` to the face's plane on covered pixels, where that is
-        within 1e-3 of the float32 depth (not a face seen edge-on); the float32 depth elsewhere.
-    """
-    depth = np.asarray(gbuffer["depth"])
-    keep = np.asarray(covered).reshape(-1)
-    if "face" not in gbuffer or not keep.any() or \
-            16.0 * float(np.spacing(np.float32(np.max(depth, where=covered, initial=0.0)))) <= tolerance:
-        return gbuffer
-    index = np.flatnonzero(keep)
-    out = depth.astype(np.float64).reshape(-1)
-    item = np.asarray(gbuffer["object_id"]).reshape(-1)[index]
-    face = np.asarray(gbuffer["face"]).reshape(-1)[index]
-    dirs = camera._rays().reshape(-1, 3)[index]
-    for i in np.unique(item):
-        sel = np.flatnonzero(item == i)
-        a, b, c = np.moveaxis(face_corners(items, i, face[sel], camera.eye), 1, 0)
-        n = np.cross(b - a, c - a)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.einsum("ij,ij->i", a, n) / np.einsum("ij,ij->i", dirs[sel], n)
-        d = out[index[sel]]
-        out[index[sel]] = np.where(np.abs(t - d) <= 1e-3 * d, t, d)     # NaN t (a sliver's zero normal) fails
-    return {**gbuffer, "depth": out.reshape(depth.shape)}
 
 
 #: Triangles whose screen box holds more pixels than this are rasterised a row to a work-item

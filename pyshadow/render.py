@@ -19,6 +19,7 @@ from .ao_pass import ao_pass
 from .camera import points_on_rays
 from .materials import visual_of
 from .sampling import Sampling
+from .scene_arrays import scene_arrays
 from .shading_normals import DEFAULT_CREASE_ANGLE, NORMAL_MODES, check_crease_angle
 
 __all__ = ["Frame", "SurfacePoints", "render", "surface_points", "covered_pixels", "draw_items", "ground_quad",
@@ -149,9 +150,10 @@ def ground_quad(scene, size: float | None = None):
     if scene.ground is None:
         raise ValueError("the scene has no ground plane")
     anchor = scene.anchor()
-    if size is None:
-        reach = max([np.linalg.norm(c - anchor) + r for c, r in
-                     (inst.world_sphere() for inst in scene.instances)] or [1.0])
+    if size is None:                    # the instances' world spheres, stacked once per scene change
+        held = scene_arrays(scene)      # (as Instance.world_sphere gives them, bit for bit)
+        reach = max([np.linalg.norm(c - anchor) + r for c, r in zip(held["world_centre"], held["world_radius"])]
+                    or [1.0])
         size = 16.0 * reach
     if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) or not (
             _finite_float(size) and size > 0):

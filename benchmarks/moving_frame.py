@@ -12,9 +12,12 @@ Per count, medians of ``--rounds`` frames:
   of the same points (the scene's arrays, the instance grid, the contact
   footprints of the boxes on the ground);
 * **query**: the second query;
-* **frame**: moves in one call + change + query, and its frames per second.
+* **frame**: moves in one call + change + query, and its frames per second;
+* with ``--render``: ``Scene.render`` (640x480, 16 samples, a camera 0.6 N^(1/2) m
+  off seeing the whole field and the ground to the horizon) right after a
+  move, and again.
 
-    python benchmarks/moving_frame.py [--counts 1000 10000] [--points 20000] [--rounds 5] [--json]
+    python benchmarks/moving_frame.py [--counts 1000 10000] [--points 20000] [--rounds 5] [--render] [--json]
 """
 from __future__ import annotations
 
@@ -37,6 +40,7 @@ def main(argv=None) -> int:
     ap.add_argument("--counts", type=int, nargs="+", default=[1000, 10000])
     ap.add_argument("--points", type=int, default=20000)
     ap.add_argument("--rounds", type=int, default=5)
+    ap.add_argument("--render", action="store_true", help="also time Scene.render after a move, and again")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     check_counts(ap, args, "points", "rounds")
@@ -50,8 +54,7 @@ def main(argv=None) -> int:
         k = int(np.ceil(np.sqrt(n)))
         xz = np.column_stack([np.arange(n) % k, np.arange(n) // k]) - (k - 1) / 2.0
         scene = pyshadow.Scene(ground=0.0)
-        for x, z in xz:
-            scene.add(csm, trimesh.transformations.translation_matrix([x, 0.15, z]), mesh=box)
+        scene.add(csm, np.stack([trimesh.transformations.translation_matrix([x, 0.15, z]) for x, z in xz]), mesh=box)
         rng = np.random.default_rng(0)
         half = k / 2.0
         p = np.column_stack([rng.uniform(-half, half, args.points), np.zeros(args.points),
@@ -88,6 +91,19 @@ def main(argv=None) -> int:
             t["one_call"].append(t2 - t1)
             t["change"].append((t3 - t2) - (t4 - t3))
             t["query"].append(t4 - t3)
+        if args.render:
+            k0 = 0.6 * np.sqrt(n)
+            cam = pyshadow.Camera(eye=[0.0, 0.5 * k0, k0], target=[0.0, 0.0, 0.0], width=640, height=480)
+            scene.render(cam, sampling=sampling)
+            t["render_after_move"], t["render_again"] = [], []
+            for f in range(args.rounds + 1, 2 * args.rounds + 1):
+                scene.set_transform(ids, poses(f))
+                t0 = time.perf_counter()
+                scene.render(cam, sampling=sampling)
+                t1 = time.perf_counter()
+                scene.render(cam, sampling=sampling)
+                t["render_after_move"].append(t1 - t0)
+                t["render_again"].append(time.perf_counter() - t1)
         med = {key: statistics.median(v) for key, v in t.items()}
         frame = med["one_call"] + med["change"] + med["query"]
         rows.append({"bodies": n, "points": args.points, "seconds": med, "frame_s": frame,
@@ -100,11 +116,13 @@ def main(argv=None) -> int:
     print(f"a frame of N moving boxes on the ground, AO of {args.points} ground points (16 samples); "
           f"medians of {args.rounds} frames, seconds")
     print(f"{'N':>6} {'moves, one call each':>21} {'moves, one call':>16} {'change':>8} {'query':>8} "
-          f"{'frame':>8} {'frames/s':>9} {'same':>5}")
+          f"{'frame':>8} {'frames/s':>9} {'same':>5}"
+          + (f" {'render after move':>18} {'again':>7}" if args.render else ""))
     for r in rows:
         s = r["seconds"]
         print(f"{r['bodies']:>6} {s['one_call_each']:>21.4f} {s['one_call']:>16.4f} {s['change']:>8.4f} "
-              f"{s['query']:>8.4f} {r['frame_s']:>8.4f} {r['frames_per_s']:>9.2f} {str(r['same_transforms']):>5}")
+              f"{s['query']:>8.4f} {r['frame_s']:>8.4f} {r['frames_per_s']:>9.2f} {str(r['same_transforms']):>5}"
+              + (f" {s['render_after_move']:>18.3f} {s['render_again']:>7.3f}" if args.render else ""))
     return 0
 
 

@@ -239,6 +239,18 @@ def box_and_ball(maps, resolution: int, subdivisions: int, size):
     return scene, cam, sum(scene.instances[i].csm.stats["bytes"] for i in scene.casters)
 
 
+@pytest.fixture(scope="module")
+def box_csm():
+    """A 0.3 m box mesh and its small CSM (8 x 16 maps at 32^2): the body of the moving-scene tests."""
+    import trimesh
+
+    import pyshadow
+
+    box = trimesh.creation.box((0.3, 0.3, 0.3))
+    return box, pyshadow.CoherentShadowMap.build(box, pyshadow.ViewSet.zigzag(8, 16), resolution=32,
+                                                   progress=False)
+
+
 @pytest.fixture
 def small_scene():
     """A unit box on the ground, CSM of 4x8 maps at 16^2: quick to build and to ask."""

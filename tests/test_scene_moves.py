@@ -61,13 +61,6 @@ def test_check_transforms_raises_check_transforms_error_naming_the_matrix(bad, m
         check_transform(T[37], rigid=True)      # the same rule one at a time
 
 
-@pytest.fixture(scope="module")
-def box_csm():
-    box = trimesh.creation.box((0.3, 0.3, 0.3))
-    return box, pyshadow.CoherentShadowMap.build(box, pyshadow.ViewSet.zigzag(8, 16), resolution=32,
-                                                   progress=False)
-
-
 def _scene(box_csm, n=40):
     box, csm = box_csm
     s = pyshadow.Scene(ground=0.0)

@@ -30,15 +30,16 @@ __all__ = ["FAR_BYTES", "held_at", "kept", "on_device"]
 FAR_BYTES = 512 * 2 ** 20
 
 
-def _bytes(x) -> int:
-    """Bytes of the arrays and device buffers held in ``x`` (dicts, tuples and lists walked)."""
-    if isinstance(x, np.ndarray):
-        return x.nbytes
-    if isinstance(x, dict):
-        return sum(_bytes(v) for v in x.values())
-    if isinstance(x, (tuple, list)):
-        return sum(_bytes(v) for v in x)
-    return int(getattr(x, "size", 0)) if isinstance(x, _cl.cl.MemoryObject) else 0
+def _bytes(x, seen=None) -> int:
+    """Bytes of the arrays and device buffers held in ``x`` (dicts, tuples and lists walked), each counted
+    once (a device copy's entry holds its host array too, which the tables hold already)."""
+    seen = set() if seen is None else seen
+    if isinstance(x, (dict, tuple, list)):
+        return sum(_bytes(v, seen) for v in (x.values() if isinstance(x, dict) else x))
+    if id(x) in seen or not isinstance(x, (np.ndarray, _cl.cl.MemoryObject)):
+        return 0
+    seen.add(id(x))
+    return x.nbytes if isinstance(x, np.ndarray) else int(x.size)
 
 
 def held_at(scene, anchor) -> dict:

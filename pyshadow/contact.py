@@ -48,7 +48,7 @@ import weakref
 import numpy as np
 
 from ._validate import check_rows, float32_exact
-from .contact_parts import _CHUNK, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines, _slab_pairs
+from .contact_parts import _CHUNK, _grid_pairs, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines
 from .scene_arrays import scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -158,17 +158,21 @@ def _footprints(scene, ids, ground, tols):
     above its faces on the plane is its inside) and its surface must be closed (every edge of its distinct
     faces shared by two), whatever its winding: every ray leaving such a face upwards meets the surface
     again. Instances sharing a mesh are moved together (the same values as one at a time)."""
-    out, found, groups = [None] * len(ids), [], {}
-    for k, i in enumerate(ids):
-        inst = scene.instances[i]
-        if inst.mesh is not None and inst.casts and len(inst.mesh.faces):
-            groups.setdefault(id(inst.mesh), []).append(k)
-    for rows in groups.values():
-        surface = _closed_surface(scene.instances[ids[rows[0]]].mesh)
+    out, found, held = [None] * len(ids), [], scene_arrays(scene)
+    ids = np.asarray(ids, np.intp)
+    key = np.where(held["casts"][ids], held["mesh_id"][ids], 0)
+    _, first, back, count = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+    by = np.split(np.argsort(back.ravel(), kind="stable"), np.cumsum(count)[:-1])     # each mesh's rows, in order
+    for g in np.argsort(first, kind="stable"):          # by mesh, in the order of the bodies first placing it
+        mesh = scene.instances[ids[first[g]]].mesh
+        if mesh is None or not scene.instances[ids[first[g]]].casts or not len(mesh.faces):
+            continue
+        rows = by[g]
+        surface = _closed_surface(mesh)
         if surface is None:
             continue                                    # open: it encloses nothing
         u, f = surface
-        T = np.array([scene.instances[ids[k]].transform for k in rows])
+        T = held["transform"][ids[rows]]
         u = np.matmul(u[None], T[:, :3, :3].transpose(0, 2, 1)) + T[:, None, :3, 3]
         h, t = u[:, :, 1] - ground, np.asarray(tols)[rows]
         # the surface's vertices: a stray vertex below the plane lost the footprint (sunk: not resting on it)
@@ -316,7 +320,7 @@ def ground_sheet_slots(scene, points, own):
     tris, _, lo, hi = _kept_parts(scene_arrays(scene), ("sheet parts", float(scene.ground)),
                                   [tri for _, tri, _ in found])
     tol = np.array([t for _, _, t in found])
-    pid, rows = _slab_pairs(q_all, lo, hi)
+    pid, rows = _grid_pairs(q_all, lo, hi)
     ok = np.all((q_all[rows] >= lo[pid]) & (q_all[rows] <= hi[pid]), axis=1)
     pid, rows = pid[ok], rows[ok]
     ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
@@ -379,16 +383,18 @@ def contact_mask(scene, points):
     if not fps:
         return None
     mask = np.zeros(len(p), bool)
+    held, key = scene_arrays(scene), ("contact parts", float(scene.ground))
+    if key not in held:                                 # the footprints' parts and tolerances, not per query
+        _kept_parts(held, key, [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps])
+        held[key + ("tol",)] = np.array([t for _, _, t in fps])
+    parts, tol = held[key], held[key + ("tol",)]
     off = _plane_offsets(scene, p)
-    cand = np.flatnonzero(_on_plane(off, max(t for _, _, t in fps)))
+    cand = np.flatnonzero(_on_plane(off, tol.max()))
     if not len(cand):
         return mask
     off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    parts = _kept_parts(scene_arrays(scene), ("contact parts", float(scene.ground)), [tri for _, (tri, _), _ in fps],
-                        [seg for _, (_, seg), _ in fps])
-    tol = np.array([t for _, _, t in fps])
-    pid, rows = _slab_pairs(q_all, *parts[2:])                  # in a footprint's box
+    pid, rows = _grid_pairs(q_all, *parts[2:])                  # in a footprint's box
     ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
     pid, rows = pid[ok], rows[ok]
     mask[cand[rows[_in_parts(q_all[rows], pid, parts, tol)]]] = True

@@ -148,7 +148,11 @@ def body_patches(scene):
     if "bodies" in held:
         return held["bodies"]
     out = []                    # stored when complete: another thread's query reads all of it or none
-    ids = [i for i, s in enumerate(scene.instances) if s.mesh is not None and len(s.mesh.faces)]
+    mesh_id = held["mesh_id"]                           # the instances with a mesh of faces, each mesh asked once
+    _, first, back = np.unique(mesh_id, return_index=True, return_inverse=True)
+    faced = np.array([m != 0 and len(scene.instances[k].mesh.faces) > 0 for m, k in zip(mesh_id[first], first)],
+                     bool)
+    ids = np.flatnonzero(faced[back.ravel()])
     if len(ids) < 2:
         held["bodies"] = out
         return out

@@ -68,6 +68,52 @@ def _slab_pairs(p, lo, hi):
     return pid, order[np.arange(len(pid)) + np.repeat(a - (np.cumsum(b - a) - (b - a)), b - a), slab[pid]]
 
 
+_GRID_SPAN = 4              # a part spanning more cells than this along an axis: _slab_pairs
+
+
+def _grid_pairs(p, lo, hi):
+    """(part, row) candidate pairs, by part, of the points ``p`` (N, 2) within each part's box ``lo``, ``hi``
+    (P, 2): the points in the cells of a uniform grid (as wide as the parts' median box) that the part's box
+    meets. Every pair within a box is among them (the cell of a coordinate is monotonic in it); parts wider
+    than ``_GRID_SPAN`` cells, or all where no such grid fits in int64 keys, through :func:`_slab_pairs`.
+    Among many parts spread over both axes (10,000 boxes on a floor), the slab of one axis gave each part a
+    strip of the points: 30x the pairs the boxes hold."""
+    empty = np.zeros(0, np.intp)
+    if not len(p) or not len(lo):
+        return empty, empty
+    origin = np.minimum(p.min(axis=0), lo.min(axis=0))
+    h = float(np.median((hi - lo).max(axis=1)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = (np.maximum(p.max(axis=0), hi.max(axis=0)) - origin) / h if h > 0 else np.full(2, np.inf)
+    if not (np.isfinite(reach).all() and reach.max() < 2.0 ** 30):
+        return _slab_pairs(p, lo, hi)
+
+    def cell(x):
+        return np.floor((x - origin) / h).astype(np.int64)
+
+    a, b = cell(lo), cell(hi)
+    span = b - a + 1
+    small = (span <= _GRID_SPAN).all(axis=1)
+    width = int(cell(np.maximum(p.max(axis=0), hi.max(axis=0)))[1]) + 1
+    key = cell(p) @ np.array([width, 1], np.int64)
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+    part = np.flatnonzero(small)                        # each small part's cells: (part, cell key) pairs
+    g, k = _ragged(span[part, 0] * span[part, 1])
+    part = part[g]
+    k = (a[part, 0] + k // span[part, 1]) * width + a[part, 1] + k % span[part, 1]
+    s = np.searchsorted(sk, k)
+    n = np.searchsorted(sk, k, side="right") - s
+    pid = np.repeat(part, n)
+    rows = order[np.repeat(s, n) + _ragged(n)[1]]
+    if not small.all():
+        big = np.flatnonzero(~small)
+        bp, br = _slab_pairs(p, lo[big], hi[big])
+        pid, rows = np.concatenate([pid, big[bp]]), np.concatenate([rows, br])
+    o = np.argsort(pid, kind="stable")
+    return pid[o], rows[o]
+
+
 def _kept_parts(held, key, tris, segs=None):
     """(triangles, outline segments, the parts' boxes' corners lo, hi (P, 2)) of parts with triangles ``tris``
     [(K, 3, 2)] and outlines ``segs`` [(E, 2, 2)] (None: none), :func:`_ragged_parts` each; made once and kept

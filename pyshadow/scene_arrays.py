@@ -39,23 +39,28 @@ def scene_arrays(scene) -> dict:
         of their own in the dict (it is dropped with it when the scene changes).
         ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`);
         ``receivers``: ``(mesh, trimesh's hash)`` of each distinct receiver mesh: one changed in place
-        (a receiver's may be) makes the arrays anew, with its sphere.
+        (a receiver's may be) makes the arrays anew, with its sphere. ``mesh_id`` (n,) int64: ``id`` of
+        each instance's mesh, 0 without one. After moves only (the same instances), the arrays the
+        transforms do not change are kept.
     """
     version = getattr(scene, "_version", None)
     held = _HELD.get(scene)
-    if held is not None and version is not None and held["version"] == version \
-            and held["n"] == len(scene.instances) and all(hash(m) == h for m, h in held["receivers"]):
-        return held
     insts = scene.instances
     n = len(insts)
+    if held is not None and version is not None and held["n"] == n \
+            and all(hash(m) == h for m, h in held["receivers"]):
+        if held["version"] == version:
+            return held
+        # the same instances (the list only grows): only transforms moved; what they do not change is kept
+        out = {k: held[k] for k in _STATIC}
+        _HELD[scene] = out = _posed(out, np.stack([inst.transform for inst in insts]) if n else held["transform"],
+                                    version)
+        return out
     receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts}
     T = np.stack([inst.transform for inst in insts]) if n else np.zeros((0, 4, 4))
     spheres = [inst.object_sphere() for inst in insts]
     c = np.array([np.asarray(s[0], np.float64) for s in spheres]).reshape(n, 3)
     r = np.array([float(s[1]) for s in spheres], np.float64)
-    A = T[:, :3, :3]
-    scale = uniform_scale(A) if n else np.zeros(0)
-    wc = np.matmul(A, c[:, :, None])[:, :, 0] + T[:, :3, 3] if n else np.zeros((0, 3))
     types, index = [], {}
     for inst in insts:                  # the distinct CSMs of the casters, in first-use order
         if inst.casts and id(inst.csm) not in index:
@@ -66,13 +71,31 @@ def scene_arrays(scene) -> dict:
     for k, inst in enumerate(insts):    # the casters' distinct meshes, each with an instance placing it
         if inst.casts and inst.mesh is not None and id(inst.mesh) not in meshes:
             meshes[id(inst.mesh)] = (k, inst.mesh)
-    out = {"types": tuple(types), "type_index": index, "itype": itype, "version": version, "n": n, "transform": T, "scale": scale, "object_centre": c, "object_radius": r,
-           "world_centre": wc, "world_radius": r * scale, "casts": np.array([i.casts for i in insts], bool),
-           "meshes": tuple(meshes.values()), "receivers": tuple(receivers.values())}
+    out = {"types": tuple(types), "type_index": index, "itype": itype, "n": n, "object_centre": c, "object_radius": r,
+           "casts": np.array([i.casts for i in insts], bool), "meshes": tuple(meshes.values()),
+           "receivers": tuple(receivers.values()),
+           "mesh_id": np.array([0 if i.mesh is None else id(i.mesh) for i in insts], np.int64)}
     for v in out.values():
         if isinstance(v, np.ndarray):
             v.flags.writeable = False
-    _HELD[scene] = out
+    _HELD[scene] = out = _posed(out, T, version)
+    return out
+
+
+# what a move leaves as it was (the instances, their CSMs, meshes and object spheres)
+_STATIC = ("types", "type_index", "itype", "n", "object_centre", "object_radius", "casts", "meshes", "receivers",
+           "mesh_id")
+
+
+def _posed(out, T, version):
+    """``out`` with the arrays of the transforms ``T`` (n, 4, 4): the world spheres, for all at once."""
+    n, c, r = out["n"], out["object_centre"], out["object_radius"]
+    A = T[:, :3, :3]
+    scale = uniform_scale(A) if n else np.zeros(0)
+    wc = np.matmul(A, c[:, :, None])[:, :, 0] + T[:, :3, 3] if n else np.zeros((0, 3))
+    out.update(version=version, transform=T, scale=scale, world_centre=wc, world_radius=r * scale)
+    for v in (T, scale, wc, out["world_radius"]):
+        v.flags.writeable = False
     return out
 
 

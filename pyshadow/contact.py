@@ -229,8 +229,18 @@ def _on_ground(scene, name, make):
 
 
 def _sheets(scene, ids, ground, tols):
-    """:func:`_sheet` of each instance ``ids[k]`` with its tolerance ``tols[k]``."""
-    return [_sheet(scene.instances[i], ground, float(t)) for i, t in zip(ids, tols)]
+    """:func:`_sheet` of each instance ``ids[k]`` with its tolerance ``tols[k]``: asked only of the instances
+    whose mesh may have sheets (a caster's open mesh of faces, decided once per mesh)."""
+    held, ids = scene_arrays(scene), np.asarray(ids, np.intp)
+    key = np.where(held["casts"][ids], held["mesh_id"][ids], 0)
+    _, first, back = np.unique(key, return_index=True, return_inverse=True)
+    meshes = [scene.instances[ids[k]].mesh for k in first]
+    open_ = np.array([m is not None and scene.instances[ids[k]].casts and len(m.faces) > 0
+                      and _closed_surface(m) is None for m, k in zip(meshes, first)], bool)
+    out = [None] * len(ids)
+    for k in np.flatnonzero(open_[back.ravel()]).tolist():
+        out[k] = _sheet(scene.instances[ids[k]], ground, float(tols[k]))
+    return out
 
 
 def _sheet(inst, ground, tol):

@@ -33,7 +33,10 @@ Conventions shared by every function of this module
   ``depth_threshold`` are fractions of the centre pixel's depth.
 * The normal term uses ``max(0, 1 - n_p . n_q)``: 0 on the same plane, 1 at a
   right angle, 2 for opposite normals.
-* Computation is in float32 on the device; outputs are float32 (H, W).
+* Computation is in float32 on the device; outputs are float32 (H, W). The
+  means are summed as differences from the centre pixel's value (in
+  :func:`upsample`, from the first surface tap's), so a constant image comes
+  out unchanged, bit for bit.
 
 Functions validate every argument before anything is launched; an invalid one
 raises ``ValueError`` (``TypeError`` for a wrong type) that quotes the value.
@@ -314,16 +317,18 @@ def edge_aware_box(ao, depth, normal, *, size=7, depth_threshold=0.02,
     --------
     >>> d = np.full((3, 3), 2.0, np.float32)
     >>> n = np.zeros((3, 3, 3), np.float32); n[..., 1] = 1
-    >>> float(edge_aware_box(np.eye(3, dtype=np.float32), d, n, size=3)[1, 1])
-    0.3333333432674408
+    >>> round(float(edge_aware_box(np.eye(3, dtype=np.float32), d, n, size=3)[1, 1]), 6)
+    0.333333
     """
     ao, depth, normal, size, dt, nt = box_inputs(ao, depth, normal, size, depth_threshold,
                                                  normal_threshold)
     H, W = depth.shape
+    with np.errstate(over="ignore"):    # a threshold beyond float32's range is +inf there, as in the reference
+        dt32 = np.float32(dt)           # (the cast's RuntimeWarning was an error under -W error)
     k = _value_scale(ao, np.isfinite(depth))
     out = _run_passes(("edge_aware_box",), {"HALF": size // 2},
                       _scaled(ao, k, np.isfinite(depth)), (depth, _planes(normal)),
-                      (np.int32(W), np.int32(H), np.float32(dt), np.float32(nt)), _row_range(W, H))
+                      (np.int32(W), np.int32(H), dt32, np.float32(nt)), _row_range(W, H))
     return _unscale(out, k, ~np.isfinite(depth), ao)
 
 

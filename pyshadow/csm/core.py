@@ -374,9 +374,17 @@ class CoherentShadowMap:
                 "PAIR_WIDE": int(self.pair_wide), "SEARCH_BLOCK": SEARCH_BLOCK}
 
     def search_arrays(self, wide: bool | None = None, padded: bool = False) -> dict:
-        """The device layout the search kernels read: see :func:`pyshadow.csm.device.search_arrays`."""
-        from .device import search_arrays
+        """The device layout the search kernels read: see :func:`pyshadow.csm.device.search_arrays`.
 
+        The arrays are checked first (:func:`pyshadow.csm.file_checks.check_csm`; those of a mapped file
+        when copied, :func:`pyshadow.csm.device.search_arrays`): CSMFormatError where the constructor was
+        given, or an attribute was set to, arrays the kernels would read outside of.
+        """
+        from .device import search_arrays
+        from .file_checks import check_csm
+
+        if not any(isinstance(a, np.memmap) for a in (self.offsets, self.iend, self.depth)):
+            check_csm(self)
         return search_arrays(self, wide, padded)
 
     def device_buffers(self):
@@ -427,7 +435,8 @@ class CoherentShadowMap:
         ``65535`` a miss; float32 ``+inf`` a miss. ``reproducible=True`` leaves the measured
         build time out (``null``), so equal CSMs give equal bytes (:mod:`pyshadow.bake`).
         The file holds the view set as its layout and parameters: a CSM built with other bases on
-        that grid (``ViewSet(d, bases, "zigzag", params)``) is a ValueError, before anything is written.
+        that grid (``ViewSet(d, bases, "zigzag", params)``) is a ValueError, before anything is written;
+        so are arrays that :meth:`load` would refuse (CSMFormatError: :func:`pyshadow.csm.file_checks.check_arrays`).
         """
         from .fileformat import save
 

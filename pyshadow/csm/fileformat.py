@@ -43,6 +43,7 @@ from .._version import __version__
 from .._views_checks import _layout_args
 from ..views import BASIS_TOL, MAX_MAPS, ZIGZAG_ROW_OFFSETS, ViewSet
 from .core import _LAYOUTS, CSMFormatError, _depth_dtype, _iend_dtype, _offsets_dtype
+from .file_checks import check_arrays
 
 __all__ = ["MAGIC", "FORMAT_VERSION", "save", "load", "check_layout_bases", "file_params"]
 
@@ -72,9 +73,15 @@ def header(csm, reproducible: bool = False) -> dict:
         "both_sided_faces": csm.both_sided_faces,
         "mesh_hash": csm.mesh_hash,
         "segments": csm.segments,
-        "offsets_dtype": csm.offsets.dtype.str,
+        "offsets_dtype": _file_offsets_dtype(csm).str,
         "build_seconds": seconds,
     }
+
+
+def _file_offsets_dtype(csm) -> np.dtype:
+    """The offsets' dtype in a file, the one :func:`load` reads for the CSM's segment count (the
+    offsets of a CSM in memory may be given in another integer dtype)."""
+    return _offsets_dtype(csm.segments).newbyteorder("<")
 
 
 def file_params(views) -> dict:
@@ -130,14 +137,19 @@ def check_layout_bases(views) -> None:
 
 def save(csm, path, reproducible: bool = False) -> Path:
     """:meth:`CoherentShadowMap.save` (which documents the layout); ValueError where the view set's
-    bases are not its layout's (:func:`check_layout_bases`), before anything is written."""
+    bases are not its layout's (:func:`check_layout_bases`), CSMFormatError where its arrays, as the
+    file's dtypes hold them, break a rule :func:`load` checks (:func:`.file_checks.check_arrays`), before
+    anything is written."""
     path = Path(path)
     check_layout_bases(csm.views)
     head = json.dumps(header(csm, reproducible), sort_keys=True).encode()
     start = 16 + len(head)
-    layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments,
-                                     csm.depth_bits, csm.offsets.dtype)
-    arrays = {"offsets": csm.offsets, "iend": csm.iend, "depth": csm.depth}
+    layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments, csm.depth_bits,
+                               _file_offsets_dtype(csm))
+    arrays = {name: np.ascontiguousarray(getattr(csm, name), dtype=dt) for name, dt, _, _ in layout}
+    # what load would refuse is not written over a file
+    check_arrays("CoherentShadowMap.save", arrays["offsets"], arrays["iend"], arrays["depth"], csm.resolution,
+                 csm.maps, csm.depth_bits)
     h = hashlib.sha256()
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         def put(b):
@@ -148,8 +160,7 @@ def save(csm, path, reproducible: bool = False) -> Path:
         pos = start
         for name, dt, n, off in layout:
             put(b"\x00" * (off - pos))
-            data = np.ascontiguousarray(arrays[name], dtype=dt)
-            assert data.size == n
+            data = arrays[name]
             put(memoryview(data).cast("B"))
             pos = off + data.nbytes
         f.write(h.digest())
@@ -183,12 +194,26 @@ def load(cls, path, mmap: bool = False):
     if hashlib.sha256(memoryview(raw[:size - 32])).digest() != raw[size - 32:].tobytes():
         raise CSMFormatError(f"{path}: checksum mismatch (corrupted or truncated file)")
     try:
-        head = json.loads(raw[16:16 + hlen].tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-        raise CSMFormatError(f"{path}: unreadable header ({type(exc).__name__})") from None
+        head = json.loads(raw[16:16 + hlen].tobytes().decode("utf-8"), object_pairs_hook=_unique_keys)
+    except _DuplicateKey as exc:
+        raise CSMFormatError(f"{path}: the header holds the key {exc.args[0]!r} more than once") from None
+    except (ValueError, RecursionError) as exc:     # not UTF-8, not JSON, an integer beyond Python's digits
+        raise CSMFormatError(f"{path}: unreadable header ({type(exc).__name__}: {exc})") from None
     if not isinstance(head, dict):
         raise CSMFormatError(f"{path}: the header is not a JSON object")
     return _from_header(cls, path, head, 16 + hlen, raw)
+
+
+class _DuplicateKey(Exception):
+    """A key given twice in one JSON object of a header (which of the two a reader takes differs)."""
+
+
+def _unique_keys(pairs) -> dict:
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen = set()
+        raise _DuplicateKey(next(k for k, _ in pairs if k in seen or seen.add(k)))
+    return out
 
 
 def _number(x, lo=-np.inf, hi=np.inf) -> bool:
@@ -316,26 +341,7 @@ def _from_header(cls, path, head, start, raw):
 
 
 def _validate_arrays(path, data, R, D, S, bits):
-    off = np.asarray(data["offsets"]).astype(np.int64)
-    if off[0] != 0 or off[-1] != S:
-        raise CSMFormatError(f"{path}: offset table does not span 0..{S}")
-    lengths = np.diff(off)
-    if (lengths < 1).any():
-        t = int(np.argmax(lengths < 1))
-        raise CSMFormatError(f"{path}: segment list of texel {t} is empty or offsets decrease")
-    iend = np.asarray(data["iend"]).astype(np.int64)
-    if (iend >= D).any():
-        raise CSMFormatError(f"{path}: an i_end is beyond the last map {D - 1}")
-    if (iend[off[1:] - 1] != D - 1).any():
-        t = int(np.argmax(iend[off[1:] - 1] != D - 1))
-        raise CSMFormatError(f"{path}: segment list of texel {t} does not end at map {D - 1}")
-    inc = np.diff(iend) > 0
-    inc[off[1:-1] - 1] = True          # list boundaries may go down
-    if not inc.all():
-        raise CSMFormatError(f"{path}: i_end values of a segment list are not strictly increasing")
-    if bits == 32:
-        z = np.asarray(data["depth"])
-        bad = ~(np.isposinf(z) | (np.isfinite(z) & (z >= 0) & (z <= 2)))
-        if bad.any():
-            raise CSMFormatError(f"{path}: stored depth {z[np.argmax(bad)]!r} is neither finite "
-                                 "in [0, 2] nor the miss value +inf")
+    """:func:`.file_checks.check_arrays` on a file's ``data`` (``offsets``, ``iend``, ``depth``) of ``S`` segments."""
+    if len(data["depth"]) != S:
+        raise CSMFormatError(f"{path}: {len(data['depth'])} depths for {S} segments")
+    check_arrays(path, data["offsets"], data["iend"], data["depth"], R, D, bits)

@@ -152,8 +152,14 @@ def ground_quad(scene, size: float | None = None):
     anchor = scene.anchor()
     if size is None:                    # the instances' world spheres, stacked once per scene change
         held = scene_arrays(scene)      # (as Instance.world_sphere gives them, bit for bit)
-        reach = max([np.linalg.norm(c - anchor) + r for c, r in zip(held["world_centre"], held["world_radius"])]
-                    or [1.0])
+        c, r = held["world_centre"], held["world_radius"]
+        # the largest norm(c - anchor) + r: every row near the largest (within far more than the rounding
+        # of a vectorised norm) taken again with np.linalg.norm itself, so the same float as row by row
+        with np.errstate(over="ignore", invalid="ignore"):
+            near = np.sqrt(((c - anchor) ** 2).sum(axis=1)) + r
+        top = near.max(initial=-np.inf)
+        rows = np.flatnonzero(~(near < top - 1e-9 * abs(top))) if np.isfinite(top) else np.arange(len(r))
+        reach = max([np.linalg.norm(c[i] - anchor) + r[i] for i in rows] or [1.0])
         size = 16.0 * reach
     if isinstance(size, bool) or not isinstance(size, (int, float, np.integer, np.floating)) or not (
             _finite_float(size) and size > 0):

@@ -5,10 +5,11 @@ A part is a set of triangles in its own plane's 2D coordinates and the
 outline of their union (segments). A point of a part is closed in where it
 lies inside or on one of the part's triangles and farther than the part's
 tolerance from every segment of its outline. The parts of a scene are
-tested together: (point, part) candidate pairs from one sort of the points
-along an axis, then (pair, triangle) and (pair, segment) pairs in runs of
-about ``_CHUNK``, with the same operations on each pair as one part tested
-alone (the same answers to the bit).
+tested together: (point, part) candidate pairs from a uniform grid over the
+points (parts in the ground's plane: :func:`_grid_pairs`) or from one sort
+of the points along an axis (:func:`_slab_pairs`), then (pair, triangle) and
+(pair, segment) pairs in runs of about ``_CHUNK``, with the same operations
+on each pair as one part tested alone (the same answers to the bit).
 """
 from __future__ import annotations
 

@@ -13,7 +13,8 @@ Metrics, over the penumbra pixels: the RMSE of the irradiance ``E`` against the 
 divided by the mean unshadowed reference irradiance there ("relative radiance RMSE": the
 albedo cancels), the primary figure; and the RMSE of the lit share ``s = E / E_free`` (``E_free``
 the same estimator on the same samples without the shadow, so the unshadowed estimator's own
-noise does not count; 0..1), over the penumbra pixels whose light lies wholly above the
+noise does not count -- for the disc light the exact unshadowed irradiance its ratio estimator
+scales, ``pyshadow.lighting.area_exact``; 0..1), over the penumbra pixels whose light lies wholly above the
 surface's plane (where a few samples would leave ``s`` undefined). The reference is Embree with
 ``--k-ref`` samples ("converged"). Penumbra pixels: those where the reference's ``s`` lies
 strictly inside (0, 1) (beyond 1e-9), dilated by one pixel (3x3) within the pixels the light can
@@ -118,7 +119,8 @@ class Setup:
 
 def estimate(setup, light, rows, k, backends):
     """({backend: E}, E_free) at the points ``rows`` with K samples, float64 (N,) each."""
-    from pyshadow.lighting.area import AreaLight, area_light_radiance, area_light_samples
+    from pyshadow.lighting.area import AreaLight, area_light_radiance
+    from pyshadow.lighting.area_exact import unshadowed_factor
     from pyshadow.lighting.local import light_directions, point_light_radiance
 
     E, F = {b: np.zeros(len(rows)) for b in backends}, np.zeros(len(rows))
@@ -130,12 +132,8 @@ def estimate(setup, light, rows, k, backends):
         for b in backends:
             rad, _ = fn(setup.scene, p, n, light, 1.0, backend=b, samples=k, surface_ids=setup.ids[r], indices=idx)
             E[b][lo:lo + len(r)] = rad[:, 0] * math.pi
-        if isinstance(light, AreaLight):            # the same estimators with V = 1
-            y = area_light_samples(light, k, idx) - p[:, None]
-            d = np.linalg.norm(y, axis=2)
-            w = y / d[..., None]
-            cs = np.maximum(np.einsum("nkj,nj->nk", w, n), 0)
-            F[lo:lo + len(r)] = light.intensity[0] * (cs * np.maximum(-(w @ light.normal), 0) / d ** 2).mean(1)
+        if isinstance(light, AreaLight):            # the same estimator with V = 1: the exact unshadowed E_0
+            F[lo:lo + len(r)] = light.radiance[0] * unshadowed_factor(light, p, n / np.linalg.norm(n, axis=1)[:, None])
         else:
             to = light.position - p
             d = np.linalg.norm(to, axis=1)

@@ -390,9 +390,9 @@ def rect_irradiance(Lr, w, h, z, x):
 
 
 def test_disc_and_rectangle_lights_match_their_form_factors():
-    """1024 stratified area samples: within 2e-3 of the analytic irradiance (measured 4e-4 and 2e-4;
-    the stratified estimator's error falls as about 1 / K); one sample: the documented point light
-    with a cosine lobe, I cos cos_L / d^2."""
+    """1024 stratified area samples and one: the analytic irradiance within float32 rounding (the ratio
+    estimator: the exact unshadowed E_0 times the lit share, all lit here; the sample mean was within
+    4e-4 and 2e-4 at 1024, and one sample gave the point light with a cosine lobe, I cos cos_L / d^2)."""
     scene, p, n, ids = ground_row()
     I, d = np.array([100.0, 50.0, 25.0]), 2.0
     disc = DiscLight([0.0, d, 0.0], [0.0, -1.0, 0.0], 0.7, intensity=I)
@@ -402,10 +402,9 @@ def test_disc_and_rectangle_lights_match_their_form_factors():
                       (rect, lambda x: rect_irradiance(1.0, 1.2, 0.8, d, x))):
         want = RHO / math.pi * np.outer([fn(x) for x in X], light.radiance)
         r = shade(scene, p, n, Lighting(lights=[light], ground_albedo=RHO, sun_samples=1024), surface_ids=ids)
-        np.testing.assert_allclose(r, want, rtol=2e-3)
+        np.testing.assert_allclose(r, want, rtol=4 * F32)
         one = shade(scene, p, n, Lighting(lights=[light], ground_albedo=RHO), surface_ids=ids)
-        cos = d / np.sqrt(d * d + X ** 2)
-        np.testing.assert_allclose(one, RHO / math.pi * np.outer(cos * cos / (d * d + X ** 2), I), rtol=4 * F32)
+        np.testing.assert_allclose(one, want, rtol=4 * F32)        # K = 1: E_0 V(centre), all lit here
 
 
 # ---------------------------------------------------------------------------------------------

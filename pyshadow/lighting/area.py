@@ -9,26 +9,45 @@ receives ``E = I / d^2``, as from ``PointLight(intensity=I)``. The light is
 given by ``intensity`` (RGB ``I``) or by ``power`` (RGB ``Phi = pi I``, the
 flux of a one-sided Lambertian emitter: ``Phi = pi L A``).
 
-Estimator (area sampling). With ``samples = K`` points ``y_k`` spread over
-the light's area (uniform in area, stratified: a Vogel spiral on a disc, a
-Fibonacci lattice on a rectangle, both turned per point by its pattern index
-and the seed, as the sphere light's spiral), ``l_k = (y_k - p) / d_k``,
-``d_k = |y_k - p|``::
+Estimator (ratio: exact unshadowed irradiance times the sampled lit share).
+With ``samples = K`` points ``y_k`` spread over the light's area (uniform in
+area, stratified: a Vogel spiral on a disc, a Fibonacci lattice on a
+rectangle, both turned per point by its pattern index and the seed, as the
+sphere light's spiral), ``l_k = (y_k - p) / d_k``, ``d_k = |y_k - p|``,
+``w_k = max(n . l_k, 0) max(-n_L . l_k, 0) / d_k^2``::
 
-    E = L A / K * sum_k max(n . l_k, 0) * max(-n_L . l_k, 0) / d_k^2 * V_k
-      = I / K * sum_k ...
+    E = E_0(p, n) * sum_k w_k V_k / sum_k w_k
 
-an unbiased estimate of ``integral L cos(theta) cos(theta_L) / d^2 V dA``;
-``V_k`` from :func:`pyshadow.visibility.visible` on the finite ray from
-``p`` towards ``y_k`` with ``max_distance = d_k`` (:mod:`pyshadow.visibility.finite`).
-Outgoing radiance ``albedo / pi * E``. ``K = 1``: the single sample is the
-light's centre (``I cos cos_L / d^2``: a point light with a cosine lobe; hard
-shadows). Embree (``backend="embree"``) traces the identical rays: the ground
-truth; a converged reference is Embree with many samples.
+``E_0`` the exact unshadowed irradiance ``integral L max(cos(theta), 0)
+cos(theta_L) / d^2 dA`` (:mod:`pyshadow.lighting.area_exact`: closed forms,
+the light clipped by the point's tangent plane), the fraction the lit share
+of the sampled integrand (``visibility`` in the output); ``V_k`` from
+:func:`pyshadow.visibility.visible` on the finite ray from ``p`` towards
+``y_k`` with ``max_distance = d_k`` (:mod:`pyshadow.visibility.finite`).
+Unshadowed the answer is exact for every ``K`` (the share is 1); shadows are
+estimated (consistent: the share converges as ``K`` grows). Outgoing
+radiance ``albedo / pi * E``. ``K = 1``: the single sample is the light's
+centre, ``E = E_0 V(centre)`` (hard shadows). Where no sample lies in front
+of the receiver's plane (``sum_k w_k = 0``) while a sliver of the light
+does, the share and ``E`` are 0 (no ray to decide; nothing leaks through a
+wall; how often: benchmarks/README.md, "Area lights near the light").
+Embree (``backend="embree"``) traces the identical rays: the ground truth; a
+converged reference is Embree with many samples.
+
+The share is ``[0, 1]``, so the estimate never exceeds ``E_0``; near the light
+(``h`` below about ``2 R / sqrt(K)``) penumbrae stay noisy: the weights peak
+within about ``h`` of the point's foot, which few samples reach. The accuracy
+near the light, against the area-sampling mean this replaced: benchmarks/README.md.
 
 One-sided: a point behind the light's plane (``(p - c) . n_L <= 0``) gets no
-light and nothing is traced for it; a point on the plane within the light's
-extent has an undefined irradiance and is refused (``ValueError``).
+light and nothing is traced for it. A point on the plane within the light's
+extent (the light lies on its surface) gets none either where its normal
+faces the way the light emits (``n . n_L > 0``: a lamp lying on a table top,
+a panel set in a floor or a ceiling): every direction to the light lies in
+the light's plane, along which it emits nothing (and for ``n = n_L`` the
+irradiance just in front of the light is 0 too). Facing into the
+light (``n . n_L <= 0``) its irradiance is undefined (0 on the plane, about
+``pi L`` just in front of it) and the point is refused (``ValueError``).
 """
 from __future__ import annotations
 
@@ -39,6 +58,7 @@ import numpy as np
 
 from ._checks import _number, unit_direction
 from ._value import ArrayValue
+from .area_exact import unshadowed_factor
 from .local import PointLight, SpotLight, _check_shading, _intensity, _position
 from .sun import _tangent_frame as _frame   # two unit vectors completing a unit normal
 
@@ -50,6 +70,9 @@ _SQRT2_FRAC = math.sqrt(2.0) - 1.0
 CHUNK_RAYS = 1 << 20
 #: Relative tolerance of the "point on the light's plane" test (times the light's size plus the distance).
 PLANE_TOL = 1e-9
+#: Largest |cos| of the angle between a rectangle's edges u and v (that of float32 data: a rotation held in
+#: float32 leaves up to about 1e-7; the light normals' unit-length tolerance is the same 1e-6).
+ORTHO_TOL = 1e-6
 
 
 def _flux(obj, intensity, power):
@@ -128,8 +151,8 @@ class RectLight(ArrayValue):
         World position of the rectangle's centre.
     u, v : ndarray, shape (3,), float64
         Edge half-vectors, world units (finite, non-zero, orthogonal to a
-        relative 1e-9): the corners are ``position +- u +- v``; the light
-        emits along its normal ``u x v / |u x v|``.
+        relative 1e-6, as float32 data are): the corners are ``position +-
+        u +- v``; the light emits along its normal ``u x v / |u x v|``.
     intensity : ndarray, shape (3,), float64
         RGB intensity along the normal, ``I = L 4 |u| |v|`` (>= 0). Give
         this or ``power`` (init only: ``Phi = pi I``).
@@ -148,7 +171,7 @@ class RectLight(ArrayValue):
             _extent(np.linalg.norm(e), f"rectangle light edge {name}: length")
             self._set(name, e)
         nu, nv = np.linalg.norm(self.u), np.linalg.norm(self.v)
-        if abs(self.u @ self.v) > 1e-9 * nu * nv:
+        if abs(self.u @ self.v) > ORTHO_TOL * nu * nv:
             raise ValueError(f"rectangle light: edges u and v must be orthogonal (u.v = {self.u @ self.v:.6g})")
         self._set("intensity", _flux(self, self.intensity, power))
 
@@ -235,14 +258,29 @@ def area_light_samples(light, k: int, indices, seed: int = 0) -> np.ndarray:
     ``(frac((j + 1/2) / K + s_i), frac(j g + t_i))`` mapped to ``[-1, 1]^2``,
     ``s_i = frac(u_1 + i (sqrt 2 - 1))``; ``u_0, u_1`` drawn from ``seed``.
     Both are uniform in area and stratified.
+
+    Raises
+    ------
+    TypeError
+        ``light`` not a disc or rectangle light; ``k``, ``seed`` or ``indices`` not integers.
+    ValueError
+        ``k < 1``, ``seed < 0``, ``indices`` not 1-D or negative.
     """
+    from .._validate import check_indices, check_int
+
     if not isinstance(light, AreaLight):
         raise TypeError(f"light: expected a DiscLight or RectLight (got {type(light).__name__})")
-    return light.sample(_pattern(light, int(k), indices, seed))
+    k = check_int(k, "k (samples per point)", 1)
+    seed = check_int(seed, "seed", 0)
+    a = np.asarray(indices)
+    if a.ndim != 1:
+        raise ValueError(f"indices must be one pattern index per point, shape (N,) (got shape {a.shape})")
+    return light.sample(_pattern(light, k, check_indices(a, len(a)), seed))
 
 
-def _check_plane(light, p):
-    """Signed heights above the light's plane (N,); refuse points on the plane within the light."""
+def _check_plane(light, p, nrm=None):
+    """Signed heights above the light's plane (N,), 0 on it; refuse points on the plane within the light
+    whose unit normals ``nrm`` (N, 3) face into it (module docstring; ``nrm`` None: every such point)."""
     q = p - light.position
     h = q @ light.normal
     size = light.radius if isinstance(light, DiscLight) else math.sqrt(light.area)
@@ -253,9 +291,11 @@ def _check_plane(light, p):
         raise ValueError(f"point {i} lies too far from the {type(light).__name__} (point {p[i].tolist()}, light "
                          f"{light.position.tolist()}): their distance overflows float64")
     on = np.abs(h) <= PLANE_TOL * (size + dist)
-    bad = np.flatnonzero(on & light.inside(q - h[:, None] * light.normal))
+    bad = on & light.inside(q - h[:, None] * light.normal)
+    bad = np.flatnonzero(bad if nrm is None else bad & (nrm @ light.normal <= 0))
     if len(bad):
-        raise ValueError(f"point {bad[0]} lies on the {type(light).__name__}'s plane within its extent "
+        facing = "" if nrm is None else ", facing into the light"
+        raise ValueError(f"point {bad[0]} lies on the {type(light).__name__}'s plane within its extent{facing} "
                          f"({len(bad)} such points): its irradiance is undefined")
     return np.where(on, 0.0, h)
 
@@ -269,7 +309,8 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     ----------
     scene : pyshadow.Scene
     points : array_like, shape (N, 3)
-        World positions (none on the light's plane within its extent).
+        World positions (none on the light's plane within its extent with
+        its normal facing into the light: module docstring).
     normals : array_like, shape (N, 3)
         World surface normals (normalised here; zero or non-finite rows are an error).
     light : DiscLight or RectLight
@@ -279,7 +320,8 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
         Visibility backend (:func:`pyshadow.visibility.backends`); ``"embree"``
         traces the identical rays: the ground truth.
     samples : int, optional
-        Points ``K`` over the light per surface point (>= 1; 1: its centre).
+        Points ``K`` over the light per surface point (>= 1; 1: its centre,
+        ``E = E_0 V(centre)``).
     surface_ids, indices, seed, bias : optional
         As for :func:`pyshadow.visibility.visible` (``surface_ids``, ``bias``);
         the pattern index of each point (default ``arange(N)``) and the seed
@@ -297,9 +339,9 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     radiance : ndarray, shape (N, 3), float64
         ``albedo / pi * E`` (module docstring), the sun's units.
     visibility : ndarray, shape (N,), float64
-        The lit share of the unshadowed estimate, ``sum_k w_k V_k / sum_k w_k``
-        with ``w_k`` the k-th term's weight (0 where no sample lights the
-        point: behind the light or the surface; nothing is traced there).
+        The lit share ``sum_k w_k V_k / sum_k w_k`` with ``w_k`` the k-th
+        sample's weight (0 where no sample lights the point: behind the light
+        or the surface; nothing is traced there); ``E = E_0 * visibility``.
     """
     from .. import visibility as vis
     from .._validate import rows3, unit_normals
@@ -314,9 +356,9 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
     alb, idx, seed = _check_shading(scene, albedo, indices, seed, surface_ids, geometric_normals, n)
     ids_all = None if surface_ids is None else np.broadcast_to(np.asarray(surface_ids), (n,))
     gn = None if geometric_normals is None else np.asarray(geometric_normals, np.float64)
-    h = _check_plane(light, p)
+    h = _check_plane(light, p, nrm)
     k = int(samples)
-    num, den = np.zeros(n), np.zeros(n)
+    num, den, g = np.zeros(n), np.zeros(n), np.zeros(n)
     front = np.flatnonzero(h > 0)
     step = max(1, CHUNK_RAYS // k)
     for lo in range(0, len(front), step):
@@ -340,7 +382,8 @@ def area_light_radiance(scene, points, normals, light, albedo, *, backend="csm",
             lit &= ~below_geometric(w_dir, gn[rows])
         num[rows] = (w * lit).sum(axis=1)
         den[rows] = w.sum(axis=1)
-    e = light.intensity[None, :] * (num / k)[:, None]
+        g[rows] = unshadowed_factor(light, p[rows], nrm[rows])
     frac = np.divide(num, den, out=np.zeros(n), where=den > 0)
+    e = light.radiance[None, :] * (g * frac)[:, None]
     return alb / math.pi * e, frac
 

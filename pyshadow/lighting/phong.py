@@ -93,7 +93,8 @@ class PhongLighting:
     light : array_like (3,) or PointLight
         World position of the point light (a :class:`~pyshadow.lighting.PointLight`
         of radius 0 gives its position; its intensity is not used: the
-        light's colour is ``light_colour``).
+        light's colour is ``light_colour``; a :class:`~pyshadow.lighting.SpotLight`
+        is refused: its cone has no place in the model).
     ambient : float or array_like (3,)
         ``c_a``, display RGB >= 0.
     light_colour : float or array_like (3,)
@@ -118,7 +119,7 @@ class PhongLighting:
     Raises
     ------
     ValueError
-        A non-finite light position, a sphere light (radius > 0), negative
+        A non-finite light position, a sphere light (radius > 0), a spot light, negative
         or non-finite colours, an albedo outside [0, 1], ``exponent <= 0`` or
         not finite, an unknown ``ao`` mode.
     """
@@ -127,10 +128,13 @@ class PhongLighting:
                  exponent: float = 32.0, albedo=None, albedos=None, ground_albedo=None, ao="ao",
                  shadows: bool = True, per_vertex: bool = False, straddle: str = "error"):
         from ..visibility.finite import check_straddle
-        from .local import PointLight
+        from .local import PointLight, SpotLight
         from .shade import DEFAULT_ALBEDO, DEFAULT_GROUND_ALBEDO, Lighting
 
         if isinstance(light, PointLight):
+            if isinstance(light, SpotLight):        # its cone would be dropped without a word
+                raise ValueError(f"light: the thesis's model has an omnidirectional point light; got a "
+                                 f"{type(light).__name__} (its cone is not modelled): pass its position instead")
             if light.radius > 0:
                 raise ValueError(f"light: the thesis's model has a point light; got a sphere light of radius "
                                  f"{light.radius:g}")

@@ -214,10 +214,13 @@ def cube_groups(points, anchor, reach: float, bound=None, casters=None):
     far[rows] = True
     side = 2.0 ** np.floor(np.log2(own))        # a cube's half diagonal: 0.87 side <= the reach
     cells = np.floor(points[rows] / side[:, None])
-    keys, inverse = np.unique(np.column_stack([side, cells]), axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    order = np.argsort(inverse, kind="stable")
-    bounds = np.searchsorted(inverse[order], np.arange(len(keys) + 1))
+    # the cubes (side, cell) in lexicographic order, each one's points in their order: np.unique(axis=0)'s
+    # groups by one stable lexsort (its sort of rows as records took most of this function)
+    k = np.column_stack([side, cells])
+    order = np.lexsort(k.T[::-1])
+    k = k[order]
+    first = np.flatnonzero(np.r_[True, (k[1:] != k[:-1]).any(axis=1)])
+    keys, bounds = k[first], np.r_[first, len(order)]
     anchors = (keys[:, 1:] + 0.5) * keys[:, :1]
     groups = [(np.flatnonzero(~far), anchor)] if (~far).any() else []
     groups += [(rows[order[bounds[k]:bounds[k + 1]]], anchors[k]) for k in range(len(keys))]

@@ -1,0 +1,38 @@
+"""``scene_arrays.cube_groups``: the far points' cubes in lexicographic order of (side, cell), each one's
+rows in their order -- the groups of ``np.unique(rows, axis=0)`` with a stable sort of its inverse."""
+import numpy as np
+import pytest
+
+from pyshadow.scene_arrays import cube_groups
+
+
+def _unique_groups(points, anchor, reach):
+    """The grouping written with np.unique over the (side, cell) rows (every point's reach ``reach``)."""
+    extent = np.abs(points - anchor).max(axis=1)
+    rows = np.flatnonzero(extent > reach)
+    far = np.zeros(len(points), bool)
+    far[rows] = True
+    side = 2.0 ** np.floor(np.log2(np.full(len(rows), reach)))
+    cells = np.floor(points[rows] / side[:, None])
+    keys, inverse = np.unique(np.column_stack([side, cells]), axis=0, return_inverse=True)
+    order = np.argsort(inverse.reshape(-1), kind="stable")
+    bounds = np.searchsorted(inverse.reshape(-1)[order], np.arange(len(keys) + 1))
+    groups = [(np.flatnonzero(~far), anchor)] if (~far).any() else []
+    return groups + [(rows[order[bounds[k]:bounds[k + 1]]], (keys[k, 1:] + 0.5) * keys[k, 0])
+                     for k in range(len(keys))]
+
+
+@pytest.mark.parametrize("reach", [0.37, 5.0, 300.0])
+def test_cube_groups_equal_the_unique_rows_grouping(reach):
+    """50,000 points from 1e-3 to 1e6 from the anchor, with -0.0 and 0.0 coordinates and points on cube
+    faces: the same groups, in the same order, with the same rows and anchors, bit for bit."""
+    rng = np.random.default_rng(int(reach * 100))
+    p = rng.normal(size=(50000, 3)) * 10.0 ** rng.uniform(-3, 6, (50000, 1))
+    p[:500] = np.round(p[:500] / reach) * reach          # on cube faces
+    p[500:600, 0] = -0.0
+    p[600:700, 0] = 0.0
+    anchor = np.array([0.25, -1.0, 3.0])
+    got, want = cube_groups(p, anchor, reach), _unique_groups(p, anchor, reach)
+    assert len(got) == len(want) > 10
+    for (gr, ga), (wr, wa) in zip(got, want):
+        assert np.array_equal(gr, wr) and np.array_equal(np.asarray(ga), np.asarray(wa))

@@ -14,8 +14,9 @@
  *                   the previous march point was in front of that surface or
  *                   q_k lies at most tau behind it. The surface depth of a
  *                   texel along a unit direction u is its plane's,
- *                   h / (n.u), unless |n.u| < GRAZING (0.1) or that is not
- *                   > 0, then the stored centre depth.
+ *                   h / (n.u), unless that is not > 0, or u is the previous
+ *                   march point's (it may lie outside the texel) and
+ *                   |n.u| < GRAZING (0.1): then the stored centre depth.
  *
  * Texel of a direction d (pyshadow.cubemap.probe.direction_texels): the face
  * of the largest |component| (x before y before z on ties; + then -), then
@@ -58,11 +59,11 @@ static int texel_of(float3 d, const int R, __global const float *frames)
     return (face * R + row) * R + col;
 }
 
-static float surface_depth(float4 pl, float zc, float3 u)
+static float surface_depth(float4 pl, float zc, float3 u, float grazing)
 {
     float den = dot(pl.xyz, u);
     float zp = pl.w / den;
-    if (fabs(den) >= GRAZING && zp > 0.0f && isfinite(zc) && isfinite(zp))
+    if (fabs(den) >= grazing && zp > 0.0f && isfinite(zc) && isfinite(zp))
         return zp;
     return zc;
 }
@@ -93,8 +94,8 @@ __kernel void cubemap_march(__global const float4 *plane, __global const float *
         int flat = texel_of(un, R, frames);
         float4 pl = plane[flat];
         float zc = depth[flat];
-        float z = surface_depth(pl, zc, un);
-        float zprev = surface_depth(pl, zc, uprev);
+        float z = surface_depth(pl, zc, un, 0.0f);         /* un lies in the texel: its plane */
+        float zprev = surface_depth(pl, zc, uprev, GRAZING);
         float b = bias * rn;
         if (occluder[flat] && rn > z + b && (r <= zprev + b || rn - z <= tau)) {
             vis = 0;

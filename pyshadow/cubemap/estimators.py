@@ -14,8 +14,12 @@ step function of seed 002's section 4.3.1 in place of its ``rho(L)``.
     texel (nearest, :func:`~pyshadow.cubemap.probe.direction_texels`); the
     texel's surface depth along the exact direction ``u`` of ``q_k`` is that
     of the texel's plane (position, normal), ``z(u) = n.(P - c) / n.u``
-    (``P - c`` from the centre depth, :meth:`CubeProbe.texel_offsets`), or
+    (``P - c`` from the centre depth, :meth:`CubeProbe.texel_offsets`); the
+    previous march point's direction, which may lie outside the texel, takes
     the stored centre depth where the plane is grazing (``|n.u| < 0.1``).
+    (That fallback for ``q_k``'s own direction made flat casters seen at a
+    grazing angle occlude themselves: 13-17 % of rays leaving a plate 8-15
+    from the probe along it read occluded, against none within 8.)
 
     **Occlusion rule.** ``q_k`` is occluded when its texel shows a caster and
 
@@ -73,7 +77,7 @@ __all__ = ["ESTIMATORS", "GRAZING", "texel_ao", "raymarch_visible", "raymarch_vi
 
 ESTIMATORS = ("raymarch", "horizon")
 
-#: Below this |n.u| a texel's plane is grazing and its centre depth is used.
+#: Below this |n.u| a texel's plane is grazing and its centre depth is used for a direction outside it.
 GRAZING = 0.1
 
 
@@ -150,14 +154,15 @@ def _plane_offset(probe):
     return np.einsum("ij,ij->i", probe.normal.reshape(-1, 3).astype(np.float64), probe.texel_offsets())
 
 
-def _surface_depth(probe, h, flat, u):
-    """Depth of texels ``flat`` along unit directions ``u`` (K, 3): plane depth, else centre depth."""
+def _surface_depth(probe, h, flat, u, grazing=GRAZING):
+    """Depth of texels ``flat`` along unit directions ``u`` (K, 3): plane depth, else centre depth (where the
+    plane depth is not > 0, or ``|n.u| < grazing``)."""
     n = probe.normal.reshape(-1, 3)[flat].astype(np.float64)
     den = np.einsum("ij,ij->i", n, u)
     zc = probe.depth.reshape(-1)[flat].astype(np.float64)
     with np.errstate(divide="ignore", invalid="ignore"):
         zp = h[flat] / den
-    return np.where((np.abs(den) >= GRAZING) & (zp > 0) & np.isfinite(zc), zp, zc)
+    return np.where((np.abs(den) >= grazing) & (zp > 0) & np.isfinite(zc) & np.isfinite(zp), zp, zc)
 
 
 def raymarch_visible_reference(probe, points, directions, max_distance, **options) -> np.ndarray:
@@ -206,7 +211,7 @@ def raymarch_visible_reference(probe, points, directions, max_distance, **option
         un = q / np.maximum(rn, 1e-300)[:, None]
         face, row, col, _x, _y = _direction_texels(un, R)
         flat = (face * R + row) * R + col
-        z = _surface_depth(probe, h, flat, un)
+        z = _surface_depth(probe, h, flat, un, 0.0)        # un lies in the texel: its plane
         zprev = _surface_depth(probe, h, flat, uh[alive])
         b = opt["bias"] * rn
         behind = rn > z + b

@@ -374,18 +374,11 @@ class CoherentShadowMap:
                 "PAIR_WIDE": int(self.pair_wide), "SEARCH_BLOCK": SEARCH_BLOCK}
 
     def search_arrays(self, wide: bool | None = None, padded: bool = False) -> dict:
-        """The device layout the search kernels read: see :func:`pyshadow.csm.device.search_arrays`.
+        """The device layout the search kernels read (:func:`pyshadow.csm.device.search_arrays`), the arrays
+        checked first: :func:`pyshadow.csm.file_checks.checked_search_arrays`."""
+        from .file_checks import checked_search_arrays
 
-        The arrays are checked first (:func:`pyshadow.csm.file_checks.check_csm`; those of a mapped file
-        when copied, :func:`pyshadow.csm.device.search_arrays`): CSMFormatError where the constructor was
-        given, or an attribute was set to, arrays the kernels would read outside of.
-        """
-        from .device import search_arrays
-        from .file_checks import check_csm
-
-        if not any(isinstance(a, np.memmap) for a in (self.offsets, self.iend, self.depth)):
-            check_csm(self)
-        return search_arrays(self, wide, padded)
+        return checked_search_arrays(self, wide, padded)
 
     def device_buffers(self):
         """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from .core import _LAYOUTS, CSMFormatError
 
-__all__ = ["check_arrays", "check_csm"]
+__all__ = ["check_arrays", "check_csm", "checked_search_arrays"]
 
 _MAX_RESOLUTION = 4096
 
@@ -108,3 +108,14 @@ def check_csm(csm, where: str = "CoherentShadowMap") -> None:
         # the device tables take the float's bits as they are
         raise CSMFormatError(f"{where}: depth must be in native byte order, got {depth.dtype.str}")
     check_arrays(where, off, csm.iend, depth, csm.resolution, csm.maps, csm.depth_bits)
+
+
+def checked_search_arrays(csm, wide=None, padded=False) -> dict:
+    """:meth:`CoherentShadowMap.search_arrays`: :func:`check_csm` (CSMFormatError where the constructor was
+    given, or an attribute was set to, arrays the kernels would read outside of; those of a mapped file are
+    checked when copied, :func:`pyshadow.csm.device.search_arrays`), then the device layout."""
+    from .device import search_arrays
+
+    if not any(isinstance(a, np.memmap) for a in (csm.offsets, csm.iend, csm.depth)):
+        check_csm(csm)
+    return search_arrays(csm, wide, padded)

@@ -49,7 +49,7 @@ import numpy as np
 
 from ._validate import check_rows, float32_exact
 from .contact_parts import _CHUNK, _grid_pairs, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines
-from .scene_arrays import scene_arrays
+from .scene_arrays import mesh_groups, scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
            "ground_sheet_slots"]
@@ -160,14 +160,11 @@ def _footprints(scene, ids, ground, tols):
     again. Instances sharing a mesh are moved together (the same values as one at a time)."""
     out, found, held = [None] * len(ids), [], scene_arrays(scene)
     ids = np.asarray(ids, np.intp)
-    key = np.where(held["casts"][ids], held["mesh_id"][ids], 0)
-    _, first, back, count = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
-    by = np.split(np.argsort(back.ravel(), kind="stable"), np.cumsum(count)[:-1])     # each mesh's rows, in order
-    for g in np.argsort(first, kind="stable"):          # by mesh, in the order of the bodies first placing it
-        mesh = scene.instances[ids[first[g]]].mesh
-        if mesh is None or not scene.instances[ids[first[g]]].casts or not len(mesh.faces):
+    for first, rows in mesh_groups(held, ids):          # by mesh, in the order of the bodies first placing it
+        inst = scene.instances[ids[first]]
+        if inst.mesh is None or not inst.casts or not len(inst.mesh.faces):
             continue
-        rows = by[g]
+        mesh = inst.mesh
         surface = _closed_surface(mesh)
         if surface is None:
             continue                                    # open: it encloses nothing
@@ -231,15 +228,13 @@ def _on_ground(scene, name, make):
 def _sheets(scene, ids, ground, tols):
     """:func:`_sheet` of each instance ``ids[k]`` with its tolerance ``tols[k]``: asked only of the instances
     whose mesh may have sheets (a caster's open mesh of faces, decided once per mesh)."""
-    held, ids = scene_arrays(scene), np.asarray(ids, np.intp)
-    key = np.where(held["casts"][ids], held["mesh_id"][ids], 0)
-    _, first, back = np.unique(key, return_index=True, return_inverse=True)
-    meshes = [scene.instances[ids[k]].mesh for k in first]
-    open_ = np.array([m is not None and scene.instances[ids[k]].casts and len(m.faces) > 0
-                      and _closed_surface(m) is None for m, k in zip(meshes, first)], bool)
-    out = [None] * len(ids)
-    for k in np.flatnonzero(open_[back.ravel()]).tolist():
-        out[k] = _sheet(scene.instances[ids[k]], ground, float(tols[k]))
+    ids, out = np.asarray(ids, np.intp), [None] * len(ids)
+    for first, rows in mesh_groups(scene_arrays(scene), ids):
+        inst = scene.instances[ids[first]]
+        if inst.mesh is None or not inst.casts or not len(inst.mesh.faces) or _closed_surface(inst.mesh) is not None:
+            continue
+        for k in rows.tolist():
+            out[k] = _sheet(scene.instances[ids[k]], ground, float(tols[k]))
     return out
 
 
@@ -321,15 +316,14 @@ def ground_sheet_slots(scene, points, own):
     found = _on_ground(scene, "sheets", _sheets) if len(own) else []
     if not found:
         return own
+    tris, _, lo, hi, tol = _kept_parts(scene_arrays(scene), ("sheet parts", float(scene.ground)),
+                                       lambda: ([tri for _, tri, _ in found], None, [t for _, _, t in found]))
     off = _plane_offsets(scene, p)
-    cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, max(t for _, _, t in found)))
+    cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, tol.max()))
     off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    # (sheet, point) candidates from one sort of the points (each point against every sheet's box was
+    # (sheet, point) candidates from a grid over the points (each point against every sheet's box was
     # O(sheets x points): 100,000 leaves on the ground); a point on several sheets takes the last one's slot
-    tris, _, lo, hi = _kept_parts(scene_arrays(scene), ("sheet parts", float(scene.ground)),
-                                  [tri for _, tri, _ in found])
-    tol = np.array([t for _, _, t in found])
     pid, rows = _grid_pairs(q_all, lo, hi)
     ok = np.all((q_all[rows] >= lo[pid]) & (q_all[rows] <= hi[pid]), axis=1)
     pid, rows = pid[ok], rows[ok]
@@ -393,18 +387,16 @@ def contact_mask(scene, points):
     if not fps:
         return None
     mask = np.zeros(len(p), bool)
-    held, key = scene_arrays(scene), ("contact parts", float(scene.ground))
-    if key not in held:                                 # the footprints' parts and tolerances, not per query
-        _kept_parts(held, key, [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps])
-        held[key + ("tol",)] = np.array([t for _, _, t in fps])
-    parts, tol = held[key], held[key + ("tol",)]
+    parts = _kept_parts(scene_arrays(scene), ("contact parts", float(scene.ground)), lambda: (
+        [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps], [t for _, _, t in fps]))
+    tol = parts[4]
     off = _plane_offsets(scene, p)
     cand = np.flatnonzero(_on_plane(off, tol.max()))
     if not len(cand):
         return mask
     off = (off[0][cand], off[1][cand])
     q_all = p[cand][:, [0, 2]].astype(np.float64)
-    pid, rows = _grid_pairs(q_all, *parts[2:])                  # in a footprint's box
+    pid, rows = _grid_pairs(q_all, *parts[2:4])                 # in a footprint's box
     ok = _on_plane((off[0][rows], off[1][rows]), tol[pid])
     pid, rows = pid[ok], rows[ok]
     mask[cand[rows[_in_parts(q_all[rows], pid, parts, tol)]]] = True

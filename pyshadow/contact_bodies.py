@@ -14,7 +14,7 @@ import numpy as np
 from ._validate import float32_exact
 from .contact import _SURFACES, _closed_surface, _face_tolerances
 from .contact_parts import _expanded, _in_parts, _kept_parts, _outlines, _ragged, _slab_pairs
-from .scene_arrays import scene_arrays
+from .scene_arrays import mesh_groups, scene_arrays
 
 __all__ = ["FACING", "body_patches", "body_hits"]
 
@@ -148,11 +148,11 @@ def body_patches(scene):
     if "bodies" in held:
         return held["bodies"]
     out = []                    # stored when complete: another thread's query reads all of it or none
-    mesh_id = held["mesh_id"]                           # the instances with a mesh of faces, each mesh asked once
-    _, first, back = np.unique(mesh_id, return_index=True, return_inverse=True)
-    faced = np.array([m != 0 and len(scene.instances[k].mesh.faces) > 0 for m, k in zip(mesh_id[first], first)],
-                     bool)
-    ids = np.flatnonzero(faced[back.ravel()])
+    faced = np.zeros(len(scene.instances), bool)        # the instances with a mesh of faces, each mesh asked once
+    for first, rows in mesh_groups(held, np.arange(len(scene.instances)), casters=False):
+        mesh = scene.instances[first].mesh
+        faced[rows] = mesh is not None and len(mesh.faces) > 0
+    ids = np.flatnonzero(faced)
     if len(ids) < 2:
         held["bodies"] = out
         return out
@@ -249,8 +249,8 @@ def body_hits(scene, points):
     # in the patch's plane (each patch's points flattened as that patch's alone), inside one of its faces and
     # farther than its tolerance from its outline
     q = np.concatenate([p[k] @ patches[i][4].T for i, k in zip(*_groups(pid, rows))])
-    ok = _in_parts(q, pid, _kept_parts(scene_arrays(scene), "body parts", [x[5] for x in patches],
-                                       [x[6] for x in patches]), tol)
+    ok = _in_parts(q, pid, _kept_parts(scene_arrays(scene), "body parts",
+                                       lambda: ([x[5] for x in patches], [x[6] for x in patches], None)), tol)
     pid, rows = pid[ok], rows[ok]
     return [(k, patches[i][0]) for i, k in zip(*_groups(pid, rows))]
 

@@ -115,15 +115,18 @@ def _grid_pairs(p, lo, hi):
     return pid[o], rows[o]
 
 
-def _kept_parts(held, key, tris, segs=None):
-    """(triangles, outline segments, the parts' boxes' corners lo, hi (P, 2)) of parts with triangles ``tris``
-    [(K, 3, 2)] and outlines ``segs`` [(E, 2, 2)] (None: none), :func:`_ragged_parts` each; made once and kept
-    in ``held`` (a scene's arrays, dropped when it changes) as ``key``, not per query."""
+def _kept_parts(held, key, make):
+    """(triangles, outline segments, the parts' boxes' corners lo, hi (P, 2), tolerances) of the parts that
+    ``make()`` gives as (triangles [(K, 3, 2)], outlines [(E, 2, 2)] or None, tolerances (P,) or None),
+    :func:`_ragged_parts` each; made once and kept in ``held`` (a scene's arrays, dropped when it changes)
+    as ``key``, not per query (``make`` is called only then)."""
     if key not in held:
+        tris, segs, tols = make()
         tri = _ragged_parts(tris)
         lo = np.minimum.reduceat(tri[0].min(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
         hi = np.maximum.reduceat(tri[0].max(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
-        held[key] = tri, None if segs is None else _ragged_parts(segs), lo, hi
+        held[key] = (tri, None if segs is None else _ragged_parts(segs), lo, hi,
+                     None if tols is None else np.array(tols, np.float64))
     return held[key]
 
 
@@ -141,7 +144,7 @@ def _in_triangles_of(q, pid, tris):
 def _in_parts(q, pid, parts, tol):
     """(M,) bool: points ``q`` (M, 2), each asked of part ``pid``, in the part's triangles' box, inside or on
     one of them and farther than ``tol[pid]`` from every segment of its outline (``parts``: :func:`_kept_parts`)."""
-    tris, (seg, seg_first, seg_count), lo, hi = parts
+    tris, (seg, seg_first, seg_count), lo, hi, _ = parts
     out = np.zeros(len(q), bool)
     live = np.flatnonzero(np.all((q >= lo[pid]) & (q <= hi[pid]), axis=1))
     live = live[_in_triangles_of(q[live], pid[live], tris)]

@@ -82,6 +82,19 @@ def scene_arrays(scene) -> dict:
     return out
 
 
+def mesh_groups(held, ids, casters: bool = True) -> list:
+    """The instances ``ids`` (positions into it) grouped by mesh object, in the order each mesh first
+    appears: ``[(first position, positions (ascending))]``. The instances without a mesh (and with
+    ``casters``, the receivers) form one group of their own, the key 0 (``held``: :func:`scene_arrays`)."""
+    ids = np.asarray(ids, np.intp)
+    key = held["mesh_id"][ids]
+    if casters:
+        key = np.where(held["casts"][ids], key, 0)
+    _, first, back, count = np.unique(key, return_index=True, return_inverse=True, return_counts=True)
+    rows = np.split(np.argsort(back.ravel(), kind="stable"), np.cumsum(count)[:-1])
+    return [(int(first[g]), rows[g]) for g in np.argsort(first, kind="stable")]
+
+
 # what a move leaves as it was (the instances, their CSMs, meshes and object spheres)
 _STATIC = ("types", "type_index", "itype", "n", "object_centre", "object_radius", "casts", "meshes", "receivers",
            "mesh_id")

@@ -51,7 +51,7 @@ def test_points_in_many_parts_as_in_each_alone():
     w = rng.dirichlet(np.ones(3), len(pid))            # in one of its part's triangles, or near it
     q = np.array([w[i] @ tris[k][rng.integers(len(tris[k]))] for i, k in enumerate(pid)])
     q += rng.normal(0.0, 0.05, q.shape) * (rng.random(len(q)) < 0.3)[:, None]
-    got = _in_parts(q, pid, _kept_parts({}, "parts", tris, segs), tol)
+    got = _in_parts(q, pid, _kept_parts({}, "parts", lambda: (tris, segs, None)), tol)
     want = np.array([_one_part(q[i:i + 1], tris[k], segs[k], tol[k])[0] for i, k in enumerate(pid)])
     assert np.array_equal(got, want)
     assert 50 < got.sum() < len(q) - 50               # both answers occur

@@ -205,14 +205,17 @@ def test_pyshadow_lanes_rejects_values_outside_1_4_8_16(value, tmp_path):
     assert f"PYSHADOW_LANES={value!r} is not one of 1, 4, 8, 16" in res.stderr
 
 
-def test_pyshadow_lanes_overrides_without_probing(tmp_path):
+def test_pyshadow_lanes_overrides_the_choice_checked_by_the_probe(tmp_path):
+    """Was: a forced width ran no probe, so one the device cannot run failed at its first kernel. Now the
+    width (1: every device runs it) is used as asked, and the probe that checked it cached its verdicts."""
     cache = tmp_path / "cache"
     res = _run("import pyshadow; i = pyshadow.device_info(); print(i['lanes'], i['lanes_reason'])",
-               tmp_path, {"PYSHADOW_LANES": "4", "PYSHADOW_CACHE": str(cache),
+               tmp_path, {"PYSHADOW_LANES": "1", "PYSHADOW_CACHE": str(cache),
                           "PYTHONPATH": str(REPO) if not _installed() else ""})
     assert res.returncode == 0, res.stderr
-    assert res.stdout.startswith("4 PYSHADOW_LANES=4")
-    assert not (cache / "lanes.json").exists()       # no probe ran
+    assert res.stdout.startswith("1 PYSHADOW_LANES=1 (checked by the probe)")
+    entries = json.loads((cache / "lanes.json").read_text())["entries"]
+    assert [e["verdicts"]["1"]["ok"] for e in entries.values()] == [True]
 
 
 def test_probe_verdicts_are_cached_per_device(tmp_path, monkeypatch):

@@ -1,7 +1,7 @@
 """Answers are bit-identical at every lane width the device runs.
 
-For each bundled mesh, at each width the device passed the probe at (with
-``PYSHADOW_LANES`` set the probe is not run, and this test skips): layered
+For each bundled mesh, at each width the device passed the probe at (also
+with ``PYSHADOW_LANES`` set: the probe checks the forced width): layered
 depth maps, CSM segment lists (zigzag 16-bit and hilbert 32-bit), and
 visibility (one-texel and vote lookups) and AO with bent normals in a
 scene of both CSMs on a ground plane. Small sizes: the kernels' lane code is

@@ -67,7 +67,7 @@ def test_a_forced_cpu_name_is_given_to_pocl_and_its_kernels_answer_the_same(tmp_
     for name in ("x86-64", None):
         env = {**os.environ, "PYSHADOW_CACHE": str(tmp_path / str(name))}
         env.pop(pocl_cpu.ENV, None)
-        env.pop("PYSHADOW_LANES", None)     # each target's own width (a 16-lane run's forced width crashes SSE2)
+        env.pop("PYSHADOW_LANES", None)     # each target's own width (a 16-lane run's forced width fails on SSE2)
         if name:
             env[pocl_cpu.ENV] = name
         out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
@@ -94,7 +94,7 @@ def test_a_cpu_name_pocl_refuses_is_named_in_the_error(tmp_path):
             print("REFUSED", exc)
     """)
     env = {**os.environ, "PYSHADOW_CACHE": str(tmp_path), pocl_cpu.ENV: "no-such-cpu"}
-    env.pop("PYSHADOW_LANES", None)         # a forced width runs no probe
+    env.pop("PYSHADOW_LANES", None)         # the probe's own verdicts, not a forced width's
     out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     msg = out.stdout

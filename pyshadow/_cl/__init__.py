@@ -23,8 +23,8 @@ Kernels that work on lane vectors are built with ``-DLANES`` = 1, 4, 8 or 16
 if set, else the widest width the device passed in a probe run in child
 processes (:mod:`pyshadow._cl.probe`; 1 on GPUs, one query per work-item),
 cached on disk per device and driver. A width that failed the probe is never
-used (``PYSHADOW_LANES`` naming a width whose failure is cached raises
-:class:`DeviceNotSupportedError`); a device that fails them all
+used (``PYSHADOW_LANES`` naming a width that fails the probe, cached or run
+then, raises :class:`DeviceNotSupportedError`); a device that fails them all
 raises :class:`DeviceNotSupportedError` naming it. Launch shapes (batches,
 work-groups, chunks) come from :func:`pyshadow._cl.launch.shape`.
 """
@@ -281,12 +281,15 @@ def lane_choice() -> dict:
     st = _init()
     override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
     if override is not None:
-        # no probe run (a device known to crash it need not run it); a cached verdict against it is an error
-        if st.get("override_checked") != override:
-            _probe.check_override(override, st["platform"], st["device"], _probe_job(st["device"]))
-            st["override_checked"] = override
-        choice = {"lanes": override, "supported": [], "verdicts": {}, "source": "PYSHADOW_LANES",
-                  "reason": f"PYSHADOW_LANES={override} (no probe run)"}
+        # the probe checks the forced width (its cached verdict, else a probe run now): a failing width is an error
+        if st.get("override_checked", (None,))[0] != override:
+            found = _probe.check_override(override, *st["index"], st["platform"], st["device"],
+                                          _probe_job(st["device"]))
+            st["override_checked"] = (override, found)
+        found = st["override_checked"][1]
+        choice = {"lanes": override, "supported": [w for w in LANE_WIDTHS if found[w]["ok"]],
+                  "verdicts": {w: v["why"] for w, v in found.items()}, "source": "PYSHADOW_LANES",
+                  "reason": f"PYSHADOW_LANES={override} (checked by the probe)"}
     else:
         with _lock:
             cached = st.get("lane_choice")

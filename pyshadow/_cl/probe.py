@@ -240,18 +240,21 @@ def _cached_timeouts(entry) -> dict:
             if w in {str(x) for x in LANE_WIDTHS} and type(n) is int and n > 0}
 
 
-def check_override(width: int, platform, device, job: dict) -> None:
-    """Raise :class:`DeviceNotSupportedError` where ``PYSHADOW_LANES=width`` names a width this device's
-    cached verdicts (the same key as :func:`verdicts`) say fails; nothing is probed (no verdict: no error).
+def check_override(width: int, platform_index: int, device_index: int, platform, device, job: dict) -> dict:
+    """Raise :class:`DeviceNotSupportedError` where ``PYSHADOW_LANES=width`` names a width that fails on this
+    device: its verdict from the cache, or from a probe run now (and cached) where the cache has none.
 
-    Such a width failed at its first kernel, or the process aborted as it exited (README, lane width)."""
-    cached = _cached_verdicts(_read_cache().get(_key(platform, device, job)))
-    if cached is None or cached[width]["ok"] or _timed_out(cached[width]):
-        return
-    ok = [w for w in LANE_WIDTHS if cached[w]["ok"]]
+    A forced width is not chosen by the probe, but it is checked by it: a width the device cannot run
+    fails at its first kernel, or aborts the process as it exits (README, lane width), where the probe
+    fails only its child. A width whose probe timed out (not final: a busy machine) is not refused.
+    Returns the verdicts, ``{width: {"ok": bool, "why": str}}``."""
+    found, _ = verdicts(platform_index, device_index, platform, device, job)
+    if found[width]["ok"] or _timed_out(found[width]):
+        return found
+    ok = [w for w in LANE_WIDTHS if found[w]["ok"]]
     raise DeviceNotSupportedError(
         f"PYSHADOW_LANES={width}: {width}-lane kernels failed the probe on OpenCL device {device.name.strip()!r} "
-        f"({cached[width]['why']}); widths that passed: {', '.join(map(str, ok)) or 'none'}. Unset "
+        f"({found[width]['why']}); widths that passed: {', '.join(map(str, ok)) or 'none'}. Unset "
         f"PYSHADOW_LANES or set it to one of those (verdicts cached in {cache_file()})")
 
 

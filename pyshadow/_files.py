@@ -16,9 +16,10 @@ __all__ = ["atomic_path", "write_bytes_atomic", "writable_folder"]
 def atomic_path(path):
     """Yield a temporary path in ``path``'s folder; rename it over ``path`` on success.
 
-    The temporary name keeps ``path``'s extension (so format-guessing writers
-    such as OpenImageIO pick the right one). On any exception the temporary
-    file is removed and the existing ``path`` is left untouched; an OSError
+    The temporary name keeps ``path``'s extension as given (so format-guessing
+    writers such as OpenImageIO pick the format asked for, also where ``path``
+    is a symbolic link to a file of another or no extension). On any exception
+    the temporary file is removed and the existing ``path`` is left untouched; an OSError
     about the temporary file names ``path`` instead. A missing folder is a
     FileNotFoundError naming it, before anything is written. A symbolic link
     is written through (the file it names is replaced); a path that exists
@@ -26,6 +27,7 @@ def atomic_path(path):
     A file replaced keeps its permission bits.
     """
     path = Path(os.fspath(path))
+    suffix = path.suffix                # the format asked for, whatever the name a link leads to
     if path.is_symlink():               # write through the link: the file it names is replaced, not the link
         try:
             path = path.resolve()
@@ -35,7 +37,7 @@ def atomic_path(path):
         raise FileExistsError(errno.EEXIST, "not a regular file, which a write would replace", str(path))
     if not path.parent.is_dir():
         raise FileNotFoundError(errno.ENOENT, f"no folder {str(path.parent)!r} to write into", str(path))
-    tmp = path.parent / _temporary_name(path)
+    tmp = path.parent / _temporary_name(path, suffix)
     try:
         yield tmp
         if path.exists():               # the file replaced keeps its permissions (a private 0600 stays so)
@@ -53,14 +55,14 @@ def atomic_path(path):
         raise
 
 
-def _temporary_name(path: Path) -> str:
+def _temporary_name(path: Path, suffix: str) -> str:
     """``.<stem>.<12 hex>.tmp<suffix>``, the stem shortened where the name would exceed the folder's
     limit on a file name's length (a target name near the limit is still writable)."""
     try:
         limit = os.pathconf(path.parent, "PC_NAME_MAX")
     except (OSError, ValueError, AttributeError):
         limit = 255
-    stem, tail = path.stem, f".{secrets.token_hex(6)}.tmp{path.suffix}"
+    stem, tail = path.stem, f".{secrets.token_hex(6)}.tmp{suffix}"
     while 0 < limit < len(os.fsencode(f".{stem}{tail}")) and len(stem) > 1:
         stem = stem[:-1]
     return f".{stem}{tail}"

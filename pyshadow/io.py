@@ -25,12 +25,22 @@ Writes are atomic: the image goes to a hidden temporary file in the target's
 directory (same extension, so OpenImageIO picks the same format), which then
 replaces the target with :func:`os.replace`. If anything fails, the temporary
 file is removed and an existing target is left untouched.
+
+A PNG or JPEG is written only where the folder's free space and the process's
+file size limit hold a bound on its size (1.01 (PNG) or 3 (JPEG) bytes per byte
+of pixels, plus 64 KiB), and a PNG or
+JPEG that does not end as a complete file does (a disk filled meanwhile, a
+quota) is an OSError: OpenImageIO's PNG writer ignores a failed write (it
+reported success and left a truncated file, which replaced the image) and its
+JPEG writer ends the process ("Output file write error --- out of disk
+space?", exit status 1). EXR writes report such failures themselves.
 """
 from __future__ import annotations
 
 import errno
 import os
 import re
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -46,6 +56,12 @@ EXTENSIONS = tuple(_KIND)
 _JPEG_QUALITY = 95
 _CHANNEL_NAMES = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
 _FLOAT32_EXACT = 2 ** 24        # float32 holds every integer up to here
+#: Bytes an 8-bit file may take per byte of pixels (free space asked before a write): PNG, deflate's worst
+#: case (stored blocks) and chunk headers; JPEG (quality 95), measured up to 1.22 (binary noise), 3 kept.
+_SIZE_BOUND = {".png": 1.01, ".jpg": 3.0, ".jpeg": 3.0}
+_METADATA_BYTES = 1 << 16       # row filter bytes aside: headers, EXIF, colour chunks and a margin
+#: The bytes a complete 8-bit file ends with (PNG's IEND chunk, JPEG's EOI marker).
+_END = {".png": b"IEND\xaeB`\x82", ".jpg": b"\xff\xd9", ".jpeg": b"\xff\xd9"}
 
 
 def _real(x, name: str) -> np.ndarray:
@@ -136,12 +152,76 @@ def _write_oiio(tmp: Path, data: np.ndarray, kind: str):
     if out is None:
         _write_error(tmp, "OpenImageIO has no writer for it", oiio.geterror())
     if not out.open(str(tmp), spec):
-        _write_error(tmp, "OpenImageIO could not open it for writing", out.geterror() or oiio.geterror())
+        reason = out.geterror() or oiio.geterror()
+        _os_error(tmp)
+        _write_error(tmp, "OpenImageIO could not open it for writing", reason)
     ok = out.write_image(data)
     err = out.geterror() if not ok else ""
     closed = out.close()
     if not ok or not closed:
         _write_error(tmp, "OpenImageIO could not write it", err or out.geterror() or oiio.geterror())
+
+
+def _os_error(tmp: Path):
+    """Raise the system's own error where ``tmp`` cannot be created (a folder without write permission, a
+    read-only file system: PermissionError or OSError EROFS) rather than OpenImageIO's "Could not open file"."""
+    try:
+        with open(tmp, "xb"):
+            pass
+    except FileExistsError:
+        return
+    os.unlink(tmp)
+
+
+def _free_bytes(folder: Path):
+    """Bytes this process may still write in ``folder``'s file system (root: the reserved blocks too), or None
+    where it is not told (a file system of no size, as some network mounts report)."""
+    try:
+        st = os.statvfs(folder)
+    except (AttributeError, OSError):       # no statvfs (Windows)
+        try:
+            return shutil.disk_usage(folder).free
+        except OSError:
+            return None
+    if st.f_blocks == 0:
+        return None
+    root = hasattr(os, "geteuid") and os.geteuid() == 0
+    return (st.f_bfree if root else st.f_bavail) * st.f_frsize
+
+
+def _size_limit():
+    """The process's limit on a file's size in bytes (``ulimit -f``), or None."""
+    try:
+        import resource
+    except ImportError:                     # Windows
+        return None
+    soft = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    return None if soft == resource.RLIM_INFINITY or soft < 0 else soft
+
+
+def _check_room(tmp: Path, data: np.ndarray, ext: str):
+    """OSError about ``tmp`` where an 8-bit file of ``data`` may not fit: OpenImageIO's PNG writer would
+    leave a truncated file reported written, its JPEG writer end the process."""
+    need = int(data.size * _SIZE_BOUND[ext]) + data.shape[0] + _METADATA_BYTES
+    free, limit = _free_bytes(tmp.parent), _size_limit()
+    if free is not None and free < need:
+        raise OSError(errno.ENOSPC, f"not enough free space to write it ({free} bytes free, up to {need} "
+                                    "needed)", str(tmp))
+    if limit is not None and limit < need:
+        raise OSError(errno.EFBIG, f"the process's file size limit (ulimit -f: {limit} bytes) may not hold it "
+                                   f"(up to {need} bytes)", str(tmp))
+
+
+def _check_complete(tmp: Path, ext: str):
+    """OSError about ``tmp`` unless the 8-bit file OpenImageIO wrote ends as a complete file does."""
+    end = _END[ext]
+    with open(tmp, "rb") as f:
+        size = f.seek(0, os.SEEK_END)
+        f.seek(max(0, size - len(end)))
+        complete = f.read() == end
+    if not complete:
+        _write_error(tmp, "OpenImageIO left it incomplete", f"{size} bytes, not ending as a {ext} file does; "
+                     "a full disk or a quota?")
 
 
 def _write_error(tmp: Path, what: str, reason: str):
@@ -173,8 +253,13 @@ def write_image(path, array) -> None:
         Non-float array for EXR; neither float nor uint8 for PNG/JPEG.
     FileNotFoundError
         The directory does not exist.
+    PermissionError
+        No permission to write in the directory (OSError ``EROFS``: a
+        read-only file system).
     OSError
-        OpenImageIO failed to write (no file is left behind).
+        OpenImageIO failed to write (no file is left behind); a PNG or JPEG
+        that the folder's free space or the file size limit may not hold
+        (``ENOSPC``, ``EFBIG``, before writing) or that came out incomplete.
 
     Examples
     --------
@@ -194,7 +279,11 @@ def write_image(path, array) -> None:
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "cannot write an image over a directory", str(path))
     with atomic_path(path) as tmp:
+        if kind != "exr":
+            _check_room(tmp, data, path.suffix.lower())
         _write_oiio(tmp, data, kind)
+        if kind != "exr":
+            _check_complete(tmp, path.suffix.lower())
 
 
 #: EXIF orientation code -> the (H, W, C) transform that turns the stored pixels upright (as

@@ -446,11 +446,10 @@ class ShadowMapVisibility:
         light = light.reshape(-1)       # a copy: the kept map's light does not follow the caller's array
         if light.shape != (3,) or not np.isfinite(light).all():
             raise ValueError(f"the light's {what} must be 3 finite numbers, got {light.tolist()}")
-        if kind == "directional":
-            norm = float(np.linalg.norm(light))
-            if not norm > 0:
+        if kind == "directional":      # scaled by its largest component first where its square leaves float64
+            if not np.abs(light).max() > 0:     # (1e200 came out as a zero direction, 1e-320 refused as zero)
                 raise ValueError("the light's direction must not be zero")
-            light = light / norm
+            light = unit_normals(light[None], 1, "the light's direction")[0]
         arr = scene_arrays(scene)
         casters, placed, content = _placed_casters(scene, arr)
         state = (id(_cl.context()), id(scene), kind, self.resolution,

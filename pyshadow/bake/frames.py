@@ -74,6 +74,7 @@ def scene_payload(parts, camera, *, ground, render: dict, csm_for) -> dict:
                   csm or b""):          # np.bool_ too
             h.update(hashlib.sha256(b).digest())
     cam = _camera_dict(camera)
+    ground = None if ground is None else float(ground) + 0.0     # one key for 0, 0.0 and -0.0: one plane
     h.update(json.dumps({"camera": cam, "ground": ground, "render": render}, sort_keys=True).encode())
     return {"key": h.hexdigest(), "parts": out, "camera": cam, "ground": ground, "render": render}
 
@@ -289,8 +290,8 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     if ground is not None and (isinstance(ground, bool) or not isinstance(ground, numbers.Real)
                                or not math.isfinite(ground)):
         raise ValueError(f"ground must be a finite number or None, got {ground!r}")
-    if isinstance(ground, np.generic):  # np.float32 is no JSON (the scene's key, the manifest)
-        ground = ground.item()
+    if ground is not None:              # np.float32 is no JSON; 0 and -0.0 draw the plane of 0.0 but had other
+        ground = float(ground) + 0.0    # keys (the scene's key holds JSON "0"): a rerun rendered every frame again
     _check_render(samples, lookup, denoise)
     out = Path(out_dir).expanduser()
     out.mkdir(parents=True, exist_ok=True)

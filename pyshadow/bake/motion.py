@@ -61,7 +61,7 @@ def read_motion(path) -> tuple[np.ndarray, list | None]:
     Parameters
     ----------
     path : str or path-like
-        ``.npz`` or ``.json`` (layout in :mod:`pyshadow.bake.motion`).
+        ``.npz`` or ``.json`` (layout in :mod:`pyshadow.bake.motion`); ``~`` expanded.
 
     Returns
     -------
@@ -75,7 +75,7 @@ def read_motion(path) -> tuple[np.ndarray, list | None]:
         Unknown extension, unreadable file, wrong shape, or a transform that
         is not rigid (the message names the frame and body).
     """
-    path = Path(path)
+    path = Path(path).expanduser()      # as the bake's other paths (--mesh, -o): "--motion=~/m.npz" was not found
     suffix = path.suffix.lower()
     if suffix == ".npz":
         try:
@@ -110,8 +110,8 @@ def read_motion(path) -> tuple[np.ndarray, list | None]:
 
 
 def write_motion(path, transforms, names=None) -> Path:
-    """Write a motion file (``.npz`` or ``.json``) atomically; the inverse of :func:`read_motion`."""
-    path = Path(path)
+    """Write a motion file (``.npz`` or ``.json``, ``~`` expanded) atomically; the inverse of :func:`read_motion`."""
+    path = Path(path).expanduser()
     T, names = _check(transforms, names, str(path))
     if path.suffix.lower() == ".npz":
         buf = io.BytesIO()

@@ -29,6 +29,7 @@ import warnings
 import numpy as np
 
 from .._validate import check_int
+from ..mesh import check_mesh
 from .core import _iend_dtype, _offsets_dtype
 from .error_model import CANDIDATES, LARGE_WORK, MODEL_RATIO, _count, predict, rays_for
 
@@ -296,8 +297,10 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     ------
     ValueError
         ``max_error`` outside (0, 1) or NaN; no candidate predicted within ``max_bytes`` (the message gives
-        the smallest predicted size).
+        the smallest predicted size); a mesh :func:`pyshadow.mesh.check_mesh` refuses (no triangles, a
+        vertex not finite, a face index outside the vertices).
     """
+    check_mesh(mesh, "choose_csm")       # before the rays are drawn: a face past the vertices was IndexError
     max_error = _max_error(max_error)
     if lookup not in ("nearest", "vote", "auto"):
         raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
@@ -403,6 +406,7 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     TypeError
         ``max_bytes`` not a real number (a bool or a string).
     """
+    check_mesh(mesh, "choose_within")
     max_bytes = _max_bytes(max_bytes)
     if lookup not in ("nearest", "vote"):
         raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
@@ -452,6 +456,7 @@ def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_er
     if max_error is not None and max_bytes is not None:
         raise TypeError("CoherentShadowMap.build: pass max_error or max_bytes, not both")
     mesh = mesh if hasattr(mesh, "faces") else load_mesh(mesh)
+    check_mesh(mesh, "CoherentShadowMap.build")     # as the build without max_error names what is wrong
     kw = dict(lookup=lookup, depth_bits=depth_bits, layers=layers, verify=verify, progress=progress)
     csm, choice = (choose_csm(mesh, max_error, **kw) if max_error is not None
                    else choose_within(mesh, max_bytes, **kw))

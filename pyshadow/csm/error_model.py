@@ -36,6 +36,7 @@ import math
 import numpy as np
 
 from .._validate import check_int, uniform_scale
+from ..mesh import check_mesh
 from ..views import ViewSet
 from .build import check_depth_bits, check_float32_frame
 from .core import DEPTH_Q, front_margin
@@ -93,6 +94,7 @@ class Layout:
             theta, phi = maps
         except (TypeError, ValueError):
             raise ValueError(f"maps must be a pair (theta, phi), got {maps!r}") from None
+        check_mesh(mesh, "Layout.for_mesh")     # as build: a face past the vertices was numpy's IndexError
         c, r = bounding_sphere(mesh)
         c = np.asarray(c, np.float64)
         check_float32_frame(c, r)           # as build: no CSM of this mesh exists to predict
@@ -331,6 +333,7 @@ def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7, *, backs
     from ..mesh import float32_unit
     from ..sampling import Sampling, sample_directions
 
+    check_mesh(mesh, "ao_rays")      # a NaN vertex read 'no surface area', a face past the vertices IndexError
     check_int(points, "points", 1)
     check_int(seed, "seed", 0)
     # drawn at unit size, scaled by a power of two (1 near it: exact): the face areas that weigh the draw
@@ -378,6 +381,7 @@ def near_rays(mesh, count: int = 16000, seed: int = 7):
     """
     from ..mesh import bounding_sphere
 
+    check_mesh(mesh, "near_rays")
     check_int(count, "count", 0)
     c, r = bounding_sphere(mesh)
     rng = np.random.default_rng(seed)
@@ -416,6 +420,7 @@ def rays_for(mesh, *, points: int = 2000, samples: int = 16, near: int = 16000, 
     (normals or None), ``truth`` (bool), ``w`` (weights, or None), in the
     object's frame, no ground; ``own`` also ``group`` (its rays per point: ``samples``).
     """
+    check_mesh(mesh, "rays_for")     # a face index of -1 (numpy wraps it) was drawn on, and judged
     check_int(near, "near", 0)
     body = [Body(mesh, np.eye(4), Layout.for_mesh(mesh))]
     p, d, nrm = ao_rays(mesh, points, samples, seed, backs=True)
@@ -487,6 +492,7 @@ def predict(mesh, maps=(64, 128), resolution: int = 128, depth_bits: int = 16, l
 
     from ..raster import MAX_RESOLUTION
 
+    check_mesh(mesh, "predict")
     check_depth_bits(depth_bits)
     check_int(resolution, "resolution", 1, MAX_RESOLUTION)
     if lookup not in ("nearest", "vote"):

@@ -89,7 +89,7 @@ def test_place_on_probes_without_ao():
     """Before: on maps built with ``estimator=None`` (probes only, for CubeMapVisibility) ``place`` raised once a
     probe was there ("CubeMapAO.project: built with estimator=None, the probes hold no AO"), though it needs only
     which pixels a probe sees. Now it decides as maps with AO do: at thresholds just above and below the coverage
-    (grid 4: 0.625) of a probe 10 to the side, and for a probe at the eye (none added) or 40 away (one added)."""
+    (grid 4: 0.75) of a probe 10 to the side, and for a probe at the eye (none added) or 40 away (one added)."""
     from pyshadow.cubemap import coverage_grid
 
     cam = pyshadow.Camera(PROBE + [0.2, 0.3, 0.5], PROBE + [0.3, -0.8, -1.5], width=16, height=12)
@@ -97,7 +97,7 @@ def test_place_on_probes_without_ao():
     side.add_probe(PROBE + [10.0, 0.0, 0.0])
     pr = side.project(cam, on_empty="fallback")
     cover = coverage_grid(pr.covered, pr.probe == -2, 4)
-    assert cover == 0.625
+    assert cover == 0.75
     cases = [(PROBE + [10.0, 0.0, 0.0], t, 4) for t in (cover - 0.01, cover + 0.01)]
     cases += [(PROBE + [0.2, 0.3, 0.5], 0.75, 8), (PROBE + [0.0, 0.0, 40.0], 0.75, 8)]
     got = {}

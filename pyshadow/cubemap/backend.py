@@ -63,6 +63,9 @@ class CubeMapVisibility:
         d = np.asarray(max_distance, np.float64)
         if d.size == 0:
             raise ValueError("max_distance is empty: the cube-map backend takes one max_distance for all rays")
+        bad = d[~(np.isfinite(d) & (d > 0))].reshape(-1)  # (NaNs read as unequal: "takes one max_distance")
+        if bad.size:
+            raise ValueError(f"max_distance must be a finite distance > 0 (world units), got {float(bad[0])!r}")
         if d.size != 1 and not (d == d.reshape(-1)[0]).all():
             raise ValueError("the cube-map backend takes one max_distance for all rays")
         return float(d.reshape(-1)[0])

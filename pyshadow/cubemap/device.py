@@ -18,16 +18,19 @@ CHUNK = 1 << 20
 
 
 def probe_buffers(probe):
-    """Device copies of a probe's texel planes, depths, occluder flags and face frames (cached per probe)."""
-    bufs = _BUFFERS.get(probe)
-    if bufs is None:
+    """Device copies of a probe's texel planes, depths, occluder flags and face frames (cached per probe and
+    OpenCL context)."""
+    ctx = id(_cl.context())
+    held = _BUFFERS.get(probe)
+    # per context: buffers of another context (pyshadow._cl.use_device) are not the kernel's to read
+    if held is None or held[0] != ctx:
         n = probe.normal.reshape(-1, 3).astype(np.float64)
         h = np.einsum("ij,ij->i", n, np.nan_to_num(probe.texel_offsets()))
         plane = np.concatenate([n, h[:, None]], axis=1).astype(np.float32)
         bufs = (_cl.to_device(plane, np.float32), _cl.to_device(probe.depth.reshape(-1), np.float32),
                 _cl.to_device(probe.occluder.reshape(-1), np.uint8), _cl.to_device(_FRAMES, np.float32))
-        _BUFFERS[probe] = bufs
-    return bufs
+        held = _BUFFERS[probe] = (ctx, bufs)
+    return held[1]
 
 
 def raymarch_device(probe, points, directions, opt) -> np.ndarray:

@@ -93,6 +93,15 @@ def _direction_texels(d, R):
     return face, row, col, x, y
 
 
+def _check_scene(scene, who: str) -> None:
+    """TypeError unless ``scene`` is a :class:`pyshadow.Scene` (``pyshadow.data.default_scene()``'s (scene,
+    camera) pair failed only at the first probe: "'tuple' object has no attribute 'ground'")."""
+    from ..scene import Scene
+
+    if not isinstance(scene, Scene):
+        raise TypeError(f"{who}: scene must be a pyshadow.Scene, got {type(scene).__name__}")
+
+
 def _check_resolution(resolution) -> int:
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)) \
             or not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
@@ -141,6 +150,8 @@ class CubeProbe:
         centre below the ground plane, or a centre inside a closed body (more
         than half of the texels show back faces of watertight meshes; the
         message names the instance).
+    TypeError
+        A scene that is not a :class:`pyshadow.Scene`.
 
     Notes
     -----
@@ -153,6 +164,7 @@ class CubeProbe:
     def __init__(self, scene, centre, resolution: int = 128, *, ground_size: float | None = None):
         from ..render import draw_items
 
+        _check_scene(scene, "CubeProbe")
         self.resolution = R = _check_resolution(resolution)
         # strings were converted ("1" as 1.0, "abc" an error naming nothing), complex numbers lost their
         # imaginary part with a ComplexWarning and booleans were read as 0 and 1
@@ -281,7 +293,14 @@ def _back_faces(items, g, offsets):
         sel = hit & (item == k)
         if not sel.any():
             continue
-        fn = np.asarray(mesh.face_normals, dtype=np.float64)[face[sel]] @ np.asarray(T, np.float64)[:3, :3].T
+        # the winding's own normal, not trimesh's cached face_normals (Trimesh.invert() flips the faces but left
+        # them pointing out: a probe inside an inverted box room was refused as inside it, 100 % back faces);
+        # each edge scaled by its largest entry, which keeps the sign and the product within float64's range
+        v = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)[face[sel]]]
+        e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+        e1 /= np.maximum(np.abs(e1).max(axis=1, keepdims=True), 1e-300)
+        e2 /= np.maximum(np.abs(e2).max(axis=1, keepdims=True), 1e-300)
+        fn = np.cross(e1, e2) @ np.asarray(T, np.float64)[:3, :3].T
         back[sel] = np.einsum("ij,ij->i", fn, offsets[sel.reshape(-1)]) > 0
     return back, np.where(hit, item, -1)
 

@@ -11,8 +11,11 @@ Which probe shades a pixel
 A pixel's surface point ``x`` (normal ``n``, facing the camera) is seen by a
 probe at ``c`` when, with ``u = x - c``, ``r = |u|``: the texel of ``u``
 (:func:`~pyshadow.cubemap.probe.direction_texels`) shows the same instance,
-the texel's surface depth along ``u`` (its plane's, as the raymarch
-estimator reads it) is within ``tolerance * r`` of ``r``, ``n . (c - x) > 0``
+the texel's surface depth along ``u`` (its plane's; its centre depth where
+the plane is grazing, ``|n.u| < 0.1``) is within ``tolerance * r`` of ``r``
+-- or, grazing, its plane's is and the plane is seen that far: the texel's
+centre ray, or one of its eight neighbours', meets it at ``r`` or beyond --
+``n . (c - x) > 0``
 (the probe sees the side the camera sees) and the texel has an AO value.
 Among the probes that see it the one of the largest quality
 ``Q = Q_a Q_b Q_c`` wins, with (seed 002, Figure 4.10, which gives the
@@ -38,7 +41,7 @@ from .._validate import check_int, nonzero, rows3
 from ..lighting._checks import _number, flag
 from ..sampling import Sampling
 from .estimators import ESTIMATORS, GRAZING, horizon_defaults, march_defaults, texel_ao
-from .probe import CubeProbe, _check_resolution, _direction_texels
+from .probe import CubeProbe, _check_resolution, _check_scene, _direction_texels
 
 __all__ = ["CubeMapAO", "Projection", "quality", "coverage_grid", "seed_box_filter", "normal_hash"]
 
@@ -116,24 +119,35 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
     if normals is None:                                   # no normals: every point faces the probe
         normals = -uh
     face, row, col, x, y = _direction_texels(uh, R)
+    every = slice(None)                                   # all points (a view, no copy)
 
-    def test(fl):
+    def depths(fl, k):
+        """Centre depth, plane depth along ``uh[k]`` (NaN where none > 0) and ``|n.u|`` of texels ``fl``."""
         n = probe.normal.reshape(-1, 3)[fl].astype(np.float64)
-        den = np.einsum("ij,ij->i", n, uh)
+        den = np.einsum("ij,ij->i", n, uh[k])
         zc = probe.depth.reshape(-1)[fl].astype(np.float64)
         P = probe.texel_offsets(fl)                       # P - c from the depth (float32 world P moves far out)
         with np.errstate(divide="ignore", invalid="ignore"):
             zp = np.einsum("ij,ij->i", n, P) / den
-        z = np.where((np.abs(den) >= GRAZING) & (zp > 0) & np.isfinite(zc), zp, zc)
-        a = ao_map.reshape(-1)[fl]
-        ok = (np.abs(z - r) <= tolerance * r) & np.isfinite(a)
+        return zc, np.where((zp > 0) & np.isfinite(zc) & np.isfinite(zp), zp, np.nan), np.abs(den)
+
+    def same(k, fl, z):
+        """Depth ``z`` of texels ``fl`` along ``uh[k]`` is the points' distance, and the instance theirs."""
+        ok = np.abs(z - r[k]) <= tolerance * r[k]
         if ids is not None:
-            ok &= probe.object_id.reshape(-1)[fl] == ids
-        return ok, a
+            ok &= probe.object_id.reshape(-1)[fl] == (ids if ids.size == 1 else ids[k])
+        return ok
+
+    def test(fl):
+        zc, zp, g = depths(fl, every)
+        a = ao_map.reshape(-1)[fl]
+        return same(every, fl, np.where((g >= GRAZING) & np.isfinite(zp), zp, zc)) & np.isfinite(a), a, zc, zp, g
 
     flat = (face * R + row) * R + col
-    seen, ao = test(flat)
-    seen &= np.einsum("ij,ij->i", normals, -u) > 0
+    own, ao, zc, zp, g = test(flat)
+    k = np.flatnonzero(~own & (g < GRAZING) & np.isfinite(ao))
+    own[_grazing_seen(probe, k[same(k, flat[k], zp[k])], zc, r, tolerance, (face, row, col), depths, same)] = True
+    seen = own & (np.einsum("ij,ij->i", normals, -u) > 0)
     if lookup == "bilinear":
         fx = (x + 1.0) * 0.5 * R - 0.5
         fy = (1.0 - y) * 0.5 * R - 0.5
@@ -144,12 +158,37 @@ def _probe_sees(probe, ao_map, points, normals, ids, tolerance, lookup):
         for dr, dc, wgt in ((0, 0, (1 - ax) * (1 - ay)), (0, 1, ax * (1 - ay)), (1, 0, (1 - ax) * ay),
                             (1, 1, ax * ay)):
             fl = (face * R + np.clip(r0 + dr, 0, R - 1)) * R + np.clip(c0 + dc, 0, R - 1)
-            ok, a = test(fl)
-            wgt = np.where(ok, wgt, 0.0)
+            ok, a = test(fl)[:2]
+            wgt = np.where(np.where(fl == flat, own, ok), wgt, 0.0)
             num += wgt * np.nan_to_num(a)
             den += wgt
         ao = np.where(den > 0, num / np.maximum(den, 1e-300), ao)
     return seen, ao
+
+
+def _grazing_seen(probe, k, zc, r, tolerance, texels, depths, same):
+    """Which points ``k`` on their own texel's plane, seen grazing (``|n.u| <`` GRAZING), the probe sees.
+
+    The centre depth of a grazing texel is no measure of its other points (ground 3.5-10 from a probe 0.35
+    above it, 12 % of a camera's floor pixels, went unseen), and its plane holds along the point's direction
+    only as far as the centre ray met it unhidden: a body standing on the plane beyond (a wall on the floor)
+    hides the rest within the texel (ground pixels in front of a wall, seen from behind it, read the ground
+    there). So a point no farther than the centre ray's hit is seen, and one farther when one of the eight
+    texels around shows the same plane (and instance) and its centre ray meets it at the point's distance or
+    beyond. Returns those of ``k`` seen (``texels``: face, row and column of every point's texel).
+    """
+    R, (face, row, col) = probe.resolution, texels
+    ok = zc[k] >= (1 - tolerance) * r[k]
+    far = k[~ok]
+    vouched = np.zeros(len(far), bool)
+    for dr, dc in ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (-1, 1), (1, -1), (1, 1)):
+        i = np.flatnonzero(~vouched)
+        f = far[i]
+        fl = (face[f] * R + np.clip(row[f] + dr, 0, R - 1)) * R + np.clip(col[f] + dc, 0, R - 1)
+        reach = probe.depth.reshape(-1)[fl] >= (1 - tolerance) * r[f]    # (planes only of those that may vouch)
+        i, f, fl = i[reach], f[reach], fl[reach]
+        vouched[i[same(f, fl, depths(fl, f)[1])]] = True
+    return np.concatenate([k[ok], far[vouched]])
 
 
 #: The default relative depth tolerance of a probe's visibility test (:meth:`CubeMapAO.project`, ``assign``, ``place``).
@@ -248,7 +287,7 @@ class CubeMapAO:
     Raises
     ------
     ValueError, TypeError
-        An unknown estimator, a bad distance, resolution or option.
+        An unknown estimator, a bad distance, resolution or option; a scene not a ``pyshadow.Scene``.
 
     Attributes
     ----------
@@ -261,6 +300,7 @@ class CubeMapAO:
     def __init__(self, scene, max_distance, *, resolution: int = 128, estimator: str = "raymarch",
                  sampling: Sampling | None = None, device: bool = True, ground_size: float | None = None,
                  **options):
+        _check_scene(scene, "CubeMapAO")
         if estimator is not None and estimator not in ESTIMATORS:
             raise ValueError(f"estimator must be one of {ESTIMATORS} or None, got {estimator!r}")
         # checked before a probe is rendered (add_probe's march raised only after the render); with

@@ -15,7 +15,9 @@ cached with the mesh)
     larger dihedral angle keep a sharp crease between them; a face whose
     neighbours are all beyond the crease angle keeps its flat normal
     exactly. Vertices are shared by index (:func:`pyshadow.load_mesh`
-    merges coincident ones). Computed in the mesh's own frame and carried to
+    merges coincident ones). A face of no area, or none but for the rounding
+    of its corners (:data:`SLIVER_SPACINGS`: the sliver closing a T-junction),
+    has no normal: it takes no part, and its corner normals are 0. Computed in the mesh's own frame and carried to
     the world by the inverse transpose of the instance's 3x3 part.
 Per pixel (:func:`shading_gbuffer`)
     The barycentric interpolation of the face's corner normals at the
@@ -48,7 +50,7 @@ import weakref
 
 import numpy as np
 
-from ._validate import check_indices, check_rows, check_values
+from ._validate import check_indices, check_rows, check_values, unit_normals
 from .gbuffer import face_corners
 from .materials import barycentrics
 
@@ -66,6 +68,10 @@ DEFAULT_CREASE_ANGLE = math.radians(30.0)
 CREASE_RTOL = 2.0**-20
 # pairs of corners at a vertex taken at once by corner_normals (about 150 bytes each)
 _PAIRS = 1 << 18
+#: A face whose height (twice its area over its longest edge) is at most this many float64 spacings of its
+#: largest coordinate has a normal lost in the rounding of its corners (the zero-area sliver closing a
+#: T-junction, its third corner the rounded midpoint of an edge): it takes no part in corner normals.
+SLIVER_SPACINGS = 2.0**10
 
 # mesh -> {crease angle: (corner normals (T, 3, 3), smooth face mask (T,))}; a mesh changed in place
 # hashes differently and misses
@@ -103,6 +109,17 @@ def _face_normals(v, faces) -> np.ndarray:
     n = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
     length = np.linalg.norm(n, axis=1, keepdims=True)
     return n / np.where(length > 0, length, 1.0)
+
+
+def _slivers(v, faces) -> np.ndarray:
+    """Faces of no area but for the rounding of their corners (:data:`SLIVER_SPACINGS`), (T,) bool: their
+    normal is noise, and their angle near pi at the middle corner gave it the most weight there (corner
+    normals 15 degrees off around such a sliver in a curved patch)."""
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    cross = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    edge = np.max([np.linalg.norm(x, axis=1) for x in (b - a, c - a, c - b)], axis=0)
+    size = np.abs(np.concatenate([a, b, c], axis=1)).max(axis=1, initial=0.0)
+    return cross <= SLIVER_SPACINGS * np.finfo(np.float64).eps * size * edge
 
 
 def _corner_angles(v, faces) -> np.ndarray:
@@ -173,6 +190,7 @@ def corner_normals(mesh, crease_angle: float = DEFAULT_CREASE_ANGLE, *, return_s
         v = _vertices(mesh)
         faces = np.asarray(mesh.faces, dtype=np.int64)
         fn = _face_normals(v, faces)
+        fn[_slivers(v, faces)] = 0.0            # as a face of no area: excluded, its own corners 0
         weight = _corner_angles(v, faces).reshape(-1)
         # a dihedral angle equal to the crease angle but for rounding (a 12-sided prism at 30 degrees) is within it
         acc, differ = _neighbour_sums(fn, weight, faces.reshape(-1), len(v), math.cos(crease * (1.0 + CREASE_RTOL)))
@@ -301,7 +319,7 @@ def ambient_occlusion(scene, points, normals, geometric_normals, *, backend="csm
     points : ndarray, shape (N, 3), float64
         World positions.
     normals, geometric_normals : ndarray, shape (N, 3)
-        Unit world shading and geometric normals (``n_s . n_g > 0``).
+        World shading and geometric normals (``n_s . n_g > 0``; any length, normalised here).
     backend, sampling, indices, surface_ids, bias :
         As in :func:`pyshadow.visibility.ambient_occlusion`.
 
@@ -309,6 +327,7 @@ def ambient_occlusion(scene, points, normals, geometric_normals, *, backend="csm
     -------
     ao : ndarray, shape (N,), float32
     bent : ndarray, shape (N, 3), float32
+        Unit; the unit shading normal where no direction reaches the sky.
     """
     from . import visibility as vis
     from .lighting.shade import SAMPLED_CHUNK_RAYS
@@ -336,5 +355,8 @@ def ambient_occlusion(scene, points, normals, geometric_normals, *, backend="csm
                                           sampling=sampling, indices=idx[redo],
                                           surface_ids=None if ids is None else ids[redo], bias=bias,
                                           geometric_normals=ng[redo])
-            ao[redo], bent[redo] = ao_from_samples(dirs, lit, n[redo].astype(np.float32), return_bent_normals=True)
+            # the bent normal of a point none of whose directions is lit is its unit normal, as the backends'
+            # (a shading normal of length 1.04 came back as it was: length 1.04, or 1e-3 for one of 1e-3)
+            ao[redo], bent[redo] = ao_from_samples(dirs, lit, unit_normals(n[redo], len(redo)),
+                                                   return_bent_normals=True)
     return ao, bent

@@ -230,7 +230,9 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     points : array_like, shape (N, 3)
         World positions (none may coincide with the light's centre or lie
         within a sphere light; on its surface they may: their rays to it have
-        no length and reach it).
+        no length and reach it; each up to the rounding of the coordinates,
+        4 float64 spacings of the largest of the point's, the centre's and the
+        radius, as for :class:`~pyshadow.lighting.PhongLighting`).
     normals : array_like, shape (N, 3)
         World unit surface normals (normalised here; zero rows are an error).
     light : PointLight or SpotLight
@@ -280,10 +282,17 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
         i = int(np.argmax(~np.isfinite(d)))
         raise ValueError(f"point {i} lies too far from the light (point {p[i].tolist()}, light "
                          f"{light.position.tolist()}): their distance overflows float64")
-    if n and not ((d >= light.radius) & (d > 0)).all():     # on a sphere light's surface: E = I / R^2 facing it
-        i = int(np.argmin(d - light.radius))
-        raise ValueError(f"point {i} lies {'at the light' if light.radius == 0 else 'within the sphere light'} "
-                         f"(distance {d[i]:.6g}, light radius {light.radius:g}): its irradiance is undefined")
+    if n:   # at the centre, or within a sphere light, but for the rounding of the coordinates (4 spacings of the
+        # largest, PhongLighting's rule) is at it, or on its surface: a point p under a lamp of centre p + R n lay
+        # within it half the time (0.85 - 0.75 < 0.1); one at the light but for rounding got I / d^2 of 7e24 I
+        tol = 4.0 * np.finfo(np.float64).eps * np.maximum(np.abs(p).max(axis=1),
+                                                           max(float(np.abs(light.position).max()), light.radius))
+        ok = (d >= light.radius - tol) & (d > tol)      # on a sphere light's surface: E = I / R^2 facing it
+        if not ok.all():
+            i = int(np.argmin(np.where(ok, np.inf, d - light.radius)))
+            where = "at the light" if light.radius == 0 or d[i] <= tol[i] else "within the sphere light"
+            raise ValueError(f"point {i} lies {where} (distance {d[i]:.6g}, light radius {light.radius:g}): its "
+                             f"irradiance is undefined")
     axis = to_light / np.where(d > 0, d, 1.0)[:, None]
     spot = light.factor(-axis)
     k = int(samples) if light.radius > 0 else 1

@@ -142,9 +142,9 @@ class PhongLighting:
         pos = _floats(light, "light", "a finite 3-vector position or a PointLight")
         if pos.shape != (3,) or not np.isfinite(pos).all():
             raise ValueError(f"light: expected a finite 3-vector position or a PointLight (got {light!r})")
-        if ao is True or ao is False:
+        if isinstance(ao, (bool, np.bool_)):        # NumPy's too (np.True_ was refused as no bool)
             ao = "ao" if ao else "off"
-        if ao not in AO_MODES:
+        if not (isinstance(ao, str) and ao in AO_MODES):    # an array's ``in`` has no truth value
             raise ValueError(f"ao: expected one of {', '.join(AO_MODES)} or a bool (got {ao!r})")
         for flag, name in ((shadows, "shadows"), (per_vertex, "per_vertex")):
             if not isinstance(flag, (bool, np.bool_)):
@@ -340,7 +340,8 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         ``c_r`` per point; default ``lighting.albedo_of(surface_ids)``.
     geometric_normals : array_like, shape (N, 3), optional
         With shading ``normals``: a light (or the normal sample) at or below
-        the geometric plane is shadowed (:mod:`pyshadow.shading_normals`).
+        the geometric plane is shadowed (:mod:`pyshadow.shading_normals`; the
+        light's only with ``shadows=True``).
     terms : tuple of two (N,) arrays, optional
         ``(diffuse, spec)`` to use instead of :func:`light_terms` at the
         points (the corners' interpolation of :func:`vertex_terms`).
@@ -352,7 +353,9 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     ambient_factor : ndarray, shape (N,), float64
         ``A``.
     light_visibility : ndarray, shape (N,), float64
-        ``V`` (1 without shadows; 0 where ``n . l <= 0``: nothing is traced there).
+        ``V``: 1 without shadows (also where the light is below the surface or its
+        geometric plane); with them 0 where ``n . l <= 0`` (or ``n_g . l <= 0``):
+        nothing is traced there.
 
     Raises
     ------
@@ -445,7 +448,8 @@ def vertex_terms(items, item, face, bary, normals, eye, lighting: PhongLighting)
         As :func:`pyshadow.shading_normals.pixel_surface` returns them.
     normals : ndarray, shape (K, 3)
         The pixels' normals facing the eye: a corner normal (the mesh's
-        area-weighted vertex normal, in the world frame) is flipped with its
+        ``vertex_normals``: trimesh's angle-weighted ones, or those loaded
+        with it; in the world frame) is flipped with its
         triangle where the interpolated one points away from it.
     eye : array_like, shape (3,)
     lighting : PhongLighting

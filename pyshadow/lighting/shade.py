@@ -69,8 +69,8 @@ from .sh import SH_COUNT, _irradiance
 from .sun import sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
-           "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES", "SAMPLED_SUN_SAMPLES", "DEFAULT_ALBEDO",
-           "DEFAULT_GROUND_ALBEDO"]
+           "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES",
+           "SAMPLED_SUN_SAMPLES", "DEFAULT_ALBEDO", "DEFAULT_GROUND_ALBEDO"]
 
 #: Shading modes.
 MODES = ("bent", "transfer", "sampled")
@@ -88,8 +88,9 @@ MAX_SUN_RADIUS = math.pi / 4
 
 
 def _albedo(a, name: str) -> np.ndarray:
-    try:        # text ("0.5", read as 0.5) and complex numbers (the imaginary part dropped) are no albedo
-        v = None if isinstance(a, (str, bytes)) or np.asarray(a).dtype.kind in "SUc" \
+    try:        # text ("0.5", read as 0.5), complex numbers (the imaginary part dropped) and bools (True read
+        # as 1: white) are no albedo
+        v = None if isinstance(a, (str, bytes)) or np.asarray(a).dtype.kind in "SUcb" \
             else np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         v = None
@@ -113,7 +114,9 @@ class DirectionalLight(ArrayValue):
         Unit vector from the scene towards the light, y up.
     irradiance : ndarray, shape (3,), float64
         RGB irradiance on a surface facing the light (>= 0, finite), in the
-        sky's radiance units times sr.
+        sky's radiance units times sr: the disc's radiance integrated over its solid angle. With
+        K > 1 directions a facing surface gets ``irradiance * (1 + cos r) / 2`` (r the angular radius:
+        the disc's mean cosine, 0.854 at pi / 4), with one ``irradiance`` itself.
     angular_radius : float
         Radius of the light's disc in rad, in [0, pi/4].
     """
@@ -438,7 +441,7 @@ def sampled_sky_radiance(scene, points, normals, lighting: Lighting, albedo, *, 
         dirs, lit = sample_visibility(scene, p[a:b], nrm[a:b], backend=backend, sampling=sampling,
                                       indices=idx[a:b], surface_ids=None if ids is None else ids[a:b],
                                       bias=bias, geometric_normals=None if geometric_normals is None
-                                      else np.asarray(geometric_normals)[a:b])                           # (m, S, 3) float32, (m, S)
+                                      else np.asarray(geometric_normals)[a:b])     # (m, S, 3) float32, (m, S)
         flat = dirs.reshape(-1, 3)
         if env is not None:
             w = flat.astype(np.float64)

@@ -45,11 +45,16 @@ def _bytes(x, seen=None) -> int:
 def held_at(scene, anchor) -> dict:
     """Where the tables of queries at ``anchor`` are kept: the scene's arrays for the scene's own
     anchor, else that anchor's entry among the far anchors' (dropped with the scene's arrays when it
-    changes, or when more recently used anchors' tables fill :data:`FAR_BYTES`)."""
+    changes, or when more recently used anchors' tables fill :data:`FAR_BYTES`). A scene without casters
+    keeps nothing for other anchors: an empty scene's anchor follows each query's points
+    (:meth:`pyshadow.Scene.anchor`), so every query of a ground-only scene had an entry of its own (of
+    no bytes, never evicted), and each new one re-summed the bytes of all the others."""
     held = scene_arrays(scene)
     at = np.asarray(anchor, np.float64).tobytes()
     if at == scene.anchor().tobytes():
         return held
+    if not held["casts"].any():                 # tables of nothing: made anew (as _instance_data's), not kept
+        return {}
     far = held.setdefault("far_anchors", OrderedDict())
     if at in far:
         far.move_to_end(at)

@@ -23,10 +23,10 @@ from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.choose import _max_error
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
-from .mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
+from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
-from .scene_moves import add_instances, held_transform, placed_vertices, set_transforms
+from .scene_moves import add_instances, checked_ground, held_transform, loaded_mesh, placed_vertices, set_transforms
 from .views import ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
@@ -144,7 +144,7 @@ class Instance:
 def _set_ground(scene, height) -> None:
     """``scene.ground = height``, checked as :class:`Scene` checks its ``ground``: a NaN set later dropped the
     plane silently (every ray passed it) and 1e40 overflowed float32 in the kernels."""
-    height = None if height is None else float(height)
+    height = checked_ground(height)
     if height is not None and not abs(height) <= FLOAT32_MAX:       # the kernels take it as a float32
         raise ValueError(f"ground must be a finite height within float32's range, got {height}")
     scene._ground = height
@@ -208,7 +208,7 @@ class Scene:
         obj : CoherentShadowMap, trimesh.Trimesh or path
             A CSM (a caster; several instances share one CSM and its device
             buffers), or a mesh. A mesh with ``casts=True`` gets a CSM built
-            with the scene's options (once per mesh object); with
+            with the scene's options (once per mesh object or file); with
             ``casts=False`` it only receives (walls, floors).
         transform : array_like, shape (4, 4) or (k, 4, 4), optional
             Object-to-world transform: rotation (5 decimals suffice: placed as
@@ -470,8 +470,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         if max_error is not None:
             raise ValueError("max_error= chooses the CSM built for a mesh; this CSM is built already")
         if mesh is not None:
-            if not isinstance(mesh, trimesh.Trimesh):
-                mesh = load_mesh(mesh)
+            mesh = loaded_mesh(scene, mesh)
             if (digest := mesh_hash(mesh)) != obj.mesh_hash:
                 raise ValueError("mesh does not match the CSM (different mesh hash)")
             _check_csm_frame(obj, mesh, digest)
@@ -479,8 +478,7 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
     else:
         if mesh is not None:
             raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
-        if not isinstance(obj, trimesh.Trimesh):
-            obj = load_mesh(obj)
+        obj = loaded_mesh(scene, obj)
         check_mesh(obj, "Scene.add")            # a mesh object is used as it is: checked, not cleaned
         csm = None
         if casts:

@@ -127,8 +127,15 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
      * its texel at the chord's midpoint (the map's axis and the ray part by
      * their angle times the distance from there: at most half the chord) and,
      * from outside the sphere, its depth where the ray enters the sphere
-     * (well behind the mesh). A chord empty or behind the point: a miss. */
+     * (well behind the mesh). A chord empty or behind the point: a miss.
+     * Such a point farther outside the sphere than two texels, or on another
+     * body, lies on none of this caster's surfaces, and every surface of its
+     * chord is ahead of it: it asks as a point of another body (own -2) with
+     * a depth behind every stored one (2; the sphere's back is 1). At the
+     * entry's depth a surface lying on the sphere (a bowl, a dome's shell)
+     * tied with the point and let the ray through. */
     fv cqx = qx, cqy = qy, cqz = qz;
+    iv beyond;
     {
         const fv b = qx * vx + qy * vy + qz * vz;
         const fv sx = qx - b * vx, sy = qy - b * vy, sz = qz - b * vz;
@@ -143,6 +150,8 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         }
         act &= ~(MASK(h2 < 0.0f) | MASK(u0 > u1) | MASK(u1 < b));
         const iv far = MASK(b < u0), out = far & MASK(b < -e);
+        beyond = out & ((MASK(own != -1) & MASK(own != j)) | MASK(b * b - h2 > (8.0f + 16.0f / (float)R) / (float)R));
+        own = VSEL(own, (iv)(-2), beyond);
         const fv um = 0.5f * (u0 + u1);
         qx = VSEL(qx, sx - e * vx, out);
         qy = VSEL(qy, sy - e * vy, out);
@@ -212,6 +221,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         NORMAL_PLANE_DECL
         const iv inside = open & map_frame_v(S->bases + 9 * vbase, kw[m], R, qx, qy, qz, cqx, cqy, cqz,
                                              &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
+        depth = VSEL(depth, (fv)(2.0f), beyond);
         const fv wm = LANE_LOAD(mw[m]);
         if (!VANY(inside)) {
             rest -= wm;
@@ -283,6 +293,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     NORMAL_PLANE_DECL
     const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz, cqx, cqy, cqz,
                                        &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
+    depth = VSEL(depth, (fv)(2.0f), beyond);
     if (!VANY(valid)) {
         LANE_STORE((iv)(0), ta);
         LANE_STORE((fv)(0.0f), dz_out);

@@ -36,7 +36,9 @@
  *     surface where the map sees it obliquely; pyshadow.csm.surface_rule
  *     gives the reasons).
  *   A point before its ray's chord through the instance (inside its sphere
- *   and its mesh's box) is asked there (csm_lookup.h, instance_v); a ray
+ *   and its mesh's box) is asked there (csm_lookup.h, instance_v; one more
+ *   than two texels outside the sphere, or on another body, with a depth
+ *   behind every stored one: a surface lying on the sphere); a ray
  *   whose chord is empty or behind it, points outside map k's square or in
  *   front of the bounding sphere (depth <= 0) are not shadowed by it.
  *   FILTERED: instead of one texel of map k, a vote -- the four maps of

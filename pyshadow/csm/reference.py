@@ -340,7 +340,7 @@ def _plane_slopes(normals, B, shift, R):
 
 def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1,
                 self_=True, bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS,
-                normals=None, lift=None, texel_points=None) -> np.ndarray:
+                normals=None, lift=None, texel_points=None, beyond=None) -> np.ndarray:
     """Weighted shadowing vote of a CSM's taps for points and directions in its frame (NumPy).
 
     The rule of the visibility kernel (``instance16``) for one caster, in
@@ -380,6 +380,10 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
         Where each point's texel is taken, normalised frame (default ``pn``;
         a point before its chord through the caster: the chord's midpoint,
         :func:`pyshadow.visibility.mirror.caster_occludes`).
+    beyond : ndarray of bool, shape (N,), optional
+        Rows of points outside the caster's sphere on none of its surfaces
+        (:func:`pyshadow.visibility.mirror.caster_occludes`): asked with the
+        depth 2, behind every stored one (default: none).
 
     Returns
     -------
@@ -404,7 +408,7 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
     vote = np.zeros(len(pn))
     for k, tex, _, _, depth, b, inside, weight in shadow_taps(
             csm.views, R, pn, wn, maps, map_weights, quantum=quantum, texels=texels, self_=self_, bias=bias,
-            bias_texels=bias_texels, normals=normals, lift=lift, texel_points=texel_points):
+            bias_texels=bias_texels, normals=normals, lift=lift, texel_points=texel_points, beyond=beyond):
         seg = np.searchsorted(keys, np.where(inside, tex, 0) * D + k)
         z = csm.stored_to_depth(depths[np.minimum(seg, len(keys) - 1)])
         vote += weight * (inside & (depth > z + b))
@@ -413,7 +417,7 @@ def shadow_vote(csm, pn, wn, maps, map_weights, *, quantum: float, texels: int =
 
 def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: int = 1, self_=True,
                 bias: float | None = None, bias_texels: float = DEFAULT_BIAS_TEXELS, normals=None, lift=None,
-                texel_points=None):
+                texel_points=None, beyond=None):
     """The taps of :func:`shadow_vote`, one at a time, whatever answers them.
 
     Yields, per map column and texel tap, ``(k, tex, col, row, depth, b,
@@ -425,7 +429,10 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
     surface's depth along the texel's centre ray plus ``b``: the stored
     depth in :func:`shadow_vote`, a traced ray in
     :mod:`pyshadow.csm.error_model`. The texel is that of ``texel_points``
-    where given (the depth stays that of ``pn``).
+    where given (the depth stays that of ``pn``). Rows ``beyond`` (bool (N,),
+    optional: points outside the caster's sphere on none of its surfaces,
+    :func:`pyshadow.visibility.mirror.caster_occludes`) take the depth 2,
+    behind every stored one, so every surface of the texel shadows them.
     """
     if check_int(texels, "texels", 1, 4) == 4:      # texel offsets and their bilinear weights (tx, ty)
         taps = [(0, 0, lambda tx, ty: (1 - tx) * (1 - ty)), (0, 1, lambda tx, ty: tx * (1 - ty)),
@@ -449,6 +456,8 @@ def shadow_taps(views, R, pn, wn, maps, map_weights, *, quantum: float, texels: 
             h = _lift(normals, lift, B, R)[:, None] * normals
             q, qt = pn + h, pt + h
         depth = (1.0 - np.einsum("ij,ij->i", q, B[:, 2])) * 0.5
+        if beyond is not None:
+            depth = np.where(beyond, 2.0, depth)
         fx = (np.einsum("ij,ij->i", qt, B[:, 0]) + 1.0) * 0.5 * R
         fy = (np.einsum("ij,ij->i", qt, B[:, 1]) + 1.0) * 0.5 * R
         inside = (depth > 0) & (fx >= 0) & (fx < R) & (fy >= 0) & (fy < R)

@@ -125,8 +125,8 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
         return out
     pn = ((p[act] - translation) @ rotation) / (scale * csm.radius) - csm.centre / csm.radius
     wn = w[act] @ rotation
-    pn, pt, miss = _to_chord(pn, wn, lookup_box(csm))
-    mine = own_rows[act]
+    pn, pt, miss, beyond = _to_chord(pn, wn, lookup_box(csm), own_rows[act], csm.resolution)
+    mine = own_rows[act] & ~beyond      # a point beyond the sphere is on none of this caster's surfaces
     mn, up = None, None
     if m is not None:
         mn = m[act] @ rotation
@@ -136,29 +136,35 @@ def caster_occludes(csm, sphere, rotation, scale, translation, p, w, m, own_rows
     else:
         maps, map_w = csm.views.nearest(wn)[:, None].astype(np.int64), np.ones((len(wn), 1))
     taps = dict(quantum=quantum, texels=4 if lookup == "vote" else 1, self_=mine, bias=bias,
-                bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS, normals=mn, lift=up)
+                bias_texels=VOTE_BIAS_TEXELS if lookup == "vote" else DEFAULT_BIAS_TEXELS, normals=mn, lift=up,
+                beyond=beyond)
     hit = ~miss                         # missed rows keep far points: their texels overflowed int64
     if not hit.any():
         return out
     if not hit.all():
         pn, wn, maps, map_w, pt = pn[hit], wn[hit], maps[hit], map_w[hit], pt[hit]
-        taps.update(self_=mine[hit], normals=None if mn is None else mn[hit], lift=None if up is None else up[hit])
+        taps.update(self_=mine[hit], normals=None if mn is None else mn[hit], lift=None if up is None else up[hit],
+                    beyond=beyond[hit])
     v = vote(csm, pn, wn, maps, map_w, texel_points=pt, **taps)
     out[np.flatnonzero(act)[hit][v > 0.5]] = True
     return out
 
 
-def _to_chord(q, v, box):
+def _to_chord(q, v, box, own, resolution):
     """Where points are asked on their ray's chord through a caster (kernels/csm_lookup.h, instance_v), float64.
 
     The chord is the part of the ray inside both the unit sphere and
     ``box`` (``(lo, hi)``, :func:`pyshadow.csm.core.lookup_box`): ``u`` in
     ``[u0, u1]`` along ``v`` from ``perp = q - (q.v) v``. Returns
-    ``(depth_points, texel_points, miss)``: a point before its chord takes
+    ``(depth_points, texel_points, miss, beyond)``: a point before its chord takes
     its texel at the chord's midpoint and,
     from outside the sphere, its depth where the ray enters the sphere; other
     points are unchanged in both; ``miss`` where the chord is empty or behind
-    the point (the caster cannot shadow the ray).
+    the point (the caster cannot shadow the ray); ``beyond`` where a point
+    outside the sphere is not ``own`` (may lie on this caster) or lies more
+    than two texels (``4 / resolution``) outside it: it is on none of the
+    caster's surfaces and asks with a depth behind every stored one
+    (:func:`pyshadow.csm.reference.shadow_taps`).
     """
     b = np.einsum("ij,ij->i", q, v)
     perp = q - b[:, None] * v
@@ -171,8 +177,10 @@ def _to_chord(q, v, box):
     u1 = np.minimum(e, np.maximum(ua, ub).min(axis=1))
     miss = (h2 < 0) | (u0 > u1) | (u1 < b)
     far = (b < u0) & ~miss
-    return (np.where((far & (b < -e))[:, None], perp - e[:, None] * v, q),
-            np.where(far[:, None], perp + (0.5 * (u0 + u1))[:, None] * v, q), miss)
+    out = far & (b < -e)
+    beyond = out & (~np.asarray(own, bool) | (b * b - h2 > (8.0 + 16.0 / resolution) / resolution))
+    return (np.where(out[:, None], perp - e[:, None] * v, q),
+            np.where(far[:, None], perp + (0.5 * (u0 + u1))[:, None] * v, q), miss, beyond)
 
 
 def _raise_directions(csm, lookup, wn, mn, mine):

@@ -473,7 +473,15 @@ def test_gpu_launch_shape_agrees(bunny_scene, rng, monkeypatch):
 
 
 def test_query_kernels_portable_code_path_agrees(bunny_scene, rng, monkeypatch):
-    """The kernels' standard-OpenCL forms give the answers of their inline CPU forms."""
+    """The kernels' standard-OpenCL forms give the answers of their inline CPU forms (where the device can
+    build them: an SSE2 target's compiler warns that their double4 loads change the ABI, and the build is
+    refused, _cl.build_source)."""
     q = QueryAnswers(bunny_scene, rng)
     portable_kernels(monkeypatch)
-    q.check()
+    try:
+        q.check()
+    except pyshadow.KernelBuildError as exc:
+        if pyshadow._cl.ABI_WARNING not in str(exc):
+            raise
+        pytest.skip(f"this device cannot build the standard-OpenCL forms at {pyshadow._cl.lanes()} lanes "
+                    f"({pyshadow._cl.ABI_WARNING})")

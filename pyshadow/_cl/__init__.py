@@ -281,10 +281,9 @@ def lane_choice() -> dict:
     st = _init()
     override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
     if override is not None:
-        # the probe checks the forced width (its cached verdict, else a probe run now): a failing width is an error
+        dev = st["device"]
         if st.get("override_checked", (None,))[0] != override:
-            found = _probe.check_override(override, *st["index"], st["platform"], st["device"],
-                                          _probe_job(st["device"]))
+            found = _probe.check_override(override, *st["index"], st["platform"], dev, _probe_job(dev))
             st["override_checked"] = (override, found)
         found = st["override_checked"][1]
         choice = {"lanes": override, "supported": [w for w in LANE_WIDTHS if found[w]["ok"]],
@@ -498,6 +497,9 @@ def program(source_file: str, defines: dict | None = None) -> cl.Program:
         return prg
 
 
+ABI_WARNING = "changes the ABI"     # clang's, as probe_child.py's (4 doubles at an SSE2 target: 1 ray in 3 wrong)
+
+
 def build_source(src: str, label: str, defines: dict | None = None) -> cl.Program:
     """Build OpenCL C text ``src`` (not cached); ``label`` names it in errors.
 
@@ -505,12 +507,19 @@ def build_source(src: str, label: str, defines: dict | None = None) -> cl.Progra
     ------
     KernelBuildError
         With the options used, the compiler log, and the path of a file that
-        holds the full source as compiled.
+        holds the full source as compiled; also where the log warns that a
+        vector argument changes the ABI (the build would run miscompiled).
     """
     st = _init()
     opts = _options(defines)
     try:
-        return cl.Program(st["context"], src).build(options=list(opts))
+        prg = cl.Program(st["context"], src).build(options=list(opts))
+        log = prg.get_build_info(st["device"], cl.program_build_info.LOG) or ""
+        if ABI_WARNING in log:      # "built", but its calls into the builtin library are miscompiled
+            raise cl.RuntimeError(f"the compiler warns that a vector argument {ABI_WARNING}: this build's calls "
+                                  "into the device's builtin library would run miscompiled (its target lacks "
+                                  f"the vector registers they assume):\n{log.strip()[-2000:]}")
+        return prg
     except (cl.RuntimeError, cl.LogicError) as exc:
         digest = hashlib.sha1(src.encode()).hexdigest()[:12]
         dump = Path(tempfile.gettempdir()) / f"pyshadow-{Path(label).stem}-{digest}.cl"

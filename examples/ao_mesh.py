@@ -50,6 +50,7 @@ def vertex_ao_both(scene, instance_id, sampling):
     # one vertex first, untimed: the first query builds the kernels and uploads the CSMs
     # (10x a warm vertex_ao of the bunny), which the printed times leave out
     scene.ambient_occlusion(pts[:1], nrm[:1], sampling=sampling, surface_ids=instance_id)
+    scene.visible(pts[:1], nrm[:1], surface_ids=instance_id, normals=nrm[:1])   # concave corners' samples
     embree.ambient_occlusion(scene, pts[:1], nrm[:1], sampling=sampling)
     t0 = time.perf_counter()
     ao = scene.vertex_ao(instance_id, sampling=sampling)

@@ -27,6 +27,7 @@ from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
 from .scene_moves import add_instances, checked_ground, held_transform, loaded_mesh, placed_vertices, set_transforms
+from .vertex_points import corner_ao
 from .views import ViewSet
 
 __all__ = ["Scene", "Instance", "GROUND_ID", "DEFAULT_BIAS_TEXELS", "DEFAULT_BIAS_TAN",
@@ -386,11 +387,10 @@ class Scene:
                                               lookup, backend, Sampling(64))
         pts, nrm = self.vertex_points(instance_id)
         ok = np.linalg.norm(nrm, axis=1) > 0
-        if not ok.all():       # isolated vertices: give them any normal
-            nrm = nrm.copy()
-            nrm[~ok] = [0.0, 1.0, 0.0]
-        return self.ambient_occlusion(pts, nrm, sampling=sampling, return_bent_normals=bent, bias=bias,
-                                      surface_ids=int(instance_id), backend=name)
+        nrm = nrm if ok.all() else np.where(ok[:, None], nrm, [0.0, 1.0, 0.0])   # isolated vertices: any normal
+        out = self.ambient_occlusion(pts, nrm, sampling=sampling, return_bent_normals=bent, bias=bias,
+                                     surface_ids=int(instance_id), backend=name)
+        return corner_ao(self, instance_id, pts, nrm, sampling, out, name, bias)   # concave corners and edges
 
     def ground_quad(self, size: float | None = None) -> trimesh.Trimesh:
         """A finite square of the ground plane for drawing: :func:`pyshadow.render.ground_quad`."""

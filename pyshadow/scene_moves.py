@@ -112,8 +112,21 @@ def placed_vertices(inst, instance_id):
     T = inst.transform
     pts = np.asarray(inst.mesh.vertices) @ T[:3, :3].T + T[:3, 3]
     # trimesh's own cache of the normals, which it drops when the mesh changes (a copy kept here did not)
-    nrm = np.asarray(inst.mesh.vertex_normals, dtype=np.float64) @ inst.rotation.T
+    nrm = np.asarray(_winding_mesh(inst.mesh).vertex_normals, dtype=np.float64) @ inst.rotation.T
     return pts, nrm
+
+
+def _winding_mesh(mesh):
+    """``mesh``, or where its face normals point against its faces' winding, the same faces rebuilt: trimesh
+    5.2's ``creation.box(...).invert()`` (a room) flips the faces but keeps the normals it was made with,
+    so its vertex normals pointed out of the room (vertex AO asked the outside's hemisphere)."""
+    import trimesh
+
+    v = np.asarray(mesh.vertices, dtype=np.float64)[np.asarray(mesh.faces)]
+    wound = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+    if not (np.einsum("ij,ij->i", wound, np.asarray(mesh.face_normals, dtype=np.float64)) < 0).any():
+        return mesh
+    return trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
 
 
 def set_transforms(scene, instance_ids, transforms) -> None:

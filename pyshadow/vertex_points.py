@@ -25,6 +25,8 @@ same directions as the AO kernels (:func:`pyshadow.sampling.sample_directions`).
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 __all__ = ["concave_vertices", "corner_ao"]
@@ -36,6 +38,9 @@ FLAT_TOL = 1e-6
 
 #: neighbours x faces held at once while the stars are tested
 _BLOCK_ELEMENTS = 2_000_000
+
+# mesh -> its concave vertices and their faces (_mesh_stars); a mesh changed in place hashes differently and misses
+_STARS = weakref.WeakKeyDictionary()
 
 
 def concave_vertices(points, faces):
@@ -62,7 +67,23 @@ def concave_vertices(points, faces):
     """
     P = np.asarray(points, np.float64).reshape(-1, 3)
     F = np.asarray(faces, np.int64).reshape(-1, 3)
-    none = (np.zeros(0, np.int64), np.zeros((0, 1, 3)))
+    index, ids = _concave_stars(P, F)
+    return index, _star_normals(P, F, ids)
+
+
+def _star_normals(P, F, ids):
+    """Unit normals (n, M, 3) of the faces ``ids`` (n, M) of ``F`` (-1: padding, a zero row), from ``P``."""
+    out = np.zeros(ids.shape + (3,))
+    used = ids >= 0
+    u = ids[used]
+    c = np.cross(P[F[u, 1]] - P[F[u, 0]], P[F[u, 2]] - P[F[u, 0]])
+    out[used] = c / np.linalg.norm(c, axis=1)[:, None]
+    return out
+
+
+def _concave_stars(P, F):
+    """:func:`concave_vertices`' vertices (n,) and the faces of ``F`` around each (n, M), padded with -1."""
+    none = (np.zeros(0, np.int64), np.full((0, 1), -1, np.int64))
     if not len(P) or not len(F):
         return none
     _, key = np.unique(P, axis=0, return_inverse=True)
@@ -70,7 +91,8 @@ def concave_vertices(points, faces):
     K = int(key.max()) + 1
     fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
     area = np.linalg.norm(fn, axis=1)
-    F, fn = F[area > 0], fn[area > 0] / area[area > 0, None]
+    kept = np.flatnonzero(area > 0)                         # the faces of non-zero area, by their index in F
+    F, fn = F[kept], fn[kept] / area[kept, None]
     if not len(F):
         return none
     kf = key[F]
@@ -102,7 +124,19 @@ def concave_vertices(points, faces):
         concave[a:a + block] = (h >= -tol).all(axis=(1, 2))
     at[cand[~concave]] = -1
     index = np.flatnonzero(at[key] >= 0)
-    return index, fn[star[at[key[index]]]]
+    star = star[at[key[index]]]
+    return index, np.where(star >= 0, kept[star], -1)
+
+
+def _mesh_stars(mesh):
+    """:func:`_concave_stars` of ``mesh`` in its own frame, kept with it (a rigid placement with a uniform
+    scale keeps which vertices are concave and their faces; :meth:`pyshadow.Scene.vertex_ao` asks it of
+    every instance every call, where the search cost about 3 times the AO of the bunny's vertices)."""
+    held = _STARS.get(mesh)
+    if held is None:
+        held = _STARS[mesh] = _concave_stars(np.asarray(mesh.vertices, np.float64).reshape(-1, 3),
+                                             np.asarray(mesh.faces, np.int64).reshape(-1, 3))
+    return held
 
 
 def _candidates(P, F, kf, fn, K):
@@ -167,9 +201,10 @@ def corner_ao(scene, instance_id, points, normals, sampling, result, backend, bi
     inst = scene.instances[int(instance_id)]
     if inst.csm is None or not inst.casts or not (isinstance(backend, str) and backend in ("csm", "csm-vote")):
         return result
-    sel, fs = concave_vertices(points, inst.mesh.faces)
+    sel, ids = _mesh_stars(inst.mesh)
     if not len(sel):
         return result
+    fs = _star_normals(points, np.asarray(inst.mesh.faces, np.int64).reshape(-1, 3), ids)   # world frame
     d = sample_directions(normals[sel], sampling=sampling, indices=sel).astype(np.float64)    # (n, S, 3)
     into = (np.einsum("nsd,nmd->nsm", d, fs) < 0).any(axis=2)          # enters a face of the vertex at once
     hit = into.any(axis=1)

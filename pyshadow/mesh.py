@@ -20,16 +20,8 @@ from ._validate import check_transform, flag
 from .materials import GLTF_SUFFIXES, VISUAL_KEY, _mesh_visual, join_visuals, visual_of
 from .mesh_files import read_mesh_file
 
-__all__ = [
-    "MeshCleanupWarning",
-    "load_mesh",
-    "bounding_sphere",
-    "close_holes",
-    "mesh_hash",
-    "normalised_vertices",
-    "normalised_bounds",
-    "float32_unit",
-]
+__all__ = ["MeshCleanupWarning", "load_mesh", "bounding_sphere", "close_holes", "mesh_hash", "normalised_vertices",
+           "normalised_bounds", "float32_unit"]
 
 #: Coordinates whose largest magnitude lies in [2**-UNIT_BAND, 2**UNIT_BAND] are used as they are by
 #: the float32 ray tracer and the sphere fit; outside, they are scaled by :func:`float32_unit`.
@@ -52,11 +44,9 @@ def _as_trimesh(source, label: str, gltf: bool | None = None):
     :func:`pyshadow.materials.mesh_visual`.
     """
     if isinstance(source, trimesh.Trimesh):
-        return trimesh.Trimesh(
-            vertices=np.array(source.vertices, dtype=np.float64),
-            faces=np.array(source.faces, dtype=np.int64),
-            process=False,
-        ), _mesh_visual(source, label, gltf, None)
+        return trimesh.Trimesh(vertices=np.array(source.vertices, dtype=np.float64),
+                               faces=np.array(source.faces, dtype=np.int64), process=False), \
+            _mesh_visual(source, label, gltf, None)
     if isinstance(source, trimesh.Scene):
         if not any(isinstance(g, trimesh.Trimesh) for g in source.geometry.values()):
             raise ValueError(f"{label}: the scene holds no triangle meshes")
@@ -111,14 +101,14 @@ def check_mesh(mesh: trimesh.Trimesh, label: str = "mesh") -> None:
         raise TypeError(f"{label}: expected a trimesh.Trimesh, got {type(mesh).__name__}")
     if len(mesh.faces) == 0 or len(mesh.vertices) == 0:
         raise ValueError(f"{label}: the mesh has no triangles (empty mesh)")
-    bad = ~np.isfinite(mesh.vertices).all(axis=1)
-    if bad.any():
-        raise ValueError(
-            f"{label}: {int(bad.sum())} of {len(bad)} vertices are not finite "
-            "(NaN or inf), e.g. vertex %d = %s" % (int(np.argmax(bad)), mesh.vertices[np.argmax(bad)])
-        )
     if mesh.faces.min() < 0 or mesh.faces.max() >= len(mesh.vertices):
         raise ValueError(f"{label}: a face refers to a vertex that does not exist")
+    bad = ~np.isfinite(mesh.vertices).all(axis=1)
+    if bad.any():       # (every vertex: vertex_ao answers one per vertex)
+        i, unused = int(np.argmax(bad)), not bad[np.asarray(mesh.faces).reshape(-1)].any()
+        raise ValueError(f"{label}: {int(bad.sum())} of {len(bad)} vertices are not finite (NaN or inf), e.g. vertex "
+                         f"{i} = {mesh.vertices[i]}" + (" (no face uses them: pyshadow.load_mesh(mesh) drops them)"
+                                                      if unused else ""))
 
 
 def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
@@ -144,8 +134,8 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     Returns
     -------
     mesh : trimesh.Trimesh
-        Vertices float64 (V, 3), faces int64 (T, 3); coincident vertices
-        merged; degenerate faces (repeated vertices or zero area) and
+        Vertices float64 (V, 3), faces int64 (T, 3); vertices no face uses
+        dropped, coincident ones merged; degenerate faces (repeated vertices or zero area) and
         duplicate faces (the same three vertices in any order or winding)
         removed. Visual attributes (vertex or face colours, UVs and a base
         colour texture) take no part in merging: they are kept per face
@@ -169,8 +159,8 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     FileNotFoundError
         If ``path_or_trimesh`` is a path that does not exist.
     ValueError
-        If the format is unknown, the file has no triangles, a vertex is
-        NaN or infinite, or a glTF stores its geometry in a way trimesh
+        If the format is unknown, the file has no triangles, a vertex a face
+        uses is NaN or infinite, or a glTF stores its geometry in a way trimesh
         reads wrongly (:func:`pyshadow.mesh_files.check_gltf`: Draco
         without DracoPy, meshopt, normalised or sparse positions, triangle
         fans), or names a buffer file not in its folder; the message names
@@ -213,6 +203,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
         raise ValueError(f"{label}: the file holds no geometry (empty mesh)")
     mesh, visual = _as_trimesh(raw, label, gltf)      # the visual per corner of its faces, which merging keeps
+    mesh = referenced_mesh(mesh)     # first: a far vertex no face used coarsened the merge, a NaN one was refused
     check_mesh(mesh, label)
 
     mesh.merge_vertices(merge_tex=True, merge_norm=True, digits_vertex=_merge_digits(mesh.vertices))
@@ -362,9 +353,7 @@ def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
         fan = np.array([(b, a, n) for a, b in loop], dtype=np.int64)
         new_faces.append(fan)
         n += 1
-    out = trimesh.Trimesh(
-        vertices=np.concatenate(new_verts), faces=np.concatenate(new_faces), process=False
-    )
+    out = trimesh.Trimesh(vertices=np.concatenate(new_verts), faces=np.concatenate(new_faces), process=False)
     visual = visual_of(mesh)
     if visual is not None:
         out.metadata[VISUAL_KEY] = visual.with_fans(faces, loops)
@@ -442,8 +431,21 @@ def _smallest_ball(points: np.ndarray) -> np.ndarray:
     return centre
 
 
+def referenced_mesh(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """``mesh``, or where a vertex is used by no face, a new mesh (not processed) of the vertices its faces use,
+    in their order, and its faces in theirs renumbered; ``mesh`` itself where it has no faces or a face past its
+    vertices. The geometry the frame is fitted and checked on: a far vertex no face used widened the sphere."""
+    faces, n = np.asarray(mesh.faces), len(mesh.vertices)
+    if not faces.size or faces.min() < 0 or faces.max() >= n:
+        return mesh
+    used = np.zeros(n, bool)
+    used[faces.reshape(-1)] = True
+    return mesh if used.all() else trimesh.Trimesh(np.asarray(mesh.vertices)[used], (np.cumsum(used) - 1)[faces],
+                                                   process=False)
+
+
 def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
-    """Minimal sphere around the mesh's vertices: the object's normalised frame.
+    """Minimal sphere around the vertices the mesh's faces use: the object's normalised frame.
 
     Parameters
     ----------
@@ -455,7 +457,8 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     radius : float
         At least the largest vertex distance from ``centre`` (enlarged by a
         relative 1e-9 so every vertex maps inside the unit sphere after
-        ``p_norm = (p - centre) / radius``).
+        ``p_norm = (p - centre) / radius``). Vertices no face uses are left
+        out (all vertices of a mesh without faces are taken).
 
     Notes
     -----
@@ -468,6 +471,7 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     fails (a flat mesh), the smallest sphere is taken instead; on the
     bundled meshes the fit is 0.005-0.45 % larger than the smallest.
     """
+    mesh = referenced_mesh(mesh)
     verts = np.asarray(mesh.vertices, dtype=np.float64)
     if len(verts) == 0:
         raise ValueError("bounding_sphere: the mesh has no vertices")
@@ -564,7 +568,7 @@ def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=
     T[:3, :3] = s * Rm
     x, z = (float(v) for v in pos)
     T[:3, 3] = np.array([x, 0.0, z]) - T[:3, :3] @ c
-    low = (np.asarray(mesh.vertices) @ T[:3, :3].T + T[:3, 3])[:, 1].min()
+    low = (np.asarray(referenced_mesh(mesh).vertices) @ T[:3, :3].T + T[:3, 3])[:, 1].min()
     T[1, 3] += float(ground) - low
     return T
 

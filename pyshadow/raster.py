@@ -22,7 +22,7 @@ from . import _cl
 from ._cl import launch
 from ._validate import check_int, flag, squared_lengths
 from ._compat import keyword_only
-from .mesh import bounding_sphere, load_mesh
+from .mesh import bounding_sphere, load_mesh, referenced_mesh
 from .views import ViewSet
 
 __all__ = ["render_depth", "render_depth_reference", "DepthRenderer", "texel_rays", "covered_samples"]
@@ -94,7 +94,8 @@ def _prepare_mesh(mesh, frame):
         raise ValueError("a face refers to a vertex that does not exist")
     if len(faces) >= 2**31 or len(verts) >= 2**31:
         raise ValueError("meshes beyond 2^31 faces or vertices are not supported")
-    centre, radius = check_frame(verts, frame) if frame is not None else bounding_sphere(mesh)
+    centre, radius = (check_frame(np.asarray(referenced_mesh(mesh).vertices, np.float64), frame)   # faces' vertices
+                      if frame is not None else bounding_sphere(mesh))
     vn = (verts - np.asarray(centre, dtype=np.float64)) / float(radius)
     return vn, faces.astype(np.int32)
 

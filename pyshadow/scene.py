@@ -23,7 +23,7 @@ from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
 from .csm.choose import _max_error
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
-from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds
+from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
 from .scene_moves import add_instances, checked_ground, held_transform, loaded_mesh, placed_vertices, set_transforms
@@ -514,7 +514,7 @@ def _check_csm_frame(csm, mesh, digest):
     if key in _FRAMES_OK:
         return
     try:
-        check_frame(np.asarray(mesh.vertices, np.float64), (csm.centre, csm.radius))
+        check_frame(np.asarray(referenced_mesh(mesh).vertices, np.float64), (csm.centre, csm.radius))
     except ValueError as e:
         raise ValueError(f"the CSM's frame does not hold its mesh ({e}): an edited file?") from None
     if csm.box is not None and not np.allclose(csm.box, normalised_bounds(mesh, csm.centre, csm.radius),

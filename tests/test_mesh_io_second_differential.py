@@ -37,7 +37,12 @@ def test_bounding_sphere_of_a_spherical_cap_is_its_rim_circle(half_angle):
         phi = np.arange(24) * 2 * np.pi / 24
         rings.append(np.c_[np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full(24, np.cos(t))])
     v = np.concatenate(rings)
-    m = trimesh.Trimesh(v, [[0, 1 + i, 1 + (i + 1) % 24] for i in range(24)], process=False)
+    fan = [[0, 1 + i, 1 + (i + 1) % 24] for i in range(24)]         # the pole's fan, then strips between rings
+    strips = [[a + i, b + i, b + (i + 1) % 24] for k in range(3) for a, b in [(1 + 24 * k, 25 + 24 * k)]
+              for i in range(24)] + [[a + i, b + (i + 1) % 24, a + (i + 1) % 24] for k in range(3)
+                                     for a, b in [(1 + 24 * k, 25 + 24 * k)] for i in range(24)]
+    m = trimesh.Trimesh(v, fan + strips, process=False)             # every vertex used by a face
+    assert len(np.unique(m.faces)) == len(v)
     c, r = bounding_sphere(m)
     assert r == pytest.approx(np.sin(a) * ENLARGE, rel=1e-12)
     np.testing.assert_allclose(c, [0.0, 0.0, np.cos(a)], atol=1e-12)

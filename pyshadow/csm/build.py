@@ -13,7 +13,7 @@ import trimesh
 
 from .. import _cl
 from .._validate import FLOAT32_MAX, real_scalar
-from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds
+from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from ..raster import DepthRenderer, _check_resolution_layers, check_frame
 from ..views import ViewSet
 from . import core
@@ -126,6 +126,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     if not isinstance(mesh, trimesh.Trimesh):
         mesh = load_mesh(mesh)
     check_mesh(mesh, "CoherentShadowMap.build")
+    digest = mesh_hash(mesh)        # of the mesh as given; the maps, frame and box see the vertices its faces use
+    mesh = referenced_mesh(mesh)    # (a far vertex no face used widened the sphere: spot 15x, 8.7 % of AO rays wrong)
     rule = layer_rule(layers, mesh)
     if rule == 3 and not mesh.is_watertight:          # (only asked: "auto" gives 3 to closed meshes)
         raise ValueError("layers=3 ([z1, z3) intervals) needs a watertight mesh; "
@@ -185,7 +187,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     seg_z = _cl.empty(T * slots * dtype_z.itemsize)
     seg_i = _cl.empty(T * slots * 4)
     count_buf = _cl.empty(T * 4)
-    device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16 + T * slots * (dtype_z.itemsize + 4)
+    device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16
+                    + T * slots * (dtype_z.itemsize + 4)
                     + T * 8 + 36 * renderer.n_faces)
     if footprint:
         device_bytes += block * (corners.bytes_per_map + corners.facing_bytes_per_map) + 36 * corners.n_faces
@@ -247,7 +250,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         cursor += c
     peak = device_bytes + host_bytes + zs.nbytes + ie.nbytes + offsets.nbytes
     return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
-               centre=centre, radius=radius, mesh_hash=mesh_hash(mesh), offsets=offsets,
+               centre=centre, radius=radius, mesh_hash=digest, offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,
                front_margin_texels=core.FRONT_MARGIN_TEXELS, footprint=footprint,
                box=normalised_bounds(mesh, centre, radius),

@@ -267,7 +267,7 @@ class CoherentShadowMap:
             Progress bar over the blocks (shown only on a terminal).
         frame : (centre, radius), optional
             The sphere the maps frame, in the mesh's units: centre shape (3,),
-            radius > 0; it must hold every vertex. Default: the minimal
+            radius > 0; it must hold every vertex a face uses. Default: the minimal
             bounding sphere (:func:`pyshadow.bounding_sphere`), which puts the
             most texels on the object. A wider sphere leaves empty texels
             around it, which cost one segment each: the ratio rises and the

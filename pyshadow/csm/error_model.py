@@ -36,7 +36,7 @@ import math
 import numpy as np
 
 from .._validate import check_int, uniform_scale
-from ..mesh import check_mesh
+from ..mesh import check_mesh, referenced_mesh
 from ..views import ViewSet
 from .build import check_depth_bits, check_float32_frame
 from .core import DEPTH_Q, front_margin
@@ -334,6 +334,7 @@ def ao_rays(mesh, points: int = 2000, samples: int = 16, seed: int = 7, *, backs
     from ..sampling import Sampling, sample_directions
 
     check_mesh(mesh, "ao_rays")      # a NaN vertex read 'no surface area', a face past the vertices IndexError
+    mesh = referenced_mesh(mesh)     # the same faces: a far vertex no face used fell outside the backs' frame
     check_int(points, "points", 1)
     check_int(seed, "seed", 0)
     # drawn at unit size, scaled by a power of two (1 near it: exact): the face areas that weigh the draw

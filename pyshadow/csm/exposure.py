@@ -41,9 +41,10 @@ def _back_rays(mesh, frame):
     its centre (every back of a closed box read as exposed), an infinite one reported no face
     exposed. A mesh without vertices has no face to answer for, whatever the frame."""
     from ..embree import EmbreeScene, ray_epsilon
+    from ..mesh import referenced_mesh
     from ..raster import check_frame
 
-    verts = np.asarray(mesh.vertices, dtype=np.float64).reshape(-1, 3)
+    verts = np.asarray(referenced_mesh(mesh).vertices, dtype=np.float64).reshape(-1, 3)
     centre, radius = check_frame(verts, frame) if len(verts) else frame
     tri = (np.asarray(mesh.triangles, dtype=np.float64) - np.asarray(centre, dtype=np.float64)) / float(radius)
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])

@@ -32,6 +32,12 @@
  *   idbuf  int   (H*W)   pass 1 writes (start at INT_MAX); resolve reads
  *   t_out  float (H*W)   resolve writes (inf where no triangle)
  *   n_out  float (H*W,3) resolve writes (0 where no triangle)
+ *   planes float (T, 4)  resolve reads, where use_planes: unit normal and
+ *                        offset (n . p of its points) of each triangle's
+ *                        plane, NaN offset where the corners give it
+ *   far_out uchar (H*W)  resolve writes: 1 where a corner of the pixel's
+ *                        triangle lies beyond far_ratio times the distance
+ *                        of its plane from the eye (t to redo in float64)
  * Macros: GBUFFER_ATOMIC64 (0/1; the host sets 1 where the device has
  * cl_khr_int64_extended_atomics): one raster pass, atom_min of the pair
  * (depth bits << 32 | triangle index) into zbuf read as ulong -- the least
@@ -179,10 +185,17 @@ __kernel void gbuffer_ids(__global const ulong *zid, const int n, __global int *
 }
 #endif
 
-__kernel void gbuffer_resolve(__global const float *tris, const int W, const int H,
-                              const float tan_x, const float tan_y,
+/* the largest |coordinate| of p */
+inline float max_abs3(float3 p)
+{
+    return fmax(fabs(p.x), fmax(fabs(p.y), fabs(p.z)));
+}
+
+__kernel void gbuffer_resolve(__global const float *tris, __global const float *planes, const int use_planes,
+                              const int W, const int H,
+                              const float tan_x, const float tan_y, const float far_ratio,
                               __global const int *idbuf,
-                              __global float *t_out, __global float *n_out)
+                              __global float *t_out, __global float *n_out, __global uchar *far_out)
 {
     const int pix = get_global_id(0);
     if (pix >= W * H) return;
@@ -191,6 +204,7 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
     if (t == INT_MAX) {
         t_out[pix] = INFINITY;
         store_row3((float3)(0.0f), n_out, pix);
+        far_out[pix] = 0;
         return;
     }
     const float3 a = row3(tris, 3 * t), b = row3(tris, 3 * t + 1), c = row3(tris, 3 * t + 2);
@@ -198,8 +212,23 @@ __kernel void gbuffer_resolve(__global const float *tris, const int W, const int
        (2 (col + 0.5) / W - 1 rounds twice, off by a float32 spacing near the centre of a wide image) */
     const float3 dir = normalize3((float3)((float)(2 * col + 1 - W) / (float)W * tan_x,
                                            (float)(H - 1 - 2 * r) / (float)H * tan_y, 1.0f));
-    float3 n = normalize3(cross3(b - a, c - a));
+    /* the plane: the host's (float64, rounded once) where it gives one, else from the float32 corners */
+    const float w = use_planes ? planes[4 * t + 3] : NAN;
+    float3 n;
+    float off;                                  /* the plane's distance from the eye */
+    if (isnan(w)) {
+        n = normalize3(cross3(b - a, c - a));
+        off = dot3(n, a);
+    } else {
+        n = (float3)(planes[4 * t], planes[4 * t + 1], planes[4 * t + 2]);
+        off = w;
+    }
     const float dn = dot3(n, dir);
-    t_out[pix] = dot3(n, a) / dn;
+    t_out[pix] = off / dn;
     store_row3(dn > 0.0f ? -n : n, n_out, pix);
+    /* off from the corners is a sum of products of a corner's size: its rounding, about FLT_EPSILON |a|,
+       errs t by that over |off| (a grazing ground seen from a low eye); and any plane errs t by about
+       FLT_EPSILON t / (n . dir) from the float32 ray: the host redoes the pixel in float64 where a corner
+       reaches beyond far_ratio times |off| */
+    far_out[pix] = fmax(max_abs3(a), fmax(max_abs3(b), max_abs3(c))) > far_ratio * fabs(off);
 }

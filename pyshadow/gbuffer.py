@@ -191,12 +191,15 @@ def render_gbuffer(items, camera: Camera) -> dict:
     """
     tris, obj, face, _near = gbuffer_triangles(items, camera)
     raster, src = raster_triangles(tris, camera)
+    size = sum(np.abs(tris[:, k, j] - tris[:, 0, j]) for k in (1, 2) for j in range(3))   # by columns: faster
+    first = np.abs(tris[:, 0, 0]) + np.abs(tris[:, 0, 1]) + np.abs(tris[:, 0, 2])         # |first corner|_1
     H, W = camera.height, camera.width
     npix = H * W
     unit = 1.0
     t = np.full(npix, np.inf, np.float32)
     n_cam = np.zeros((npix, 3), np.float32)
     ids = np.full(npix, np.iinfo(np.int32).max, np.int32)
+    far = np.zeros(npix, np.uint8)
     if len(raster):
         if len(raster) >= 2**31 - 1:
             raise ValueError("too many triangles for one G-buffer")
@@ -231,13 +234,17 @@ def render_gbuffer(items, camera: Camera) -> dict:
             _cl.kernel("gbuffer.cl", "gbuffer_ids", defines)(q, (npix,), None, zbuf, np.int32(npix), idbuf)
         t_buf = _cl.empty(4 * npix)
         n_buf = _cl.empty(12 * npix)
+        far_buf = _cl.empty(npix)
+        planes = _float64_planes(tris, size, first, src, unit)
         _cl.kernel("gbuffer.cl", "gbuffer_resolve", defines)(
-            q, (npix,), None, pb, np.int32(W), np.int32(H),
-            np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half),
-            idbuf, t_buf, n_buf)
+            q, (npix,), None, pb, _cl.to_device(np.zeros(4, np.float32) if planes is None else planes),
+            np.int32(planes is not None), np.int32(W), np.int32(H),
+            np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half), np.float32(FAR_CORNER_RATIO),
+            idbuf, t_buf, n_buf, far_buf)
         cl.enqueue_copy(q, ids, idbuf)
         cl.enqueue_copy(q, t, t_buf)
         cl.enqueue_copy(q, n_cam, n_buf)
+        cl.enqueue_copy(q, far, far_buf)
     hit = ids != np.iinfo(np.int32).max
     tri_idx = np.where(hit, ids, 0)
     if src is not None:
@@ -247,33 +254,68 @@ def render_gbuffer(items, camera: Camera) -> dict:
     t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
     n64 = n_cam.astype(np.float64).reshape(H, W, 3)
     if len(tris):
-        _far_corner_distances(tris, tri_idx, hit, t64, camera, n64)
+        _far_corner_distances(tris, first > FAR_NORMAL_RATIO * size, tri_idx, hit, far.view(bool), t64, camera, n64)
     return _finish(camera, t64, n64, o, f)
 
 
-#: A pixel whose triangle has a corner farther from the eye than this many times the pixel's own distance
-#: gets that distance from float64 on the host. The kernel reads the corners in float32: their rounding
-#: (6e-8 of each corner's distance) tilts the plane by about that much of the corner's distance at the
-#: pixel, relative error 6e-8 times the ratio (below 2e-5 here; a ground quad of side 2e5 seen from 1.5 m
-#: put points 4 mm off the ground, half of them below it, and their AO came out 0).
+#: A pixel whose triangle has a corner farther from the eye than this many times the distance of the triangle's
+#: plane from the eye gets its distance from float64 on the host (``kernels/gbuffer.cl`` marks them). The kernel
+#: reads the corners in float32 and the plane's offset from them: their rounding (6e-8 of each corner's distance)
+#: moves the plane by up to about 1.5 times that much of the corner's distance, which errs the distance along the
+#: ray by that over the plane's distance from the eye, relative error about 1e-7 times the ratio (below 2.5e-5
+#: here; a ground quad of side 2e5 seen from 1.5 m put points 4 mm off the ground, half of them below it, and
+#: their AO came out 0; with the pixel's own distance in place of the plane's, a ground of side 2e3 seen from
+#: 5 cm above it had distances off by 4e-4 of theirs, 2.8 mm at 7 m, where it is seen at a grazing angle).
 FAR_CORNER_RATIO = 256.0
+#: A large triangle (:data:`PLANE_SIZE`) reaching beyond this many times its plane's distance from the eye gets
+#: its plane from float64 on the host (rounded once to float32): from its float32 corners, the plane's offset
+#: would move by up to about 1.5 float32 roundings of its farthest corner (1e-7 of it), more than the 16
+#: float32 spacings of the depth :func:`on_face_planes` takes a kept depth to be within (a ground of side 760
+#: seen from 1.5 m put points 1.6e-5 below it, beyond the ground's tolerance 1e-5, and their AO came out 0).
+FAR_PLANE_RATIO = 16.0
+#: Large triangles: those whose size (the sum of their edges' absolute coordinates) exceeds this fraction of
+#: the sum of their first corner's absolute coordinates (a ground, a wall; a mesh's triangles are far smaller
+#: than their distance, and their planes' offsets err by about a float32 rounding of the pixels' own distance).
+PLANE_SIZE = 0.25
 #: A pixel whose triangle lies farther from the eye than this many times its size (sums of absolute coordinates)
 #: gets its normal from float64 too: float32 corners tilt the kernel's by up to 1e-7 times the ratio.
 FAR_NORMAL_RATIO = 16384.0
 
 
-def _far_corner_distances(tris, tri_idx, hit, t, camera, normal) -> None:
+def _float64_planes(tris, size, first, src, unit):
+    """(M, 4) float32: for each raster triangle (``src`` from :func:`raster_triangles`) the unit normal and offset
+    (``n . a``, scaled by ``unit``) of its source triangle's plane, from float64, where that triangle of ``tris``
+    (camera space, (N, 3, 3); sizes ``size`` (N,), sums of absolute coordinates of their first corners ``first``
+    (N,)) is large (:data:`PLANE_SIZE`) and reaches beyond :data:`FAR_PLANE_RATIO` times the plane's distance
+    from the eye; a NaN offset elsewhere (the kernel's corners). None where no triangle is such (a frame's usual
+    case)."""
+    cand = np.flatnonzero(size > PLANE_SIZE * first)             # few: a ground, walls, their clipped pieces
+    tri = tris[cand]
+    reach = np.abs(tri.reshape(len(tri), 9)).max(axis=1)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(n, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n /= length[:, None]
+        off = np.einsum("ij,ij->i", n, tri[:, 0])
+    use = (length > 0) & (reach > FAR_PLANE_RATIO * np.abs(off))
+    if not use.any():
+        return None
+    planes = np.full((len(tris), 4), np.nan, np.float32)
+    planes[cand[use], :3] = n[use]
+    planes[cand[use], 3] = off[use] * unit
+    return planes if src is None else planes[src]
+
+
+def _far_corner_distances(tris, small, tri_idx, hit, far, t, camera, normal) -> None:
     """Replace in ``t`` (H, W) float64 the distances, and in ``normal`` (H, W, 3) the camera-space normals, of the
-    pixels whose triangle (``tris`` camera space, float64, index ``tri_idx`` per pixel) reaches beyond
-    :data:`FAR_CORNER_RATIO` times their distance, or lies beyond :data:`FAR_NORMAL_RATIO` times its size from
-    the eye, by the float64 intersection of their ray with that triangle's plane and its normal (as the kernel's)."""
+    covered pixels (``hit``) that the kernel marks ``far`` (their triangle reaches beyond :data:`FAR_CORNER_RATIO`
+    times the distance of its plane from the eye), or whose triangle (``tris`` camera space, float64, index
+    ``tri_idx`` per pixel) lies beyond :data:`FAR_NORMAL_RATIO` times its size from the eye (``small`` (N,)), by
+    the float64 intersection of their ray with that triangle's plane and its normal (as the kernel's)."""
     flat = t.reshape(-1)
-    size = sum(np.abs(tris[:, k, j] - tris[:, 0, j]) for k in (1, 2) for j in range(3))    # by columns: faster
-    small = np.abs(tris[:, 0, 0]) + np.abs(tris[:, 0, 1]) + np.abs(tris[:, 0, 2]) > FAR_NORMAL_RATIO * size
-    if not small.any() and max(float(tris.max()), -float(tris.min())) <= FAR_CORNER_RATIO * float(flat.min()):
-        return                              # no corner so far (a frame's usual case: two passes, no temporaries)
-    reach = np.abs(tris.reshape(len(tris), 9)).max(axis=1)
-    sel = np.flatnonzero(hit & ((np.take(reach, tri_idx) > FAR_CORNER_RATIO * flat) | np.take(small, tri_idx)))
+    if not small.any() and not far.any():
+        return                              # no corner so far (a frame's usual case: no temporaries)
+    sel = np.flatnonzero(hit & (far | np.take(small, tri_idx)))
     tri = np.take(tris, tri_idx[sel], axis=0)
     d = camera._rays().reshape(-1, 3)[sel] @ camera.rotation.T
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])

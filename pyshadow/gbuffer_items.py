@@ -406,11 +406,19 @@ def _near_stages(tri, obj, face, near: float, far: float, tx: float, ty: float):
     return _clip_near_items(tri, near, obj, face)
 
 
+def _drawn_mesh(mesh) -> trimesh.Trimesh:
+    """The mesh an item's ``mesh`` draws: a Trimesh as it is, else (a path, a trimesh.Scene) what
+    :func:`pyshadow.load_mesh` makes of it, as :func:`gbuffer_triangles` loads it (whose faces a G-buffer's
+    ``face`` counts)."""
+    return mesh if isinstance(mesh, trimesh.Trimesh) else load_mesh(mesh)
+
+
 def face_corners(items, item: int, face, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
     """(K, 3, 3) float64 world corners, minus ``origin`` (3,), of the faces ``face`` (K,) of drawn item ``item``
     of ``items``; a ValueError naming a face its mesh does not have (a G-buffer rendered from other items), not
     an IndexError or a face counted from the end."""
     mesh, T = items[item]
+    mesh = _drawn_mesh(mesh)
     face = np.asarray(face)
     bad = (face < 0) | (face >= len(mesh.faces))
     if bad.any():
@@ -442,7 +450,10 @@ def _corners_by_mesh(items, item, face, origin):
     groups = {}
     for i in ids.tolist():
         mesh, T = items[i]
-        g = groups.setdefault(id(mesh), (len(groups), mesh, []))
+        key = id(mesh)
+        if key not in groups:                               # a path is loaded once, as render_gbuffer does
+            mesh = _drawn_mesh(mesh)
+        g = groups.setdefault(key, (len(groups), mesh, []))
         group[i], place[i] = g[0], len(g[2])
         g[2].append(T)
     out = np.empty((len(item), 3, 3))
@@ -482,7 +493,8 @@ def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0
     Parameters
     ----------
     items : sequence of (mesh, transform)
-        The drawn items the G-buffer's ``object_id`` indexes.
+        The drawn items the G-buffer's ``object_id`` indexes (a mesh given as a path or a trimesh.Scene is
+        loaded as :func:`render_gbuffer` loads it).
     gbuffer : dict
         :func:`render_gbuffer`'s form; without ``face`` it is returned as it is.
     camera : pyshadow.Camera

@@ -59,9 +59,10 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
         SSAO radius, world units (> 0): VTK's hemisphere radius, the
         distance limit of the estimate.
     kernel_size : int, optional
-        Samples per pixel of the pass (>= 1).
+        Samples per pixel of the pass, 1 .. 1000 (VTK's largest).
     bias : float, optional
-        VTK's depth bias, world units; default ``0.02 * radius``.
+        VTK's depth bias, world units (>= 0, as :func:`pyshadow.screen_space_ao`'s); default
+        ``0.02 * radius``.
     blur : bool, optional
         VTK's blur of the AO (off by default: the raw estimate).
 
@@ -72,9 +73,10 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
     Raises
     ------
     ValueError
-        A radius that is not finite and > 0, a kernel size < 1, a bias that
-        is not finite, a camera image narrower or lower than 16 pixels (VTK
-        renders in a window of its size) or wider or higher than 16384.
+        A radius that is not finite and > 0, a kernel size < 1 or above VTK's
+        largest (1000), a bias that is not finite and >= 0, a camera image
+        narrower or lower than 16 pixels (VTK renders in a window of its size)
+        or wider or higher than 16384.
     TypeError
         A kernel size that is not an integer, a radius or bias that is no
         real number (a bool, a string), ``blur`` not True or False.
@@ -89,8 +91,8 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
         raise ValueError(f"radius must be finite and > 0 (world units), got {radius}")
     kernel_size = check_int(kernel_size, "kernel_size", 1)
     bias = 0.02 * radius if bias is None else float(bias)
-    if not np.isfinite(bias):
-        raise ValueError(f"bias must be finite (world units), got {bias}")
+    if not (np.isfinite(bias) and bias >= 0):       # (a negative one darkened open ground: 0.94 -> 0.5 at -0.1)
+        raise ValueError(f"bias must be finite and >= 0 (world units), got {bias}")
     blur = flag(blur, "blur")           # the string "no" blurred
     from .plotter import MAX_WINDOW_SIDE, _pv, make_plotter
 
@@ -100,6 +102,12 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
                          f"(it renders in a window of the camera's size), got {camera.width}x{camera.height}")
 
     pv = _pv()
+    from vtkmodules.vtkRenderingOpenGL2 import vtkSSAOPass
+
+    most = int(vtkSSAOPass().GetKernelSizeMaxValue())
+    if kernel_size > most:      # VTK clamps it: 4096 asked rendered 1000 samples, the result labelled 4096
+        raise ValueError(f"kernel_size must be at most {most} (VTK's SSAO pass takes no more samples), "
+                         f"got {kernel_size}")
     items, _ = scene.draw_items()
     images, seconds = [], []
     for ssao_on in (False, True):

@@ -92,11 +92,14 @@ def reach_bound(points, extent, buckets, radii: float) -> np.ndarray:
     Returns
     -------
     ndarray, shape (N,), float64
-        At most ``reach(p)`` and at least about half of it (a bucket's radii
-        lie within a factor of two); ``+inf`` where no bucket was asked (the
-        point lies within ``radii`` radii of the smallest caster of each: within
-        its reach). Where it is finite it is at least ``radii`` x the smallest
-        radius.
+        At most ``reach(p)`` where that is below the point's extent (the points
+        that need an anchor of their own), and at least about half of it (a
+        bucket's radii lie within a factor of two); elsewhere it may exceed
+        ``reach(p)``, both then at least the extent (a bucket not asked, the
+        point within ``radii`` radii of its smallest caster, brings nothing
+        below it). ``+inf`` where no bucket was asked or none has a caster
+        near enough to bring the point below its extent. Where it is finite it
+        is at least ``radii`` x the smallest radius.
     """
     from scipy.spatial import cKDTree
 

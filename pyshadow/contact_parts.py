@@ -57,14 +57,17 @@ def _square_distance(x, a, b):
     return np.sum(r * r, axis=-1)
 
 
-def _slab_pairs(p, lo, hi):
+def _slab_pairs(p, lo, hi, cap=None):
     """(part, row) pairs, by part, of the points ``p`` (N, D) within each part's box ``lo``, ``hi`` (P, D) along
-    the axis whose slab of that box holds the fewest points (candidates: the other axes are not tested)."""
+    the axis whose slab of that box holds the fewest points (candidates: the other axes are not tested);
+    (None, None) where they would be more than ``cap``."""
     order = np.argsort(p, axis=0, kind="stable")
     ends = np.stack([[np.searchsorted(p[order[:, j], j], lo[:, j]),
                       np.searchsorted(p[order[:, j], j], hi[:, j], side="right")] for j in range(p.shape[1])], axis=2)
     slab = np.argmin(ends[1] - ends[0], axis=1)
     a, b = ends[:, np.arange(len(lo)), slab]
+    if cap is not None and int((b - a).sum()) > cap:
+        return None, None
     pid = np.repeat(np.arange(len(lo)), b - a)
     return pid, order[np.arange(len(pid)) + np.repeat(a - (np.cumsum(b - a) - (b - a)), b - a), slab[pid]]
 

@@ -11,7 +11,7 @@ returns the image files' bytes, which the driver writes atomically::
     out/png/frame_0000.png     AO, sRGB 8-bit
     out/csm/<body>.csm         the casters' CSMs (reproducible bytes)
     out/records/frame_0000.json  the frame's done mark (key and output hashes)
-    out/manifest.json
+    out/manifest.json          written last; an earlier run's is removed first
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ from .._version import __version__
 from .assets import csm_file_bytes, other_code
 from .motion import _check as _check_motion
 from .params import code_digest
-from .records import done, store
+from .records import done, drop_manifest, store
 from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
                      sweep_temporaries)
 
@@ -308,6 +308,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     payload, csm_files, keys, entries, todo = None, {}, {}, {}, []
     ex = bar = prepare = None
     t0 = time.perf_counter()
+    drop_manifest(out)                      # an earlier run's: it would describe the frames this run replaces
     try:                                    # a Ctrl-C from here on, even while the CSMs are built: manifest written
         payload = scene_payload(parts, camera, ground=ground, csm_for=csm_for, render=render)
         for part in payload["parts"]:
@@ -325,6 +326,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
             else:
                 todo.append(f)
         log(f"{len(T)} frames: {len(todo)} to render")
+        _note_past_frames(out, len(T), log)
         tasks = [(todo[i:i + chunk], T[todo[i:i + chunk]]) for i in range(0, len(todo), int(chunk))]
         bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
         if todo:
@@ -377,6 +379,18 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         if stopped is not None:
             raise stopped
     return manifest
+
+
+def _note_past_frames(out: Path, frames: int, log) -> None:
+    """Log the frames an earlier run left in ``out`` past this motion's ``frames`` (a longer motion's, of other
+    parameters): they stay, outside this run's manifest, but a tool reading ``png/frame_%04d.png`` as one
+    sequence took them for this motion's last frames."""
+    past = sorted(int(p.stem[6:]) for p in (out / "records").glob("frame_*.json")
+                  if p.stem[6:].isdigit() and int(p.stem[6:]) >= frames)
+    if past:
+        log(f"note: {out} also holds {len(past)} frames of an earlier run past this motion's {frames} "
+            f"(frame {past[0]} to {past[-1]}), not in this run's manifest: remove them (exr/, png/, records/) "
+            f"before reading the folder's images as one sequence")
 
 
 def _check_render(samples, lookup, denoise) -> None:

@@ -14,6 +14,8 @@ record holds the same key (source hash, parameters, code) and every output
 it lists is present with the recorded SHA-256. A run removes the temporary
 files a killed run left once they are an hour old (``STALE_SECONDS``): a
 younger one may be the write in progress of another bake into this folder.
+An earlier run's manifest is removed before this run bakes anything: a run
+killed outright (SIGKILL) leaves none, not one describing replaced outputs.
 """
 from __future__ import annotations
 
@@ -28,7 +30,7 @@ from .._files import write_bytes_atomic
 from .._version import __version__
 from .assets import bake_asset, other_code, output_names, side_files
 from .params import AssetParams, asset_key, code_digest
-from .records import done, sha256_file, store
+from .records import done, drop_manifest, sha256_file, store
 from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
                      sweep_temporaries)
 
@@ -257,6 +259,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
             yield (name, path, key), args + ((side,) if side else ())
 
     ex = None
+    drop_manifest(out)                  # an earlier run's: it would describe the assets this run replaces
     bar = tqdm(total=len(todo), unit="asset", desc="baking", disable=not progress or not todo)
     try:
         if todo:

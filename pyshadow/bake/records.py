@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 
-__all__ = ["done", "store", "sha256_file"]
+__all__ = ["done", "store", "sha256_file", "drop_manifest"]
 
 
 def sha256_file(path) -> str:
@@ -59,3 +59,17 @@ def store(out: Path, record: str, rec: dict, files: dict) -> dict:
     (out / record).parent.mkdir(parents=True, exist_ok=True)
     write_bytes_atomic(out / record, json.dumps(rec, indent=1, sort_keys=True).encode())
     return rec
+
+
+def drop_manifest(out: Path) -> None:
+    """Remove an earlier run's ``out/manifest.json`` before this run writes its first output.
+
+    A run killed before it writes its own manifest (SIGKILL, the out-of-memory killer, a job's time limit)
+    left the earlier one's, which described outputs this run had replaced (frames rendered with other
+    parameters) as that run's; the records stay the proof of what is done. A folder of that name raises
+    (IsADirectoryError) before anything is baked.
+    """
+    try:
+        (out / "manifest.json").unlink()
+    except FileNotFoundError:
+        pass

@@ -8,8 +8,11 @@ so that neither the driver nor a worker holds more than a few tasks' data.
 Dask (``dask.distributed``) is the path for more than one machine: a
 ``LocalCluster`` of ``workers`` single-threaded worker processes by default,
 or an existing cluster by scheduler address. A worker that dies has its
-tasks rerun on the others by the Dask scheduler. Without Dask installed a
-``concurrent.futures`` process pool (or ``serial``) runs the same tasks.
+tasks rerun on the others by the Dask scheduler; a task the cluster cancels
+(a restart, or the death of every worker holding the run's shared data,
+which Dask cannot recompute) is sent again, with that data sent again
+first. Without Dask installed a ``concurrent.futures`` process pool (or
+``serial``) runs the same tasks.
 """
 from __future__ import annotations
 
@@ -27,7 +30,8 @@ from pathlib import Path
 from .._validate import check_int
 
 __all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
-           "dask_available", "WorkerDied", "STALE_SECONDS"]
+           "dask_available", "WorkerDied", "SharedDataLost",
+           "STALE_SECONDS"]
 
 EXECUTORS = ("dask", "process", "serial")
 
@@ -86,8 +90,15 @@ def sweep_temporaries(root, min_age: float = 0.0) -> list[Path]:
     return gone
 
 
-def _init_process_worker(env: dict, parent: int | None = None) -> None:
+# per process-pool worker: the run's ``shared`` argument, sent once when the process starts (not with every task)
+_SHARED: dict = {}
+
+
+def _init_process_worker(env: dict, parent: int | None = None, shared=None) -> None:
     os.environ.update(env)
+    _SHARED.clear()
+    if shared is not None:
+        _SHARED["value"] = shared
     if parent is not None:
         threading.Thread(target=_exit_with_parent, args=(parent,), name="pyshadow-parent-watch", daemon=True).start()
 
@@ -127,21 +138,35 @@ class _Serial:
         pass
 
 
+def _call_with_shared(fn, *args):
+    """A process-pool task: ``fn(*args, shared)`` with the ``shared`` its worker process was started with."""
+    return fn(*args, _SHARED["value"])
+
+
 class _Pool:
     kind = "process"
 
     def __init__(self, workers: int, threads: int):
         self.workers, self.threads = workers, threads
-        self.pool = self._new_pool()
+        self.pool, self._shared = None, None        # started by run(): its workers start with run's shared
 
     def _new_pool(self):
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=get_context("spawn"),
                                    initializer=_init_process_worker,
-                                   initargs=(thread_env(self.threads), os.getpid()))
+                                   initargs=(thread_env(self.threads), os.getpid(), self._shared))
+
+    def _submit(self, fn, args):
+        if self._shared is None:
+            return self.pool.submit(fn, *args)
+        return self.pool.submit(_call_with_shared, fn, *args)
 
     def run(self, fn, tasks, shared=None, window=None):
         window = window or 2 * self.workers
-        extra = (shared,) if shared is not None else ()
+        if self.pool is None or shared is not self._shared:
+            # sent to each worker process once, as it starts (it went with every task: a scene's CSMs,
+            # 34 MB at the CLI's defaults, pickled and piped again for every chunk of 4 frames)
+            self._shared = shared
+            self._restart()
         it = iter(tasks)
         pending = {}                    # future -> (tag, args)
         broken = []                     # tasks in flight when a worker process died
@@ -149,7 +174,7 @@ class _Pool:
         def submit():
             for tag, args in it:
                 try:
-                    pending[self.pool.submit(fn, *args, *extra)] = (tag, args)
+                    pending[self._submit(fn, args)] = (tag, args)
                 except BrokenProcessPool:
                     broken.append((tag, args))
                 return True
@@ -177,14 +202,14 @@ class _Pool:
                 self._restart()
                 while broken:           # one at a time: only the task that kills its worker fails
                     tag, args = broken.pop(0)
-                    yield self._alone(fn, tag, args, extra)
+                    yield self._alone(fn, tag, args)
             while len(pending) < window and not broken and submit():
                 pass
 
-    def _alone(self, fn, tag, args, extra):
+    def _alone(self, fn, tag, args):
         """Run one task by itself in the pool: a dead worker is then this task's doing."""
         try:
-            return tag, self.pool.submit(fn, *args, *extra).result(), None
+            return tag, self._submit(fn, args).result(), None
         except BrokenProcessPool:
             self._restart()
             return tag, None, WorkerDied("its worker process died while running it (a crash in native code, "
@@ -193,15 +218,23 @@ class _Pool:
             return tag, None, e
 
     def _restart(self):
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
         self.pool = self._new_pool()
 
     def close(self):
-        self.pool.shutdown(wait=True, cancel_futures=True)
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+class SharedDataLost(RuntimeError):
+    """The Dask workers lost a run's shared data (all that held it died) and it could not be sent again."""
 
 
 class _Dask:
     kind = "dask"
+    resubmits = 3                       # times a task cancelled by the cluster (a restart, lost data) is sent again
+    resend_timeout = 60.0               # seconds to wait for a worker to send lost shared data to again
 
     def __init__(self, workers: int, threads: int, scheduler: str | None):
         from distributed import Client, LocalCluster
@@ -220,37 +253,76 @@ class _Dask:
         self.workers = max(1, len(info.get("workers", {})))
         self._futures = []
 
+    def _send(self, shared, timeout=None):
+        """``shared`` on every worker (their first use of it copies it to workers that join later)."""
+        [fut] = self.client.scatter([shared], broadcast=True, hash=False,
+                                    **({} if timeout is None else {"timeout": timeout}))
+        return fut
+
+    def _resend(self, shared):
+        """:meth:`_send` again, retried until :attr:`resend_timeout` (a restart's leaving workers fail it)."""
+        deadline = time.monotonic() + self.resend_timeout
+        while True:
+            try:
+                return self._send(shared, max(1.0, deadline - time.monotonic()))
+            except Exception:
+                if time.monotonic() >= deadline:
+                    raise
+                time.sleep(0.5)
+
     def run(self, fn, tasks, shared=None, window=None):
         from distributed import as_completed
 
         window = window or max(2, 2 * self.workers)
-        extra = ()
-        if shared is not None:               # sent to every worker once, not once per task
-            [fut] = self.client.scatter([shared], broadcast=True)
-            extra = (fut,)
+        copy = self._send(shared) if shared is not None else None     # sent to every worker once, not per task
+        lost = []                       # why shared, lost by the workers, could not be sent again
         it = iter(tasks)
-        pending = {}
+        pending = {}                    # future -> (tag, args, resubmissions, the copy of shared it uses)
         ac = as_completed()
 
-        def submit():
-            for tag, args in it:
-                fut = self.client.submit(fn, *args, *extra, pure=False)
-                pending[fut] = tag
-                ac.add(fut)
-                return True
-            return False
+        def submit(tag, args, tries=0):
+            fut = self.client.submit(fn, *args, *(() if copy is None else (copy,)), pure=False)
+            pending[fut] = (tag, args, tries, copy)
+            ac.add(fut)
 
-        while len(pending) < window and submit():
-            pass
+        def fill():
+            while len(pending) < window and not lost:
+                task = next(it, None)
+                if task is None:
+                    return
+                submit(*task)
+
+        fill()
         for fut in ac:
-            tag = pending.pop(fut)
+            tag, args, tries, used = pending.pop(fut)
+            if fut.status == "cancelled" and not lost and tries < self.resubmits:
+                # the cluster restarted, or every worker that held shared died: Dask cannot recompute
+                # scattered data and cancelled every task that needs it ("lost dependencies"; every frame
+                # of a bake failed, also those sent later, while the restarted workers sat idle)
+                fut.release()
+                if shared is not None and used is copy:
+                    try:
+                        copy = self._resend(shared)
+                    except Exception as e:
+                        lost.append(f"{type(e).__name__}: {e}")
+                if not lost:
+                    submit(tag, args, tries + 1)
+                    continue
             try:
                 yield tag, fut.result(), None
             except Exception as e:           # e.g. KilledWorker after repeated worker deaths
-                yield tag, None, e
+                yield tag, None, (self._lost(lost) if lost and fut.status == "cancelled" else e)
             fut.release()
-            submit()
+            fill()
+        for tag, _ in (it if lost else ()):
+            yield tag, None, self._lost(lost)
         self._futures = list(pending)
+
+    @staticmethod
+    def _lost(why):
+        return SharedDataLost("the Dask workers lost the data every task needs (a frame bake's scene; every "
+                              "worker that held it died, or the cluster restarted) and it could not be sent again: "
+                              f"{why[0]}; the finished outputs are kept: rerun to continue")
 
     def close(self):
         try:
@@ -321,8 +393,10 @@ def open_executor(kind: str | None = None, workers: int | None = None, scheduler
     executor
         ``.run(fn, tasks, shared=None, window=None)`` yields ``(tag, result,
         exception)`` per task as they complete (``tasks`` an iterable of
-        ``(tag, args)``; ``shared`` appended to every call's arguments and,
-        on Dask, sent to each worker once); ``.close()``; ``.kind``;
+        ``(tag, args)``; ``shared`` appended to every call's arguments and
+        sent to each worker process once, not with every task: a process
+        pool's workers get it as they start, Dask's by a broadcast, sent
+        again if every worker holding it dies); ``.close()``; ``.kind``;
         ``.workers``.
     """
     cores = os.cpu_count() or 1

@@ -15,11 +15,14 @@ from .common import _PROGRESS, UsageError, _Log, drop_earlier_record
 from .config import (PRESETS, SWEEP_GRIDS, Config, _int_range, _maps, _positive_float,
                      _size)
 from .lit import sky_lighting
-from .methods import METHODS, methods_table, parse_methods, positive_distance
+from .methods import METHODS, methods_table, parse_methods, positive_distance, selected_methods
 from .report import format_table, pareto_plot, sweep_markdown
 from .scenes import SceneFactory, _load_meshes
 from .single import run_main
 from .sweep import _answer, run_sweep
+
+#: Cube-map face resolution of --method cubemap and cubemap-horizon without --probe-resolution.
+PROBE_RESOLUTION = 128
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -100,8 +103,8 @@ def build_parser() -> argparse.ArgumentParser:
                       help="D of the distance-limited AO the methods are also measured on (world "
                            "units; default: the mean bounding radius of the casters)")
     meth.add_argument("--probe-resolution", type=_int_range(16, 2048, "--probe-resolution"),
-                      default=128, metavar="R", help="cube-map face resolution (default 128; with --sweep, R/2, R "
-                                                     "and 2R)")
+                      metavar="R", help="cube-map face resolution of --method cubemap and cubemap-horizon "
+                                        f"(default {PROBE_RESOLUTION}; with --sweep, R/2, R and 2R)")
     knobs = ap.add_argument_group("settings (override the preset; for tests and power users)")
     knobs.add_argument("--maps", type=_maps, metavar="TxP", help="zigzag map grid theta x phi")
     knobs.add_argument("--resolution", type=_int_range(2, 4096, "--resolution"), metavar="R",
@@ -154,6 +157,8 @@ def _check_out(ap, out: Path, names=()):
         writable_folder(out, ".pyshadow-bench-")
     except ValueError as e:
         ap.error(f"--out {out}: {e}")
+    except OSError as e:        # its look-up of the folder (a name too long for the file system: ENAMETOOLONG)
+        ap.error(f"--out {out}: cannot write there ({e.strerror or e})")
     for name in names:
         p = out / name
         if p.exists() and not p.is_file():
@@ -225,11 +230,13 @@ def _run(argv) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)
     log = _Log(args.quiet)
-    out = Path(args.out).expanduser()
+    out = Path(args.out).expanduser().absolute()     # the records name their files from any folder
     args.out = str(out)
 
     if args.sweep_grid is not None and not args.sweep:
         ap.error("--sweep-grid needs --sweep")
+    if args.no_cache and args.cache_dir is not None:
+        ap.error("--cache-dir: --no-cache neither reads nor writes a cache; give one of the two")
     meshes = None
     if args.mesh:
         try:
@@ -266,6 +273,11 @@ def _run(argv) -> int:
                  "or --frame-budget")
     if args.ao_distance is not None and not args.method:
         ap.error("--ao-distance needs --method")
+    probes = {"cubemap", "cubemap-horizon"} & set(selected_methods(args.method or []))
+    if args.probe_resolution is not None and not probes:
+        ap.error("--probe-resolution needs --method cubemap or cubemap-horizon (the methods with probes)")
+    if args.probe_resolution is None:
+        args.probe_resolution = PROBE_RESOLUTION
     _check_out(ap, out, _outputs(args, answer_mode))
 
     preset = PRESETS["quick" if args.quick else "default"]
@@ -274,9 +286,12 @@ def _run(argv) -> int:
     for k, v in preset.items():
         if getattr(args, k) is None:
             setattr(args, k, v)
-    # 'custom' when a setting differs from the preset
-    args.mode = ("quick" if args.quick else "default") \
-        if not explicit and args.filter == "none" and not args.filtered_lookup else "custom"
+    # 'custom' when a setting differs from the preset's (a value given equal to it is the preset's),
+    # the sampling's (strategy, seed, patterns: they move every AO figure) included
+    custom = [k for k, v in preset.items() if getattr(args, k) != v]       # (maps and size: tuples both)
+    custom += [k for k in ("filter", "filtered_lookup", "strategy", "seed", "patterns")
+               if getattr(args, k) != ap.get_default(k)]
+    args.mode = ("quick" if args.quick else "default") if not custom else "custom"
     if args.sweep:
         args.mode = "sweep"
         if args.sweep_grid is None:
@@ -293,7 +308,6 @@ def _run(argv) -> int:
         from types import SimpleNamespace
 
         from .method_sweep import check_camera
-        from .methods import selected_methods
         try:
             check_camera(selected_methods(args.method), SimpleNamespace(width=args.size[0], height=args.size[1]))
         except UsageError as e:

@@ -87,7 +87,7 @@ def sky_lighting(sky: str):
     else:
         env = EnvironmentMap.from_file(sky)
         light = Lighting.from_environment(env, extract=True)
-        rec = {"sky": "file", "file": str(Path(sky)), "layout": env.layout,
+        rec = {"sky": "file", "file": str(Path(sky).absolute()), "layout": env.layout,     # from any folder
                "grid_shape": list(env.grid_shape)}
     if light.sun is not None:
         rec["sun"] = {"direction": [float(x) for x in light.sun.direction],

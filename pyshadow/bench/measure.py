@@ -308,15 +308,30 @@ def _errors(a, b):
     return float(np.sqrt(np.mean(d * d))), float(np.mean(np.abs(d)))
 
 
+#: The package's modules whose code decides a converged reference (unlimited and distance-limited): the
+#: functions its tracing runs (found by tests/test_benchcli_reference_key.py; besides them only the device
+#: and launch choice of ``_cl``, argument checks and the cache's file store run), with
+#: :data:`REFERENCE_KERNELS`. Their text is part of the cache key: a cached reference of other code is
+#: traced again (30f924a changed the limited pass's answers on rays grazing their surface, not the key).
+REFERENCE_SOURCES = ("_embree_checks.py", "_embree_lift.py", "anchor_reach.py", "bench/measure.py",
+                     "bench/methods.py", "contact.py", "contact_bodies.py", "contact_parts.py", "embree.py",
+                     "mesh.py", "sampling.py", "scene.py", "scene_arrays.py", "visibility/finite.py")
+#: The kernels of the reference's sample directions (:func:`pyshadow.sample_directions`).
+REFERENCE_KERNELS = ("sampling.cl",)
+
+
 def _reference_key(scene, gb: GBuffer, samples, strategy, seed, patterns) -> str:
-    """Everything a converged reference depends on."""
+    """Everything a converged reference depends on: the pixels, the sampling, the casters and
+    the code (:data:`REFERENCE_SOURCES`)."""
     import pyshadow
+    from pyshadow.cache import source_digest
     from pyshadow.embree import surface_epsilon
 
     h = hashlib.sha256(b"pyshadow-bench converged reference v2")     # v2: each point lifted by its own body
     h.update(gb.digest().encode())
     h.update(json.dumps([int(samples), strategy, int(seed), int(patterns), scene.ground,
                          surface_epsilon(scene), pyshadow.__version__]).encode())
+    h.update(source_digest(REFERENCE_SOURCES, REFERENCE_KERNELS).encode())
     for inst in scene.instances:
         if inst.casts:
             from pyshadow.mesh import mesh_hash
@@ -330,8 +345,9 @@ def converged_reference(cache: CSMCache, tracer, scene, gb, samples, strategy, s
     """The converged Embree AO of the G-buffer pixels: from ``cache``, or traced and stored.
 
     The cache key (:func:`_reference_key`) hashes the G-buffer, the
-    sampling, the ground, the surface epsilon, pyshadow's version and every
-    caster's mesh hash and transform.
+    sampling, the ground, the surface epsilon, pyshadow's version, every
+    caster's mesh hash and transform, and the text of the code that traces
+    it (:data:`REFERENCE_SOURCES`, :data:`REFERENCE_KERNELS`).
 
     A cached array that is not a possible AO of the pixels
     (:func:`pyshadow.bench.common.cached_ao`) is traced again and replaced,

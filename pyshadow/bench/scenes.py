@@ -72,9 +72,13 @@ def _load_meshes(paths):
     out = []
     for p in paths:
         path = Path(p).expanduser()
-        if not path.exists():
+        try:
+            found, is_file = path.exists(), path.is_file()
+        except OSError as e:            # a name too long for the file system (ENAMETOOLONG), say
+            raise ValueError(f"--mesh {p}: cannot look it up ({e.strerror or e})") from None
+        if not found:
             raise ValueError(f"--mesh {p}: no such file")
-        if not path.is_file():
+        if not is_file:
             raise ValueError(f"--mesh {p}: not a file")
         try:
             with warnings.catch_warnings():

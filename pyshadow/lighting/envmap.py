@@ -139,9 +139,12 @@ class EnvironmentMap:
     ----------
     layout : str
         ``"latlong"`` or ``"cube"``.
-    radiance : ndarray, float64
+    radiance : ndarray, float64, read-only
         (H, W, 3) for lat-long, (6, N, N, 3) for a cube (faces +X, -X, +Y,
-        -Y, +Z, -Z).
+        -Y, +Z, -Z). Read-only, so that what was checked and derived from it
+        (:class:`~pyshadow.lighting.Lighting`'s SH, the "sampled" sky's
+        device copy) stays true: make a changed map with
+        :meth:`with_radiance`.
 
     Raises
     ------
@@ -163,7 +166,7 @@ class EnvironmentMap:
             faces = np.empty(a.shape)                   # face by face: a texel's row and column are the face's
             for f, face in enumerate(cube.FACE_NAMES):
                 faces[f] = radiance_array(a[f], f"{name}: face {f} ({face})")
-            self.layout, self.radiance = "cube", faces
+            self._set("cube", faces)
             return
         if a.ndim != 3 or a.shape[-1] != 3:
             raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) or cube faces "
@@ -173,14 +176,26 @@ class EnvironmentMap:
         if kind == "latlong":
             if w != 2 * h:
                 raise ValueError(f"{name}: a lat-long map has W = 2 H (got W = {w}, H = {h})")
-            self.layout, self.radiance = "latlong", radiance_array(a, name)
+            self._set("latlong", radiance_array(a, name))
             return
         rows, cols = cube.CROSS_CELLS_SHAPE[kind]
         if h % rows or w % cols or h // rows != w // cols or h == 0:
             raise ValueError(f"{name}: a {kind} is {cols} N wide and {rows} N tall "
                              f"(got W = {w}, H = {h})")
         checked = radiance_array(a, name, mask=_cross_mask(h, w, kind))
-        self.layout, self.radiance = "cube", cube.faces_from_cross(checked, kind)
+        self._set("cube", cube.faces_from_cross(checked, kind))
+
+    def _set(self, layout: str, radiance: np.ndarray) -> None:
+        """Keep ``radiance`` (an array of our own, owning its data) read-only."""
+        radiance.flags.writeable = False
+        self.layout, self.radiance = layout, radiance
+
+    def __setstate__(self, state) -> None:
+        """A copy's (``copy.deepcopy``, unpickling) radiance is read-only too (it came back writeable)."""
+        self.__dict__.update(state)
+        r = self.radiance
+        if r.flags.writeable or r.base is not None:     # (copy.copy shares the read-only array: kept)
+            self._set(self.layout, np.array(r, dtype=np.float64))
 
     # -- construction -----------------------------------------------------------------------
     @classmethod

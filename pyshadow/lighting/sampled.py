@@ -14,12 +14,16 @@ S samples' texels cannot overflow (largest texel times S at most half
 float32's largest value), and no ``geometric_normals``. Everything else --
 cube-layout maps (their face lookup is not on the device; resampling them
 to lat-long would change the values), shading normals, other backends --
-takes the host route, unchanged. The two agree to float32 rounding except
+takes the host route, unchanged. The map's largest texel, and the device copy
+of its radiance (:mod:`pyshadow.visibility.sampled_sky`), are kept between
+calls while :attr:`EnvironmentMap.radiance` is the same read-only array. The two agree to float32 rounding except
 where a sample direction lies within float rounding of a texel edge, which
 the kernel's float32 texel rule may put in the neighbouring texel; AO and
 bent normals are the AO kernel's either way.
 """
 from __future__ import annotations
+
+import weakref
 
 import numpy as np
 
@@ -27,6 +31,23 @@ __all__ = ["DEVICE_SKY", "device_sampled_sky"]
 
 #: Whether :func:`device_sampled_sky` may use the kernel (False: always the host route; tests).
 DEVICE_SKY = True
+_largest: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # map -> (weakref to its radiance, largest texel)
+
+
+def _largest_texel32(env) -> float:
+    """The largest texel of ``env.radiance`` rounded to float32 (inf beyond its range), kept while the
+    radiance is the same read-only array (rounding is monotone: the largest of the rounded texels)."""
+    from ..visibility.sampled_sky import frozen
+
+    rad = env.radiance
+    hit = _largest.get(env)
+    if hit is not None and hit[0]() is rad and frozen(rad):
+        return hit[1]
+    with np.errstate(over="ignore"):              # beyond float32: +inf, then the host route
+        m = float(np.asarray(rad.max(initial=0.0)).astype(np.float32))
+    if frozen(rad):
+        _largest[env] = (weakref.ref(rad), m)
+    return m
 
 
 def device_sampled_sky(scene, points, normals, env, *, backend, sampling, indices=None, surface_ids=None,
@@ -61,11 +82,10 @@ def device_sampled_sky(scene, points, normals, env, *, backend, sampling, indice
     b = get_backend(backend)
     if not isinstance(b, CSMVisibility):
         return None
-    with np.errstate(over="ignore"):              # beyond float32: +inf, then the host route below
-        rad = env.radiance.astype(np.float32)
-    if not np.all(np.isfinite(rad)):              # beyond float32's range: the float64 host route
+    m = _largest_texel32(env)
+    if not np.isfinite(m):                        # beyond float32's range (or NaN): the float64 host route
         return None
-    if float(rad.max(initial=0.0)) * sampling.samples > 0.5 * float(np.finfo(np.float32).max):
+    if m * sampling.samples > 0.5 * float(np.finfo(np.float32).max):
         return None                               # the kernel's float32 sum of S texels could overflow to inf
-    return b.sampled_sky(scene, points, normals, rad, env.grid_shape, sampling=sampling, bias=bias,
+    return b.sampled_sky(scene, points, normals, env.radiance, env.grid_shape, sampling=sampling, bias=bias,
                          indices=indices, surface_ids=surface_ids)

@@ -20,6 +20,9 @@ name as written (some exporters write names raw), each as trimesh's resolver
 does (a name that leaves the file's folder, ``..`` or absolute, is not read
 there; trimesh tries its last part in the folder); :func:`check_gltf_files`
 names a buffer or image file that is not found before trimesh reads.
+
+trimesh also keeps a material's ``baseColorFactor`` in 8 bits (0.001 read as
+0); :func:`read_gltf` gives each material back the file's float factor.
 """
 from __future__ import annotations
 
@@ -31,6 +34,7 @@ import warnings
 from pathlib import Path
 from urllib.parse import unquote
 
+import numpy as np
 import trimesh
 
 __all__ = ["check_gltf", "check_gltf_files", "read_gltf", "GltfResolver", "gltf_file_uris"]
@@ -229,9 +233,47 @@ def check_gltf_files(path: Path, data: bytes, label: str = "glTF") -> None:
 
 def read_gltf(path: Path, label: str):
     """What trimesh reads from the ``.gltf`` or ``.glb`` file ``path`` (no processing), its files found by
-    their decoded names (:class:`GltfResolver`); ValueError naming ``label`` where :func:`check_gltf` or
-    :func:`check_gltf_files` refuses it."""
+    their decoded names (:class:`GltfResolver`) and its materials' float ``baseColorFactor`` kept (float64
+    RGBA where trimesh has uint8: :func:`_float_factors`); ValueError naming ``label`` where
+    :func:`check_gltf` or :func:`check_gltf_files` refuses it."""
     head = _gltf_head(path)
     check_gltf(head, label)
     check_gltf_files(path, head, label)
-    return trimesh.load(str(path), process=False, resolver=GltfResolver(str(path)))
+    loaded = trimesh.load(str(path), process=False, resolver=GltfResolver(str(path)))
+    _float_factors(loaded, _gltf_json(head))
+    return loaded
+
+
+def _float_factors(loaded, tree) -> None:
+    """Give each material of trimesh's reading the float ``baseColorFactor`` of the glTF material it was read from.
+
+    trimesh keeps the factor as 8-bit RGBA (``0.001`` read as 0, ``0.0015`` as 0, ``0.3`` as 0.298); glTF's
+    is a float multiplier. A material gets the file's RGBA (float64, in [0, 1]) where the glTF materials of
+    its name (any, for unnamed ones) whose factor reads as its 8 bits all have the same factor (a texture
+    that was not found changes nothing); otherwise it keeps trimesh's.
+    """
+    from trimesh.visual.color import to_rgba
+
+    mats = tree.get("materials") if isinstance(tree, dict) else None
+    if not isinstance(mats, list) or not mats:
+        return
+    geoms = loaded.geometry.values() if isinstance(loaded, trimesh.Scene) else [loaded]
+    found = {}
+    for geom in geoms:
+        material = getattr(getattr(geom, "visual", None), "material", None)
+        for m in getattr(material, "materials", None) or [material]:
+            if isinstance(m, trimesh.visual.material.PBRMaterial) and m.baseColorFactor is not None:
+                found[id(m)] = m
+    factors = []
+    for mat in mats:
+        try:
+            f = to_rgba(np.array(mat["pbrMetallicRoughness"]["baseColorFactor"], np.float64), dtype=np.float64)
+            factors.append((mat.get("name"), f, to_rgba(f.copy())) if f.shape == (4,) else None)
+        except (TypeError, ValueError, KeyError, AttributeError, IndexError):     # none, or none a glTF has
+            factors.append(None)
+    for m in found.values():
+        mine = to_rgba(np.array(m.baseColorFactor))
+        same = {tuple(f) for c in factors if c is not None for name, f, bits in [c]
+                if (name is None or name == m.name) and np.array_equal(bits, mine)}
+        if len(same) == 1:
+            m._data["baseColorFactor"] = np.array(same.pop(), np.float64)    # its setter would round it

@@ -263,7 +263,8 @@ def _find(doc, vertices, faces, material) -> list:
 
 def _like(tree, index, material) -> bool:
     """Could trimesh have read the glTF material ``index`` (None: none) as ``material`` (None: none)? Its name,
-    its base colour factor in 8 bits and whether it has a base colour texture agree."""
+    its base colour factor in 8 bits (``material``'s may be the float one :func:`pyshadow.gltf_files.read_gltf`
+    restores) and whether it has a base colour texture agree."""
     from trimesh.visual.color import to_rgba
 
     if index is None or material is None:
@@ -274,7 +275,7 @@ def _like(tree, index, material) -> bool:
     mine = getattr(material, "baseColorFactor", None)
     return (("name" not in mat or getattr(material, "name", None) == mat["name"])
             and (factor is None) == (mine is None)
-            and (factor is None or np.array_equal(to_rgba(np.asarray(factor, np.float64)), mine))
+            and (factor is None or np.array_equal(to_rgba(np.array(factor, np.float64)), to_rgba(np.array(mine))))
             and ("baseColorTexture" in pbr) == (getattr(material, "baseColorTexture", None) is not None))
 
 

@@ -11,9 +11,9 @@ with absolute indices, single spaces and no comments on data lines before
 trimesh reads it (a comment only where trimesh fails on the file as it is);
 any other file is read as it is, byte for byte. trimesh also splits every
 polygon into a fan from its first corner, which covers ground outside a
-concave polygon (an L-shaped floor): :func:`obj_polygons` splits each
-concave face of 5 or more corners into triangles that tile it (ear clipping;
-convex faces and quads keep trimesh's fan).
+concave polygon (an L-shaped floor, a dart-shaped quad): :func:`obj_polygons` splits each
+concave face of 4 or more corners into triangles that tile it (ear clipping;
+convex faces keep trimesh's fan).
 
 trimesh's binary PLY reader takes every face to have as many corners as the
 first one, so a binary PLY of triangles and quads (Blender writes its
@@ -24,7 +24,10 @@ to the same bits), also where the sizes add up and trimesh misread it. PLY
 and OFF polygons were fanned as OBJ's, PLY face colours not split with their
 polygons (IndexError), an OFF of pentagons beside triangles failed, and an
 OFF comment after data shifted the lines after it: :func:`ply_polygons` and
-:func:`off_text` rewrite such files. A binary STL whose facet count is not
+:func:`off_text` rewrite such files (an OFF's concave quads too; a PLY's
+where it is rewritten: a PLY of triangles and quads without colours that
+trimesh reads is read as it is, fans of concave quads and all, as
+:func:`pyshadow.data.mesh` reads its PLY). A binary STL whose facet count is not
 its length's (0, as some CAD exporters write) "held no geometry" (read now).
 
 glTF files are read by :mod:`pyshadow.gltf_files` (:func:`check_gltf` refuses geometry trimesh
@@ -36,6 +39,7 @@ import io
 import itertools
 import re
 import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +55,8 @@ _GLTF_HELPERS = (_gltf_head, _gltf_json)        # moved to gltf_files, still imp
 # first character is found fast where "^" of multi-line mode is tried at every byte
 _UNUSUAL = re.compile(rb"\n(?:[fpl][ \t][^\n-]*-|[ \t]+(?:v|vt|vn|f|l|p)[ \t]|(?:v|vt|vn|f|l|p)\t)")
 _POLYGON = re.compile(rb"\nf(?:[ \t]++[^ \t\r\n#]++){5}[^\n]*")        # a face of 5 or more corners
+# a face of exactly 4 corners with positive indices (its vertex numbers captured)
+_QUAD = re.compile(rb"\nf" + rb"[ \t]++(\d++)[^ \t\r\n#]*+" * 4 + rb"[ \t\r]*+(?:#[^\n]*)?(?=\n|\Z)")
 _VERTEX = re.compile(rb"\nv[ \t]+([^ \t\r\n#]+)[ \t]+([^ \t\r\n#]+)[ \t]+([^ \t\r\n#]+)")
 _COUNTED = {b"v": 0, b"vt": 1, b"vn": 2}
 _ELEMENTS = (b"f", b"l", b"p")
@@ -107,7 +113,7 @@ def obj_text(data: bytes, label: str = "OBJ", *, force: bool = False) -> bytes |
 
 
 def obj_polygons(text: bytes) -> bytes | None:
-    """OBJ text with each concave face of 5 or more corners split into triangles that tile it, or None.
+    """OBJ text with each concave face of 4 or more corners split into triangles that tile it, or None.
 
     Parameters
     ----------
@@ -122,28 +128,35 @@ def obj_polygons(text: bytes) -> bytes | None:
         (trimesh's split) covers ground outside it replaced by ``f`` lines of
         the triangles of an ear clipping, each corner with its own ``vt``
         and ``vn``; None where no face needs it (the text is read as it is).
-        Convex faces, quads, faces crossing themselves and faces whose
-        corners are not known (an index that is not a number) keep the fan.
+        Convex faces, faces crossing themselves and faces whose corners are
+        not known (an index that is not a number) keep the fan.
     """
     body = b"\n" + text
-    if not _POLYGON.search(body):
+    quads = _QUAD.findall(body)                     # (C speed: files of quads are large)
+    if not quads and not _POLYGON.search(body):
         return None
     faces = [(m.start() + 1, m.end(), m.group()[1:].split(b"#", 1)[0].split()[1:]) for m in _POLYGON.finditer(body)]
     try:
         index = [[int(c.split(b"/", 1)[0]) - 1 for c in corners] for _, _, corners in faces]
-        words = _VERTEX.findall(body)               # x, y, z of each v line (C speed: files are large)
-        if len(words) != body.count(b"\nv ") + body.count(b"\nv\t") or \
-                min(min(face) for face in index) < 0 or max(max(face) for face in index) >= len(words):
+        words = _VERTEX.findall(body)               # x, y, z of each v line
+        if len(words) != body.count(b"\nv ") + body.count(b"\nv\t") or index and (
+                min(min(face) for face in index) < 0 or max(max(face) for face in index) >= len(words)):
             return None                             # a v line of fewer numbers, an index of no vertex
         xyz = np.fromiter(map(float, itertools.chain.from_iterable(words)), np.float64, 3 * len(words))
+        # digits only (an index beyond int64 reads as its largest value: no vertex)
+        quad = np.fromstring(b" ".join(itertools.chain.from_iterable(quads)), np.int64, sep=" ").reshape(-1, 4) - 1
     except ValueError:                              # an index or a coordinate that is no number
         return None
     xyz = xyz.reshape(-1, 3)
-    concave = _concave(index, xyz)
+    concave = [faces[k] + (index[k],) for k in _concave(index, xyz)]
+    if len(quad) and quad.min() >= 0 and quad.max() < len(xyz):       # else: an index of no vertex, left as it is
+        flips = set(_fan_flips(xyz[quad]).tolist())
+        if flips:
+            concave += [(m.start() + 1, m.end(), m.group()[1:].split(b"#", 1)[0].split()[1:], quad[k])
+                        for k, m in enumerate(_QUAD.finditer(body)) if k in flips]
     pieces, done = [], 0
-    for k in concave:
-        start, end, corners = faces[k]
-        tiles = _ears(_plane(xyz[index[k]]))
+    for start, end, corners, face in sorted(concave, key=lambda c: c[0]):
+        tiles = _ears(_plane(xyz[face]))
         if tiles is not None:
             pieces += [body[done:start], b"\n".join(b"f " + b" ".join(corners[j] for j in tri) for tri in tiles)]
             done = end
@@ -168,12 +181,33 @@ def _concave(index: list, xyz: np.ndarray) -> list:
     out = []
     for n in sorted({len(face) for face in index}):
         which = [k for k, face in enumerate(index) if len(face) == n]
-        with np.errstate(invalid="ignore", over="ignore"):
-            q = _plane(xyz[np.array([index[k] for k in which])])
-            fan = q[:, 1:-1, 0] * q[:, 2:, 1] - q[:, 1:-1, 1] * q[:, 2:, 0]
-            bad = fan.min(axis=1) < -1e-12 * np.abs(fan).sum(axis=1)
-        out += [which[k] for k in np.flatnonzero(bad & np.isfinite(fan).all(axis=1))]
+        out += [which[k] for k in _fan_flips(xyz[np.array([index[k] for k in which])])]
     return sorted(out)
+
+
+def _fan_flips(p: np.ndarray) -> np.ndarray:
+    """Numbers of the faces of corners ``p`` (F, n, 3) that a fan from corner 0 does not tile (:func:`_concave`)."""
+    if p.shape[1] == 4:
+        return _quad_flips(p)
+    with np.errstate(invalid="ignore", over="ignore"):
+        q = _plane(p)
+        fan = q[:, 1:-1, 0] * q[:, 2:, 1] - q[:, 1:-1, 1] * q[:, 2:, 0]
+        bad = fan.min(axis=1) < -1e-12 * np.abs(fan).sum(axis=1)
+    return np.flatnonzero(bad & np.isfinite(fan).all(axis=1))
+
+
+def _quad_flips(p: np.ndarray) -> np.ndarray:
+    """:func:`_fan_flips` of quads (F, 4, 3) without :func:`_plane`'s arrays (files of quads are large): the fan's
+    normals ``n_1, n_2`` (their sum the Newell normal) along its largest component."""
+    e1, e2, e3 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0], p[:, 3] - p[:, 0]
+    with np.errstate(invalid="ignore", over="ignore"):
+        n1, n2 = np.cross(e1, e2), np.cross(e2, e3)
+        s = n1 + n2
+        ax = np.argmax(np.abs(s), axis=1)[:, None]
+        sign = np.where(np.take_along_axis(s, ax, axis=1) < 0, -1.0, 1.0)
+        f1, f2 = np.take_along_axis(n1, ax, axis=1) * sign, np.take_along_axis(n2, ax, axis=1) * sign
+        bad = np.minimum(f1, f2) < -1e-12 * (np.abs(f1) + np.abs(f2))
+    return np.flatnonzero(bad & np.isfinite(f1) & np.isfinite(f2))
 
 
 def _ears(q: np.ndarray):
@@ -304,8 +338,8 @@ def _ply_element(data: bytes, pos: int, order: str, count: int, props, out: list
 
 def _tiled(index: list, xyz: np.ndarray) -> dict:
     """The ear clippings {face number: triangles (corner numbers)} of the faces (corner lists ``index`` into
-    ``xyz`` (V, 3)) of 5 or more corners that a fan from corner 0 does not tile (as :func:`obj_polygons`)."""
-    big = [k for k, face in enumerate(index) if len(face) >= 5]
+    ``xyz`` (V, 3)) of 4 or more corners that a fan from corner 0 does not tile (as :func:`obj_polygons`)."""
+    big = [k for k, face in enumerate(index) if len(face) >= 4]
     if not big or min(min(index[k]) for k in big) < 0 or max(max(index[k]) for k in big) >= len(xyz):
         return {}
     tiles = {big[k]: _ears(_plane(xyz[index[big[k]]])) for k in _concave([index[k] for k in big], xyz)}
@@ -323,7 +357,7 @@ def ply_polygons(text: bytes) -> bytes | None:
     Returns
     -------
     bytes or None
-        ``text`` with each concave face of 5 or more corners replaced by rows
+        ``text`` with each concave face of 4 or more corners replaced by rows
         of an ear clipping (as :func:`obj_polygons`), and, where faces have
         colours, each of 4 or more corners by rows of a fan (where convex),
         those of under 3 dropped; each row keeps its face's properties (of a
@@ -380,10 +414,12 @@ def ply_polygons(text: bytes) -> bytes | None:
 
 
 _OFF_POLYGON = re.compile(rb"\n[ \t]*(?:[5-9]|[1-9][0-9]+)(?:[ \t]+[0-9]+){5}")        # a line that may be one
+_OFF_QUAD = re.compile(rb"\n[ \t]*4(?:[ \t]+[0-9]+){4}")                               # a line that may be a quad
+_OFF_COUNTS = re.compile(rb"\A[ \t\r\n]*C?OFF[ \t\r\n]+([0-9]+)[ \t]+([0-9]+)[ \t]+[0-9]+[ \t\r]*\n")   # header, counts
 
 
 def off_text(data: bytes) -> bytes | None:
-    """OFF text without comments and with its faces of 5 or more corners split into triangles, or None.
+    """OFF text without comments and with its faces of 5 or more corners and concave quads split, or None.
 
     Parameters
     ----------
@@ -394,12 +430,14 @@ def off_text(data: bytes) -> bytes | None:
     -------
     bytes or None
         ``data`` without comments (``#`` to its line's end), each face of 5
-        or more corners replaced by lines of triangles with its colour: an
-        ear clipping where a fan from corner 0 would not tile it (as
-        :func:`obj_polygons`), else that fan (trimesh's). None where there
-        is no comment and no such face, or the file does not read as OFF.
+        or more corners and each quad that a fan from corner 0 would not
+        tile replaced by lines of triangles with its colour: an ear clipping
+        where a fan from corner 0 would not tile it (as :func:`obj_polygons`),
+        else that fan (trimesh's). None where there is no comment and no
+        such face, or the file does not read as OFF.
     """
-    if b"#" not in data and not _OFF_POLYGON.search(b"\n" + data):
+    if b"#" not in data and not _OFF_POLYGON.search(b"\n" + data) and (
+            not _OFF_QUAD.search(b"\n" + data) or _off_quads_tile(data)):
         return None
     text = "\n".join(line.split("#", 1)[0] for line in data.decode("utf-8", "replace").splitlines())
     key = re.search("COFF|OFF", text)
@@ -414,16 +452,38 @@ def off_text(data: bytes) -> bytes | None:
         index = [[int(w) for w in face[1:int(face[0]) + 1]] for face in faces]
     except (IndexError, ValueError):
         return None
-    if b"#" not in data and max(map(len, index), default=0) < 5:
+    most = max(map(len, index), default=0)
+    tiles, out = _tiled(index, xyz) if most >= 4 else {}, []
+    if b"#" not in data and most < 5 and not tiles:
         return None
-    tiles, out = _tiled(index, xyz), []
     for k, face in enumerate(faces):
         n, tail = len(index[k]), face[len(index[k]) + 1:]
-        out += [" ".join(["3"] + [face[1 + c] for c in tri] + tail)
-                for tri in tiles.get(k) or [(0, j, j + 1) for j in range(1, n - 1)]] if n >= 5 else [" ".join(face)]
+        out += [" ".join(["3"] + [face[1 + c] for c in tri] + tail) for tri in tiles.get(k) or [
+            (0, j, j + 1) for j in range(1, n - 1)]] if n >= 5 or k in tiles else [" ".join(face)]
     counts[1] = str(len(out))
     body = [text[:key.end()], " ".join(counts)] + lines[1:nv + 1] + out + lines[nv + nf + 1:]
     return "\n".join(body).encode() + b"\n"
+
+
+def _off_quads_tile(data: bytes) -> bool:
+    """Does every quad of an OFF of quads (and nothing else: no colours, no blank lines) tile itself as trimesh
+    fans it? Read by NumPy (files of quads are large); False where it is not such a file (:func:`off_text`
+    reads it)."""
+    head = _OFF_COUNTS.search(data)
+    if head is None:
+        return False
+    nv, nf = int(head.group(1)), int(head.group(2))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")         # numpy's "no data" warning: the shapes tell
+            xyz = np.loadtxt(io.BytesIO(data[head.end():]), np.float64, max_rows=nv, ndmin=2)
+            faces = np.loadtxt(io.BytesIO(data[head.end():]), np.int64, skiprows=nv, max_rows=nf, ndmin=2)
+    except (ValueError, IndexError, OverflowError):
+        return False
+    if xyz.shape != (nv, 3) or faces.shape != (nf, 5) or not (faces[:, 0] == 4).all():
+        return False
+    quads = faces[:, 1:]
+    return bool(quads.min(initial=0) >= 0 and quads.max(initial=-1) < nv and not len(_quad_flips(xyz[quads])))
 
 
 def _stl_binary(data: bytes, label: str) -> bytes | None:

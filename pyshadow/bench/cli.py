@@ -309,7 +309,8 @@ def _run(argv) -> int:
 
         from .method_sweep import check_camera
         try:
-            check_camera(selected_methods(args.method), SimpleNamespace(width=args.size[0], height=args.size[1]))
+            check_camera(selected_methods(args.method), SimpleNamespace(width=args.size[0], height=args.size[1]),
+                         () if args.sweep else (args.samples,))
         except UsageError as e:
             ap.error(str(e))
 

@@ -178,24 +178,35 @@ def sweep_probe_resolutions(resolution: int) -> list:
                    for r in (resolution // 2, resolution, 2 * resolution)})
 
 
-def check_camera(methods, camera) -> None:
-    """Refuse, before any work, an image that ``vtk-ssao`` among ``methods`` cannot render.
+def check_camera(methods, camera, samples=()) -> None:
+    """Refuse, before any work, an image or a sample count that ``vtk-ssao`` among ``methods`` cannot render.
 
-    :func:`pyshadow.viz.ssao_pass.vtk_ssao` renders in a VTK window of the camera's size.
+    :func:`pyshadow.viz.ssao_pass.vtk_ssao` renders in a VTK window of the camera's size, with at
+    most VTK's largest kernel (1000 samples).
 
     Raises
     ------
     pyshadow.bench.common.UsageError
         ``vtk-ssao`` in ``methods`` and the camera narrower or lower than 16 pixels, or wider or
-        higher than :data:`pyshadow.viz.plotter.MAX_WINDOW_SIDE`.
+        higher than :data:`pyshadow.viz.plotter.MAX_WINDOW_SIDE`, or one of ``samples`` above VTK's
+        largest kernel (the run failed at the vtk-ssao row, after the other methods' work).
     """
     from ..viz.plotter import MAX_WINDOW_SIDE
     from .common import UsageError
 
+    if "vtk-ssao" not in methods:
+        return
     w, h = camera.width, camera.height
-    if "vtk-ssao" in methods and not (16 <= w <= MAX_WINDOW_SIDE and 16 <= h <= MAX_WINDOW_SIDE):
+    if not (16 <= w <= MAX_WINDOW_SIDE and 16 <= h <= MAX_WINDOW_SIDE):
         raise UsageError(f"--size {w}x{h}: --method vtk-ssao renders in a VTK window of the image's size, "
                          f"which must be 16..{MAX_WINDOW_SIDE} pixels wide and high")
+    if samples:
+        from vtkmodules.vtkRenderingOpenGL2 import vtkSSAOPass
+
+        most = int(vtkSSAOPass().GetKernelSizeMaxValue())
+        if max(samples) > most:
+            raise UsageError(f"--samples {max(samples)}: --method vtk-ssao takes at most {most} samples "
+                             "(VTK's largest SSAO kernel)")
 
 
 def sweep_methods(args, scene, camera, gb, tracer, cache, conv, csm, samples, log) -> dict:
@@ -231,7 +242,7 @@ def sweep_methods(args, scene, camera, gb, tracer, cache, conv, csm, samples, lo
     from .methods import method_context, selected_methods
 
     methods = selected_methods(args.method)
-    check_camera(methods, camera)
+    check_camera(methods, camera, samples)
     ctx, rule, _, src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
     log(f"sweep: methods {', '.join(methods)} at D = {ctx.D:.4g} ({rule})")
     res = sweep_probe_resolutions(args.probe_resolution)

@@ -560,7 +560,7 @@ def methods_pass(args, scene, camera, gb: GBuffer, tracer, cache, csm, conv, vis
     from .method_sweep import check_camera
 
     methods = selected_methods(args.method)
-    check_camera(methods, camera)       # vtk-ssao's window: a UsageError before any work or output
+    check_camera(methods, camera, (args.samples,))      # vtk-ssao: a UsageError before any work or output
     ctx, rule, conv_d_s, conv_d_src = method_context(args, scene, camera, gb, tracer, cache, conv, log)
     D, conv_d = ctx.D, ctx.conv_d
     log(f"methods: {', '.join(methods)} at D = {D:.4g} ({rule}), {args.samples} samples")

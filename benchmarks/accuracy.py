@@ -42,7 +42,7 @@ import trimesh
 
 import pyshadow
 from pyshadow import Sampling, embree
-from pyshadow.csm import DEPTH_Q, both_sided_faces, compress_reference, footprint_corners
+from pyshadow.csm import DEPTH_Q, both_sided_faces, compress_reference, footprint_corners, open_sheet
 from pyshadow.csm.core import DEFAULT_BIAS_TEXELS
 from pyshadow.csm.reference import shadow_vote
 from pyshadow.visibility import visible_reference
@@ -191,7 +191,8 @@ def error_budget(scene, inst_id, n_dirs, n_points, seed):
         agree["csm"] += weights[:, ours == truth].sum(axis=1)
         for name, corner_maps in (("exact_map", {}), ("exact_map_footprint",
                                                       {"corners": corners, "corner_front": cfront})):
-            offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, csm.depth_bits, **corner_maps)
+            offsets, iend, depth = compress_reference(layers, front, csm.layer_rule, csm.depth_bits,
+                                                      open_air=open_sheet(mesh, both), **corner_maps)
             exact_map = pyshadow.CoherentShadowMap(
                 views=one, resolution=R, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
                 centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=offsets, iend=iend,

@@ -32,6 +32,16 @@
  *               sheet) stay in shadow wherever z2 comes at most MARGIN
  *               nearer within the texel (a horizontal face: maps more than
  *               13.3 degrees above it).
+ *               Free space: where the ray runs through free space after
+ *               z1 -- z1 does not face the light (a room's wall seen from
+ *               outside), or OPEN_AIR (a mesh mostly open, such as a bowl)
+ *               and z2 faces the light or is a back open to the outside (a
+ *               bowl's far wall across its hollow), or TWO_SIDED -- the
+ *               interval also
+ *               ends z1's slope term behind z1 (how much deeper z1's surface
+ *               goes within the texel, as m2's slope term, at most MARGIN),
+ *               so points in that space (a ball in the bowl) stay in shadow;
+ *               with LAYER_RULE 3 such a map keeps [lo, hi2].
  *               FOOTPRINT 1: where the centre ray meets two surfaces, the
  *               map's [z1, z2') (z2' = max(z2 - m2, z1)) narrows to the
  *               texel's footprint: each corner's first depth below z2'
@@ -63,7 +73,7 @@
  *   BLOCK (maps per block), DEPTH_BITS (16 or 32), IEND_T (ushort or uint),
  *   MARGIN (float, normalised depth: the margin above), SLACK (float,
  *   normalised depth), TWO_SIDED (0 or 1: every second surface is asked),
- *   FOOTPRINT (0 or 1)
+ *   FOOTPRINT (0 or 1), OPEN_AIR (0 or 1)
  */
 #include "csm_common.h"
 
@@ -79,6 +89,9 @@
 #ifndef FOOTPRINT
 #define FOOTPRINT 0
 #endif
+#ifndef OPEN_AIR
+#define OPEN_AIR 0
+#endif
 
 /* how much nearer than z2 the second surface comes within texel t of the map
  * whose second layer starts at depth2, at most MARGIN: half a texel times its
@@ -93,6 +106,22 @@ inline float second_slope(__global const float *depth2, int t, float z2)
     if (c < RES - 1 && (zn = depth2[t + 1]) < INFINITY) gx = fmax(gx, fmax(z2 - zn, 0.0f));
     if (r > 0 && (zn = depth2[t - RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
     if (r < RES - 1 && (zn = depth2[t + RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
+    if (gx < 0.0f || gy < 0.0f) return MARGIN;
+    return fmin(0.5f * (gx + gy), MARGIN);
+}
+
+/* how much deeper than z1 the first surface goes within texel t of the map
+ * whose first layer starts at depth1, at most MARGIN: second_slope's rule
+ * with the larger step deeper, max(zn - z1, 0), to a neighbour's first
+ * surface (MARGIN where an axis has none) */
+inline float first_slope(__global const float *depth1, int t, float z1)
+{
+    const int r = t / RES, c = t % RES;
+    float gx = -1.0f, gy = -1.0f, zn;
+    if (c > 0 && (zn = depth1[t - 1]) < INFINITY) gx = fmax(gx, fmax(zn - z1, 0.0f));
+    if (c < RES - 1 && (zn = depth1[t + 1]) < INFINITY) gx = fmax(gx, fmax(zn - z1, 0.0f));
+    if (r > 0 && (zn = depth1[t - RES]) < INFINITY) gy = fmax(gy, fmax(zn - z1, 0.0f));
+    if (r < RES - 1 && (zn = depth1[t + RES]) < INFINITY) gy = fmax(gy, fmax(zn - z1, 0.0f));
     if (gx < 0.0f || gy < 0.0f) return MARGIN;
     return fmin(0.5f * (gx + gy), MARGIN);
 }
@@ -174,6 +203,7 @@ __kernel void csm_fold(__global const float *depth, __global const uchar *front,
         const float z3 = INFINITY;
 #endif
         uint mlo, mhi2, mhi3;
+        int air = 0;
         if (!(z1 < INFINITY)) {                   /* miss */
             mlo = mhi2 = mhi3 = KEY_MISS;
         } else {
@@ -185,7 +215,10 @@ __kernel void csm_fold(__global const float *depth, __global const uchar *front,
                  * TWO_SIDED); with no room the map stands alone with z1 */
                 float m2 = second_slope(depth + (size_t)b * LAYERS * plane + plane, t, z2) + SLACK;
                 if (TWO_SIDED || front[at + plane]) m2 = m2 + MARGIN;
-                const float hic = fmax(z2 - m2, z1);
+                float hic = fmax(z2 - m2, z1);
+                /* free space behind z1 (header): end z1's slope term behind it */
+                air = TWO_SIDED | (front[at] == 0) | (OPEN_AIR & (front[at + plane] != 0));
+                if (air) hic = fmin(hic, z1 + first_slope(depth + (size_t)b * LAYERS * plane, t, z1));
                 mhi2 = key_below(hic);
                 if (mhi2 < mlo || mhi2 == (uint)-1) mhi2 = mlo;   /* no key fits: stands alone */
 #if FOOTPRINT
@@ -206,6 +239,7 @@ __kernel void csm_fold(__global const float *depth, __global const uchar *front,
 #else
             mhi3 = mhi2;
 #endif
+            if (air) mhi3 = mhi2;                /* no [z1, z3) through free space */
         }
         if (started) {
             const uint nlo = max(lo, mlo), nhi3 = min(hi3, mhi3);

@@ -19,14 +19,15 @@ from ..views import ViewSet
 from . import core
 from .core import (_LAYOUTS, _depth_dtype, _iend_dtype, _offsets_dtype,
                    front_margin, slope_slack)
-from .exposure import both_sided_faces, is_auto
+from .exposure import both_sided_faces, is_auto, open_sheet
 
 __all__ = ["build_csm", "check_arguments", "check_depth_bits", "check_float32_frame", "corner_frame",
            "footprint_corners", "footprint_scale"]
 
 
-def _defines(resolution, layers, rule, block, depth_bits, iend_dtype, two_sided=False):
+def _defines(resolution, layers, rule, block, depth_bits, iend_dtype, two_sided=False, open_air=False):
     return {
+        "OPEN_AIR": int(bool(open_air)),
         "RES": int(resolution),
         "MARGIN": float(front_margin(resolution)).hex() + "f",   # exact float32, as a hex literal
         "SLACK": float(slope_slack()).hex() + "f",
@@ -165,7 +166,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
     n_both = len(mesh.faces) if both_every else 0 if both is None else int(np.count_nonzero(both))
     renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
-    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every)
+    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every, open_sheet(mesh, both))
     corner_args = ()
     if footprint:
         scale = footprint_scale(R)

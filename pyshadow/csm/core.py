@@ -283,7 +283,8 @@ class CoherentShadowMap:
             ``accuracy.py`` section 7). ``R <= 4095``.
         two_sided : {'auto', True, False}, optional
             ``m`` also before a ``z2`` facing away: ``'auto'`` on backs open to the outside (an open box's
-            inside; :func:`pyshadow.csm.exposed_back_faces`), ``True`` on every one (``layers=2``), ``False`` none.
+            inside; :func:`pyshadow.csm.exposed_back_faces`; where the mesh is mostly open, free space before them:
+            :func:`pyshadow.csm.open_sheet`), ``True`` on every one (``layers=2``), ``False`` none.
         max_error : float, optional
             Choose views and resolution instead: the smallest CSM whose
             disagreement with Embree, predicted by the error model and checked

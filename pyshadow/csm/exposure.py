@@ -11,6 +11,12 @@ margin before every ``z2``, at 1.4-1.5x the bytes of the bundled open meshes).
 Which faces need it follows from the geometry: those whose back side a ray
 from outside can reach, that is, from whose back side a ray can leave the
 mesh without meeting it again (:func:`exposed_back_faces`).
+
+Where most of a mesh's area has its back open to the outside (a bowl, a box
+without a lid, a sheet: :func:`open_sheet`), the space in front of those
+backs is free space where other bodies lie (a ball in the bowl): the build
+then also ends a map's interval near ``z1`` where ``z2`` is such a back or
+faces the light (:mod:`pyshadow.csm`, "free space behind z1").
 """
 from __future__ import annotations
 
@@ -19,7 +25,8 @@ import numpy as np
 from .._validate import check_int
 from .surface_rule import _fibonacci_sphere
 
-__all__ = ["exposed_back_faces", "escape_fractions", "both_sided_faces", "is_auto", "EXPOSURE_DIRECTIONS"]
+__all__ = ["exposed_back_faces", "escape_fractions", "both_sided_faces", "open_sheet", "is_auto",
+           "EXPOSURE_DIRECTIONS"]
 
 #: directions of the sphere tried from each face's back side (about half of
 #: them lie in its back hemisphere)
@@ -157,8 +164,8 @@ def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
     ``two_sided='auto'`` and ``layers=2`` the faces of
     :func:`exposed_back_faces`; otherwise none (``True`` keeps the margin
     before every ``z2`` in the fold instead; a closed mesh's backs are never
-    asked). The NumPy mirror of a build is
-    ``compress_reference(*render_depth(..., facing=True, both_sides=both_sided_faces(...)), ...)``.
+    asked). The NumPy mirror of a build is ``compress_reference(*render_depth(..., facing=True,
+    both_sides=both), ..., open_air=open_sheet(mesh, both))`` with ``both = both_sided_faces(...)``.
 
     Parameters
     ----------
@@ -184,3 +191,28 @@ def both_sided_faces(mesh, frame, layer_rule: int, two_sided="auto"):
     if not (isinstance(two_sided, (bool, np.bool_)) or is_auto(two_sided)):    # as the build ('yes' read as False)
         raise TypeError(f"two_sided must be True, False or 'auto', got {two_sided!r}")
     return exposed_back_faces(mesh, frame) if is_auto(two_sided) and rule == 2 else None
+
+
+def open_sheet(mesh, exposed) -> bool:
+    """Whether faces whose back is open to the outside hold at least half of the mesh's area.
+
+    Such a mesh is mostly an open sheet or container (a bowl, a box without a
+    lid: every face), not a closed body with openings (the bunny's base, the
+    teapot's spout: about 28 % of their area). With ``two_sided='auto'`` its
+    build treats the space behind ``z1`` as free where ``z2`` is one of those
+    backs or faces the light (csm.cl's ``OPEN_AIR``).
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+    exposed : ndarray, shape (F,), bool, or None
+        :func:`exposed_back_faces` of the mesh (None: none).
+
+    Returns
+    -------
+    bool
+    """
+    if exposed is None or not len(mesh.faces):
+        return False
+    area = np.asarray(mesh.area_faces, dtype=np.float64)
+    return bool(2.0 * area[np.asarray(exposed, bool)].sum() >= area.sum() > 0.0)

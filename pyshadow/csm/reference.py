@@ -58,6 +58,49 @@ def _keys_below(z, depth_bits):
     return k
 
 
+def _texel_slope(z, margin, deeper):
+    """``min(0.5 (gx + gy), margin)`` per texel of one map's layer ``z`` (R, R) float32: ``gx`` the larger
+    step to a left or right neighbour with a surface (nearer: ``z - zn``, ``deeper``: ``zn - z``, at least 0),
+    ``gy`` the same over rows; ``margin`` where an axis has no such neighbour."""
+    f = np.float32
+    z = np.asarray(z, f)
+    pad = np.pad(z, 1, constant_values=np.inf)
+
+    def axis(a, b):
+        with np.errstate(invalid="ignore"):
+            da = np.where(np.isfinite(a), np.maximum((a - z) if deeper else (z - a), f(0)), f(-1))
+            db = np.where(np.isfinite(b), np.maximum((b - z) if deeper else (z - b), f(0)), f(-1))
+        return np.maximum(da, db).astype(f)
+
+    gx = axis(pad[1:-1, :-2], pad[1:-1, 2:])
+    gy = axis(pad[:-2, 1:-1], pad[2:, 1:-1])
+    with np.errstate(invalid="ignore"):
+        s = np.minimum((f(0.5) * (gx + gy)).astype(f), f(margin))
+    return np.where((gx < 0) | (gy < 0), f(margin), s).astype(f)
+
+
+def first_slope(z1, margin):
+    """NumPy version of ``first_slope`` (csm.cl): how much deeper than z1 its surface goes in each texel.
+
+    :func:`second_slope`'s rule with the step deeper, ``max(z1(neighbour) -
+    z1, 0)``, over neighbours that have a first surface: where the ray runs
+    through free space behind ``z1``, a map's interval ends this far behind
+    it (:func:`compress_reference`).
+
+    Parameters
+    ----------
+    z1 : ndarray, shape (R, R), float32
+        One map's first depth layer (``+inf`` where a ray meets nothing).
+    margin : float
+        :func:`front_margin` (normalised depth): the cap.
+
+    Returns
+    -------
+    ndarray, shape (R, R), float32
+    """
+    return _texel_slope(z1, margin, True)
+
+
 def second_slope(z2, margin):
     """NumPy version of ``second_slope`` (csm.cl): how much nearer than z2 its surface comes in each texel.
 
@@ -78,21 +121,7 @@ def second_slope(z2, margin):
         ``0.5 (gx + gy)`` is exactly its depth change from the texel's
         centre to its nearest corner. Meaningless where ``z2`` is ``+inf``.
     """
-    f = np.float32
-    z2 = np.asarray(z2, f)
-    pad = np.pad(z2, 1, constant_values=np.inf)
-
-    def axis(a, b):
-        with np.errstate(invalid="ignore"):
-            da = np.where(np.isfinite(a), np.maximum(z2 - a, f(0)), f(-1))
-            db = np.where(np.isfinite(b), np.maximum(z2 - b, f(0)), f(-1))
-        return np.maximum(da, db).astype(f)
-
-    gx = axis(pad[1:-1, :-2], pad[1:-1, 2:])
-    gy = axis(pad[:-2, 1:-1], pad[2:, 1:-1])
-    with np.errstate(invalid="ignore"):
-        s = np.minimum((f(0.5) * (gx + gy)).astype(f), f(margin))
-    return np.where((gx < 0) | (gy < 0), f(margin), s).astype(f)
+    return _texel_slope(z2, margin, False)
 
 
 def second_bound(z1, z2, asked, margin, slack=None):
@@ -166,7 +195,7 @@ def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
 
 
 def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None,
-                       corners=None, corner_front=None, two_sided: bool = False):
+                       corners=None, corner_front=None, two_sided: bool = False, open_air: bool = False):
     """NumPy version of the compression kernel: greedy runs per texel, in map order.
 
     Parameters
@@ -177,6 +206,11 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         has fewer hits.
     front : ndarray, shape (D, L, R, R), bool
         Which layers face the light (``render_depth(..., facing=True)``).
+        Where the first surface does not, or ``two_sided``, or
+        ``open_air`` and the second one is ``front``, the ray runs through
+        free space behind ``z1`` (a room's wall seen from outside, a bowl's
+        hollow): the interval also ends :func:`first_slope` behind ``z1``,
+        and ``rule=3`` keeps ``[z1, z2)`` there.
     rule : {2, 3}
         Interval rule, as ``layers`` of :meth:`CoherentShadowMap.build`.
     depth_bits : {16, 32}
@@ -191,6 +225,9 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
     two_sided : bool, optional
         Every second surface is asked, as ``CoherentShadowMap.build(...,
         two_sided=True)``.
+    open_air : bool, optional
+        The mesh is mostly open (:func:`pyshadow.csm.exposure.open_sheet`
+        of the faces marked in ``front``): the build's ``OPEN_AIR``.
 
     Returns
     -------
@@ -235,7 +272,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         margin = np.float32(margin_depth)
     else:       # NaN was cast to a key with a RuntimeWarning; a negative margin moved z2' behind z2
         raise ValueError(f"margin_depth must be a finite number >= 0 (normalised depth), got {margin_depth!r}")
-    two_sided = flag(two_sided, "two_sided")
+    two_sided, open_air = flag(two_sided, "two_sided"), flag(open_air, "open_air")
     miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
@@ -259,6 +296,10 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
         front2 = front[i, 1].ravel()
         z2b = second_bound(layers[i, 0], layers[i, 1], front[i, 1] | two_sided, margin).ravel()
+        air = two & (two_sided | ~front[i, 0].ravel() | (open_air & front2))       # free space behind z1
+        with np.errstate(invalid="ignore"):
+            z1s = (layers[i, 0] + first_slope(layers[i, 0], margin)).astype(np.float32).ravel()
+        z2b = np.where(air, np.minimum(z2b, z1s), z2b)
         k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
         mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
         if corners is not None:
@@ -276,7 +317,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         if rule == 3:
             z3 = layers[i, 2].ravel()
             z3m = z3 - margin
-            re_enter = two & ~front2 & np.isfinite(z3) & (z3m > z2)
+            re_enter = two & ~air & ~front2 & np.isfinite(z3) & (z3m > z2)
             mhi3 = np.where(re_enter, np.maximum(_keys_below(np.where(re_enter, z3m, 0), depth_bits), mhi2),
                             mhi2)
         if started:

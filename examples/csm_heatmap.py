@@ -16,6 +16,21 @@ import argparse
 import numpy as np
 
 
+def count_range(most):
+    """Colour range ``(0, top)`` and label count for counts up to ``most`` (>= 1): ``top`` the
+    fewest whole steps of 1, 2 or 5 times a power of ten (at most 5 steps) that reach ``most``,
+    so every label is a whole count at its place (371 -> 0 .. 400 by 100; 2 -> 0, 1, 2; a
+    range of 0 .. 1 in quarters printed the labels 0, 0, 0, 1, 1)."""
+    scale = 1.0
+    while True:
+        for unit in (1.0, 2.0, 5.0):
+            step = unit * scale
+            n = max(1, int(np.ceil(most / step)))
+            if n <= 5:
+                return n * step, n + 1
+        scale *= 10.0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(
         description="Heat map of the segments per texel of a mesh's Coherent Shadow Map.")
@@ -66,14 +81,13 @@ def main(argv=None):
 
     plotter = viz.script_plotter(parser, args, (2, 1), row_weights=[1.0, 0.12])
     plotter.subplot(0, 0)
-    top = float(seen.max()) if seen.size else 1.0
-    step = 10.0 ** np.floor(np.log10(top)) / 2.0         # round the colour range up: 371 -> 400
-    top = float(np.ceil(top / step) * step)
+    top, n_labels = count_range(float(seen.max()) if seen.size else 1.0)
     viz.image_panel(plotter, heat, cmap="inferno", clim=(0.0, top), origin="lower",
                     title=f"{name}: {layout}, {st['resolution']}x{st['resolution']} texels, "
                           f"{st['depth_bits']}-bit depth -- compression {st['ratio']:.1f}:1")
     plotter.subplot(1, 0)
-    viz.colour_bar(plotter, "segments per texel", cmap="inferno", clim=(0.0, top), fmt="%.0f")
+    viz.colour_bar(plotter, "segments per texel", cmap="inferno", clim=(0.0, top), n_labels=n_labels,
+                   fmt="%.0f")
     out = viz.finish(plotter, args.screenshot, title="pyshadow: CSM segments per texel")
     if out:
         print(f"wrote {out}")

@@ -25,8 +25,11 @@ def polar_angles(d):
 
 
 def pick_maps(views, count):
-    """Indices of ``count`` maps spread evenly over a zigzag set's order, after its pole row."""
+    """Indices of up to ``count`` maps spread evenly over a zigzag set's order, after its first row
+    (from the first map where fewer than ``count`` follow that row; 2x1 maps had one map left)."""
     first = views.params["phi"] if views.params["theta"] > 1 else 0
+    if len(views) - first < count:
+        first = 0
     return np.unique(np.round(np.linspace(first, len(views) - 1, count)).astype(int))
 
 
@@ -59,6 +62,9 @@ def main(argv=None):
         zigzag = pyshadow.ViewSet.zigzag(args.theta, args.phi)
         hilbert = pyshadow.ViewSet.hilbert(args.level, hemispheres=not args.single_square)
         idx = pick_maps(zigzag, args.maps)
+        if len(idx) < 2:            # the layout has two columns at least (zigzag 1x1 crashed in pyvista)
+            parser.error(f"zigzag {args.theta}x{args.phi} has {len(zigzag)} map; --theta and --phi "
+                         "must give 2 or more")
         chosen = pyshadow.ViewSet(zigzag.directions[idx], zigzag.bases[idx])
         depth = pyshadow.render_depth(mesh, chosen, resolution=args.resolution, layers=2)   # (n, 2, R, R)
     except (FileNotFoundError, ValueError) as exc:

@@ -16,6 +16,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -96,8 +97,8 @@ def main(argv=None):
 
     render_stage.render(scene, camera, sampling=sampling, lighting=lighting)   # warm-up: kernel builds
     images, times, exposure = [], [], None
-    stem = (args.screenshot[:-4] if args.screenshot.lower().endswith(".png") else args.screenshot) \
-        if args.screenshot else None
+    # OUT of OUT.jpg too (out.jpg wrote out.jpg_0000.png)
+    stem = os.path.splitext(args.screenshot)[0] if args.screenshot else None
     for f in range(args.frames):
         t = time.perf_counter()
         scene.set_transform(bunny, bunny_transform(start, f, args.frames))

@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from dataclasses import dataclass
 
@@ -209,7 +210,7 @@ def main(argv=None):
         return 0
 
     frames = max(1, args.frames)
-    stem = args.screenshot[:-4] if args.screenshot.lower().endswith(".png") else args.screenshot
+    stem = os.path.splitext(args.screenshot)[0]          # OUT of OUT.jpg too (was out.jpg_0000.png)
     plan = [scripted_transforms(bodies, f, frames) for f in range(frames)]   # not timed
     times = []
     for f, transforms in enumerate(plan):

@@ -55,6 +55,7 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     ValueError
         ``transform`` of the wrong shape, not finite, not affine or
         singular; ``scalars`` of the wrong shape; a mesh without vertices.
+        ``scalars`` not real numbers raise TypeError.
     """
     import trimesh
 
@@ -105,8 +106,13 @@ def update_scalars(poly, values, name: str = "ao"):
     ------
     ValueError
         ``values`` does not have one row per point.
+    TypeError
+        ``values`` not real numbers (strings and None were drawn in the
+        lowest colour, complex numbers as their real part).
     """
     v = np.array(values)                # a copy: pyvista keeps the array, later edits of values would show
+    if not (np.issubdtype(v.dtype, np.number) or v.dtype == bool) or v.dtype.kind == "c":
+        raise TypeError(f"update_scalars: values must be real numbers, got {v.dtype}")
     if v.dtype == np.float16:           # no VTK type for it: widened exactly
         v = v.astype(np.float32)
     if v.ndim not in (1, 2) or len(v) != poly.n_points:
@@ -119,7 +125,7 @@ def update_scalars(poly, values, name: str = "ao"):
 
 def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: str = "gray",
                      clim=(0.0, 1.0), ground: bool = True, ground_size: float | None = None,
-                     color: str = "white", lighting: bool = True):
+                     color: str = "white", lighting: bool = True, nan_color: str = "magenta"):
     """Add every instance of a :class:`pyshadow.Scene` that has a mesh to the active subplot.
 
     Parameters
@@ -129,11 +135,14 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
     scalars : dict of int -> array_like, shape (V_i,), optional
         Per-vertex values of instance ``i`` (e.g. ``scene.vertex_ao(i)``);
         instances without an entry are drawn in ``color``. A key that is
-        not the id of an instance with a mesh raises ValueError.
+        not the id of an instance with a mesh, or values of another shape
+        (a column (V_i, 1) was drawn as its magnitude: -0.1 as +0.1),
+        raise ValueError before anything is drawn.
     name, cmap, clim :
         Scalar array name, colour map and colour range (shared by all
         instances, so one colour bar describes them; ``clim`` finite with
-        low < high).
+        low < high). Values outside ``clim`` (infinities too) take the
+        colour of its nearer end.
     ground : bool, optional
         Draw the scene's analytic ground plane as a flat quad
         (:meth:`Scene.ground_quad`) in ``color`` when it has one.
@@ -143,6 +152,9 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
     lighting : bool, optional
         Shade with the plotter's lights; ``False`` draws the scalar colours
         exactly (an AO value then reads straight off the colour bar).
+    nan_color : str, optional
+        Colour of NaN values; default magenta, no colour of ``'gray'``
+        (pyvista's own, dark grey, read as an AO of 0.66).
 
     Returns
     -------
@@ -162,6 +174,10 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
     if stray:
         raise ValueError(f"scene_to_plotter: scalars has keys {stray!r} that are not ids of instances "
                          f"with a mesh (those are {drawn})")
+    for k, v in scalars.items():
+        V = len(scene.instances[k].mesh.vertices)
+        if np.shape(v) != (V,):
+            raise ValueError(f"scene_to_plotter: scalars[{k}] must have shape ({V},), got {np.shape(v)}")
     clim = _check_clim(clim, "scene_to_plotter")
     out = {}
     for i, inst in enumerate(scene.instances):
@@ -171,7 +187,7 @@ def scene_to_plotter(scene, plotter, scalars=None, *, name: str = "ao", cmap: st
         poly = mesh_to_polydata(inst.mesh, scalars=values, name=name)
         if values is not None:
             actor = plotter.add_mesh(poly, scalars=name, cmap=cmap, clim=clim, lighting=lighting,
-                                     show_scalar_bar=False)
+                                     nan_color=nan_color, show_scalar_bar=False)
         else:
             actor = plotter.add_mesh(poly, color=color, lighting=lighting, show_scalar_bar=False)
         actor.user_matrix = inst.transform

@@ -101,7 +101,8 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
         ``(width, height)`` in pixels, each 16 to :data:`MAX_WINDOW_SIDE`.
     off_screen : bool, optional
         Render without a window (for :func:`finish` with a screenshot);
-        :func:`configure_offscreen` is called first.
+        :func:`configure_offscreen` is called first. ``pyvista.OFF_SCREEN``
+        (``PYVISTA_OFF_SCREEN=true``) set makes every plotter off screen.
     groups, row_weights, col_weights : optional
         Passed to ``pv.Plotter`` (merged subplots and relative sizes).
     background : str, optional
@@ -116,20 +117,21 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
     ValueError
         A window size that is not two integers in 16..:data:`MAX_WINDOW_SIDE`.
     RuntimeError
-        ``off_screen=False`` on Linux without a display (the message says to
-        pass ``--screenshot``), or no off-screen backend (see
-        :func:`configure_offscreen`).
+        An on-screen plotter on Linux without a display (the message says to
+        pass ``--screenshot``, or ``off_screen=True``), or no off-screen
+        backend (see :func:`configure_offscreen`).
     """
     size = tuple(int(v) for v in np.asarray(window_size).reshape(-1))
     if len(size) != 2 or min(size) < 16 or max(size) > MAX_WINDOW_SIDE:
         raise ValueError(f"window_size must be (width, height) with both in 16..{MAX_WINDOW_SIDE}, "
                          f"got {window_size!r}")
+    pv = _pv()
+    off_screen = bool(off_screen) or bool(getattr(pv, "OFF_SCREEN", False))   # pyvista's own switch
     if off_screen:
         configure_offscreen()
     elif not _has_display():
         raise RuntimeError("no display ($DISPLAY is unset): pass --screenshot out.png to render "
-                           "off screen into a file")
-    pv = _pv()
+                           "off screen into a file (make_plotter(off_screen=True) in Python)")
     kw = {}
     if groups is not None:
         kw["groups"] = groups
@@ -137,7 +139,7 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
         kw["row_weights"] = row_weights
     if col_weights is not None:
         kw["col_weights"] = col_weights
-    plotter = pv.Plotter(shape=tuple(shape), window_size=list(size), off_screen=bool(off_screen),
+    plotter = pv.Plotter(shape=tuple(shape), window_size=list(size), off_screen=off_screen,
                          border=False, **kw)
     plotter.set_background(background, all_renderers=True)
     return plotter
@@ -208,7 +210,11 @@ def add_window_options(parser, window=(1024, 768)) -> None:
 
 def script_plotter(parser, args, shape=(1, 1), **kw):
     """:func:`make_plotter` for a script's ``args`` (:func:`add_window_options`): off screen with
-    ``--screenshot``; no display (or no off-screen backend) is the parser's error (exit status 2)."""
+    ``--screenshot``; no display (or no off-screen backend) is the parser's error (exit status 2), and
+    so is ``pyvista.OFF_SCREEN`` without ``--screenshot`` (the window would show nothing)."""
+    if args.screenshot is None and getattr(_pv(), "OFF_SCREEN", False):
+        parser.error("pyvista renders off screen (PYVISTA_OFF_SCREEN / pyvista.OFF_SCREEN): pass "
+                     "--screenshot out.png to render into a file")
     try:
         return make_plotter(shape, args.window, off_screen=args.screenshot is not None, **kw)
     except RuntimeError as exc:

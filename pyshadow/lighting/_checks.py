@@ -171,8 +171,12 @@ def positive(x, name: str) -> float:
 
 
 def in_range(x, name: str, lo: float, hi: float) -> float:
+    """``x`` as a finite float in [lo, hi]; an unbounded ``hi`` (inf) says "a finite number >= lo" (not
+    "[lo, inf]", which inf itself seemed to satisfy)."""
     v = _number(x, name)
     if not (math.isfinite(v) and lo <= v <= hi):
+        if hi == math.inf:
+            raise ValueError(f"{name}: must be a finite number >= {lo:g} (got {x!r})")
         raise ValueError(f"{name}: must lie in [{lo:g}, {hi:g}] (got {x!r})")
     return v
 

@@ -489,9 +489,10 @@ def display(colour) -> np.ndarray:
 
     ``colour`` (H, W, 3) float: ``Frame.radiance`` of a :class:`PhongLighting`
     (display-referred; written without tone mapping or gamma, as the thesis
-    does). NaN is an error.
+    does). NaN is an error, and so are text, bools and complex numbers: no
+    display values (``"0.5"`` is not read as 0.5, nor ``1 + 2j`` as 1).
     """
-    a = np.asarray(colour, np.float64)
+    a = _floats(colour, "colour", "an (H, W, 3) array of display values")
     if a.ndim != 3 or a.shape[2] != 3:
         raise ValueError(f"colour: expected shape (H, W, 3) (got shape {a.shape})")
     if np.isnan(a).any():

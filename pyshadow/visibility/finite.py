@@ -2,7 +2,11 @@
 
 A shadow ray towards a light at distance ``t`` from the point is the segment
 ``p + s w``, ``0 <= s <= t`` (``w`` unit): occluders beyond ``t`` do not
-count. Per caster, with its world bounding sphere (the kernels' radius,
+count, nor does a surface through the end itself (the tie ``s = t``): a light
+on a wall or in the ground plane is not hidden by it (Embree stops the ray
+:func:`pyshadow._embree_lift.end_epsilon` short of its end; the plane's rule
+is below; a CSM refuses or reroutes such a ray, whose end lies in the
+caster's sphere). Per caster, with its world bounding sphere (the kernels' radius,
 grown by 1e-6) met by the ray over ``[t0, t1]``:
 
 * ``t0 >= t`` (the sphere lies wholly beyond the end): the caster is culled;
@@ -99,6 +103,8 @@ def check_max_distance(max_distance, n: int):
         t = np.asarray(t, dtype=np.float64)
     except (TypeError, ValueError):
         raise TypeError(f"max_distance must be a number or an array of N numbers, got {max_distance!r}") from None
+    except OverflowError:       # an int beyond float64 (10**400): not a bare "int too large to convert to float"
+        raise ValueError("max_distance must be within float64's range (inf: unbounded), got an int beyond it") from None
     if t.ndim > 1 or (t.ndim == 1 and len(t) != n):
         raise ValueError(f"max_distance must be a number or have shape ({n},), got shape {t.shape}")
     t = np.array(np.broadcast_to(t, (n,)))
@@ -286,6 +292,8 @@ def check_ao_options(obscurance, quadrature, straddle):
             tau = float(obscurance)
         except (TypeError, ValueError):
             raise TypeError(f"obscurance must be a number (tau, 1 / world units), got {obscurance!r}") from None
+        except OverflowError:   # an int beyond float64 (10**400)
+            raise ValueError("obscurance (tau) must be finite and > 0, got an int beyond float64's range") from None
         if not (np.isfinite(tau) and tau > 0):
             raise ValueError(f"obscurance (tau) must be finite and > 0, got {tau}")
     if isinstance(quadrature, bool) or not isinstance(quadrature, (int, np.integer)) or not 1 <= quadrature <= 256:
@@ -415,8 +423,9 @@ def answer_finite_ao(scene, points, directions, tmax, straddle, answer, name=Non
         c, r = scene.instances[j].world_sphere()
         why = ("pass straddle='embree' (ray tracing) or 'infinite' (the unbounded answer)"
                if straddle == "error" else "straddle='embree' needs every caster's mesh (Scene.add(csm, mesh=...))")
-        raise ValueError(f"{name(i) if name else f'AO ray {i}'} (and {len(amb) - 1} more) of length {float(tmax[i]):.6g} ends inside the "
-                         f"bounding sphere of caster instance {j} (centre {np.round(np.asarray(c), 6).tolist()}, "
+        raise ValueError(f"{name(i) if name else f'AO ray {i}'} (and {len(amb) - 1} more) of length "
+                         f"{float(tmax[i]):.6g} ends inside the bounding sphere of caster instance {j} "
+                         f"(centre {np.round(np.asarray(c), 6).tolist()}, "
                          f"radius {float(r):.6g}) and is occluded unbounded: a CSM cannot tell whether the "
                          f"occluder lies before or beyond the end; {why}")
     from .. import embree

@@ -93,38 +93,26 @@
 #define OPEN_AIR 0
 #endif
 
-/* how much nearer than z2 the second surface comes within texel t of the map
- * whose second layer starts at depth2, at most MARGIN: half a texel times its
- * slope towards the light on each axis, the slope being the larger step
- * nearer, max(z2 - zn, 0), to a neighbour zn that has a second surface
- * (MARGIN where an axis has no such neighbour) */
-inline float second_slope(__global const float *depth2, int t, float z2)
+/* how much nearer (s = -1) or deeper (s = +1) than z the surface of one
+ * depth layer (starting at layer) comes within texel t of the map, at most
+ * MARGIN: half a texel times its slope on each axis, the slope being the
+ * larger step max(s (zn - z), 0) to a neighbour zn that has a surface in
+ * that layer (MARGIN where an axis has no such neighbour). second_slope:
+ * the second surface towards the light (so that points on it stay in
+ * shadow); first_slope: the first surface away from it (free space) */
+inline float texel_slope(__global const float *layer, int t, float z, float s)
 {
     const int r = t / RES, c = t % RES;
     float gx = -1.0f, gy = -1.0f, zn;
-    if (c > 0 && (zn = depth2[t - 1]) < INFINITY) gx = fmax(gx, fmax(z2 - zn, 0.0f));
-    if (c < RES - 1 && (zn = depth2[t + 1]) < INFINITY) gx = fmax(gx, fmax(z2 - zn, 0.0f));
-    if (r > 0 && (zn = depth2[t - RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
-    if (r < RES - 1 && (zn = depth2[t + RES]) < INFINITY) gy = fmax(gy, fmax(z2 - zn, 0.0f));
+    if (c > 0 && (zn = layer[t - 1]) < INFINITY) gx = fmax(gx, fmax(s * (zn - z), 0.0f));
+    if (c < RES - 1 && (zn = layer[t + 1]) < INFINITY) gx = fmax(gx, fmax(s * (zn - z), 0.0f));
+    if (r > 0 && (zn = layer[t - RES]) < INFINITY) gy = fmax(gy, fmax(s * (zn - z), 0.0f));
+    if (r < RES - 1 && (zn = layer[t + RES]) < INFINITY) gy = fmax(gy, fmax(s * (zn - z), 0.0f));
     if (gx < 0.0f || gy < 0.0f) return MARGIN;
     return fmin(0.5f * (gx + gy), MARGIN);
 }
-
-/* how much deeper than z1 the first surface goes within texel t of the map
- * whose first layer starts at depth1, at most MARGIN: second_slope's rule
- * with the larger step deeper, max(zn - z1, 0), to a neighbour's first
- * surface (MARGIN where an axis has none) */
-inline float first_slope(__global const float *depth1, int t, float z1)
-{
-    const int r = t / RES, c = t % RES;
-    float gx = -1.0f, gy = -1.0f, zn;
-    if (c > 0 && (zn = depth1[t - 1]) < INFINITY) gx = fmax(gx, fmax(zn - z1, 0.0f));
-    if (c < RES - 1 && (zn = depth1[t + 1]) < INFINITY) gx = fmax(gx, fmax(zn - z1, 0.0f));
-    if (r > 0 && (zn = depth1[t - RES]) < INFINITY) gy = fmax(gy, fmax(zn - z1, 0.0f));
-    if (r < RES - 1 && (zn = depth1[t + RES]) < INFINITY) gy = fmax(gy, fmax(zn - z1, 0.0f));
-    if (gx < 0.0f || gy < 0.0f) return MARGIN;
-    return fmin(0.5f * (gx + gy), MARGIN);
-}
+#define second_slope(DEPTH2, T, Z2) texel_slope((DEPTH2), (T), (Z2), -1.0f)
+#define first_slope(DEPTH1, T, Z1) texel_slope((DEPTH1), (T), (Z1), 1.0f)
 
 #if FOOTPRINT
 /* the map's interval over the texel's footprint (see FOOTPRINT above);

@@ -72,6 +72,42 @@ def load(name: str, fill_holes: bool = False):
     return _cache[key]
 
 
+def modules_run(fn) -> set:
+    """The package's modules (paths relative to the package, '/'-separated) whose functions run in ``fn()``,
+    traced with :func:`sys.setprofile`: what a code digest must cover."""
+    import pyshadow
+
+    pkg = Path(pyshadow.__file__).resolve().parent
+    ran = set()
+
+    def note(frame, event, arg):
+        if event == "call":
+            f = Path(frame.f_code.co_filename)
+            if f.is_relative_to(pkg):
+                ran.add(f.relative_to(pkg).as_posix())
+
+    sys.setprofile(note)
+    try:
+        fn()
+    finally:
+        sys.setprofile(None)
+    return ran
+
+
+def wall_scene():
+    """Ground y = 0, a thick wall (40 x 10 x 0.5, front face z = 0) and a 0.3 box on the floor, all casters
+    (4 x 8 maps of 16 texels)."""
+    import pyshadow
+    import trimesh
+
+    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
+    wall = trimesh.creation.box((40.0, 10.0, 0.5))
+    wall.apply_translation([0.0, 5.0, -0.25])
+    scene.add(wall)
+    scene.add(trimesh.creation.box((0.3, 0.3, 0.3)), trimesh.transformations.translation_matrix([0.8, 0.15, 0.7]))
+    return scene
+
+
 def all_pairs(csm):
     """Every (map, row, col) of a CSM as three (D, R, R) index arrays."""
     D, R = csm.maps, csm.resolution

@@ -1,5 +1,4 @@
 """pyshadow-bench's converged references are cached under a key that covers the code that traces them."""
-import sys
 from pathlib import Path
 
 import pytest
@@ -7,6 +6,8 @@ import pytest
 import pyshadow
 from pyshadow.cache import CSMCache
 from pyshadow.sampling import Sampling
+
+from conftest import modules_run
 
 #: Modules whose functions run in a reference's tracing without deciding its values: the device and launch
 #: choice, argument checks, the cache's file store and its check of a cached array.
@@ -40,19 +41,7 @@ def test_reference_sources_cover_every_module_the_tracing_runs(tiny):
     from pyshadow.bench.measure import REFERENCE_SOURCES
 
     pkg = Path(pyshadow.__file__).resolve().parent
-    ran = set()
-
-    def note(frame, event, arg):
-        if event == "call":
-            f = Path(frame.f_code.co_filename)
-            if f.is_relative_to(pkg):
-                ran.add(f.relative_to(pkg).as_posix())
-
-    sys.setprofile(note)
-    try:
-        _references(CSMCache(None), *tiny)
-    finally:
-        sys.setprofile(None)
+    ran = modules_run(lambda: _references(CSMCache(None), *tiny))
     assert {"embree.py", "sampling.py", "bench/measure.py", "bench/methods.py"} <= ran
     extra = {f for f in ran if not f.startswith("_cl/") and f not in LAUNCH_ONLY} - set(REFERENCE_SOURCES)
     assert not extra, extra

@@ -13,7 +13,7 @@ import pyshadow
 from pyshadow.cache import CSMCache, default_cache_dir
 from pyshadow.mesh import mesh_hash
 
-from conftest import load
+from conftest import load, modules_run
 
 RES, BITS = 16, 16
 
@@ -127,28 +127,17 @@ def test_code_digest_covers_every_module_a_build_runs(mesh, monkeypatch):
     open meshes, footprint, 'auto' backs: traced with sys.setprofile) is in BUILD_SOURCES, but for the
     device and launch choice (_cl, answers the same at every lane width) and the argument checks
     (_compat, _validate); and a change to the text of one of them changes the digest."""
-    import sys
-
     from pyshadow import cache as cache_module
 
-    pkg = Path(pyshadow.__file__).resolve().parent
-    ran = set()
-
-    def note(frame, event, arg):
-        if event == "call":
-            f = Path(frame.f_code.co_filename)
-            if f.is_relative_to(pkg):
-                ran.add(f.relative_to(pkg).as_posix())
-
     meshes = (mesh, load("teapot.obj"))
-    sys.setprofile(note)
-    try:
+
+    def builds():
         for m in meshes:
             pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=False)
             pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.hilbert(0), resolution=8, footprint=True,
                                              progress=False)
-    finally:
-        sys.setprofile(None)
+
+    ran = modules_run(builds)
     launch_only = {f for f in ran if f.startswith("_cl/") or f in ("_compat.py", "_validate.py")}
     assert {"csm/build.py", "raster.py", "csm/exposure.py"} <= ran
     assert ran - launch_only <= set(cache_module.BUILD_SOURCES), ran - launch_only

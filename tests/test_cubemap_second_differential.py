@@ -14,20 +14,11 @@ import pytest
 import trimesh
 
 import pyshadow
+from conftest import wall_scene
 from pyshadow.cubemap import CubeMapAO, CubeProbe, direction_texels, raymarch_visible
 from pyshadow.cubemap.analysis import unseen_rays
 
 PROBE = np.array([0.0, 1.0, 2.0])
-
-
-def wall_scene():
-    """Ground y = 0, a thick wall (front face z = 0) and a 0.3 box on the floor, all casters."""
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
-    wall = trimesh.creation.box((40.0, 10.0, 0.5))
-    wall.apply_translation([0.0, 5.0, -0.25])
-    scene.add(wall)
-    scene.add(trimesh.creation.box((0.3, 0.3, 0.3)), trimesh.transformations.translation_matrix([0.8, 0.15, 0.7]))
-    return scene
 
 
 @pytest.mark.parametrize("size", [(1, 1), (5, 1), (4, 4), (9, 7)])

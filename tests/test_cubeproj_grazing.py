@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
+from conftest import wall_scene
 from pyshadow.cubemap import CubeMapAO
 from pyshadow.render import surface_points
 from pyshadow.scene import GROUND_ID
@@ -50,16 +50,6 @@ def test_a_probe_at_the_camera_eye_covers_its_ground_pixels():
     np.testing.assert_allclose(pr.ao[surface], 1.0)          # an open ground plane: nothing occludes
     assert not maps.place(cam, threshold=1.0)
     assert len(maps.probes) == 1
-
-
-def wall_scene():
-    """Ground y = 0, a thick wall (40 x 10 x 0.5, front face z = 0) and a 0.3 box on the floor (casters)."""
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
-    wall = trimesh.creation.box((40.0, 10.0, 0.5))
-    wall.apply_translation([0.0, 5.0, -0.25])
-    scene.add(wall)
-    scene.add(trimesh.creation.box((0.3, 0.3, 0.3)), trimesh.transformations.translation_matrix([0.8, 0.15, 0.7]))
-    return scene
 
 
 def seen_by_embree(scene, centre, points):

@@ -13,18 +13,22 @@ floor      ``--floor`` 0.3 m boxes resting on a 200 x 0.1 x 200 m box   no groun
            added as a receiver (a floor *mesh*), 1 m apart
 pile       ``--pile`` x ``--pile`` columns of 4 unit boxes, stacked     ground y=0
            and side by side (every box touches its neighbours)
+tiles      ``--tiles`` x ``--tiles`` unit boxes side by side on the     ground y=0
+           ground (each touches its 2-4 neighbours)
 =========  ==========================================================  ==========
 
 Per scene: **change**, the time to find the touching faces after a scene
-change (``scene.set_transform`` of one instance to its own pose, then
-``contact_bodies.body_patches``: bodies on bodies, and ``contact.footprints``:
-bodies on the ground), medians of ``--rounds``; **query**, AO
+change: one body slid 1 mm along x, and back (``scene.set_transform``, then
+``contact_bodies.body_patches`` each time: bodies on bodies, searched again for
+the moved body and its neighbours only), and **full**, every body searched
+(the scene's last search forgotten, ``contact_bodies._SEARCHED``); and
+``contact.footprints``: bodies on the ground; medians of ``--rounds``; **query**, AO
 of ``--points`` points on the floor, the ground or the plane between the pile's second and third layers (up
 normals, 16 samples) with the faces already found, against **no rule**:
 the same CSMs added without meshes (nothing to close in), interleaved
 rounds, medians. The AO of the two differs only on closed-in points.
 
-    python benchmarks/contact_cost.py [--apart 10000] [--floor 2500] [--pile 10]
+    python benchmarks/contact_cost.py [--apart 10000] [--floor 2500] [--pile 10] [--tiles 60]
                                       [--points 20000] [--rounds 5] [--json]
 """
 from __future__ import annotations
@@ -48,7 +52,7 @@ def _grid(n: int) -> np.ndarray:
     return np.column_stack([i % k, i // k]) - (k - 1) / 2.0
 
 
-def scenes(apart: int, floor: int, pile: int) -> dict:
+def scenes(apart: int, floor: int, pile: int, tiles: int = 0) -> dict:
     """``{name: (scene with meshes, the same scene without meshes, points (M, 3) region (2, 2) x, z, height)}``."""
     import trimesh
 
@@ -85,6 +89,9 @@ def scenes(apart: int, floor: int, pile: int) -> dict:
     xz = _grid(pile * pile)
     out["pile"] = (*pair(0.0, None, [(unit, pose(x, y + 0.5, z)) for x, z in xz for y in range(4)]),
                    np.ptp(xz, axis=0) + 1.0, 2.0)
+    if tiles:
+        xz = _grid(tiles * tiles)
+        out["tiles"] = (*pair(0.0, None, [(unit, pose(x, 0.5, z)) for x, z in xz]), np.ptp(xz, axis=0) + 1.0, 1.0)
     return out
 
 
@@ -99,19 +106,31 @@ def measure(entry, n_points: int, rounds: int) -> dict:
     """Medians (s) of the scene change and of the AO query with and without the rule; closed-in points."""
     import pyshadow
     from pyshadow.contact import footprints
+    from pyshadow import contact_bodies
     from pyshadow.contact_bodies import body_patches
 
     ruled, bare, extent, height = entry
     p = points(extent, height, n_points)
     up = np.tile([0.0, 1.0, 0.0], (n_points, 1))
     sampling = pyshadow.Sampling(SAMPLES)
-    change, ground, query, plain = [], [], [], []
+    change, full, ground, query, plain = [], [], [], [], []
     patches = body_patches(ruled)
+    home = ruled.transform(1)
+    slid = home.copy()
+    slid[0, 3] += 1e-3
     for r in range(-1, rounds):                 # one untimed round: kernel builds
-        ruled.set_transform(1, ruled.instances[1].transform)
+        moves = []
+        for T in (slid, home):                  # one body slid 1 mm, then back
+            ruled.set_transform(1, T)
+            t0 = time.perf_counter()
+            patches = body_patches(ruled)
+            moves.append(time.perf_counter() - t0)
+        contact_bodies._SEARCHED.pop(ruled, None)
+        ruled.set_transform(1, home)
         t0 = time.perf_counter()
-        patches = body_patches(ruled)
+        whole = body_patches(ruled)
         t1 = time.perf_counter()
+        assert len(whole) == len(patches)
         feet = footprints(ruled)
         ground_s = time.perf_counter() - t1
         order = ((ruled, query), (bare, plain)) if r % 2 else ((bare, plain), (ruled, query))
@@ -125,11 +144,13 @@ def measure(entry, n_points: int, rounds: int) -> dict:
             else:
                 ao_bare = ao
         if r >= 0:
-            change.append(t1 - t0)
+            change.extend(moves)
+            full.append(t1 - t0)
             ground.append(ground_s)
     return {"instances": len(ruled.instances), "patches": len(patches), "footprints": len(feet),
             "closed_in_points": int(np.count_nonzero(ao_ruled != ao_bare)),
-            "change_s": statistics.median(change), "ground_change_s": statistics.median(ground),
+            "change_s": statistics.median(change), "full_search_s": statistics.median(full),
+            "ground_change_s": statistics.median(ground),
             "query_s": statistics.median(query),
             "query_without_rule_s": statistics.median(plain)}
 
@@ -139,13 +160,14 @@ def main(argv=None) -> int:
     ap.add_argument("--apart", type=int, default=10_000)
     ap.add_argument("--floor", type=int, default=2_500)
     ap.add_argument("--pile", type=int, default=10)
+    ap.add_argument("--tiles", type=int, default=60)
     ap.add_argument("--points", type=int, default=20_000)
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "apart", "floor", "pile", "points", "rounds")
+    check_counts(ap, args, "apart", "floor", "pile", "tiles", "points", "rounds")
     rows = {name: measure(entry, args.points, args.rounds)
-            for name, entry in scenes(args.apart, args.floor, args.pile).items()}
+            for name, entry in scenes(args.apart, args.floor, args.pile, args.tiles).items()}
     emit({"environment": environment(), "points": args.points, "rounds": args.rounds, "scenes": rows}, args.json)
     return 0
 

@@ -1,7 +1,8 @@
 """Bodies resting on bodies (:mod:`pyshadow.contact`): a point on a closed caster's face that touches another body's
 face, away from the touching region's outline, is closed in: occluded on every ray into the body, AO 0 where its
-normal faces into it (a lower box's lid under an upper box). The touching faces are found once per scene change
-(:func:`body_patches`: the faces of two bodies near each other compared pair by pair, or where they make more
+normal faces into it (a lower box's lid under an upper box). The touching faces are found once per scene change,
+for the bodies that moved and their neighbours (:func:`body_patches`: the faces of two bodies near each other
+compared pair by pair, or where they make more
 than ``_PAIRS`` pairs, those whose boxes meet, found among at most ``_PAIRS`` candidates; beyond, as bodies passing
 through each other, not searched (nor is a column of 3,000 sides standing on a terrain of 0.1 m cells); each closed
 part's winding turned by its volume's sign: inverted meshes, cavities), the points on them per query
@@ -198,7 +199,12 @@ def _world_bodies(instances):
 def body_patches(scene):
     """Per plane of a closed caster's faces touching another body (both with meshes; a receiver too): (inward unit
     normal (3,), offset ``n . x``, tolerance, 3D box (2, 3), plane basis (2, 3), faces in it (K, 3, 2) and the
-    outline of their union (E, 2, 2)); kept with the scene's arrays. Ground contacts: :func:`footprints`."""
+    outline of their union (E, 2, 2)); kept with the scene's arrays. Ground contacts: :func:`footprints`.
+
+    After moves only (the same instances and meshes), a body whose pose and whose neighbours' poses (before and
+    after) are unchanged keeps the patches found for it last time (:data:`_SEARCHED`): each body's patches are
+    found from its own face pairs alone, so they are the same values; one box moved among 3,600 touching ones
+    is searched with its neighbours, not all of them."""
     held = scene_arrays(scene)
     if "bodies" in held:
         return held["bodies"]
@@ -208,9 +214,61 @@ def body_patches(scene):
         mesh = scene.instances[first].mesh
         faced[rows] = mesh is not None and len(mesh.faces) > 0
     ids = np.flatnonzero(faced)
-    if len(ids) < 2:
+    both = _body_pairs(held, ids) if len(ids) >= 2 else np.zeros((0, 2), np.intp)
+    if not len(both):
         held["bodies"] = out
         return out
+    tol, T = _face_tolerances(held)[ids], held["transform"][ids]
+    last = _SEARCHED.get(scene)
+    if last is not None and (last["mesh_id"] is not held["mesh_id"] or not np.array_equal(last["ids"], ids)):
+        last = None                                     # other instances or meshes: everything searched anew
+    moved = np.ones(len(ids), bool) if last is None else (T != last["T"]).any(axis=(1, 2))
+    used = np.unique(both)
+    if last is None:
+        box, oriented, searched = np.zeros((len(ids), 2, 3)), np.zeros(len(ids), bool), np.zeros(len(ids), bool)
+        posed = used
+    else:
+        box, oriented, searched = last["box"].copy(), last["oriented"].copy(), last["searched"].copy()
+        posed = used[moved[used] | ~last["posed"][used]]
+    world, faces = _world_bodies([scene.instances[ids[i]] for i in posed]) if len(posed) else (None, None)
+    if len(posed):
+        box[posed], oriented[posed] = faces[9], faces[2]
+    was_posed = np.zeros(len(ids), bool) if last is None else last["posed"] & ~moved    # boxes of the poses in T
+    was_posed[posed] = True
+    b, a = both.T
+    t = (tol[b] + tol[a])[:, None]
+    meet = oriented[b] & ((box[b, 0] <= box[a, 1] + t) & (box[a, 0] <= box[b, 1] + t)).all(axis=1)    # boxes meet
+    b, a, t = b[meet], a[meet], t[meet]
+    # B within A's box may rest inside A's closed part, its face on A's with the same outward normal: a box on
+    # the floor of a room (a closed box wound inwards, turned outwards by _outward) read no contact, its floor
+    # under the box's edge AO up to 0.59 (Embree 0). Where A lies in B's part instead (B the room), B's box is not
+    # within A's: B's face (the room's floor) is not closed in by A
+    inner = ((box[b, 0] >= box[a, 0] - t) & (box[b, 1] <= box[a, 1] + t)).all(axis=1)
+    found = {} if last is None else last["found"]
+    if last is not None:                                # a body whose pose or a neighbour's (before, after) moved
+        for pb, pa in ((b, a), last["pairs"]):
+            searched[pb[moved[pb] | moved[pa]]] = False
+        found = {k: v for k, v in found.items() if searched[k]}
+    sel = ~searched[b]
+    if sel.any():
+        found.update(_searched(scene, ids, b[sel], a[sel], ~oriented[a[sel]] | inner[sel], tol, world, faces, posed))
+        searched[b[sel]] = True
+    for i in b[np.sort(np.unique(b, return_index=True)[1])]:      # in the order the bodies were first met
+        out.extend(found[int(i)])
+    _SEARCHED[scene] = {"mesh_id": held["mesh_id"], "ids": ids, "T": T, "box": box, "oriented": oriented,
+                        "posed": was_posed, "searched": searched, "pairs": (b, a), "found": found}
+    held["bodies"] = out
+    return out
+
+
+#: scene -> its last :func:`body_patches` search: the poses (``T``) and world boxes it read, the touching pairs
+#: ``(B, A)`` it tested (positions into ``ids``) and the patches it found for each body B (``found``)
+_SEARCHED = weakref.WeakKeyDictionary()
+
+
+def _body_pairs(held, ids):
+    """(P, 2) pairs (B, A) of positions into ``ids`` of bodies whose spheres (grown by their face tolerances)
+    meet, each both ways, B a caster (a receiver closes nothing in)."""
     from scipy.spatial import cKDTree
 
     c, r, tol = held["world_centre"][ids], held["world_radius"][ids], _face_tolerances(held)[ids]
@@ -222,41 +280,35 @@ def body_patches(scene):
     pairs = np.stack([i[keep], j[keep]], axis=1)
     pairs = pairs[np.linalg.norm(c[pairs[:, 0]] - c[pairs[:, 1]], axis=1) <= (r + tol)[pairs].sum(axis=1)]
     both = np.concatenate([pairs, pairs[:, ::-1]])
-    if len(both):                                       # a receiver closes nothing in
-        both = both[held["casts"][np.asarray(ids)[both[:, 0]]]]
-    if not len(both):
-        held["bodies"] = out
-        return out
-    used = np.unique(both)
-    world, faces = _world_bodies([scene.instances[ids[i]] for i in used])
+    return both[held["casts"][np.asarray(ids)[both[:, 0]]]] if len(both) else both
+
+
+def _searched(scene, ids, b, a, either, tol, world, faces, posed):
+    """``{B: [patch]}``: the patches of every body B of the pairs ``(b, a)`` (positions into ``ids``; ``either``:
+    :func:`_touching`'s), from :func:`_world_bodies`' ``world, faces`` of the bodies ``posed`` where those hold
+    all of ``b`` and ``a`` (else found here)."""
+    used = np.unique(np.concatenate([b, a]))
+    if world is None or not np.isin(used, posed).all():
+        posed = used
+        world, faces = _world_bodies([scene.instances[ids[i]] for i in posed])
     row = np.full(len(ids), -1)
-    row[used] = np.arange(len(used))
-    b, a = row[both].T
-    t = (tol[both[:, 0]] + tol[both[:, 1]])[:, None]
-    oriented, box = faces[2], faces[9]
-    meet = oriented[b] & ((box[b, 0] <= box[a, 1] + t) & (box[a, 0] <= box[b, 1] + t)).all(axis=1)    # boxes meet
-    b, a, t = b[meet], a[meet], t[meet]
-    # B within A's box may rest inside A's closed part, its face on A's with the same outward normal: a box on
-    # the floor of a room (a closed box wound inwards, turned outwards by _outward) read no contact, its floor
-    # under the box's edge AO up to 0.59 (Embree 0). Where A lies in B's part instead (B the room), B's box is not
-    # within A's: B's face (the room's floor) is not closed in by A
-    inner = ((box[b, 0] >= box[a, 0] - t) & (box[b, 1] <= box[a, 1] + t)).all(axis=1)
-    hit_all = _touching(faces, np.stack([b, a], axis=1), tol[used], ~oriented[a] | inner)
+    row[posed] = np.arange(len(posed))
+    hit_all = _touching(faces, np.stack([row[b], row[a]], axis=1), tol[posed], either)
     first, nface = faces[5:7]
     got = []                                            # (body, inward normal, offset, its faces' numbers)
-    for i in b[np.sort(np.unique(b, return_index=True)[1])]:      # in the order the bodies were first met
+    for i in row[b][np.sort(np.unique(b, return_index=True)[1])]:
         s = slice(first[i], first[i] + nface[i])
         hit, tri_b, n_b = hit_all[s], faces[0][s], faces[1][s]
         while hit.any():                                # one plane at a time
             n = -n_b[np.argmax(hit)]
             d = float(tri_b[np.argmax(hit), 0] @ n)
-            same = hit & (-n_b @ n >= FACING) & (np.abs(tri_b @ n - d) <= tol[used[i]]).all(axis=1)
+            same = hit & (-n_b @ n >= FACING) & (np.abs(tri_b @ n - d) <= tol[posed[i]]).all(axis=1)
             hit &= ~same
             got.append((i, n, d, np.flatnonzero(same)))
-    if got:
-        out.extend(_planes(got, world, faces[0], first, tol[used]))
-    held["bodies"] = out
-    return out
+    found = {int(k): [] for k in np.unique(b)}
+    for g, patch in zip(got, _planes(got, world, faces[0], first, tol[posed]) if got else ()):
+        found[int(posed[g[0]])].append(patch)
+    return found
 
 
 def _planes(got, world, tri, first, tol):

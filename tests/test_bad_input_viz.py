@@ -255,3 +255,11 @@ def test_a_screenshot_that_fails_half_way_leaves_the_earlier_image_and_no_partia
     assert info.value.filename == str(out)
     assert out.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["frame.png"]
+
+
+@pytest.mark.parametrize("size", [(np.nan, 300), (640.5, 480), ("wide", 480), (640, np.inf), None])
+def test_make_plotter_names_a_window_size_that_is_no_two_whole_numbers(size):
+    """Was: NaN gave "cannot convert float NaN to integer", infinity an OverflowError, text "invalid literal
+    for int()", None a TypeError, and 640.5 opened a 640-wide window; each now gets make_plotter's message."""
+    with pytest.raises(ValueError, match="window_size must be"):
+        viz.make_plotter(window_size=size, off_screen=True)

@@ -121,8 +121,11 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
         pass ``--screenshot``, or ``off_screen=True``), or no off-screen
         backend (see :func:`configure_offscreen`).
     """
-    size = tuple(int(v) for v in np.asarray(window_size).reshape(-1))
-    if len(size) != 2 or min(size) < 16 or max(size) > MAX_WINDOW_SIDE:
+    try:
+        size = np.asarray(window_size, np.float64).reshape(-1)
+    except (TypeError, ValueError):                 # text, objects: the message below, not NumPy's
+        size = np.zeros(0)
+    if len(size) != 2 or not (size == np.round(size)).all() or min(size) < 16 or max(size) > MAX_WINDOW_SIDE:
         raise ValueError(f"window_size must be (width, height) with both in 16..{MAX_WINDOW_SIDE}, "
                          f"got {window_size!r}")
     pv = _pv()
@@ -132,6 +135,7 @@ def make_plotter(shape=(1, 1), window_size=(1024, 768), *, off_screen: bool = Fa
     elif not _has_display():
         raise RuntimeError("no display ($DISPLAY is unset): pass --screenshot out.png to render "
                            "off screen into a file (make_plotter(off_screen=True) in Python)")
+    size = tuple(int(v) for v in size)
     kw = {}
     if groups is not None:
         kw["groups"] = groups

@@ -24,7 +24,9 @@ def atomic_path(path):
     FileNotFoundError naming it, before anything is written. A symbolic link
     is written through (the file it names is replaced); a path that exists
     but is no regular file (a folder, a device, a FIFO) is a FileExistsError.
-    A file replaced keeps its permission bits.
+    A file this process may not write (a read-only file, mode 0444 for a user) is a
+    PermissionError before anything is written, as opening it for writing would be, and is
+    left as it was. A file replaced keeps its permission bits.
     """
     path = Path(os.fspath(path))
     suffix = path.suffix                # the format asked for, whatever the name a link leads to
@@ -35,6 +37,9 @@ def atomic_path(path):
             raise OSError(errno.ELOOP, "too many levels of symbolic links", str(path)) from None
     if path.exists() and not path.is_file():
         raise FileExistsError(errno.EEXIST, "not a regular file, which a write would replace", str(path))
+    if path.exists() and not os.access(path, os.W_OK):     # the rename would replace it all the same
+        raise PermissionError(errno.EACCES, "no permission to write this file (read-only); left as it was",
+                              str(path))
     if not path.parent.is_dir():
         raise FileNotFoundError(errno.ENOENT, f"no folder {str(path.parent)!r} to write into", str(path))
     tmp = path.parent / _temporary_name(path, suffix)

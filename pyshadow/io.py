@@ -254,7 +254,8 @@ def write_image(path, array) -> None:
     FileNotFoundError
         The directory does not exist.
     PermissionError
-        No permission to write in the directory (OSError ``EROFS``: a
+        No permission to write in the directory, or to write the existing
+        file (a read-only file is left as it was; OSError ``EROFS``: a
         read-only file system).
     OSError
         OpenImageIO failed to write (no file is left behind); a PNG or JPEG
@@ -366,6 +367,8 @@ def read_image(path) -> np.ndarray:
     ------
     FileNotFoundError
         No file at ``path``.
+    PermissionError
+        No permission to read the file.
     ValueError
         ``path`` is not a file or OpenImageIO cannot read it (the message
         names the path and OpenImageIO's reason), or it is a truncated JPEG
@@ -387,6 +390,8 @@ def read_image(path) -> np.ndarray:
         raise FileNotFoundError(errno.ENOENT, "no such image file", str(path))
     if not path.is_file():
         raise ValueError(f"cannot read image {path}: not a file")
+    with open(path, "rb"):      # the system's PermissionError, not OpenImageIO's "Could not open" as a ValueError
+        pass
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)
     inp = oiio.ImageInput.open(str(path), config)

@@ -222,7 +222,9 @@ def body_patches(scene):
     last = _SEARCHED.get(scene)
     if last is not None and (last["mesh_id"] is not held["mesh_id"] or not np.array_equal(last["ids"], ids)):
         last = None                                     # other instances or meshes: everything searched anew
-    moved = np.ones(len(ids), bool) if last is None else (T != last["T"]).any(axis=(1, 2))
+    # moved: any bit of the pose (-0.0 is not 0.0: the patches' bits follow the pose's)
+    moved = np.ones(len(ids), bool) if last is None else \
+        (T.view(np.uint64) != last["T"].view(np.uint64)).any(axis=(1, 2))
     used = np.unique(both)
     if last is None:
         box, oriented, searched = np.zeros((len(ids), 2, 3)), np.zeros(len(ids), bool), np.zeros(len(ids), bool)

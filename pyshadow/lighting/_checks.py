@@ -103,8 +103,10 @@ def rgb_channels(path) -> None:
 
 
 def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
-    """A unit 3-vector as float64; zero, non-finite or non-unit vectors raise ValueError."""
+    """A unit 3-vector as float64; zero, non-finite or non-unit vectors raise ValueError. ``tol`` is widened
+    to the rounding of a low-precision float input (:func:`_unit_tol`)."""
     v = _floats(d, name, "a 3-vector")
+    tol = _unit_tol(d, tol)
     if v.shape != (3,):
         raise ValueError(f"{name}: expected a 3-vector (got shape {v.shape})")
     if not np.isfinite(v).all():
@@ -118,8 +120,9 @@ def unit_direction(d, name: str, tol: float = 1e-6) -> np.ndarray:
 
 
 def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
-    """An (N, 3) (or (3,)) array of unit vectors as float64 (N, 3)."""
+    """An (N, 3) (or (3,)) array of unit vectors as float64 (N, 3); ``tol`` as in :func:`unit_direction`."""
     v = _floats(a, name, "rows of 3 numbers, shape (N, 3) or (3,)")
+    tol = _unit_tol(a, tol)
     v2 = v.reshape(1, 3) if v.shape == (3,) else v
     if v2.ndim != 2 or v2.shape[1] != 3:
         raise ValueError(f"{name}: expected shape (N, 3) or (3,) (got shape {v.shape})")
@@ -131,6 +134,15 @@ def unit_rows(a, name: str, tol: float = 1e-6) -> np.ndarray:
         raise ValueError(f"{name}: {int((dev > tol).sum())} rows are not unit vectors (row {k} has "
                          f"length {np.linalg.norm(v2[k]):.9g}, allowed 1 +- {tol:g})")
     return v2
+
+
+def _unit_tol(x, tol: float) -> float:
+    """``tol``, or 4 machine epsilons of ``x``'s float dtype where more: a float16 unit vector's length is 1 only
+    to its rounding (a float16 [0.48, 0.8, 0.36] has length 0.99987; it was refused at 1 +- 1e-6)."""
+    dt = getattr(x, "dtype", None)
+    if dt is not None and np.issubdtype(dt, np.floating):
+        return max(tol, 4.0 * float(np.finfo(dt).eps))
+    return tol
 
 
 def _floats(x, name: str, what: str) -> np.ndarray:

@@ -15,7 +15,10 @@ view, clipped to that band as a G-buffer's (:func:`pyshadow.gbuffer.raster_trian
 a ground quad cut at the near plane keeps corners 1e-6 of the scene's size
 from the light, whose float32 screen coordinates reach 1e7 texels, and the
 raster's float32 edge functions there misplaced depths (up to 13 % off over
-5 % of a box-on-the-ground's texels at 256^2, and texels left empty).
+5 % of a box-on-the-ground's texels at 256^2, and texels left empty). A vertex in view nearer than the
+G-buffer's near plane where no face near the light has an area in view (a lamp at a box's corner or at the
+centre of a fan of triangles, whose faces it sees edge-on, or at a vertex no face uses) took the G-buffer's
+route and met its refusal; the triangles are then given as where some are near.
 """
 from __future__ import annotations
 
@@ -53,9 +56,11 @@ def face_triangles(items, camera) -> np.ndarray:
     """
     from ..gbuffer import _clip_near, clip_polygon, gbuffer_triangles, raster_triangles
 
-    tri = [((np.asarray(m.vertices, np.float64) @ T[:3, :3].T + T[:3, 3] - camera.eye) @ camera.rotation.T)
-           [np.asarray(m.faces)] for m, T in items]
+    cam = [(np.asarray(m.vertices, np.float64) @ T[:3, :3].T + T[:3, 3] - camera.eye) @ camera.rotation.T
+           for m, T in items]
+    tri = [c[np.asarray(m.faces)] for c, (m, _) in zip(cam, items)]
     tri = np.concatenate(tri).reshape(-1, 3, 3) if tri else np.zeros((0, 3, 3))
+    cam = np.concatenate(cam).reshape(-1, 3) if cam else np.zeros((0, 3))
     far = float(np.abs(tri).max()) if len(tri) else 0.0
     near, z = max(1e-6 * far, 1e-30), tri[:, :, 2]
     view = [(np.array([0.0, 0.0, -1.0]), -max(NEAR_MIN * far, 1e-30))]     # first: every corner then has z > 0
@@ -67,7 +72,11 @@ def face_triangles(items, camera) -> np.ndarray:
         if part and _has_area(part):
             close.append(i)
             pieces += [np.stack([poly[0], poly[k], poly[k + 1]]) for k in range(1, len(poly) - 1)]
-    if not close:
+    # a vertex in view nearer than the G-buffer's near plane (1e-6 of the farthest vertex in view, unreferenced ones
+    # too) is refused there: a lamp at a box's corner (its faces there seen edge-on, none close) or at a vertex
+    # no face uses. A shadow map's such vertex hides nothing: the triangles as when some are close
+    c = cam[(cam[:, 2] > 0) & (cam[:, 2] < max(1e-6 * float(np.abs(cam).max(initial=0.0)), 1e-30))]
+    if not close and not (np.abs(c[:, :2]) <= GUARD * c[:, 2:]).all(axis=1).any():
         return raster_triangles(gbuffer_triangles(items, camera)[0], camera)[0]
     rest = raster_triangles(_clip_near(np.delete(tri, close, axis=0), near)[0], camera)[0]
     return np.concatenate([rest, np.array(pieces).reshape(-1, 3, 3)])

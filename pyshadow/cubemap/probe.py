@@ -51,6 +51,7 @@ _FRAMES = face_frames()
 
 def face_camera(centre, face: int, resolution: int) -> Camera:
     """The square 90-degree :class:`pyshadow.Camera` of face ``face`` (0..5) at ``centre``."""
+    face = check_int(face, "face", 0, 5)        # (-1 was face 5's camera, 1.0 an IndexError)
     return axis_camera(centre, FACE_FORWARD[face], _UP_HINT[face], resolution)
 
 
@@ -268,6 +269,10 @@ class CubeProbe:
         """Unit world direction of the centre ray of flat texels ``index``, (K, 3) float64."""
         R = self.resolution
         index = np.asarray(index, dtype=np.int64)
+        if index.size and not (0 <= index.min() and index.max() < 6 * R * R):
+            # (-1 read the last texel, 6 R^2 failed with 'index 6 is out of bounds for axis 0 with size 6')
+            raise IndexError(f"texel index out of range 0..{6 * R * R - 1} (6 faces of {R} x {R}): "
+                             f"{int(index.min())}..{int(index.max())}")
         f, rc = np.divmod(index, R * R)
         row, col = np.divmod(rc, R)
         x = 2.0 * (col + 0.5) / R - 1.0

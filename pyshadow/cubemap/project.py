@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validate import check_int, nonzero, rows3
+from .._validate import check_int, nonzero, rows3, squared_lengths, unit_normals
 from ..lighting._checks import _number, flag
 from ..sampling import Sampling
 from .estimators import ESTIMATORS, GRAZING, horizon_defaults, march_defaults, texel_ao
@@ -52,7 +52,7 @@ def quality(points, normals, centre, max_distance) -> np.ndarray:
     Parameters
     ----------
     points, normals : ndarray, shape (K, 3), float
-        World points and unit normals (facing the viewer).
+        World points and normals (facing the viewer; normalised here, a zero normal faces no probe).
     centre : array_like, shape (3,)
     max_distance : float
         ``D`` of ``Q_a``, world units.
@@ -65,10 +65,13 @@ def quality(points, normals, centre, max_distance) -> np.ndarray:
     max_distance = march_defaults(max_distance)["max_distance"]
     # (normals of other rows were broadcast against the points; NaN gave NaN, outside [0, 1])
     p = rows3(points, "points")
-    n = rows3(normals, "normals", len(p))
+    n = rows3(normals, "normals", len(p)).copy()          # (normalised below: not the caller's array)
     c = np.asarray(centre)
     if c.shape != (3,) or c.dtype.kind not in "iuf" or not np.isfinite(c).all():
         raise ValueError(f"centre must be 3 finite numbers, got {centre!r}")
+    odd = np.flatnonzero((np.abs(squared_lengths(n) - 1.0) > 2e-6) & n.any(axis=1))
+    if len(odd):        # (a normal of length 10 gave 10 Q, outside [0, 1]); unit rows are kept as given
+        n[odd] = unit_normals(n[odd], len(odd))
     u = p - c.astype(np.float64)
     r = np.maximum(np.linalg.norm(u, axis=1), 1e-300)
     qa = max_distance / (max_distance + r)
@@ -310,6 +313,8 @@ class CubeMapAO:
         if estimator == "horizon":
             horizon_defaults(**options)         # (raised only after the first probe's render)
         _check_resolution(resolution)
+        if sampling is not None and not isinstance(sampling, Sampling):     # (refused after the first render)
+            raise TypeError(f"sampling must be a pyshadow.Sampling, e.g. pyshadow.Sampling(36), got {sampling!r}")
         device = flag(device, "device")         # "no" was true: the device ran
         self.scene, self.resolution, self.estimator = scene, int(resolution), estimator
         self.sampling, self.device, self.ground_size, self.options = sampling, device, ground_size, options
@@ -580,7 +585,7 @@ def seed_box_filter(ao, depth, normal, *, rule: str = "seed", size: int = 7, dep
     a = ao.astype(np.float64)
     num = np.zeros((H, W))
     cnt = np.zeros((H, W))
-    half = min(size // 2, max(H, W) - 1)   # farther offsets read only the padding: they count for no pixel
+    half = max(min(size // 2, max(H, W) - 1), 0)   # farther offsets read only padding (empty: -1 failed np.pad)
     pad = lambda x, v: np.pad(x, half, constant_values=v)  # noqa: E731
     zp, hp, ap = pad(z, np.inf), pad(hsh, np.inf), pad(a, np.nan)
     for dy in range(-half, half + 1):

@@ -64,7 +64,10 @@ def _backend(where, lookup, backend, filtered, stacklevel=4):
 #: The fields of an :class:`Instance` its scene's kept tables are derived from (see ``Instance.__setattr__``).
 _HELD_FIELDS = frozenset({"transform", "casts", "csm", "mesh"})
 _PLACED_ONLY = ("Scene.instances is read-only: Scene.add places an object and Scene.set_transform moves one "
-                "(the queries keep tables derived from the list; an edit would leave them answering for the old one)")
+                "(the queries keep tables derived from the list; an edit would leave them answering for the old one). "
+                "A scene has no removal: to drop an object, add the others to a new Scene "
+                "(new.add(inst.csm, inst.transform, mesh=inst.mesh) reuses a caster's CSM; a receiver: "
+                "new.add(inst.mesh, inst.transform, casts=False))")
 
 
 class _Placed(list):
@@ -215,7 +218,8 @@ class Scene:
             Object-to-world transform: rotation (5 decimals suffice: placed as
             the nearest), translation, uniform positive scale. Default identity.
             A stack places the object k times at once (one CSM, one check of
-            the stack: :func:`pyshadow.scene_moves.add_instances`).
+            the stack: :func:`pyshadow.scene_moves.add_instances`); an empty
+            one (``[]``) places none.
         casts : bool, optional
         mesh : trimesh.Trimesh, optional
             The mesh of a CSM given as ``obj``, needed to draw it
@@ -231,7 +235,7 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
-        if np.ndim(transform) == 3:
+        if np.ndim(transform) == 3 or np.shape(transform) == (0,):     # a stack, or no transforms ([])
             return add_instances(self, transform, lambda T: _new_instance(self, obj, T, casts, mesh, max_error, lookup))
         T = held_transform(np.eye(4) if transform is None else transform)
         list.append(self._placed, _new_instance(self, obj, T, casts, mesh, max_error, lookup))

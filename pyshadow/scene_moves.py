@@ -78,7 +78,8 @@ def add_instances(scene, transforms, place) -> np.ndarray:
     ----------
     scene : pyshadow.Scene
     transforms : array_like, shape (k, 4, 4)
-        Object-to-world rigid transforms (world units), as ``Scene.add`` takes one.
+        Object-to-world rigid transforms (world units), as ``Scene.add`` takes one; an empty
+        sequence (shape (0,), ``[]``) is k = 0: none placed, nothing built.
     place : callable
         ``place(T)`` -> the :class:`pyshadow.scene.Instance` of the object at the held transform ``T``.
 
@@ -87,6 +88,8 @@ def add_instances(scene, transforms, place) -> np.ndarray:
     ndarray, shape (k,), int64
         The new instances' ids, in the order of ``transforms``.
     """
+    if np.shape(transforms) == (0,):            # a list of no poses (a level without this object) was refused as
+        transforms = np.zeros((0, 4, 4))        # "transform must be a 4x4 matrix, got shape (0,)"
     T = check_transforms(transforms, rigid=True, label=lambda k: f"transforms[{k[0]}]")
     if T.ndim != 3:
         raise ValueError(f"transforms must have shape (k, 4, 4), got {T.shape}")

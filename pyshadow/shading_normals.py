@@ -65,6 +65,7 @@ DEFAULT_CREASE_ANGLE = math.radians(30.0)
 #: Relative tolerance of the crease angle: faces meeting at up to ``crease_angle * (1 + CREASE_RTOL)``
 #: are smoothed, so that a dihedral angle equal to the crease angle (a 12-sided prism at the default 30
 #: degrees) is decided alike at every edge and in every orientation, not by the rounding of the normals.
+#: Never up to a right angle (:func:`_cos_crease`).
 CREASE_RTOL = 2.0**-20
 # pairs of corners at a vertex taken at once by corner_normals (about 150 bytes each)
 _PAIRS = 1 << 18
@@ -90,6 +91,14 @@ def check_crease_angle(angle) -> float:
         raise ValueError(f"crease_angle: expected radians in [0, pi/2) (got {angle!r}); at pi/2 or more a "
                          f"shading normal could turn away from its face")
     return a
+
+
+def _cos_crease(crease: float) -> float:
+    """The least cosine of smoothed faces' normals: of ``crease * (1 + CREASE_RTOL)``, below a right angle
+    (the float below pi/2: cosine 2.8e-16 > 0). Within 8.6e-5 degrees of 90 the tolerance reached 90
+    degrees: a cube's faces (normals at 90, cosine 0) were smoothed together at ``radians(89.99995)``
+    (corner normals 54.7 degrees off their faces), and the corners of a zero-area face (normal 0) were not 0."""
+    return math.cos(min(crease * (1.0 + CREASE_RTOL), math.nextafter(math.pi / 2, 0.0)))
 
 
 def _vertices(mesh) -> np.ndarray:
@@ -193,7 +202,7 @@ def corner_normals(mesh, crease_angle: float = DEFAULT_CREASE_ANGLE, *, return_s
         fn[_slivers(v, faces)] = 0.0            # as a face of no area: excluded, its own corners 0
         weight = _corner_angles(v, faces).reshape(-1)
         # a dihedral angle equal to the crease angle but for rounding (a 12-sided prism at 30 degrees) is within it
-        acc, differ = _neighbour_sums(fn, weight, faces.reshape(-1), len(v), math.cos(crease * (1.0 + CREASE_RTOL)))
+        acc, differ = _neighbour_sums(fn, weight, faces.reshape(-1), len(v), _cos_crease(crease))
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         own = np.repeat(fn, 3, axis=0)
         out = np.where(length > 0, acc / np.where(length > 0, length, 1.0), own).reshape(-1, 3, 3)

@@ -64,11 +64,32 @@ def concave_vertices(points, faces):
         are left out.
     normals : ndarray, shape (n, M, 3), float64
         Unit normals of the faces around each, padded with zero rows.
+
+    Raises
+    ------
+    ValueError
+        Arrays not of shape (n, 3), or a vertex index outside ``[0, V)``.
+    TypeError
+        Points that are not real numbers, or faces that are not integers.
     """
-    P = np.asarray(points, np.float64).reshape(-1, 3)
-    F = np.asarray(faces, np.int64).reshape(-1, 3)
+    P = _rows(points, "points", "fiu").astype(np.float64)
+    F = _rows(faces, "faces", "iu").astype(np.int64)
+    if F.size and (F.min() < 0 or F.max() >= len(P)):         # a negative index read a vertex from the end
+        raise ValueError(f"faces: vertex indices must be in [0, {len(P)}) (got {F.min()} to {F.max()})")
     index, ids = _concave_stars(P, F)
     return index, _star_normals(P, F, ids)
+
+
+def _rows(a, name: str, kinds: str) -> np.ndarray:
+    """``a`` as an (n, 3) array of a dtype kind in ``kinds`` (any when empty), or a ValueError/TypeError
+    naming it: a reshape to (n, 3) read quads (F, 4) as other triangles (a room's corners: none found) and
+    (V, 2) points as other points, silently, and truncated float indices."""
+    a = np.asarray(a)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name} must have shape (n, 3), got {a.shape}")
+    if a.size and a.dtype.kind not in kinds:
+        raise TypeError(f"{name} must be {'integers' if kinds == 'iu' else 'real numbers'}, got dtype {a.dtype}")
+    return a
 
 
 def _star_normals(P, F, ids):

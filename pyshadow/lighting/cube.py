@@ -202,7 +202,7 @@ def texel_moments(n: int, order: int = 4, *, block: int = 64):
     order : int
         Gauss points a texel side, >= 1.
     block : int
-        Texel rows per yielded block (memory O(block n order^2)).
+        Texel rows per yielded block (memory O(block n order^2)), >= 1.
 
     Yields
     ------
@@ -214,7 +214,7 @@ def texel_moments(n: int, order: int = 4, *, block: int = 64):
         ``integral d d^T dOmega`` flattened row-major (symmetric, trace m0);
         d in face coordinates (components along c, r, dn).
     """
-    n, order = check_int(n, "n", 1), check_int(order, "order", 1)
+    n, order, block = check_int(n, "n", 1), check_int(order, "order", 1), check_int(block, "block", 1)
     exact, ones = face_solid_angles(n)[0], np.ones(order)
     for r0 in range(0, n, block):
         r1 = min(n, r0 + block)
@@ -240,7 +240,9 @@ def cube_basis_integrals(n: int, basis, order: int = 4, *, block: int = 64):
     polynomial of the unit direction, smooth over a texel, so 4 x 4 points are
     accurate to about 1e-11 relative at N = 16 and better above; the weights
     of each texel are then scaled to sum to its exact solid angle, so that
-    ``B[..., 0] = Y_0 Omega`` holds to rounding.
+    ``B[..., 0] = Y_0 Omega`` holds to rounding. ``n``, ``order`` and ``block``
+    are ints >= 1 (TypeError or ValueError naming the argument otherwise: a
+    ``block`` of 0 or below yielded no texel at all, so a caller's sums stayed 0).
 
     Yields
     ------
@@ -248,6 +250,7 @@ def cube_basis_integrals(n: int, basis, order: int = 4, *, block: int = 64):
         Blocks of at most ``block`` texel rows, so that memory stays
         O(block n order^2) for any face size.
     """
+    n, order, block = check_int(n, "n", 1), check_int(order, "order", 1), check_int(block, "block", 1)
     exact = face_solid_angles(n)[0]
     for r0 in range(0, n, block):
         r1 = min(n, r0 + block)

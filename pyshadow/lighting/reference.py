@@ -13,7 +13,9 @@ sky
 sun
     :func:`pyshadow.lighting.shade.sun_radiance` with ``sun_samples``
     directions spread over the sun's disc (default 1024; a sun of angular
-    radius 0 is one direction whatever the count).
+    radius 0 is one direction whatever the count), plus the local lights
+    (:func:`pyshadow.lighting.local.lights_radiance`), sphere and area lights
+    with ``sun_samples`` points each.
 
 Because the code path is that of ``shade(..., backend="embree")`` in mode
 "sampled", a call with ``samples = S``, the same sampling strategy, pattern
@@ -59,8 +61,9 @@ def reference_radiance(scene, points, normals, lighting: Lighting, *, samples: i
     samples : int, optional
         Cosine-weighted sky directions per point, 1 .. 4096.
     sun_samples : int, optional
-        Directions over the sun's disc, 1 .. 1024 (used when its angular
-        radius is > 0).
+        Directions over the sun's disc (used when its angular radius is
+        > 0) and points over each sphere and area light of
+        :attr:`Lighting.lights`, 1 .. 1024.
     sampling : pyshadow.Sampling, optional
         Strategy, pattern count and seed of the sky directions (its own
         sample count is replaced by ``samples``); default ``Sampling()``'s.

@@ -162,8 +162,14 @@ def _sh_of_moments(m0, m1, m2) -> np.ndarray:
 
 
 def _irradiance(L, normals) -> np.ndarray:
-    """:func:`irradiance_sh` unchecked: ``L`` (9, C) float64, any normals (zero rows give band 0)."""
-    return sh_basis(normals) @ (KERNEL_BANDS[BAND_OF][:, None] * L)
+    """:func:`irradiance_sh` unchecked: ``L`` (9, C) float64, any normals (zero rows give band 0,
+    ``pi Y_0 L_0``: the quadratic form there also holds ``-A_2 0.315392 L_6``, as ``Y_6(0) = -0.315392``)."""
+    E = sh_basis(normals) @ (KERNEL_BANDS[BAND_OF][:, None] * L)
+    n = np.asarray(normals)
+    zero = (n[..., 0] == 0) & (n[..., 1] == 0) & (n[..., 2] == 0)       # 5 ms on 2e6 rows (any(axis=-1): 28)
+    if np.any(zero):
+        E[zero] = KERNEL_BANDS[0] * _C00 * L[0]
+    return E
 
 
 def latlong_basis_integrals(height: int, width: int):

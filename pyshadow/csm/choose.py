@@ -69,6 +69,14 @@ def _max_error(v) -> float:
     return f
 
 
+def _check_seed(seed) -> int:
+    """The verification's seed: ``seed + 1`` as a Python int (a NumPy int32 at its top overflowed), past
+    :data:`pyshadow.sampling.MAX_SEED` wrapping to 0 (``seed`` itself was a valid seed, refused as seed + 1)."""
+    from ..sampling import MAX_SEED
+
+    return (int(seed) + 1) % (MAX_SEED + 1)
+
+
 def _max_bytes(v) -> int:
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
         raise TypeError(f"max_bytes must be a number of bytes, got {v!r}")
@@ -150,8 +158,8 @@ def _nearest_target(tried, need) -> int:
     equals."""
     def shortfall(j, value=lambda p: p["disagreement"]):
         p = tried[j]["predicted"]
-        want = need[p["lookup"]]
-        return value(p) / want if want > 0 else math.inf
+        # a target narrowed to 0 (the model predicted 0 and missed): ranked still by the disagreement, not all inf
+        return value(p) / max(need[p["lookup"]], np.finfo(np.float64).tiny)
     todo = [j for j, t in enumerate(tried) if "bytes" not in t]
     best = min(todo, key=lambda j: (shortfall(j), -j))
     reach = min(shortfall(best, _upper), NEAR_ENOUGH * shortfall(best))
@@ -262,7 +270,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         up the candidates where it misses.
     points, samples, near, seed : int
         The rays of :func:`~pyshadow.csm.error_model.rays_for` (the model's
-        with ``seed``, the verification's with ``seed + 1``).
+        with ``seed``, the verification's with ``seed + 1``, 0 past the largest seed).
     progress : bool
     candidates : sequence of (theta, phi, resolution)
         Tried by increasing predicted size (:func:`size_model`); those above
@@ -309,7 +317,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     rays = rays_for(mesh, seed=seed, **draw)
-    check = rays_for(mesh, seed=seed + 1, **draw) if verify else None
+    check = rays_for(mesh, seed=_check_seed(seed), **draw) if verify else None
     built = {}
     size, size_info = size_model(mesh, depth_bits, layers, built)
     if max_bytes is not None:
@@ -401,8 +409,8 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     Raises
     ------
     ValueError
-        If no candidate fits (the message gives the smallest predicted size);
-        ``max_bytes`` below 1 or not finite.
+        If no candidate fits (the message gives the smallest predicted size, or, where those predicted to
+        fit were built larger, the smallest built); ``max_bytes`` below 1 or not finite.
     TypeError
         ``max_bytes`` not a real number (a bool or a string).
     """
@@ -431,10 +439,15 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
             break
     if csm is None:
         small = min(t["predicted_bytes"] for t in tried)
-        raise ValueError(f"no candidate CSM fits in {max_bytes} bytes (the smallest is predicted at "
-                         f"{small:.0f} bytes)")
+        why = f"the smallest is predicted at {small:.0f} bytes"
+        if fits:        # predicted to fit (the prediction is within about 15 %), built larger: not 'predicted above'
+            least = min(fits, key=lambda t: t["bytes"])
+            why = (f"{len(fits)} candidate{'s' if len(fits) > 1 else ''} predicted to fit "
+                   f"{'were' if len(fits) > 1 else 'was'} built larger; the smallest built, "
+                   f"{least['predicted']['layout']}, takes {least['bytes']} bytes")
+        raise ValueError(f"no candidate CSM fits in {max_bytes} bytes ({why})")
     if verify:
-        entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=seed + 1, **draw), lookup)
+        entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=_check_seed(seed), **draw), lookup)
     p = entry["predicted"]
     for t in tried:
         t.pop("candidate")

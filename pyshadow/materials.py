@@ -9,7 +9,11 @@ Vertices, faces and :func:`pyshadow.mesh_hash` are exactly those of a load
 without it, so CSMs and caches do not change. A scene (several meshes, as
 a GLB or a multi-material OBJ loads) gets one visual per mesh, joined per
 face corner in the order its meshes are concatenated (:func:`join_visuals`):
-each part keeps its own colours, material colour and texture.
+each part keeps its own colours, material colour and texture. The visual
+records the faces it was attached to (:attr:`MeshVisual.faces`), so
+:func:`visual_of` follows trimesh where it re-orders their corners
+(``invert()``, a mirroring transform, ``trimesh.repair.fix_winding``;
+:mod:`pyshadow.visual_corners`).
 
 Colour convention: linear RGB in [0, 1]; alpha (glTF's ``alphaMode``, ``alphaCutoff``: a MASK
 cutout is no hole) and glTF's emissive colour are not used. Texture images
@@ -55,6 +59,7 @@ from functools import lru_cache
 import numpy as np
 
 from .gltf_materials import DEFAULT_SAMPLER, primitive_details, sample
+from .visual_corners import aligned_visual, barycentrics
 
 __all__ = ["MeshVisual", "VISUAL_KEY", "GLTF_SUFFIXES", "is_gltf", "mesh_visual", "join_visuals", "visual_of",
            "point_colours", "surface_colours", "barycentrics"]
@@ -97,6 +102,12 @@ class MeshVisual:
         (:data:`pyshadow.gltf_materials.DEFAULT_SAMPLER`: repeat, bilinear).
     samplers : tuple of tuple
         With ``textures``: the sampler of each image.
+    faces : ndarray, shape (T, 3), int64, or None
+        The mesh's faces (vertex ids) the rows are aligned with, recorded
+        where :mod:`pyshadow` attaches it to a mesh (:meth:`attached_to`);
+        :func:`visual_of` re-orders the corners of the faces whose corners
+        trimesh re-ordered since (:func:`pyshadow.visual_corners.aligned_visual`).
+        None: not recorded (only the number of faces is checked).
     """
 
     colours: np.ndarray | None
@@ -108,23 +119,31 @@ class MeshVisual:
     texture_index: np.ndarray | None = None
     sampler: tuple = DEFAULT_SAMPLER
     samplers: tuple = ()
+    faces: np.ndarray | None = None
     # which of colours, uv and texture hold only finite values: found once per visual (a copy made by
     # take or with_fans finds its own), not on every point_colours call
     _finite: dict = field(default_factory=dict, init=False, repr=False)
+    # [faces, aligned visual or None: itself] of the last faces visual_of aligned it to (visual_corners)
+    _aligned: list = field(default_factory=list, init=False, repr=False)
 
     def take(self, faces) -> "MeshVisual":
         """The attributes of the faces ``faces`` (index or boolean mask), in that order."""
         pick = (lambda a: None if a is None else np.ascontiguousarray(a[faces]))
-        return replace(self, colours=pick(self.colours), uv=pick(self.uv), texture_index=pick(self.texture_index))
+        return replace(self, colours=pick(self.colours), uv=pick(self.uv), texture_index=pick(self.texture_index),
+                       faces=pick(self.faces))
+
+    def attached_to(self, faces) -> "MeshVisual":
+        """This visual with ``faces`` (T, 3) recorded as the faces of the mesh it is kept on (:attr:`faces`)."""
+        return replace(self, faces=np.array(faces, dtype=np.int64).reshape(-1, 3))
 
     def reversed(self) -> "MeshVisual":
         """The attributes of the faces with their corners in reverse order (trimesh's ``fliplr`` of faces
         that a mirroring transform reverses)."""
         rev = (lambda a: None if a is None else np.ascontiguousarray(a[:, ::-1]))
-        return replace(self, colours=rev(self.colours), uv=rev(self.uv))
+        return replace(self, colours=rev(self.colours), uv=rev(self.uv), faces=rev(self.faces))
 
     def with_fans(self, faces: np.ndarray, loops) -> "MeshVisual":
-        """Extended by the fan faces :func:`pyshadow.mesh.close_holes` appends, in its order.
+        """Extended by the fan faces :func:`pyshadow.mesh.close_holes` appends, in its order (no :attr:`faces`).
 
         The fan face ``(b, a, centre)`` of the boundary edge ``(a, b)`` of face
         ``f`` takes ``f``'s corner attributes at ``a`` and ``b`` (and ``f``'s
@@ -151,7 +170,7 @@ class MeshVisual:
                 parts[name].append(np.stack([at_b, at_a, centre], axis=1).astype(np.float32))
         grow = (lambda a, extra: a if a is None or not extra else np.concatenate([a, *extra]))
         return replace(self, colours=grow(self.colours, parts["colours"]), uv=grow(self.uv, parts["uv"]),
-                       texture_index=grow(self.texture_index, parts["texture_index"]))
+                       texture_index=grow(self.texture_index, parts["texture_index"]), faces=None)
 
 
 def _linear(rgb, srgb: bool = True) -> np.ndarray:
@@ -406,7 +425,12 @@ def join_visuals(parts, source: str = "mesh") -> MeshVisual | None:
 
 
 def visual_of(mesh) -> MeshVisual | None:
-    """The :class:`MeshVisual` kept on ``mesh`` (``mesh.metadata[VISUAL_KEY]``), or None."""
+    """The :class:`MeshVisual` kept on ``mesh`` (``mesh.metadata[VISUAL_KEY]``), or None.
+
+    With :attr:`MeshVisual.faces` recorded, its corner attributes in the corner order of ``mesh.faces`` now
+    (after ``mesh.invert()``, a mirroring transform, ``trimesh.repair.fix_winding``: a copy re-ordered by
+    :func:`pyshadow.visual_corners.aligned_visual`); a ValueError where faces use other vertices.
+    """
     v = getattr(mesh, "metadata", {}).get(VISUAL_KEY)
     if v is None:
         return None
@@ -414,58 +438,10 @@ def visual_of(mesh) -> MeshVisual | None:
         raise TypeError(f"mesh.metadata[{VISUAL_KEY!r}] must be a pyshadow.materials.MeshVisual, "
                         f"got {type(v).__name__}")
     _check_arrays(v, f"mesh.metadata[{VISUAL_KEY!r}]")
-    if any(a is not None and len(a) != len(mesh.faces) for a in (v.colours, v.uv, v.texture_index)):
+    if any(a is not None and len(a) != len(mesh.faces) for a in (v.colours, v.uv, v.texture_index, v.faces)):
         raise ValueError(f"mesh.metadata[{VISUAL_KEY!r}] holds attributes of another mesh "
                          f"(its arrays do not have one row per face, {len(mesh.faces)})")
-    return v
-
-
-def barycentrics(points, triangles) -> np.ndarray:
-    """Barycentric coordinates of points in the plane of their triangles, (N, 3) float64.
-
-    Parameters
-    ----------
-    points : ndarray, shape (N, 3)
-        Points on (or near) the triangles, any frame.
-    triangles : ndarray, shape (N, 3, 3)
-        Corners ``a, b, c`` in the same frame.
-
-    Returns
-    -------
-    ndarray, shape (N, 3), float64
-        Weights of ``a, b, c`` for the point's projection onto the plane,
-        clamped to [0, 1] and renormalised to sum 1 (a pixel centre lies in
-        its triangle up to the G-buffer's float32 depth).
-    """
-    p = np.asarray(points, dtype=np.float64)
-    t = np.asarray(triangles, dtype=np.float64)
-    e1, e2, d = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], p - t[:, 0]
-    # each triangle scaled by a power of two to edges of about 1 (exact: the weights are those of the
-    # unscaled triangle): the Gram determinant's fourth powers of the size underflowed to 0 below about
-    # 1e-77 (every point got a's weight) and overflowed above about 1e77
-    m = np.maximum(np.abs(e1).max(axis=1, initial=0.0), np.abs(e2).max(axis=1, initial=0.0))
-    k = -np.frexp(np.where((m > 0) & (m < np.inf), m, 1.0))[1][:, None]
-    e1, e2, d = np.ldexp(e1, k), np.ldexp(e2, k), np.ldexp(d, k)
-    d11, d12, d22 = (np.einsum("ij,ij->i", x, y) for x, y in ((e1, e1), (e1, e2), (e2, e2)))
-    d1, d2 = np.einsum("ij,ij->i", d, e1), np.einsum("ij,ij->i", d, e2)
-    gram = d11 * d22 - d12 * d12
-    den = np.where(gram > 0, gram, 1.0)
-    v = (d22 * d1 - d12 * d2) / den
-    w = (d11 * d2 - d12 * d1) / den
-    # a sliver (sin^2 of its angle at a below 1e-10, the Gram determinant's weights off by up to 1e-6): that
-    # determinant cancels to noise or 0 (a point then got a's weight); |e1 x e2|^2 and the triple products
-    # lose only half as many digits
-    thin = np.flatnonzero(~(gram > 1e-10 * d11 * d22))
-    if len(thin):
-        n = np.cross(e1[thin], e2[thin])
-        nn = np.einsum("ij,ij->i", n, n)
-        ok = nn > 0
-        k, n, nn = thin[ok], n[ok], nn[ok]
-        v[k] = np.einsum("ij,ij->i", np.cross(d[k], e2[k]), n) / nn
-        w[k] = np.einsum("ij,ij->i", np.cross(e1[k], d[k]), n) / nn
-    b = np.maximum(np.column_stack([1.0 - v - w, v, w]), 0.0)
-    s = b.sum(axis=1, keepdims=True)
-    return np.where(s > 0, b / np.where(s > 0, s, 1.0), 1.0 / 3.0)
+    return aligned_visual(v, mesh, f"mesh.metadata[{VISUAL_KEY!r}]")
 
 
 def _bilinear(image, uv, sampler=DEFAULT_SAMPLER) -> np.ndarray:
@@ -526,6 +502,10 @@ def _check_arrays(visual: MeshVisual, name: str) -> None:
                              f"got shape {a.shape}")
         if tail is not None and (a.ndim != 3 or a.shape[1:] != tail):
             raise ValueError(f"{name}: {key} must have shape (T, {tail[0]}, {tail[1]}), got {a.shape}")
+    if visual.faces is not None and np.asarray(visual.faces).dtype.kind not in "iu":
+        raise TypeError(f"{name}: faces must be integer vertex ids, got dtype {np.asarray(visual.faces).dtype}")
+    if visual.faces is not None and (np.ndim(visual.faces) != 2 or np.shape(visual.faces)[1] != 3):
+        raise ValueError(f"{name}: faces must have shape (T, 3), got {np.shape(visual.faces)}")
     if visual.texture_index is not None and np.asarray(visual.texture_index).dtype.kind not in "iu":
         raise TypeError(f"{name}: texture_index must be integers, got dtype "
                         f"{np.asarray(visual.texture_index).dtype}")

@@ -243,7 +243,7 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     mesh = trimesh.Trimesh(vertices=verts, faces=faces, process=False)
     mesh.remove_unreferenced_vertices()
     if visual is not None:
-        mesh.metadata[VISUAL_KEY] = visual.take(kept)
+        mesh.metadata[VISUAL_KEY] = visual.take(kept).attached_to(mesh.faces)
     if fill_holes:
         mesh = close_holes(mesh)
     return mesh
@@ -356,7 +356,7 @@ def close_holes(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
     out = trimesh.Trimesh(vertices=np.concatenate(new_verts), faces=np.concatenate(new_faces), process=False)
     visual = visual_of(mesh)
     if visual is not None:
-        out.metadata[VISUAL_KEY] = visual.with_fans(faces, loops)
+        out.metadata[VISUAL_KEY] = visual.with_fans(faces, loops).attached_to(out.faces)
     return out
 
 

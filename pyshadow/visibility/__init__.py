@@ -89,6 +89,7 @@ def visible(scene, points, directions, *, backend="csm", bias=None, surface_ids=
     ndarray, shape (N,), bool
         True where the ray reaches the sky.
     """
+    _check_scene(scene)
     extra = {} if normals is None else {"normals": normals}
     check_bias(bias)
     finite.check_straddle(straddle)     # also without max_distance: a bad value is not silently dropped
@@ -159,6 +160,7 @@ def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, r
     """
     from ..sampling import Sampling
 
+    _check_scene(scene)
     if sampling is None:
         sampling = Sampling()
     elif not isinstance(sampling, Sampling):
@@ -171,3 +173,18 @@ def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, r
     return get_backend(backend).ambient_occlusion(scene, points, normals, sampling=sampling,
                                                   return_bent_normals=flag(return_bent_normals, "return_bent_normals"),
                                                   bias=bias, indices=indices, surface_ids=surface_ids, **extra)
+
+
+def _check_scene(scene) -> None:
+    """TypeError unless ``scene`` is a :class:`pyshadow.Scene`: the (scene, camera) pair of
+    ``pyshadow.data.default_scene()``, a CoherentShadowMap or a mesh failed in a backend with "'tuple' object
+    has no attribute 'caster_slots'" (Embree: "... 'instances'")."""
+    from ..scene import Scene
+
+    if not isinstance(scene, Scene):
+        hint = ""
+        if isinstance(scene, tuple) and scene and isinstance(scene[0], Scene):
+            hint = " (a tuple whose first item is one: pyshadow.data.default_scene() returns (scene, camera))"
+        elif type(scene).__name__ in ("CoherentShadowMap", "Trimesh"):
+            hint = " (place it in a Scene with Scene.add)"
+        raise TypeError(f"scene must be a pyshadow.Scene, got {type(scene).__name__}{hint}")

@@ -54,8 +54,8 @@ def register(name: str, backend, *, replace: bool = False) -> None:
     ----------
     name : str
     backend : VisibilityBackend
-        An object with ``visible`` and ``ambient_occlusion`` as in the
-        module docstring.
+        An object with a ``name`` (str) and ``visible`` and
+        ``ambient_occlusion`` as in the module docstring.
     replace : bool, optional
         Allow replacing a registered backend of the same name (True or
         False: the string "no" replaced it).
@@ -65,7 +65,7 @@ def register(name: str, backend, *, replace: bool = False) -> None:
         raise ValueError(f"a backend name must be a non-empty string, got {name!r}")
     _not_a_class(backend)
     if not isinstance(backend, VisibilityBackend):
-        raise TypeError(f"{backend!r} lacks visible/ambient_occlusion: not a visibility backend")
+        raise TypeError(f"{backend!r} is not a visibility backend: it lacks {_lacks(backend)}")
     if name in _REGISTRY and not replace:
         raise ValueError(f"a visibility backend named {name!r} is registered already (replace=True)")
     _REGISTRY[name] = backend
@@ -82,7 +82,20 @@ def get_backend(name):
     _not_a_class(name)
     if isinstance(name, VisibilityBackend):
         return name
+    if any(hasattr(name, a) for a in _MEMBERS):     # meant as a backend: say what it lacks
+        raise TypeError(f"visibility backend {name!r} lacks {_lacks(name)} (see pyshadow.visibility.base)")
     raise TypeError(f"visibility backend must be a name or a backend object, got {name!r}")
+
+
+#: What the protocol asks of a backend object (:class:`VisibilityBackend`).
+_MEMBERS = ("name", "visible", "ambient_occlusion")
+
+
+def _lacks(backend) -> str:
+    """The protocol's members ``backend`` lacks, in words (a backend class without ``name`` was refused as
+    lacking "visible/ambient_occlusion", which it had)."""
+    names = [f"'{a}'" for a in _MEMBERS if not hasattr(backend, a)]
+    return " and ".join([", ".join(names[:-1]), names[-1]] if len(names) > 1 else names)
 
 
 def _not_a_class(backend) -> None:

@@ -245,7 +245,8 @@ class NumPyVisibility:
     """The float64 NumPy mirror of the CSM backends, as a backend (``lookup`` as theirs)."""
 
     def __init__(self, lookup: str = "nearest"):
-        self.lookup = lookup
+        # checked here, as CSMVisibility does: any other value was named "numpy-vote", refused only when asked
+        self.lookup = check_lookup(lookup)
         self.name = "numpy" if lookup == "nearest" else "numpy-vote"
 
     def __repr__(self) -> str:

@@ -48,8 +48,11 @@ class EmbreeVisibility:
         """Embree AO; with ``max_distance`` / ``obscurance`` exact distance AO from the hit
         distances (``quadrature`` and ``straddle`` are validated, then not needed)."""
         from .. import embree
+        from ..sampling import Sampling
         from .finite import check_ao_options
 
+        if sampling is not None and not isinstance(sampling, Sampling):     # (8: AttributeError 'samples')
+            raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
         check_bias(bias)
         check_ao_options(obscurance, quadrature, straddle)
         _check_unused(scene, points, surface_ids, None)

@@ -56,12 +56,19 @@ def held_at(scene, anchor) -> dict:
     if not held["casts"].any():                 # tables of nothing: made anew (as _instance_data's), not kept
         return {}
     far = held.setdefault("far_anchors", OrderedDict())
+    sizes = held.setdefault("far_anchor_bytes", {})     # each entry's bytes, measured once it is filled
     if at in far:
         far.move_to_end(at)
+        sizes.pop(at, None)                     # the caller may add tables to it: measured again when needed
         return far[at]
-    total = sum(_bytes(v) for v in far.values())
+    # every entry filled since it was last measured (its caller's query has ended), measured once: summing
+    # them all again for each new anchor took 1.94 s of a 3.46 s render with 137 anchors (137^2 / 2 walks)
+    for k, v in far.items():
+        if k not in sizes:
+            sizes[k] = _bytes(v)
+    total = sum(sizes.values())
     while total > FAR_BYTES and far:           # the oldest out; the one asked now is kept whatever its size
-        total -= _bytes(far.popitem(last=False)[1])
+        total -= sizes.pop(far.popitem(last=False)[0])
     got = far[at] = {}
     return got
 

@@ -382,7 +382,7 @@ class CoherentShadowMap:
         return checked_search_arrays(self, wide, padded)
 
     def device_buffers(self):
-        """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept."""
+        """(offsets, soff, summary, pairs) on the device, kept while its arrays stay (:mod:`.device`)."""
         from .device import device_buffers
 
         return device_buffers(self)
@@ -430,7 +430,7 @@ class CoherentShadowMap:
         build time out (``null``), so equal CSMs give equal bytes (:mod:`pyshadow.bake`).
         The file holds the view set as its layout and parameters: a CSM built with other bases on
         that grid (``ViewSet(d, bases, "zigzag", params)``) is a ValueError, before anything is written;
-        so are arrays that :meth:`load` would refuse (CSMFormatError: :func:`pyshadow.csm.file_checks.check_arrays`).
+        so are arrays and header values (a NaN centre, ...) that :meth:`load` would refuse (CSMFormatError).
         """
         from .fileformat import save
 
@@ -446,7 +446,8 @@ class CoherentShadowMap:
         mmap : bool, optional
             Map the arrays from the file instead of reading them into memory (the file must then not
             change while mapped: :meth:`save` replaces files whole, which keeps a mapped one, but a copy
-            written over it in place is read from then on; a device upload checks the arrays again).
+            written over it in place is read from then on, and one cut shorter in place (``truncate``) ends
+            the process with SIGBUS; a device upload checks the arrays again).
 
         Raises
         ------

@@ -37,7 +37,8 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
     -------
     dict
         ``offsets`` uint32 (R*R+1); ``soff`` uint32 (R*R+1), each texel's
-        range in ``summary``; ``summary`` (iend dtype), the last i_end of
+        range in ``summary``; ``summary`` (uint16 where :attr:`iend` is uint16,
+        else uint32: the kernels' ``IEND_T``), the last i_end of
         every block of ``SEARCH_BLOCK`` segments of a list; ``pairs``
         each segment's i_end and stored depth side by side: uint32
         ``depth << 16 | iend`` or, when ``wide``, uint32 (S, 2)
@@ -56,7 +57,8 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
     texel = np.repeat(np.arange(len(lens)), nblocks)
     j = np.arange(int(soff[-1])) - soff[:-1][texel]
     last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
-    summary = iend[last]
+    # in the kernels' IEND_T (CoherentShadowMap.defines): ushort for uint16 i_end, else uint (values < D <= 2^21)
+    summary = iend[last].astype(np.uint16 if iend.dtype == np.uint16 else np.uint32, copy=False)
     if padded:
         starts = SEARCH_BLOCK * soff            # every list starts on a block boundary
         owner = np.repeat(np.arange(len(lens)), SEARCH_BLOCK * nblocks)
@@ -90,12 +92,19 @@ def _resident(csm):
 
 
 def device_buffers(csm):
-    """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept."""
+    """(offsets, soff, summary, pairs) as device buffers, uploaded once per context and kept while the CSM's
+    arrays (the same objects: an array changed in place is not seen), resolution, depth precision and view
+    set stay; any of them set anew is checked and uploaded again (the kernels are compiled for the CSM's
+    ``defines`` of the moment: buffers kept from other arrays or sizes would be read out of bounds)."""
     ctx = _cl.context()
-    if csm._device is None or csm._device[0] is not ctx:
+    held = (csm.offsets, csm.iend, csm.depth, csm.views, csm.resolution, csm.depth_bits)
+    kept = csm._device
+    if kept is None or kept[0] is not ctx or not all(
+            a is b or (isinstance(a, int) and isinstance(b, int) and a == b) for a, b in zip(kept[1], held)):
         a = csm.search_arrays()
-        csm._device = (ctx, tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs")))
-    return csm._device[1]
+        csm._device = (ctx, held, tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs")))
+    return csm._device[2]
+
 
 def segment_index(csm, map_index, rows, cols) -> np.ndarray:
     """:meth:`CoherentShadowMap.segment_index`: the kernels' search (``csm_find``) on the device."""

@@ -98,6 +98,12 @@ def check_csm(csm, where: str = "CoherentShadowMap") -> None:
     its offsets uint32 or uint64 and float depth in native byte order (what the device tables take), its
     view set's layout one the kernels look up (zigzag or hilbert). What
     :meth:`CoherentShadowMap.search_arrays` checks before an upload."""
+    _check_storage(csm, where)
+    check_arrays(where, csm.offsets, csm.iend, csm.depth, csm.resolution, csm.maps, csm.depth_bits)
+
+
+def _check_storage(csm, where) -> None:
+    """The O(1) part of :func:`check_csm`: the layout, the offsets' dtype, the float depth's byte order."""
     layout = getattr(csm.views, "layout", None)
     if layout not in _LAYOUTS:
         raise CSMFormatError(f"{where}: view layout {layout!r} has no lookup in the kernels (zigzag or hilbert)")
@@ -107,15 +113,17 @@ def check_csm(csm, where: str = "CoherentShadowMap") -> None:
     if isinstance(depth, np.ndarray) and depth.dtype.kind == "f" and not depth.dtype.isnative:
         # the device tables take the float's bits as they are
         raise CSMFormatError(f"{where}: depth must be in native byte order, got {depth.dtype.str}")
-    check_arrays(where, off, csm.iend, depth, csm.resolution, csm.maps, csm.depth_bits)
 
 
 def checked_search_arrays(csm, wide=None, padded=False) -> dict:
     """:meth:`CoherentShadowMap.search_arrays`: :func:`check_csm` (CSMFormatError where the constructor was
-    given, or an attribute was set to, arrays the kernels would read outside of; those of a mapped file are
-    checked when copied, :func:`pyshadow.csm.device.search_arrays`), then the device layout."""
+    given, or an attribute was set to, arrays the kernels would read outside of; the values of a mapped
+    file's are checked when copied, :func:`pyshadow.csm.device.search_arrays`, their dtypes and the layout
+    here), then the device layout."""
     from .device import search_arrays
 
-    if not any(isinstance(a, np.memmap) for a in (csm.offsets, csm.iend, csm.depth)):
+    if any(isinstance(a, np.memmap) for a in (csm.offsets, csm.iend, csm.depth)):
+        _check_storage(csm, "CoherentShadowMap")     # the values when copied; an array set since, too
+    else:
         check_csm(csm)
     return search_arrays(csm, wide, padded)

@@ -69,13 +69,18 @@ def header(csm, reproducible: bool = False) -> dict:
         "front_margin_texels": csm.front_margin_texels,
         "footprint": csm.footprint,
         "box": None if csm.box is None else csm.box.tolist(),
-        "two_sided": csm.two_sided,
-        "both_sided_faces": csm.both_sided_faces,
+        "two_sided": _plain(csm.two_sided),
+        "both_sided_faces": _plain(csm.both_sided_faces),
         "mesh_hash": csm.mesh_hash,
         "segments": csm.segments,
         "offsets_dtype": _file_offsets_dtype(csm).str,
         "build_seconds": seconds,
     }
+
+
+def _plain(x):
+    """A NumPy scalar (``np.int64(3)``, ``np.True_``) as the Python value JSON writes; anything else as is."""
+    return x.item() if isinstance(x, np.generic) else x
 
 
 def _file_offsets_dtype(csm) -> np.dtype:
@@ -137,12 +142,15 @@ def check_layout_bases(views) -> None:
 
 def save(csm, path, reproducible: bool = False) -> Path:
     """:meth:`CoherentShadowMap.save` (which documents the layout); ValueError where the view set's
-    bases are not its layout's (:func:`check_layout_bases`), CSMFormatError where its arrays, as the
-    file's dtypes hold them, break a rule :func:`load` checks (:func:`.file_checks.check_arrays`), before
-    anything is written."""
+    bases are not its layout's (:func:`check_layout_bases`), CSMFormatError where a header value (the
+    centre, radius, box, layer rule, margin, two-sided record, build time: :func:`_header_values`) or its
+    arrays, as the file's dtypes hold them, break a rule :func:`load` checks
+    (:func:`.file_checks.check_arrays`), before anything is written."""
     path = Path(path)
     check_layout_bases(csm.views)
-    head = json.dumps(header(csm, reproducible), sort_keys=True).encode()
+    text = json.dumps(header(csm, reproducible), sort_keys=True)
+    _header_values("CoherentShadowMap.save", json.loads(text))     # what load would refuse is not written
+    head = text.encode()
     start = 16 + len(head)
     layout, end = array_layout(start, csm.resolution, csm.maps, csm.segments, csm.depth_bits,
                                _file_offsets_dtype(csm))
@@ -232,7 +240,10 @@ def _integer(x) -> bool:
     return isinstance(x, int) and not isinstance(x, bool)
 
 
-def _from_header(cls, path, head, start, raw):
+def _header_values(path, head) -> dict:
+    """The values of a header ``head`` (a dict as JSON gives it), checked as :func:`load` checks a file's:
+    CSMFormatError naming ``path`` and the field. Sizes only against each other (the file's length and
+    arrays are :func:`_from_header`'s)."""
     def need(key, kind):
         if not isinstance(head, dict) or key not in head:
             raise CSMFormatError(f"{path}: header lacks {key!r}")
@@ -326,18 +337,29 @@ def _from_header(cls, path, head, start, raw):
     if S > D * R * R or S > 2**40:      # a run of maps per segment: fewer segments than maps is common
         raise CSMFormatError(f"{path}: {S} segments for {D} maps of {R * R} texels (at most one per map "
                              "and texel)")
+    return {"R": R, "D": D, "S": S, "bits": bits, "rule": rule, "layout": layout, "params": params,
+            "centre": centre, "radius": radius, "mesh_hash": mh, "offsets_dtype": odt, "margin": margin,
+            "footprint": footprint, "box": box, "two_sided": two_sided, "both_sided_faces": n_both,
+            "seconds": seconds}
+
+
+def _from_header(cls, path, head, start, raw):
+    v = _header_values(path, head)
+    R, D, S, bits, layout, params, odt, seconds = (v[k] for k in ("R", "D", "S", "bits", "layout", "params",
+                                                                    "offsets_dtype", "seconds"))
     arrays, end = array_layout(start, R, D, S, bits, odt)
     if end + 32 != (size := len(raw)):
-        raise CSMFormatError(f"{path}: size {size} bytes does not match the header "
-                             f"({end + 32} expected)")
+        raise CSMFormatError(f"{path}: size {size} bytes does not match the header ({end + 32} expected from "
+                             f"resolution {R}, maps {D}, segments {S}, depth_bits {bits}): a truncated or "
+                             "padded array, or one of these fields wrong")
     views = ViewSet.from_params(layout, params)
     data = {name: raw[off:off + dt.itemsize * n].view(dt) for name, dt, n, off in arrays}
     _validate_arrays(path, data, R, D, S, bits)
-    return cls(views=views, resolution=R, depth_bits=bits, layer_rule=rule,
-               centre=np.array(centre, dtype=np.float64), radius=float(radius), mesh_hash=mh,
+    return cls(views=views, resolution=R, depth_bits=bits, layer_rule=v["rule"],
+               centre=np.array(v["centre"], dtype=np.float64), radius=float(v["radius"]), mesh_hash=v["mesh_hash"],
                offsets=data["offsets"], iend=data["iend"], depth=data["depth"],
-               build_seconds=float("nan") if seconds is None else seconds, front_margin_texels=margin,
-               footprint=footprint, box=box, two_sided=two_sided, both_sided_faces=n_both)
+               build_seconds=float("nan") if seconds is None else seconds, front_margin_texels=v["margin"],
+               footprint=v["footprint"], box=v["box"], two_sided=v["two_sided"], both_sided_faces=v["both_sided_faces"])
 
 
 def _validate_arrays(path, data, R, D, S, bits):

@@ -108,6 +108,29 @@ def wall_scene():
     return scene
 
 
+def unprivileged_python():
+    """The command prefix that runs Python without the power to read or write files it has no
+    permission for (root: setpriv without capabilities), or None where there is none."""
+    if not hasattr(os, "geteuid"):
+        return None
+    if os.geteuid() != 0:
+        return [sys.executable]
+    setpriv = shutil.which("setpriv")
+    return [setpriv, "--bounding-set=-all", "--inh-caps=-all", sys.executable] if setpriv else None
+
+
+def csm_fields(csm, **change):
+    """The keyword arguments that make ``csm`` again with :class:`pyshadow.CoherentShadowMap` (its arrays
+    copied), with ``change`` applied."""
+    kw = dict(views=csm.views, resolution=csm.resolution, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
+              centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=np.array(csm.offsets),
+              iend=np.array(csm.iend), depth=np.array(csm.depth), box=csm.box,
+              front_margin_texels=csm.front_margin_texels, two_sided=csm.two_sided,
+              both_sided_faces=csm.both_sided_faces)
+    kw.update(change)
+    return kw
+
+
 def all_pairs(csm):
     """Every (map, row, col) of a CSM as three (D, R, R) index arrays."""
     D, R = csm.maps, csm.resolution

@@ -7,21 +7,13 @@ import pytest
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
 
+from conftest import csm_fields
+
 
 @pytest.fixture(scope="module")
 def spot():
     return CoherentShadowMap.build(pyshadow.data.mesh("spot"), pyshadow.ViewSet.zigzag(4, 8), resolution=16,
                                    progress=False)
-
-
-def _fields(csm, **change):
-    kw = dict(views=csm.views, resolution=csm.resolution, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
-              centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=np.array(csm.offsets),
-              iend=np.array(csm.iend), depth=np.array(csm.depth), box=csm.box,
-              front_margin_texels=csm.front_margin_texels, two_sided=csm.two_sided,
-              both_sided_faces=csm.both_sided_faces)
-    kw.update(change)
-    return kw
 
 
 @pytest.mark.parametrize("change, match", [
@@ -41,7 +33,7 @@ def test_save_refuses_a_header_load_refuses_and_keeps_the_old_file(tmp_path, spo
     written."""
     path = spot.save(tmp_path / "spot.csm")
     before = path.read_bytes()
-    bad = CoherentShadowMap(**_fields(spot, **change))
+    bad = CoherentShadowMap(**csm_fields(spot, **change))
     with pytest.raises(CSMFormatError, match=f"CoherentShadowMap.save: {match}"):
         bad.save(path)
     assert path.read_bytes() == before
@@ -52,7 +44,7 @@ def test_save_refuses_a_header_load_refuses_and_keeps_the_old_file(tmp_path, spo
 def test_save_of_numpy_scalars_in_the_two_sided_record_round_trips(tmp_path, spot):
     """Was: TypeError "Object of type int64 is not JSON serializable" from inside json for a CSM given
     both_sided_faces=np.int64(3) (two_sided np.True_): nothing saved."""
-    csm = CoherentShadowMap(**_fields(spot, two_sided=np.True_, both_sided_faces=np.int64(3)))
+    csm = CoherentShadowMap(**csm_fields(spot, two_sided=np.True_, both_sided_faces=np.int64(3)))
     back = CoherentShadowMap.load(csm.save(tmp_path / "np.csm"))
     assert back.two_sided is True and back.both_sided_faces == 3
     assert type(back.both_sided_faces) is int
@@ -66,7 +58,7 @@ def test_depth_for_of_a_csm_given_iend_in_another_dtype_matches_uint16(spot, dty
     summary buffer (4 bytes per entry of a 1-byte array)."""
     m, r, c = np.meshgrid(np.arange(spot.maps), np.arange(16), np.arange(16), indexing="ij")
     want = spot.depth_for(m, r, c)
-    other = CoherentShadowMap(**_fields(spot, iend=np.array(spot.iend).astype(dtype)))
+    other = CoherentShadowMap(**csm_fields(spot, iend=np.array(spot.iend).astype(dtype)))
     a = other.search_arrays()
     assert a["summary"].dtype == (np.uint16 if other.defines["IEND_T"] == "ushort" else np.uint32)
     np.testing.assert_array_equal(a["summary"], spot.search_arrays()["summary"])
@@ -114,7 +106,7 @@ def test_arrays_set_after_an_upload_are_checked_and_uploaded_again(spot):
     arrays and depth precision of a 32-bit CSM answered from the old 16-bit buffers with kernels compiled
     for wide pairs (read past the end of the pair buffer): 2799 of 8192 texels differed from the 32-bit
     CSM's; offsets cut to 100 entries were never checked (no error)."""
-    csm = CoherentShadowMap(**_fields(spot))
+    csm = CoherentShadowMap(**csm_fields(spot))
     wide = CoherentShadowMap.build(pyshadow.data.mesh("spot"), spot.views, resolution=16, depth_bits=32,
                                    progress=False)
     m, r, c = np.meshgrid(np.arange(spot.maps), np.arange(16), np.arange(16), indexing="ij")

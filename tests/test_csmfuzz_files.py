@@ -11,21 +11,13 @@ import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
 from pyshadow.csm import fileformat
 
+from conftest import csm_fields
+
 
 @pytest.fixture(scope="module")
 def spot():
     return {bits: CoherentShadowMap.build(pyshadow.data.mesh("spot"), pyshadow.ViewSet.zigzag(4, 8), resolution=16,
                                           depth_bits=bits, progress=False) for bits in (16, 32)}
-
-
-def _fields(csm, **change):
-    kw = dict(views=csm.views, resolution=csm.resolution, depth_bits=csm.depth_bits, layer_rule=csm.layer_rule,
-              centre=csm.centre, radius=csm.radius, mesh_hash=csm.mesh_hash, offsets=np.array(csm.offsets),
-              iend=np.array(csm.iend), depth=np.array(csm.depth), box=csm.box,
-              front_margin_texels=csm.front_margin_texels, two_sided=csm.two_sided,
-              both_sided_faces=csm.both_sided_faces)
-    kw.update(change)
-    return kw
 
 
 def _rays(csm, n=512):
@@ -47,7 +39,7 @@ def test_constructed_csm_whose_offsets_do_not_fit_its_resolution_is_refused_befo
     csm = spot[16]
     for change, match in (({"resolution": 32}, "257 offsets for resolution 32"),
                           ({"offsets": np.array(csm.offsets)[:100]}, "100 offsets for resolution 16")):
-        bad = CoherentShadowMap(**_fields(csm, **change))
+        bad = CoherentShadowMap(**csm_fields(csm, **change))
         with pytest.raises(CSMFormatError, match=match):
             bad.search_arrays()          # the gate of every upload (device_buffers, the scene's atlas)
 
@@ -82,7 +74,7 @@ def test_constructed_csm_with_broken_segment_lists_is_refused_by_queries_and_sav
     depth, an i_end of -1) was queried without a word (Scene.visible answered, 512 rays), and save wrote
     a file over the old one that load then refused."""
     csm = spot[bits]
-    bad = CoherentShadowMap(**_fields(csm, **change(csm)))
+    bad = CoherentShadowMap(**csm_fields(csm, **change(csm)))
     with pytest.raises(CSMFormatError, match=match):
         _visible(bad)
     path = csm.save(tmp_path / "spot.csm")
@@ -100,7 +92,7 @@ def test_constructed_csm_of_byte_swapped_float_depth_is_refused_on_the_device_an
     csm = spot[32]
     want = _visible(csm)
     assert not want.any()
-    swapped = CoherentShadowMap(**_fields(csm, depth=np.array(csm.depth).astype(">f4")))
+    swapped = CoherentShadowMap(**csm_fields(csm, depth=np.array(csm.depth).astype(">f4")))
     with pytest.raises(CSMFormatError, match="native byte order"):
         _visible(swapped)
     back = CoherentShadowMap.load(swapped.save(tmp_path / "swapped.csm"))
@@ -113,7 +105,7 @@ def test_constructed_csm_of_a_custom_view_set_is_a_clear_error(spot):
     in the zigzag and hilbert grids)."""
     csm = spot[16]
     views = pyshadow.ViewSet(csm.views.directions, csm.views.bases)
-    bad = CoherentShadowMap(**_fields(csm, views=views))
+    bad = CoherentShadowMap(**csm_fields(csm, views=views))
     with pytest.raises(CSMFormatError, match="view layout 'custom'"):
         _visible(bad)
 
@@ -123,7 +115,7 @@ def test_save_of_int64_offsets_writes_the_file_dtype(tmp_path, spot):
     '<i8' in the header and 8-byte offsets, a file load refused ("offsets dtype '<i8' for 1554 segments");
     now the offsets are written as the '<u4' load reads, and the file round-trips."""
     csm = spot[16]
-    wide = CoherentShadowMap(**_fields(csm, offsets=np.array(csm.offsets).astype(np.int64)))
+    wide = CoherentShadowMap(**csm_fields(csm, offsets=np.array(csm.offsets).astype(np.int64)))
     back = CoherentShadowMap.load(wide.save(tmp_path / "wide.csm", reproducible=True))
     assert back.offsets.dtype == np.dtype("<u4")
     assert back.offsets.tobytes() == np.asarray(csm.offsets).tobytes()
@@ -136,7 +128,7 @@ def test_save_of_arrays_of_other_lengths_is_a_format_error_and_leaves_the_old_fi
     csm = spot[16]
     path = csm.save(tmp_path / "spot.csm")
     before = path.read_bytes()
-    bad = CoherentShadowMap(**_fields(csm, depth=np.array(csm.depth)[:-1]))
+    bad = CoherentShadowMap(**csm_fields(csm, depth=np.array(csm.depth)[:-1]))
     with pytest.raises(CSMFormatError, match=r"shape \(1553,\) for 1554 segments"):
         bad.save(path)
     assert path.read_bytes() == before

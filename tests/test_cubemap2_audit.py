@@ -4,24 +4,19 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
 import pyshadow
 import pyshadow.cubemap.estimators as estimators
 from pyshadow.cubemap import CubeMapAO, CubeProbe, face_camera, quality, raymarch_visible, seed_box_filter, texel_ao
+
+from conftest import wall_scene
 
 D = 1.0
 
 
 @pytest.fixture(scope="module")
 def scene():
-    """Ground y = 0, a thick wall (front face z = 0) and a 0.3 box on the floor."""
-    scene = pyshadow.Scene(ground=0.0, views=pyshadow.ViewSet.zigzag(4, 8), resolution=16)
-    wall = trimesh.creation.box((40.0, 10.0, 0.5))
-    wall.apply_translation([0.0, 5.0, -0.25])
-    scene.add(wall)
-    scene.add(trimesh.creation.box((0.3, 0.3, 0.3)), trimesh.transformations.translation_matrix([0.8, 0.15, 0.7]))
-    return scene
+    return wall_scene()
 
 
 @pytest.fixture(scope="module")

@@ -1,28 +1,17 @@
 """A write over an existing read-only file: refused as opening it for writing would be, the file kept."""
 import os
-import shutil
 import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import pytest
 
+from conftest import unprivileged_python
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _unprivileged():
-    """The command that runs Python without the power to write any file (root: setpriv without
-    capabilities), or None."""
-    if not hasattr(os, "geteuid"):
-        return None
-    if os.geteuid() != 0:
-        return [sys.executable]
-    setpriv = shutil.which("setpriv")
-    return [setpriv, "--bounding-set=-all", "--inh-caps=-all", sys.executable] if setpriv else None
-
-
-@pytest.mark.skipif(_unprivileged() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
+@pytest.mark.skipif(unprivileged_python() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
 def test_a_read_only_file_is_not_replaced(tmp_path):
     """Was: write_image over a PNG or EXR of mode 0444 (and write_bytes_atomic over any such file) in a
     writable folder replaced it without a word -- the rename ignores the file's own permission, so a
@@ -53,7 +42,7 @@ def test_a_read_only_file_is_not_replaced(tmp_path):
                 print(name, type(e).__name__, errno.errorcode.get(e.errno), e.filename == path)
     """)
     try:
-        out = subprocess.run(_unprivileged() + ["-c", script, str(ROOT), str(tmp_path), *names],
+        out = subprocess.run(unprivileged_python() + ["-c", script, str(ROOT), str(tmp_path), *names],
                              capture_output=True, text=True, timeout=60)
     finally:
         tmp_path.chmod(0o755)

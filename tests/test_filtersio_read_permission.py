@@ -1,8 +1,5 @@
 """An image file this process may not read: the system's PermissionError, not a ValueError."""
-import os
-import shutil
 import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
@@ -11,21 +8,12 @@ import pytest
 
 from pyshadow.io import write_image
 
+from conftest import unprivileged_python
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _unprivileged():
-    """The command that runs Python without the power to read any file (root: setpriv without
-    capabilities), or None."""
-    if not hasattr(os, "geteuid"):
-        return None
-    if os.geteuid() != 0:
-        return [sys.executable]
-    setpriv = shutil.which("setpriv")
-    return [setpriv, "--bounding-set=-all", "--inh-caps=-all", sys.executable] if setpriv else None
-
-
-@pytest.mark.skipif(_unprivileged() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
+@pytest.mark.skipif(unprivileged_python() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
 def test_an_unreadable_image_is_a_permission_error_naming_it(tmp_path):
     """Was: ValueError 'cannot read image ...: Could not open "..." (Permission denied)' for an EXR, PNG
     or JPEG of mode 000 (OpenImageIO's message wrapped as unreadable contents): a caller catching
@@ -49,7 +37,7 @@ def test_an_unreadable_image_is_a_permission_error_naming_it(tmp_path):
                       getattr(e, "filename", None) == path)
     """)
     try:
-        out = subprocess.run(_unprivileged() + ["-c", script, str(ROOT), str(tmp_path), *names],
+        out = subprocess.run(unprivileged_python() + ["-c", script, str(ROOT), str(tmp_path), *names],
                              capture_output=True, text=True, timeout=60)
     finally:
         for name in names:

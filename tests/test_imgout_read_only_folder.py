@@ -1,28 +1,16 @@
 """An image written into a folder without write permission: the system's error, not OpenImageIO's."""
-import os
-import shutil
 import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import pytest
 
+from conftest import unprivileged_python
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _unprivileged():
-    """The command prefix that runs Python without the power to write anywhere (root: setpriv without
-    capabilities), or None."""
-    if not hasattr(os, "geteuid"):
-        return None
-    if os.geteuid() != 0:
-        return [sys.executable]
-    setpriv = shutil.which("setpriv")
-    return [setpriv, "--bounding-set=-all", "--inh-caps=-all", sys.executable] if setpriv else None
-
-
-@pytest.mark.skipif(_unprivileged() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
+@pytest.mark.skipif(unprivileged_python() is None, reason="needs a POSIX user without CAP_DAC_OVERRIDE")
 def test_a_read_only_folder_is_a_permission_error_naming_the_image(tmp_path):
     """Was: OSError EIO 'OpenImageIO could not open it for writing (Could not open file "<the hidden
     temporary name>")' for a PNG or JPEG (no reason given), EIO for an EXR: a caller catching
@@ -46,7 +34,7 @@ def test_a_read_only_folder_is_a_permission_error_naming_the_image(tmp_path):
     """)
     folder.chmod(0o555)
     try:
-        out = subprocess.run(_unprivileged() + ["-c", script, str(ROOT), str(folder)], capture_output=True,
+        out = subprocess.run(unprivileged_python() + ["-c", script, str(ROOT), str(folder)], capture_output=True,
                              text=True, timeout=60)
     finally:
         folder.chmod(0o755)

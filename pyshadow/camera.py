@@ -46,6 +46,25 @@ def axis_camera(eye, forward, up, resolution: int) -> "Camera":
                   height=resolution)
 
 
+def _check_fov(fov_y) -> float:
+    """``fov_y`` as a float in (0, 180) degrees: TypeError for what is not a real number, ValueError outside."""
+    if isinstance(fov_y, (str, bytes, bool)) or np.ndim(fov_y) != 0:
+        raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}")
+    try:
+        fov = float(fov_y)
+    except (TypeError, ValueError):
+        raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}") from None
+    if not 0.0 < fov < 180.0:
+        raise ValueError(f"Camera: fov_y must be in (0, 180) degrees, got {fov}")
+    return fov
+
+
+def check_camera(camera) -> None:
+    """TypeError unless ``camera`` is a :class:`Camera` (a ``(scene, camera)`` pair, None)."""
+    if not isinstance(camera, Camera):
+        raise TypeError(f"camera must be a pyshadow.Camera, got {type(camera).__name__}")
+
+
 def points_on_rays(origin, t, dirs, dtype=np.float64) -> np.ndarray:
     """``origin + t dirs``: the points at distances ``t`` (shape S) along unit ``dirs`` (S + (3,))
     from ``origin`` (3,), computed in float64 by columns (faster than broadcasting over the last
@@ -80,10 +99,16 @@ class Camera:
     ----------
     forward, right, up : ndarray, shape (3,), float64
         Orthonormal camera frame: ``right = forward x up_hint`` normalised,
-        ``up = right x forward``.
+        ``up = right x forward`` (``up_hint`` the ``up`` given).
 
     Notes
     -----
+    ``eye``, ``target``, ``up``, ``fov_y``, ``width`` and ``height`` may be
+    set anew (``camera.eye = p``): each new value is checked as above, and
+    a new ``eye``, ``target`` or ``up`` (the hint) turns the frame, which
+    follows ``target - eye`` as at creation. ``forward`` and ``right``
+    follow from them and cannot be set.
+
     Pixel ``(row i, column j)`` (row 0 at the top) is the ray from ``eye``
     through ``forward + x*right + y*up`` with
     ``x = (2(j+0.5)/W - 1) * tan(fov_y/2) * W/H`` and
@@ -92,13 +117,18 @@ class Camera:
 
     def __init__(self, eye, target, up=(0.0, 1.0, 0.0), fov_y: float = 45.0,
                  width: int = 640, height: int = 480):
-        self.eye = _vec3(eye, "eye")
-        self.target = _vec3(target, "target")
-        up = _vec3(up, "up")
+        self._set_frame(eye, target, up)
+        self.fov_y = fov_y
+        self.width, self.height = width, height
+
+    def _set_frame(self, eye, target, up) -> None:
+        """Check ``eye``, ``target`` and the up hint ``up`` and set them and the frame they give (nothing
+        changes where one is refused)."""
+        eye, target, up = _vec3(eye, "eye"), _vec3(target, "target"), _vec3(up, "up")
         with np.errstate(over="ignore"):
-            f = self.target - self.eye
+            f = target - eye
         if not np.isfinite(f).all():        # beyond float64's range: the same direction, halved
-            f = 0.5 * self.target - 0.5 * self.eye
+            f = 0.5 * target - 0.5 * eye
         f = _unit(f)
         if f is None:
             raise ValueError("Camera: eye and target coincide")
@@ -111,20 +141,26 @@ class Camera:
         if not rn > 1e-9 * np.linalg.norm(up):
             raise ValueError("Camera: up is parallel to the viewing direction")
         r /= rn
-        self.forward, self.right, self.up = f, r, np.cross(r, f)
-        if isinstance(fov_y, (str, bytes, bool)) or np.ndim(fov_y) != 0:
-            raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}")
-        try:
-            fov_y = float(fov_y)
-        except (TypeError, ValueError):
-            raise TypeError(f"Camera: fov_y must be a number (degrees), got {fov_y!r}") from None
-        if not 0.0 < fov_y < 180.0:
-            raise ValueError(f"Camera: fov_y must be in (0, 180) degrees, got {fov_y}")
-        self.fov_y = fov_y
-        for name, val in (("width", width), ("height", height)):
-            if isinstance(val, bool) or not isinstance(val, (int, np.integer)) or not 1 <= val <= 16384:
-                raise ValueError(f"Camera: {name} must be an int in 1..16384, got {val!r}")
-        self.width, self.height = int(width), int(height)
+        self.__dict__.update(eye=eye, target=target, _up_hint=up, forward=f, right=r, up=np.cross(r, f))
+
+    def __setattr__(self, name, value):
+        """A new ``eye``, ``target`` or ``up`` hint turns the frame; ``fov_y``, ``width`` and ``height`` are
+        checked as at creation (a NaN field of view gave an empty image, a width of 0 a ZeroDivisionError)."""
+        if name in ("eye", "target", "up"):
+            given = {"eye": self.__dict__.get("eye"), "target": self.__dict__.get("target"),
+                     "up": self.__dict__.get("_up_hint", self.__dict__.get("up"))}
+            given[name] = value
+            self._set_frame(given["eye"], given["target"], given["up"])
+            return
+        if name in ("forward", "right"):
+            raise AttributeError(f"Camera.{name} follows from eye, target and up; set those instead")
+        if name == "fov_y":
+            value = _check_fov(value)
+        elif name in ("width", "height"):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= 16384:
+                raise ValueError(f"Camera: {name} must be an int in 1..16384, got {value!r}")
+            value = int(value)
+        object.__setattr__(self, name, value)
 
     @property
     def tan_half(self) -> float:
@@ -156,7 +192,7 @@ class Camera:
             d = (self.forward + x[None, :, None] * self.right + y[:, None, None] * self.up)
             d /= np.sqrt(squared_lengths(d))[..., None]
             d.setflags(write=False)
-            held = self._held_rays = (key, d)
+            held = self.__dict__["_held_rays"] = (key, d)
         return held[1]
 
     def __getstate__(self) -> dict:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from .ao_pass import ao_pass
-from .camera import points_on_rays
+from .camera import check_camera, points_on_rays
 from .materials import visual_of
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
@@ -218,7 +218,10 @@ def surface_points(scene, camera, *, ground_size=None, ao_scale: int = 1, gbuffe
         default :func:`pyshadow.render_gbuffer` of them.
     """
     from .gbuffer import render_gbuffer
+    from .visibility import _check_scene
 
+    _check_scene(scene)
+    check_camera(camera)
     ao_scale = _check_ao_scale(ao_scale)
     items, ids = scene.draw_items(ground_size)
     g = render_gbuffer(items, camera) if gbuffer is None else _check_gbuffer(gbuffer, camera, len(items))
@@ -292,6 +295,7 @@ def covered_pixels(camera, gbuffer, object_id, *, ao_scale: int = 1) -> SurfaceP
     ao_scale : {1, 2, 4}, optional
         As in :func:`surface_points`.
     """
+    check_camera(camera)
     ao_scale = _check_ao_scale(ao_scale)
     H, W = camera.height, camera.width
     for name, a, shape in (("object_id", object_id, (H, W)), ("gbuffer['depth']", gbuffer["depth"], (H, W)),
@@ -421,6 +425,8 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     from . import visibility as vis
     from .gbuffer import render_gbuffer
 
+    vis._check_scene(scene)         # a (scene, camera) pair, a mesh, None: AttributeErrors from inside
+    check_camera(camera)
     ao_scale, sampling = _check_render_options(denoise, ao_scale, sampling)
     if not (isinstance(normals, str) and normals in NORMAL_MODES):      # an array's ``in`` has no truth value
         raise ValueError(f"normals must be 'flat' or 'smooth', got {normals!r}")
@@ -479,8 +485,10 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
                                          surface_ids=sp.surface_ids)
         _put_pixels(ao, sp.index, a)
         _put_pixels(bent, sp.index, b)
-    frame = Frame(ao=ao, bent_normal=bent, depth=g["depth"], normal=g["normal"], object_id=sp.object_id,
-                  position=g["position"], geometric_normal=g.get("geometric_normal") if smooth else None)
+    # the Frame's float32 buffers: a given G-buffer's float64 ones rounded (they were float64), float32 ones as they are
+    f32 = {k: np.asarray(g[k], np.float32) for k in ("depth", "normal", "position") + ("geometric_normal",) * smooth}
+    frame = Frame(ao=ao, bent_normal=bent, depth=f32["depth"], normal=f32["normal"], object_id=sp.object_id,
+                  position=f32["position"], geometric_normal=f32.get("geometric_normal"))
     if ao_scale != 1 or denoise is not None:
         from . import filters
 

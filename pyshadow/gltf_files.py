@@ -21,6 +21,9 @@ does (a name that leaves the file's folder, ``..`` or absolute, is not read
 there; trimesh tries its last part in the folder); :func:`check_gltf_files`
 names a buffer or image file that is not found before trimesh reads.
 
+A buffer holding fewer bytes than its ``byteLength`` (a ``.bin`` or GLB cut short) failed with an empty
+message, an accessor past its buffer view with "cannot reshape array": :func:`check_gltf_buffers` names them.
+
 trimesh also keeps a material's ``baseColorFactor`` in 8 bits (0.001 read as
 0); :func:`read_gltf` gives each material back the file's float factor.
 """
@@ -37,7 +40,12 @@ from urllib.parse import unquote
 import numpy as np
 import trimesh
 
-__all__ = ["check_gltf", "check_gltf_files", "read_gltf", "GltfResolver", "gltf_file_uris"]
+__all__ = ["check_gltf", "check_gltf_files", "check_gltf_buffers", "read_gltf", "GltfResolver", "gltf_file_uris"]
+
+#: bytes of each accessor componentType; components of each accessor type (matrices left out: their columns
+#: may be padded)
+_COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
+_COMPONENTS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4}
 
 
 def _gltf_json(data: bytes):
@@ -231,6 +239,91 @@ def check_gltf_files(path: Path, data: bytes, label: str = "glTF") -> None:
         raise ValueError(message)
 
 
+def _buffer_bytes(path: Path, head: bytes, k: int, buf: dict, label: str):
+    """(bytes buffer ``k`` holds, where they are) or None where that is not known (a file not found:
+    :func:`check_gltf_files`)."""
+    uri = buf.get("uri")
+    if uri is None:
+        if head[:4] != b"glTF" or k != 0:
+            raise ValueError(f"{label}: its buffer {k} has no uri (only a GLB's first buffer may have none: "
+                             "its binary chunk)")
+        size = path.stat().st_size
+        with open(path, "rb") as fh:
+            fh.seek(len(head))
+            chunk = fh.read(8)
+        if len(chunk) < 8 or struct.unpack_from("<I", chunk, 4)[0] != 0x004E4942:
+            return 0, "the GLB, which has no binary chunk,"
+        return min(struct.unpack_from("<I", chunk)[0], size - len(head) - 8), "the GLB's binary chunk"
+    if not isinstance(uri, str):
+        return None
+    if uri.startswith("data:"):                 # its length, not decoded (no other than base64: not known)
+        text = uri.partition(";base64,")[2].strip()
+        return (len(text) * 3 // 4 - text[-2:].count("="), "its data: URI") if text.isascii() and \
+            text.replace("+", "").replace("/", "").rstrip("=").isalnum() else None
+    found = GltfResolver(str(path)).find(uri)
+    return None if found is None else (found.stat().st_size, f"the file {found.name!r}")
+
+
+def check_gltf_buffers(path: Path, head: bytes, label: str = "glTF") -> None:
+    """Raise ValueError where a glTF's data lie beyond the bytes its buffers hold (a buffer file or GLB cut short).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The glTF file (its buffer files are looked for in its folder).
+    head : bytes
+        Its JSON (:func:`_gltf_head`).
+    label : str
+        Names the file in the message.
+
+    Raises
+    ------
+    ValueError
+        No glTF JSON can be read; a buffer holds fewer bytes than its
+        ``byteLength`` (a ``.bin`` file, a GLB's binary chunk or a
+        ``data:`` URI: trimesh failed with an empty message or "cannot
+        reshape array"); a buffer other than a GLB's first has no ``uri``;
+        a buffer view reaches past its buffer or an accessor past its
+        buffer view. The message names the buffer, view or accessor.
+    """
+    tree = _gltf_json(head)
+    if not isinstance(tree, dict):
+        raise ValueError(f"{label}: no glTF JSON could be read from it (not a glTF file, or damaged)")
+
+    def items(key):
+        got = tree.get(key)
+        return [x if isinstance(x, dict) else {} for x in got] if isinstance(got, list) else []
+
+    buffers, views = items("buffers"), items("bufferViews")
+    for k, buf in enumerate(buffers):
+        declared, held = _count(buf, "byteLength"), _buffer_bytes(path, head, k, buf, label)
+        if held is not None and declared is not None and held[0] < declared:
+            raise ValueError(f"{label}: its buffer {k} has {declared} bytes (byteLength) but {held[1]} holds "
+                             f"{held[0]} (cut short?)")
+    for k, view in enumerate(views):
+        b, offset, length = view.get("buffer"), _count(view, "byteOffset"), _count(view, "byteLength")
+        size = _count(buffers[b], "byteLength") if isinstance(b, int) and 0 <= b < len(buffers) else None
+        if None not in (size, offset, length) and offset + length > size:
+            raise ValueError(f"{label}: its bufferView {k} reaches byte {offset + length} of buffer {b}, which has "
+                             f"{size}")
+    for k, acc in enumerate(items("accessors")):
+        v, count, offset = acc.get("bufferView"), _count(acc, "count"), _count(acc, "byteOffset")
+        n, size = _COMPONENTS.get(acc.get("type")), _COMPONENT_BYTES.get(acc.get("componentType"))
+        if not (isinstance(v, int) and 0 <= v < len(views) and count and offset is not None and n and size):
+            continue
+        stride, length = _count(views[v], "byteStride") or n * size, _count(views[v], "byteLength")
+        end = offset + (count - 1) * stride + n * size
+        if length is not None and end > length:
+            raise ValueError(f"{label}: its accessor {k} ({count} x {acc.get('type')}) reaches byte {end} of "
+                             f"bufferView {v}, which has {length}")
+
+
+def _count(item: dict, key: str):
+    """``item[key]`` where it is a whole number of 0 or more (0 where it is absent), else None."""
+    value = item.get(key, 0)
+    return value if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None
+
+
 def read_gltf(path: Path, label: str):
     """What trimesh reads from the ``.gltf`` or ``.glb`` file ``path`` (no processing), its files found by
     their decoded names (:class:`GltfResolver`) and its materials' float ``baseColorFactor`` kept (float64
@@ -239,6 +332,7 @@ def read_gltf(path: Path, label: str):
     head = _gltf_head(path)
     check_gltf(head, label)
     check_gltf_files(path, head, label)
+    check_gltf_buffers(path, head, label)
     loaded = trimesh.load(str(path), process=False, resolver=GltfResolver(str(path)))
     _float_factors(loaded, _gltf_json(head))
     return loaded

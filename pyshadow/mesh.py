@@ -65,9 +65,8 @@ def _as_trimesh(source, label: str, gltf: bool | None = None):
         cache = ({}, {})
         return geom, join_visuals([(_part_visual(source, m, label, gltf, cache), len(m.faces)) for m in meshes],
                                   label)
-    raise ValueError(
-        f"{label}: not a triangle mesh (trimesh returned {type(source).__name__})"
-    )
+    raise ValueError(f"{label}: not a triangle mesh (trimesh returned {type(source).__name__}" + (
+        f": {len(source.vertices)} points and no faces)" if isinstance(source, trimesh.PointCloud) else ")"))
 
 
 def _part_visual(scene, part, label, gltf, cache):
@@ -159,11 +158,11 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     FileNotFoundError
         If ``path_or_trimesh`` is a path that does not exist.
     ValueError
-        If the format is unknown, the file has no triangles, a vertex a face
-        uses is NaN or infinite, or a glTF stores its geometry in a way trimesh
-        reads wrongly (:func:`pyshadow.mesh_files.check_gltf`: Draco
-        without DracoPy, meshopt, normalised or sparse positions, triangle
-        fans), or names a buffer file not in its folder; the message names
+        If the format is unknown, the file is empty or has no triangles, a vertex a face uses is NaN or
+        infinite, an OBJ counts from 0, an ASCII STL is cut short, or a glTF stores its geometry in a way
+        trimesh reads wrongly (:func:`pyshadow.mesh_files.check_gltf`: Draco without DracoPy, meshopt,
+        normalised or sparse positions, triangle fans), names a buffer file not in its folder or holds
+        fewer bytes than it says (:func:`pyshadow.gltf_files.check_gltf_buffers`); the message names
         the path and the reason.
 
     Warns

@@ -1,37 +1,27 @@
 """Reading mesh files for :func:`pyshadow.load_mesh`: trimesh's readers, with OBJ text they misread made plain.
 
-trimesh's OBJ reader resolves a negative (relative) index against the *whole*
-file's vertices instead of those read so far (OBJ's rule), so an object whose
-faces say ``f -4 -3 -2 -1`` before the next object's ``v`` lines was given
-that object's vertices: a two-object file lost its first object without a
-word. It also reads no vertex from a ``v`` line indented or separated from its
-numbers by a tab (the file "held no geometry"), and fails on a comment at the
-end of a data line (``f 1 2 3 # lid``). :func:`obj_text` rewrites such text
-with absolute indices, single spaces and no comments on data lines before
-trimesh reads it (a comment only where trimesh fails on the file as it is);
-any other file is read as it is, byte for byte. trimesh also splits every
-polygon into a fan from its first corner, which covers ground outside a
-concave polygon (an L-shaped floor, a dart-shaped quad): :func:`obj_polygons` splits each
-concave face of 4 or more corners into triangles that tile it (ear clipping;
-convex faces keep trimesh's fan).
+trimesh's OBJ reader resolves a negative (relative) index against the *whole* file's vertices instead of those
+read so far (OBJ's rule): an object whose faces say ``f -4 -3 -2 -1`` before the next object's ``v`` lines was
+given that object's vertices. It reads no vertex from a ``v`` line indented or separated from its numbers by a
+tab, nor from a first line after UTF-8's byte order mark, fails on a comment at the end of a data line
+(``f 1 2 3 # lid``), and takes an index 0 (a file written counting from 0) for the last vertex: such a file is
+refused; :func:`obj_text` rewrites the others with absolute indices, single spaces and no comments on data
+lines before trimesh reads them (a comment only where trimesh fails on the file as it is); any other file is
+read as it is, byte for byte. trimesh splits every polygon into a fan from its first corner, which covers
+ground outside a concave polygon (an L-shaped floor, a dart-shaped quad): :func:`obj_polygons` splits each
+concave face of 4 or more corners into triangles that tile it (ear clipping; convex faces keep the fan).
 
-trimesh's binary PLY reader takes every face to have as many corners as the
-first one, so a binary PLY of triangles and quads (Blender writes its
-n-gons so) failed ("PLY is unexpected length!"). Where it fails on a binary
-PLY, :func:`ply_ascii` turns the file into the same PLY in ASCII, which
-trimesh reads with faces of any size (every number written so it reads back
-to the same bits), also where the sizes add up and trimesh misread it. PLY
-and OFF polygons were fanned as OBJ's, PLY face colours not split with their
-polygons (IndexError), an OFF of pentagons beside triangles failed, and an
-OFF comment after data shifted the lines after it: :func:`ply_polygons` and
-:func:`off_text` rewrite such files (an OFF's concave quads too; a PLY's
-where it is rewritten: a PLY of triangles and quads without colours that
-trimesh reads is read as it is, fans of concave quads and all, as
-:func:`pyshadow.data.mesh` reads its PLY). A binary STL whose facet count is not
-its length's (0, as some CAD exporters write) "held no geometry" (read now).
-
-glTF files are read by :mod:`pyshadow.gltf_files` (:func:`check_gltf` refuses geometry trimesh
-reads wrongly; buffer and image files are found by their percent-decoded names).
+trimesh's binary PLY reader takes every face to have as many corners as the first one, so a binary PLY of
+triangles and quads (Blender writes its n-gons so) failed ("PLY is unexpected length!"). Where it fails on a
+binary PLY, :func:`ply_ascii` turns the file into the same PLY in ASCII, which trimesh reads with faces of any
+size (every number written so it reads back to the same bits), also where the sizes add up and trimesh misread
+it. PLY and OFF polygons were fanned as OBJ's, PLY face colours not split with their polygons (IndexError),
+an OFF of pentagons beside triangles failed, and an OFF comment after data shifted the lines after it:
+:func:`ply_polygons` and :func:`off_text` rewrite such files (an OFF's concave quads too; a PLY's where it is
+rewritten: a PLY of triangles and quads without colours that trimesh reads is read as it is, fans of concave
+quads and all, as :func:`pyshadow.data.mesh` reads its PLY). A binary STL whose facet count is not its
+length's (0, as some CAD exporters write) "held no geometry" (read now); an ASCII STL cut short is refused.
+glTF files are read by :mod:`pyshadow.gltf_files`. An empty file is refused as such.
 """
 from __future__ import annotations
 
@@ -60,6 +50,9 @@ _QUAD = re.compile(rb"\nf" + rb"[ \t]++(\d++)[^ \t\r\n#]*+" * 4 + rb"[ \t\r]*+(?
 _VERTEX = re.compile(rb"\nv[ \t]+([^ \t\r\n#]+)[ \t]+([^ \t\r\n#]+)[ \t]+([^ \t\r\n#]+)")
 _COUNTED = {b"v": 0, b"vt": 1, b"vn": 2}
 _ELEMENTS = (b"f", b"l", b"p")
+_STL_SOLID = re.compile(rb"\n[ \t]*(end)?solid", re.IGNORECASE)     # an ASCII STL's solid begins or ends
+_ZERO = re.compile(rb"\n[fpl][ \t][^\n#0]*+(?:0[^\n#0]*+)*?(?<![^ \t/])0+(?![^ \t/\r\n#])")    # an index 0
+_BOM = b"\xef\xbb\xbf"                   # UTF-8's byte order mark, which some Windows programs write first
 
 
 def obj_text(data: bytes, label: str = "OBJ", *, force: bool = False) -> bytes | None:
@@ -72,20 +65,16 @@ def obj_text(data: bytes, label: str = "OBJ", *, force: bool = False) -> bytes |
     label : str
         Names the file in errors.
     force : bool
-        Rewrite whatever the text holds (trailing comments of data lines are
-        only looked for then).
+        Rewrite whatever the text holds (trailing comments of data lines are only looked for then).
 
     Returns
     -------
     bytes or None
-        ``data`` with every negative index ``-k`` of an ``f``, ``l`` or ``p``
-        line replaced by the absolute index it means (the ``k``-th last
-        ``v``, ``vt`` or ``vn`` before that line), continued lines joined, and
-        the lines of vertices and elements unindented, with single spaces and
-        no comment;
-        None where no line has a negative index, an indent or a tab after its
-        keyword and ``force`` is False, or where the rewrite changes nothing
-        (the file is read as it is).
+        ``data`` with every negative index ``-k`` of an ``f``, ``l`` or ``p`` line replaced by the absolute
+        index it means (the ``k``-th last ``v``, ``vt`` or ``vn`` before that line), continued lines joined,
+        and the lines of vertices and elements unindented, with single spaces and no comment; None where no
+        line has a negative index, an indent or a tab after its keyword and ``force`` is False, or where the
+        rewrite changes nothing (the file is read as it is).
 
     Raises
     ------
@@ -118,18 +107,15 @@ def obj_polygons(text: bytes) -> bytes | None:
     Parameters
     ----------
     text : bytes
-        OBJ text with absolute indices (:func:`obj_text`'s, or a file's that
-        it leaves as it is).
+        OBJ text with absolute indices (:func:`obj_text`'s, or a file's that it leaves as it is).
 
     Returns
     -------
     bytes or None
-        ``text`` with every such ``f`` line whose fan from its first corner
-        (trimesh's split) covers ground outside it replaced by ``f`` lines of
-        the triangles of an ear clipping, each corner with its own ``vt``
-        and ``vn``; None where no face needs it (the text is read as it is).
-        Convex faces, faces crossing themselves and faces whose corners are
-        not known (an index that is not a number) keep the fan.
+        ``text`` with every such ``f`` line whose fan from its first corner (trimesh's split) covers ground
+        outside it replaced by ``f`` lines of the triangles of an ear clipping, each corner with its own ``vt``
+        and ``vn``; None where no face needs it (the text is read as it is). Convex faces, faces crossing
+        themselves and faces whose corners are not known (an index that is not a number) keep the fan.
     """
     body = b"\n" + text
     quads = _QUAD.findall(body)                     # (C speed: files of quads are large)
@@ -292,11 +278,10 @@ def ply_ascii(data: bytes) -> bytes | None:
     Returns
     -------
     bytes or None
-        The header with ``format ascii 1.0``, then one line per element:
-        integers as they are, float32 with 9 and float64 with 17 significant
-        digits (they read back to the same bits). Lists may differ in length
-        from element to element. None where the format is not binary or the
-        data ends before the header's elements do.
+        The header with ``format ascii 1.0``, then one line per element: integers as they are, float32 with 9
+        and float64 with 17 significant digits (they read back to the same bits). Lists may differ in length
+        from element to element. None where the format is not binary or the data ends before the header's
+        elements do.
     """
     head = _ply_header(data)
     if head is None or head[0] not in ("binary_little_endian", "binary_big_endian"):
@@ -346,23 +331,23 @@ def _tiled(index: list, xyz: np.ndarray) -> dict:
     return {k: t for k, t in tiles.items() if t is not None}
 
 
-def ply_polygons(text: bytes) -> bytes | None:
+def ply_polygons(text: bytes, split: bool = False) -> bytes | None:
     """An ASCII PLY with its faces split into triangles where trimesh's split would be wrong, or None.
 
     Parameters
     ----------
     text : bytes
         An ASCII PLY file's contents (:func:`ply_ascii`'s for a binary one).
+    split : bool
+        Split every face of 4 or more corners, as where faces have colours.
 
     Returns
     -------
     bytes or None
-        ``text`` with each concave face of 4 or more corners replaced by rows
-        of an ear clipping (as :func:`obj_polygons`), and, where faces have
-        colours, each of 4 or more corners by rows of a fan (where convex),
-        those of under 3 dropped; each row keeps its face's properties (of a
-        per-corner list such as ``texcoord``, its corners'). None where no
-        face needs it.
+        ``text`` with each concave face of 4 or more corners replaced by rows of an ear clipping (as
+        :func:`obj_polygons`), and, where faces have colours or ``split``, each of 4 or more corners by rows of
+        a fan (where convex), those of under 3 dropped; each row keeps its face's properties (of a per-corner
+        list such as ``texcoord``, its corners'). None where no face needs it.
     """
     head = _ply_header(text)
     if head is None or head[0] != "ascii":
@@ -394,7 +379,7 @@ def ply_polygons(text: bytes) -> bytes | None:
     except (IndexError, ValueError):
         return None
     tiles = _tiled(index, xyz)
-    split = sum(c in [p[0] for p in fprops] for c in _PLY_COLOURS) > 2 and any(len(f) != 3 for f in index)
+    split = (split or sum(c in [p[0] for p in fprops] for c in _PLY_COLOURS) > 2) and any(len(f) != 3 for f in index)
     if not (tiles or split):
         return None
     out = []
@@ -429,12 +414,10 @@ def off_text(data: bytes) -> bytes | None:
     Returns
     -------
     bytes or None
-        ``data`` without comments (``#`` to its line's end), each face of 5
-        or more corners and each quad that a fan from corner 0 would not
-        tile replaced by lines of triangles with its colour: an ear clipping
-        where a fan from corner 0 would not tile it (as :func:`obj_polygons`),
-        else that fan (trimesh's). None where there is no comment and no
-        such face, or the file does not read as OFF.
+        ``data`` without comments (``#`` to its line's end), each face of 5 or more corners and each quad that
+        a fan from corner 0 would not tile replaced by lines of triangles with its colour: an ear clipping where
+        a fan from corner 0 would not tile it (as :func:`obj_polygons`), else that fan (trimesh's). None where
+        there is no comment and no such face, or the file does not read as OFF.
     """
     if b"#" not in data and not _OFF_POLYGON.search(b"\n" + data) and (
             not _OFF_QUAD.search(b"\n" + data) or _off_quads_tile(data)):
@@ -486,6 +469,17 @@ def _off_quads_tile(data: bytes) -> bool:
     return bool(quads.min(initial=0) >= 0 and quads.max(initial=-1) < nv and not len(_quad_flips(xyz[quads])))
 
 
+def _stl_ended(data: bytes, label: str) -> None:
+    """ValueError where an ASCII STL (as trimesh tells it from a binary one) has a ``solid`` without ``endsolid``
+    (trimesh read no facet of it: a file cut short "held no geometry", or lost its last solid)."""
+    if len(data) >= 84 and 84 + 50 * struct.unpack_from("<I", data, 80)[0] == len(data) or b"\0" in data:
+        return
+    ends = [bool(m.group(1)) for m in _STL_SOLID.finditer(b"\n" + data)]
+    if len(ends) > 2 * sum(ends):
+        raise ValueError(f"{label}: an ASCII STL with {len(ends) - sum(ends)} 'solid' but {sum(ends)} 'endsolid' "
+                         "lines (cut short?)")
+
+
 def _stl_binary(data: bytes, label: str) -> bytes | None:
     """A binary STL with the count of the 50-byte facets after its 84 bytes (the header's where they are no
     whole number: bytes after them left out), or None (ASCII, no facets); ValueError where it is cut short."""
@@ -520,7 +514,8 @@ def _ply_suspect(mesh) -> str:
 
 
 def _read_ply(path: Path):
-    """What trimesh reads from the PLY file ``path``, where needed from :func:`ply_ascii`'s, ply_polygons' text."""
+    """What trimesh reads from the PLY file ``path``, where needed from :func:`ply_ascii`'s, ply_polygons' text (an
+    ASCII PLY trimesh fails on with every polygon split: it failed on ``texcoord`` lists of triangles and quads)."""
     try:
         mesh = trimesh.load(str(path), process=False)
         why, error = _ply_suspect(mesh), None
@@ -530,7 +525,7 @@ def _read_ply(path: Path):
         mesh, why, error = None, "misread", exc
     data = path.read_bytes()
     text = ply_ascii(data)
-    if text is None and mesh is None:
+    if text is None and mesh is None and (text := ply_polygons(data, split=True)) is None:
         raise error
     fixed = ply_polygons(text or data)
     if fixed is None and (text is None or why != "misread"):
@@ -546,6 +541,8 @@ def read_mesh_file(path: Path, label: str):
     Raises ValueError naming ``label`` where the format is unknown or the file cannot be parsed.
     """
     try:
+        if path.stat().st_size == 0:            # (was "could not be read" for a reason of the parser's)
+            raise ValueError(f"{label}: the file is empty (0 bytes: an empty mesh)")
         if path.suffix.lower() == ".ply":
             return _read_ply(path)
         if path.suffix.lower() == ".off":
@@ -553,17 +550,24 @@ def read_mesh_file(path: Path, label: str):
             if fixed is not None:
                 return trimesh.load(io.BytesIO(fixed), file_type="off", process=False)
         if path.suffix.lower() == ".stl":
-            mesh = trimesh.load(str(path), process=False)
-            fixed = _stl_binary(path.read_bytes(), label) if isinstance(mesh, trimesh.Scene) and \
-                not mesh.geometry else None
+            mesh, data = trimesh.load(str(path), process=False), path.read_bytes()
+            _stl_ended(data, label)
+            fixed = _stl_binary(data, label) if isinstance(mesh, trimesh.Scene) and not mesh.geometry else None
             return mesh if fixed is None else trimesh.load(io.BytesIO(fixed), file_type="stl", process=False)
         if path.suffix.lower() in (".glb", ".gltf"):
             return read_gltf(path, label)
         if path.suffix.lower() != ".obj":
             return trimesh.load(str(path), process=False)
         data = path.read_bytes()
+        bom = data.startswith(_BOM)         # trimesh read no vertex from a first line "\ufeffv 1 2 3"
+        data = data[len(_BOM):] if bom else data
+        zero = _ZERO.search(b"\n" + data)     # (trimesh took 0 for -1, the last vertex: a box's area read 5.83)
+        if zero:
+            at, line = zero.start(), data[zero.start():].split(b"\n", 1)[0].strip().decode("utf-8", "replace")
+            raise ValueError(f"{label}: line {data.count(bytes([10]), 0, at) + 1} ({line[:60]!r}) has index 0, "
+                             "which OBJ has not: it counts from 1 (was the file written counting from 0?)")
         fixed = obj_text(data, label)
-        fixed = obj_polygons(data if fixed is None else fixed) or fixed
+        fixed = obj_polygons(data if fixed is None else fixed) or fixed or (data if bom else None)
         if fixed is None:
             try:
                 return trimesh.load(str(path), process=False)
@@ -575,6 +579,8 @@ def read_mesh_file(path: Path, label: str):
         return trimesh.load(io.BytesIO(fixed), file_type="obj", process=False,
                             resolver=trimesh.resolvers.FilePathResolver(str(path)))
     except (NotImplementedError, KeyError) as exc:
+        if path.suffix.lower() in (".obj", ".ply", ".stl", ".off", ".glb", ".gltf"):   # (a glTF without POSITION)
+            raise ValueError(f"{label}: could not be read as a mesh (no {exc} where the file needs one)") from exc
         raise ValueError(f"{label}: unknown or unsupported mesh format {path.suffix!r} ({exc})") from exc
     except ValueError as exc:
         if str(exc).startswith(label):

@@ -75,8 +75,36 @@ def sun_directions(light, k: int, indices, seed: int = 0) -> np.ndarray:
     azimuth ``2 pi (j g + t_i)`` with ``g`` the golden ratio's fraction and
     ``t_i = frac(u + i g)`` for the point's pattern index ``i`` and ``u``
     drawn from ``seed``. ``K = 1`` or ``r = 0``: the light's direction itself.
+
+    Parameters
+    ----------
+    light : DirectionalLight or SunLight
+        Anything with a unit ``direction`` (3,) and an ``angular_radius`` r in rad.
+    k : int
+        Directions per point (>= 1).
+    indices : array_like of int, shape (N,)
+        Pattern index of each point (>= 0): turns its pattern.
+    seed : int
+        >= 0.
+
+    Raises
+    ------
+    TypeError
+        ``k`` or ``indices`` not integers.
+    ValueError
+        ``k < 1``, a negative ``seed`` or index, ``indices`` not 1-D.
     """
-    idx = np.asarray(indices, dtype=np.int64)
+    from .._validate import check_indices, check_int
+    from ._checks import check_seed
+
+    k = check_int(k, "k (directions per point)", 1)     # (0 gave no directions, 2.5 a skewed spread)
+    seed = check_seed(seed)
+    a = np.asarray(indices)
+    if a.size == 0:                                       # [] is float64: no points, no directions
+        a = a.astype(np.int64)
+    if a.ndim != 1:
+        raise ValueError(f"indices must be one pattern index per point, shape (N,) (got shape {a.shape})")
+    idx = check_indices(a, len(a))                        # (-1 and 0.5 were taken as other points' patterns)
     n = len(idx)
     d = light.direction
     if k == 1 or light.angular_radius == 0.0:

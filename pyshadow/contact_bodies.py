@@ -11,6 +11,7 @@ part's winding turned by its volume's sign: inverted meshes, cavities), the poin
 from __future__ import annotations
 
 import weakref
+from collections import namedtuple
 
 import numpy as np
 
@@ -205,7 +206,11 @@ def body_patches(scene):
     after) are unchanged keeps the patches found for it last time (:data:`_SEARCHED`): each body's patches are
     found from its own face pairs alone, so they are the same values; one box moved among 3,600 touching ones
     is searched with its neighbours, not all of them."""
-    held = scene_arrays(scene)
+    return _patches(scene, scene_arrays(scene))
+
+
+def _patches(scene, held):
+    """:func:`body_patches` of ``scene`` at the poses of its arrays ``held`` (kept there)."""
     if "bodies" in held:
         return held["bodies"]
     out = []                    # stored when complete: another thread's query reads all of it or none
@@ -232,7 +237,7 @@ def body_patches(scene):
     else:
         box, oriented, searched = last["box"].copy(), last["oriented"].copy(), last["searched"].copy()
         posed = used[moved[used] | ~last["posed"][used]]
-    world, faces = _world_bodies([scene.instances[ids[i]] for i in posed]) if len(posed) else (None, None)
+    world, faces = _world_bodies(_posed(scene, held, ids[posed])) if len(posed) else (None, None)
     if len(posed):
         box[posed], oriented[posed] = faces[9], faces[2]
     was_posed = np.zeros(len(ids), bool) if last is None else last["posed"] & ~moved    # boxes of the poses in T
@@ -253,7 +258,8 @@ def body_patches(scene):
         found = {k: v for k, v in found.items() if searched[k]}
     sel = ~searched[b]
     if sel.any():
-        found.update(_searched(scene, ids, b[sel], a[sel], ~oriented[a[sel]] | inner[sel], tol, world, faces, posed))
+        found.update(_searched(scene, held, ids, b[sel], a[sel], ~oriented[a[sel]] | inner[sel], tol, world, faces,
+                               posed))
         searched[b[sel]] = True
     for i in b[np.sort(np.unique(b, return_index=True)[1])]:      # in the order the bodies were first met
         out.extend(found[int(i)])
@@ -266,6 +272,16 @@ def body_patches(scene):
 #: scene -> its last :func:`body_patches` search: the poses (``T``) and world boxes it read, the touching pairs
 #: ``(B, A)`` it tested (positions into ``ids``) and the patches it found for each body B (``found``)
 _SEARCHED = weakref.WeakKeyDictionary()
+_Posed = namedtuple("_Posed", "mesh transform")
+
+
+def _posed(scene, held, rows):
+    """The instances ``rows`` (ids) as ``(mesh, transform)`` at the poses of the scene's arrays ``held``, those the
+    search is kept for (:data:`_SEARCHED`), not the instances' own: a move from another thread during a query
+    gave the faces of its pose to the patches kept for the pose asked, found again only after another move
+    (a box lifted onto another, moved away during the query and back: no patch, AO 1 on the lid under it)."""
+    T = held["transform"]
+    return [_Posed(scene.instances[i].mesh, T[i]) for i in rows]
 
 
 def _body_pairs(held, ids):
@@ -285,14 +301,14 @@ def _body_pairs(held, ids):
     return both[held["casts"][np.asarray(ids)[both[:, 0]]]] if len(both) else both
 
 
-def _searched(scene, ids, b, a, either, tol, world, faces, posed):
+def _searched(scene, held, ids, b, a, either, tol, world, faces, posed):
     """``{B: [patch]}``: the patches of every body B of the pairs ``(b, a)`` (positions into ``ids``; ``either``:
     :func:`_touching`'s), from :func:`_world_bodies`' ``world, faces`` of the bodies ``posed`` where those hold
-    all of ``b`` and ``a`` (else found here)."""
+    all of ``b`` and ``a`` (else found here, at the poses of ``held``: :func:`_posed`)."""
     used = np.unique(np.concatenate([b, a]))
     if world is None or not np.isin(used, posed).all():
         posed = used
-        world, faces = _world_bodies([scene.instances[ids[i]] for i in posed])
+        world, faces = _world_bodies(_posed(scene, held, ids[posed]))
     row = np.full(len(ids), -1)
     row[posed] = np.arange(len(posed))
     hit_all = _touching(faces, np.stack([row[b], row[a]], axis=1), tol[posed], either)
@@ -340,7 +356,8 @@ def _planes(got, world, tri, first, tol):
 def body_hits(scene, points):
     """``[(rows, inward unit normal (3,))]``: per contact patch (:func:`body_patches`), the points lying on it
     farther than its tolerance from its outline (a point between two bodies lies on a patch of each)."""
-    patches = body_patches(scene) if len(points) and scene.instances else []
+    held = scene_arrays(scene) if len(points) and scene.instances else None
+    patches = _patches(scene, held) if held is not None else []     # the patches and their parts of one pose
     if not patches:
         return []
     p = np.asarray(points, np.float64)
@@ -363,7 +380,7 @@ def body_hits(scene, points):
     # in the patch's plane (each patch's points flattened as that patch's alone), inside one of its faces and
     # farther than its tolerance from its outline
     q = np.concatenate([p[k] @ patches[i][4].T for i, k in zip(*_groups(pid, rows))])
-    ok = _in_parts(q, pid, _kept_parts(scene_arrays(scene), "body parts",
+    ok = _in_parts(q, pid, _kept_parts(held, "body parts",
                                        lambda: ([x[5] for x in patches], [x[6] for x in patches], None)), tol)
     pid, rows = pid[ok], rows[ok]
     return [(k, patches[i][0]) for i, k in zip(*_groups(pid, rows))]

@@ -123,12 +123,15 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--samples", type=_int_range(1, MAX_SAMPLES, "--samples"), default=36,
                    help="AO samples per pixel (default 36)")
     f.add_argument("--denoise", choices=("bilateral", "separable", "box"), default=None)
-    f.add_argument("--ground", type=_finite_float, default=0.0, metavar="Y", help="ground plane height (default 0)")
-    f.add_argument("--no-ground", action="store_true", help="no ground plane")
+    # either, not both: '--no-ground --ground 0.5' (or '--no-cache --cache-dir D') dropped one of them silently
+    gr = f.add_mutually_exclusive_group()
+    gr.add_argument("--ground", type=_finite_float, default=0.0, metavar="Y", help="ground plane height (default 0)")
+    gr.add_argument("--no-ground", action="store_true", help="no ground plane")
     f.add_argument("--chunk", type=_int_range(1, 10_000, "--chunk"), default=4, help="frames per task (default 4)")
-    f.add_argument("--cache-dir", metavar="DIR",
-                   help="CSM cache (default $PYSHADOW_CACHE or the user cache folder)")
-    f.add_argument("--no-cache", action="store_true", help="build the CSMs, do not cache them")
+    ca = f.add_mutually_exclusive_group()
+    ca.add_argument("--cache-dir", metavar="DIR",
+                    help="CSM cache (default $PYSHADOW_CACHE or the user cache folder)")
+    ca.add_argument("--no-cache", action="store_true", help="build the CSMs, do not cache them")
     _csm_options(f)
     _executor_options(f)
     m = sub.add_parser("motion", help="write the bundled scene's default motion as a motion file")

@@ -245,7 +245,10 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         ``frames`` (per frame ``frame``, ``action`` 'rendered', 'skipped',
         'failed' or 'interrupted', ``outputs``, ``seconds``, ``error``; a
         frame a worker of other pyshadow code rendered is 'failed', not
-        stored: under this code's key a rerun would keep it),
+        stored: under this code's key a rerun would keep it; so is one
+        whose files could not be written, the others go on; the frames of
+        a task that failed whole, e.g. its worker died, are each tried
+        again alone, so that only the frame at fault fails),
         ``summary``, ``seconds`` (wall), ``frames_per_minute``, ``csm``
         (file per caster), ``executor``.
 
@@ -301,7 +304,8 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         from ..views import ViewSet
 
         def csm_for(name, mesh):
-            return CoherentShadowMap.build(mesh, ViewSet.zigzag(64, 128), progress=False)
+            # 8,192 maps: seconds to minutes per caster, silent before (the CLI's cache shows its own bar)
+            return CoherentShadowMap.build(mesh, ViewSet.zigzag(64, 128), progress=progress)
 
     render = {"samples": int(samples), "lookup": lookup, "denoise": denoise}
     code = code_digest()
@@ -318,7 +322,8 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                 write_bytes_atomic(out / rel, part["csm"])
                 csm_files[part["name"]] = rel
         prepare = time.perf_counter() - t0
-        for f in range(len(T)):
+        # every earlier frame's files are hashed: a long motion's rerun was silent for minutes (shown after 1 s)
+        for f in tqdm(range(len(T)), unit="frame", desc="checking", delay=1.0, leave=False, disable=not progress):
             keys[f] = _frame_key(payload["key"], T[f], code)
             rec = done(out, f"records/frame_{f:04d}.json", keys[f])
             if rec is not None and rec.get("frame") == f and set(rec["outputs"]) == _frame_files(f):
@@ -331,28 +336,23 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
         if todo:
             ex = open_executor(executor, workers, scheduler, threads)
-            for frames, res, err in ex.run(render_chunk, ((tuple(fs), (fs, Tc)) for fs, Tc in tasks),
-                                            shared=payload):
-                if err is not None:
-                    for f in frames:
+            alone = []                  # frames of a chunk that failed whole (its worker died): each again, alone
+            for batch in (tasks, None):
+                if batch is None:       # else every frame of the chunk failed with the one that killed its worker
+                    batch = [([f], T[[f]]) for f in alone]
+                for frames, res, err in ex.run(render_chunk, ((tuple(fs), (fs, Tc)) for fs, Tc in batch),
+                                                shared=payload):
+                    if err is not None and len(frames) > 1 and batch is tasks:
+                        alone.extend(frames)
+                        continue
+                    for f in frames if err is not None else ():
                         entries[f] = {"frame": f, "key": keys[f], "status": "failed", "action": "failed",
                                       "error": f"{type(err).__name__}: {err}"}
-                else:
-                    for r in res:
-                        if r.get("error") is not None:      # this frame alone failed
-                            entries[r["frame"]] = {"frame": r["frame"], "key": keys[r["frame"]], "status": "failed",
-                                                   "action": "failed", "error": r["error"]}
-                            continue
-                        why = other_code(r.get("code"), code, r["worker"])
-                        if why is not None:                 # under this code's key it would be skipped for good
-                            entries[r["frame"]] = {"frame": r["frame"], "key": keys[r["frame"]], "status": "failed",
-                                                   "action": "failed", "error": why, "worker": r["worker"]}
-                            continue
-                        rec = {"frame": r["frame"], "key": keys[r["frame"]], "status": "baked",
-                               "seconds": r["seconds"], "ao_mean": r["ao_mean"], "worker": r["worker"]}
-                        rec = store(out, f"records/frame_{r['frame']:04d}.json", rec, r["files"])
-                        entries[r["frame"]] = dict(rec, action="rendered")
-                bar.update(len(frames))
+                    for r in res if err is None else ():
+                        entries[r["frame"]] = _finished(out, r, keys[r["frame"]], code)
+                    bar.update(len(frames))
+                if not alone:
+                    break
     finally:
         if bar is not None:
             bar.close()
@@ -379,6 +379,25 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         if stopped is not None:
             raise stopped
     return manifest
+
+
+def _finished(out: Path, r: dict, key: str, code: str) -> dict:
+    """The manifest entry of frame result ``r`` (of :func:`render_chunk`): its files and record stored when
+    it rendered with this ``code``."""
+    f = r["frame"]
+    failed = {"frame": f, "key": key, "status": "failed", "action": "failed"}
+    if r.get("error") is not None:      # this frame alone failed
+        return dict(failed, error=r["error"])
+    why = other_code(r.get("code"), code, r["worker"])
+    if why is not None:                 # under this code's key it would be skipped for good
+        return dict(failed, error=why, worker=r["worker"])
+    rec = {"frame": f, "key": key, "status": "baked", "seconds": r["seconds"], "ao_mean": r["ao_mean"],
+           "worker": r["worker"]}
+    try:                                # unwritable, disk full: this frame failed, the others go on
+        rec = store(out, f"records/frame_{f:04d}.json", rec, r["files"])
+    except OSError as e:
+        return dict(failed, error=f"writing its outputs: {type(e).__name__}: {e}")
+    return dict(rec, action="rendered")
 
 
 def _note_past_frames(out: Path, frames: int, log) -> None:

@@ -225,7 +225,8 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     assets, ignored = find_assets(sources)
     code = code_digest()
     entries, todo, sides = {}, [], {}
-    for name, path in assets:
+    # every source and every earlier output is hashed: minutes for a large library, silent before (shown after 1 s)
+    for name, path in tqdm(assets, unit="asset", desc="checking", delay=1.0, leave=False, disable=not progress):
         try:
             sides[name] = side_files(path)      # a .gltf's buffers: they go to the worker with it
             key = asset_key(_source_sha256(path, sides[name]), params, code)
@@ -251,6 +252,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
                 side = {uri: p.read_bytes() for uri, p in sides[name].items()}
             except OSError as e:
                 entries[name] = dict(_failed(name, path, key, f"{type(e).__name__}: {e}"), action="failed")
+                bar.update(1)           # else the bar ended short of its total
                 continue
             # the key of the bytes baked: a file changed since the scan was stored under its old content's key,
             # and a rerun with that content back took the outputs of the other for it

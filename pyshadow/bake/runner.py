@@ -149,6 +149,7 @@ class _Pool:
     def __init__(self, workers: int, threads: int):
         self.workers, self.threads = workers, threads
         self.pool, self._shared = None, None        # started by run(): its workers start with run's shared
+        self._pending = {}                          # run's tasks in flight (future -> (tag, args))
 
     def _new_pool(self):
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=get_context("spawn"),
@@ -168,7 +169,7 @@ class _Pool:
             self._shared = shared
             self._restart()
         it = iter(tasks)
-        pending = {}                    # future -> (tag, args)
+        pending = self._pending = {}    # future -> (tag, args)
         broken = []                     # tasks in flight when a worker process died
 
         def submit():
@@ -223,8 +224,15 @@ class _Pool:
         self.pool = self._new_pool()
 
     def close(self):
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+        if self.pool is None:
+            return
+        if any(not fut.done() for fut in self._pending):
+            # closed mid-run (Ctrl-C, SIGTERM): the driver drops what the running tasks return, and shutdown
+            # waited for them (a SIGTERM'd bake ran on for its longest task, minutes for a large asset, and a
+            # job scheduler's SIGKILL then came before the manifest); a worker process only ever holds its task
+            for proc in list((getattr(self.pool, "_processes", None) or {}).values()):
+                proc.terminate()
+        self.pool.shutdown(wait=True, cancel_futures=True)
 
 
 class SharedDataLost(RuntimeError):

@@ -176,12 +176,13 @@ def ambient_occlusion(scene, points, normals, *, backend="csm", sampling=None, r
 
 
 def _check_scene(scene) -> None:
-    """TypeError unless ``scene`` is a :class:`pyshadow.Scene`: the (scene, camera) pair of
-    ``pyshadow.data.default_scene()``, a CoherentShadowMap or a mesh failed in a backend with "'tuple' object
-    has no attribute 'caster_slots'" (Embree: "... 'instances'")."""
+    """TypeError unless ``scene`` is a :class:`pyshadow.Scene`, or an object that answers as one (a wrapper
+    passing on its attributes): the (scene, camera) pair of ``pyshadow.data.default_scene()``, a
+    CoherentShadowMap or a mesh failed in a backend with "'tuple' object has no attribute 'caster_slots'"
+    (Embree: "... 'instances'")."""
     from ..scene import Scene
 
-    if not isinstance(scene, Scene):
+    if not isinstance(scene, Scene) and not all(hasattr(scene, a) for a in ("instances", "caster_slots", "anchor")):
         hint = ""
         if isinstance(scene, tuple) and scene and isinstance(scene[0], Scene):
             hint = " (a tuple whose first item is one: pyshadow.data.default_scene() returns (scene, camera))"

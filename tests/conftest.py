@@ -131,6 +131,30 @@ def csm_fields(csm, **change):
     return kw
 
 
+def glb_bytes(tree: dict, blob) -> bytes:
+    """A GLB file of the glTF JSON ``tree`` and the binary chunk ``blob`` (each padded to 4 bytes)."""
+    import json
+    import struct
+
+    j = json.dumps(tree).encode()
+    j += b" " * (-len(j) % 4)
+    blob = bytes(blob) + b"\0" * (-len(blob) % 4)
+    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(blob), 0x004E4942) + blob
+    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
+
+
+def gltf_bytes(tree: dict, blob, glb: bool) -> bytes:
+    """``tree`` and its one buffer ``blob`` as a GLB (:func:`glb_bytes`), or as a ``.gltf`` whose buffer is a
+    base64 ``data:`` URI."""
+    import base64
+    import json
+
+    if glb:
+        return glb_bytes(tree, blob)
+    tree["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(bytes(blob)).decode()
+    return json.dumps(tree).encode()
+
+
 def all_pairs(csm):
     """Every (map, row, col) of a CSM as three (D, R, R) index arrays."""
     D, R = csm.maps, csm.resolution

@@ -1,10 +1,7 @@
 """glTF colours that trimesh's reader loses, read from the file (pyshadow.gltf_materials), against NumPy references
 written from the glTF 2.0 specification: COLOR_0 without a material (normalized ushort, float), the base colour
 texture's sampler (wrap modes, NEAREST magnification), its texCoord set and KHR_texture_transform."""
-import base64
 import io
-import json
-import struct
 
 import numpy as np
 import pytest
@@ -13,6 +10,8 @@ from PIL import Image
 import pyshadow
 from pyshadow.io import srgb_to_linear
 from pyshadow.materials import point_colours, visual_of
+
+from conftest import gltf_bytes
 
 REPEAT, CLAMP, MIRROR, NEAREST = 10497, 33071, 33648, 9728
 TRI = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
@@ -62,13 +61,7 @@ def gltf_file(prims, materials=(), sampler=None, image=True, glb=True):
         tree["textures"] = [{"source": 0, "sampler": 0}, {"source": 0, "sampler": 1}]
     blob.extend(b"\0" * (-len(blob) % 4))
     tree.update(buffers=[{"byteLength": len(blob)}], bufferViews=views, accessors=accs)
-    if not glb:
-        tree["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
-        return json.dumps(tree).encode()
-    j = json.dumps(tree).encode()
-    j += b" " * (-len(j) % 4)
-    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(blob), 0x004E4942) + bytes(blob)
-    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
+    return gltf_bytes(tree, blob, glb)
 
 
 def textured(info, sampler=None, glb=True):

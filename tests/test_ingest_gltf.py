@@ -7,16 +7,10 @@ import pytest
 
 from pyshadow.mesh import load_mesh
 
+from conftest import glb_bytes
+
 TETRA = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float) * 0.5
 FACES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.uint16)
-
-
-def _glb(tree, blob):
-    j = json.dumps(tree).encode()
-    j += b" " * (-len(j) % 4)
-    blob += b"\0" * (-len(blob) % 4)
-    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(blob), 0x004E4942) + blob
-    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
 
 
 def _tetra_glb(positions, component, normalized=False, stride=12, extensions=None, prim_ext=None):
@@ -36,7 +30,7 @@ def _tetra_glb(positions, component, normalized=False, stride=12, extensions=Non
             "accessors": [{"bufferView": 0, "componentType": 5123, "count": 12, "type": "SCALAR"}, acc]}
     if extensions:
         tree["extensionsUsed"] = tree["extensionsRequired"] = extensions
-    return _glb(tree, blob)
+    return glb_bytes(tree, blob)
 
 
 def test_plain_float_glb_loads(tmp_path):
@@ -78,7 +72,7 @@ def test_draco_without_dracopy_refused(tmp_path):
     tree = json.loads(data[20:20 + n])
     for acc in tree["accessors"]:                 # Draco's accessors have no buffer view of their own
         acc.pop("bufferView")
-    (tmp_path / "d.glb").write_bytes(_glb(tree, data[20 + n + 8:]))
+    (tmp_path / "d.glb").write_bytes(glb_bytes(tree, data[20 + n + 8:]))
     with pytest.raises(ValueError, match="DracoPy"):
         load_mesh(tmp_path / "d.glb")
 
@@ -101,7 +95,7 @@ def test_meshopt_refused(tmp_path):
             "accessors": [{"bufferView": 0, "componentType": 5123, "count": 12, "type": "SCALAR"},
                           {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3",
                            "min": [0, 0, 0], "max": [1, 1, 1]}]}
-    (tmp_path / "m.glb").write_bytes(_glb(tree, blob))
+    (tmp_path / "m.glb").write_bytes(glb_bytes(tree, blob))
     with pytest.raises(ValueError, match="EXT_meshopt_compression"):
         load_mesh(tmp_path / "m.glb")
 
@@ -123,7 +117,7 @@ def test_triangle_fan_refused(tmp_path):
                            "min": [0, 0, 0], "max": [0.5, 0.5, 0.5]},
                           {"bufferView": 1, "byteOffset": 48, "componentType": 5126, "count": 4, "type": "VEC3",
                            "min": [0, 0, 2], "max": [1, 1, 2]}]}
-    (tmp_path / "fan.glb").write_bytes(_glb(tree, blob))
+    (tmp_path / "fan.glb").write_bytes(glb_bytes(tree, blob))
     with pytest.raises(ValueError, match="triangle fan"):
         load_mesh(tmp_path / "fan.glb")
 
@@ -148,6 +142,6 @@ def test_sparse_positions_refused(tmp_path):
                            "min": [0, 0, 0], "max": [0.5, 0.5, 3],
                            "sparse": {"count": 1, "indices": {"bufferView": 2, "componentType": 5123},
                                       "values": {"bufferView": 3}}}]}
-    (tmp_path / "sparse.glb").write_bytes(_glb(tree, blob))
+    (tmp_path / "sparse.glb").write_bytes(glb_bytes(tree, blob))
     with pytest.raises(ValueError, match="sparse"):
         load_mesh(tmp_path / "sparse.glb")

@@ -1,9 +1,7 @@
 """glTF's baseColorFactor as the file gives it (a float multiplier, glTF 2.0 section 3.9.2), against the numbers
 written into hand-made .gltf/.glb files: trimesh keeps it as 8-bit RGBA, which pyshadow.load_mesh used."""
-import base64
 import io
 import json
-import struct
 
 import numpy as np
 import pytest
@@ -12,6 +10,8 @@ from PIL import Image
 import pyshadow
 from pyshadow.io import srgb_to_linear
 from pyshadow.materials import point_colours, visual_of
+
+from conftest import gltf_bytes
 
 TRI = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.float32)
 UV = np.array([[0.1, 0.2], [0.9, 0.3], [0.4, 0.8]], np.float32)
@@ -52,13 +52,7 @@ def gltf(materials, uv=False, glb=True, sampler=None):
                     textures=[{"source": 0, "sampler": 0}])
     blob.extend(b"\0" * (-len(blob) % 4))
     tree.update(buffers=[{"byteLength": len(blob)}], bufferViews=views, accessors=accs)
-    if not glb:
-        tree["buffers"][0]["uri"] = "data:application/octet-stream;base64," + base64.b64encode(blob).decode()
-        return json.dumps(tree).encode()
-    j = json.dumps(tree).encode()
-    j += b" " * (-len(j) % 4)
-    body = struct.pack("<II", len(j), 0x4E4F534A) + j + struct.pack("<II", len(blob), 0x004E4942) + bytes(blob)
-    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
+    return gltf_bytes(tree, blob, glb)
 
 
 def load(tmp_path, data, name):

@@ -38,8 +38,7 @@ def _expected(mesh, loaded):
 
 
 def _fix_normals(m):
-    pytest.importorskip("networkx")            # trimesh.repair needs it
-    trimesh.repair.fix_normals(m)
+    trimesh.repair.fix_normals(m)              # needs networkx: the test extra carries it
 
 
 def _flip_some(m):
@@ -95,15 +94,8 @@ def test_textured_glb_uvs_follow_invert_and_fix_winding(tmp_path):
     m2 = m.copy()
     _flip_some(m2)                             # some faces re-wound (as trimesh.repair.fix_winding does)
     np.testing.assert_array_equal(visual_of(m2).uv, uv_of[m2.faces])
-    if _has_networkx():                        # trimesh.repair needs it
-        trimesh.repair.fix_winding(m2)
-        np.testing.assert_array_equal(visual_of(m2).uv, uv_of[m2.faces])
-
-
-def _has_networkx():
-    import importlib.util
-
-    return importlib.util.find_spec("networkx") is not None
+    trimesh.repair.fix_winding(m2)             # needs networkx: the test extra carries it
+    np.testing.assert_array_equal(visual_of(m2).uv, uv_of[m2.faces])
 
 
 def test_unmodified_mesh_gets_its_own_visual(tmp_path):

@@ -14,7 +14,7 @@ __all__ = ["atomic_path", "write_bytes_atomic", "writable_folder"]
 
 @contextmanager
 def atomic_path(path):
-    """Yield a temporary path in ``path``'s folder; rename it over ``path`` on success.
+    """Yield a temporary path in ``path``'s folder; flush it to disk and rename it over ``path`` on success.
 
     The temporary name keeps ``path``'s extension as given (so format-guessing
     writers such as OpenImageIO pick the format asked for, also where ``path``
@@ -45,6 +45,7 @@ def atomic_path(path):
     tmp = path.parent / _temporary_name(path, suffix)
     try:
         yield tmp
+        _sync(tmp)
         if path.exists():               # the file replaced keeps its permissions (a private 0600 stays so)
             os.chmod(tmp, stat.S_IMODE(path.stat().st_mode))
         os.replace(tmp, path)
@@ -58,6 +59,22 @@ def atomic_path(path):
             if isinstance(e.strerror, str):
                 e.strerror = e.strerror.replace(str(tmp), str(path))
         raise
+
+
+def _sync(tmp: Path) -> None:
+    """Flush ``tmp``'s data to disk before the rename, which may otherwise reach the disk first (ext4's
+    delayed allocation: a crash soon after left an empty file in place of the old one). A file system that
+    cannot sync (EINVAL, ENOTSUP: some network and FUSE mounts) is passed over."""
+    fd = os.open(tmp, os.O_RDWR if os.name == "nt" else os.O_RDONLY)     # Windows' _commit needs write access
+    try:
+        os.fsync(fd)
+    except OSError as e:
+        if e.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP):
+            if e.filename is None:      # fsync's error names no file: name it (atomic_path names the target)
+                e.filename = str(tmp)
+            raise
+    finally:
+        os.close(fd)
 
 
 def _temporary_name(path: Path, suffix: str) -> str:
@@ -74,12 +91,10 @@ def _temporary_name(path: Path, suffix: str) -> str:
 
 
 def write_bytes_atomic(path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically (flushed to disk before the rename)."""
+    """Write ``data`` to ``path`` atomically (flushed to disk before the rename, by :func:`atomic_path`)."""
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as f:
             f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
 
 
 def writable_folder(path, probe_prefix: str = ".pyshadow-") -> None:

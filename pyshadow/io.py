@@ -22,9 +22,10 @@ File kinds, chosen by the (case-insensitive) extension
     (quality 95).
 
 Writes are atomic: the image goes to a hidden temporary file in the target's
-directory (same extension, so OpenImageIO picks the same format), which then
-replaces the target with :func:`os.replace`. If anything fails, the temporary
-file is removed and an existing target is left untouched.
+directory (same extension, so OpenImageIO picks the same format), which is
+flushed to disk (``fsync``) and then replaces the target with
+:func:`os.replace`. If anything fails, the temporary file is removed and an
+existing target is left untouched.
 
 A PNG or JPEG is written only where the folder's free space and the process's
 file size limit hold a bound on its size (1.01 (PNG) or 3 (JPEG) bytes per byte
@@ -298,17 +299,44 @@ _ORIENT = {1: lambda x: x, 2: lambda x: x[:, ::-1], 3: lambda x: x[::-1, ::-1], 
 _RADIANCE_ORIENT = {b"-Y+X": 1, b"-Y-X": 2, b"+Y-X": 3, b"+Y+X": 4,
                     b"+X-Y": 5, b"-X-Y": 6, b"-X+Y": 7, b"+X+Y": 8}
 _RADIANCE_RESOLUTION = re.compile(rb"\n\n([-+][XY]) +\d+ +([-+][XY]) +\d+ *\r?\n")
+#: Radiance header lines giving multipliers applied to the pixels (cumulative; Radiance's header.c and color.h).
+_RADIANCE_EXPOSURE = re.compile(rb"^EXPOSURE=[ \t]*(\S+)", re.M)
+_RADIANCE_COLORCORR = re.compile(rb"^COLORCORR=[ \t]*(\S+)[ \t]+(\S+)[ \t]+(\S+)", re.M)
 
 
-def _orientation(inp, spec, path: Path) -> int:
+def _radiance_header(inp, path: Path):
+    """The first 64 KiB of a Radiance HDR file (its header and resolution line), or None for other formats."""
+    if inp.format_name() != "hdr":
+        return None
+    with open(path, "rb") as f:
+        return f.read(1 << 16)
+
+
+def _orientation(spec, head) -> int:
     """The EXIF orientation code of the open file; a Radiance HDR's from its own resolution line."""
     code = spec.get_int_attribute("Orientation", 1)
-    if inp.format_name() == "hdr":
-        with open(path, "rb") as f:
-            m = _RADIANCE_RESOLUTION.search(f.read(1 << 16))
-        if m:
-            code = _RADIANCE_ORIENT.get(m.group(1) + m.group(2), code)
+    m = _RADIANCE_RESOLUTION.search(head) if head is not None else None
+    if m:
+        code = _RADIANCE_ORIENT.get(m.group(1) + m.group(2), code)
     return code
+
+
+def _radiance_multiplier(head, C: int):
+    """The (C,) multiplier a Radiance HDR's pixels hold (the product of its EXPOSURE and COLORCORR lines), or
+    None where it is 1: stored values are the original radiances times it. A value that is not a positive
+    finite number (a line of no meaning) is passed over."""
+    if head is None or C != 3:
+        return None
+    head = re.split(rb"\n\r?\n", head, maxsplit=1)[0]     # the header ends at its first empty line
+    mult = np.ones(3)
+    for m in list(_RADIANCE_EXPOSURE.finditer(head)) + list(_RADIANCE_COLORCORR.finditer(head)):
+        try:
+            v = np.array([float(g) for g in m.groups()])
+        except ValueError:
+            continue
+        if np.all(np.isfinite(v) & (v > 0)):
+            mult *= v
+    return None if np.all(mult == 1.0) else mult
 
 
 def _display_window(data: np.ndarray, spec) -> np.ndarray:
@@ -355,8 +383,13 @@ def read_image(path) -> np.ndarray:
     -------
     image : ndarray, float32, shape (H, W) for one channel, else (H, W, C)
         Float files (EXR, HDR, float TIFF) come back as stored (half is
-        widened exactly); an EXR's uint channels (ids) as their integers
-        (ValueError beyond 2**24, which float32 cannot hold). Integer
+        widened exactly), except that a Radiance HDR's values are divided by
+        the product of its ``EXPOSURE=`` and ``COLORCORR=`` header lines
+        (multipliers its writer applied, which Radiance's own readers
+        divide out; one not a positive finite number is passed over), to
+        give the radiances the file was made from; an EXR's uint channels
+        (ids) as their integers (ValueError beyond 2**24, which float32
+        cannot hold). Integer
         files (8-bit PNG/JPEG, 16-bit PNG) are taken as sRGB-encoded:
         value ``v`` of ``2^b - 1`` decodes to
         ``srgb_to_linear(v / (2^b - 1))``, linear in [0, 1]; an alpha channel
@@ -420,11 +453,14 @@ def read_image(path) -> np.ndarray:
         warning = inp.geterror()        # a non-fatal decoder complaint, the pixels returned all the same
         if "premature end" in warning.lower():      # libjpeg: data missing, the rest filled with grey
             raise ValueError(f"cannot read image {path}: it is truncated ({warning.strip()})")
-        orientation = _orientation(inp, spec, path)
+        head = _radiance_header(inp, path)
+        orientation, multiplier = _orientation(spec, head), _radiance_multiplier(head, C)
     finally:
         inp.close()
     data = _display_window(np.asarray(native).reshape(spec.height, spec.width, C), spec)
     data = _ORIENT.get(orientation, _ORIENT[1])(data)
+    if multiplier is not None:      # the radiances the file was made from (Radiance's own readers divide too)
+        data = data.astype(np.float64) / multiplier
     if top is not None:
         enc = data.astype(np.float64) / top
         colour = [c for c in range(C) if c != alpha]

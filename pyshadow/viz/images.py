@@ -114,6 +114,8 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
         keep &= ~m
     if img.dtype.kind == "c":
         raise TypeError(f"image_panel: image must be real, got {img.dtype}")
+    if img.dtype.kind not in "biuf":     # strings ('0.5' was read as a number in an RGB image), dates, objects
+        raise TypeError(f"image_panel: image must be numeric, got {img.dtype}")
     if rgb:
         if img.dtype.kind in "iu" and img.dtype != np.uint8:
             raise TypeError(f"image_panel: an RGB image must be uint8 (0..255) or float (0..1), "
@@ -123,8 +125,6 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
             keep &= np.isfinite(img).all(axis=2)
             img = np.round(np.clip(np.nan_to_num(img), 0.0, 1.0) * 255.0).astype(np.uint8)
     else:
-        if not (np.issubdtype(img.dtype, np.number) or img.dtype == bool):
-            raise ValueError(f"image_panel: image must be numeric, got {img.dtype}")
         img = np.asarray(img, dtype=np.float64)
         keep &= np.isfinite(img)
         if log_scale:                    # no place on a log scale (they would set the range)

@@ -10,7 +10,8 @@ it, then the exact distance along each eye ray to the plane of the triangle
 it comes from. A scene far from unit size is rasterised
 scaled by a power of two (:func:`pyshadow.mesh.float32_unit`), which moves
 no pixel; the near plane is 1e-6 of the farthest geometry in view, and a
-vertex in view nearer than that is refused rather than cut away. The items' triangles and their faces'
+vertex in view nearer than that, or a face whose part nearer than that lies in view (a wall filling the
+view from closer), is refused rather than cut away. The items' triangles and their faces'
 planes come from :mod:`pyshadow.gbuffer_items` (re-exported here), which takes the items sharing a mesh
 object together.
 """

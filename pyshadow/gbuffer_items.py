@@ -63,8 +63,8 @@ def _clip_near(tri: np.ndarray, near: float):
 def _clip_near_items(tri: np.ndarray, near: float, obj: np.ndarray, face: np.ndarray):
     """:func:`_clip_near` of the triangles ``tri`` (N, 3, 3) of many items (``obj`` (N,), ascending; ``face``
     (N,)) in the order it gives each item's own: item by item, its whole triangles, then the pieces of those
-    crossing the near plane. Returns the triangles, their items and faces. (Every triangle given has a corner
-    at ``near`` or beyond: the frustum test dropped those wholly nearer.)"""
+    crossing the near plane; those wholly nearer than it are dropped. Returns the triangles, their items and
+    faces."""
     full = _all3(tri[:, :, 2] >= near)
     if full.all():
         return tri, obj, face
@@ -113,12 +113,12 @@ def through_eye(tri) -> np.ndarray:
 
 
 def _edge_on_crossing(tri, near: float):
-    """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) crossing the near plane lie in a plane through
-    the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the eye in
-    it was refused as reaching into the view, or not, by the rounding of its area on screen); None where there is
-    none."""
+    """(N,) bool: which camera-space triangles ``tri`` (N, 3, 3) reaching nearer than the near plane lie in a plane
+    through the eye (:func:`through_eye`): seen edge-on, they cover no pixel, and are dropped (the ground with the
+    eye in it was refused as reaching into the view, or not, by the rounding of its area on screen); None where
+    there is none."""
     below = tri[:, :, 2] < near
-    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))
+    part = np.flatnonzero(below[:, 0] | below[:, 1] | below[:, 2])
     if not len(part):
         return None
     flat = through_eye(tri[part])
@@ -132,18 +132,20 @@ def _edge_on_crossing(tri, near: float):
 def _cut_in_view(tri, near: float, tx: float, ty: float):
     """Index of the first camera-space triangle of ``tri`` (N, 3, 3) whose part nearer than ``near`` lies
     in the view (half-widths ``tx``, ``ty`` at unit depth) with an area, which :func:`_clip_near` would cut
-    from the image; None if there is none. Only triangles whose box reaches the view's cross-section at
+    from the image (a triangle wholly nearer, such as a wall filling the view from closer than the near plane,
+    is cut whole); None if there is none. Only triangles whose box reaches the view's cross-section at
     ``near`` are clipped (in float64, by Sutherland-Hodgman) to the part of the view between 1e-3 ``near``
-    and ``near``, and count where that part has an area on the screen."""
+    (1e-3 of its farthest corner, where that is nearer) and ``near``, and count where that part has an area on
+    the screen."""
     below = tri[:, :, 2] < near
-    part = np.flatnonzero((below[:, 0] | below[:, 1] | below[:, 2]) & ~_all3(below))     # few: by columns first
+    part = np.flatnonzero(below[:, 0] | below[:, 1] | below[:, 2])     # few: by columns first
     x, y = tri[part, :, 0], tri[part, :, 1]
     cand = part[(x.min(axis=1) <= tx * near) & (x.max(axis=1) >= -tx * near)
                 & (y.min(axis=1) <= ty * near) & (y.max(axis=1) >= -ty * near)]
-    planes = [(np.array(a, np.float64), b) for a, b in (((0, 0, -1), -1e-3 * near), ((0, 0, 1), near),
-                                                        ((1, 0, -tx), 0.0), ((-1, 0, -tx), 0.0), ((0, 1, -ty), 0.0),
-                                                        ((0, -1, -ty), 0.0))]
+    sides = [(np.array(a, np.float64), 0.0) for a in ((1, 0, -tx), (-1, 0, -tx), (0, 1, -ty), (0, -1, -ty))]
     for i in cand:
+        low = 1e-3 * min(near, float(tri[i, :, 2].max()))
+        planes = [(np.array((0.0, 0.0, -1.0)), -low), (np.array((0.0, 0.0, 1.0)), near)] + sides
         poly = clip_polygon(list(tri[i]), planes)
         if poly:                            # its area on the screen (the view's [-1, 1]^2): an edge-on
             sx = np.array([p[0] / (p[2] * tx) for p in poly])      # plane through the eye has none
@@ -291,16 +293,18 @@ def _near_cut(groups, near: float, far: float, tx: float, ty: float) -> None:
 PART_FACES = 1024
 
 
-def _in_frustum(g: _Group, near: float, tx: float, ty: float) -> list:
+def _in_frustum(g: _Group, tx: float, ty: float) -> list:
     """The triangles of group ``g`` not wholly outside one side of the view frustum, as parts: (K, 3, 3) camera
     space, their items (K,) int32 and faces (K,) int64, item by item, faces in order (one part for the group, or
     one for each item of a mesh of :data:`PART_FACES` or more). Each corner's side tests are bits of its vertex
     (the same comparisons of the same values as corner by corner); a triangle is out where its three corners
-    share a bit."""
+    share a bit. One wholly nearer than ``near`` but in front of the eye is kept (:func:`_near_stages` refuses
+    it where it reaches into the view: dropped here, a wall filling the view from nearer than the near plane
+    showed what lies behind it)."""
     side = np.empty(g.c.shape[:2], np.uint8)
     for span in _spans(g):
         x, y, z = g.c[span, :, 0], g.c[span, :, 1], g.c[span, :, 2]
-        side[span] = z < near
+        side[span] = z <= 0
         for bit, test in enumerate((x > tx * z, x < -tx * z, y > ty * z, y < -ty * z), 1):
             side[span] |= test.astype(np.uint8) << bit
     F = len(g.faces)
@@ -377,7 +381,7 @@ def gbuffer_triangles(items, camera: Camera):
                          f"float32 depths and positions hold at most {FLOAT32_MAX:.3g}")
     near = max(far * 1e-6, 1e-30)
     _near_cut(groups, near, far, tx, ty)
-    parts = [p for g in groups if len(g.faces) for p in _in_frustum(g, near, tx, ty)]
+    parts = [p for g in groups if len(g.faces) for p in _in_frustum(g, tx, ty)]
     if not parts:
         return np.zeros((0, 3, 3)), np.zeros(0, np.int32), np.zeros(0, np.int64), near
     done = []

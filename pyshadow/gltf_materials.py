@@ -12,6 +12,10 @@ for the primitive whose positions and faces are exactly the mesh's (a mesh
 changed since, or one that is several primitives merged, is left as trimesh
 read it).
 
+trimesh's PLY reader likewise wraps 16-bit (``ushort``) colours modulo 256
+(40000 became 64): :func:`ply_colours` reads them from the PLY elements
+trimesh keeps in ``mesh.metadata["_ply_raw"]``.
+
 Sampler: a tuple ``(wrap_s, wrap_t, nearest)`` of glTF's wrap codes
 (:data:`REPEAT`, :data:`CLAMP_TO_EDGE`, :data:`MIRRORED_REPEAT`) and whether
 the magnification filter is ``NEAREST`` (9728); :data:`DEFAULT_SAMPLER` is
@@ -28,7 +32,8 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["REPEAT", "CLAMP_TO_EDGE", "MIRRORED_REPEAT", "DEFAULT_SAMPLER", "primitive_details", "sample"]
+__all__ = ["REPEAT", "CLAMP_TO_EDGE", "MIRRORED_REPEAT", "DEFAULT_SAMPLER", "primitive_details", "sample",
+           "ply_colours"]
 
 REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT = 10497, 33071, 33648
 DEFAULT_SAMPLER = (REPEAT, REPEAT, False)
@@ -69,6 +74,37 @@ def sample(image, uv, sampler) -> np.ndarray:
     i0, j0 = y0.astype(np.int64), x0.astype(np.int64)
     return ((1 - fy) * ((1 - fx) * tap(i0, j0) + fx * tap(i0, j0 + 1))
             + fy * ((1 - fx) * tap(i0 + 1, j0) + fx * tap(i0 + 1, j0 + 1)))
+
+
+def ply_colours(mesh, element: str, colours) -> np.ndarray:
+    """A PLY's 16-bit colours where trimesh read them as ``colours`` (module docstring), else ``colours``.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        As trimesh's PLY reader returned it (``metadata["_ply_raw"]``).
+    element : {"vertex", "face"}
+        Whose colours.
+    colours : ndarray, shape (n, 4), uint8
+        trimesh's (``visual.vertex_colors`` or ``visual.face_colors``).
+
+    Returns
+    -------
+    ndarray, shape (n, 3 or 4)
+        The element's ``red``, ``green``, ``blue`` (``alpha``) as stored
+        (uint16) where they are 16-bit and trimesh's ``colours`` are exactly
+        them modulo 256 (the mesh as read); ``colours`` otherwise.
+    """
+    from trimesh.visual.color import to_rgba
+
+    try:
+        el = mesh.metadata["_ply_raw"][element]
+        raw = np.column_stack([el["data"][k] for k in ("red", "green", "blue", "alpha") if k in el["properties"]])
+    except (AttributeError, KeyError, TypeError, ValueError, IndexError):    # no PLY, or not as trimesh keeps it
+        return colours
+    if raw.dtype != np.uint16 or raw.shape[1] < 3 or not np.array_equal(to_rgba(raw.copy()), colours):
+        return colours
+    return raw
 
 
 def _reduced(u, mode):

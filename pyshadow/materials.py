@@ -15,8 +15,9 @@ records the faces it was attached to (:attr:`MeshVisual.faces`), so
 (``invert()``, a mirroring transform, ``trimesh.repair.fix_winding``;
 :mod:`pyshadow.visual_corners`).
 
-Colour convention: linear RGB in [0, 1]; alpha (glTF's ``alphaMode``, ``alphaCutoff``: a MASK
-cutout is no hole) and glTF's emissive colour are not used. Texture images
+Colour convention: linear RGB in [0, 1]; alpha (glTF's ``alphaMode``, ``alphaCutoff``: a MASK cutout is
+no hole), glTF's emissive colour and metallic/roughness are not used (the base colour is the diffuse
+albedo, even of a metal: glTF's default ``metallicFactor`` is 1). Texture images
 and an OBJ material's ``Kd`` are sRGB-encoded and decoded with
 :func:`pyshadow.io.srgb_to_linear`, and so are the vertex and face colours
 of every format but glTF (PLY, OBJ, ...: display-encoded, as their
@@ -34,8 +35,9 @@ mesh object (built in code, or read from another format) has sRGB colours;
 one whose colours are linear can pass ``gltf=True`` to :func:`mesh_visual`.
 Integer data is 8-bit (over 255) except 16 bit (over 65535: a 16-bit
 greyscale PNG, glTF's unsigned short ``COLOR_0``); float data (glTF's float
-``COLOR_0``) is in [0, 1] already. Colours that are not finite are
-refused like such UVs (below).
+``COLOR_0``) is in [0, 1] already; a grey per vertex ((V,), (V, 1), with alpha (V, 2)) is grey RGB.
+A mesh with UVs but no texture (a PLY) has the colours trimesh keeps on it (``vertex_attributes``,
+``face_attributes``). Colours that are not finite are refused like such UVs (below).
 
 The colour of a surface point (:func:`point_colours`) is the product of
 what its mesh has, as glTF defines a base colour: the barycentric
@@ -58,7 +60,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .gltf_materials import DEFAULT_SAMPLER, primitive_details, sample
+from .gltf_materials import DEFAULT_SAMPLER, ply_colours, primitive_details, sample
 from .visual_corners import aligned_visual, barycentrics
 
 __all__ = ["MeshVisual", "VISUAL_KEY", "GLTF_SUFFIXES", "is_gltf", "mesh_visual", "join_visuals", "visual_of",
@@ -204,6 +206,15 @@ def _decode(a, srgb) -> np.ndarray:
     return np.where(ok, srgb_to_linear(unit) if srgb else np.clip(unit, 0.0, 1.0), np.nan).astype(np.float32)
 
 
+def _rgb_rows(col, source) -> np.ndarray:
+    """Vertex (face) colours (n,) or (n, 1) (grey), (n, 2) (grey, alpha), (n, 3) or (n, 4) as (n, 3 or 4)."""
+    a = np.asarray(col)[:, None] if np.ndim(col) == 1 else np.asarray(col)
+    if a.ndim != 2 or not 1 <= a.shape[1] <= 4:
+        raise ValueError(f"{source}: vertex or face colours must have shape (n,) or (n, 1) (grey), (n, 2) (grey, "
+                         f"alpha), (n, 3) (RGB) or (n, 4) (RGBA), got {np.shape(col)}")
+    return np.repeat(a[:, :1], 3, axis=1) if a.shape[1] < 3 else a
+
+
 def _image(image) -> np.ndarray:
     """A PIL image's encoded colours, (h, w, 3): 16-bit greyscale (modes ``I;16*``, ``I``: a 16-bit PNG)
     as uint16 and float greyscale (``F``) as float, which ``convert("RGB")`` would clip to 0/255."""
@@ -322,13 +333,13 @@ def _mesh_visual(mesh, source, gltf, images) -> MeshVisual | None:
     more = None if srgb else primitive_details(mesh)        # what trimesh's glTF reader lost
     if isinstance(visual, trimesh.visual.ColorVisuals):
         if visual.kind == "vertex":
-            raw = visual.vertex_colors
+            raw = ply_colours(mesh, "vertex", visual.vertex_colors)     # trimesh wraps 16-bit ones
             if more is not None and more["colour_0"] is not None and not more["material"] and np.array_equal(
                     trimesh.visual.color.to_rgba(more["colour_0"].copy()), raw):   # trimesh's 8 bits of it
                 raw = more["colour_0"]
             colours = _linear(raw, srgb)[faces]
         elif visual.kind == "face":
-            colours = np.repeat(_linear(visual.face_colors, srgb)[:, None, :], 3, axis=1)
+            colours = np.repeat(_linear(ply_colours(mesh, "face", visual.face_colors), srgb)[:, None, :], 3, axis=1)
     elif isinstance(visual, trimesh.visual.TextureVisuals):
         uv_of = visual.uv if more is None or more["uv"] is None else more["uv"]
         has_uv = uv_of is not None and len(uv_of) == len(mesh.vertices)
@@ -346,8 +357,16 @@ def _mesh_visual(mesh, source, gltf, images) -> MeshVisual | None:
         if has_uv:
             uv = np.asarray(uv_of, dtype=np.float32)[faces]
         col = visual.vertex_attributes.get("color") if hasattr(visual, "vertex_attributes") else None
+        kept = [getattr(mesh, k, None) or {} for k in ("vertex_attributes", "face_attributes")]
+        if col is None and texture is None:     # trimesh keeps a PLY's colours on a mesh with UVs (they were lost)
+            col = kept[0].get("color")
+        fcol = kept[1].get("color") if texture is None else None
+        c = None
         if col is not None and len(col) == len(mesh.vertices):
-            c = _linear(col, srgb)[faces]
+            c = _linear(_rgb_rows(col, source), srgb)[faces]
+        elif fcol is not None and len(fcol) == len(faces):
+            c = np.repeat(_linear(_rgb_rows(fcol, source), srgb)[:, None, :], 3, axis=1)
+        if c is not None:
             colours = c if colours is None else colours * c
     if colours is None and uv is None and bool((factor == 1).all()):
         return None

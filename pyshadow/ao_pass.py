@@ -99,7 +99,8 @@ def ao_pass(obj, depth, normal, scale: int, radius: int) -> np.ndarray:
     # upsample's spatial term, (distance / sigma)^2 with sigma = scale / 2 pixels: of each pixel to its block's
     # sample, and (below) to the window's samples; the window's far samples weigh as little as exp(-16)
     off = np.square(np.arange(max(H, W)) % scale).astype(np.float32) * np.float32(4.0 / scale ** 2)
-    with np.errstate(invalid="ignore", over="ignore"):      # whole images (float32): most pixels are on it
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):    # whole images (float32); a background
+        # pixel's depth may be 0 (a G-buffer given to render: only the covered pixels' are checked)
         dz = (block[1] - z) / (np.float32(_SIGMA_DEPTH) * z)
         dn = 1.0 - (n[..., 0] * block[2][..., 0] + n[..., 1] * block[2][..., 1] + n[..., 2] * block[2][..., 2])
         near = (obj == block[0]) & (dz * dz + np.square(np.maximum(dn, 0) / np.float32(_SIGMA_NORMAL))

@@ -158,8 +158,10 @@ def _depth(gbuffer, camera) -> np.ndarray:
     odd = np.isnan(depth) | (depth == -np.inf)
     if odd.any():
         raise ValueError(f"gbuffer['depth'] holds {int(odd.sum())} NaN or -inf value(s); use +inf for the background")
-    if (depth[hit] <= 0).any():
-        raise ValueError("gbuffer['depth'] must be > 0 where finite (distance from the eye)")
+    low = hit & (depth <= 0)
+    if low.any():                       # (a renderer's 0 on the background)
+        raise ValueError(f"gbuffer['depth'] must be > 0 where finite (the distance from the eye; +inf for the "
+                         f"background), got {int(low.sum())} value(s) <= 0, down to {float(depth[low].min()):g}")
     if hit.any() and float(depth[hit].max()) > FLOAT32_MAX:
         raise ValueError(f"gbuffer['depth'] holds distances beyond float32's range (up to "
                          f"{float(depth[hit].max()):.3g}; the kernel reads at most {FLOAT32_MAX:.3g})")

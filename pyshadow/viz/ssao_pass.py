@@ -79,10 +79,17 @@ def vtk_ssao(scene, camera, radius: float, *, kernel_size: int = 256, bias: floa
         or wider or higher than 16384.
     TypeError
         A kernel size that is not an integer, a radius or bias that is no
-        real number (a bool, a string), ``blur`` not True or False.
+        real number (a bool, a string), ``blur`` not True or False, a
+        ``scene`` that is no :class:`pyshadow.Scene` or a ``camera`` no
+        :class:`pyshadow.Camera` (such as the ``(scene, camera)`` pair of
+        :func:`pyshadow.data.default_scene`).
     """
     from .._validate import check_int, flag, real_scalar
+    from ..camera import check_camera
+    from ..visibility import _check_scene
 
+    _check_scene(scene)         # (a (scene, camera) pair: "'tuple' object has no attribute 'draw_items'")
+    check_camera(camera)        # (a string: "'str' object has no attribute 'width'")
     for x, name in ((radius, "radius"), (bias, "bias")):    # True was 1 world unit, "0.5" half a unit
         if not (real_scalar(x) or (name == "bias" and x is None)):
             raise TypeError(f"{name} must be a real number (world units), got {x!r}")

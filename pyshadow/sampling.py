@@ -353,7 +353,8 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         Which of them reach the sky; or per-sample weights in [0, 1]
         (distance-weighted AO: AO their mean, the bent normal their weighted sum).
     normals : ndarray, shape (N, 3)
-        Unit normals: the bent normal where no direction reaches the sky.
+        Unit normals: the bent normal where no direction reaches the sky
+        (finite and non-zero with ``return_bent_normals=True``).
     return_bent_normals : bool, optional
 
     Returns
@@ -363,6 +364,15 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
     bent : ndarray, shape (N, 3), float32
         The normalised sum of the visible directions (only with
         ``return_bent_normals=True``).
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not agree, no sample, weights outside [0, 1] or NaN;
+        with ``return_bent_normals``, directions or normals not finite, or a
+        zero normal.
+    TypeError
+        Arrays that do not hold real numbers (``visible``: or bools).
     """
     directions, visible, normals = np.asarray(directions), np.asarray(visible), np.asarray(normals)
     d, v, n = directions.shape, visible.shape, normals.shape
@@ -370,7 +380,8 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         raise ValueError(f"directions (N, S, 3), visible (N, S) and normals (N, 3) must agree, got {d}, {v} and {n}")
     if d[1] == 0:
         raise ValueError("directions hold no sample (S = 0): AO is the mean over at least one")
-    for name, a, kinds in (("directions", directions, "iuf"), ("visible", visible, "biuf"), ("normals", normals, "iuf")):
+    for name, a, kinds in (("directions", directions, "iuf"), ("visible", visible, "biuf"),
+                           ("normals", normals, "iuf")):
         if a.dtype.kind not in kinds:
             raise TypeError(f"{name} must hold {'bools or ' if name == 'visible' else ''}real numbers, got {a.dtype}")
     if visible.dtype.kind != "b" and not ((visible >= 0) & (visible <= 1)).all():
@@ -380,6 +391,9 @@ def ao_from_samples(directions, visible, normals, return_bent_normals: bool = Fa
         return ao
     if not (np.isfinite(directions).all() and np.isfinite(normals).all()):
         raise ValueError("directions and normals must be finite (the bent normals sum them)")
+    zero = int((~normals.any(axis=1)).sum())
+    if zero:        # else the bent normal of a point no direction reaches was (0, 0, 0), silently
+        raise ValueError(f"normals: {zero} rows are zero vectors (the bent normal where no direction is open)")
     b = (directions * visible[..., None]).sum(axis=1)
     length = np.linalg.norm(b, axis=1, keepdims=True)
     b = np.where(length > 0, b / np.maximum(length, np.finfo(length.dtype).tiny), normals)

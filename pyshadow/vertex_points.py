@@ -29,6 +29,8 @@ import weakref
 
 import numpy as np
 
+from ._validate import check_values, squared_lengths
+
 __all__ = ["concave_vertices", "corner_ao"]
 
 #: a neighbour behind a face plane by more than this fraction of its
@@ -61,18 +63,23 @@ def concave_vertices(points, faces):
         fan (each edge at the vertex shared by exactly two faces) with every
         neighbour on or in front of every face plane (within
         :data:`FLAT_TOL` of its distance), and not all flat. Zero-area faces
-        are left out.
+        (a corner within :data:`FLAT_TOL` of the longest edge from the line
+        of the other two) have no plane: with three distinct positions (a
+        sliver closing a T-junction) they still close the fan, else they are
+        left out.
     normals : ndarray, shape (n, M, 3), float64
         Unit normals of the faces around each, padded with zero rows.
 
     Raises
     ------
     ValueError
-        Arrays not of shape (n, 3), or a vertex index outside ``[0, V)``.
+        Arrays not of shape (n, 3), points not finite, or a vertex index
+        outside ``[0, V)``.
     TypeError
         Points that are not real numbers, or faces that are not integers.
     """
     P = _rows(points, "points", "fiu").astype(np.float64)
+    check_values(P, "points")                   # a NaN corner's faces were left out: 2 of a room's 8 corners found
     F = _rows(faces, "faces", "iu").astype(np.int64)
     if F.size and (F.min() < 0 or F.max() >= len(P)):         # a negative index read a vertex from the end
         raise ValueError(f"faces: vertex indices must be in [0, {len(P)}) (got {F.min()} to {F.max()})")
@@ -112,12 +119,18 @@ def _concave_stars(P, F):
     K = int(key.max()) + 1
     fn = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
     area = np.linalg.norm(fn, axis=1)
-    kept = np.flatnonzero(area > 0)                         # the faces of non-zero area, by their index in F
-    F, fn = F[kept], fn[kept] / area[kept, None]
+    # a face with a corner within FLAT_TOL of its longest edge from the line of the other two has no plane
+    # (a zero area rounds to any normal); with three distinct positions (a sliver closing a T-junction) it
+    # still closes the fans of its corners (left out, a notch's corner there read 0.81 for Embree's 0.42)
+    flat = ~(area > FLAT_TOL * squared_lengths(P[F] - P[F[:, [1, 2, 0]]]).max(axis=1))
+    kf = key[F]
+    sliver = flat & (kf[:, 0] != kf[:, 1]) & (kf[:, 1] != kf[:, 2]) & (kf[:, 2] != kf[:, 0])
+    kept = np.flatnonzero(~flat)                            # the faces with a plane, by their index in F
+    closing = np.vstack([F[kept], F[sliver]])               # the faces that close fans: row i < len(kept) is kept[i]
+    F, fn, kf = F[kept], fn[kept] / area[kept, None], kf[kept]
     if not len(F):
         return none
-    kf = key[F]
-    cand = _candidates(P, F, kf, fn, K)
+    cand = _candidates(P, closing, key[closing], np.vstack([fn, np.zeros((len(closing) - len(F), 3))]), K)
     if not len(cand):
         return none
     # the star of each candidate: its faces, padded with -1
@@ -163,9 +176,10 @@ def _mesh_stars(mesh):
 def _candidates(P, F, kf, fn, K):
     """Positions (of ``K``) whose fan is closed, with no convex edge and a concave one: (n,) int64, sorted.
 
-    ``F`` (F, 3) are the faces of non-zero area, ``kf`` their corners' position keys, ``fn`` (F, 3) their
-    unit normals. An edge is convex (concave) where the far corner of one of its two faces lies behind
-    (in front of) the other's plane by more than :data:`FLAT_TOL` of its distance.
+    ``F`` (F, 3) are the faces that close fans, ``kf`` their corners' position keys, ``fn`` (F, 3) their
+    unit normals (zero rows: slivers, without a plane, neither convex nor concave). An edge is convex
+    (concave) where the far corner of one of its two faces lies behind (in front of) the other's plane by
+    more than :data:`FLAT_TOL` of its distance.
     """
     ends = np.concatenate([kf[:, [0, 1]], kf[:, [1, 2]], kf[:, [2, 0]]])
     far = np.concatenate([F[:, 2], F[:, 0], F[:, 1]])           # the corner opposite each edge

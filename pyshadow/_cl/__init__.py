@@ -44,7 +44,7 @@ import pyopencl as cl
 
 from . import pocl_cpu as _pocl_cpu
 from . import probe as _probe
-from .launch import Kernel, check_alloc, new_buffer
+from .launch import Kernel, check_alloc, new_buffer, open_device
 from .probe import LANE_WIDTHS, DeviceNotSupportedError
 
 __all__ = [
@@ -157,7 +157,7 @@ def _all_devices():
 
 def _describe(found) -> str:
     if not found:
-        return "no OpenCL devices at all (is pocl-binary-distribution installed?)"
+        return "no OpenCL devices at all (is pocl-binary-distribution installed?)" + _pocl_cpu.devices_hint()
     return "; ".join(
         f"{pi}:{di} {plat.name.strip()} / {dev.name.strip()} ({_type_name(dev.type)})"
         for pi, di, plat, dev in found
@@ -211,8 +211,8 @@ def _choose_device(want: str | None = None):
 
 def _open(choice) -> dict:
     pi, di, plat, dev = choice
-    ctx = cl.Context([dev])
-    return dict(platform=plat, device=dev, context=ctx, queue=cl.CommandQueue(ctx), index=(pi, di))
+    ctx, q = open_device(dev, f"{pi}:{di} {plat.name.strip()} / {dev.name.strip()}", lambda: _describe(_all_devices()))
+    return dict(platform=plat, device=dev, context=ctx, queue=q, index=(pi, di))
 
 
 def _init():

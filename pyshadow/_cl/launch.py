@@ -4,10 +4,17 @@ Every kernel launch of pyshadow takes its shape from :func:`shape`, so what
 depends on the device lives here and nowhere else: its work-group limits,
 the largest buffer it allocates (:func:`check_alloc`) and what a launch the
 device refuses for want of resources raises (:class:`Kernel`). Each value says why it
-has its value; figures are from benchmarks/README.md.
+has its value; figures are from benchmarks/README.md. A launch of more work-items
+than the kernels number (:data:`MAX_WORK_ITEMS`) is refused before it runs; a
+device that refuses a context, or a forked child of a process that had one,
+gets an error saying what to do (:func:`open_device`).
 """
 from __future__ import annotations
 
+import math
+import os
+import sys
+import threading
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, replace
 
@@ -16,7 +23,7 @@ import pyopencl as cl
 from .probe import DeviceNotSupportedError
 
 __all__ = ["LaunchShape", "Kernel", "shape", "grid", "kernel_group_limit", "override", "check_alloc",
-           "new_buffer", "block_budget"]
+           "new_buffer", "block_budget", "open_device"]
 
 _overrides: list[dict] = []
 
@@ -76,6 +83,9 @@ TRIANGLE_PAD = 16
 # of rows must fit in one buffer of the device (max_mem_alloc_size, 128 MiB
 # for the smallest full-profile device: 24 B x QUERY_CHUNK is 100 MB)
 QUERY_ROW_BYTES, AO_ROW_BYTES = 24, 36
+# work-items of one launch at most: the kernels number them with 32-bit ints
+# (``int i = get_global_id(0)``, ``i >= W * H``), which a larger launch wraps
+MAX_WORK_ITEMS = 2 ** 31 - 1
 
 
 def shape() -> LaunchShape:
@@ -260,11 +270,17 @@ class Kernel(cl.Kernel):
     """A ``pyopencl.Kernel`` (what :func:`pyshadow._cl.kernel` returns) whose
     launch, when the device refuses it for want of resources, raises
     :class:`DeviceNotSupportedError` naming the device's limits and what to
-    ask for less of (see :func:`launch_error`); other errors pass unchanged."""
+    ask for less of (see :func:`launch_error`), as does a launch of more than
+    :data:`MAX_WORK_ITEMS` work-items (before it runs); other errors pass unchanged."""
 
     __slots__ = ()
 
     def __call__(self, queue, global_size, local_size, *args, **kwargs):
+        if math.prod(global_size) > MAX_WORK_ITEMS:
+            raise DeviceNotSupportedError(
+                f"kernel {self.function_name!r} over {tuple(global_size)} work-items: more than the "
+                f"{MAX_WORK_ITEMS:,} (2**31 - 1) that pyshadow's kernels count with 32-bit integers in one "
+                "launch; ask for less at once (fewer points or a smaller image a call)")
         try:
             return super().__call__(queue, global_size, local_size, *args, **kwargs)
         except cl.Error as exc:
@@ -272,6 +288,57 @@ class Kernel(cl.Kernel):
             if err is None:
                 raise
             raise err from exc
+
+
+def open_device(dev, name: str, available) -> tuple:
+    """A context and an in-order command queue on OpenCL device ``dev`` (``name``: 'P:D platform / device').
+
+    Raises
+    ------
+    pyshadow.DeviceNotFoundError
+        The device refuses them (a GPU another process holds in exclusive mode, a driver whose GPU is
+        gone): naming it, the driver's error and ``available()`` (the devices found, a str).
+    RuntimeError
+        This process is a fork of one that had opened an OpenCL context (:func:`_after_fork`).
+    """
+    if _forked_from:
+        raise RuntimeError(
+            f"pyshadow cannot run OpenCL in this process: it is a fork of process {_forked_from[0]}, which had "
+            "opened an OpenCL context, and an OpenCL runtime does not survive a fork (its threads stay behind: "
+            "the first kernel here would wait forever). Start worker processes with multiprocessing's 'spawn' "
+            "or 'forkserver' method (multiprocessing.get_context('spawn'); ProcessPoolExecutor(mp_context=...)),"
+            " or before the parent first uses pyshadow")
+    try:
+        ctx = cl.Context([dev])
+        return ctx, cl.CommandQueue(ctx)
+    except cl.Error as exc:
+        from . import DeviceNotFoundError
+
+        raise DeviceNotFoundError(
+            f"OpenCL device {name} could not be opened ({str(exc).strip()}); choose another device with "
+            f"PYSHADOW_DEVICE ('cpu', 'gpu' or 'P:D'; available: {available()})") from exc
+
+
+_forked_from: list[int] = []     # in a forked child of a process that had opened a context: that process
+
+
+def _after_fork() -> None:
+    """In a child process made by ``os.fork`` (multiprocessing's default 'fork' start method on Linux): where
+    the parent had opened a context, forget it and make :func:`open_device` refuse to open another (PoCL's
+    threads, and GPU drivers' state, do not survive a fork: kernels waited forever). The package's lock is
+    new, as another thread of the parent may have held it."""
+    pkg = sys.modules.get(__package__)
+    if pkg is None:
+        return
+    if "queue" in pkg._state or pkg._opened:
+        _forked_from[:] = _forked_from or [os.getppid()]
+        pkg._state.clear()
+        pkg._opened.clear()
+    pkg._lock = threading.RLock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
 
 
 def new_buffer(context: cl.Context, flags, nbytes: int, hostbuf=None) -> cl.Buffer:

@@ -28,7 +28,7 @@ import platform
 import struct
 import sys
 
-__all__ = ["ENV", "TARGETS", "choose_target", "apply", "applied"]
+__all__ = ["ENV", "TARGETS", "choose_target", "apply", "applied", "devices_hint"]
 
 ENV = "PYSHADOW_POCL_CPU"
 
@@ -147,6 +147,17 @@ def apply() -> str | None:
         except Exception:           # a failed attempt leaves PoCL as it was: its own error follows
             _state["name"] = None
     return _state["name"]
+
+
+def devices_hint() -> str:
+    """Where ``POCL_DEVICES`` is set, a clause saying it may be why PoCL lists no device (PoCL 3, that of
+    pyopencl's wheel, lists none for ``POCL_DEVICES=cpu``, the name later PoCLs give its ``pthread``
+    device); else ''."""
+    kinds = os.environ.get("POCL_DEVICES", "").strip()
+    if not kinds:
+        return ""
+    return (f"; POCL_DEVICES={kinds!r} is set, and PoCL lists only devices of the kinds it names: unset it, or "
+            "name a kind this PoCL has (its CPU device is 'pthread' in PoCL 3, 'cpu' in PoCL 4 and later)")
 
 
 def applied() -> str | None:

@@ -16,6 +16,7 @@ a row.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -24,6 +25,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -47,7 +49,12 @@ PROBE_TIMEOUT_S = 60.0
 TIMEOUT_RUNS = 2
 _TIMEOUT_WHY = "no answer within "
 _KILLED_WHY = f"the child process died of signal {getattr(signal, 'SIGKILL', 9):d}"
+# a child that could not be started (an embedded interpreter's empty sys.executable, a process limit): the
+# machine's doing, never cached, and a width forced by PYSHADOW_LANES is used unprobed
+_UNSTARTED_WHY = "the child process could not be started"
 _CHILD = Path(__file__).with_name("probe_child.py")
+# the job file a child reads where no temporary folder can hold one: its standard input
+_STDIN = "/dev/stdin"
 
 
 class DeviceNotSupportedError(RuntimeError):
@@ -151,30 +158,65 @@ def run_probe(platform_index: int, device_index: int, job: dict,
               command=None) -> dict[int, dict]:
     """Try each width in a child process of its own, all at once.
 
-    ``job`` is what the child builds (see ``probe_child.py``);
-    ``command(width)`` (tests only) replaces the child's command line.
+    ``job`` is what the child builds (see ``probe_child.py``), given to it as
+    a file in a temporary folder, or on its standard input where no temporary
+    folder is writable; ``command(width)`` (tests only) replaces the child's
+    command line.
     Returns ``{width: {"ok": bool, "why": str}}``. Each child leads a process
     group of its own, killed whole at the timeout (PoCL runs the linker as a
     process of its own, which would hold the child's pipes open) or when the
     caller is interrupted.
     """
-    with tempfile.TemporaryDirectory(prefix="pyshadow-probe-") as tmp:
-        src = Path(tmp) / "job.json"
-        src.write_text(json.dumps(job))
-        procs = {}
+    text = json.dumps(job)
+    with contextlib.ExitStack() as stack:
+        try:
+            src = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="pyshadow-probe-"))) / "job.json"
+            src.write_text(text)
+        except OSError as exc:
+            # no writable temporary folder (a read-only /tmp and working folder, a full disk): each
+            # child reads the job from its standard input instead, where the system names it a file
+            if not os.path.exists(_STDIN):
+                raise OSError(f"the lane-width probe of pyshadow found no writable temporary folder ({exc}); "
+                              "set TMPDIR to a writable folder") from exc
+            src = None
+        procs, unstarted = {}, {}
         try:
             for w in widths:
                 cmd = command(w) if command else [sys.executable, str(_CHILD), str(platform_index),
-                                                  str(device_index), str(w), str(src)]
-                procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                            stderr=subprocess.PIPE, text=True,
-                                            env=_child_env(), start_new_session=True)
-            return _collect(procs, timeout)
+                                                  str(device_index), str(w), str(src or _STDIN)]
+                try:
+                    procs[w] = subprocess.Popen(cmd, stdin=subprocess.DEVNULL if src else subprocess.PIPE,
+                                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                                env=_child_env(), start_new_session=True)
+                except OSError as exc:
+                    unstarted[w] = {"ok": False, "why": f"{_UNSTARTED_WHY} ({cmd[0]!r}: {exc}); set "
+                                                        "PYSHADOW_LANES to a width to run it unprobed"}
+                    continue
+                if src is None:
+                    _feed(procs[w], text)
+            found = {**_collect(procs, timeout), **unstarted}
+            return {w: found[w] for w in widths}
         finally:
             for p in procs.values():
                 if p.poll() is None:
                     _kill(p)
                     p.wait()
+
+
+def _feed(p, text: str) -> None:
+    """Write ``text`` to child ``p``'s standard input from a thread of its own (a child that never reads it
+    cannot block the caller past the probe's timeout), then close it; ``p.stdin`` is left None so that
+    ``communicate`` reads the child's output alone."""
+    pipe, p.stdin = p.stdin, None
+
+    def write():
+        try:
+            with pipe:
+                pipe.write(text)
+        except OSError:         # the child died, or was killed, before it read everything
+            pass
+
+    threading.Thread(target=write, name="pyshadow-probe-job", daemon=True).start()
 
 
 def _kill(p) -> None:
@@ -227,7 +269,7 @@ def _timed_out(verdict: dict) -> bool:
     """The width failed by a timeout or a SIGKILL from outside: not final on its own (:data:`TIMEOUT_RUNS`)."""
     why = verdict["why"]
     return not verdict["ok"] and (why.startswith(_TIMEOUT_WHY) or why == _KILLED_WHY
-                                  or why.startswith(_KILLED_WHY + ":"))
+                                  or why.startswith(_KILLED_WHY + ":") or why.startswith(_UNSTARTED_WHY))
 
 
 def _cached_timeouts(entry) -> dict:
@@ -264,6 +306,7 @@ def verdicts(platform_index, device_index, platform, device, job, *, refresh=Fal
     A cached verdict that a width timed out or was killed is not final:
     that width (with any other such, the rest taken from the cache) is
     probed again until it has failed so in :data:`TIMEOUT_RUNS` runs in a row.
+    A run in which a child could not be started is not cached.
 
     Returns ``(verdicts, source)`` with ``source`` 'cache' or 'probe'.
     """
@@ -280,6 +323,8 @@ def verdicts(platform_index, device_index, platform, device, job, *, refresh=Fal
             return cached, "cache"
         fresh = run_probe(platform_index, device_index, job, widths=again)
         found = {w: fresh.get(w, cached[w]) for w in LANE_WIDTHS}
+    if any(found[w]["why"].startswith(_UNSTARTED_WHY) for w in again):
+        return found, "probe"           # the machine could not start a child this time: nothing learnt
     for w in again:
         runs[w] = runs.get(w, 0) + 1 if _timed_out(found[w]) else 0
     entry = {"device": device.name.strip(), "platform": platform.version.strip(),

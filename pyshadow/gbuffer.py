@@ -21,6 +21,7 @@ import numpy as np
 import pyopencl as cl
 
 from . import _cl
+from ._cl.launch import fill
 from ._validate import check_transform
 from .camera import Camera, points_on_rays
 from . import gbuffer_items as _items
@@ -215,9 +216,9 @@ def render_gbuffer(items, camera: Camera) -> dict:
         defines = {"GBUFFER_ATOMIC64": int(one_pass)}
         zbuf = _cl.empty((8 if one_pass else 4) * npix)
         idbuf = _cl.empty(4 * npix)
-        cl.enqueue_fill_buffer(q, zbuf, np.uint32(0xFFFFFFFF), 0, (8 if one_pass else 4) * npix)
+        fill(q, zbuf, np.uint32(0xFFFFFFFF), (8 if one_pass else 4) * npix)
         if not one_pass:
-            cl.enqueue_fill_buffer(q, idbuf, np.int32(np.iinfo(np.int32).max), 0, 4 * npix)
+            fill(q, idbuf, np.int32(np.iinfo(np.int32).max), 4 * npix)
         fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
         fy = np.float32(H / (2.0 * camera.tan_half))
         wide, rows = _wide_rows(raster, W, H, float(fx), float(fy))

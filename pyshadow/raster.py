@@ -219,9 +219,9 @@ class DepthRenderer:
         if out is None:
             out = _cl.empty(nbytes)
         q = _cl.queue()
-        cl.enqueue_fill_buffer(q, out, np.float32(np.inf), 0, nbytes)
+        launch.fill(q, out, np.float32(np.inf), nbytes)
         if self.facing:
-            cl.enqueue_fill_buffer(q, front, np.uint8(0), 0, fbytes)
+            launch.fill(q, front, np.uint8(0), fbytes)
         bases_buf = _cl.to_device(bases.reshape(n, 9), np.float32)
         group = launch.shape().raster_group      # why: pyshadow._cl.launch
         local = None if group is None else (group,)

@@ -23,7 +23,7 @@ import pyopencl as cl
 from .probe import DeviceNotSupportedError
 
 __all__ = ["LaunchShape", "Kernel", "shape", "grid", "kernel_group_limit", "override", "check_alloc",
-           "new_buffer", "block_budget", "open_device"]
+           "new_buffer", "fill", "block_budget", "open_device"]
 
 _overrides: list[dict] = []
 
@@ -352,6 +352,20 @@ def new_buffer(context: cl.Context, flags, nbytes: int, hostbuf=None) -> cl.Buff
         return cl.Buffer(context, flags, hostbuf=hostbuf)
     except cl.Error as exc:
         err = resource_error(exc, f"a buffer of {n:,} bytes")
+        if err is None:
+            raise
+        raise err from exc
+
+
+def fill(queue, buf: cl.Buffer, pattern, nbytes: int, offset: int = 0):
+    """``pyopencl.enqueue_fill_buffer`` of ``nbytes`` bytes of ``buf`` from ``offset`` with ``pattern`` (a NumPy
+    scalar); a device that refuses it for want of memory raises :class:`DeviceNotSupportedError` (see
+    :func:`resource_error`): a GPU allocates a new buffer at its first use, often this fill, and said only
+    ``MemoryError: clEnqueueFillBuffer failed: MEM_OBJECT_ALLOCATION_FAILURE``."""
+    try:
+        return cl.enqueue_fill_buffer(queue, buf, pattern, offset, nbytes)
+    except cl.Error as exc:
+        err = resource_error(exc, f"filling a buffer of {int(nbytes):,} bytes (its memory, at its first use)")
         if err is None:
             raise
         raise err from exc

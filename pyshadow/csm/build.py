@@ -12,6 +12,7 @@ import pyopencl as cl
 import trimesh
 
 from .. import _cl
+from .._cl.launch import fill
 from .._validate import FLOAT32_MAX, real_scalar
 from ..mesh import bounding_sphere, check_mesh, load_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from ..raster import DepthRenderer, _check_resolution_layers, check_frame
@@ -183,7 +184,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
     depth_buf = _cl.empty(block * renderer.bytes_per_map)
     front_buf = _cl.empty(block * renderer.facing_bytes_per_map)
     state = _cl.empty(T * 16)
-    cl.enqueue_fill_buffer(q, state, np.uint32(0), 0, T * 16)
+    fill(q, state, np.uint32(0), T * 16)
     slots = block + 1          # a block emits at most one segment per map, plus the last
     seg_z = _cl.empty(T * slots * dtype_z.itemsize)
     seg_i = _cl.empty(T * slots * 4)

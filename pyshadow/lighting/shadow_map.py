@@ -92,6 +92,7 @@ import numpy as np
 import pyopencl as cl
 
 from .. import _cl
+from .._cl.launch import fill
 from .._validate import check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
 from ..scene_arrays import check_meshes, scene_arrays
@@ -491,7 +492,7 @@ class ShadowMapVisibility:
     def _new_depth(self, faces):
         nbytes = 4 * faces * self.resolution ** 2
         buf = _cl.empty(nbytes)
-        cl.enqueue_fill_buffer(_cl.queue(), buf, np.float32(np.inf), 0, nbytes)
+        fill(_cl.queue(), buf, np.float32(np.inf), nbytes)
         return buf
 
     def _raster(self, buf, tris, n_tris, m, cube, zoff):

@@ -27,7 +27,7 @@ import numpy as np
 
 from .._validate import FLOAT32_MAX, flag
 
-__all__ = ["VisibilityBackend", "register", "get_backend", "backends", "check_bias"]
+__all__ = ["VisibilityBackend", "register", "get_backend", "backends", "check_bias", "check_sampling"]
 
 
 @runtime_checkable
@@ -64,8 +64,10 @@ def register(name: str, backend, *, replace: bool = False) -> None:
     if not isinstance(name, str) or not name:
         raise ValueError(f"a backend name must be a non-empty string, got {name!r}")
     _not_a_class(backend)
+    _not_callable(backend)
     if not isinstance(backend, VisibilityBackend):
         raise TypeError(f"{backend!r} is not a visibility backend: it lacks {_lacks(backend)}")
+    name = str(name)                    # a numpy str_ was listed by backends() as np.str_('...')
     if name in _REGISTRY and not replace:
         raise ValueError(f"a visibility backend named {name!r} is registered already (replace=True)")
     _REGISTRY[name] = backend
@@ -80,6 +82,7 @@ def get_backend(name):
             raise ValueError(f"unknown visibility backend {name!r}; registered: "
                              f"{', '.join(sorted(_REGISTRY))}") from None
     _not_a_class(name)
+    _not_callable(name)
     if isinstance(name, VisibilityBackend):
         return name
     if any(hasattr(name, a) for a in _MEMBERS):     # meant as a backend: say what it lacks
@@ -105,6 +108,17 @@ def _not_a_class(backend) -> None:
     if isinstance(backend, type):
         raise TypeError(f"visibility backend: got the class {backend.__name__}, not a backend object "
                         f"(pass an instance, {backend.__name__}(...), or a registered name)")
+
+
+def _not_callable(backend) -> None:
+    """TypeError for a backend whose ``visible`` or ``ambient_occlusion`` is there but not callable (``visible = 3``
+    passed the protocol's check, then every query failed with "'int' object is not callable"; ``visible = None``
+    was refused as lacking nothing: "it lacks ")."""
+    bad = [f"'{a}' ({type(getattr(backend, a)).__name__})" for a in _MEMBERS[1:]
+           if hasattr(backend, a) and not callable(getattr(backend, a))]
+    if bad:
+        raise TypeError(f"visibility backend {backend!r}: {' and '.join(bad)} must be callable "
+                        f"(see pyshadow.visibility.base)")
 
 
 def backends() -> list[str]:
@@ -137,3 +151,19 @@ def check_bias(bias):
         raise ValueError(f"bias must be >= 0 (a depth tolerance: a point counts as in front of a stored "
                          f"depth within it), got {value}")
     return bias
+
+
+def check_sampling(sampling):
+    """Validate the ``sampling`` of a backend's AO query; returns it unchanged.
+
+    A :class:`pyshadow.Sampling` (the backends take no default: ``None``, as an
+    int such as ``8``, is refused with a TypeError naming it; the CSM backends
+    raised "AttributeError: 'int' object has no attribute 'samples'").
+    :func:`pyshadow.visibility.ambient_occlusion` turns ``None`` into ``Sampling()``.
+    """
+    from ..sampling import Sampling
+
+    if not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r} "
+                        f"(e.g. sampling=pyshadow.Sampling(36))")
+    return sampling

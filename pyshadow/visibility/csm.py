@@ -58,7 +58,7 @@ from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import anchor_groups, points_bound, scene_arrays
 from ..views import FILTER_ANGLE_EPS
 from . import order
-from .base import check_bias, register
+from .base import check_bias, check_sampling, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
@@ -355,8 +355,9 @@ class CSMVisibility(_SampledSky):
         own = scene.caster_slots(surface_ids, n, p)
         m = None if normals is None else unit_normals(normals, n).astype(np.float32)
         tmax = check_max_distance(max_distance, n)
+        check_bias(bias)                # also where no kernel runs (an empty scene), and unused straddle:
+        check_straddle(straddle)        # a bad value is an error, as on the other backends
         if tmax is not None and n:
-            check_straddle(straddle)
             return answer_finite(scene, np.asarray(p, np.float64), unit_directions(w), tmax, straddle,
                                  lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
         return self._visible(scene, p, w, own, m, bias, None)
@@ -433,9 +434,12 @@ class CSMVisibility(_SampledSky):
         two, the kernel of before (compiled with ``FINITE_RAYS=0``).
         """
         bent_normals = flag(return_bent_normals, "return_bent_normals")     # "False" returned (ao, bent)
+        check_sampling(sampling)                # (8: AttributeError "'int' object has no attribute 'samples'")
+        check_bias(bias)                        # also where no kernel runs; the options also where unused
+        options = check_ao_options(obscurance, quadrature, straddle)
         if max_distance is not None or obscurance is not None:
             return _distance_ao(self, scene, points, normals, sampling, bent_normals, bias, indices,
-                                     surface_ids, max_distance, *check_ao_options(obscurance, quadrature, straddle))
+                                surface_ids, max_distance, *options)
         ao, bent, _ = self._ao(scene, points, normals, sampling, bent_normals, False, bias, indices, surface_ids)
         return (ao, bent) if bent_normals else ao
 
@@ -445,7 +449,8 @@ class CSMVisibility(_SampledSky):
         ``T_k = pi / S * sum over the unoccluded directions w_s of Y_k(w_s)``
         (:mod:`pyshadow.lighting.transfer`): float32 (N,), (N, 3), (N, 9).
         """
-        return self._ao(scene, points, normals, sampling, True, True, bias, indices, surface_ids)
+        return self._ao(scene, points, normals, check_sampling(sampling), True, True, check_bias(bias), indices,
+                        surface_ids)
 
     def _ao(self, scene, points, normals, sampling, bent_normals, transfer, bias, indices, surface_ids, tmax=None,
             sky_env=None):

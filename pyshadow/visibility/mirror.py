@@ -16,9 +16,9 @@ from ..contact import ground_tolerance, occlude_contacts
 from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_box
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
-from ..sampling import Sampling, ao_from_samples, sample_directions_reference
+from ..sampling import ao_from_samples, sample_directions_reference
 from ..scene_arrays import check_meshes
-from .base import check_bias, register
+from .base import check_bias, check_sampling, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
                      ground_offsets, rays_ao)
 
@@ -209,8 +209,7 @@ def ambient_occlusion_reference(scene, points, normals, *, sampling, return_bent
     ``obscurance``: distance AO by the same finite queries and quadrature as
     the CSM backends (:mod:`pyshadow.visibility.finite`), ray by ray.
     """
-    if not isinstance(sampling, Sampling):      # (None or 8: AttributeError 'samples')
-        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+    check_sampling(sampling)            # (None or 8: AttributeError 'samples')
     return_bent_normals = flag(return_bent_normals, "return_bent_normals")     # "no" returned (ao, bent)
     check_lookup(lookup)               # (distance AO read any other value as 'nearest')
     check_bias(bias)

@@ -113,10 +113,9 @@ class _SampledSky:
         bent : ndarray, shape (N, 3), float32
             Both bit-identical to :meth:`ambient_occlusion`'s.
         """
-        from ..sampling import Sampling
+        from .base import check_sampling
 
-        if not isinstance(sampling, Sampling):
-            raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
+        check_sampling(sampling)
         env = np.asarray(env_radiance)
         if env.ndim != 3 or env.shape[2] != 3 or env.shape[0] < 1 or env.shape[1] < 1:
             raise ValueError(f"env_radiance must be a lat-long map of shape (h, w, 3), got {env.shape}")

@@ -76,6 +76,30 @@ def check_threads(threads) -> int:
     return check_int(threads, "EmbreeTracer: threads", 1)
 
 
+def prepare_inputs(tracer, points, normals, dirs32, samples):
+    """:meth:`pyshadow.embree.EmbreeTracer.prepare`'s arguments, checked: ``(points, normals, dirs32, samples)``,
+    points (n, 3) float64 and finite, normals (n, 3) float64 normalised as
+    :func:`pyshadow.embree.ambient_occlusion` normalises them (:func:`pyshadow._validate.unit_normals`: zero and
+    non-finite rows refused), ``dirs32`` an array of ``(n * samples, 3)`` finite non-zero rows (its dtype
+    kept), ``samples`` an int >= 1. The normals were taken as given: a normal of length 0.01 lifted its origin
+    a hundredth of :func:`pyshadow.embree.surface_epsilon` (its rays met the surface they leave, unlike those
+    of ``ambient_occlusion``), a zero one not at all; a NaN direction was traced as open."""
+    from ._validate import rows3, unit_normals
+
+    S = check_int(samples, "EmbreeTracer.prepare: samples", 1)
+    check_unchanged(tracer)
+    points = rows3(points, "points")
+    normals = unit_normals(normals, len(points))
+    dirs = np.asarray(dirs32)
+    if dirs.shape != (len(points) * S, 3):
+        raise ValueError(f"EmbreeTracer.prepare: dirs32 must have shape ({len(points) * S}, 3) (samples "
+                         f"directions per point), got {dirs.shape}")
+    if not (np.issubdtype(dirs.dtype, np.floating) or np.issubdtype(dirs.dtype, np.integer)):
+        raise TypeError(f"EmbreeTracer.prepare: dirs32 must be real numbers, got dtype {dirs.dtype}")
+    check_values(dirs, "dirs32", nonzero=True)
+    return points, normals, dirs, S
+
+
 def check_frame(frame, name="frame"):
     """``(centre, radius)`` of a normalised frame: centre (3,) finite, radius finite and > 0."""
     try:

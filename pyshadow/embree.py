@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
-from ._embree_checks import check_frame, check_item, check_threads, check_unchanged, float32_rays, scene_state
+from ._embree_checks import check_frame, check_item, check_threads, float32_rays, prepare_inputs, scene_state
 from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon, off_crossed_planes, off_own_surface, point_surfaces
 from ._validate import check_both, check_indices, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
@@ -501,8 +501,9 @@ class EmbreeTracer:
         ----------
         o32, d32 : ndarray, shape (n, 3), float32
             Ray origins relative to :attr:`anchor` and directions, as
-            :meth:`prepare` returns them. Rays run from the origin to
-            infinity.
+            :meth:`prepare` returns them (checked there: C-contiguous float32
+            rays go to Embree unchecked, and a NaN one reads open). Rays run
+            from the origin to infinity.
 
         Returns
         -------
@@ -511,6 +512,7 @@ class EmbreeTracer:
         """
         if self.closed:
             raise RuntimeError("EmbreeTracer.occluded: the tracer is closed (close() or the end of its with block)")
+        o32, d32 = np.asarray(o32), np.asarray(d32)     # lists too (no copy of an array)
         n = len(o32)
         if np.shape(o32) != (n, 3) or np.shape(d32) != (n, 3):    # chunks of shorter directions: read past their end
             raise ValueError(f"EmbreeTracer.occluded: origins and directions must both have shape (n, 3), got "
@@ -536,9 +538,9 @@ class EmbreeTracer:
         points : ndarray, shape (n, 3), float64
             World points on surfaces.
         normals : ndarray, shape (n, 3), float64
-            Their unit normals (world frame).
+            Their normals (world frame; any length, normalised as :func:`ambient_occlusion` does).
         dirs32 : ndarray, shape (n * samples, 3), float32
-            Unit directions, point-major (the ``samples`` directions of
+            Unit directions (finite, non-zero), point-major (the ``samples`` directions of
             point 0 first), e.g. :func:`pyshadow.sample_directions` reshaped.
         samples : int
             Directions per point.
@@ -553,15 +555,7 @@ class EmbreeTracer:
         origins, dirs : ndarray, shape (m, 3), float32
             Those rays, ready for :meth:`occluded`.
         """
-        from ._validate import check_int, rows3
-
-        S = check_int(samples, "EmbreeTracer.prepare: samples", 1)
-        check_unchanged(self)
-        points = rows3(points, "points")
-        normals = rows3(normals, "normals", len(points))
-        if np.shape(dirs32) != (len(points) * S, 3):
-            raise ValueError(f"EmbreeTracer.prepare: dirs32 must have shape ({len(points) * S}, 3) (samples "
-                             f"directions per point), got {np.shape(dirs32)}")
+        points, normals, dirs32, S = prepare_inputs(self, points, normals, dirs32, samples)
         if anchor_groups(self.scene, points)[0][0] is not None:      # not one group at the scene's anchor
             raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of a caster nearer to "
                              "them than the scene's anchor, where its one anchor loses float32 precision; "

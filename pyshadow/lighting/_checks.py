@@ -36,6 +36,8 @@ def radiance_array(a, name: str, mask=None) -> np.ndarray:
     out = np.array(arr, dtype=np.float64)
     if mask is not None:
         out[~mask] = 0.0
+    if out.size and out.min() >= 0.0 and out.max() <= MAX_RADIANCE:       # (NaN fails both): all good
+        return out
     bad = [(np.isnan(out), "NaN"), (np.isinf(out), "infinite"), (out < 0, "negative"),
            (out > MAX_RADIANCE, f"above {MAX_RADIANCE:.4g} (the map's integrals would overflow float64)")]
     for hit, what in bad:

@@ -251,8 +251,9 @@ class Lighting:
                          **kwargs) -> "Lighting":
         """Lighting from an environment map: with ``extract``, its sun becomes a directional light
         (:func:`pyshadow.lighting.extract_sun`, told the disc's angular radius ``sun_radius`` in rad,
-        default the real sun's: a much larger disc is otherwise found only in part) and the rest the SH
-        sky; else all of it is SH sky. ``extract`` is True or False (TypeError otherwise: "no" was true)."""
+        default the real sun's: a much larger disc is otherwise found only in part; none where it has zero
+        irradiance) and the rest the SH sky; else all of it is SH sky. ``extract`` is True or False
+        (TypeError otherwise: "no" was true)."""
         if not isinstance(env, EnvironmentMap):
             raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
         if not flag(extract, "extract"):
@@ -260,7 +261,8 @@ class Lighting:
         from .sun import extract_sun
 
         sun, sky = extract_sun(env) if sun_radius is None else extract_sun(env, radius=sun_radius)
-        return cls(sky, sun=sun, **kwargs)
+        # none found (zero irradiance: a flat or black map, an overcast sky): no light to trace shadows of
+        return cls(sky, sun=sun if (sun.irradiance > 0).any() else None, **kwargs)
 
     @classmethod
     def clear_sky(cls, sun_direction, turbidity: float = 3.0, *, height: int = 64, **kwargs) -> "Lighting":

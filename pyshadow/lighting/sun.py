@@ -151,7 +151,12 @@ def _region(dirs, T, lum, omega, c, p, rad, rmax, thr):
     sun 2 degrees up on a 128-high clear sky measured 1.12 times its luminance, 1 degree up 1.53 times).
     """
     ang = np.arccos(np.clip(dirs @ c, -1.0, 1.0))
+    # the texels any ring or region below can hold (rad <= rmax): the rest of the map is not visited again (a
+    # 4096 x 2048 map's 8 M texels masked and copied each step took seconds); the same values, in map order
+    near = np.flatnonzero(ang <= min(rmax + 8.0 * p, 0.5 * math.pi))
+    dirs, T, lum, omega, ang = dirs[near], T[near], lum[near], omega[near], ang[near]
     side = (dirs[:, 1] >= 0.0) == (c[1] >= 0.0)
+    lum_rgb = np.column_stack([lum, T])
     while True:
         for part in (side, True):           # both sides where the sun's holds too few texels (4 rows)
             ring = (ang > rad + p) & (ang <= min(rad + 3.0 * p, 0.5 * math.pi)) & part
@@ -161,7 +166,7 @@ def _region(dirs, T, lum, omega, c, p, rad, rmax, thr):
                 break
         if ring.sum() < 6:                  # no background to tell a sun from: all of it stays sky
             return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3))
-        fit = _background(dirs, np.column_stack([lum, T]), omega, ring, c)
+        fit = _background(dirs, lum_rgb, omega, ring, c)
         lum_fit = fit(dirs[ring])[:, 0]
         if not (lum[ring] > thr * np.maximum(lum_fit, 0.0)).any() or rad >= rmax:
             break
@@ -170,7 +175,7 @@ def _region(dirs, T, lum, omega, c, p, rad, rmax, thr):
     bg = np.clip(fit(dirs[inside])[:, 1:], 0.0, T[inside])
     excess = T[inside] - bg
     keep = (excess > _ROUNDING * T[inside]).any(axis=1)     # not the fit's rounding (4e-16..8e-16 on a flat sky)
-    return inside[keep], bg[keep], excess[keep]
+    return near[inside[keep]], bg[keep], excess[keep]
 
 
 def extract_sun(env: EnvironmentMap, *, radius: float = SUN_ANGULAR_RADIUS, enlarge: float = 4.0,

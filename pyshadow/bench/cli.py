@@ -181,6 +181,8 @@ def _emit(obj, path: Path | None, as_json: bool):
 EXIT_INTERRUPTED = 130
 #: Exit status when the reader of stdout has gone (a closed pipe): 128 + 13, as for SIGPIPE.
 EXIT_BROKEN_PIPE = 141
+#: Exit status when the run cannot finish for a file system error (an output the full disk cannot hold).
+EXIT_OS_ERROR = 1
 
 
 def main(argv=None) -> int:
@@ -194,11 +196,16 @@ def main(argv=None) -> int:
     still the previous run's). The record (results.json, sweep.json) is
     written last, and an earlier one is removed before the run's first other
     output is written: a record present describes the files beside it.
+    An output that cannot be written (the disk full, say) ends the run alike:
+    one line "pyshadow-bench: error: ..." with the reason and the output
+    file (none named for stdout), status :data:`EXIT_OS_ERROR`; the record
+    is there only if it was written before (stdout fails after it).
 
     Returns
     -------
     int
-        0 on success, :data:`EXIT_INTERRUPTED` after Ctrl-C; argument
+        0 on success, :data:`EXIT_INTERRUPTED` after Ctrl-C,
+        :data:`EXIT_OS_ERROR` after a file system error; argument
         errors exit with status 2 (``SystemExit``).
     """
     try:
@@ -208,6 +215,12 @@ def main(argv=None) -> int:
         # files written so far stay); stdout goes to the null device, so the final flush raises nothing
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_BROKEN_PIPE
+    except OSError as e:
+        # an output the folder cannot take after the run's work (ENOSPC, EIO, EDQUOT: --out was writable at
+        # the start); the message names the file. Each output is atomic and the record comes last, as above
+        sys.stderr.write(f"pyshadow-bench: error: cannot finish the run: {e}\n")
+        sys.stderr.flush()
+        return EXIT_OS_ERROR
     except KeyboardInterrupt:
         # leaving this clause frees the interrupted run's objects; one that Ctrl-C caught half
         # built (pyopencl's kernel cache, say) may fail in its __del__: not worth a traceback
@@ -278,7 +291,6 @@ def _run(argv) -> int:
         ap.error("--probe-resolution needs --method cubemap or cubemap-horizon (the methods with probes)")
     if args.probe_resolution is None:
         args.probe_resolution = PROBE_RESOLUTION
-    _check_out(ap, out, _outputs(args, answer_mode))
 
     preset = PRESETS["quick" if args.quick else "default"]
     explicit = [k for k in ("maps", "resolution", "depth_bits", "size", "samples",
@@ -313,6 +325,7 @@ def _run(argv) -> int:
                          () if args.sweep else (args.samples,))
         except UsageError as e:
             ap.error(str(e))
+    _check_out(ap, out, _outputs(args, answer_mode))      # after every argument check: no folder made for none
 
     if args.no_cache:
         cache_root = None

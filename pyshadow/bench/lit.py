@@ -16,7 +16,8 @@ any other value
     An HDR environment map OpenImageIO reads
     (:meth:`pyshadow.lighting.EnvironmentMap.from_file`), split into a sun
     and the sky without it (:meth:`Lighting.from_environment`,
-    ``extract=True``).
+    ``extract=True``); no sun when the sun found has no irradiance (nothing
+    stands out of the sky).
 
 The lit pass (:func:`lit_pass`) renders :func:`pyshadow.render.render` with
 ``lighting=`` in each shading mode (:data:`LIT_MODES`: "bent", "transfer",
@@ -86,7 +87,7 @@ def sky_lighting(sky: str):
         rec = {"sky": "overcast", "model": "CIE overcast", "horizontal_illuminance": OVERCAST_ILLUMINANCE}
     else:
         env = EnvironmentMap.from_file(sky)
-        light = Lighting.from_environment(env, extract=True)
+        light = Lighting.from_environment(env, extract=True)       # no sun where none stands out (overcast)
         rec = {"sky": "file", "file": str(Path(sky).absolute()), "layout": env.layout,     # from any folder
                "grid_shape": list(env.grid_shape)}
     if light.sun is not None:

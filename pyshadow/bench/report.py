@@ -43,7 +43,8 @@ def format_table(r: dict) -> str:
     A figure whose value is missing (``null`` in results.json: it was not
     finite, or not measured) prints as "n/a". The AO time names the pixels
     it was measured on when they are fewer than the covered ones
-    (``timed_pixels``).
+    (``timed_pixels``). The rows by surface measure the unfiltered AO; with
+    a filter their heading says so.
     """
     f = {k: v["value"] for k, v in r["figures"].items()}
     c, env = r["config"], r["environment"]
@@ -83,7 +84,9 @@ def format_table(r: dict) -> str:
                                    f"{num(f['reference_noise_rmse'], '.4f')})"),
         ("converged reference", conv_t),
         ("total", f"{num(f['total_time'], '.1f')} s"),
-        ("by surface", "pixels, ray agreement, AO bias and RMSE (pyshadow - Embree)"),
+        # the unfiltered AO (by_surface): with a filter, not the image the converged RMSE above measures
+        ("by surface", "pixels, ray agreement, AO bias and RMSE (pyshadow - Embree)"
+                       + (f"; the AO before the {c['filter']} filter" if c["filter"] else "")),
     ]
     for srf in r.get("surfaces", []):
         g = {k: v["value"] for k, v in srf.items() if isinstance(v, dict)}

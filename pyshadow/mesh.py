@@ -115,9 +115,9 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
 
     Parameters
     ----------
-    path_or_trimesh : str, os.PathLike, trimesh.Trimesh or trimesh.Scene
+    path_or_trimesh : str, os.PathLike, trimesh.Trimesh, trimesh.Scene or pyvista.DataSet
         A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
-        object. OBJ's relative (negative) indices count back from the line
+        object (a pyvista one: :func:`pyshadow.viz.polydata_to_mesh`). OBJ's relative (negative) indices count back from the line
         that holds them, concave faces of 5 or more corners (OBJ, PLY, OFF)
         are tiled, and a binary PLY may mix triangles and larger polygons
         (:mod:`pyshadow.mesh_files`). A scene (GLB/GLTF, an OBJ with several materials) is
@@ -193,11 +193,12 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
             raise ValueError(f"{path}: not a regular file")
         gltf = True if path.suffix.lower() in GLTF_SUFFIXES else None
         raw = read_mesh_file(path, label)       # OBJ's relative indices as OBJ means them
+    elif type(path_or_trimesh).__module__.split(".")[0] == "pyvista":      # its surface's triangles as a Trimesh
+        from .viz.meshes import polydata_to_mesh
+        label, raw = f"<{type(path_or_trimesh).__name__}>", polydata_to_mesh(path_or_trimesh)
     else:
-        raise TypeError(
-            "load_mesh expects a path or a trimesh.Trimesh/Scene, "
-            f"got {type(path_or_trimesh).__name__}"
-        )
+        raise TypeError(f"load_mesh expects a path, a trimesh.Trimesh/Scene or a pyvista mesh, "
+                        f"got {type(path_or_trimesh).__name__}")
 
     if isinstance(raw, trimesh.Scene) and len(raw.geometry) == 0:
         raise ValueError(f"{label}: the file holds no geometry (empty mesh)")

@@ -209,11 +209,11 @@ class Scene:
 
         Parameters
         ----------
-        obj : CoherentShadowMap, trimesh.Trimesh or path
+        obj : CoherentShadowMap, trimesh.Trimesh, pyvista mesh or path
             A CSM (a caster; several instances share one CSM and its device
-            buffers), or a mesh. A mesh with ``casts=True`` gets a CSM built
-            with the scene's options (once per mesh object or file); with
-            ``casts=False`` it only receives (walls, floors).
+            buffers), or a mesh (a pyvista one or a file: :func:`pyshadow.load_mesh`).
+            A mesh with ``casts=True`` gets a CSM built with the scene's options
+            (once per mesh object or file); with ``casts=False`` it only receives.
         transform : array_like, shape (4, 4) or (k, 4, 4), optional
             Object-to-world transform: rotation (5 decimals suffice: placed as
             the nearest), translation, uniform positive scale. Default identity.

@@ -44,7 +44,8 @@ from __future__ import annotations
 from ..mesh import stand_on_ground  # placement helper, part of viz's API
 from . import plotter as _plotter
 from .images import bent_normal_rgb, colour_bar, image_panel
-from .meshes import ground_grid, look_at_bodies, mesh_to_polydata, scene_to_plotter, update_scalars
+from .meshes import (ground_grid, look_at_bodies, mesh_to_polydata, polydata_to_mesh, scene_to_plotter,
+                     update_scalars)
 from .plotter import (
     BACKGROUND,
     MAX_WINDOW_SIDE,
@@ -80,6 +81,7 @@ __all__ = [
     "add_title",
     "update_title",
     "mesh_to_polydata",
+    "polydata_to_mesh",
     "update_scalars",
     "scene_to_plotter",
     "look_at_bodies",

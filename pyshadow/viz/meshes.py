@@ -9,12 +9,15 @@ DESIGN.md).
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .plotter import _pv, _viewport_pixels
 
 __all__ = [
     "mesh_to_polydata",
+    "polydata_to_mesh",
     "update_scalars",
     "scene_to_plotter",
     "look_at_bodies",
@@ -88,6 +91,50 @@ def mesh_to_polydata(mesh, transform=None, scalars=None, name: str = "ao"):
     if scalars is not None:
         update_scalars(poly, scalars, name)
     return poly
+
+
+def polydata_to_mesh(poly):
+    """A pyvista mesh as a ``trimesh.Trimesh`` of its surface's triangles, the inverse of
+    :func:`mesh_to_polydata` (:func:`pyshadow.load_mesh` and :meth:`pyshadow.Scene.add` take pyvista meshes
+    through it).
+
+    Parameters
+    ----------
+    poly : pyvista.DataSet
+        A ``pv.PolyData`` (its polygons, triangulated by VTK; lines and vertices left out) or any other
+        dataset (an ``UnstructuredGrid``, an ``ImageData``: its outer surface, ``extract_surface``), in
+        the units and frame of its points.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        Vertices float64 (V, 3), the dataset's points; faces int64 (T, 3); not processed (nothing merged or
+        removed: :func:`pyshadow.load_mesh` cleans). Point and cell data (colours, normals) are not read.
+
+    Raises
+    ------
+    TypeError
+        ``poly`` is not a pyvista dataset.
+    ValueError
+        It has no polygons to triangulate (points or lines only).
+    """
+    import trimesh
+
+    pv = _pv()
+    if not isinstance(poly, pv.DataSet):
+        raise TypeError(f"polydata_to_mesh: expected a pyvista dataset, got {type(poly).__name__}")
+    with warnings.catch_warnings():     # pyvista's notices of defaults to change (0.49): the same surface
+        warnings.simplefilter("ignore")
+        surface = poly if isinstance(poly, pv.PolyData) else poly.extract_surface()
+        tri = surface.triangulate()
+    cells = np.asarray(tri.faces, dtype=np.int64)
+    if cells.size == 0:
+        raise ValueError(f"polydata_to_mesh: the {type(poly).__name__} has no polygons (points or lines only: "
+                         "nothing casts a shadow)")
+    faces = cells.reshape(-1, 4)
+    if (faces[:, 0] != 3).any():        # (triangulate leaves only triangles)
+        raise ValueError("polydata_to_mesh: VTK's triangulate left polygons that are not triangles")
+    return trimesh.Trimesh(vertices=np.array(tri.points, dtype=np.float64), faces=faces[:, 1:], process=False)
 
 
 def update_scalars(poly, values, name: str = "ao"):

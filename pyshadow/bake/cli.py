@@ -28,7 +28,7 @@ from .._files import writable_folder
 from ..bench.config import _int_range, _maps, _positive_float, _size
 from ..sampling import MAX_SAMPLES
 from .params import AssetParams
-from .runner import EXECUTORS
+from .runner import EXECUTORS, check_executor
 
 
 def _finite_float(text: str) -> float:
@@ -67,7 +67,7 @@ def _executor_options(p):
                         "--scheduler), process (a local process pool) or serial (this process)")
     g.add_argument("--workers", type=_int_range(1, 4096, "--workers"), default=None,
                    help="local worker processes (default: the machine's cores; each gets cores/workers "
-                        "OpenCL CPU threads)")
+                        "OpenCL CPU threads); not with --executor serial")
     g.add_argument("--scheduler", metavar="ADDRESS",
                    help="an existing Dask scheduler (tcp://host:8786) or its scheduler file")
     g.add_argument("--quiet", action="store_true", help="no progress bar or notes on stderr")
@@ -262,6 +262,13 @@ def main(argv=None) -> int:
     ap = build_parser()
     args = ap.parse_args(argv)
     if args.command in ("assets", "frames"):
+        if args.executor == "serial" and args.workers not in (None, 1):     # else ran on 1, without a word
+            ap.error(f"--workers {args.workers}: the serial executor runs one task at a time in this process; "
+                     f"for {args.workers} workers use --executor process or dask")
+        try:                            # before the output folder is made
+            check_executor(args.executor, args.workers, args.scheduler)
+        except ValueError as e:
+            ap.error(str(e))
         _check_out(ap, args.out)
     caught = []
     replaced = _stop_on_signals(caught)

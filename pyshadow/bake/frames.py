@@ -10,8 +10,14 @@ returns the image files' bytes, which the driver writes atomically::
     out/exr/frame_0000.exr     AO, linear float32 (one channel "Y")
     out/png/frame_0000.png     AO, sRGB 8-bit
     out/csm/<body>.csm         the casters' CSMs (reproducible bytes)
-    out/records/frame_0000.json  the frame's done mark (key and output hashes)
+    out/records/frame_0000.json  the frame's done mark (key, output hashes, the bake's parameters)
     out/manifest.json          written last; an earlier run's is removed first
+
+Frame numbers have 4 digits, or the last frame's digits where a motion has
+more than 10,000 frames (``frame_00000`` ... ``frame_10000``), so that the
+names sort in frame order. A folder holds one bake's frames: a bake with
+other parameters (or another motion, scene or code) renders over the
+finished frames of an earlier one and logs how many and what differs.
 """
 from __future__ import annotations
 
@@ -32,9 +38,9 @@ from .._version import __version__
 from .assets import csm_file_bytes, other_code
 from .motion import _check as _check_motion
 from .params import code_digest
-from .records import done, drop_manifest, store
-from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
-                     sweep_temporaries)
+from .records import differences, done, drop_manifest, other_bake, store
+from .runner import (STALE_SECONDS, _TEMPORARY, check_executor, close_executor, executor_info,
+                     open_executor, sweep_temporaries)
 
 __all__ = ["bake_frames", "scene_payload", "render_chunk", "FRAMES_SCHEMA"]
 
@@ -127,7 +133,8 @@ def render_chunk(frames, transforms, payload) -> list:
     -------
     list of dict
         Per frame: ``frame``, ``files`` (``exr/frame_NNNN.exr`` and
-        ``png/frame_NNNN.png`` -> bytes), ``seconds`` (render),
+        ``png/frame_NNNN.png`` -> bytes; the driver names them with the
+        motion's digits), ``seconds`` (render),
         ``ao_mean`` (over covered pixels), ``worker``, ``code``
         (:func:`pyshadow.bake.params.code_digest` of the code that rendered
         it, which the driver compares with its own); for a frame that
@@ -183,7 +190,14 @@ def _check_parts(parts) -> None:
     """
     seps = {"\0", os.sep} | ({os.altsep} if os.altsep else set())
     seen = {}                           # lower-case name -> (index, mesh) of the first caster
-    for i, (name, mesh, casts) in enumerate(parts):
+    for i, part in enumerate(parts):
+        # else 'not enough values to unpack', or "'str' object has no attribute 'vertices'" from the CSM build
+        if not isinstance(part, (tuple, list)) or len(part) != 3:
+            raise TypeError(f"parts[{i}] must be a (name, mesh, casts) triple, got {type(part).__name__} "
+                            f"{str(part)[:60]}")
+        name, mesh, casts = part
+        if not (hasattr(mesh, "vertices") and hasattr(mesh, "faces")):
+            raise TypeError(f"parts[{i}]: the mesh must be a trimesh.Trimesh, got {type(mesh).__name__}")
         if not isinstance(name, str):
             raise TypeError(f"parts[{i}]: the name must be a str, got {name!r}")
         if not name or any(c in name for c in seps) or _TEMPORARY.match(f"{name}.csm"):
@@ -199,10 +213,18 @@ def _check_parts(parts) -> None:
                              f"{name!r}: their CSMs would be one file, csm/{name}.csm; rename one")
 
 
-def _frame_files(f: int) -> set:
-    """The outputs of frame ``f`` (relative paths): a done record must list these, no other files (a
-    hand-edited one listing none, or files elsewhere, proves nothing about them)."""
-    return {f"{kind}/frame_{f:04d}.{kind}" for kind in ("exr", "png")}
+def _frame_stem(f: int, frames: int) -> str:
+    """The file stem of frame ``f`` of a motion of ``frames`` frames: ``frame_`` and the number, zero-padded
+    to 4 digits, or to the last frame's digits where it has more (``frame_10000`` sorted between
+    ``frame_1000`` and ``frame_1001``: a 10,001-frame motion read as one sequence by file name, as a glob or
+    ``ls`` gives it, jumped from frame 1000 to 10000)."""
+    return f"frame_{f:0{max(4, len(str(frames - 1)))}d}"
+
+
+def _frame_files(stem: str) -> set:
+    """The outputs of the frame of file stem ``stem`` (relative paths): a done record must list these, no
+    other files (a hand-edited one listing none, or files elsewhere, proves nothing about them)."""
+    return {f"{kind}/{stem}.{kind}" for kind in ("exr", "png")}
 
 
 def _frame_key(payload_key: str, T: np.ndarray, code: str) -> str:
@@ -259,12 +281,14 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
         not finite or not rigid (the message names the frame and body),
         ``chunk`` not a positive int, ``ground`` not a finite number,
         ``samples``, ``lookup`` or ``denoise`` not one ``Scene.render``
-        takes, or a part's name that cannot be its CSM's file name (or the
+        takes, executor arguments that
+        :func:`pyshadow.bake.runner.open_executor` refuses, or a part's name that cannot be its CSM's file name (or the
         same as another caster's of a different mesh): before any CSM is
         built.
     TypeError
-        ``transforms`` not real numbers, ``samples`` not an int, a part's
-        name not a str.
+        ``transforms`` not real numbers, ``samples`` not an int, a part
+        not a (name, mesh, casts) triple, its name not a str or its mesh
+        not a mesh, ``camera`` not a :class:`pyshadow.Camera`.
     KeyboardInterrupt
         After the manifest is written (the frames not finished marked
         'interrupted'), also for one that lands while the executor shuts
@@ -286,6 +310,10 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                          f"at least one frame, got {T.shape}")
     T, _ = _check_motion(T, None, "transforms")     # real numbers, each finite and rigid (as Scene.set_transform)
     _check_parts(parts)
+    from ..camera import Camera
+
+    if not isinstance(camera, Camera):  # else an AttributeError from writing the manifest, the earlier one gone
+        raise TypeError(f"camera must be a pyshadow.Camera, got {type(camera).__name__}")
     try:
         chunk = check_int(chunk, "chunk", 1)
     except (TypeError, ValueError):     # not 2.5 (a slice of floats), nor "3"; one error type, as documented
@@ -296,6 +324,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     if ground is not None:              # np.float32 is no JSON; 0 and -0.0 draw the plane of 0.0 but had other
         ground = float(ground) + 0.0    # keys (the scene's key holds JSON "0"): a rerun rendered every frame again
     _check_render(samples, lookup, denoise)
+    check_executor(executor, workers, scheduler, threads)      # refused now, not after the CSMs are built
     out = Path(out_dir).expanduser()
     out.mkdir(parents=True, exist_ok=True)
     sweep_temporaries(out, STALE_SECONDS)
@@ -323,14 +352,24 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                 csm_files[part["name"]] = rel
         prepare = time.perf_counter() - t0
         # every earlier frame's files are hashed: a long motion's rerun was silent for minutes (shown after 1 s)
+        bake = {"scene": payload["key"], "render": render, "camera": payload["camera"], "ground": ground,
+                "code": code}           # in each record: what a later bake into this folder tells apart
+        replaced = {}                   # how another bake's finished frames differ from this one's -> count
         for f in tqdm(range(len(T)), unit="frame", desc="checking", delay=1.0, leave=False, disable=not progress):
             keys[f] = _frame_key(payload["key"], T[f], code)
-            rec = done(out, f"records/frame_{f:04d}.json", keys[f])
-            if rec is not None and rec.get("frame") == f and set(rec["outputs"]) == _frame_files(f):
+            stem = _frame_stem(f, len(T))
+            rec = done(out, f"records/{stem}.json", keys[f])
+            if rec is not None and rec.get("frame") == f and set(rec["outputs"]) == _frame_files(stem):
+                rec.pop("bake", None)
                 entries[f] = dict(rec, action="skipped")
-            else:
-                todo.append(f)
+                continue
+            todo.append(f)
+            other = other_bake(out, f"records/{stem}.json", keys[f])
+            if other is not None:
+                why = _how_other(other.get("bake"), bake)
+                replaced[why] = replaced.get(why, 0) + 1
         log(f"{len(T)} frames: {len(todo)} to render")
+        _note_replaced(out, replaced, log)
         _note_past_frames(out, len(T), log)
         tasks = [(todo[i:i + chunk], T[todo[i:i + chunk]]) for i in range(0, len(todo), int(chunk))]
         bar = tqdm(total=len(todo), unit="frame", desc="rendering", disable=not progress or not todo)
@@ -349,7 +388,7 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
                         entries[f] = {"frame": f, "key": keys[f], "status": "failed", "action": "failed",
                                       "error": f"{type(err).__name__}: {err}"}
                     for r in res if err is None else ():
-                        entries[r["frame"]] = _finished(out, r, keys[r["frame"]], code)
+                        entries[r["frame"]] = _finished(out, r, keys[r["frame"]], bake, len(T))
                     bar.update(len(frames))
                 if not alone:
                     break
@@ -381,35 +420,68 @@ def bake_frames(out_dir, parts, camera, transforms, *, ground=0.0, samples: int 
     return manifest
 
 
-def _finished(out: Path, r: dict, key: str, code: str) -> dict:
-    """The manifest entry of frame result ``r`` (of :func:`render_chunk`): its files and record stored when
-    it rendered with this ``code``."""
+def _finished(out: Path, r: dict, key: str, bake: dict, frames: int) -> dict:
+    """The manifest entry of frame result ``r`` (of :func:`render_chunk`) of a motion of ``frames`` frames:
+    its files and record (with ``bake``, the parameters of this bake) stored when it rendered with this
+    bake's ``code``."""
     f = r["frame"]
     failed = {"frame": f, "key": key, "status": "failed", "action": "failed"}
     if r.get("error") is not None:      # this frame alone failed
         return dict(failed, error=r["error"])
-    why = other_code(r.get("code"), code, r["worker"])
+    why = other_code(r.get("code"), bake["code"], r["worker"])
     if why is not None:                 # under this code's key it would be skipped for good
         return dict(failed, error=why, worker=r["worker"])
     rec = {"frame": f, "key": key, "status": "baked", "seconds": r["seconds"], "ao_mean": r["ao_mean"],
-           "worker": r["worker"]}
+           "worker": r["worker"], "bake": bake}
+    stem = _frame_stem(f, frames)       # the worker names its files by the frame alone
+    files = {f"{Path(rel).parent}/{stem}{Path(rel).suffix}": data for rel, data in r["files"].items()}
     try:                                # unwritable, disk full: this frame failed, the others go on
-        rec = store(out, f"records/frame_{f:04d}.json", rec, r["files"])
+        rec = store(out, f"records/{stem}.json", rec, files)
     except OSError as e:
         return dict(failed, error=f"writing its outputs: {type(e).__name__}: {e}")
+    rec.pop("bake")                     # the manifest has them once
     return dict(rec, action="rendered")
+
+
+def _how_other(there, here: dict) -> str:
+    """How the earlier bake whose record holds ``there`` (its ``bake``) differs from this one's ``here``."""
+    if not isinstance(there, dict):
+        return "its parameters not recorded (an older pyshadow's bake)"
+    diff = differences(there.get("render"), here["render"]) + differences(there.get("camera"), here["camera"])
+    diff += differences(there, here, ["ground"])
+    if diff:
+        return ", ".join(diff)
+    if there.get("scene") != here["scene"]:
+        return "other bodies or CSMs (meshes, names, --maps, --resolution, --depth-bits)"
+    return "other pyshadow code" if there.get("code") != here["code"] else "another motion"
+
+
+def _note_replaced(out: Path, replaced: dict, log) -> None:
+    """Log that this run renders over ``out``'s finished frames of another bake (``replaced``: how it
+    differs -> frames): they were replaced without a word, and a run stopped part way left a folder of
+    two bakes' frames under one sequence of names."""
+    if replaced:
+        log(f"note: {out} holds {sum(replaced.values())} finished frames of another bake, which this run "
+            f"renders over (another -o keeps them): " + "; ".join(f"{n} with {why}" for why, n in
+                                                               sorted(replaced.items(), key=lambda i: -i[1])))
 
 
 def _note_past_frames(out: Path, frames: int, log) -> None:
     """Log the frames an earlier run left in ``out`` past this motion's ``frames`` (a longer motion's, of other
     parameters): they stay, outside this run's manifest, but a tool reading ``png/frame_%04d.png`` as one
     sequence took them for this motion's last frames."""
-    past = sorted(int(p.stem[6:]) for p in (out / "records").glob("frame_*.json")
-                  if p.stem[6:].isdigit() and int(p.stem[6:]) >= frames)
+    stems = [p.stem for p in (out / "records").glob("frame_*.json") if p.stem[6:].isdigit()]
+    past = sorted(int(s[6:]) for s in stems if int(s[6:]) >= frames)
     if past:
         log(f"note: {out} also holds {len(past)} frames of an earlier run past this motion's {frames} "
             f"(frame {past[0]} to {past[-1]}), not in this run's manifest: remove them (exr/, png/, records/) "
             f"before reading the folder's images as one sequence")
+    # a motion of more than 10,000 frames names them with more digits: frame_00000 is not frame_0000
+    other = sorted(s for s in stems if int(s[6:]) < frames and s != _frame_stem(int(s[6:]), frames))
+    if other:
+        log(f"note: {out} also holds {len(other)} frames of an earlier run of another length, named with "
+            f"{len(other[0]) - 6} digits ({other[0]} ...), not this run's ({_frame_stem(0, frames)} ...): remove "
+            f"them (exr/, png/, records/) before reading the folder's images as one sequence")
 
 
 def _check_render(samples, lookup, denoise) -> None:

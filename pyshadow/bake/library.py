@@ -30,9 +30,9 @@ from .._files import write_bytes_atomic
 from .._version import __version__
 from .assets import bake_asset, other_code, output_names, side_files
 from .params import AssetParams, asset_key, code_digest
-from .records import done, drop_manifest, sha256_file, store
-from .runner import (STALE_SECONDS, _TEMPORARY, close_executor, executor_info, open_executor,
-                     sweep_temporaries)
+from .records import differences, done, drop_manifest, other_bake, sha256_file, store
+from .runner import (STALE_SECONDS, _TEMPORARY, check_executor, close_executor, executor_info,
+                     open_executor, sweep_temporaries)
 
 __all__ = ["bake_assets", "find_assets", "MANIFEST_SCHEMA"]
 
@@ -162,7 +162,8 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         Dask when installed (a ``LocalCluster`` of ``workers`` processes, or
         the cluster of ``scheduler``), else a process pool.
     workers : int, optional
-        Local worker processes (default: the machine's cores).
+        Local worker processes (default: the machine's cores); ignored with
+        'serial' (one task at a time in this process).
     scheduler : str, optional
         Address or scheduler file of an existing Dask cluster.
     threads : int, optional
@@ -188,6 +189,10 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     ------
     TypeError
         ``params`` not an :class:`AssetParams`, before anything is written.
+    ValueError
+        ``executor``, ``workers``, ``scheduler`` or ``threads`` that
+        :func:`pyshadow.bake.runner.open_executor` refuses, before anything
+        is written (also when every asset is done).
 
     Notes
     -----
@@ -213,6 +218,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     params = params if params is not None else AssetParams()
     if not isinstance(params, AssetParams):     # a dict: AssetParams.from_dict(d)
         raise TypeError(f"params must be an AssetParams (or None), got {type(params).__name__}")
+    check_executor(executor, workers, scheduler, threads)      # refused now, also when every asset is done
     out = Path(out_dir).expanduser()
     for sub in ("", "csm", "meshes", "records"):
         if (out / sub).exists() and not (out / sub).is_dir():
@@ -225,6 +231,7 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
     assets, ignored = find_assets(sources)
     code = code_digest()
     entries, todo, sides = {}, [], {}
+    replaced = {}                       # how the parameters of an earlier bake's assets differ -> count
     # every source and every earlier output is hashed: minutes for a large library, silent before (shown after 1 s)
     for name, path in tqdm(assets, unit="asset", desc="checking", delay=1.0, leave=False, disable=not progress):
         try:
@@ -239,11 +246,19 @@ def bake_assets(sources, out_dir, params: AssetParams | None = None, *, executor
         outputs = set(output_names(name, params).values())
         if rec is not None and rec.get("name") == name and set(rec["outputs"]) == outputs:
             entries[name] = dict(rec, source=str(path), action="skipped")     # this run's file (it may have moved)
-        else:
-            todo.append((name, path, key))
+            continue
+        todo.append((name, path, key))
+        other = other_bake(out, f"records/{name}.json", key)
+        if other is not None and other.get("params") != params.to_dict():
+            why = ", ".join(differences(other.get("params"), params.to_dict())) or "unrecorded ones"
+            replaced[why] = replaced.get(why, 0) + 1
     # largest first: the long tasks start early and the short ones fill in the tail (LPT order)
     todo.sort(key=lambda t: (-_size(t[1]) - sum(map(_size, sides[t[0]].values())), t[0]))
     log(f"{len(assets)} assets: {len(todo)} to bake, {len(entries)} done or unreadable")
+    if replaced:                        # baked over without a word: stopped part way, a folder of two bakes
+        log(f"note: {out} holds {sum(replaced.values())} assets baked with other parameters, which this run "
+            f"bakes again over (another -o keeps them): " + "; ".join(
+                f"{n} with {why}" for why, n in sorted(replaced.items(), key=lambda i: -i[1])))
 
     def tasks():
         for name, path, key in todo:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 from .._files import write_bytes_atomic
 
-__all__ = ["done", "store", "sha256_file", "drop_manifest"]
+__all__ = ["done", "store", "sha256_file", "drop_manifest", "other_bake", "differences"]
 
 
 def sha256_file(path) -> str:
@@ -43,6 +43,28 @@ def done(out: Path, record: str, key: str):
         return rec
     except (OSError, ValueError, KeyError, TypeError, AttributeError, RecursionError):   # deep nesting: corrupt
         return None
+
+
+def other_bake(out: Path, record: str, key: str):
+    """The record at ``out/record`` when it marks a finished task of another bake (status 'baked', a key
+    other than ``key``: other parameters, inputs or code), else None (none there, unreadable, or this
+    bake's own, done or damaged)."""
+    try:
+        rec = json.loads((out / record).read_text())
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(rec, dict) or rec.get("status") != "baked" or rec.get("key") == key:
+        return None
+    return rec
+
+
+def differences(there, here: dict, names=None) -> list:
+    """``'name A there, B here'`` for each entry of the dict ``here`` that the dict ``there`` (an earlier
+    bake's, from its record) holds otherwise, in the order of ``names`` (default: ``here``'s keys)."""
+    if not isinstance(there, dict):
+        return []
+    return [f"{k} {there.get(k)!r} there, {here[k]!r} here" for k in (names or here)
+            if k in here and there.get(k) != here[k]]
 
 
 def store(out: Path, record: str, rec: dict, files: dict) -> dict:

@@ -29,7 +29,8 @@ from pathlib import Path
 
 from .._validate import check_int
 
-__all__ = ["EXECUTORS", "open_executor", "close_executor", "executor_info", "thread_env", "sweep_temporaries",
+__all__ = ["EXECUTORS", "check_executor", "open_executor", "close_executor", "executor_info", "thread_env",
+           "sweep_temporaries",
            "dask_available", "WorkerDied", "SharedDataLost",
            "STALE_SECONDS"]
 
@@ -376,6 +377,38 @@ def executor_info(ex, kind=None) -> dict:
             "threads": getattr(ex, "threads", None), "address": getattr(ex, "address", None)}
 
 
+def check_executor(kind=None, workers=None, scheduler=None, threads=None) -> str:
+    """The executor kind :func:`open_executor` would open for these arguments; ValueError for ones it refuses.
+
+    The bakes call it before anything is built or written, not only when a task is left to run (a rerun
+    with every output done took ``executor='bogus'``, and wrote it to its manifest).
+
+    Parameters
+    ----------
+    kind, workers, scheduler, threads :
+        As :func:`open_executor`.
+
+    Returns
+    -------
+    str
+        'dask', 'process' or 'serial' (``kind`` None resolved as :func:`open_executor` does).
+    """
+    if kind is None:
+        kind = "dask" if (scheduler is not None or dask_available()) else "process"
+    if not isinstance(kind, str) or kind not in EXECUTORS:
+        raise ValueError(f"executor must be one of {EXECUTORS}, got {kind!r}")
+    if scheduler is not None and kind != "dask":
+        raise ValueError(f"a scheduler address needs the 'dask' executor, not {kind!r}")
+    for arg, v in (("workers", workers), ("threads", threads)):
+        if v is None:
+            continue
+        try:
+            check_int(v, arg, 1)
+        except (TypeError, ValueError):     # not 2.5 cut to 2, nor 'abc'; one error type, as documented
+            raise ValueError(f"{arg} must be a positive int, got {v!r}") from None
+    return kind
+
+
 def open_executor(kind: str | None = None, workers: int | None = None, scheduler: str | None = None,
                   threads: int | None = None):
     """An executor of bake tasks.
@@ -388,13 +421,14 @@ def open_executor(kind: str | None = None, workers: int | None = None, scheduler
     workers : int, optional
         Worker processes on this machine (default: its cores); each is
         limited to ``cores // workers`` OpenCL CPU threads
-        (:func:`thread_env`). Ignored with ``scheduler``.
+        (:func:`thread_env`). Ignored with ``scheduler``, and with 'serial'
+        (one task at a time in this process; the manifest says 1 worker).
     scheduler : str, optional
         Address of an existing Dask scheduler (``tcp://host:8786``) or the
         path of a scheduler file; its workers bring their own environment.
     threads : int, optional
         OpenCL CPU threads per local worker (default ``cores // workers``,
-        at least 1).
+        at least 1). Ignored with 'serial' (this process's own device).
 
     Returns
     -------
@@ -408,19 +442,7 @@ def open_executor(kind: str | None = None, workers: int | None = None, scheduler
         ``.workers``.
     """
     cores = os.cpu_count() or 1
-    if kind is None:
-        kind = "dask" if (scheduler is not None or dask_available()) else "process"
-    if kind not in EXECUTORS:
-        raise ValueError(f"executor must be one of {EXECUTORS}, got {kind!r}")
-    if scheduler is not None and kind != "dask":
-        raise ValueError(f"a scheduler address needs the 'dask' executor, not {kind!r}")
-    for arg, v in (("workers", workers), ("threads", threads)):
-        if v is None:
-            continue
-        try:
-            check_int(v, arg, 1)
-        except (TypeError, ValueError):     # not 2.5 cut to 2, nor 'abc'; one error type, as documented
-            raise ValueError(f"{arg} must be a positive int, got {v!r}") from None
+    kind = check_executor(kind, workers, scheduler, threads)
     workers = int(workers) if workers is not None else cores
     threads = int(threads) if threads is not None else max(1, cores // workers)
     if kind == "serial":

@@ -103,7 +103,7 @@ def _touching(faces, pairs, tol, either):
     # B's faces within A's faces' box (grown by tol), then A's faces within those faces' box
     p, k = _ragged(count[b])
     fb = first[b][p] + k
-    ok = ((hi[fb] >= blo[a][p] - t[p, None]) & (lo[fb] <= bhi[a][p] + t[p, None])).all(axis=1)
+    ok = _all3((hi[fb] >= blo[a][p] - t[p, None]) & (lo[fb] <= bhi[a][p] + t[p, None]))
     p, fb = p[ok], fb[ok]
     nb = np.bincount(p, minlength=len(b))
     has = np.flatnonzero(nb)
@@ -113,7 +113,7 @@ def _touching(faces, pairs, tol, either):
     near_lo, near_hi = np.minimum.reduceat(lo[fb], start[has]), np.maximum.reduceat(hi[fb], start[has])
     q, k = _ragged(count[a][has])
     fa = first[a][has][q] + k
-    ok = ((hi[fa] >= near_lo[q] - t[has][q, None]) & (lo[fa] <= near_hi[q] + t[has][q, None])).all(axis=1)
+    ok = _all3((hi[fa] >= near_lo[q] - t[has][q, None]) & (lo[fa] <= near_hi[q] + t[has][q, None]))
     na = np.zeros(len(b), np.intp)
     na[has] = np.bincount(q[ok], minlength=len(has))
     fa, a_start = fa[ok], np.zeros(len(b), np.intp)
@@ -124,16 +124,57 @@ def _touching(faces, pairs, tol, either):
     # are too many: bodies that pass through each other, not searched)
     use = (na[p] > 0) & (nb[p] * na[p] <= _PAIRS)
     pu, fu = p[use], fb[use]
-    for s, _, i, j in _expanded(na[pu]):                # near face s + i of B against A's j-th kept face
-        i += s
-        _mark(out, faces, either, t, pu[i], fu[i], fa[a_start[pu[i]] + j])
+    # of those, only the A faces whose normal's axis (_axes) can face the B face's: A's near faces of each pair
+    # by axis, each B face against the runs of the opposite axis, the same axis (``either``) and of no axis
+    axis, plane = _axes(faces[1]), _plane_offsets(faces)
+    key = np.repeat(np.arange(len(b)), na) * 7 + axis[fa]
+    fs, count = fa[np.argsort(key, kind="stable")], np.bincount(key, minlength=7 * len(b))
+    run, ab, free = np.cumsum(count) - count, axis[fu], axis[fu] == 6
+    opp = 7 * pu + np.where(free, 6, ab ^ 1)
+    at = np.stack([np.where(free, a_start[pu], run[opp]), run[7 * pu + 6], run[7 * pu + ab]], axis=1)
+    size = np.stack([np.where(free, na[pu], count[opp]), np.where(free, 0, count[7 * pu + 6]),
+                     np.where(free | ~either[pu], 0, count[7 * pu + ab])], axis=1).ravel()
+    e = np.flatnonzero(size)
+    for s, _, i, j in _expanded(size[e]):               # run e[s + i] (of B's near face e // 3), its j-th face
+        i = e[i + s]
+        _mark(out, faces, plane, either, t, pu[i // 3], fu[i // 3], fs[at.ravel()[i] + j])
     for g in np.unique(p[(na[p] > 0) & ~use & (nb[p] * na[p] <= _PAIRS << 8)]):
         ib, ia = fb[p == g], fa[a_start[g]:a_start[g] + na[g]]
         ib = ib[((hi[ib] >= lo[ia].min(axis=0) - t[g]) & (lo[ib] <= hi[ia].max(axis=0) + t[g])).all(axis=1)]
         k, m = _meeting(lo[ib], hi[ib], lo[ia], hi[ia], t[g])
         if k is not None:
-            _mark(out, faces, either, t, np.full(len(k), g), ib[k], ia[m])
+            _mark(out, faces, plane, either, t, np.full(len(k), g), ib[k], ia[m])
     return out
+
+
+_CLEAR = 4e-3               # an axis of a normal this much larger than its others (_axes)
+
+
+def _axes(n):
+    """(F,) the axis of unit normals ``n`` (F, 3) that they are nearest: 2 x its number, + 1 for a negative one;
+    6 where that is not ``_CLEAR``er than the next (or a zero normal). Normals facing each other (cosine of
+    ``FACING`` or nearer to -1) differ by ``sqrt(2e-6)`` = 1.42e-3 at most in each coordinate: where one is clear
+    (by more than twice that), the other is nearest the same axis, of the opposite sign (its axis ``^ 1``), or
+    is not clear."""
+    a = np.abs(n)
+    big = np.argmax(a, axis=1)
+    s = np.sort(a, axis=1)
+    return np.where(s[:, 2] - s[:, 1] > _CLEAR, 2 * big + (n[np.arange(len(n)), big] < 0), 6)
+
+
+def _plane_offsets(faces):
+    """Each face's plane offset ``s = n . (x0 - c)`` (its normal ``n``, first corner ``x0``, ``c`` the faces'
+    middle) and how far (``bound``) it may be from minus another's that faces it (cosine ``FACING`` or nearer
+    -1) and lies within ``t`` of its plane, less ``t``: the two normals differ by 1.42e-3 at most
+    (:func:`_axes`), ``2e-3`` of the first corners' distances from ``c``, and rounding (``1e-12`` of their
+    coordinates). The rows of :func:`_mark` whose ``s`` do not meet so (nor, where ``either``, ``s`` and
+    another's that faces the same way) do not face each other, or are not in the plane."""
+    tri, n, lo, hi = faces[0], faces[1], faces[3], faces[4]
+    c = 0.5 * (lo.min(axis=0) + hi.max(axis=0)) if len(lo) else np.zeros(3)
+    c = c if np.isfinite(c).all() else np.zeros(3)
+    x = tri[:, 0] - c
+    big = np.abs(tri[:, 0]).max(axis=1) + np.abs(c).max()
+    return np.einsum("kj,kj->k", n, x), 2e-3 * np.sqrt(np.einsum("kj,kj->k", x, x)) + 1e-12 * big
 
 
 def _meeting(blo, bhi, alo, ahi, t):
@@ -149,20 +190,42 @@ def _meeting(blo, bhi, alo, ahi, t):
     return k[ok], m[ok]
 
 
-def _mark(out, faces, either, t, pi, bi, m):
+def _mark(out, faces, plane, either, t, pi, bi, m):
     """``out[bi] = True`` for B's faces ``bi`` (of the body pairs ``pi``) lying on A's faces ``m`` facing them
-    (:func:`_touching`), one (B face, A face) pair a row."""
+    (:func:`_touching`), one (B face, A face) pair a row; each test on the rows that passed the one before
+    (each row's values its own: the same on fewer rows)."""
     tri, n = faces[:2]
+    s, bound = plane                                    # near A's plane (_plane_offsets) first, facing, in it
+    near = np.abs(s[m] + s[bi])
+    near = np.where(either[pi], np.minimum(near, np.abs(s[m] - s[bi])), near) if either.any() else near
+    pi, bi, m = (x[near <= t[pi] + bound[bi] + bound[m]] for x in (pi, bi, m))
     cos = np.einsum("kj,kj->k", n[bi], n[m])
-    pi, bi, m = (x[np.where(either[pi], np.abs(cos), -cos) >= FACING] for x in (pi, bi, m))    # facing first
+    pi, bi, m = (x[np.where(either[pi], np.abs(cos), -cos) >= FACING] for x in (pi, bi, m))
+    nm = n[m]
+    off = np.einsum("kvj,kj->kv", tri[bi], nm) - np.einsum("kj,kj->k", tri[m, 0], nm)[:, None]
+    pi, bi, m = (x[_all3(np.abs(off) <= t[pi, None])] for x in (pi, bi, m))
     e1 = tri[bi, 1] - tri[bi, 0]
     e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    off = np.einsum("kvj,kj->kv", tri[bi], n[m]) - np.einsum("kj,kj->k", tri[m, 0], n[m])[:, None]
-    hit = (np.abs(off) <= t[pi, None]).all(axis=1)
+    hit = np.ones(len(bi), bool)
     for ax in (e1, _cross(n[bi], e1)):                  # the faces' extents along two axes of B's face
         pb, pa = np.einsum("kvj,kj->kv", tri[bi], ax), np.einsum("kvj,kj->kv", tri[m], ax)
-        hit &= np.minimum(pb.max(axis=1), pa.max(axis=1)) - np.maximum(pb.min(axis=1), pa.min(axis=1)) > t[pi]
+        hit &= np.minimum(_max3(pb), _max3(pa)) - np.maximum(_min3(pb), _min3(pa)) > t[pi]
     out[bi[hit]] = True
+
+
+def _all3(x):
+    """``x.all(axis=1)`` of (K, 3) bools, column by column (a reduction over 3 per row is 10x slower)."""
+    return x[:, 0] & x[:, 1] & x[:, 2]
+
+
+def _max3(x):
+    """``x.max(axis=1)`` of (K, 3) values for comparisons (the sign of a zero may differ)."""
+    return np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])
+
+
+def _min3(x):
+    """``x.min(axis=1)`` of (K, 3) values for comparisons (the sign of a zero may differ)."""
+    return np.minimum(np.minimum(x[:, 0], x[:, 1]), x[:, 2])
 
 
 def _world_bodies(instances):
@@ -311,46 +374,99 @@ def _searched(scene, held, ids, b, a, either, tol, world, faces, posed):
         world, faces = _world_bodies(_posed(scene, held, ids[posed]))
     row = np.full(len(ids), -1)
     row[posed] = np.arange(len(posed))
-    hit_all = _touching(faces, np.stack([row[b], row[a]], axis=1), tol[posed], either)
-    first, nface = faces[5:7]
-    got = []                                            # (body, inward normal, offset, its faces' numbers)
-    for i in row[b][np.sort(np.unique(b, return_index=True)[1])]:
-        s = slice(first[i], first[i] + nface[i])
-        hit, tri_b, n_b = hit_all[s], faces[0][s], faces[1][s]
-        while hit.any():                                # one plane at a time
-            n = -n_b[np.argmax(hit)]
-            d = float(tri_b[np.argmax(hit), 0] @ n)
-            same = hit & (-n_b @ n >= FACING) & (np.abs(tri_b @ n - d) <= tol[posed[i]]).all(axis=1)
-            hit &= ~same
-            got.append((i, n, d, np.flatnonzero(same)))
+    hit = _touching(faces, np.stack([row[b], row[a]], axis=1), tol[posed], either)
+    planes = _plane_faces(hit, faces, row[b][np.sort(np.unique(b, return_index=True)[1])], tol[posed])
     found = {int(k): [] for k in np.unique(b)}
-    for g, patch in zip(got, _planes(got, world, faces[0], first, tol[posed]) if got else ()):
-        found[int(posed[g[0]])].append(patch)
+    for i, patch in zip(planes[0], _planes(planes, world, faces[0], faces[5], tol[posed]) if len(planes[0])
+                        else ()):
+        found[int(posed[i])].append(patch)
     return found
 
 
-def _planes(got, world, tri, first, tol):
-    """:func:`body_patches`'s patches of the planes ``got`` ``[(body, inward normal, offset, faces)]``
-    (``world``, ``tri``, ``first``: :func:`_world_bodies`'s), all planes at once but each one's plane basis
-    and flattening as one plane alone (the same values)."""
-    body = np.array([g[0] for g in got])
-    n = np.array([g[1] for g in got])
-    size = np.array([len(g[3]) for g in got])
-    # the planes' faces, by plane: numbers into ``tri`` and the faces' vertex numbers (sorted rows)
-    k = np.concatenate([g[3] for g in got]) + np.repeat(first[body], size)
-    wf = np.concatenate([world[g[0]][1][g[3]] for g in got]).astype(np.int64)
+_ROUND = 1 << 17            # faces of bodies split into planes together (:func:`_plane_faces`)
+
+
+def _plane_faces(hit, faces, bodies, tol):
+    """The touching faces ``hit`` (:func:`_touching`) of the bodies ``bodies`` (rows of :func:`_world_bodies`'
+    ``faces``) split into planes, one at a time per body: its first face in no plane yet gives the inward normal
+    ``n`` (minus the face's normal) and offset ``d`` (its first corner's ``n . x``), the plane's faces are the
+    body's touching faces facing along ``n`` (cosine ``FACING``) within ``tol`` of it. Every body's next plane
+    is found in one round, its faces tested by the same numpy calls on the same shapes as that body alone (the
+    same values to the bit). Returns, by body (in the order of ``bodies``), then plane: each plane's body (P,),
+    ``n`` (P, 3), ``d`` (P,), its faces' numbers in its body (sum K,) and their count (P,)."""
+    count = faces[6][bodies]
+    part = (np.cumsum(count) - count) // _ROUND         # runs of about _ROUND faces
+    cut = np.r_[0, np.flatnonzero(np.diff(part)) + 1, len(bodies)]
+    got = [x for s, e in zip(cut[:-1], cut[1:]) for x in _plane_rounds(hit, faces, bodies[s:e], tol, s)]
+    if not got:
+        return np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.intp), np.zeros(0, np.intp)
+    key, n, d, k, size = (np.concatenate(x) for x in zip(*got))
+    o = np.argsort(key, kind="stable")                  # by body, each body's planes in the order found
+    g, j = _ragged(size[o])
+    return bodies[key[o]], n[o], d[o], k[(np.cumsum(size) - size)[o][g] + j], size[o]
+
+
+def _plane_rounds(hit, faces, bodies, tol, base):
+    """:func:`_plane_faces` of ``bodies`` (at ``base`` on there), a round a list item: the planes' bodies'
+    positions, ``n``, ``d``, faces and their counts, as one body's ``while`` loop over its planes would find
+    them (``d``: ``tri_b[j, 0] @ n``, the faces ``-n_b @ n`` and ``tri_b @ n`` of each body's arrays)."""
+    tri, nrm, first, count = faces[0], faces[1], faces[5][bodies], faces[6][bodies]
+    g, k = _ragged(count)                               # the bodies' faces: body (position), face in body
+    f = first[g] + k
+    h, start = hit[f], np.cumsum(count) - count
+    rounds = []
+    while h.any():
+        at = np.flatnonzero(h)
+        q, i = np.unique(g[at], return_index=True)     # the bodies with faces left, the first of each
+        n = -nrm[f[at[i]]]
+        d = (tri[f[at[i]], 0][:, None, :] @ n[:, :, None])[:, 0, 0]
+        r, kk = _ragged(count[q])                       # their faces
+        loc = start[q][r] + kk
+        near = np.abs((tri[f[loc]] @ n[r][:, :, None])[..., 0] - d[r][:, None]) <= tol[bodies[q]][r][:, None]
+        cos, at_q = np.empty(len(loc)), np.cumsum(count[q]) - count[q]
+        for c in np.unique(count[q]):                   # each body's faces as one (F, 3) array
+            w = np.flatnonzero(count[q] == c)
+            cos[(at_q[w][:, None] + np.arange(c)).ravel()] = \
+                (-nrm[first[q[w]][:, None] + np.arange(c)] @ n[w][:, :, None]).ravel()
+        same = h[loc] & (cos >= FACING) & _all3(near)
+        h[loc[same]] = False
+        h[at[i]] = False                                # (in its plane: n . n)
+        rounds.append((q + base, n, d, kk[same], np.bincount(r[same], minlength=len(q))))
+    return rounds
+
+
+def _planes(planes, world, tri, first, tol):
+    """:func:`body_patches`'s patches of the planes ``planes`` (:func:`_plane_faces`; ``world``, ``tri``,
+    ``first``: :func:`_world_bodies`'s), all planes at once but each one's plane basis and flattening by the same
+    numpy calls on the same shapes as one plane alone (the same values)."""
+    body, n, d, k, size = planes
     start = np.cumsum(size) - size
+    # the planes' faces: numbers into ``tri`` and the faces' vertex numbers (sorted rows)
+    plane = np.repeat(np.arange(len(body)), size)
+    fv = np.concatenate([w[1] for w in world])
+    nface = np.array([len(w[1]) for w in world], np.intp)
+    wf = fv[k + (np.cumsum(nface) - nface)[body][plane]].astype(np.int64)
+    k = k + first[body][plane]
     lo, hi = np.minimum.reduceat(tri[k].min(axis=1), start), np.maximum.reduceat(tri[k].max(axis=1), start)
-    edge, ecut = _outlines(np.sort(wf, axis=1), np.repeat(np.arange(len(got)), size), len(got))   # the outlines
+    edge, ecut = _outlines(np.sort(wf, axis=1), plane, len(body))   # the outlines
     e1 = _cross(n, np.eye(3)[np.argmin(np.abs(n), axis=1)])
-    out = []
-    for j, (i, nj, d, _) in enumerate(got):
-        unit = e1[j] / np.linalg.norm(e1[j])
-        basis = np.array([unit, _cross(nj, unit)])
-        flat = world[i][0] @ basis.T
-        out.append((nj, d, float(tol[i]), np.array([lo[j], hi[j]]), basis, flat[wf[start[j]:start[j] + size[j]]],
-                    flat[edge[ecut[j]:ecut[j + 1]]]))
-    return out
+    unit = e1 / np.sqrt((e1[:, None, :] @ e1[:, :, None])[:, 0, 0])[:, None]      # np.linalg.norm of each
+    basis = np.stack([unit, _cross(n, unit)], axis=1)
+    # each plane's body's vertices flattened (world[i][0] @ basis.T), planes of bodies of as many vertices at
+    # once (about _ROUND vertices a run), and its faces' and outline's corners taken from them
+    v = np.concatenate([w[0] for w in world])
+    nv = np.array([len(w[0]) for w in world], np.intp)
+    vfirst, count = np.cumsum(nv) - nv, nv[body]
+    on, out_edge = np.empty((len(wf), 3, 2)), np.empty((len(edge), 2, 2))
+    for c in np.unique(count):
+        for w in np.array_split(np.flatnonzero(count == c), -(-int((count == c).sum()) * int(c) // _ROUND)):
+            flat = (v[vfirst[body[w]][:, None] + np.arange(c)] @ basis[w].transpose(0, 2, 1)).reshape(-1, 2)
+            for got, first_at, num, rows in ((on, start, size, wf), (out_edge, ecut[:-1], np.diff(ecut), edge)):
+                g, j = _ragged(num[w])
+                got[first_at[w][g] + j] = flat[rows[first_at[w][g] + j] + c * g[:, None]]
+    box = np.stack([lo, hi], axis=1)
+    return [(n[j], float(d[j]), float(tol[body[j]]), box[j], basis[j], on[start[j]:start[j] + size[j]],
+             out_edge[ecut[j]:ecut[j + 1]]) for j in range(len(body))]
 
 
 def body_hits(scene, points):

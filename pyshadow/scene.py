@@ -410,7 +410,8 @@ class Scene:
 
     def render(self, camera, *args, sampling: Sampling | None = None, lookup: str = "nearest",
                denoise: str | None = None, ao_scale: int = 1, ground_size: float | None = None,
-               bias: float | None = None, backend=None, normals: str = "flat", crease_angle=None, **old):
+               bias: float | None = None, backend=None, normals: str = "flat", crease_angle=None, lighting=None,
+               **old):
         """Render AO and the G-buffer of the scene from ``camera``: :func:`pyshadow.render.render`.
 
         Parameters
@@ -428,6 +429,8 @@ class Scene:
             Side of the drawn ground quad (:meth:`ground_quad`).
         normals, crease_angle : optional
             Shading normals, as :func:`pyshadow.render.render` (``crease_angle`` None: its default).
+        lighting : pyshadow.lighting.Lighting or PhongLighting, optional
+            A lit frame (``Frame.radiance``), as :func:`pyshadow.render.render`.
         **old
             Deprecated: ``samples, strategy, seed, patterns`` (also
             positionally, in that order), ``filter`` and ``filtered``.
@@ -448,7 +451,8 @@ class Scene:
                                            Sampling(), _RENDER_ORDER)
         extra = {} if crease_angle is None else {"crease_angle": crease_angle}
         return render_stage.render(self, camera, visibility=name, sampling=sampling, denoise=denoise,
-                                   ao_scale=ao_scale, ground_size=ground_size, bias=bias, normals=normals, **extra)
+                                   ao_scale=ao_scale, ground_size=ground_size, bias=bias, normals=normals,
+                                   lighting=lighting, **extra)
 
 
 def _points_anchor(points) -> np.ndarray:

@@ -52,6 +52,8 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     covered = ns["lit"].object_id != -1                     # the ground is -2
     assert rad.shape == (480, 640, 3) and np.isfinite(rad).all() and (rad >= 0).all()
     assert (rad[covered].sum(axis=1) > 0).mean() > 0.99 and (rad[~covered] == 0).all()
+    shown = ns["pyshadow"].read_image(tmp_path / "lit.png")[covered]     # exposure 1 left every pixel white
+    assert (shown >= 1.0).all(axis=1).mean() < 0.05 and shown.max() > 0.5     # (measured: none white, max 0.92)
     # a 2048^2 shadow map fitted to two bunnies: measured 99.9 % on the bench scene's sun rays
     assert (ns["by_map"] == ns["by_ray"]).mean() > 0.98
     # a ray blocked within 0.05 is blocked at all (the straddling rays answered by Embree): never darker

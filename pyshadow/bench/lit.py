@@ -50,6 +50,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..lighting.tonemap import EXPOSURE_PERCENTILE, EXPOSURE_TARGET, auto_exposure  # noqa: F401 (lit.py names)
 from .common import _bar, _fig, _num
 
 #: Shading modes the lit pass measures, in order ("bent" first: its frame is written).
@@ -62,9 +63,6 @@ CLEAR_SUN = {"latitude": 45.0, "day_of_year": 172.0, "hour": 10.0}
 CLEAR_TURBIDITY = 3.0
 #: The overcast sky's horizontal illuminance, lux.
 OVERCAST_ILLUMINANCE = 10_000.0
-#: Display value the 99th luminance percentile maps to (linear, before the sRGB curve).
-EXPOSURE_TARGET = 0.8
-EXPOSURE_PERCENTILE = 99.0
 
 
 def sky_lighting(sky: str):
@@ -97,15 +95,6 @@ def sky_lighting(sky: str):
     else:
         rec["sun"] = None
     return light, rec
-
-
-def auto_exposure(radiance, covered) -> float:
-    """:data:`EXPOSURE_TARGET` over the 99th percentile of the covered pixels' luminance (1 if that is 0)."""
-    from ..lighting.sky import LUMINANCE_WEIGHTS
-
-    lum = np.asarray(radiance, np.float64)[covered] @ LUMINANCE_WEIGHTS
-    p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0
-    return EXPOSURE_TARGET / p if p > 0 and np.isfinite(p) else 1.0
 
 
 def relative_rmse(a, b) -> float:

@@ -39,8 +39,8 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
   visibility backend for light rays, the baseline the CSM is compared with.
 - :func:`reference_radiance` (:mod:`~pyshadow.lighting.reference`): the same
   integrals converged through Embree, the ground truth of every mode.
-- :func:`tonemap`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
-  8-bit display values (sRGB or thesis 001's exponential curve), EXR output.
+- :func:`tonemap`, :func:`auto_exposure`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
+  8-bit display values (sRGB or thesis 001's exponential curve; ``exposure="auto"``), EXR output.
 """
 from . import cube, sh
 from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles
@@ -56,7 +56,7 @@ from .local import PointLight, SpotLight, point_light_radiance
 from .area import DiscLight, RectLight, area_light_radiance, area_light_samples
 from .phong import PhongLighting, phong_shade
 from .shadow_map import ShadowMapVisibility
-from .tonemap import tonemap, write_radiance
+from .tonemap import auto_exposure, tonemap, write_radiance
 
 __all__ = ["DiscLight", "PhongLighting", "RectLight", "ShadowMapVisibility", "area_light_radiance",
            "area_light_samples", "phong_shade",
@@ -65,5 +65,5 @@ __all__ = ["DiscLight", "PhongLighting", "RectLight", "ShadowMapVisibility", "ar
            "extract_sun", "irradiance_sh", "latlong_directions", "latlong_solid_angles",
            "overcast_sky", "PointLight", "SpotLight", "point_light_radiance", "reference_radiance",
            "sampled_sky_radiance", "sh", "sh_basis", "sh_transfer", "shade",
-           "shade_terms", "sun_irradiance", "sun_position", "tonemap", "transfer_irradiance",
+           "shade_terms", "sun_irradiance", "sun_position", "tonemap", "auto_exposure", "transfer_irradiance",
            "transfer_sky_radiance", "write_radiance"]

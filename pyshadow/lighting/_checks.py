@@ -84,7 +84,8 @@ def light_tuple(lights) -> tuple:
     except TypeError:
         out = None
     if out is None or not all(isinstance(x, LIGHT_TYPES) for x in out):
-        raise TypeError(f"lights: expected point, spot, disc or rectangle lights (got {lights!r})")
+        one = " in a sequence (one light: lights=[light])" if isinstance(lights, LIGHT_TYPES) else ""
+        raise TypeError(f"lights: expected point, spot, disc or rectangle lights{one} (got {lights!r})")
     return out
 
 

@@ -113,7 +113,7 @@ class DirectionalLight(ArrayValue):
     direction : ndarray, shape (3,), float64
         Unit vector from the scene towards the light, y up.
     irradiance : ndarray, shape (3,), float64
-        RGB irradiance on a surface facing the light (>= 0, finite), in the
+        RGB irradiance on a surface facing the light (>= 0, finite; a scalar is grey), in the
         sky's radiance units times sr: the disc's radiance integrated over its solid angle. With
         K > 1 directions a facing surface gets ``irradiance * (1 + cos r) / 2`` (r the angular radius:
         the disc's mean cosine, 0.854 at pi / 4), with one ``irradiance`` itself.
@@ -127,9 +127,10 @@ class DirectionalLight(ArrayValue):
 
     def __post_init__(self):
         d = unit_direction(self.direction, "sun direction")
-        e = _floats(self.irradiance, "sun irradiance", "an RGB 3-vector")
+        e = _floats(self.irradiance, "sun irradiance", "an RGB 3-vector or a scalar")
+        e = np.full(3, e) if e.shape == () else e       # a scalar: grey (as a point light's intensity)
         if e.shape != (3,):
-            raise ValueError(f"sun irradiance: expected an RGB 3-vector (got shape {e.shape})")
+            raise ValueError(f"sun irradiance: expected an RGB 3-vector or a scalar (got shape {e.shape})")
         if not np.isfinite(e).all() or (e < 0).any():
             raise ValueError(f"sun irradiance: must be finite and >= 0 (got {e.tolist()})")
         r = in_range(self.angular_radius, "sun angular_radius", 0.0, MAX_SUN_RADIUS)

@@ -24,10 +24,13 @@ import numpy as np
 from ..io import linear_to_srgb, write_image
 from ._checks import positive
 
-__all__ = ["tonemap", "write_radiance", "CURVES"]
+__all__ = ["tonemap", "auto_exposure", "write_radiance", "CURVES", "EXPOSURE_TARGET", "EXPOSURE_PERCENTILE"]
 
 #: Names accepted by ``tonemap(curve=)``.
 CURVES = ("srgb", "exponential")
+#: :func:`auto_exposure`: the display value (linear, before the curve) its luminance percentile maps to.
+EXPOSURE_TARGET = 0.8
+EXPOSURE_PERCENTILE = 99.0
 
 
 def _radiance(radiance, name: str = "radiance") -> np.ndarray:
@@ -44,21 +47,50 @@ def _radiance(radiance, name: str = "radiance") -> np.ndarray:
     return a
 
 
-def tonemap(radiance, exposure: float = 1.0, curve: str = "srgb", *, gamma: float = 2.2) -> np.ndarray:
+def auto_exposure(radiance, covered=None) -> float:
+    """The exposure that maps the :data:`EXPOSURE_PERCENTILE` (99th) percentile of the pixels' Rec. 709
+    luminance to :data:`EXPOSURE_TARGET` (0.8): about 1 % of them clip (highlights), whatever the radiance's
+    unit (cd/m^2 for the built-in skies, where an exposure of 1 is white everywhere).
+
+    Parameters
+    ----------
+    radiance : array_like, shape (H, W, 3), float
+        Linear RGB.
+    covered : array_like of bool, shape (H, W), optional
+        The pixels to measure (``Frame.object_id >= 0`` leaves out the background); default every pixel
+        whose luminance is finite.
+
+    Returns
+    -------
+    float
+        ``EXPOSURE_TARGET / percentile``; 1.0 where that percentile is 0 or not finite (a black image).
+    """
+    from .sky import LUMINANCE_WEIGHTS
+
+    lum = np.asarray(radiance, np.float64)[np.ones(np.shape(radiance)[:2], bool) if covered is None else covered] \
+        @ LUMINANCE_WEIGHTS
+    if covered is None:
+        lum = lum[np.isfinite(lum)]
+    p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0
+    return EXPOSURE_TARGET / p if p > 0 and np.isfinite(p) else 1.0
+
+
+def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma: float = 2.2) -> np.ndarray:
     """Linear radiance (H, W, 3) -> display values (H, W, 3) uint8 (module docstring).
 
     Parameters
     ----------
     radiance : ndarray, shape (H, W, 3), float
         Linear RGB (e.g. ``Frame.radiance``); +inf maps to white.
-    exposure : float
-        Scale ``s > 0`` applied to the radiance first.
+    exposure : float or "auto"
+        Scale ``s > 0`` applied to the radiance first; "auto": :func:`auto_exposure` of the image (the
+        built-in skies are in cd/m^2: at 1 they are white everywhere).
     curve : {"srgb", "exponential"}
     gamma : float
         Display gamma of the exponential curve (ignored by "srgb").
     """
     a = _radiance(radiance)
-    s = positive(exposure, "exposure")
+    s = auto_exposure(a) if isinstance(exposure, str) and exposure == "auto" else positive(exposure, "exposure")
     if not isinstance(curve, str) or curve not in CURVES:     # (an array's `in` is no answer)
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")
     with np.errstate(over="ignore"):            # beyond float64: +inf, white as documented

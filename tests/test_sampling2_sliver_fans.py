@@ -11,6 +11,7 @@ import pytest
 import trimesh
 
 import pyshadow
+from conftest import voxel_faces
 from pyshadow.sampling import sample_directions
 from pyshadow.vertex_points import concave_vertices
 
@@ -24,24 +25,8 @@ def _voxel_notch():
     pad = np.zeros((4, 4, 4), bool)
     for c in _CUBES:
         pad[1 + c[0], 1 + c[1], 1 + c[2]] = True
-    index, faces = {}, []
-    for ax in range(3):
-        u, w = [a for a in range(3) if a != ax]
-        for sgn in (1, -1):
-            for c in np.argwhere(pad & ~np.roll(pad, -sgn, axis=ax)):
-                o = [int(x) for x in c]
-                o[ax] += sgn > 0
-                q = []
-                for du, dw in ((0, 0), (1, 0), (1, 1), (0, 1)):
-                    p = list(o)
-                    p[u] += du
-                    p[w] += dw
-                    q.append(index.setdefault(tuple(p), len(index)))
-                if np.dot(np.cross(np.eye(3)[u], np.eye(3)[w]), sgn * np.eye(3)[ax]) < 0:
-                    q = q[::-1]
-                faces += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
-    v = (np.array(sorted(index, key=index.get), float) - 2.0) / 2.0
-    return v, np.array(faces)
+    v, faces = voxel_faces(pad)
+    return (v - 2.0) / 2.0, faces
 
 
 def _t_junction(v, f):

@@ -12,6 +12,7 @@ import pytest
 import trimesh
 
 import pyshadow
+from conftest import voxel_faces
 from pyshadow.sampling import sample_directions
 
 S = pyshadow.Sampling(64)
@@ -19,26 +20,9 @@ S = pyshadow.Sampling(64)
 
 def _voxels(occ):
     """A closed mesh of the unit cubes of ``occ``, normalised to extent 1 about the origin."""
-    pad = np.pad(occ, 1)
-    index, faces = {}, []
-    for ax in range(3):
-        u, w = [a for a in range(3) if a != ax]
-        for sgn in (1, -1):
-            for c in np.argwhere(pad & ~np.roll(pad, -sgn, axis=ax)):
-                o = [int(x) for x in c]
-                o[ax] += sgn > 0
-                q = []
-                for du, dw in ((0, 0), (1, 0), (1, 1), (0, 1)):
-                    p = list(o)
-                    p[u] += du
-                    p[w] += dw
-                    q.append(index.setdefault(tuple(p), len(index)))
-                if np.dot(np.cross(np.eye(3)[u], np.eye(3)[w]), sgn * np.eye(3)[ax]) < 0:
-                    q = q[::-1]
-                faces += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
-    v = np.array(sorted(index, key=index.get), float)
+    v, faces = voxel_faces(np.pad(occ, 1))
     v -= (v.min(axis=0) + v.max(axis=0)) / 2
-    return trimesh.Trimesh(v / np.ptp(v, axis=0).max(), np.array(faces), process=False)
+    return trimesh.Trimesh(v / np.ptp(v, axis=0).max(), faces, process=False)
 
 
 def _notch():

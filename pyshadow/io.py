@@ -1,4 +1,4 @@
-"""Image files: float EXR for data, 8-bit sRGB PNG/JPEG for viewing.
+"""Image files: float EXR for data, Radiance HDR for radiance, 8-bit sRGB PNG/JPEG for viewing.
 
 Everything goes through OpenImageIO. Arrays are ``(H, W)`` or ``(H, W, C)``,
 row 0 at the top, as everywhere in pyshadow.
@@ -11,6 +11,25 @@ File kinds, chosen by the (case-insensitive) extension
     background, normals, bent normals, AO). Channels: 1 -> ``Y``;
     3 -> ``R, G, B``; 4 -> ``R, G, B, A`` (array channel k is the k-th name;
     for normals R, G, B hold x, y, z).
+``.hdr``
+    Radiance RGBE (run-length encoded), for linear RGB radiance that other
+    tools read (HDR viewers, environment maps): per pixel three 8-bit
+    mantissas share one 8-bit exponent. Each channel is rounded to the
+    nearest multiple of ``q = 2^(e - 8)``, where ``2^(e-1) <= m < 2^e`` for
+    the pixel's largest channel ``m``: read back with OpenImageIO or
+    :func:`read_image` (which decode a stored mantissa ``k`` as ``k q``), the
+    largest channel is within a relative ``2^-8`` (0.4 %) of the value
+    written and every channel within ``2^-8`` times the pixel's largest
+    (read back) channel, so a channel far below the pixel's largest is lost
+    (``0.001`` beside ``100`` reads back as 0). Readers that add half a step
+    (Radiance's own, ``(k + 0.5) q``) see up to ``2^-7``. A pixel whose largest
+    channel is below ``1e-32`` is stored black. Float input only; NaN,
+    negative values, +-inf and values from ``255.5 * 2^119`` (about 1.7e38)
+    up are refused (ValueError): write an EXR for those. Channels: 3 -> RGB;
+    1 -> grey, stored as R = G = B (reads back as (H, W, 3)); 4 are refused
+    (RGBE has no alpha: pass ``image[..., :3]``). The header holds no
+    ``EXPOSURE=`` line (the values are the radiances themselves) and the
+    rows are stored top to bottom (``-Y H +X W``).
 ``.png``, ``.jpg``, ``.jpeg``
     8 bits per channel, sRGB-encoded. A float array is read as *linear*
     values, clipped to [0, 1], encoded with the sRGB transfer function
@@ -19,7 +38,8 @@ File kinds, chosen by the (case-insensitive) extension
     is. An alpha channel (the 4th) is stored linearly, never encoded, and as
     straight (unassociated) alpha, as PNG defines it. Channels: 1 -> grey,
     3 -> RGB, 4 -> RGBA (PNG only; JPEG has no alpha). JPEG is lossy
-    (quality 95).
+    (quality 95). 16-bit PNGs are read (:func:`read_image`) but not written:
+    a ``uint16`` array is a TypeError saying how to pass it.
 
 Writes are atomic: the image goes to a hidden temporary file in the target's
 directory (same extension, so OpenImageIO picks the same format), which is
@@ -27,14 +47,15 @@ flushed to disk (``fsync``) and then replaces the target with
 :func:`os.replace`. If anything fails, the temporary file is removed and an
 existing target is left untouched.
 
-A PNG or JPEG is written only where the folder's free space and the process's
-file size limit hold a bound on its size (1.01 (PNG) or 3 (JPEG) bytes per byte
-of pixels, plus 64 KiB), and a PNG or
-JPEG that does not end as a complete file does (a disk filled meanwhile, a
-quota) is an OSError: OpenImageIO's PNG writer ignores a failed write (it
-reported success and left a truncated file, which replaced the image) and its
-JPEG writer ends the process ("Output file write error --- out of disk
-space?", exit status 1). EXR writes report such failures themselves.
+A PNG, JPEG or HDR is written only where the folder's free space and the
+process's file size limit hold a bound on its size (1.01 (PNG) or 3 (JPEG)
+bytes per byte of pixels, 5.1 bytes per pixel (HDR), plus 64 KiB), and a PNG or
+JPEG that does not end as a complete file does, or an HDR whose last row does
+not decode (a disk filled meanwhile, a quota) is an OSError: OpenImageIO's PNG
+and HDR writers ignore a failed write of their last bytes (they reported
+success and left a truncated file, which replaced the image) and its JPEG
+writer ends the process ("Output file write error --- out of disk space?",
+exit status 1). EXR writes report such failures themselves.
 """
 from __future__ import annotations
 
@@ -51,15 +72,20 @@ from ._files import atomic_path
 
 __all__ = ["write_image", "read_image", "linear_to_srgb", "srgb_to_linear", "EXTENSIONS"]
 
-_KIND = {".exr": "exr", ".png": "srgb8", ".jpg": "srgb8", ".jpeg": "srgb8"}
+_KIND = {".exr": "exr", ".hdr": "rgbe", ".png": "srgb8", ".jpg": "srgb8", ".jpeg": "srgb8"}
 #: File extensions :func:`write_image` accepts.
 EXTENSIONS = tuple(_KIND)
 _JPEG_QUALITY = 95
 _CHANNEL_NAMES = {1: ("Y",), 3: ("R", "G", "B"), 4: ("R", "G", "B", "A")}
 _FLOAT32_EXACT = 2 ** 24        # float32 holds every integer up to here
 #: Bytes an 8-bit file may take per byte of pixels (free space asked before a write): PNG, deflate's worst
-#: case (stored blocks) and chunk headers; JPEG (quality 95), measured up to 1.22 (binary noise), 3 kept.
-_SIZE_BOUND = {".png": 1.01, ".jpg": 3.0, ".jpeg": 3.0}
+#: case (stored blocks) and chunk headers; JPEG (quality 95), measured up to 1.22 (binary noise), 3 kept;
+#: HDR per float of (H, W, 3): RGBE's run-length coding at worst, 4 bytes a pixel, a count byte per 128 and
+#: 4 + 4 bytes a row, (4 W + 4 ceil(W / 128) + 4) / 3 W <= 1.68 (W >= 8; flat rows below, 4 / 3).
+_SIZE_BOUND = {".png": 1.01, ".jpg": 3.0, ".jpeg": 3.0, ".hdr": 1.7}
+#: RGBE's largest value is 255 * 2**119; values from half a step above it round beyond the 8-bit exponent.
+_RGBE_LIMIT = 255.5 * 2.0 ** 119
+_RGBE_BLACK = 1e-32             # a pixel whose largest channel is below it is stored black
 _METADATA_BYTES = 1 << 16       # row filter bytes aside: headers, EXIF, colour chunks and a margin
 #: The bytes a complete 8-bit file ends with (PNG's IEND chunk, JPEG's EOI marker).
 _END = {".png": b"IEND\xaeB`\x82", ".jpg": b"\xff\xd9", ".jpeg": b"\xff\xd9"}
@@ -103,6 +129,16 @@ def _kind(path: Path) -> str:
     return _KIND[ext]
 
 
+def _wide_int(a: np.ndarray, png: bool = False) -> str:
+    """The end of a dtype error for 16-bit image data (a 16-bit PNG read as integers): none is written."""
+    if a.dtype != np.uint16:
+        return ""
+    if png:
+        return ("; no 16-bit PNG is written: pass linear floats (srgb_to_linear(array / 65535) for sRGB-encoded "
+                "data), or write an EXR")
+    return "; uint16 data in [0, 1]: pass array / 65535"
+
+
 def _pixels(array, kind: str, path: Path) -> np.ndarray:
     """Validate ``array``; return the (H, W, C) C-contiguous data to store."""
     a = np.asarray(array)
@@ -116,16 +152,18 @@ def _pixels(array, kind: str, path: Path) -> np.ndarray:
     if kind == "exr":
         if not np.issubdtype(a.dtype, np.floating):
             raise TypeError(f"EXR files store float images (expected a float array vs got dtype "
-                            f"{a.dtype}); for 8-bit data divide by 255 or write a PNG")
+                            f"{a.dtype}); for 8-bit data divide by 255 or write a PNG{_wide_int(a)}")
         with np.errstate(over="ignore"):     # beyond float32's range -> +-inf, as documented
             return np.ascontiguousarray(a, dtype=np.float32)
+    if kind == "rgbe":
+        return _rgbe_pixels(a, path)
     if path.suffix.lower() != ".png" and a.shape[2] == 4:
         raise ValueError(f"JPEG has no alpha channel: cannot write a 4-channel image to {path}")
     if a.dtype == np.uint8:
         return np.ascontiguousarray(a)
     if not np.issubdtype(a.dtype, np.floating):
         raise TypeError(f"8-bit images are written from linear float arrays in [0, 1] or from "
-                        f"uint8 arrays (got dtype {a.dtype})")
+                        f"uint8 arrays (got dtype {a.dtype}){_wide_int(a, png=True)}")
     if np.isnan(a).any():
         raise ValueError(f"image holds {int(np.isnan(a).sum())} NaN value(s), which 8-bit "
                          f"{path.suffix} cannot store")
@@ -135,20 +173,47 @@ def _pixels(array, kind: str, path: Path) -> np.ndarray:
     return np.floor(enc * 255.0 + 0.5).astype(np.uint8)
 
 
+def _rgbe_pixels(a: np.ndarray, path: Path) -> np.ndarray:
+    """(H, W, 1 or 3) float -> (H, W, 3) float32 that RGBE stores exactly: each channel rounded to the nearest
+    multiple of its pixel's step (module docstring); OpenImageIO's encoder truncates, which on its own lost up
+    to 2^-7 of a value (0.3 % on average, always downwards)."""
+    if not np.issubdtype(a.dtype, np.floating):
+        raise TypeError(f"Radiance HDR files store float images (expected a float array vs got dtype {a.dtype}); "
+                        f"for 8-bit data write a PNG{_wide_int(a)}")
+    if a.shape[2] == 4:
+        raise ValueError(f"Radiance HDR has no alpha channel: cannot write a 4-channel image to {path} "
+                         "(pass image[..., :3], or write an EXR)")
+    with np.errstate(invalid="ignore", over="ignore"):     # (a long double beyond float64 is caught here)
+        bad = {"NaN value(s)": np.isnan(a), "negative value(s)": a < 0,
+               "value(s) +inf or >= 255.5 * 2**119 (~1.7e38)": a >= _RGBE_LIMIT}
+    for what, mask in bad.items():
+        if mask.any():
+            raise ValueError(f"image holds {int(mask.sum())} {what}, which a Radiance HDR file (RGBE) cannot "
+                             "store; write an EXR for those")
+    x = np.broadcast_to(a, a.shape[:2] + (3,)).astype(np.float64)     # grey -> R = G = B
+    top = x.max(axis=2, keepdims=True)
+    x = np.where(top < _RGBE_BLACK, 0.0, x)         # as OpenImageIO's encoder does (no subnormal steps here)
+    top = np.maximum(top, _RGBE_BLACK)
+    step = np.ldexp(1.0, np.frexp(top)[1] - 8)      # 2^(e - 8), 2^(e-1) <= top < 2^e
+    step = np.where(np.rint(top / step) >= 256, 2 * step, step)      # top rounds up to 2^e: the next exponent
+    return np.ascontiguousarray(np.rint(x / step) * step, dtype=np.float32)      # k * 2^n, k <= 256: exact
+
+
 def _write_oiio(tmp: Path, data: np.ndarray, kind: str):
     """Write (H, W, C) ``data`` to ``tmp`` with OpenImageIO; raise OSError on failure."""
     H, W, C = data.shape
-    fmt = oiio.TypeFloat if kind == "exr" else oiio.TypeUInt8
+    fmt = oiio.TypeUInt8 if kind == "srgb8" else oiio.TypeFloat
     spec = oiio.ImageSpec(W, H, C, fmt)
     spec.channelnames = _CHANNEL_NAMES[C]
     spec.alpha_channel = 3 if C == 4 else -1
     if kind == "exr":
         spec.attribute("compression", "zip")
         spec.attribute("DateTime", "")      # else the time of writing: equal images gave other bytes
-    else:
+    elif kind == "srgb8":
         spec.attribute("oiio:UnassociatedAlpha", 1)
         spec.attribute("oiio:ColorSpace", "sRGB")
         spec.attribute("Compression", f"jpeg:{_JPEG_QUALITY}")
+    # rgbe: OpenImageIO's own header, with no EXPOSURE= line and the rows top down (-Y H +X W)
     out = oiio.ImageOutput.create(str(tmp))
     if out is None:
         _write_error(tmp, "OpenImageIO has no writer for it", oiio.geterror())
@@ -214,7 +279,20 @@ def _check_room(tmp: Path, data: np.ndarray, ext: str):
 
 
 def _check_complete(tmp: Path, ext: str):
-    """OSError about ``tmp`` unless the 8-bit file OpenImageIO wrote ends as a complete file does."""
+    """OSError about ``tmp`` unless the 8-bit file OpenImageIO wrote ends as a complete file does; an HDR file
+    unless its last row decodes (OpenImageIO's HDR writer, too, reported success for a file cut short)."""
+    if ext == ".hdr":
+        inp = oiio.ImageInput.open(str(tmp))
+        if inp is None:
+            _write_error(tmp, "OpenImageIO left it unreadable", oiio.geterror())
+        try:
+            row = inp.read_scanline(inp.spec().height - 1, 0, oiio.TypeFloat)
+            reason = inp.geterror()
+        finally:
+            inp.close()
+        if row is None:
+            _write_error(tmp, "OpenImageIO left it incomplete", f"{reason.strip()}; a full disk or a quota?")
+        return
     end = _END[ext]
     with open(tmp, "rb") as f:
         size = f.seek(0, os.SEEK_END)
@@ -236,11 +314,13 @@ def write_image(path, array) -> None:
     Parameters
     ----------
     path : str or os.PathLike
-        Ends in ``.exr``, ``.png``, ``.jpg`` or ``.jpeg`` (any case). Its
+        Ends in ``.exr``, ``.hdr``, ``.png``, ``.jpg`` or ``.jpeg`` (any case). Its
         directory must exist; an existing file is replaced.
     array : ndarray, shape (H, W) or (H, W, C), C in {1, 3, 4}
         EXR: any float dtype, stored as float32 (float64 is rounded to
         nearest; magnitudes beyond float32's range become +-inf).
+        HDR: float, 1 or 3 channels, finite, >= 0 and below about 1.7e38;
+        stored as RGBE, within 2^-8 of each pixel's largest channel.
         PNG/JPEG: linear float in [0, 1] (clipped, sRGB-encoded, rounded to
         8 bits; no NaN) or ``uint8`` (written as is). See the module
         docstring for channel names and the alpha channel.
@@ -249,9 +329,10 @@ def write_image(path, array) -> None:
     ------
     ValueError
         Unknown extension, wrong shape, NaN for an 8-bit file, 4 channels
-        for JPEG.
+        for JPEG or HDR; NaN, negative, infinite or too large values for HDR.
     TypeError
-        Non-float array for EXR; neither float nor uint8 for PNG/JPEG.
+        Non-float array for EXR or HDR; neither float nor uint8 for PNG/JPEG
+        (no 16-bit PNG is written).
     FileNotFoundError
         The directory does not exist.
     PermissionError
@@ -259,8 +340,8 @@ def write_image(path, array) -> None:
         file (a read-only file is left as it was; OSError ``EROFS``: a
         read-only file system).
     OSError
-        OpenImageIO failed to write (no file is left behind); a PNG or JPEG
-        that the folder's free space or the file size limit may not hold
+        OpenImageIO failed to write (no file is left behind); a PNG, JPEG or
+        HDR that the folder's free space or the file size limit may not hold
         (``ENOSPC``, ``EFBIG``, before writing) or that came out incomplete.
 
     Examples

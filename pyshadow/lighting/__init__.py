@@ -40,7 +40,7 @@ from the scene towards the light; ``theta = arccos(y)``, ``phi = atan2(z, x)``.
 - :func:`reference_radiance` (:mod:`~pyshadow.lighting.reference`): the same
   integrals converged through Embree, the ground truth of every mode.
 - :func:`tonemap`, :func:`auto_exposure`, :func:`write_radiance` (:mod:`~pyshadow.lighting.tonemap`):
-  8-bit display values (sRGB or thesis 001's exponential curve; ``exposure="auto"``), EXR output.
+  8-bit display values (sRGB or thesis 001's exponential curve; ``exposure="auto"``), EXR or HDR output.
 """
 from . import cube, sh
 from .envmap import EnvironmentMap, latlong_directions, latlong_solid_angles

@@ -1,4 +1,4 @@
-"""Display and storage of linear radiance: tone mapping to 8 bits, EXR output.
+"""Display and storage of linear radiance: tone mapping to 8 bits, EXR or HDR output.
 
 ``tonemap`` maps linear radiance ``L`` (any unit) to 8-bit display values:
 
@@ -104,15 +104,20 @@ def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma
 
 
 def write_radiance(path, radiance) -> None:
-    """Write linear radiance (H, W, 3) as a float32 EXR, atomically (:func:`pyshadow.io.write_image`).
+    """Write linear radiance (H, W, 3) atomically (:func:`pyshadow.io.write_image`): a float32 EXR or a
+    Radiance HDR (RGBE).
 
-    ``path`` must end in ``.exr``; NaN or negative values are refused (an
-    EXR of radiance holds finite or +inf values >= 0).
+    ``path`` must end in ``.exr`` or ``.hdr``; NaN or negative values are
+    refused (radiance is finite or +inf, and >= 0). EXR keeps float32 (beyond
+    its range: +inf); HDR keeps each value within 2^-8 (0.4 %) of its pixel's
+    largest channel and cannot hold +inf or values from about 1.7e38 up
+    (ValueError: write an EXR; see :mod:`pyshadow.io`).
     """
     p = Path(os.fspath(path))
-    if p.suffix.lower() != ".exr":
-        raise ValueError(f"path: radiance is written as EXR; {str(p)!r} does not end in .exr")
+    if p.suffix.lower() not in (".exr", ".hdr"):
+        raise ValueError(f"path: radiance is written as EXR or Radiance HDR; {str(p)!r} ends in neither .exr "
+                         "nor .hdr")
     a = _radiance(radiance)
     if (a < 0).any():
         raise ValueError(f"radiance: {int((a < 0).any(axis=2).sum())} pixel(s) are negative")
-    write_image(p, a)                           # float32 there: beyond its range -> +inf, as documented
+    write_image(p, a)                           # EXR float32: beyond its range -> +inf, as documented

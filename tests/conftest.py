@@ -155,28 +155,6 @@ def gltf_bytes(tree: dict, blob, glb: bool) -> bytes:
     return json.dumps(tree).encode()
 
 
-def voxel_faces(pad):
-    """The outer squares of the unit cubes of the padded occupancy grid ``pad`` (each two triangles wound
-    outwards, corners merged): vertices (V, 3) in grid units, faces (F, 3)."""
-    index, faces = {}, []
-    for ax in range(3):
-        u, w = [a for a in range(3) if a != ax]
-        for sgn in (1, -1):
-            for c in np.argwhere(pad & ~np.roll(pad, -sgn, axis=ax)):
-                o = [int(x) for x in c]
-                o[ax] += sgn > 0
-                q = []
-                for du, dw in ((0, 0), (1, 0), (1, 1), (0, 1)):
-                    p = list(o)
-                    p[u] += du
-                    p[w] += dw
-                    q.append(index.setdefault(tuple(p), len(index)))
-                if np.dot(np.cross(np.eye(3)[u], np.eye(3)[w]), sgn * np.eye(3)[ax]) < 0:
-                    q = q[::-1]
-                faces += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
-    return np.array(sorted(index, key=index.get), float), np.array(faces)
-
-
 def all_pairs(csm):
     """Every (map, row, col) of a CSM as three (D, R, R) index arrays."""
     D, R = csm.maps, csm.resolution

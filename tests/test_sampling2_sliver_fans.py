@@ -11,7 +11,7 @@ import pytest
 import trimesh
 
 import pyshadow
-from conftest import voxel_faces
+from test_vertexao_corners import voxel_faces
 from pyshadow.sampling import sample_directions
 from pyshadow.vertex_points import concave_vertices
 

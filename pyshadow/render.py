@@ -38,7 +38,7 @@ class Frame(Mapping):
     Attributes
     ----------
     ao : ndarray, shape (H, W), float32
-        Ambient occlusion in [0, 1], 1 on the background.
+        Ambient occlusion in [0, 1], 1 on the background; NaN where not asked (``lighting`` of :func:`render`).
     bent_normal : ndarray, shape (H, W, 3), float32
         World-frame bent normals, 0 on the background. With ``ao_scale`` > 1
         only the AO pass's pixels hold theirs (every ``ao_scale``-th pixel of
@@ -394,11 +394,11 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         and its bent normals (mode "bent"), or along the AO directions of
         each covered pixel (modes "transfer" and "sampled", at full
         resolution), the sun term from one ``visible`` query per
-        covered pixel on the same ``visibility`` backend
-        (:mod:`pyshadow.lighting.shade`). Every other buffer is the same
-        as without it. The albedo of a pixel is its instance's
-        (``Lighting(albedo=, albedos=)``) times the colour its mesh carries
-        (vertex colours, texture: :mod:`pyshadow.materials`), if any.
+        covered pixel on the same ``visibility`` backend (:mod:`pyshadow.lighting.shade`). Every other buffer
+        is the same as without it, but where ``visibility`` answers no AO (``ShadowMapVisibility``) and the
+        lighting needs none (no sky; ``PhongLighting(ao="off")``) ``Frame.ao`` and ``bent_normal`` are NaN on
+        covered pixels (a lighting needing AO is refused there). The albedo of a pixel is its instance's
+        (``Lighting(albedo=, albedos=)``) times its mesh's colour (vertex colours, texture: :mod:`pyshadow.materials`).
         A :class:`pyshadow.lighting.phong.PhongLighting` instead fills it
         with thesis 000's display-referred colour ``c`` (eq. 3.2: a point
         light with Phong specular towards ``camera.eye``, the ambient term
@@ -434,7 +434,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     phong = False
     if lighting is not None:
         from .lighting.phong import PhongLighting
-        from .lighting.shade import Lighting
+        from .lighting.shade import Lighting, asks_ambient_occlusion
 
         phong = isinstance(lighting, PhongLighting)
         if not (phong or isinstance(lighting, Lighting)):
@@ -464,10 +464,11 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
                     hit if ao_scale == 1 else ao_pass(obj, g["depth"], g["normal"], ao_scale, _UPSAMPLE_RADIUS))
     geo = g["geometric_normal"].reshape(-1, 3)[sp.index] if smooth else None
     H, W = camera.height, camera.width
-    ao = np.ones((H, W), np.float32)
-    bent = np.zeros((H, W, 3), np.float32)
-    transfer = own = None
-    if len(sp.index):
+    ao, bent = np.ones((H, W), np.float32), np.zeros((H, W, 3), np.float32)
+    transfer, own, asked = None, None, lighting is None or asks_ambient_occlusion(lighting, visibility, "render")
+    if not asked:       # a lighting needing no AO, a backend answering none (a shadow map): NaN where covered
+        ao[hit], bent[hit] = np.nan, np.nan
+    if len(sp.index) and asked:
         one_pass = (lighting is not None and not phong and lighting.mode == "transfer" and ao_scale == 1 and not smooth
                     and hasattr(vis.get_backend(visibility), "sh_transfer"))
         if one_pass:            # the AO kernel's pass that also sums the transfer: AO and bent normals as below
@@ -489,7 +490,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     f32 = {k: np.asarray(g[k], np.float32) for k in ("depth", "normal", "position") + ("geometric_normal",) * smooth}
     frame = Frame(ao=ao, bent_normal=bent, depth=f32["depth"], normal=f32["normal"], object_id=sp.object_id,
                   position=f32["position"], geometric_normal=f32.get("geometric_normal"))
-    if ao_scale != 1 or denoise is not None:
+    if (ao_scale != 1 or denoise is not None) and asked:
         from . import filters
 
         if ao_scale != 1:           # the AO pass's pixels off the grid keep their own AO and bent normal
@@ -575,15 +576,14 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
     ``colour``: (K, 3) surface colours of every covered pixel (flat order) or None (ones); ``own``: with
     ``ao_scale`` > 1, the flat indices of the AO pass's pixels off its grid (else None). With
     ``Frame.geometric_normal`` set, the hemisphere rule of :mod:`pyshadow.shading_normals` applies."""
-    from .lighting.local import lights_radiance
-    from .lighting.shade import (sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
+    from .lighting.shade import (lights_radiance, sampled_sky_radiance, sky_radiance, sun_radiance, transfer_sky,
                                  transfer_sky_radiance)
 
     out, full, nrm, albedo, geo = _lit_pixels(camera, sp, frame, lighting, ao_scale, colour)
     if full is None:
         return out
-    if transfer is not None:
-        sky = transfer_sky(lighting, transfer, albedo)
+    if transfer is not None or not lighting.has_sky:    # no sky: its term 0, no AO or sky rays read
+        sky = 0.0 if transfer is None else transfer_sky(lighting, transfer, albedo)
     elif lighting.mode in ("sampled", "transfer"):     # along the AO directions of every covered pixel
         term = sampled_sky_radiance if lighting.mode == "sampled" else transfer_sky_radiance
         sky = term(scene, full.points, nrm, lighting, albedo, backend=visibility, sampling=sampling,

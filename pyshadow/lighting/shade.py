@@ -49,6 +49,9 @@ sun (a directional light with its shadow)
     soft. A penumbra narrower than a CSM's map spacing or texel is not
     resolved (the project's lighting notes): the real sun (0.27 deg) comes out hard.
 
+Without a sky (:attr:`Lighting.has_sky` False) the sky term is 0 in every mode and no AO is asked
+(:mod:`pyshadow.lighting.shade_checks`): a backend of light rays alone shades the sun and local lights.
+
 The sky given to :class:`Lighting` should not hold the sun when a sun is
 given too (use the sky returned by :func:`pyshadow.lighting.extract_sun`, or
 :meth:`Lighting.clear_sky`), else the sun is counted twice.
@@ -66,6 +69,7 @@ from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .local import lights_radiance
 from .sh import SH_COUNT, _irradiance
+from .shade_checks import _check_points, asks_ambient_occlusion
 from .sun import sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
@@ -283,6 +287,12 @@ class Lighting:
         sky = self.env if self.env is not None else (self.sh if self.sh.any() else None)    # zeros: no sky
         return Lighting(sky, mode=mode, **{**kw, **changes})
 
+    @property
+    def has_sky(self) -> bool:
+        """Whether there is a sky term: SH coefficients not all 0, or a map not all black. Without one the
+        sky term is 0 in every mode and :func:`shade_terms` asks no AO (sun and local lights only)."""
+        return bool(self.sh.any()) or (self.env is not None and bool(self.env.radiance.any()))
+
     def albedo_of(self, surface_ids, n: int | None = None) -> np.ndarray:
         """RGB albedo of each point's surface, (N, 3) float64.
 
@@ -328,9 +338,10 @@ class ShadedPoints:
     ao : (N,) float32
         "bent": :func:`pyshadow.visibility.ambient_occlusion`'s; "sampled": the
         visible fraction of the sky estimator's own directions (the same
-        directions, asked through ``visible``).
+        directions, asked through ``visible``). NaN where the Lighting has no sky
+        (:attr:`Lighting.has_sky` False: no AO is asked, the sky term is 0).
     bent_normal : (N, 3) float32
-        Normalised sum of the visible directions, as ``ao``.
+        Normalised sum of the visible directions, as ``ao`` (NaN without a sky).
     sun_visibility : (N,) float32
         Fraction of the K sun directions that reach the sky from above the
         surface (1 without a sun).
@@ -516,25 +527,6 @@ def sun_radiance(scene, points, normals, lighting: Lighting, albedo, *, backend=
     return np.asarray(albedo, dtype=np.float64) / math.pi * e, lit.mean(axis=1)
 
 
-def _check_points(scene, points, normals, surface_ids, indices):
-    from .._validate import check_indices, rows3, unit_normals
-
-    p = rows3(points, "points")
-    nrm = unit_normals(normals, len(p))
-    idx = check_indices(indices, len(p))
-    if surface_ids is not None:
-        ids = np.asarray(surface_ids)
-        if not np.issubdtype(ids.dtype, np.integer) or ids.shape not in ((), (len(p),)):
-            raise ValueError(f"surface_ids: expected an int or ({len(p)},) ints (got shape {ids.shape}, "
-                             f"dtype {ids.dtype})")
-        flat = np.atleast_1d(ids)
-        bad = flat[(flat < -2) | (flat >= len(scene.instances))]
-        if np.size(bad):
-            raise ValueError(f"surface_ids: {np.ravel(bad)[0]} is neither an instance id of the scene "
-                             f"(0 .. {len(scene.instances) - 1}), -1 nor GROUND_ID (-2)")
-    return p, nrm, idx
-
-
 def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sampling=None, surface_ids=None,
                 indices=None, bias=None) -> ShadedPoints:
     """Shade surface points: the sky term, the sun term and what they came from.
@@ -547,7 +539,8 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
         non-finite rows are an error).
     lighting : Lighting
     backend : str or VisibilityBackend, optional
-        Who answers AO and the sun's shadow rays (:mod:`pyshadow.visibility`).
+        Who answers AO and the sun's shadow rays (:mod:`pyshadow.visibility`). One that answers only
+        light rays (:class:`pyshadow.lighting.ShadowMapVisibility`) shades a Lighting without a sky.
     sampling : pyshadow.Sampling, optional
         AO sampling (default ``Sampling()``); in mode "sampled" also the
         directions of the sky's estimator.
@@ -563,6 +556,11 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     Returns
     -------
     ShadedPoints
+
+    Raises
+    ------
+    ValueError
+        Bad points, normals, ids or indices; a Lighting with a sky on a backend that answers no AO.
     """
     from .. import visibility as vis
 
@@ -573,7 +571,9 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     if n == 0:
         z3, z1 = np.zeros((0, 3), np.float32), np.zeros(0, np.float32)
         return ShadedPoints(z3, z3, z3, z1, z3, z1)
-    if lighting.mode == "sampled":
+    if not asks_ambient_occlusion(lighting, backend, "shade_terms") or not lighting.has_sky:
+        sky, ao, bent = np.zeros((n, 3)), np.full(n, np.nan), np.full((n, 3), np.nan)     # no sky: no AO asked
+    elif lighting.mode == "sampled":
         sky, ao, bent = sampled_sky_radiance(scene, p, nrm, lighting, albedo, backend=backend, sampling=sampling,
                                              surface_ids=surface_ids, indices=idx, bias=bias)
     elif lighting.mode == "transfer":

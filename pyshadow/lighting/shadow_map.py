@@ -300,12 +300,13 @@ class ShadowMapVisibility:
 
     Notes
     -----
-    The module docstring gives the rays it answers and the rule of ε. It
-    cannot answer ambient occlusion (:meth:`ambient_occlusion` raises).
-    :attr:`renders` counts the maps rendered.
+    The module docstring gives the rays it answers and the rule of ε. It cannot answer ambient occlusion
+    (:attr:`answers_ambient_occlusion` False): it shades and renders a Lighting without a sky, which asks
+    none (:mod:`pyshadow.lighting.shade_checks`). :attr:`renders` counts the maps rendered.
     """
 
     name = "shadow-map"
+    answers_ambient_occlusion = False       # read by pyshadow.lighting.shade_checks
 
     def __init__(self, resolution: int = 1024, bias=None, pcf: int = 1, bias_texels: float = BIAS_TEXELS):
         self.resolution = _check_resolution(resolution)
@@ -414,8 +415,9 @@ class ShadowMapVisibility:
     def ambient_occlusion(self, scene, points, normals, *, sampling=None, return_bent_normals=False, bias=None,
                           indices=None, surface_ids=None, **options):
         """Not answerable: a shadow map holds one light's depths, AO asks every direction (any options)."""
-        raise ValueError("a shadow map answers the rays of one light (one direction, or one end point); it "
-                         "cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree'")
+        raise ValueError(f"{self!r}: a shadow map answers the rays of one light (one direction, or one end "
+                         f"point); it cannot answer ambient occlusion: use backend='csm', 'csm-vote' or 'embree' "
+                         f"for AO and a sky; this backend shades a Lighting without a sky (sun, local lights)")
 
     # -- maps ----------------------------------------------------------
     def shadow_map(self, scene, *, direction=None, position=None) -> ShadowMap:

@@ -213,7 +213,7 @@ class Scene:
             A CSM (a caster; several instances share one CSM and its device
             buffers), or a mesh (a pyvista one or a file: :func:`pyshadow.load_mesh`).
             A mesh with ``casts=True`` gets a CSM built with the scene's options
-            (once per mesh object or file); with ``casts=False`` it only receives.
+            (once per geometry: equal meshes share one); with ``casts=False`` it only receives.
         transform : array_like, shape (4, 4) or (k, 4, 4), optional
             Object-to-world transform: rotation (5 decimals suffice: placed as
             the nearest), translation, uniform positive scale. Default identity.
@@ -253,8 +253,10 @@ class Scene:
         Nothing is rebuilt; all are checked before any moves (:func:`pyshadow.scene_moves.set_transforms`)."""
         set_transforms(self, instance_id, transform)
 
-    def transform(self, instance_id: int) -> np.ndarray:
-        """The current 4x4 transform of an instance (a copy)."""
+    def transform(self, instance_id) -> np.ndarray:
+        """The current 4x4 transform of an instance (a copy); of a sequence of k ids, (k, 4, 4)."""
+        if np.ndim(instance_id) == 1:       # as set_transform takes them
+            return np.array([self._instance(i).transform for i in np.asarray(instance_id).tolist()]).reshape(-1, 4, 4)
         return self._instance(instance_id).transform.copy()
 
     @property
@@ -382,10 +384,10 @@ class Scene:
                   backend=None, **old):
         """Per-vertex AO of an instance's mesh (for display), as :meth:`ambient_occlusion`.
 
-        Points are the mesh's vertices in world space, normals its
-        area-weighted vertex normals; the default sampling is
-        ``Sampling(64)``. Returns ``(V,)`` float32 (and ``(V, 3)`` bent
-        normals with ``return_bent_normals=True``).
+        Points are the vertices of ``instances[instance_id].mesh`` in world space (a file or pyvista mesh
+        added is cleaned first: coincident points merged, so show it as that mesh), normals its
+        area-weighted vertex normals; the default sampling is ``Sampling(64)``. Returns ``(V,)`` float32
+        (and ``(V, 3)`` bent normals with ``return_bent_normals=True``).
         """
         sampling, bent, name = _query_options("Scene.vertex_ao", args, old, sampling, return_bent_normals,
                                               lookup, backend, Sampling(64))
@@ -490,9 +492,10 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         check_mesh(obj, "Scene.add")            # a mesh object is used as it is: checked, not cleaned
         csm = None
         if casts:
-            key = id(obj) if max_error is None else (id(obj), _max_error(max_error), lookup)   # checked first
-            held = scene._built.get(key)        # (mesh, CSM): an id outlives its mesh in a scene's copy
-            csm = held[1] if held is not None and held[0] is obj else None
+            # one CSM per geometry and options: twenty equal boxes made apart built twenty (7 s each) before
+            digest = mesh_hash(obj)             # (of the mesh now: one edited in place since gets its own)
+            key = ("csm", digest) if max_error is None else ("csm", digest, _max_error(max_error), lookup)
+            csm = scene._built[key][1] if key in scene._built else None
             o = scene.csm_options
             if csm is None and max_error is not None:
                 csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"], lookup=lookup,

@@ -158,15 +158,21 @@ def test_a_caster_mesh_changed_in_place_is_refused_by_name(parts, placed):
 def test_a_csm_built_by_add_is_reused_for_its_own_mesh_only():
     """Was: Scene.add kept the CSMs it built by ``id(mesh)`` alone. In a deep copy (or an unpickled scene) the keys
     are the original meshes' ids, which a new mesh may take once the original is freed: add() would then give the
-    new mesh the old mesh's CSM. Now an entry answers only for the very mesh it was built of (the id of a freed
-    mesh is simulated below by re-keying the entry); the same mesh added twice still shares one CSM."""
-    scene = pyshadow.Scene(ground=None, views=VIEWS, resolution=16)
+    new mesh the old mesh's CSM. Now an entry answers only for the geometry it was built of (keyed by the mesh's
+    hash: no id to take over; a copy's meshes freed and a new mesh added below); the same mesh added twice
+    still shares one CSM."""
+    import copy
+    import gc
+
+    first = pyshadow.Scene(ground=None, views=VIEWS, resolution=16)
     box = trimesh.creation.box((1.0, 1.0, 1.0))
-    scene.add(box)
-    scene.add(box, tt.translation_matrix([3.0, 0.0, 0.0]))
+    first.add(box)
+    first.add(box, tt.translation_matrix([3.0, 0.0, 0.0]))
+    scene = copy.deepcopy(first)
+    del first, box
+    gc.collect()                                            # the original meshes' ids are free to take
     assert scene.instances[0].csm is scene.instances[1].csm
     ball = trimesh.creation.icosphere(1, radius=2.0)
-    scene._built[id(ball)] = scene._built.pop(id(box))      # another mesh now holds the freed mesh's id
     scene.add(ball)
     assert scene.instances[2].csm is not scene.instances[0].csm
     assert scene.instances[2].csm.mesh_hash == pyshadow.mesh.mesh_hash(ball)

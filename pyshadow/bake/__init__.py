@@ -13,6 +13,8 @@ what is already done.
 from .params import AssetParams, asset_key, code_digest
 from .library import MANIFEST_SCHEMA, bake_assets, find_assets
 from .runner import EXECUTORS, open_executor
+from .frames import bake_frames
+from .motion import read_motion, write_motion
 
-__all__ = ["AssetParams", "EXECUTORS", "MANIFEST_SCHEMA", "asset_key", "bake_assets", "code_digest",
-           "find_assets", "open_executor"]
+__all__ = ["AssetParams", "EXECUTORS", "MANIFEST_SCHEMA", "asset_key", "bake_assets", "bake_frames", "code_digest",
+           "find_assets", "open_executor", "read_motion", "write_motion"]

@@ -33,6 +33,9 @@ every (point, caster) pair: the casters are bucketed by radius (powers of
 two, :func:`caster_buckets`), and a bucket is asked (nearest centre, a
 k-d tree) only for the points farther from their anchor than 512 radii of
 its smallest caster -- the others cannot fall below their reach by it.
+The points beyond it are grouped by cubes of a power-of-two side up to
+twice that bound (:func:`pyshadow.scene_arrays.cube_groups`), each asked
+relative to its centre: within the bound of each point in every coordinate.
 """
 from __future__ import annotations
 

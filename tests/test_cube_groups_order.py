@@ -12,7 +12,7 @@ def _unique_groups(points, anchor, reach):
     rows = np.flatnonzero(extent > reach)
     far = np.zeros(len(points), bool)
     far[rows] = True
-    side = 2.0 ** np.floor(np.log2(np.full(len(rows), reach)))
+    side = np.ldexp(1.0, np.frexp(np.full(len(rows), reach))[1])      # the widest power of two within 2 reach
     cells = np.floor(points[rows] / side[:, None])
     keys, inverse = np.unique(np.column_stack([side, cells]), axis=0, return_inverse=True)
     order = np.argsort(inverse.reshape(-1), kind="stable")

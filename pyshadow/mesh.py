@@ -117,9 +117,9 @@ def load_mesh(path_or_trimesh, fill_holes: bool = False) -> trimesh.Trimesh:
     ----------
     path_or_trimesh : str, os.PathLike, trimesh.Trimesh, trimesh.Scene or pyvista.DataSet
         A file trimesh can read (OBJ, PLY, STL, OFF, GLB/GLTF, ...) or a mesh
-        object (a pyvista one: :func:`pyshadow.viz.polydata_to_mesh`). OBJ's relative (negative) indices count back from the line
-        that holds them, concave faces of 5 or more corners (OBJ, PLY, OFF)
-        are tiled, and a binary PLY may mix triangles and larger polygons
+        object (pyvista's: :func:`pyshadow.viz.polydata_to_mesh`). OBJ's relative (negative)
+        indices count back from the line that holds them, concave faces of 5 or more corners
+        (OBJ, PLY, OFF) are tiled, and a binary PLY may mix triangles and larger polygons
         (:mod:`pyshadow.mesh_files`). A scene (GLB/GLTF, an OBJ with several materials) is
         flattened: every node's transform is applied and the meshes are
         concatenated (as ``Scene.to_geometry``), each keeping its own colours,

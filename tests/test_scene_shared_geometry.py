@@ -30,7 +30,8 @@ def test_equal_meshes_made_apart_share_one_csm(monkeypatch):
     p = np.c_[rng.uniform(-1, 9, 400), np.zeros(400), rng.uniform(-2, 2, 400)]
     up = np.tile([0.0, 1.0, 0.0], (400, 1))
     s = pyshadow.Sampling(16)
-    np.testing.assert_array_equal(shared.ambient_occlusion(p, up, sampling=s), single.ambient_occlusion(p, up, sampling=s))
+    np.testing.assert_array_equal(shared.ambient_occlusion(p, up, sampling=s),
+                                  single.ambient_occlusion(p, up, sampling=s))
 
 
 def test_other_geometry_or_an_edited_mesh_gets_its_own_csm():

@@ -429,10 +429,9 @@ class Scene:
             AO at 1/ao_scale resolution, upsampled with the G-buffer.
         ground_size : float, optional
             Side of the drawn ground quad (:meth:`ground_quad`).
-        normals, crease_angle : optional
-            Shading normals, as :func:`pyshadow.render.render` (``crease_angle`` None: its default).
-        lighting : pyshadow.lighting.Lighting or PhongLighting, optional
-            A lit frame (``Frame.radiance``), as :func:`pyshadow.render.render`.
+        normals, crease_angle, lighting : optional
+            Shading normals and a lit frame (``Frame.radiance``), as :func:`pyshadow.render.render`
+            (``crease_angle`` None: its default).
         **old
             Deprecated: ``samples, strategy, seed, patterns`` (also
             positionally, in that order), ``filter`` and ``filtered``.

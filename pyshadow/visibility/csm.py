@@ -62,7 +62,7 @@ from .base import check_bias, check_sampling, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, rays_ao,
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
-from .grid import grid_margin, grid_packets, instance_grid
+from .grid import grid_margin, grid_packets, instance_grid, isolated_casters
 from .held import held_at, kept as _kept, on_device as _on_device
 from .sampled_sky import _SampledSky
 
@@ -108,8 +108,11 @@ def instance_accel(scene) -> str:
 
 
 def _spheres_extent(rows) -> float:
-    """The largest |coordinate| of the casters' spheres (anchor-relative INSTANCE rows)."""
-    return float(np.abs(rows["centre"]).max() + rows["radius"].max())
+    """The largest |coordinate| of the casters' spheres in the grid's cells (anchor-relative INSTANCE rows; those
+    set apart, :func:`.grid.isolated_casters`, are asked by every ray, through no cell)."""
+    c, r = rows["centre"], rows["radius"]
+    inside = np.setdiff1d(np.arange(len(r)), isolated_casters(c.astype(np.float64), r.astype(np.float64)))
+    return float(np.abs(c[inside]).max() + r[inside].max())
 
 
 def _grid_margin(rows, points_extent, spheres=None):

@@ -27,7 +27,9 @@ the walk and a test: cells of about two casters each (a typical sphere
 overlapping two to four of them) keep both few. A sphere is listed in the
 cells it meets (grown by the margin), not in every cell of its box. A sphere wider than a
 cell would fill many cells; such casters (``big``) are asked by every ray
-instead, as without an acceleration structure. :func:`instance_grid`
+instead, as without an acceleration structure; so are casters lying apart
+from the others (:func:`isolated_casters`: a body parked far away), which
+would otherwise stretch the grid's box and every cell with it. :func:`instance_grid`
 declines (returns None) when the grid would be unbalanced -- more than
 :data:`MAX_BIG` big casters, or a cell listing more than :data:`MAX_CELL`
 -- and the tree is used instead.
@@ -39,7 +41,8 @@ import numpy as np
 from .._cl.tables import GRID, GRID_PACKET
 from .bvh import spheres
 
-__all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin", "grid_packets"]
+__all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin",
+           "grid_packets", "isolated_casters"]
 
 #: One entry of a cell's list as :func:`instance_grid` gives it: the caster and a copy of its
 #: sphere (the instance record's float32 centre and radius); :func:`grid_packets` packs them.
@@ -110,11 +113,71 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
     c, r = spheres(centres, radii, "instance_grid")
     if not (margin >= 0 and np.isfinite(margin)):
         raise ValueError(f"instance_grid: margin must be finite and >= 0, got {margin}")
-    lo = (c - r[:, None]).min(axis=0) - 2.0 * margin
-    hi = (c + r[:, None]).max(axis=0) + 2.0 * margin
+    apart = isolated_casters(c, r)
+    if len(apart):
+        g = _grid(c, r, margin, balanced_only, apart)
+        if g is not None or not balanced_only:
+            return g
+    return _grid(c, r, margin, balanced_only, apart[:0])
+
+
+def isolated_casters(centres, radii, most: int = MAX_BIG) -> np.ndarray:
+    """Casters lying apart from the others, which :func:`instance_grid` asks of every ray (with the big ones).
+
+    A body parked far away, or fallen below the others, would stretch the
+    grid's box: its cells, sized to hold about two casters each over that
+    box, would each list hundreds of the others (or the tree be taken). On
+    each side of each axis, the fewest casters (at most half, at most
+    ``most`` in all) whose spheres are separated from all the others' by a
+    gap wider than the others' own extent along that axis are set apart;
+    repeated until none is. A scene spread evenly, or in clusters of more than
+    ``most`` casters, sets none apart.
+
+    Parameters
+    ----------
+    centres : ndarray, shape (N, 3)
+    radii : ndarray, shape (N,)
+        Validated spheres (float64, world units).
+    most : int
+        The most casters set apart.
+
+    Returns
+    -------
+    ndarray of int64
+        Indices of the casters set apart, ascending.
+    """
+    c, r = np.asarray(centres, np.float64), np.asarray(radii, np.float64)
+    keep = np.arange(len(c))
+    moved = True
+    while moved:
+        moved = False
+        for a in range(3):
+            for side in (1.0, -1.0):            # the low side, then the high side (the axis mirrored)
+                budget = min(most - (len(c) - len(keep)), (len(keep) - 1) // 2)
+                if budget < 1:
+                    break
+                order = keep[np.argsort(side * c[keep, a], kind="stable")]
+                lo, hi = side * c[order, a] - r[order], side * c[order, a] + r[order]
+                rest_lo = np.minimum.accumulate(lo[::-1])[::-1]     # of casters k.. on
+                rest_hi = np.maximum.accumulate(hi[::-1])[::-1]
+                first_hi = np.maximum.accumulate(hi)                # of casters ..k
+                k = np.arange(1, budget + 1)
+                gap = rest_lo[k] - first_hi[k - 1]
+                wide = np.flatnonzero(gap > rest_hi[k] - rest_lo[k])
+                if len(wide):
+                    keep = np.sort(order[k[wide[0]]:])
+                    moved = True
+    return np.setdiff1d(np.arange(len(c)), keep)
+
+
+def _grid(c, r, margin, balanced_only, apart):
+    """:func:`instance_grid` with the casters ``apart`` left out of the box and its cells, asked by every ray."""
+    inside = np.setdiff1d(np.arange(len(c)), apart)
+    lo = (c[inside] - r[inside, None]).min(axis=0) - 2.0 * margin
+    hi = (c[inside] + r[inside, None]).max(axis=0) + 2.0 * margin
     # no narrower than twice the margin: a sphere grown by a margin that dwarfs it (queries far from the
     # casters) would fill hundreds of cells (10,000 casters asked from 1e6 m: a grid of 57 MB, 0.7 GB to build)
-    target = max(_cell_size(lo, hi, r), 2.0 * margin)
+    target = max(_cell_size(lo, hi, r[inside]), 2.0 * margin)
     origin = lo.astype(np.float32)
     origin = np.where(origin > lo, np.nextafter(origin, np.float32(-np.inf)), origin)     # at or below lo
     # cells of about the target edge, each axis's fitted to the box: a thin layer of casters gets one
@@ -124,10 +187,10 @@ def instance_grid(centres, radii, margin: float = 0.0, balanced_only: bool = Tru
     h32 = np.where(origin + dims * h32.astype(np.float64) < hi, np.nextafter(h32, np.float32(np.inf)), h32)
     h32 = np.maximum(h32, np.float32(np.finfo(np.float32).tiny))
     h, inv32 = h32.astype(np.float64), (1.0 / h32.astype(np.float64)).astype(np.float32)
-    big = np.flatnonzero(r > target)
+    big = np.union1d(inside[r[inside] > target], apart)
     if len(big) > MAX_BIG and balanced_only:
         return None
-    small = np.flatnonzero(r <= target)
+    small = inside[r[inside] <= target]
     a = np.clip(np.floor((c[small] - r[small, None] - margin - origin) / h).astype(np.int64), 0, dims - 1)
     b = np.clip(np.floor((c[small] + r[small, None] + margin - origin) / h).astype(np.int64), 0, dims - 1)
     span = b - a + 1                                        # cells per axis of each sphere (1 to 5)

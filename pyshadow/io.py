@@ -63,6 +63,7 @@ import errno
 import os
 import re
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -393,6 +394,28 @@ def _radiance_header(inp, path: Path):
         return f.read(1 << 16)
 
 
+def _radiance_with_format(path: Path):
+    """A temporary copy of the Radiance HDR file ``path`` with a ``FORMAT=32-bit_rle_rgbe`` line added, where
+    its header has none (the line is optional, that its default; OpenImageIO refuses such files), else None:
+    not a Radiance file (``#?`` first), or its header ends past 64 KiB or names a format. The caller removes
+    it."""
+    with open(path, "rb") as f:
+        head = f.read(1 << 16)
+        end = head.find(b"\n\n")
+        if not head.startswith(b"#?") or end < 0 or re.search(rb"^FORMAT=", head[:end], re.M):
+            return None
+        first = head.index(b"\n") + 1                  # after the magic line, as Radiance's writers put it
+        fd, tmp = tempfile.mkstemp(suffix=".hdr", prefix="pyshadow-")
+        try:
+            with os.fdopen(fd, "wb") as out:
+                out.write(head[:first] + b"FORMAT=32-bit_rle_rgbe\n" + head[first:])
+                shutil.copyfileobj(f, out)
+        except BaseException:
+            os.unlink(tmp)
+            raise
+    return Path(tmp)
+
+
 def _orientation(spec, head) -> int:
     """The EXIF orientation code of the open file; a Radiance HDR's from its own resolution line."""
     code = spec.get_int_attribute("Orientation", 1)
@@ -498,6 +521,10 @@ def read_image(path) -> np.ndarray:
     an EXR whose data window is smaller or offset has its pixels placed
     there, zeros where none is stored (overscan outside the display window
     is dropped).
+
+    A Radiance HDR whose header has no ``FORMAT=`` line (optional in the
+    format, whose default is ``32-bit_rle_rgbe``; OpenImageIO refuses such
+    files) is read as that format, through a temporary copy with the line.
     """
     path = Path(os.fspath(path))
     if not path.exists():
@@ -508,9 +535,16 @@ def read_image(path) -> np.ndarray:
         pass
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)
-    inp = oiio.ImageInput.open(str(path), config)
+    inp, copy = oiio.ImageInput.open(str(path), config), None
     if inp is None:
-        raise ValueError(f"cannot read image {path}: {oiio.geterror()}")
+        reason = oiio.geterror()
+        copy = _radiance_with_format(path)          # a Radiance HDR without its optional FORMAT= line
+        inp = None if copy is None else oiio.ImageInput.open(str(copy), config)
+        if inp is None:
+            if copy is not None:
+                copy.unlink()
+                reason = oiio.geterror()
+            raise ValueError(f"cannot read image {path}: {reason}")
     try:
         spec = inp.spec()
         C, alpha = spec.nchannels, spec.alpha_channel
@@ -538,6 +572,8 @@ def read_image(path) -> np.ndarray:
         orientation, multiplier = _orientation(spec, head), _radiance_multiplier(head, C)
     finally:
         inp.close()
+        if copy is not None:
+            copy.unlink()
     data = _display_window(np.asarray(native).reshape(spec.height, spec.width, C), spec)
     data = _ORIENT.get(orientation, _ORIENT[1])(data)
     if multiplier is not None:      # the radiances the file was made from (Radiance's own readers divide too)

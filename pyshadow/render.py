@@ -248,8 +248,8 @@ def _instance_ids(g, ids) -> np.ndarray:
 
 
 def _check_gbuffer(g, camera, n_items: int, *, frame: bool = False) -> dict:
-    """A G-buffer given to :func:`surface_points`: the camera's shape, float buffers, item indices in
-    range, a depth > 0 on every covered pixel; with ``frame`` (:func:`render`) also its positions."""
+    """A G-buffer given to :func:`surface_points` checked (the camera's shape, float buffers, item indices in range,
+    a depth > 0 on covered pixels; ``frame``: also positions), its background's depth +inf (a copy if not: 0, NaN)."""
     H, W = camera.height, camera.width
     want = {"object_id": (H, W), "depth": (H, W), "normal": (H, W, 3)}
     if frame:
@@ -267,12 +267,12 @@ def _check_gbuffer(g, camera, n_items: int, *, frame: bool = False) -> dict:
     if oid.size and (oid.min() < -1 or oid.max() >= n_items):
         raise ValueError(f"gbuffer['object_id'] holds {int(oid.min())}..{int(oid.max())}; the scene draws "
                          f"{n_items} items (ids 0..{n_items - 1}, -1 for the background)")
-    z = np.asarray(g["depth"])[oid >= 0]
-    bad = ~(np.isfinite(z) & (z > 0))
+    z, back = np.asarray(g["depth"]), oid < 0
+    bad = ~(np.isfinite(z) & (z > 0) | back)
     if bad.any():
         raise ValueError(f"gbuffer['depth'] must be finite and > 0 where object_id >= 0 (a surface in front of "
                          f"the camera), got {int(bad.sum())} other value(s), e.g. {float(z[bad][0])!r}")
-    return g
+    return g if (z[back] == np.inf).all() else {**g, "depth": np.where(back, np.inf, z)}
 
 
 def _check_ao_scale(ao_scale) -> int:
@@ -387,7 +387,7 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
         A G-buffer to use instead of rasterising one (e.g.
         :func:`pyshadow.embree.gbuffer`): ``object_id``, ``depth``, ``normal``
         and ``position`` of the camera's shape, the depth finite and > 0 on
-        every covered pixel.
+        every covered pixel (on the background, any depth is taken as +inf).
     lighting : pyshadow.lighting.Lighting, optional
         Fill ``Frame.radiance`` (H, W, 3) float32, linear, 0 on the
         background: the sky term from the frame's (filtered, upsampled) AO

@@ -6,6 +6,7 @@ Usage::
     pyshadow-bake assets a.obj b.ply -o baked/ --scheduler tcp://host:8786
     pyshadow-bake frames -o frames/ --frames 60            # the bundled scene, turning
     pyshadow-bake frames -o frames/ --mesh a.obj --mesh b.obj --motion motion.npz
+    pyshadow-bake frames -o frames/ --camera camera.json     # {"eye": [x, y, z], "target": [x, y, z], ...}
     pyshadow-bake motion motion.npz --frames 60            # the bundled scene's motion, as a file
 
 Exit status: 0 when every asset or frame is done, 1 when one failed, 2 on
@@ -119,7 +120,12 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--frames", type=_int_range(1, 1_000_000, "--frames"), default=None,
                    help="frames of the bundled scene's default motion (default 60; not with --motion, whose "
                         "file gives the frames)")
-    f.add_argument("--size", type=_size, default=(640, 480), metavar="WxH", help="image size (default 640x480)")
+    f.add_argument("--size", type=_size, default=None, metavar="WxH",
+                   help="image size (default: the --camera file's width and height, else 640x480)")
+    f.add_argument("--camera", metavar="FILE",
+                   help="the camera, a JSON object: eye, target (world xyz), optionally up (default [0, 1, 0]), "
+                        "fov_y (degrees, default 45), width and height, as a frames manifest's \"camera\" holds "
+                        "them; default: the bundled scene's camera, or one framing every --mesh in every frame")
     f.add_argument("--samples", type=_int_range(1, MAX_SAMPLES, "--samples"), default=36,
                    help="AO samples per pixel (default 36)")
     f.add_argument("--denoise", choices=("bilateral", "separable", "box"), default=None)
@@ -189,6 +195,53 @@ def _bodies_in_order(T, names, parts, source: str, have: str, log):
     return T[:, [names.index(n) for n in want]]
 
 
+#: Keys of a --camera file: pyshadow.Camera's arguments (a frames manifest's "camera" entry holds them all).
+_CAMERA_KEYS = ("eye", "target", "up", "fov_y", "width", "height")
+
+
+def read_camera(path, size=None):
+    """The :class:`pyshadow.Camera` of a ``--camera`` JSON file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        A JSON object with ``eye`` and ``target`` (world positions, 3 numbers each) and optionally ``up``
+        (default ``[0, 1, 0]``), ``fov_y`` (vertical field of view in degrees, default 45), ``width`` and
+        ``height`` (pixels): the keys of a frames manifest's ``"camera"`` entry.
+    size : tuple of two ints, optional
+        ``(width, height)`` from ``--size``; default the file's, else 640x480.
+
+    Raises
+    ------
+    ValueError
+        Not a JSON object of those keys (the message names the file), values :class:`pyshadow.Camera` refuses,
+        or a width and height that differ from ``size``.
+    """
+    import json
+
+    from ..camera import Camera
+
+    try:
+        with open(Path(path).expanduser(), encoding="utf-8") as f:
+            c = json.load(f)
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"--camera {path}: not a JSON file ({e})") from None
+    if not isinstance(c, dict) or not {"eye", "target"} <= c.keys() or not c.keys() <= set(_CAMERA_KEYS):
+        got = sorted(c) if isinstance(c, dict) else type(c).__name__
+        raise ValueError(f"--camera {path}: expected a JSON object with eye and target, and optionally up, fov_y, "
+                         f"width and height (got {got})")
+    own = (c.get("width", 640), c.get("height", 480))
+    if size is not None and ("width" in c or "height" in c) and tuple(size) != own:
+        raise ValueError(f"--camera {path} is {own[0]}x{own[1]} pixels and --size {size[0]}x{size[1]}: "
+                         "give the size in one of them")
+    W, H = own if size is None else size
+    try:
+        return Camera(c["eye"], c["target"], up=c.get("up", (0.0, 1.0, 0.0)), fov_y=c.get("fov_y", 45.0),
+                      width=W, height=H)
+    except (ValueError, TypeError) as e:
+        raise ValueError(f"--camera {path}: {e}") from None
+
+
 def _frames(args) -> int:
     import numpy as np
 
@@ -199,7 +252,8 @@ def _frames(args) -> int:
     from .motion import default_motion, read_motion
 
     log = _log(args.quiet)
-    W, H = args.size
+    camera = None if args.camera is None else read_camera(args.camera, args.size)
+    W, H = (camera.width, camera.height) if camera is not None else args.size or (640, 480)
     if args.motion is not None and args.frames is not None:       # else ignored: every frame of the file rendered
         raise ValueError(f"--frames {args.frames} sets the length of the bundled scene's default motion; "
                          f"--motion {args.motion} gives the frames itself (write fewer to it to render fewer)")
@@ -210,14 +264,14 @@ def _frames(args) -> int:
             raise ValueError("--mesh needs --motion: the per-frame transforms of the meshes")
         parts = [(name, mesh, True) for name, mesh in _load_meshes(args.mesh)]
         T = _bodies_in_order(*read_motion(args.motion), parts, f"--motion {args.motion}", "--mesh gives", log)
-        camera = auto_camera(parts, T, width=W, height=H)
+        camera = camera or auto_camera(parts, T, width=W, height=H)
     else:
         from ..data import default_parts
 
         parts = [(n, m, c) for n, m, _, c in default_parts()]
         T = _bodies_in_order(*(read_motion(args.motion) if args.motion else default_motion(args.frames or 60)), parts,
                              f"--motion {args.motion}", "the bundled scene has", log)
-        camera = Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], fov_y=45.0, width=W, height=H)
+        camera = camera or Camera([2.4, 2.1, 4.8], [0.8, 0.5, 0.0], fov_y=45.0, width=W, height=H)
     cache = CSMCache(None if args.no_cache else (args.cache_dir or default_cache_dir()), log=log)
     views = ViewSet.zigzag(*args.maps)
 

@@ -330,7 +330,9 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         World position of the eye (``camera.eye``).
     lighting : PhongLighting
     ao : array_like, shape (N,), optional
-        AO in [0, 1] (e.g. ``Frame.ao``); needed only with ``ao="ao"``.
+        AO in [0, 1] (e.g. ``Frame.ao``); needed only with ``ao="ao"`` and
+        an ``ambient`` colour other than 0 (with 0, ``A`` weighs nothing: the
+        values may be missing or NaN, as ``Frame.ao`` where no AO was asked).
     backend : str or VisibilityBackend
         Answers the light's shadow rays and the "normal" sample
         (``"embree"``: the ground truth on the identical rays).
@@ -351,7 +353,8 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     colour : ndarray, shape (N, 3), float64
         ``c``, display-referred (module docstring).
     ambient_factor : ndarray, shape (N,), float64
-        ``A``.
+        ``A``; NaN where it is not evaluated because ``ambient`` is 0: no AO
+        given (``ao="ao"``), no ray traced along the normal (``ao="normal"``).
     light_visibility : ndarray, shape (N,), float64
         ``V``: 1 without shadows (also where the light is below the surface or its
         geometric plane); with them 0 where ``n . l <= 0`` (or ``n_g . l <= 0``):
@@ -391,13 +394,14 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     if eye.shape != (3,) or not np.isfinite(eye).all():
         raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})")
     _check_light_off_surfaces(scene, p, lighting.position)
+    unlit = not lighting.ambient.any()      # c_a = 0: A weighs nothing, so it is neither needed nor traced
     if lighting.ao == "ao":
-        if ao is None:
-            raise ValueError("ao: the AO values are needed with ao='ao'")
-        a = _floats(ao, "ao", f"({n},) values in [0, 1]")
+        if ao is None and not unlit:
+            raise ValueError("ao: the AO values are needed with ao='ao' (and an ambient colour other than 0)")
+        a = np.full(n, np.nan) if ao is None else _floats(ao, "ao", f"({n},) values in [0, 1]")
         if a.shape != (n,):
             raise ValueError(f"ao: expected ({n},) values in [0, 1] (got shape {a.shape})")
-        bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1))
+        bad = ~(np.isfinite(a) & (a >= 0) & (a <= 1) | unlit & np.isnan(a))
         if bad.any():
             raise ValueError(f"ao: expected ({n},) values in [0, 1] ({int(bad.sum())} value(s) are not, e.g. "
                              f"{float(a[bad][0])!r} at point {int(np.argmax(bad))})")
@@ -427,13 +431,15 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
         amb = a
     elif lighting.ao == "off":
         amb = np.ones(n)
+    elif unlit:
+        amb = np.full(n, np.nan)
     else:
         amb = np.zeros(n)
         rows = np.arange(n) if geo is None else np.flatnonzero(np.einsum("ij,ij->i", geo, nrm) > 0)
         if len(rows):
             amb[rows] = vis.visible(scene, p[rows], nrm[rows], backend=backend, bias=bias,
                                     surface_ids=None if ids is None else ids[rows], normals=nrm[rows])
-    return phong_colour(lighting, c_r, amb, v, diffuse, spec), amb, v
+    return phong_colour(lighting, c_r, np.nan_to_num(amb, nan=0.0) if unlit else amb, v, diffuse, spec), amb, v
 
 
 def vertex_terms(items, item, face, bary, normals, eye, lighting: PhongLighting):

@@ -3,8 +3,8 @@
 :func:`pyshadow.lighting.shade_terms` and :func:`pyshadow.render.render` ask ambient occlusion only
 where it is needed or is their product: a :class:`~pyshadow.lighting.Lighting` without a sky
 (:attr:`Lighting.has_sky` False: sun and local lights only) and a
-:class:`~pyshadow.lighting.phong.PhongLighting` with a constant ambient factor (``ao="off"``) need
-none, so a backend that answers only light rays (one whose
+:class:`~pyshadow.lighting.phong.PhongLighting` with a constant ambient factor (``ao="off"``) or an
+ambient colour of 0 need none, so a backend that answers only light rays (one whose
 ``answers_ambient_occlusion`` is False: :class:`~pyshadow.lighting.ShadowMapVisibility`) shades them;
 a lighting that needs AO on such a backend is refused, saying which backends answer it.
 """
@@ -29,10 +29,13 @@ def answers_ambient_occlusion(backend) -> bool:
 def needs_ambient_occlusion(lighting) -> bool:
     """Whether shading ``lighting`` asks AO or rays about the normals: a :class:`~pyshadow.lighting.Lighting`
     with a sky (:attr:`Lighting.has_sky`), a :class:`~pyshadow.lighting.phong.PhongLighting` whose ambient
-    factor is not constant (``ao="ao"``, or ``"normal"``: one ray along each normal)."""
+    factor is not constant (``ao="ao"``, or ``"normal"``: one ray along each normal) and weighs something
+    (an ``ambient`` colour other than 0)."""
     from .phong import PhongLighting
 
-    return lighting.ao != "off" if isinstance(lighting, PhongLighting) else lighting.has_sky
+    if isinstance(lighting, PhongLighting):
+        return lighting.ao != "off" and bool(lighting.ambient.any())
+    return lighting.has_sky
 
 
 def asks_ambient_occlusion(lighting, backend, caller: str) -> bool:

@@ -106,8 +106,9 @@ class Camera:
     ``eye``, ``target``, ``up``, ``fov_y``, ``width`` and ``height`` may be
     set anew (``camera.eye = p``): each new value is checked as above, and
     a new ``eye``, ``target`` or ``up`` (the hint) turns the frame, which
-    follows ``target - eye`` as at creation. ``forward`` and ``right``
-    follow from them and cannot be set.
+    follows ``target - eye`` as at creation (also where ``eye`` or ``target``
+    is changed in place: ``camera.eye[1] = 3``). ``forward`` and ``right``
+    follow from them and cannot be set; the frame's arrays are read-only.
 
     Pixel ``(row i, column j)`` (row 0 at the top) is the ray from ``eye``
     through ``forward + x*right + y*up`` with
@@ -141,14 +142,29 @@ class Camera:
         if not rn > 1e-9 * np.linalg.norm(up):
             raise ValueError("Camera: up is parallel to the viewing direction")
         r /= rn
-        self.__dict__.update(eye=eye, target=target, _up_hint=up, forward=f, right=r, up=np.cross(r, f))
+        frame = {"_forward": f, "_right": r, "_up": np.cross(r, f)}
+        for v in frame.values():
+            v.setflags(write=False)
+        self.__dict__.update(eye=eye, target=target, _up_hint=up, _given=(eye.copy(), target.copy()), **frame)
+
+    def _frame(self, name: str) -> np.ndarray:
+        """The (read-only) frame vector ``name``, turned anew where ``eye`` or ``target`` was changed in place
+        (``camera.eye[1] = 3``: before, the frame kept the old eye's direction and looked past the target)."""
+        d = self.__dict__
+        if not (np.array_equal(d["eye"], d["_given"][0]) and np.array_equal(d["target"], d["_given"][1])):
+            self._set_frame(d["eye"], d["target"], d["_up_hint"])
+        return d[name]
+
+    forward = property(lambda self: self._frame("_forward"))
+    right = property(lambda self: self._frame("_right"))
+    up = property(lambda self: self._frame("_up"))
 
     def __setattr__(self, name, value):
         """A new ``eye``, ``target`` or ``up`` hint turns the frame; ``fov_y``, ``width`` and ``height`` are
         checked as at creation (a NaN field of view gave an empty image, a width of 0 a ZeroDivisionError)."""
         if name in ("eye", "target", "up"):
             given = {"eye": self.__dict__.get("eye"), "target": self.__dict__.get("target"),
-                     "up": self.__dict__.get("_up_hint", self.__dict__.get("up"))}
+                     "up": self.__dict__.get("_up_hint")}
             given[name] = value
             self._set_frame(given["eye"], given["target"], given["up"])
             return

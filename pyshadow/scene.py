@@ -26,7 +26,8 @@ from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
-from .scene_moves import add_instances, checked_ground, held_transform, loaded_mesh, placed_vertices, set_transforms
+from .scene_moves import (add_instances, checked_ground, csm_options, held_transform, loaded_mesh, placed_vertices,
+                          set_transforms)
 from .vertex_points import corner_ao
 from .views import ViewSet
 
@@ -184,10 +185,7 @@ class Scene:
                  resolution: int = 128, depth_bits: int = 16, layers="auto", footprint: bool = False,
                  progress: bool = False):
         self.ground = ground                # checked (_set_ground)
-        if not isinstance(footprint, (bool, np.bool_)):
-            raise TypeError(f"footprint must be True or False, got {footprint!r}")
-        self.csm_options = dict(views=views if views is not None else ViewSet.zigzag(64, 128), resolution=resolution,
-                                depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
+        self.csm_options = csm_options(views, resolution, depth_bits, layers, footprint)    # checked now, not at add
         self.progress = flag(progress, "progress")     # "no" drew progress bars
         self._placed = _Placed()
         self._built: dict = {}           # id(mesh) -> (mesh, CSM built by add())
@@ -485,9 +483,9 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
             _check_csm_frame(obj, mesh, digest)
         inst = Instance(T, True, csm=obj, mesh=mesh, _stamp=None if mesh is None else hash(mesh))
     else:
+        obj = loaded_mesh(scene, obj)          # first: a (csm, info) pair of CSMCache.csm is named as such
         if mesh is not None:
             raise ValueError("mesh= is only for CSMs; pass the mesh as obj")
-        obj = loaded_mesh(scene, obj)
         check_mesh(obj, "Scene.add")            # a mesh object is used as it is: checked, not cleaned
         csm = None
         if casts:

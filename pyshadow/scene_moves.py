@@ -17,7 +17,7 @@ import numpy as np
 
 from ._validate import check_transform, check_transforms
 
-__all__ = ["add_instances", "checked_ground", "held_transform", "loaded_mesh", "placed_vertices",
+__all__ = ["add_instances", "checked_ground", "csm_options", "held_transform", "loaded_mesh", "placed_vertices",
            "set_transforms"]
 
 
@@ -37,6 +37,20 @@ def checked_ground(height):
     return None if height is None else float(height)
 
 
+def csm_options(views, resolution, depth_bits, layers, footprint) -> dict:
+    """The options a :class:`pyshadow.Scene` builds its casters' CSMs with (default views
+    ``ViewSet.zigzag(64, 128)``), checked as :meth:`pyshadow.CoherentShadowMap.build` checks them when the scene
+    is made: ``Scene(resolution=0)`` was taken and refused only by the first mesh added."""
+    from .csm.build import check_arguments
+    from .views import ViewSet
+
+    if not isinstance(footprint, (bool, np.bool_)):
+        raise TypeError(f"footprint must be True or False, got {footprint!r}")
+    views = ViewSet.zigzag(64, 128) if views is None else views
+    check_arguments(views, resolution, depth_bits, layers)
+    return dict(views=views, resolution=resolution, depth_bits=depth_bits, layers=layers, footprint=bool(footprint))
+
+
 def loaded_mesh(scene, obj):
     """``obj`` where it is a ``trimesh.Trimesh``, else the mesh :func:`pyshadow.mesh.load_mesh` reads from it.
 
@@ -47,10 +61,14 @@ def loaded_mesh(scene, obj):
     """
     import trimesh
 
+    from .csm import CoherentShadowMap
     from .mesh import load_mesh, mesh_hash
 
     if isinstance(obj, trimesh.Trimesh):
         return obj
+    if isinstance(obj, tuple) and len(obj) == 2 and isinstance(obj[0], CoherentShadowMap):
+        raise TypeError("Scene.add: obj is a (CoherentShadowMap, dict) pair, as CSMCache.csm returns; "
+                        "pass the CSM alone (csm, info = cache.csm(...))")
     mesh = load_mesh(obj)               # read each time: a file rewritten within its clock's resolution
     if not isinstance(obj, (str, os.PathLike)):
         return mesh

@@ -114,7 +114,7 @@ def polydata_to_mesh(poly):
     Raises
     ------
     TypeError
-        ``poly`` is not a pyvista dataset.
+        ``poly`` is not a pyvista dataset (a ``pv.MultiBlock``: the message says how to merge it).
     ValueError
         It has no polygons to triangulate (points or lines only).
     """
@@ -122,7 +122,8 @@ def polydata_to_mesh(poly):
 
     pv = _pv()
     if not isinstance(poly, pv.DataSet):
-        raise TypeError(f"polydata_to_mesh: expected a pyvista dataset, got {type(poly).__name__}")
+        hint = " (merge its blocks first: blocks.combine())" if isinstance(poly, pv.MultiBlock) else ""
+        raise TypeError(f"polydata_to_mesh: expected a pyvista dataset, got {type(poly).__name__}{hint}")
     with warnings.catch_warnings():     # pyvista's notices of defaults to change (0.49): the same surface
         warnings.simplefilter("ignore")
         surface = poly if isinstance(poly, pv.PolyData) else poly.extract_surface()

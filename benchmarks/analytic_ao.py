@@ -57,7 +57,7 @@ import time
 
 import numpy as np
 
-from _common import emit, environment
+from _common import check_counts, emit, environment
 
 WALL = {"b": 4.0, "h": 4.0, "thickness": 0.5, "x": (0.5, 1.0, 2.0), "D": 1.5}
 SPHERE = {"r": 1.0, "subdivisions": 4, "s": (0.5, 1.0, 1.5), "D": 0.9}
@@ -410,7 +410,16 @@ def main(argv=None):
     ap.add_argument("--timing", action="store_true", help="only time the AO queries (20000 points, 36 samples)")
     ap.add_argument("--json", action="store_true")
     a = ap.parse_args(argv)
-    if a.timing:
+    check_counts(ap, a, "samples", "copies", "ssao_samples", "width", "height")
+    if not 16 <= a.probe_resolution <= 2048:
+        ap.error(f"--probe-resolution must be in 16..2048 (pyshadow.CubeProbe), got {a.probe_resolution}")
+    if a.timing:        # its own workload: the other settings would be accepted and ignored
+        given = [f"--{d.replace('_', '-')}" for d in ("samples", "copies", "ssao_samples", "width", "height",
+                                                      "no_vtk", "probe_resolution")
+                 if getattr(a, d) != ap.get_default(d)]
+        if given:
+            ap.error(f"{', '.join(given)}: --timing times its own workload (20000 points, 36 samples) "
+                     "and takes none of them")
         t = timing()
         if a.json:
             emit({"environment": environment(), "seconds": t}, True)

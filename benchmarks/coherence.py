@@ -134,9 +134,22 @@ def main(argv=None):
                     help="random-ray batch sizes for the threshold sweep, csm only ('' for none)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    from _common import check_counts, emit, environment, parse_grid
+    from _common import check_counts, emit, environment, parse_grid, parse_ints
 
-    check_counts(ap, args, "rounds")
+    check_counts(ap, args, "rounds", "random")
+    from pyshadow.visibility import backends
+
+    bad = [w for w in args.workloads.split(",") if w and w not in ("ao", "sun", "random")]
+    if bad:
+        ap.error(f"--workloads: unknown workload {bad[0]!r} (of ao, sun, random)")
+    bad = [b for b in args.backends.split(",") if b not in backends()]
+    if bad:
+        ap.error(f"--backends: unknown backend {bad[0]!r} (of {', '.join(backends())})")
+    for option, dest, workload in (("--random", "random", "random"), ("--sun-size", "sun_size", "sun")):
+        if getattr(args, dest) != ap.get_default(dest) and workload not in args.workloads.split(","):
+            ap.error(f"{option} sizes the {workload!r} workload, which --workloads {args.workloads!r} leaves out")
+    if args.sweep.strip(", "):             # '' for none
+        parse_ints(ap, args.sweep, "--sweep")
 
     from pyshadow.camera import Camera
     from pyshadow.visibility import order

@@ -34,7 +34,7 @@ import numpy as np
 import trimesh
 
 import pyshadow
-from _common import MESH_HELP, emit, environment, load_mesh
+from _common import MESH_HELP, check_counts, check_meshes, emit, environment, load_mesh
 
 # thesis 000, Table 5.1: (theta, phi) -> (compressed MB, ratio); bunny with holes. Its MB are
 # 2^20 bytes (8192 maps of 128^2 16-bit texels are its "256,0 MB"); ours are printed the same way.
@@ -83,6 +83,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if not (args.frame_scale >= 1.0):
         ap.error("--frame-scale must be >= 1 (a smaller sphere would cut the mesh)")
+    check_counts(ap, args, "resolution")
+    check_meshes(ap, "--mesh", [args.mesh])
 
     holes = load_mesh(args.mesh)
     filled = load_mesh(args.mesh, fill_holes=True)

@@ -38,7 +38,7 @@ import trimesh
 import pyshadow
 from pyshadow.cubemap import CubeMapAO, raymarch_visible, seed_box_filter
 from pyshadow.cubemap.analysis import ambiguous_rays, unseen_rays
-from _common import emit, environment, median_time
+from _common import check_counts, check_out_file, check_positive, emit, environment, median_time
 
 
 def wall_scene(width, height):
@@ -212,6 +212,13 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     ap.add_argument("--out", help="also write the JSON result to this file")
     args = ap.parse_args(argv)
+    check_positive(ap, args, "distance")
+    check_counts(ap, args, "points", "samples", "ao_samples", "ref_samples", "width", "height", "orbit")
+    for option, values in (("--resolutions", args.resolutions), ("--ao-resolutions", args.ao_resolutions)):
+        if not all(16 <= r <= 2048 for r in values):
+            ap.error(f"{option} must each be in 16..2048 (pyshadow.CubeProbe), got {values}")
+    if args.out:
+        check_out_file(ap, "--out", args.out)
     t_start = time.perf_counter()
     rng = np.random.default_rng(0)
     D = args.distance

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from _common import emit, environment, load_mesh, parse_grid
+from _common import check_counts, emit, environment, load_mesh, parse_grid
 
 POINT_LIGHTS = {
     "bundled": [(0.8, 3.2, 1.6), (-1.6, 1.8, 2.2), (3.0, 1.4, 1.2)],
@@ -155,6 +155,7 @@ def main(argv=None) -> int:
     ap.add_argument("--maps", default="64x128", help="zigzag map grid THETAxPHI of every CSM (default 64x128)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "width", "height")
     grid = parse_grid(ap, args.maps)
     rows, per_scene = [], {}
     for name, lights in POINT_LIGHTS.items():

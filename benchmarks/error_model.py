@@ -32,7 +32,7 @@ import numpy as np
 import pyshadow
 from pyshadow import embree
 from pyshadow.csm.error_model import MODEL_RATIO, Body, Layout, ao_rays, model_visible, truth_visible, wilson
-from _common import emit, environment
+from _common import check_meshes, emit, environment
 
 TARGETS = (0.02, 0.01, 0.005)
 
@@ -161,6 +161,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.targets and not all(0 < t < 1 for t in args.targets):
         ap.error(f"--targets must lie in (0, 1) (a disagreement, 0.01 = 1 %), got {args.targets}")
+    check_meshes(ap, "--meshes", args.meshes or (), files=False)
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
     names = ("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick else pyshadow.data.MESHES

@@ -31,7 +31,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from _common import emit, environment, load_mesh, parse_grid
+from _common import check_counts, check_meshes, emit, environment, load_mesh, parse_grid
 
 LATTICES = (32, 64, 128, 256, 512, 1024)
 STRATA = ("sealed", "narrow", "open")
@@ -125,6 +125,9 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_meshes(ap, "--meshes", filter(None, args.meshes.split(",")))
+    check_meshes(ap, "--inner", filter(None, args.inner.split(",")))
+    check_counts(ap, args, "resolution", most=4096)
     rows, cols = parse_grid(ap, args.maps)
     views = pyshadow.ViewSet.zigzag(rows, cols)
     res = {"benchmark": "exposure", **environment(), "counts": {}, "inner": {}}

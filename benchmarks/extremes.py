@@ -37,7 +37,7 @@ import sys
 import numpy as np
 import trimesh
 
-from _common import emit, environment, parse_grid
+from _common import check_counts, emit, environment, parse_grid
 
 #: the bound a false-shadow fraction is held to: the visibility disagreement of
 #: the CSM on AO rays of the bunny (0.5 %, benchmarks/README.md)
@@ -225,6 +225,7 @@ def main(argv=None, groups=None, benchmark: str = "extremes", detail=None) -> in
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "resolution", most=4096)
     names = [r for r in args.rows.split(",") if r]
     unknown = [r for r in names if r not in groups]
     if unknown:

@@ -37,7 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import REPO, emit, environment
+from _common import REPO, check_counts, check_out_folder, emit, environment
 
 #: Fig. 6.5's light and colours (the thesis gives only "red light from the left, blue ambient").
 LIGHT = (-1.25, 2.3, 1.4)
@@ -81,6 +81,10 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=REPO / "benchmarks" / "out" / "fig65")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "width", "height", "samples")
+    if args.backend not in ("csm", "csm-vote"):
+        ap.error(f"--backend must be csm or csm-vote, got {args.backend!r}")
+    check_out_folder(ap, "--out", args.out)
 
     cache = CSMCache(default_cache_dir())
     views = pyshadow.ViewSet.zigzag(64, 128)

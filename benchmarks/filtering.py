@@ -50,7 +50,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "repeats")
+    check_counts(ap, args, "repeats", "width", "height", "reference_samples")
 
     bunny = load_mesh("stanford-bunny.obj")
     T = pyshadow.stand_on_ground(bunny)

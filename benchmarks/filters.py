@@ -48,7 +48,7 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "repeats")
+    check_counts(ap, args, "repeats", "width", "height")
 
     ao, depth, normal = synthetic_gbuffer(args.height, args.width)
     low2 = ao[::2, ::2].copy()

@@ -31,7 +31,7 @@ import sys
 import numpy as np
 import trimesh
 
-from _common import emit, environment, load_mesh, parse_grid
+from _common import check_meshes, emit, environment, load_mesh, parse_grid
 
 import pyshadow
 from pyshadow import embree
@@ -138,6 +138,7 @@ def main(argv=None):
     t, p = parse_grid(ap, a.maps)
     if a.resolution < 1:
         ap.error("--resolution must be >= 1")
+    check_meshes(ap, "--meshes", [m for m in a.meshes.split(",") if m])
     views = pyshadow.ViewSet.zigzag(t, p)
     rng = np.random.default_rng(a.seed)
     rows, sizes = scenes(views, a.resolution, rng)

@@ -163,6 +163,17 @@ def main(argv=None) -> int:
     ap.add_argument("--mesh", action="append", help="only these bundled meshes (default: all)")
     ap.add_argument("--quick", action="store_true", help="skip the default scene")
     args = ap.parse_args(argv)
+    from _common import check_file, check_meshes, check_out_file
+
+    check_meshes(ap, "--mesh", args.mesh or (), files=False)
+    if args.save:
+        check_out_file(ap, "--save", args.save)
+    else:
+        check_file(ap, "--compare", args.compare)
+        try:                        # before the minute of work: a file that is no .npz
+            before = np.load(args.compare)
+        except Exception as e:
+            ap.error(f"--compare {args.compare}: not a .npz written by --save ({type(e).__name__})")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         out = record(args.mesh, args.quick)
@@ -174,7 +185,6 @@ def main(argv=None) -> int:
         print(f"recorded {len(out)} arrays ({sum(a.nbytes for a in out.values()) / 1e6:.1f} MB) "
               f"into {args.save}")
         return 0
-    before = np.load(args.compare)
     bad = 0
     subset = bool(args.mesh or args.quick)      # then only what was recorded now is compared
     for k in sorted((set() if subset else set(before.files)) | set(out)):

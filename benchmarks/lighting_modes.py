@@ -242,7 +242,17 @@ def main(argv=None) -> int:
                     help="only 'sampled' at 256 samples, CSM against Embree on identical directions")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "repeats")
+    check_counts(ap, args, "repeats", "width", "height")
+    check_counts(ap, args, "reference_samples", most=4096)
+    check_counts(ap, args, "resolution", most=4096)
+    if args.sun_samples is not None:
+        check_counts(ap, args, "sun_samples", most=1024)
+    if args.identical_only:         # its one render pair has no reference and no timing
+        given = [o for o, d in (("--reference-samples", "reference_samples"), ("--repeats", "repeats"))
+                 if getattr(args, d) != ap.get_default(d)]
+        if given:
+            ap.error(f"{', '.join(given)}: --identical-only compares CSM and Embree on the same directions, "
+                     "without the reference or the timed renders")
 
     def log(msg):
         print(msg, file=sys.stderr if args.json else sys.stdout, flush=True)

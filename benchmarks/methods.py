@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import REPO, environment, load_mesh  # noqa: E402
+from _common import REPO, check_counts, check_out_folder, environment, load_mesh  # noqa: E402
 
 OUT = REPO / "benchmarks" / "out"
 
@@ -355,6 +355,19 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--json", action="store_true", help="print everything as JSON on stdout")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "samples", "reference_samples", "study_reference_samples", most=4096)
+    check_counts(ap, args, "repeats", "frames", "threads")
+    check_counts(ap, args, "study_resolution", least=16, most=2048)
+    if not all(1 <= k <= 4096 for k in args.pareto_samples):
+        ap.error(f"--pareto-samples must each be in 1..4096, got {args.pareto_samples}")
+    if not all(16 <= r <= 2048 for r in args.probe_resolutions):
+        ap.error(f"--probe-resolutions must each be in 16..2048 (pyshadow.CubeProbe), got {args.probe_resolutions}")
+    for skip, options in (("--skip-pareto", ("pareto_samples", "probe_resolutions")),
+                          ("--skip-study", ("frames", "study_size", "study_resolution", "study_reference_samples"))):
+        given = [f"--{o.replace('_', '-')}" for o in options if getattr(args, o) != ap.get_default(o)]
+        if getattr(args, skip[2:].replace("-", "_")) and given:
+            ap.error(f"{', '.join(given)}: {skip} skips the part that takes {'it' if len(given) == 1 else 'them'}")
+    check_out_folder(ap, "--out", args.out)
     cache = CSMCache(default_cache_dir(), lambda m: None)
     W, H = args.size
     t_all = time.perf_counter()

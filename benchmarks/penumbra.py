@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import REPO, emit, environment
+from _common import REPO, check_counts, check_out_file, emit, environment
 
 TABLE_ALPHAS = (1.0, 2.8, 8.0)
 CURVE_ALPHAS = (0.1, 0.2, 0.4, 0.7, 1.0, 1.6, 2.8, 4.5, 8.0, 15.0)
@@ -315,6 +315,11 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.k_ref <= max(KS):
         ap.error(f"--k-ref must exceed the measured sample counts {KS} (got {args.k_ref})")
+    check_counts(ap, args, "width", "height")
+    for option, values in (("--alphas", args.alphas), ("--table", args.table)):
+        if not all(0 < a < 90 for a in values):
+            ap.error(f"{option} must each be an angular radius in (0, 90) degrees, got {values}")
+    check_out_file(ap, "--plot", args.plot, make=True)
     t0 = time.perf_counter()
     setup = Setup(args.width, args.height)
     if not args.json:

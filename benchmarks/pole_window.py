@@ -29,7 +29,7 @@ import sys
 
 import numpy as np
 
-from _common import emit, environment, parse_grid
+from _common import check_counts, emit, environment, parse_grid
 from extremes_params import _direction_rays
 
 
@@ -100,6 +100,8 @@ def main(argv=None) -> int:
     ap.add_argument("--directions", type=int, default=4, help="random directions in each cap")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "directions")
+    check_counts(ap, args, "resolution", most=4096)
     T, P = parse_grid(ap, args.maps)
     rows = [mesh_row(name, T, P, args.resolution, args.directions) for name in pyshadow.data.MESHES]
     if args.json:

@@ -14,7 +14,7 @@ import argparse
 import numpy as np
 
 import pyshadow
-from _common import MESH_HELP, check_counts, emit, environment, load_mesh, median_time
+from _common import MESH_HELP, check_counts, check_meshes, emit, environment, load_mesh, median_time
 
 
 def main(argv=None):
@@ -27,7 +27,10 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", action="store_true", help="print the result as JSON")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "repeats")
+    check_counts(ap, args, "repeats", "theta", "phi")
+    check_counts(ap, args, "layers", most=3)
+    check_meshes(ap, "--mesh", [args.mesh])
+    check_counts(ap, args, "resolution", most=4096)
 
     mesh = load_mesh(args.mesh)
     views = pyshadow.ViewSet.zigzag(args.theta, args.phi)

@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from _common import emit, environment
+from _common import check_counts, emit, environment
 
 SUN = (-30.0, 35.0)             # azimuth, elevation in degrees
 RESOLUTIONS = (1024, 4096)
@@ -64,6 +64,7 @@ def main(argv=None) -> int:
     ap.add_argument("--height", type=int, default=480)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "width", "height", "frames")
     scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height)
     mover, still = scene.casters[1], scene.casters[0]
     T0 = scene.transform(mover)

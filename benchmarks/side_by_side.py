@@ -25,18 +25,32 @@ import sys
 from pathlib import Path
 
 
+class CommandError(Exception):
+    """The command failed, printed no JSON object, or lacks a --key: the message says which (exit status 1)."""
+
+
 def _get(obj, key: str):
-    for part in key.split("."):
-        obj = obj[part]
-    return float(obj)
+    try:
+        for part in key.split("."):
+            obj = obj[part]
+        return float(obj)
+    except (KeyError, IndexError, TypeError, ValueError):
+        raise CommandError(f"--key {key}: no number under that key in the command's JSON output") from None
 
 
 def run(tree: Path, cmd: list[str]) -> dict:
     env = dict(os.environ, PYTHONPATH=str(tree.resolve()))
-    out = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    try:
+        out = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    except OSError as e:
+        raise CommandError(f"{' '.join(cmd)} in {tree}: cannot run it ({e.strerror or e})") from None
     if out.returncode:
-        raise RuntimeError(f"{' '.join(cmd)} in {tree} failed ({out.returncode}):\n{out.stderr[-2000:]}")
-    return json.loads(out.stdout[out.stdout.index("{"):])
+        raise CommandError(f"{' '.join(cmd)} in {tree} failed ({out.returncode}):\n{out.stderr[-2000:]}")
+    try:
+        return json.loads(out.stdout[out.stdout.index("{"):])
+    except ValueError:
+        raise CommandError(f"{' '.join(cmd)} in {tree} printed no JSON object on stdout (give the benchmark "
+                           "--json)") from None
 
 
 def main(argv=None) -> int:
@@ -52,6 +66,20 @@ def main(argv=None) -> int:
     cmd = args.cmd[1:] if args.cmd[:1] == ["--"] else args.cmd
     if not cmd:
         ap.error("give the command after --")
+    if args.rounds < 1:
+        ap.error(f"--rounds must be >= 1, got {args.rounds}")
+    for option, tree in (("--old", args.old), ("--new", args.new)):
+        if not tree.is_dir():
+            ap.error(f"{option}: no folder {str(tree)!r}")
+    try:
+        return _measure(args, cmd)
+    except CommandError as e:
+        print(f"side_by_side.py: {e}", file=sys.stderr)
+        return 1
+
+
+def _measure(args, cmd) -> int:
+    """The alternating rounds and their report (stdout)."""
     cmd = [sys.executable if c == "python" else c for c in cmd]
     trees = {"old": args.old, "new": args.new}
     for tree in trees.values():              # warm-up: builds, caches

@@ -39,11 +39,11 @@ def run(heights):
     return rows
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--heights", default="64,128,256", help="lat-long heights")
     ap.add_argument("--json", action="store_true")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     rows = run(parse_ints(ap, args.heights, "--heights", least=2))
     if args.json:
         emit({"benchmark": "sun_horizon", **environment(), "rows": rows}, True)

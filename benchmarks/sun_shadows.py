@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from _common import emit, environment, parse_grid
+from _common import check_counts, emit, environment, parse_grid
 
 
 def main(argv=None) -> int:
@@ -30,6 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128, help="CSM texels per side")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "width", "height", "resolution")
     t, p = parse_grid(ap, args.maps)
     scene, cam = pyshadow.data.default_scene(width=args.width, height=args.height,
                                              views=pyshadow.ViewSet.zigzag(t, p), resolution=args.resolution)

@@ -26,7 +26,7 @@ from contextlib import contextmanager
 import numpy as np
 import trimesh
 
-from _common import emit, environment, parse_grid
+from _common import check_counts, check_meshes, emit, environment, parse_grid
 
 
 def _unit_on_ground(name, views, resolution):
@@ -98,6 +98,8 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_meshes(ap, "--meshes", args.meshes.split(","), files=False)
+    check_counts(ap, args, "resolution", most=4096)
     t, p = parse_grid(ap, args.maps)
     views = pyshadow.ViewSet.zigzag(t, p)
     rows = []

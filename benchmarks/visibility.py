@@ -37,7 +37,7 @@ import trimesh
 import pyshadow
 from pyshadow import _cl, embree
 from pyshadow._cl import launch
-from _common import MESH_HELP, check_counts, emit, environment, load_mesh, median_time
+from _common import MESH_HELP, check_counts, check_meshes, emit, environment, load_mesh, median_time
 
 
 def workload(scene, n_points, samples, seed=0):
@@ -63,7 +63,9 @@ def main(argv=None):
     ap.add_argument("--profile", action="store_true", help="ablation timings of the kernel")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    check_counts(ap, args, "points", "samples", "repeats")
+    check_counts(ap, args, "points", "samples", "repeats", "theta", "phi", "threads")
+    check_meshes(ap, "--mesh", [args.mesh])
+    check_counts(ap, args, "resolution", most=4096)
 
     mesh = load_mesh(args.mesh)
     t0 = time.perf_counter()

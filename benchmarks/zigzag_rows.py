@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from _common import emit, environment, parse_grid
+from _common import check_counts, emit, environment, parse_grid
 
 OFFSETS = (0.0, 0.5)
 
@@ -79,6 +79,7 @@ def main(argv=None) -> int:
     ap.add_argument("--resolution", type=int, default=128)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    check_counts(ap, args, "resolution", most=4096)
     T, P = parse_grid(ap, args.maps)
     angles = nearest_angles(T, P)
     rows = [mesh_row(name, T, P, args.resolution) for name in pyshadow.data.MESHES]

@@ -107,3 +107,13 @@ def test_cache_dir_with_no_cache_is_refused(no_run, capsys, tmp_path):
         cli.main(["--no-cache", "--cache-dir", str(tmp_path / "c"), "--quiet", "--out", str(tmp_path / "out")])
     assert e.value.code == 2
     assert "--cache-dir: --no-cache neither reads nor writes a cache" in capsys.readouterr().err
+
+
+def test_a_cache_dir_that_is_a_file_is_refused(no_run, capsys, tmp_path):
+    """Was: --cache-dir FILE warned "cannot be created or used ...; not caching" and ran the whole benchmark
+    without the cache it was asked to use."""
+    (tmp_path / "c").write_text("")
+    with pytest.raises(SystemExit) as e:
+        cli.main(["--cache-dir", str(tmp_path / "c"), "--quiet", "--out", str(tmp_path / "out")])
+    assert e.value.code == 2
+    assert f"--cache-dir {tmp_path / 'c'}: exists and is not a directory" in capsys.readouterr().err

@@ -49,3 +49,15 @@ def test_patches_of_the_three_scenes():
     assert [len(footprints(sc[k][0])) for k in ("apart", "floor", "pile")] == [4, 0, 4]     # no ground: none
     normals = np.array([p[0] for p in body_patches(sc["floor"][0])])
     assert np.array_equal(normals, np.tile([0.0, 1.0, 0.0], (4, 1)))     # into the box above the floor
+
+
+def test_one_box_apart_runs_and_prints_its_table(capsys):
+    """Was: ``contact_cost.py --apart 1`` ended in IndexError (no instance 1: the body slid was instance 1,
+    and a scene of one box has only instance 0), and without --json nothing at all was printed."""
+    import contact_cost
+
+    assert contact_cost.main(["--apart", "1", "--floor", "1", "--pile", "1", "--tiles", "1", "--points", "8",
+                              "--rounds", "1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].split()[:3] == ["scene", "bodies", "patches"]
+    assert [line.split()[:2] for line in out[2:]] == [["apart", "1"], ["floor", "2"], ["pile", "4"], ["tiles", "1"]]

@@ -325,6 +325,9 @@ def _run(argv) -> int:
                          () if args.sweep else (args.samples,))
         except UsageError as e:
             ap.error(str(e))
+    if args.cache_dir and Path(args.cache_dir).expanduser().exists() \
+            and not Path(args.cache_dir).expanduser().is_dir():     # was: a warning, then a run with no cache
+        ap.error(f"--cache-dir {args.cache_dir}: exists and is not a directory")
     _check_out(ap, out, _outputs(args, answer_mode))      # after every argument check: no folder made for none
 
     if args.no_cache:

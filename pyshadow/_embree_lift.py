@@ -13,7 +13,7 @@ import numpy as np
 from ._validate import float32_exact
 
 __all__ = ["ray_epsilon", "surface_epsilon", "end_epsilon", "body_size", "sphere_size", "off_own_surface",
-           "off_crossed_planes", "point_surfaces"]
+           "off_crossed_planes", "point_surfaces", "occluded_again"]
 
 
 #: :func:`sphere_size`'s bound: a point's body size is at most this many times the radius of (and the
@@ -260,7 +260,7 @@ def _holding_normals(rays, prim, points, tol) -> np.ndarray:
     return np.where(held[:, None], n, 0.0)
 
 
-def off_crossed_planes(rays, origins, w, surface=None) -> np.ndarray:
+def off_crossed_planes(rays, origins, w, surface=None, moved=None) -> np.ndarray:
     """(N,) first-hit distances (inf: a miss) of AO rays from the lifted ``origins`` (N, 3) along ``w``
     (N, 3), both relative to the anchor of ``rays`` (:class:`pyshadow.embree.EmbreeScene`), with each ray
     whose first hit is a triangle whose plane holds its origin traced again from the origin moved off that
@@ -276,12 +276,21 @@ def off_crossed_planes(rays, origins, w, surface=None) -> np.ndarray:
     a room of walls without thickness), else to the side the ray leaves (beside a solid, whose inside
     hides the rays into it). Origins are taken as the float32 numbers Embree traces.
 
+    First, with ``surface``, the origins of a point whose lift crossed a face of a body touching it (a box's
+    corner resting on another's face, lifted along its vertex normal into the other) are moved out of that
+    body, in front of that face (:func:`_off_touching`); ``moved``, a list, then gets the array of those
+    points.
+
     ``surface``: None, or the points' :func:`point_surfaces` followed by each ray's point (N,) int.
     """
     u = rays.unit
     t, prim, _ = rays.intersect(origins, w)
     o = np.asarray(origins, dtype=np.float32).astype(np.float64) * u       # Embree's units (exact)
     w = np.asarray(w, dtype=np.float64)
+    if surface is not None:         # origins lifted into a body touching their point: out of it first
+        o, t, prim, pts = _off_touching(rays, origins, o, w, t, prim, surface)
+        if moved is not None:
+            moved.append(pts)
     rows = np.flatnonzero(prim >= 0)
     prim = prim[rows]
     for _ in range(3):
@@ -302,6 +311,84 @@ def off_crossed_planes(rays, origins, w, surface=None) -> np.ndarray:
         t[rows], prim, _ = rays.intersect(o[rows] / u, w[rows])
         rows, prim = rows[prim >= 0], prim[prim >= 0]
     return t
+
+
+def _off_touching(rays, origins, o, w, t, prim, surface):
+    """``o``, ``t``, ``prim`` of :func:`off_crossed_planes`' rays with the origins of each point whose lift
+    crossed a face of a body touching it (a ray's first hit the back of a face whose plane lies between the
+    point and its origin: :func:`_lifted_through`) moved in front of that plane by
+    :func:`ray_epsilon` of the coordinates, and those rays traced again; up to three planes, none facing
+    one already crossed (the face the body beyond touches back with); and the points moved."""
+    u = rays.unit
+    point = surface[3]
+    done, used = np.zeros(0, np.int64), np.zeros((0, 3, 3))     # the points moved, the normals they crossed
+    rows = np.flatnonzero(prim >= 0)
+    for j in range(3):
+        tri = rays.triangles[prim[rows]].astype(np.float64)
+        n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        area = np.linalg.norm(n, axis=1)
+        n /= np.where(area > 0.0, area, 1.0)[:, None]
+        gap = np.einsum("ij,ij->i", o[rows] - tri[:, 0], n)
+        bad = (area > 0.0) & _lifted_through(rays, origins, rows, tri, n, gap, w, surface)
+        if j and bad.any():             # not back through a plane crossed before
+            at = np.minimum(np.searchsorted(done, point[rows]), len(done) - 1)
+            bad &= ~((done[at] == point[rows]) & (np.einsum("ij,ikj->ik", n, used[at]) < -0.999).any(axis=1))
+        if not bad.any():
+            break
+        k = np.flatnonzero(bad)
+        pts, first = np.unique(point[rows[k]], return_index=True)     # one plane a point: its first ray's
+        k = k[first]
+        size = np.maximum(np.abs(o[rows[k]]).max(axis=1), np.abs(tri[k]).max(axis=(1, 2)))
+        shift = (ray_epsilon(size) - gap[k])[:, None] * n[k]
+        new = np.union1d(done, pts)
+        grown = np.zeros((len(new), 3, 3))
+        grown[np.searchsorted(new, done)] = used
+        grown[np.searchsorted(new, pts), j] = n[k]
+        done, used = new, grown
+        moved = np.flatnonzero(np.isin(point, pts))
+        o[moved] += shift[np.searchsorted(pts, point[moved])]
+        t[moved], prim[moved], _ = rays.intersect(o[moved] / u, w[moved])
+        rows = moved[prim[moved] >= 0]          # the others' first hits are as they were
+    return o, t, prim, done
+
+
+def occluded_again(rays, origins, w, occ, surface) -> np.ndarray:
+    """``occ`` (N,) of AO rays from the lifted ``origins`` (N, 3) along ``w`` (N, 3) (Embree's occlusion,
+    relative to the anchor of ``rays``), with the hidden rays traced again by :func:`off_crossed_planes`
+    (``surface`` as there), and every ray of a point whose origins it moved out of a body touching the
+    point traced again from there too: the open ones as well (from below a sheet a box stands on, the rays
+    down met nothing; from above, the sheet).
+    """
+    occ = occ.copy()
+    rows, moved = np.flatnonzero(occ), []
+    occ[rows] = np.isfinite(off_crossed_planes(rays, origins[rows], w[rows], (*surface[:3], surface[3][rows]),
+                                               moved))
+    pts = moved[0] if moved else np.zeros(0, np.int64)
+    if len(pts):
+        rows = np.flatnonzero(np.isin(surface[3], pts))
+        occ[rows] = np.isfinite(off_crossed_planes(rays, origins[rows], w[rows], (*surface[:3], surface[3][rows])))
+    return occ
+
+
+def _lifted_through(rays, origins, rows, tri, n, gap, w, surface) -> np.ndarray:
+    """(len(rows),) whether each ray ``rows`` of :func:`off_crossed_planes` met the back of a triangle ``tri``
+    (Embree's units, unit normal ``n``) whose plane its point's lift crossed: the point (its origin moved
+    back along its normal) lies on or in front of the plane, and the origin behind it (``gap``: its signed
+    distance), both beyond 8 float32 spacings of the coordinates (the tolerance of a plane holding the
+    origin). Such an origin was lifted into the body behind that face, one touching the point's surface
+    there (a box's corner resting on another's face, whose vertex normal points down into it): from inside,
+    every ray met that body (AO 0 where the open directions gave 0.19-0.22). A plane the lift runs along
+    (the side of a box over a point of the face it rests on, nearer than the lift) is not crossed. False for
+    all without ``surface``."""
+    if surface is None or not len(rows):
+        return np.zeros(len(rows), bool)
+    u = rays.unit
+    k = surface[3][rows]
+    lift = surface[1][k] * u
+    p = np.asarray(origins, dtype=np.float64)[rows] * u - lift[:, None] * surface[0][k]
+    tol = 0.125 * ray_epsilon(np.maximum(np.abs(p).max(axis=1), np.abs(tri).max(axis=(1, 2))))
+    at = np.einsum("ij,ij->i", p - tri[:, 0], n)
+    return (at >= -tol) & (gap < -tol) & (at - gap >= tol) & (np.einsum("ij,ij->i", w[rows], n) > 0.0)
 
 
 def point_surfaces(scene, points, normals, lifts):

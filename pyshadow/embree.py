@@ -14,7 +14,8 @@ import trimesh
 
 from ._compat import keyword_only
 from ._embree_checks import check_frame, check_item, check_threads, float32_rays, prepare_inputs, scene_state
-from ._embree_lift import ray_epsilon, surface_epsilon, end_epsilon, off_crossed_planes, off_own_surface, point_surfaces
+from ._embree_lift import (ray_epsilon, surface_epsilon, end_epsilon, off_crossed_planes, off_own_surface,
+                           occluded_again, point_surfaces)
 from ._validate import check_both, check_indices, check_values, flag, kernel_rows, unit_normals
 from .contact import ground_tolerance
 from .mesh import bounding_sphere, check_mesh, float32_unit, load_mesh
@@ -330,8 +331,9 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
     The directions are :func:`pyshadow.sample_directions`' for ``sampling``
     (default ``Sampling()``) and ``indices`` (the ones the kernel traces);
     ray origins are lifted off the surface along the normal by
-    :func:`surface_epsilon`, and off a plane holding the lifted origin (a wall
-    at the point's foot) where it hides the ray
+    :func:`surface_epsilon`, off a plane holding the lifted origin (a wall
+    at the point's foot) where it hides the ray, and out of a body the lift
+    entered (a box's corner resting on another's face)
     (:func:`pyshadow._embree_lift.off_crossed_planes`). Returns ``(N,)`` float32 AO (and ``(N, 3)``
     float32 bent normals with ``return_bent_normals=True``). The old
     positional ``samples, strategy, seed, patterns, bent_normals`` still work,
@@ -395,8 +397,8 @@ def _occluded_samples(scene, rays, anchor, p, n, dirs):
     for s in range(0, len(todo), chunk):
         sel = todo[s:s + chunk]
         occ[sel] = rays.occluded(origins[sel], flat[sel])
-        sel = sel[occ[sel]]         # hidden by a plane holding the origin (at a wall's foot): again, off it
-        occ[sel] = np.isfinite(off_crossed_planes(rays, origins[sel], flat[sel], (*surf, sel // S)))
+        # hidden by a plane holding the origin (at a wall's foot), or lifted into a touching body: again
+        occ[sel] = occluded_again(rays, origins[sel], flat[sel], occ[sel], (*surf, sel // S))
     return occ.reshape(N, S)
 
 
@@ -440,8 +442,8 @@ class EmbreeTracer:
     AO of ``~occluded`` averaged over each point's samples therefore equals
     :func:`ambient_occlusion`'s exactly, for any number of threads, but for a
     ray hidden by a plane holding its lifted origin (a point at the foot of a
-    wall), which :func:`ambient_occlusion` traces again off that plane
-    (:func:`pyshadow._embree_lift.off_crossed_planes`) and the tracer, timed as
+    wall) or a point lifted into a body touching it, which :func:`ambient_occlusion`
+    traces again (:func:`pyshadow._embree_lift.off_crossed_planes`) and the tracer, timed as
     Embree is, does not (the second trace doubled its time at 11 % of rays hidden).
 
     embreex releases the GIL while it traces, so :meth:`occluded` keeps

@@ -287,9 +287,7 @@ def _patches(scene, held):
         held["bodies"] = out
         return out
     tol, T = _face_tolerances(held)[ids], held["transform"][ids]
-    last = _SEARCHED.get(scene)
-    if last is not None and (last["mesh_id"] is not held["mesh_id"] or not np.array_equal(last["ids"], ids)):
-        last = None                                     # other instances or meshes: everything searched anew
+    last = _grown(_SEARCHED.get(scene), held, ids)      # None: other instances or meshes, everything searched anew
     # moved: any bit of the pose (-0.0 is not 0.0: the patches' bits follow the pose's)
     moved = np.ones(len(ids), bool) if last is None else \
         (T.view(np.uint64) != last["T"].view(np.uint64)).any(axis=(1, 2))
@@ -327,7 +325,8 @@ def _patches(scene, held):
     for i in b[np.sort(np.unique(b, return_index=True)[1])]:      # in the order the bodies were first met
         out.extend(found[int(i)])
     _SEARCHED[scene] = {"mesh_id": held["mesh_id"], "ids": ids, "T": T, "box": box, "oriented": oriented,
-                        "posed": was_posed, "searched": searched, "pairs": (b, a), "found": found}
+                        "posed": was_posed, "searched": searched, "pairs": (b, a), "found": found,
+                        "receivers": _receiver_hashes(held)}
     held["bodies"] = out
     return out
 
@@ -335,6 +334,42 @@ def _patches(scene, held):
 #: scene -> its last :func:`body_patches` search: the poses (``T``) and world boxes it read, the touching pairs
 #: ``(B, A)`` it tested (positions into ``ids``) and the patches it found for each body B (``found``)
 _SEARCHED = weakref.WeakKeyDictionary()
+
+
+def _grown(last, held, ids):
+    """The last search ``last`` (:data:`_SEARCHED`) where it holds for the bodies ``ids`` of the scene's arrays
+    ``held``: as it is after moves only; after ``Scene.add`` (the instances only grow, the earlier ones keep their
+    meshes; no receiver's mesh changed in place since) with the new bodies as moved ones, so that they and their
+    neighbours are searched, not every body (a simulation spawning bodies searched every body at each add); else
+    None."""
+    if last is None or (last["mesh_id"] is held["mesh_id"] and np.array_equal(last["ids"], ids)):
+        return last
+    k, m = len(last["ids"]), len(last["mesh_id"])
+    if not (m <= len(held["mesh_id"]) and k <= len(ids) and np.array_equal(ids[:k], last["ids"])
+            and (k == len(ids) or ids[k] >= m) and np.array_equal(held["mesh_id"][:m], last["mesh_id"])
+            and _receivers_kept(last["receivers"], held)):
+        return None
+    new = len(ids) - k
+
+    def grow(a, fill):
+        return np.concatenate([a, np.full((new,) + a.shape[1:], fill, a.dtype)])
+
+    return dict(last, mesh_id=held["mesh_id"], ids=ids, T=grow(last["T"], np.nan), box=grow(last["box"], 0.0),
+                oriented=grow(last["oriented"], False), posed=grow(last["posed"], False),
+                searched=grow(last["searched"], False))
+
+
+def _receiver_hashes(held):
+    """``{id(mesh): trimesh's hash}`` of the receivers' meshes as the scene's arrays ``held`` were made with."""
+    return {id(mesh): h for mesh, h in held["receivers"]}
+
+
+def _receivers_kept(hashes, held):
+    """Whether every receiver's mesh of ``hashes`` (:func:`_receiver_hashes`) has the same hash in ``held``."""
+    now = _receiver_hashes(held)
+    return all(now.get(i) == h for i, h in hashes.items())
+
+
 _Posed = namedtuple("_Posed", "mesh transform")
 
 

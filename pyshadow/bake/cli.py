@@ -288,6 +288,10 @@ def _frames(args) -> int:
           f"{s['skipped']} skipped (done), {s['failed']} failed, {s['interrupted']} interrupted; {fpm} "
           f"({m['seconds']:.1f} s, {m['prepare_seconds']:.1f} s of it the CSMs) on {ex['kind']} "
           f"({ex['workers'] or 0} workers)")
+    bad = [e for e in m["frames"] if e.get("status") == "failed" and e.get("error")]
+    if bad:                             # else the reason was only in the manifest (with --quiet, nowhere on screen)
+        print(f"frame {bad[0]['frame']} failed: {bad[0]['error']} ({len(bad)} with an error; each one's in "
+              f"{Path(args.out) / 'manifest.json'})")
     return 1 if s["failed"] or s["interrupted"] else 0
 
 

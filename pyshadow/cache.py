@@ -112,15 +112,19 @@ def _code_digest() -> str:
 
 def _sidecar_seconds(side: Path, key: str):
     """The build seconds a CSM's sidecar records for ``key``: a finite number >= 0, else None (no file,
-    not JSON, not an object, another key, a missing or non-numeric value)."""
+    not JSON, not an object, another key, a missing or non-numeric value, an integer beyond float64)."""
     try:
         meta = json.loads(side.read_text())
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):       # RecursionError: arrays nested thousands deep
         return None
     s = meta.get("build_seconds") if isinstance(meta, dict) and meta.get("key") == key else None
-    if isinstance(s, (int, float)) and not isinstance(s, bool) and math.isfinite(s) and s >= 0:
-        return float(s)
-    return None
+    if not isinstance(s, (int, float)) or isinstance(s, bool):
+        return None
+    try:
+        s = float(s)
+    except OverflowError:                               # an integer beyond float64 (10**400)
+        return None
+    return s if math.isfinite(s) and s >= 0 else None
 
 
 def _array_name(key) -> str:
@@ -159,10 +163,11 @@ class CSMCache:
     Every file is written atomically (temporary file, flush, rename). A file
     that fails to load (checksum, truncation, format) or holds a CSM that
     does not match its key (mesh, views, resolution, depth bits, layer
-    rule, the build's defaults) is removed and rebuilt; a cache directory that
-    cannot be created, searched (a 0700 folder of another user in a shared
-    cache) or written only disables caching (one warning through ``log``),
-    it never fails a call.
+    rule, the build's defaults; a centre, radius or box that is not its
+    mesh's, which the mesh hash does not cover) is removed and rebuilt; a
+    cache directory that cannot be created, searched (a 0700 folder of
+    another user in a shared cache) or written only disables caching (one
+    warning through ``log``), it never fails a call.
 
     Parameters
     ----------
@@ -273,8 +278,10 @@ class CSMCache:
         """
         from . import CoherentShadowMap
         from .csm.build import layer_rule
+        from .csm.core import FRONT_MARGIN_TEXELS
         from .csm.fileformat import check_layout_bases, file_params
         from .mesh import mesh_hash as _mesh_hash
+        from .scene import _check_csm_frame
 
         mh = _mesh_hash(mesh)
         key = self.csm_key(mh, views, resolution, depth_bits, layers)
@@ -301,6 +308,12 @@ class CSMCache:
                     bad.append("layer_rule")
                 if csm.footprint or csm.two_sided != "auto":        # what build's defaults give
                     bad.append("footprint or two_sided")
+                if csm.front_margin_texels != FRONT_MARGIN_TEXELS:
+                    bad.append("front_margin_texels")
+                try:        # the mesh hash does not cover the frame: the sphere holds the mesh, the box is its box
+                    _check_csm_frame(csm, mesh, mh)
+                except ValueError:
+                    bad.append("centre, radius or box")
                 if bad:
                     raise ValueError(f"holds different {', '.join(bad)}")
             except (ValueError, OSError) as e:       # CSMFormatError is a ValueError

@@ -303,8 +303,9 @@ def _header_values(path, head) -> dict:
                              f"{_offsets_dtype(S).newbyteorder('<').str!r})")
     if len(centre) != 3 or not all(_number(x) for x in centre):
         raise CSMFormatError(f"{path}: centre must be 3 finite numbers within float32's range")
-    if not (_number(radius) and radius > 0):
-        raise CSMFormatError(f"{path}: radius must be positive and finite within float32's range, got {radius}")
+    if not (_number(radius) and radius > 0 and 1.0 / radius <= FLOAT32_MAX):    # the kernels take 1 / radius
+        raise CSMFormatError(f"{path}: radius must be positive and finite, it and its reciprocal within float32's "
+                             f"range (at least {1.0 / FLOAT32_MAX:.3g}), got {radius}")
     seconds = head.get("build_seconds")
     if not (seconds is None or _number(seconds, 0.0)):
         raise CSMFormatError(f"{path}: build_seconds must be a number >= 0 or null, got {seconds!r}")

@@ -13,7 +13,8 @@ no pixel; the near plane is 1e-6 of the farthest geometry in view, and a
 vertex in view nearer than that, or a face whose part nearer than that lies in view (a wall filling the
 view from closer), is refused rather than cut away. The items' triangles and their faces'
 planes come from :mod:`pyshadow.gbuffer_items` (re-exported here), which takes the items sharing a mesh
-object together.
+object together; :func:`render_gbuffer` holds them with their items' vertices (:mod:`pyshadow.gbuffer_frame`:
+each per-triangle test made first per item, the triangles that hold no pixel centre not rasterised).
 """
 from __future__ import annotations
 
@@ -25,8 +26,9 @@ from ._cl.launch import fill
 from ._validate import check_transform
 from .camera import Camera, points_on_rays
 from . import gbuffer_items as _items
+from .gbuffer_frame import frame_triangles
 from .gbuffer_items import clip_polygon, face_corners, gbuffer_triangles, on_face_planes, through_eye
-from .mesh import float32_unit
+from .mesh import UNIT_BAND, float32_unit
 
 __all__ = ["render_gbuffer", "render_gbuffer_reference", "gbuffer_triangles", "raster_triangles", "on_face_planes",
            "check_transform", "face_corners", "clip_polygon", "through_eye"]
@@ -79,16 +81,6 @@ def raster_triangles(tris: np.ndarray, camera: Camera):
     return raster, np.concatenate([np.arange(len(tris)), extra_src])
 
 
-def _source_planes(tris, src, unit):
-    """(M, 9) float32: the corners of each raster triangle's source (``src`` from :func:`raster_triangles`:
-    the first ``len(tris)`` are each its own) scaled by ``unit``, read by the kernels for its plane."""
-    out = np.empty((len(src), 9), np.float32)
-    n = len(tris)
-    out[:n] = (tris if unit == 1.0 else tris * unit).reshape(n, 9)
-    out[n:] = (tris[src[n:]] * unit).reshape(-1, 9)
-    return out
-
-
 def _finish(camera, t, n_cam, obj, face):
     """Assemble the output dict from per-pixel distance, camera normal and ids."""
     H, W = camera.height, camera.width
@@ -124,6 +116,17 @@ def _screen(tri, W: int, H: int, fx: float, fy: float):
     return tri[..., 0] / tri[..., 2] * fx + (0.5 * W - 0.5), (0.5 * H - 0.5) - tri[..., 1] / tri[..., 2] * fy
 
 
+def _span(lo, hi, n: int):
+    """The rows (or columns) ``first, last`` (int64) of the screen boxes from ``lo`` to ``hi`` (float64) grown by two
+    pixels and clipped to ``0 .. n - 1``, the whole image where a bound lies beyond 2^20 (or is NaN), and whether each
+    reaches the image. Monotone: a box within another gets rows within its rows."""
+    rough = ~((lo >= -2.0 ** 20) & (hi <= 2.0 ** 20))
+    on = rough | ((hi >= -2) & (lo <= n + 1))
+    lo = np.where(rough, 0, np.clip(np.floor(lo) - 2, 0, n - 1))
+    hi = np.where(rough, n - 1, np.clip(np.ceil(hi) + 2, 0, n - 1))
+    return lo.astype(np.int64), hi.astype(np.int64), on
+
+
 def _wide_rows(tris, W: int, H: int, fx: float, fy: float):
     """Which of ``tris`` (camera space, (T, 3, 3)) are wide, as uint8 (T,), and their rows as int32 (n, 2)
     pairs (triangle, row): each wide triangle's screen box in float64, grown by two pixels (the kernel
@@ -134,12 +137,7 @@ def _wide_rows(tris, W: int, H: int, fx: float, fy: float):
 
     def span(s, n):                     # by corners: NumPy's reductions over an axis of 3 are slow
         a, b, c = s[:, 0], s[:, 1], s[:, 2]
-        lo, hi = np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c)
-        rough = ~((lo >= -2.0 ** 20) & (hi <= 2.0 ** 20))
-        on = rough | ((hi >= -2) & (lo <= n + 1))
-        lo = np.where(rough, 0, np.clip(np.floor(lo) - 2, 0, n - 1))
-        hi = np.where(rough, n - 1, np.clip(np.ceil(hi) + 2, 0, n - 1))
-        return lo.astype(np.int64), hi.astype(np.int64), on
+        return _span(np.minimum(np.minimum(a, b), c), np.maximum(np.maximum(a, b), c), n)
 
     c0, c1, on_x = span(sx, W)
     r0, r1, on_y = span(sy, H)
@@ -191,73 +189,178 @@ def render_gbuffer(items, camera: Camera) -> dict:
     Distances come from intersecting each pixel's exact ray with the plane of
     the visible triangle, so positions match a ray tracer's primary hits.
     """
-    tris, obj, face, _near = gbuffer_triangles(items, camera)
-    raster, src = raster_triangles(tris, camera)
-    size = sum(np.abs(tris[:, k, j] - tris[:, 0, j]) for k in (1, 2) for j in range(3))   # by columns: faster
-    first = np.abs(tris[:, 0, 0]) + np.abs(tris[:, 0, 1]) + np.abs(tris[:, 0, 2])         # |first corner|_1
+    ft = frame_triangles(items, camera)
     H, W = camera.height, camera.width
     npix = H * W
-    unit = 1.0
-    t = np.full(npix, np.inf, np.float32)
-    n_cam = np.zeros((npix, 3), np.float32)
     ids = np.full(npix, np.iinfo(np.int32).max, np.int32)
-    far = np.zeros(npix, np.uint8)
-    if len(raster):
-        if len(raster) >= 2**31 - 1:
-            raise ValueError("too many triangles for one G-buffer")
-        q = _cl.queue()
-        # the kernels multiply up to three coordinates: a scene of any size is rasterised scaled by a
-        # power of two (float32_unit; 1 near unit size), which moves no pixel; distances scale back below
-        unit = float32_unit(max(abs(float(tris.max())), abs(float(tris.min()))))
-        tb = _cl.to_device((raster if unit == 1.0 else raster * unit).reshape(-1, 9), np.float32)
-        # each piece's plane: its source triangle's corners (the raster's own where nothing is clipped)
-        pb = tb if src is None else _cl.to_device(_source_planes(tris, src, unit), np.float32)
+    t, n_cam, far = np.full(npix, np.inf, np.float32), np.zeros((npix, 3), np.float32), np.zeros(npix, np.uint8)
+    unit, small, source = 1.0, np.zeros(0, np.int64), None
+    if ft.n:
+        unit, small, source = _rasterise(ft, camera, ids, t, n_cam, far)
+    hit = ids != np.iinfo(np.int32).max
+    tri_idx = np.where(hit, ids, 0)
+    if source is not None:                  # the raster triangles' own: their source triangles
+        tri_idx = source(tri_idx)
+    o, f = ft.ids(tri_idx) if ft.n else (np.zeros(npix, np.int32), np.zeros(npix, np.int64))
+    t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
+    n64 = n_cam.astype(np.float64).reshape(H, W, 3)
+    if ft.n:
+        _far_corner_distances(ft, small, tri_idx, hit, far.view(bool), t64, camera, n64)
+    return _finish(camera, t64, n64, o, f)
+
+
+def _rasterise(ft, camera: Camera, ids, t, n_cam, far):
+    """Rasterise the triangles of ``ft`` (:func:`frame_triangles`) into the per-pixel raster triangle ``ids``,
+    distances ``t``, camera-space normals ``n_cam`` and far-corner flags ``far`` (the kernels' buffers, filled
+    here); returns the scale ``unit``, the small triangles (:data:`FAR_NORMAL_RATIO`) and the map from raster
+    triangles to ``ft``'s (None where they are the same). The raster triangles: those that may hold a pixel
+    centre (:meth:`FrameTriangles.raster_rows`), in order, each reaching beyond the guard band replaced by its
+    first piece, the further pieces after them (:func:`raster_triangles`)."""
+    H, W = camera.height, camera.width
+    npix = H * W
+    idx, first, extra, extra_src = _frame_guard(ft, camera)
+    # the kernels multiply up to three coordinates: a scene of any size is rasterised scaled by a
+    # power of two (float32_unit; 1 near unit size), which moves no pixel; distances scale back below
+    unit = _frame_unit(ft)
+    fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
+    fy = np.float32(H / (2.0 * camera.tan_half))
+    gx, gy = GUARD_BAND * camera.tan_half * camera.aspect, GUARD_BAND * camera.tan_half
+    src, rows32 = ft.raster_rows(unit, len(extra), (W, H, float(fx), float(fy), gx, gy), _span)
+    n_kept = ft.n if src is None else len(src)
+    n_raster = n_kept + len(extra)
+    if n_raster >= 2**31 - 1:
+        raise ValueError("too many triangles for one G-buffer")
+    at = None if idx is None else (idx if src is None else np.searchsorted(src, idx))     # their raster rows
+    sources = []                # rows the raster pass reads as pieces, the resolve pass as their sources
+    if idx is not None:
+        sources = [(at, rows32[at].copy()),
+                   (np.arange(n_kept, n_raster), rows32[extra_src if src is None else np.searchsorted(src, extra_src)])]
+        rows32[at] = _f32(first, unit).reshape(-1, 9)
+        rows32[n_kept:] = _f32(extra, unit).reshape(-1, 9)
+    q = _cl.queue()
+    tb = _cl.host_buffer(rows32)            # no copy on CPU devices: the array lives to the end
+    try:
         one_pass = _one_pass()
         defines = {"GBUFFER_ATOMIC64": int(one_pass)}
         zbuf = _cl.empty((8 if one_pass else 4) * npix)
         idbuf = _cl.empty(4 * npix)
         fill(q, zbuf, np.uint32(0xFFFFFFFF), (8 if one_pass else 4) * npix)
-        if not one_pass:
-            fill(q, idbuf, np.int32(np.iinfo(np.int32).max), 4 * npix)
-        fx = np.float32(W / (2.0 * camera.tan_half * camera.aspect))
-        fy = np.float32(H / (2.0 * camera.tan_half))
-        wide, rows = _wide_rows(raster, W, H, float(fx), float(fy))
-        wb = _cl.to_device(wide)
+        fill(q, idbuf, np.int32(np.iinfo(np.int32).max), 4 * npix)
+        wide, rows = _frame_wide_rows(ft, src, n_kept, idx, at, first, extra, W, H, float(fx), float(fy))
+        wb = _cl.host_buffer(wide)
         k = _cl.kernel("gbuffer.cl", "gbuffer_raster", defines)
         kr = _cl.kernel("gbuffer.cl", "gbuffer_raster_rows", defines) if len(rows) else None
-        rb = _cl.to_device(rows) if len(rows) else None
-        for p in (0,) if one_pass else (0, 1):
-            k(q, (len(raster),), None, tb, np.int32(len(raster)), wb, np.int32(W), np.int32(H),
+        rb = _cl.host_buffer(rows) if len(rows) else None
+        for p in ((0,) if one_pass else (0, 1)) if n_raster else ():
+            k(q, (n_raster,), None, tb, np.int32(n_raster), wb, np.int32(W), np.int32(H),
               fx, fy, np.int32(p), zbuf, idbuf)
             if kr is not None:
                 kr(q, (len(rows),), None, tb, rb, np.int32(len(rows)), np.int32(W), np.int32(H),
                    fx, fy, np.int32(p), zbuf, idbuf)
-        if one_pass:
+        if one_pass and n_raster:
             _cl.kernel("gbuffer.cl", "gbuffer_ids", defines)(q, (npix,), None, zbuf, np.int32(npix), idbuf)
-        t_buf = _cl.empty(4 * npix)
-        n_buf = _cl.empty(12 * npix)
-        far_buf = _cl.empty(npix)
-        planes = _float64_planes(tris, size, first, src, unit)
+        t_buf, n_buf, far_buf = _cl.empty(4 * npix), _cl.empty(12 * npix), _cl.empty(npix)
+        cand = ft.large_candidates(PLANE_SIZE)        # while the kernels run
+        tri = ft.corners(cand)
+        size, first_abs = _size_first(tri)
+        big = size > PLANE_SIZE * first_abs
+        planes = _float64_planes(ft.n, cand[big], tri[big], unit)
+        if planes is not None:
+            planes = np.concatenate([planes if src is None else planes[src]] + [planes[extra_src]] * (idx is not None))
+        cand = ft.small_candidates(FAR_NORMAL_RATIO)
+        size, first_abs = _size_first(ft.corners(cand))
+        small = cand[first_abs > FAR_NORMAL_RATIO * size]
+        for rows_at, values in sources:               # each piece's plane: its source triangle's corners
+            _write_rows(q, tb, rows_at, values)
         _cl.kernel("gbuffer.cl", "gbuffer_resolve", defines)(
-            q, (npix,), None, pb, _cl.to_device(np.zeros(4, np.float32) if planes is None else planes),
+            q, (npix,), None, tb, _cl.to_device(np.zeros(4, np.float32)) if planes is None else _cl.host_buffer(planes),
             np.int32(planes is not None), np.int32(W), np.int32(H),
             np.float32(camera.tan_half * camera.aspect), np.float32(camera.tan_half), np.float32(FAR_CORNER_RATIO),
             idbuf, t_buf, n_buf, far_buf)
-        cl.enqueue_copy(q, ids, idbuf)
-        cl.enqueue_copy(q, t, t_buf)
-        cl.enqueue_copy(q, n_cam, n_buf)
-        cl.enqueue_copy(q, far, far_buf)
-    hit = ids != np.iinfo(np.int32).max
-    tri_idx = np.where(hit, ids, 0)
-    if src is not None:
-        tri_idx = np.take(src, tri_idx)
-    o = np.take(obj, tri_idx) if len(obj) else np.zeros(npix, np.int32)      # np.take: indexing is slower
-    f = np.take(face, tri_idx) if len(face) else np.zeros(npix, np.int64)
-    t64 = np.where(hit, t.astype(np.float64) / unit, np.inf).reshape(H, W)
-    n64 = n_cam.astype(np.float64).reshape(H, W, 3)
-    if len(tris):
-        _far_corner_distances(tris, first > FAR_NORMAL_RATIO * size, tri_idx, hit, far.view(bool), t64, camera, n64)
-    return _finish(camera, t64, n64, o, f)
+        for host, buf in ((ids, idbuf), (t, t_buf), (n_cam, n_buf), (far, far_buf)):
+            cl.enqueue_copy(q, host, buf)       # (blocking: every kernel has finished with the host buffers)
+    finally:                                # (an error above: no kernel may outlive the host arrays it reads)
+        q.finish()
+    if src is None and idx is None:
+        return unit, small, None
+
+    def source(r):                          # (0 for a pixel no triangle covers)
+        r = r.astype(np.int64)
+        out, piece = np.zeros_like(r), r >= n_kept
+        out[~piece] = r[~piece] if src is None else src[r[~piece]]
+        if idx is not None:
+            out[piece] = extra_src[r[piece] - n_kept]
+        return out
+    return unit, small, source
+
+
+def _write_rows(q, buf, at, values) -> None:
+    """Write the float32 rows ``values`` (k, 9) into ``buf`` at rows ``at`` (k,) ascending, after the queue's
+    kernels (a run of consecutive rows at a time)."""
+    cut = np.flatnonzero(np.diff(at) != 1) + 1
+    for a, v in zip(np.split(at, cut), np.split(values, cut)):
+        if len(a):
+            cl.enqueue_copy(q, buf, np.ascontiguousarray(v, np.float32), dst_offset=int(a[0]) * 36)
+
+
+def _f32(a, unit: float) -> np.ndarray:
+    """float32 of ``a * unit`` (``a`` itself where ``unit`` is 1): a triangle's corners for the kernels."""
+    return (a if unit == 1.0 else a * unit).astype(np.float32)
+
+
+def _size_first(tri):
+    """Each triangle's size (the sum of its edges' absolute coordinates from its first corner) and the sum of its
+    first corner's absolute coordinates, of camera-space corners ``tri`` (K, 3, 3) float64."""
+    size = sum(np.abs(tri[:, k, j] - tri[:, 0, j]) for k in (1, 2) for j in range(3))   # by columns: faster
+    return size, np.abs(tri[:, 0, 0]) + np.abs(tri[:, 0, 1]) + np.abs(tri[:, 0, 2])
+
+
+def _frame_guard(ft, camera: Camera):
+    """:func:`raster_triangles`'s clipping of a frame's triangles ``ft`` (:func:`frame_triangles`) to the guard band:
+    (the triangles clipped (P,), their first pieces (P, 3, 3), the further pieces (E, 3, 3), their sources (E,)),
+    ``(None, None, empty, None)`` where none reaches beyond it. Only the triangles of items whose box reaches
+    beyond the band are tested."""
+    gx, gy = GUARD_BAND * camera.tan_half * camera.aspect, GUARD_BAND * camera.tan_half
+    cand = ft.guard_candidates(gx, gy)
+    pieces = _guard_pieces(ft.corners(cand), camera) if len(cand) else None
+    if pieces is None:
+        return None, None, np.zeros((0, 3, 3)), None
+    idx, first, extra, extra_src = pieces
+    return cand[idx], first, extra, cand[extra_src]
+
+
+def _frame_unit(ft) -> float:
+    """:func:`pyshadow.mesh.float32_unit` of the largest absolute corner coordinate of ``ft``'s triangles: 1 where
+    its bounds lie within the band that is not scaled, else from every corner."""
+    least, greatest = ft.magnitude_range()
+    if 2.0 ** -UNIT_BAND <= least and greatest <= 2.0 ** UNIT_BAND:
+        return 1.0
+    return float32_unit(ft.max_abs())
+
+
+def _frame_wide_rows(ft, src, n_kept: int, idx, at, first, extra, W: int, H: int, fx: float, fy: float):
+    """:func:`_wide_rows` of the raster triangles (:func:`_rasterise`: of ``ft``'s, ``src`` (None: all), each of
+    ``idx`` (rows ``at``) replaced by its first piece ``first``, the pieces ``extra`` after them): only those whose
+    item's box is wide on the screen are measured."""
+    n_raster = n_kept + len(extra)
+    cand = ft.wide_candidates(W, H, fx, fy, WIDE_PIXELS, _span)
+    if idx is not None and len(cand) < ft.n:
+        cand = np.union1d(cand, idx)
+    if src is None:
+        row = cand
+    else:                                   # those rasterised: each in its raster row
+        row = np.minimum(np.searchsorted(src, cand), max(len(src) - 1, 0))
+        keep = (src[row] == cand) if len(src) else np.zeros(len(cand), bool)
+        cand, row = cand[keep], row[keep]
+    tri = np.concatenate([ft.corners(cand), extra])
+    if idx is not None:
+        tri[np.searchsorted(cand, idx)] = first
+    rows_of = np.concatenate([row, np.arange(n_kept, n_raster)])
+    w, rows = _wide_rows(tri, W, H, fx, fy)
+    wide = np.zeros(n_raster, np.uint8)
+    wide[rows_of] = w
+    rows[:, 0] = rows_of[rows[:, 0]]
+    return wide, rows
 
 
 #: A pixel whose triangle has a corner farther from the eye than this many times the distance of the triangle's
@@ -284,41 +387,42 @@ PLANE_SIZE = 0.25
 FAR_NORMAL_RATIO = 16384.0
 
 
-def _float64_planes(tris, size, first, src, unit):
-    """(M, 4) float32: for each raster triangle (``src`` from :func:`raster_triangles`) the unit normal and offset
-    (``n . a``, scaled by ``unit``) of its source triangle's plane, from float64, where that triangle of ``tris``
-    (camera space, (N, 3, 3); sizes ``size`` (N,), sums of absolute coordinates of their first corners ``first``
-    (N,)) is large (:data:`PLANE_SIZE`) and reaches beyond :data:`FAR_PLANE_RATIO` times the plane's distance
-    from the eye; a NaN offset elsewhere (the kernel's corners). None where no triangle is such (a frame's usual
-    case)."""
-    cand = np.flatnonzero(size > PLANE_SIZE * first)             # few: a ground, walls, their clipped pieces
-    tri = tris[cand]
+def _float64_planes(n: int, cand, tri, unit):
+    """(n, 4) float32: for each of ``n`` triangles the unit normal and offset (``n . a``, scaled by ``unit``) of its
+    plane, from float64, where it is large (:data:`PLANE_SIZE`: those ``cand`` (K,) ascending, camera-space corners
+    ``tri`` (K, 3, 3)) and reaches beyond :data:`FAR_PLANE_RATIO` times the plane's distance from the eye; a NaN
+    offset elsewhere (the kernel's corners). None where no triangle is such (a frame's usual case)."""
     reach = np.abs(tri.reshape(len(tri), 9)).max(axis=1)
-    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    length = np.linalg.norm(n, axis=1)
+    nrm = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    length = np.linalg.norm(nrm, axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        n /= length[:, None]
-        off = np.einsum("ij,ij->i", n, tri[:, 0])
+        nrm /= length[:, None]
+        off = np.einsum("ij,ij->i", nrm, tri[:, 0])
     use = (length > 0) & (reach > FAR_PLANE_RATIO * np.abs(off))
     if not use.any():
         return None
-    planes = np.full((len(tris), 4), np.nan, np.float32)
-    planes[cand[use], :3] = n[use]
+    planes = np.full((n, 4), np.nan, np.float32)
+    planes[cand[use], :3] = nrm[use]
     planes[cand[use], 3] = off[use] * unit
-    return planes if src is None else planes[src]
+    return planes
 
 
-def _far_corner_distances(tris, small, tri_idx, hit, far, t, camera, normal) -> None:
+def _far_corner_distances(ft, small, tri_idx, hit, far, t, camera, normal) -> None:
     """Replace in ``t`` (H, W) float64 the distances, and in ``normal`` (H, W, 3) the camera-space normals, of the
     covered pixels (``hit``) that the kernel marks ``far`` (their triangle reaches beyond :data:`FAR_CORNER_RATIO`
-    times the distance of its plane from the eye), or whose triangle (``tris`` camera space, float64, index
-    ``tri_idx`` per pixel) lies beyond :data:`FAR_NORMAL_RATIO` times its size from the eye (``small`` (N,)), by
-    the float64 intersection of their ray with that triangle's plane and its normal (as the kernel's)."""
+    times the distance of its plane from the eye), or whose triangle (of ``ft``, :func:`frame_triangles`, index
+    ``tri_idx`` per pixel) lies beyond :data:`FAR_NORMAL_RATIO` times its size from the eye (those ``small`` (S,)),
+    by the float64 intersection of their ray with that triangle's plane and its normal (as the kernel's)."""
     flat = t.reshape(-1)
-    if not small.any() and not far.any():
+    if not len(small) and not far.any():
         return                              # no corner so far (a frame's usual case: no temporaries)
-    sel = np.flatnonzero(hit & (far | np.take(small, tri_idx)))
-    tri = np.take(tris, tri_idx[sel], axis=0)
+    mark = far
+    if len(small):
+        is_small = np.zeros(ft.n, bool)
+        is_small[small] = True
+        mark = far | np.take(is_small, tri_idx)
+    sel = np.flatnonzero(hit & mark)
+    tri = ft.corners(tri_idx[sel])
     d = camera._rays().reshape(-1, 3)[sel] @ camera.rotation.T
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -164,11 +164,13 @@ def _outside_view(c, tx, ty) -> np.ndarray:
 
 
 class _Group:
-    """Items sharing one mesh: their indices ``oid`` (n,) ascending, the mesh's faces (F, 3) and the items'
-    vertices in camera space ``c`` (n, V, 3) float64 (:func:`_move`)."""
+    """Items sharing one mesh: their indices ``oid`` (n,) ascending, the mesh's faces (F, 3), the items'
+    vertices in camera space ``c`` (n, V, 3) float64 (:func:`_move`) and their checked transforms ``T``
+    (n, 4, 4) float64 (None where not kept)."""
 
-    def __init__(self, mesh, oid, faces, c):
+    def __init__(self, mesh, oid, faces, c, T=None):
         self.mesh, self.oid, self.faces, self.c = mesh, np.asarray(oid, np.int64), np.asarray(faces), c
+        self.T = T
 
 
 def _stack(ts) -> np.ndarray | None:
@@ -190,11 +192,12 @@ def _move(v, T, camera: Camera) -> np.ndarray:
     for s in range(0, len(T), step):
         A = T[s:s + step, :3, :3]
         with np.errstate(over="ignore", invalid="ignore"):
-            w = np.matmul(v, A.transpose(0, 2, 1)) + T[s:s + step, None, :3, 3]
-            part = np.matmul(w - camera.eye, camera.rotation.T)
+            w = np.matmul(v, A.transpose(0, 2, 1))
+            w += T[s:s + step, None, :3, 3]                 # in place: the same sums, no temporaries
+            w -= camera.eye
+            part = np.matmul(w, camera.rotation.T, out=None if c is None else c[s:s + step])
         if c is None:
             return part
-        c[s:s + step] = part
     return c
 
 
@@ -232,7 +235,7 @@ def _placed_by_mesh(items, camera: Camera) -> list:
         c = _move(np.asarray(mesh.vertices, dtype=np.float64), T, camera)
         if not _finite(c):
             raise ValueError("vertices beyond float64's range")
-        out.append(_Group(mesh, oid, mesh.faces, c))
+        out.append(_Group(mesh, oid, mesh.faces, c, T))
     return out
 
 
@@ -258,7 +261,7 @@ def _placed_one_by_one(items, camera: Camera) -> list:
             raise ValueError(f"item {oid}: its transform places vertices beyond float64's range from the camera "
                              f"(largest |vertex| {float(np.abs(v).max()):.3g}, transform scale up to "
                              f"{float(np.abs(T[:3, :3]).max()):.3g})")
-        out.append(_Group(mesh, [oid], mesh.faces, c[None]))
+        out.append(_Group(mesh, [oid], mesh.faces, c[None], T[None]))
     return out
 
 
@@ -374,11 +377,7 @@ def gbuffer_triangles(items, camera: Camera):
             out = _outside_view(c, tx, ty)
             if not out.all():
                 far = max(far, float(np.abs(c if not out.any() else c[~out]).max()))
-    reach = float(np.abs(camera.eye).max()) + math.sqrt(3.0) * far
-    if not reach <= FLOAT32_MAX:        # the G-buffer's depths and positions are float32
-        raise ValueError(f"render_gbuffer: the geometry in view lies up to {reach:.3g} from the world origin "
-                         f"(eye {camera.eye.tolist()}, farthest geometry in view {far:.3g} from it); the G-buffer's "
-                         f"float32 depths and positions hold at most {FLOAT32_MAX:.3g}")
+    _check_reach(camera, far)
     near = max(far * 1e-6, 1e-30)
     _near_cut(groups, near, far, tx, ty)
     parts = [p for g in groups if len(g.faces) for p in _in_frustum(g, tx, ty)]
@@ -392,6 +391,15 @@ def gbuffer_triangles(items, camera: Camera):
     if len(done) == 1:
         return (*done[0], near)
     return (*(np.concatenate([d[k] for d in done]) for k in range(3)), near)
+
+
+def _check_reach(camera: Camera, far: float) -> None:
+    """Refuse geometry in view (``far``: its largest camera-space coordinate) beyond float32's range."""
+    reach = float(np.abs(camera.eye).max()) + math.sqrt(3.0) * far
+    if not reach <= FLOAT32_MAX:        # the G-buffer's depths and positions are float32
+        raise ValueError(f"render_gbuffer: the geometry in view lies up to {reach:.3g} from the world origin "
+                         f"(eye {camera.eye.tolist()}, farthest geometry in view {far:.3g} from it); the G-buffer's "
+                         f"float32 depths and positions hold at most {FLOAT32_MAX:.3g}")
 
 
 def _near_stages(tri, obj, face, near: float, far: float, tx: float, ty: float):

@@ -4,11 +4,10 @@ every body (a body added apart from a stack of 400 touching boxes: 3.1 s a query
 patches are those a scene built with the same bodies finds, bit for bit."""
 from __future__ import annotations
 
-import hashlib
-
 import numpy as np
 import pytest
 import trimesh
+from test_contact_moves import _digest
 
 import pyshadow
 from pyshadow import contact_bodies
@@ -21,16 +20,6 @@ K = 9                                       # K x K unit boxes side by side: eac
 def box():
     m = trimesh.creation.box((1.0, 1.0, 1.0))
     return m, pyshadow.CoherentShadowMap.build(m, pyshadow.ViewSet.zigzag(4, 8), resolution=16, progress=False)
-
-
-def _digest(patches):
-    d = hashlib.sha1()
-    for p in patches:
-        for a in p:
-            a = np.ascontiguousarray(a)
-            d.update(str(a.shape).encode())
-            d.update(a.tobytes())
-    return d.hexdigest()
 
 
 def _at(x, y, z):

@@ -41,8 +41,8 @@ import numpy as np
 from .._cl.tables import GRID, GRID_PACKET
 from .bvh import spheres
 
-__all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid", "grid_margin",
-           "grid_packets", "isolated_casters"]
+__all__ = ["CELLS_PER_CASTER", "GRID_ITEM", "MAX_BIG", "MAX_CELL", "MAX_CELLS_PER_CASTER", "instance_grid",
+           "grid_margin", "grid_packets", "isolated_casters"]
 
 #: One entry of a cell's list as :func:`instance_grid` gives it: the caster and a copy of its
 #: sphere (the instance record's float32 centre and radius); :func:`grid_packets` packs them.

@@ -111,7 +111,8 @@ def _spheres_extent(rows) -> float:
     """The largest |coordinate| of the casters' spheres in the grid's cells (anchor-relative INSTANCE rows; those
     set apart, :func:`.grid.isolated_casters`, are asked by every ray, through no cell)."""
     c, r = rows["centre"], rows["radius"]
-    inside = np.setdiff1d(np.arange(len(r)), isolated_casters(c.astype(np.float64), r.astype(np.float64)))
+    inside = np.ones(len(r), bool)
+    inside[isolated_casters(c.astype(np.float64), r.astype(np.float64))] = False
     return float(np.abs(c[inside]).max() + r[inside].max())
 
 

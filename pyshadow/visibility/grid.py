@@ -147,6 +147,7 @@ def isolated_casters(centres, radii, most: int = MAX_BIG) -> np.ndarray:
         Indices of the casters set apart, ascending.
     """
     c, r = np.asarray(centres, np.float64), np.asarray(radii, np.float64)
+    inside = np.ones(len(c), bool)
     keep = np.arange(len(c))
     moved = True
     while moved:
@@ -156,23 +157,38 @@ def isolated_casters(centres, radii, most: int = MAX_BIG) -> np.ndarray:
                 budget = min(most - (len(c) - len(keep)), (len(keep) - 1) // 2)
                 if budget < 1:
                     break
-                order = keep[np.argsort(side * c[keep, a], kind="stable")]
-                lo, hi = side * c[order, a] - r[order], side * c[order, a] + r[order]
-                rest_lo = np.minimum.accumulate(lo[::-1])[::-1]     # of casters k.. on
-                rest_hi = np.maximum.accumulate(hi[::-1])[::-1]
-                first_hi = np.maximum.accumulate(hi)                # of casters ..k
-                k = np.arange(1, budget + 1)
-                gap = rest_lo[k] - first_hi[k - 1]
-                wide = np.flatnonzero(gap > rest_hi[k] - rest_lo[k])
-                if len(wide):
-                    keep = np.sort(order[k[wide[0]]:])
+                low = _low_strays(side * c[keep, a], r[keep], budget)
+                if len(low):
+                    inside[keep[low]] = False
+                    keep = np.flatnonzero(inside)
                     moved = True
-    return np.setdiff1d(np.arange(len(c)), keep)
+    return np.flatnonzero(~inside)
+
+
+def _low_strays(x, r, budget: int) -> np.ndarray:
+    """Positions of the fewest (1 to ``budget``) spheres of lowest centre ``x`` whose extent along the axis lies
+    apart from the others' by more than the others' own extent, or none: the ``budget + 1`` lowest taken
+    by a partition, the others' bounds once (linear in the spheres, not a sort of them all)."""
+    m = budget + 1
+    cand = np.argpartition(x, m - 1)[:m] if m < len(x) else np.arange(len(x))
+    cand = cand[np.argsort(x[cand], kind="stable")]
+    lo, hi = x - r, x + r
+    others = np.ones(len(x), bool)
+    others[cand] = False
+    base_lo, base_hi = lo[others].min(initial=np.inf), hi[others].max(initial=-np.inf)
+    rest_lo = np.minimum(np.minimum.accumulate(lo[cand][::-1])[::-1], base_lo)      # of all but the first k
+    rest_hi = np.maximum(np.maximum.accumulate(hi[cand][::-1])[::-1], base_hi)
+    first_hi = np.maximum.accumulate(hi[cand])                                      # of the first k
+    k = np.arange(1, min(budget, len(cand) - 1) + 1)
+    wide = np.flatnonzero(rest_lo[k] - first_hi[k - 1] > rest_hi[k] - rest_lo[k])
+    return cand[:k[wide[0]]] if len(wide) else cand[:0]
 
 
 def _grid(c, r, margin, balanced_only, apart):
     """:func:`instance_grid` with the casters ``apart`` left out of the box and its cells, asked by every ray."""
-    inside = np.setdiff1d(np.arange(len(c)), apart)
+    inside = np.ones(len(c), bool)
+    inside[apart] = False
+    inside = np.flatnonzero(inside)
     lo = (c[inside] - r[inside, None]).min(axis=0) - 2.0 * margin
     hi = (c[inside] + r[inside, None]).max(axis=0) + 2.0 * margin
     # no narrower than twice the margin: a sphere grown by a margin that dwarfs it (queries far from the

@@ -26,7 +26,7 @@ from ._cl.launch import fill
 from ._validate import check_transform
 from .camera import Camera, points_on_rays
 from . import gbuffer_items as _items
-from .gbuffer_frame import frame_triangles
+from .gbuffer_frame import _f32, frame_triangles
 from .gbuffer_items import clip_polygon, face_corners, gbuffer_triangles, on_face_planes, through_eye
 from .mesh import UNIT_BAND, float32_unit
 
@@ -301,11 +301,6 @@ def _write_rows(q, buf, at, values) -> None:
     for a, v in zip(np.split(at, cut), np.split(values, cut)):
         if len(a):
             cl.enqueue_copy(q, buf, np.ascontiguousarray(v, np.float32), dst_offset=int(a[0]) * 36)
-
-
-def _f32(a, unit: float) -> np.ndarray:
-    """float32 of ``a * unit`` (``a`` itself where ``unit`` is 1): a triangle's corners for the kernels."""
-    return (a if unit == 1.0 else a * unit).astype(np.float32)
 
 
 def _size_first(tri):

@@ -8,13 +8,18 @@ from pyshadow.gbuffer import render_gbuffer
 from pyshadow.render import render
 
 
-@pytest.fixture(scope="module")
-def setup():
+def box_scene():
+    """A unit box (a receiver) standing on the ground, and a 32x24 camera that sees it and the sky."""
     scene = ps.Scene(ground=0.0)
     T = np.eye(4)
     T[1, 3] = 0.5
     scene.add(trimesh.creation.box((1, 1, 1)), transform=T, casts=False)
-    cam = ps.Camera(eye=(2.5, 1.5, 2.5), target=(0, 0.6, 0), up=(0, 1, 0), fov_y=60, width=32, height=24)
+    return scene, ps.Camera(eye=(2.5, 1.5, 2.5), target=(0, 0.6, 0), up=(0, 1, 0), fov_y=60, width=32, height=24)
+
+
+@pytest.fixture(scope="module")
+def setup():
+    scene, cam = box_scene()
     items, _ = scene.draw_items(4.0)
     g = render_gbuffer(items, cam)
     assert (g["object_id"] < 0).any() and (g["object_id"] >= 0).any() and np.isinf(g["depth"][g["object_id"] < 0]).all()

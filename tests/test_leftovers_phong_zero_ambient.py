@@ -1,25 +1,19 @@
 """PhongLighting with an ambient colour of 0: its ambient factor A weighs nothing, so none is asked."""
 import numpy as np
 import pytest
-import trimesh
 
-import pyshadow as ps
 import pyshadow.visibility as vis
 from pyshadow.lighting import ShadowMapVisibility
 from pyshadow.lighting.phong import PhongLighting, phong_shade
 from pyshadow.render import render
+from test_leftovers_gbuffer_background import box_scene
 
 LIGHT = [1.0, 3.0, 0.5]
 
 
 @pytest.fixture(scope="module")
 def setup():
-    scene = ps.Scene(ground=0.0)
-    T = np.eye(4)
-    T[1, 3] = 0.5
-    scene.add(trimesh.creation.box((1, 1, 1)), transform=T, casts=False)
-    cam = ps.Camera(eye=(2.5, 1.5, 2.5), target=(0, 0.6, 0), up=(0, 1, 0), fov_y=60, width=32, height=24)
-    return scene, cam
+    return box_scene()
 
 
 @pytest.mark.parametrize("mode", ["ao", "normal"])

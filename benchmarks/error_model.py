@@ -18,7 +18,8 @@
     python benchmarks/error_model.py [--quick] [--meshes NAME ...] [--targets E ...] [--meshes-only] [--json]
 
 ``--quick``: 2 % and 1 % only, four meshes. ``--meshes`` and ``--targets``
-choose the rows of part 1 (and the targets of part 2); ``--meshes-only``
+choose the rows of part 1 (and the targets of part 2), each over what
+``--quick`` would choose (so not all three together); ``--meshes-only``
 skips parts 2 and 3.
 """
 from __future__ import annotations
@@ -161,6 +162,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.targets and not all(0 < t < 1 for t in args.targets):
         ap.error(f"--targets must lie in (0, 1) (a disagreement, 0.01 = 1 %), got {args.targets}")
+    if args.quick and args.meshes and args.targets:
+        ap.error("--quick chooses meshes and targets; with both --meshes and --targets given it has no effect")
     check_meshes(ap, "--meshes", args.meshes or (), files=False)
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)

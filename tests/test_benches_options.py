@@ -81,6 +81,7 @@ def within(request):
     ("cubemap", ["--out", "{tmp}/no/result.json"], "--out"),
     ("direct_light", ["--width", "0"], "--width"),
     ("error_model", ["--meshes", "nosuch", "--meshes-only"], "--meshes"),
+    ("error_model", ["--quick", "--meshes", "fandisk", "--targets", "0.02", "--meshes-only"], "--quick"),
     ("exposure", ["--meshes", "nosuch.obj"], "--meshes"),
     ("extremes", ["--resolution", "0", "--rows", "grazing"], "--resolution"),
     ("fig65", ["--backend", "foo"], "--backend"),

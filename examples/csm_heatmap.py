@@ -36,8 +36,8 @@ def main(argv=None):
         description="Heat map of the segments per texel of a mesh's Coherent Shadow Map.")
     parser.add_argument("mesh", nargs="?", metavar="MESH",
                         help="mesh file (default: the bundled Stanford bunny)")
-    parser.add_argument("--theta", type=int, default=32, help="zigzag rows of map directions")
-    parser.add_argument("--phi", type=int, default=64, help="zigzag columns of map directions")
+    parser.add_argument("--theta", type=int, help="zigzag rows of map directions (default 32)")
+    parser.add_argument("--phi", type=int, help="zigzag columns of map directions (default 64)")
     parser.add_argument("--hilbert", type=int, metavar="LEVEL",
                         help="use a Hilbert view set of two hemisphere squares (2*4^LEVEL maps) "
                              "instead of zigzag")
@@ -49,6 +49,10 @@ def main(argv=None):
 
     viz.add_window_options(parser, window=(900, 860))
     args = parser.parse_args(argv)
+    if args.hilbert is not None and (args.theta, args.phi) != (None, None):     # they were ignored
+        parser.error("--theta and --phi set a zigzag view set: give them or --hilbert, not both")
+    args.theta = 32 if args.theta is None else args.theta
+    args.phi = 64 if args.phi is None else args.phi
 
     import pyshadow
     import pyshadow.data

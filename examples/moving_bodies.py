@@ -124,7 +124,7 @@ def main(argv=None):
     parser.add_argument("--ground-divisions", type=int, default=80,
                         help="quads per side of the ground receiver grid")
     parser.add_argument("--frames", type=int, default=0,
-                        help="off screen (with --screenshot): frames of the scripted motion")
+                        help="frames of the scripted motion, off screen (needs --screenshot)")
     parser.add_argument("--save-frames", action="store_true",
                         help="also write every frame as OUT_0000.png, OUT_0001.png, ...")
     from pyshadow import viz
@@ -176,6 +176,9 @@ def main(argv=None):
         viz.update_title(plotter, title, text)
 
     if args.screenshot is None:
+        if args.frames:         # the window runs no scripted motion: it was ignored (after the display check)
+            plotter.close()
+            parser.error("--frames needs --screenshot (the interactive window is moved by its sliders)")
         state = {"angle": 0.0, "turn": 0.0}
         sliders = {}
 

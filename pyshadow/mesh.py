@@ -531,14 +531,14 @@ def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=
 
     Parameters
     ----------
-    mesh : trimesh.Trimesh
+    mesh : trimesh.Trimesh or pyvista.DataSet
+        A pyvista mesh as :func:`load_mesh` takes it (its surface's triangles), so ``Scene.add(it, T)`` fits.
     radius : float, optional
         World radius of the mesh's bounding sphere (uniform scale).
     position : (float, float), optional
         World ``(x, z)`` of the bounding sphere's centre.
     rotation : array_like, shape (3, 3) or (4, 4), optional
-        Rotation about the bounding sphere's centre, applied before
-        standing (a 4x4 contributes only its 3x3 block).
+        Rotation about the bounding sphere's centre, applied before standing (a 4x4 contributes only its 3x3).
     ground : float, optional
         Height of the plane the lowest vertex touches.
 
@@ -556,6 +556,9 @@ def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=
     if pos.shape != (2,) or not np.isfinite(pos).all() or not np.isfinite(ground):
         raise ValueError(f"stand_on_ground: position must be 2 finite numbers (x, z) and ground finite, "
                          f"got {position!r} and {ground!r}")
+    if not isinstance(mesh, trimesh.Trimesh):       # a pyvista mesh (or a TypeError, not an AttributeError)
+        from .viz.meshes import _surface_mesh
+        mesh = _surface_mesh(mesh, "stand_on_ground: mesh")
     c, r = bounding_sphere(mesh)
     Rm = np.eye(3) if rotation is None else np.asarray(rotation, dtype=np.float64)
     if Rm.shape not in ((3, 3), (4, 4)):
@@ -563,11 +566,9 @@ def stand_on_ground(mesh, *, radius: float = 1.0, position=(0.0, 0.0), rotation=
     Rm = Rm[:3, :3]
     check_transform(np.block([[Rm, np.zeros((3, 1))], [np.zeros((1, 3)), np.ones((1, 1))]]), rigid=True,
                     name="stand_on_ground: rotation")
-    s = float(radius) / r
     T = np.eye(4)
-    T[:3, :3] = s * Rm
-    x, z = (float(v) for v in pos)
-    T[:3, 3] = np.array([x, 0.0, z]) - T[:3, :3] @ c
+    T[:3, :3] = float(radius) / r * Rm
+    T[:3, 3] = np.array([pos[0], 0.0, pos[1]]) - T[:3, :3] @ c
     low = (np.asarray(referenced_mesh(mesh).vertices) @ T[:3, :3].T + T[:3, 3])[:, 1].min()
     T[1, 3] += float(ground) - low
     return T

@@ -31,8 +31,8 @@ Everything below is imported from ``pyshadow.viz``; the modules only group it:
 
 * :mod:`pyshadow.viz.plotter` -- off-screen setup, plotters, screenshots, titles,
   the example scripts' ``--window`` and ``--screenshot`` options.
-* :mod:`pyshadow.viz.meshes` -- meshes and scenes to polydata, the camera on
-  them, the ground grid.
+* :mod:`pyshadow.viz.meshes` -- meshes and scenes to polydata, per-vertex values
+  back onto a pyvista mesh's own points, the camera on them, the ground grid.
 * :mod:`pyshadow.viz.images` -- image panels, colour bars, bent-normal colours.
 * :mod:`pyshadow.viz.viewsets` -- view sets on the sphere, CSM segment heat maps.
 * :mod:`pyshadow.viz.ssao_pass` -- pyvista's own SSAO render pass read back as
@@ -44,8 +44,8 @@ from __future__ import annotations
 from ..mesh import stand_on_ground  # placement helper, part of viz's API
 from . import plotter as _plotter
 from .images import bent_normal_rgb, colour_bar, image_panel
-from .meshes import (ground_grid, look_at_bodies, mesh_to_polydata, polydata_to_mesh, scene_to_plotter,
-                     update_scalars)
+from .meshes import (ground_grid, look_at_bodies, mesh_to_polydata, point_values, polydata_to_mesh,
+                     scene_to_plotter, update_scalars)
 from .plotter import (
     BACKGROUND,
     MAX_WINDOW_SIDE,
@@ -82,6 +82,7 @@ __all__ = [
     "update_title",
     "mesh_to_polydata",
     "polydata_to_mesh",
+    "point_values",
     "update_scalars",
     "scene_to_plotter",
     "look_at_bodies",

@@ -18,6 +18,7 @@ from .plotter import _pv, _viewport_pixels
 __all__ = [
     "mesh_to_polydata",
     "polydata_to_mesh",
+    "point_values",
     "update_scalars",
     "scene_to_plotter",
     "look_at_bodies",
@@ -110,6 +111,8 @@ def polydata_to_mesh(poly):
     trimesh.Trimesh
         Vertices float64 (V, 3), the dataset's points; faces int64 (T, 3); not processed (nothing merged or
         removed: :func:`pyshadow.load_mesh` cleans). Point and cell data (colours, normals) are not read.
+        Per-vertex results of the cleaned mesh go back onto the dataset's own points through
+        :func:`point_values`.
 
     Raises
     ------
@@ -136,6 +139,81 @@ def polydata_to_mesh(poly):
     if (faces[:, 0] != 3).any():        # (triangulate leaves only triangles)
         raise ValueError("polydata_to_mesh: VTK's triangulate left polygons that are not triangles")
     return trimesh.Trimesh(vertices=np.array(tri.points, dtype=np.float64), faces=faces[:, 1:], process=False)
+
+
+def point_values(dataset, mesh, values):
+    """Per-vertex values of ``mesh`` on the points of the pyvista dataset it was made from.
+
+    :func:`pyshadow.load_mesh` (and so :meth:`pyshadow.Scene.add` of a pyvista mesh) merges coincident
+    points (a ``pv.Cylinder``'s rims, ``pv.Cube(clean=False)``, ``compute_normals(split_vertices=True)``),
+    drops points no polygon uses and keeps only a volume's outer surface, so
+    :meth:`pyshadow.Scene.vertex_ao` answers one value per vertex of ``scene.instances[i].mesh``, not one
+    per point of the dataset. Each point here takes the value of the vertex at its position: ``poly["ao"]
+    = point_values(poly, scene.instances[i].mesh, scene.vertex_ao(i))``.
+
+    Parameters
+    ----------
+    dataset : pyvista.DataSet
+        ``N`` points, in the frame of ``mesh``'s vertices (the object frame: the frame the dataset was
+        added in, not moved by the instance's transform).
+    mesh : trimesh.Trimesh
+        ``V`` vertices, e.g. ``scene.instances[i].mesh`` or ``pyshadow.load_mesh(dataset)``.
+    values : array_like, shape (V,) or (V, k)
+        Real numbers, one row per vertex of ``mesh`` (AO, bent normals).
+
+    Returns
+    -------
+    ndarray, shape (N,) or (N, k)
+        Floating point (float32 values stay float32, others become float64). A point takes the
+        value of the vertex within ``1e-5`` of the mesh's extent of it (or the rounding
+        :func:`pyshadow.load_mesh` merged it at, where larger); a point with none (inside a volume, on
+        lines or vertex cells only) is NaN.
+
+    Raises
+    ------
+    TypeError
+        ``dataset`` not a pyvista dataset, ``mesh`` not a ``trimesh.Trimesh``, ``values`` not real numbers.
+    ValueError
+        ``values`` without one row per vertex of ``mesh``.
+    """
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    from ..mesh import _merge_digits
+
+    pv = _pv()
+    if not isinstance(dataset, pv.DataSet):
+        raise TypeError(f"point_values: dataset must be a pyvista dataset, got {type(dataset).__name__}")
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise TypeError(f"point_values: mesh must be a trimesh.Trimesh, got {type(mesh).__name__}")
+    v = np.asarray(values)
+    if not (np.issubdtype(v.dtype, np.number) or v.dtype == bool) or v.dtype.kind == "c":
+        raise TypeError(f"point_values: values must be real numbers, got {v.dtype}")
+    verts = np.asarray(mesh.vertices, dtype=np.float64)
+    if v.ndim not in (1, 2) or len(v) != len(verts):
+        raise ValueError(f"point_values: values must have shape ({len(verts)},) or ({len(verts)}, k), one row "
+                         f"per vertex of mesh, got {v.shape}")
+    pts = np.asarray(dataset.points, dtype=np.float64).reshape(-1, 3)
+    out = np.full((len(pts),) + v.shape[1:], np.nan, dtype=np.float32 if v.dtype == np.float32 else np.float64)
+    if len(pts) and len(verts):
+        digits = _merge_digits(verts)
+        tol = max(1e-5 * float(np.ptp(verts, axis=0).max()), 2.0 * 10.0 ** -(8 if digits is None else digits))
+        dist, k = cKDTree(verts).query(pts, distance_upper_bound=tol)      # a miss: dist inf
+        hit = np.isfinite(dist)
+        out[hit] = v[k[hit]]
+    return out
+
+
+def _surface_mesh(obj, who: str):
+    """A pyvista mesh as :func:`pyshadow.load_mesh` takes it (:func:`polydata_to_mesh`); TypeError naming ``who``
+    for anything else that is not a ``trimesh.Trimesh`` (which is returned as it is)."""
+    import trimesh
+
+    if isinstance(obj, trimesh.Trimesh):
+        return obj
+    if type(obj).__module__.split(".")[0] == "pyvista":
+        return polydata_to_mesh(obj)
+    raise TypeError(f"{who} must be a trimesh.Trimesh or a pyvista mesh, got {type(obj).__name__}")
 
 
 def update_scalars(poly, values, name: str = "ao"):

@@ -33,17 +33,19 @@ EXPOSURE_TARGET = 0.8
 EXPOSURE_PERCENTILE = 99.0
 
 
-def _radiance(radiance, name: str = "radiance") -> np.ndarray:
+def _radiance(radiance, name: str = "radiance", image: bool = True) -> np.ndarray:
+    """``radiance`` as an array, shape (H, W, 3); with ``image=False`` any (..., 3) (per-vertex colours, (N, 3))."""
+    want = "(H, W, 3)" if image else "(H, W, 3) or (N, 3)"
     try:
         a = np.asarray(radiance)
     except ValueError:                          # a ragged list
-        raise ValueError(f"{name}: expected shape (H, W, 3) (got a ragged sequence)") from None
-    if a.ndim != 3 or a.shape[2] != 3 or a.shape[0] < 1 or a.shape[1] < 1:
-        raise ValueError(f"{name}: expected shape (H, W, 3) (got shape {a.shape})")
+        raise ValueError(f"{name}: expected shape {want} (got a ragged sequence)") from None
+    if (a.ndim != 3 if image else a.ndim < 2) or a.shape[-1] != 3 or min(a.shape[:-1]) < 1:
+        raise ValueError(f"{name}: expected shape {want} (got shape {a.shape})")
     if not np.issubdtype(a.dtype, np.floating):
         raise TypeError(f"{name}: expected a float array (got dtype {a.dtype})")
     if np.isnan(a).any():
-        raise ValueError(f"{name}: {int(np.isnan(a).any(axis=2).sum())} pixel(s) hold NaN")
+        raise ValueError(f"{name}: {int(np.isnan(a).any(axis=-1).sum())} pixel(s) hold NaN")
     return a
 
 
@@ -54,9 +56,9 @@ def auto_exposure(radiance, covered=None) -> float:
 
     Parameters
     ----------
-    radiance : array_like, shape (H, W, 3), float
-        Linear RGB.
-    covered : array_like of bool, shape (H, W), optional
+    radiance : array_like, shape (H, W, 3) or (N, 3), float
+        Linear RGB: an image, or per-vertex colours.
+    covered : array_like of bool, shape (H, W) or (N,), optional
         The pixels to measure (``Frame.object_id >= 0`` leaves out the background); default every pixel
         whose luminance is finite.
 
@@ -67,7 +69,7 @@ def auto_exposure(radiance, covered=None) -> float:
     """
     from .sky import LUMINANCE_WEIGHTS
 
-    lum = np.asarray(radiance, np.float64)[np.ones(np.shape(radiance)[:2], bool) if covered is None else covered] \
+    lum = np.asarray(radiance, np.float64)[np.ones(np.shape(radiance)[:-1], bool) if covered is None else covered] \
         @ LUMINANCE_WEIGHTS
     if covered is None:
         lum = lum[np.isfinite(lum)]
@@ -80,8 +82,9 @@ def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma
 
     Parameters
     ----------
-    radiance : ndarray, shape (H, W, 3), float
-        Linear RGB (e.g. ``Frame.radiance``); +inf maps to white.
+    radiance : ndarray, shape (H, W, 3) or (N, 3), float
+        Linear RGB: an image (e.g. ``Frame.radiance``), or per-vertex colours (``shade`` of a mesh's vertices,
+        for a pyvista ``rgb`` array of the same shape); +inf maps to white.
     exposure : float or "auto"
         Scale ``s > 0`` applied to the radiance first; "auto": :func:`auto_exposure` of the image (the
         built-in skies are in cd/m^2: at 1 they are white everywhere).
@@ -89,7 +92,7 @@ def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma
     gamma : float
         Display gamma of the exponential curve (ignored by "srgb").
     """
-    a = _radiance(radiance)
+    a = _radiance(radiance, image=False)
     s = auto_exposure(a) if isinstance(exposure, str) and exposure == "auto" else positive(exposure, "exposure")
     if not isinstance(curve, str) or curve not in CURVES:     # (an array's `in` is no answer)
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")

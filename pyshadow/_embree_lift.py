@@ -135,7 +135,9 @@ def surface_epsilon(scene, points=None, anchor=None, *, float32_points=True):
     rays restart behind their own surface. A point float32 holds exactly is lifted at least 4 float32
     spacings of its own coordinates (up to 0.87 of one off its surface, were it a float32 point), unless
     ``float32_points`` is False (points that are no surface's float32 samples: :func:`end_epsilon`'s ends,
-    where a light at x = 1e7 + 2 stopped its rays 4 units short of it).
+    where a light at x = 1e7 + 2 stopped its rays 4 units short of it; :mod:`pyshadow.embree`'s points given
+    as float64, whose coordinates float32 may hold by chance: the corner of a box at (1e7, 1e7 + 1, 1e7)
+    resting on another was lifted 4 units, through the box above it, AO 1 against the exact 0.219).
     """
     anchor = scene.anchor() if anchor is None else anchor
     if points is None:

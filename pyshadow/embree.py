@@ -292,25 +292,26 @@ def visible(scene, points, directions, max_distance=None) -> np.ndarray:
     from .visibility.finite import check_max_distance
 
     p, w = _rays64(points, directions)
+    f32 = np.asarray(points).dtype == np.float32        # float32 surface samples: lifted off their rounding too
     w = unit_normals(w, len(p), "directions")       # any length: scaled first where |w|^2 leaves float64
     tmax = check_max_distance(max_distance, len(p))
     groups = anchor_groups(scene, p)
     if len(groups) > 1:         # points far apart: each group's rays relative to an anchor of its own
         out = np.empty(len(p), bool)
         for rows, a in groups:
-            out[rows] = _visible(scene, p[rows], w[rows], None if tmax is None else tmax[rows], a)
+            out[rows] = _visible(scene, p[rows], w[rows], None if tmax is None else tmax[rows], a, f32)
         return out
-    return _visible(scene, p, w, tmax, groups[0][1])
+    return _visible(scene, p, w, tmax, groups[0][1], f32)
 
 
-def _visible(scene, p, w, tmax, anchor):
-    """:func:`visible` of validated rows, relative to ``anchor``."""
+def _visible(scene, p, w, tmax, anchor, f32=True):
+    """:func:`visible` of validated rows, relative to ``anchor`` (``f32``: the points were given as float32)."""
     rays, anchor = caster_scene(scene, anchor)
     rel = p - anchor
     occ = ground_occludes(scene, rel, w, anchor, tmax)
     todo = np.flatnonzero(~occ)
     if len(todo):
-        eps = surface_epsilon(scene, p[todo], anchor)
+        eps = surface_epsilon(scene, p[todo], anchor, float32_points=f32)
         tfar = ends = None
         if tmax is not None:
             back = end_epsilon(scene, p[todo], w[todo], tmax[todo], anchor)
@@ -356,7 +357,8 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
                                       old, Sampling())
     bent_normals = flag(extra.get("bent_normals", return_bent_normals), "return_bent_normals")   # "False" was true
 
-    p = np.asarray(kernel_rows(points, "points"), np.float64)
+    p = kernel_rows(points, "points")
+    f32, p = p.dtype == np.float32, np.asarray(p, np.float64)     # float32 points: lifted off their rounding too
     check_values(p, "points")
     n = unit_normals(normals, len(p))
     distance = max_distance is not None or obscurance is not None
@@ -373,8 +375,8 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
         rows = np.arange(len(p)) if rows is None else rows
         for r in (rows[s:s + step] for s in range(0, len(rows), step)):
             dirs = sample_directions(n[r], sampling=sampling, indices=idx[r]).astype(np.float64)
-            w = (_distance_weights(scene, rays, a, p[r], n[r], dirs, tmax[r], tau) if distance
-                 else ~_occluded_samples(scene, rays, a, p[r], n[r], dirs))
+            w = (_distance_weights(scene, rays, a, p[r], n[r], dirs, tmax[r], tau, f32) if distance
+                 else ~_occluded_samples(scene, rays, a, p[r], n[r], dirs, f32))
             got = ao_from_samples(dirs, w, n[r], bent_normals)
             out[0][r], out[1][r] = got if bent_normals else (got, 0.0)
     return out if bent_normals else out[0]
@@ -383,14 +385,14 @@ def ambient_occlusion(scene, points, normals, *args, sampling=None, return_bent_
 _CHUNK_RAYS = 1 << 21   # AO rays a chunk of ambient_occlusion's points, and a call of Embree
 
 
-def _occluded_samples(scene, rays, anchor, p, n, dirs):
+def _occluded_samples(scene, rays, anchor, p, n, dirs, f32=True):
     """(N, S) bool: which of the AO sample rays ``dirs`` (N, S, 3) from ``p`` an occluder stops (``rays``:
     :func:`caster_scene` relative to ``anchor``)."""
     N, S = dirs.shape[:2]
     flat = dirs.reshape(-1, 3)
     # the ground is tested at the point itself, as the kernel does
     occ = ground_occludes(scene, np.repeat(p - anchor, S, axis=0), flat, anchor)
-    lift = surface_epsilon(scene, p, anchor)
+    lift = surface_epsilon(scene, p, anchor, float32_points=f32)
     origins, surf = np.repeat(p - anchor + lift[:, None] * n, S, axis=0), point_surfaces(scene, p, n, lift)
     todo = np.flatnonzero(~occ)
     chunk = _CHUNK_RAYS
@@ -402,7 +404,7 @@ def _occluded_samples(scene, rays, anchor, p, n, dirs):
     return occ.reshape(N, S)
 
 
-def _distance_weights(scene, rays, anchor, p, n, dirs, tmax, tau):
+def _distance_weights(scene, rays, anchor, p, n, dirs, tmax, tau, f32=True):
     """:func:`ambient_occlusion`'s distance AO weights (N, S) from first-hit distances (float64), relative to
     ``anchor`` (``rays``: :func:`caster_scene` there)."""
     from .visibility.finite import obscurance_weight
@@ -419,7 +421,7 @@ def _distance_weights(scene, rays, anchor, p, n, dirs, tmax, tau):
             up = (h < -eps) & (wy > 0)
             L = np.where(down, np.maximum(h, 0.0) / -wy, L)
             L = np.where(up, -h / wy, L)
-    lift = surface_epsilon(scene, p, anchor)
+    lift = surface_epsilon(scene, p, anchor, float32_points=f32)
     origins, surf = np.repeat(p - anchor + lift[:, None] * n, S, axis=0), point_surfaces(scene, p, n, lift)
     chunk = _CHUNK_RAYS
     for s in range(0, N * S, chunk):
@@ -557,6 +559,7 @@ class EmbreeTracer:
         origins, dirs : ndarray, shape (m, 3), float32
             Those rays, ready for :meth:`occluded`.
         """
+        f32 = np.asarray(points).dtype == np.float32
         points, normals, dirs32, S = prepare_inputs(self, points, normals, dirs32, samples)
         if anchor_groups(self.scene, points)[0][0] is not None:      # not one group at the scene's anchor
             raise ValueError(f"EmbreeTracer: points lie beyond {ANCHOR_REACH_RADII:g} radii of a caster nearer to "
@@ -564,7 +567,7 @@ class EmbreeTracer:
                              "pyshadow.embree.ambient_occlusion asks them relative to anchors of their own")
         rel = points - self.anchor
         ground = ground_occludes(self.scene, np.repeat(rel, S, axis=0), dirs32, self.anchor)
-        lift = surface_epsilon(self.scene, points, self.anchor)[:, None]     # ambient_occlusion's, point by point
+        lift = surface_epsilon(self.scene, points, self.anchor, float32_points=f32)[:, None]   # ambient_occlusion's
         origins = np.repeat((rel + lift * normals).astype(np.float32), S, axis=0)
         todo = np.flatnonzero(~ground)
         return ground, todo, origins[todo], dirs32[todo]

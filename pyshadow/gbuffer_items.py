@@ -193,8 +193,10 @@ def _move(v, T, camera: Camera) -> np.ndarray:
         A = T[s:s + step, :3, :3]
         with np.errstate(over="ignore", invalid="ignore"):
             w = np.matmul(v, A.transpose(0, 2, 1))
-            w += T[s:s + step, None, :3, 3]                 # in place: the same sums, no temporaries
-            w -= camera.eye
+            for k in range(3):          # in place, a coordinate at a time (long inner loops): the same sums
+                wk = w[..., k]
+                wk += T[s:s + step, None, k, 3]
+                wk -= camera.eye[k]
             part = np.matmul(w, camera.rotation.T, out=None if c is None else c[s:s + step])
         if c is None:
             return part
@@ -428,7 +430,12 @@ def _drawn_mesh(mesh) -> trimesh.Trimesh:
 def face_corners(items, item: int, face, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
     """(K, 3, 3) float64 world corners, minus ``origin`` (3,), of the faces ``face`` (K,) of drawn item ``item``
     of ``items``; a ValueError naming a face its mesh does not have (a G-buffer rendered from other items), not
-    an IndexError or a face counted from the end."""
+    an IndexError or a face counted from the end.
+
+    Where the faces have fewer corners than the mesh vertices, only theirs are placed: ``v @ A.T + (t - origin)``
+    of those rows of the vertices ``v``, each row the same, bit for bit, as where every vertex is placed (a matrix
+    product's row is the product of that row).
+    """
     mesh, T = items[item]
     mesh = _drawn_mesh(mesh)
     face = np.asarray(face)
@@ -437,59 +444,29 @@ def face_corners(items, item: int, face, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
         raise ValueError(f"gbuffer['face'] holds face {int(face[bad][0])} of item {int(item)}, whose mesh has "
                          f"{len(mesh.faces)} faces (the G-buffer was rendered from other items)")
     T = np.asarray(T, dtype=np.float64)
-    w = np.asarray(mesh.vertices, dtype=np.float64) @ T[:3, :3].T + (T[:3, 3] - np.asarray(origin, np.float64))
-    return w[np.asarray(mesh.faces)[face]]
+    v, vid = np.asarray(mesh.vertices, dtype=np.float64), np.take(mesh.faces, face, axis=0)
+    few = vid.size < len(v)
+    w = (np.take(v, vid.reshape(-1), axis=0) if few else v) @ T[:3, :3].T     # (3 or more rows: a matrix product)
+    shift = T[:3, 3] - np.asarray(origin, np.float64)
+    for k in range(3):                              # + shift, a coordinate at a time (long inner loops)
+        w[:, k] += shift[k]
+    return w.reshape(len(face), 3, 3) if few else np.take(w, vid, axis=0)
+
+
+def pixels_by_item(item):
+    """``(i, sel)`` for each distinct value ``i`` of ``item`` (K,) ints, ascending, ``sel`` the indices where
+    ``item == i``, ascending (as ``np.flatnonzero(item == i)``; one sort, not a pass over ``item`` per value)."""
+    item = np.asarray(item)
+    order = np.argsort(item, kind="stable")
+    for sel in np.split(order, np.flatnonzero(np.diff(item[order])) + 1) if len(item) else ():
+        yield item[sel[0]], sel
 
 
 def _corners_one_by_one(items, item, face, origin):
     """(K, 3, 3): :func:`face_corners` of each pixel's item ``item`` (K,) and face ``face`` (K,), item by item."""
     out = np.empty((len(item), 3, 3))
-    for i in np.unique(item):
-        sel = np.flatnonzero(item == i)
-        out[sel] = face_corners(items, i, face[sel], origin)
-    return out
-
-
-def _corners_by_mesh(items, item, face, origin):
-    """:func:`_corners_one_by_one`, the items sharing a mesh object together (their vertices moved by one stacked
-    matmul, in chunks of :data:`CHUNK_VERTICES`); raises (anything) where an item is not as :func:`face_corners`
-    takes it quietly (then that names the first such item, or takes it as it does)."""
-    if not len(item) or item.min() < 0 or item.max() >= len(items):
-        raise IndexError("an item index out of range")
-    ids = np.flatnonzero(np.bincount(item))                 # the items seen, ascending
-    group = np.empty(ids[-1] + 1, np.int64)                 # per item: its group and place in the group's stack
-    place = np.empty(ids[-1] + 1, np.int64)
-    groups = {}
-    for i in ids.tolist():
-        mesh, T = items[i]
-        key = id(mesh)
-        if key not in groups:                               # a path is loaded once, as render_gbuffer does
-            mesh = _drawn_mesh(mesh)
-        g = groups.setdefault(key, (len(groups), mesh, []))
-        group[i], place[i] = g[0], len(g[2])
-        g[2].append(T)
-    out = np.empty((len(item), 3, 3))
-    origin = np.asarray(origin, np.float64)
-    pix_group = group[item] if len(groups) > 1 else None
-    for k, mesh, ts in groups.values():
-        T = np.stack([np.asarray(t, dtype=np.float64) for t in ts])
-        faces = np.asarray(mesh.faces)
-        v = np.asarray(mesh.vertices, dtype=np.float64)
-        if T.shape[1:] != (4, 4) or faces.ndim != 2 or origin.shape != (3,):
-            raise ValueError("not a 4x4 transform, a face array or a 3-vector")
-        pix = np.arange(len(item)) if pix_group is None else np.flatnonzero(pix_group == k)
-        f = face[pix]
-        if ((f < 0) | (f >= len(faces))).any():
-            raise ValueError("a face its mesh does not have")
-        at = place[item[pix]]
-        step = max(1, CHUNK_VERTICES // max(len(v), 1))
-        if len(ts) > step:                                  # chunks: the pixels by their item's chunk
-            order = np.argsort(at // step, kind="stable")
-            pix, f, at = pix[order], f[order], at[order]
-        cut = np.searchsorted(at, np.arange(0, len(ts), step)) if len(ts) > step else [0]
-        for s, a, b in zip(range(0, len(ts), step), cut, list(cut[1:]) + [len(pix)]):
-            w = np.matmul(v, T[s:s + step, :3, :3].transpose(0, 2, 1)) + (T[s:s + step, None, :3, 3] - origin)
-            out[pix[a:b]] = w[at[a:b, None] - s, np.take(faces, f[a:b], axis=0)]
+    for i, sel in pixels_by_item(item):
+        out[sel] = face_corners(items, i, np.take(face, sel), origin)
     return out
 
 
@@ -530,19 +507,17 @@ def on_face_planes(items, gbuffer, camera: Camera, covered, tolerance: float = 0
         return gbuffer
     index = np.flatnonzero(keep)
     out = depth.astype(np.float64).reshape(-1)
-    item = np.asarray(gbuffer["object_id"]).reshape(-1)[index]
-    face = np.asarray(gbuffer["face"]).reshape(-1)[index]
-    dirs = camera._rays().reshape(-1, 3)[index]
-    try:
-        corners = _corners_by_mesh(items, item, face, camera.eye)
-    except Exception:           # an item not as it should be: the error of the first, met one at a time
-        corners = None          # (raised below, not while handling this one)
-    if corners is None:
-        corners = _corners_one_by_one(items, item, face, camera.eye)
+    item = np.take(np.asarray(gbuffer["object_id"]).reshape(-1), index)     # (np.take: indexing is slower)
+    face = np.take(np.asarray(gbuffer["face"]).reshape(-1), index)
+    dirs = np.take(camera._rays().reshape(-1, 3), index, axis=0)
+    corners = _corners_one_by_one(items, item, face, camera.eye)     # only the pixels' faces' corners placed
     a, b, c = np.moveaxis(corners, 1, 0)
-    n = np.cross(b - a, c - a)
+    e1, e2 = b - a, c - a
+    n = np.empty_like(e1)
+    for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):      # np.cross(e1, e2), its products and differences
+        np.subtract(e1[:, j] * e2[:, k], e1[:, k] * e2[:, j], out=n[:, i])
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.einsum("ij,ij->i", a, n) / np.einsum("ij,ij->i", dirs, n)
-    d = out[index]
+    d = np.take(out, index)
     out[index] = np.where(np.abs(t - d) <= 1e-3 * d, t, d)     # NaN t (a sliver's zero normal) fails
     return {**gbuffer, "depth": out.reshape(depth.shape)}

@@ -52,6 +52,7 @@ import numpy as np
 
 from ._validate import check_indices, check_rows, check_values, unit_normals
 from .gbuffer import face_corners
+from .gbuffer_items import pixels_by_item
 from .materials import barycentrics
 
 __all__ = ["NORMAL_MODES", "DEFAULT_CREASE_ANGLE", "corner_normals", "check_crease_angle", "shading_gbuffer",
@@ -249,8 +250,7 @@ def pixel_surface(items, gbuffer, camera):
     dirs = camera.ray_directions().reshape(-1, 3)[index]
     p = camera.eye + np.asarray(gbuffer["depth"]).reshape(-1)[index, None].astype(np.float64) * dirs
     bary = np.zeros((len(index), 3))
-    for i in np.unique(item):
-        sel = np.flatnonzero(item == i)
+    for i, sel in pixels_by_item(item):
         bary[sel] = barycentrics(p[sel], face_corners(items, i, face[sel]))
     return index, item, face, bary
 
@@ -279,10 +279,9 @@ def shading_gbuffer(items, gbuffer, camera, crease_angle: float = DEFAULT_CREASE
     index, item, face, bary = pixel_surface(items, gbuffer, camera) if surface is None else surface
     ng = np.asarray(gbuffer["normal"], dtype=np.float32)
     out_n = ng.copy().reshape(-1, 3)
-    for i in np.unique(item):
+    for i, sel in pixels_by_item(item):
         mesh, T = items[i]
         corners, smooth = corner_normals(mesh, crease, return_smooth=True)
-        sel = np.flatnonzero(item == i)
         sel = sel[smooth[face[sel]]]
         if not len(sel):
             continue

@@ -7,13 +7,13 @@ and stop at argument checks, before anything is rendered.
 """
 from __future__ import annotations
 
-import importlib.util
 import json
 import sys
 from pathlib import Path
 
 import pytest
 
+from conftest import example_module
 from pyshadow.bench.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
@@ -162,18 +162,8 @@ def test_empty_folder_path_is_refused(tmp_path, capsys, monkeypatch, option):
 # the example scripts
 # ---------------------------------------------------------------------------
 def example_main(name):
-    """The ``main`` of ``examples/name``, the script loaded as a module (registered: dataclasses need it)."""
-    key = f"_example_{name[:-3]}"
-    if key not in sys.modules:
-        spec = importlib.util.spec_from_file_location(key, REPO / "examples" / name)
-        mod = importlib.util.module_from_spec(spec)
-        sys.modules[key] = mod
-        keep, sys.dont_write_bytecode = sys.dont_write_bytecode, True     # no __pycache__ in examples/
-        try:
-            spec.loader.exec_module(mod)
-        finally:
-            sys.dont_write_bytecode = keep
-    return sys.modules[key].main
+    """The ``main`` of ``examples/name``, the script loaded as a module once (:func:`conftest.example_module`)."""
+    return example_module(name, fresh=False).main
 
 
 def example_error(name, argv, capsys) -> str:

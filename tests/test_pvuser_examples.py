@@ -3,27 +3,16 @@
 ``moving_bodies.py --frames N`` without ``--screenshot`` opened the interactive window and ran no
 frames; ``csm_heatmap.py --hilbert L --theta T --phi P`` built the Hilbert set and dropped T and P.
 """
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
 
+from conftest import example_module as _example
 from pyshadow import viz
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def _example(name):
-    spec = importlib.util.spec_from_file_location(f"_pvuser_{name}", EXAMPLES / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod            # dataclasses look their module up there
-    keep, sys.dont_write_bytecode = sys.dont_write_bytecode, True     # no __pycache__ in examples/
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.dont_write_bytecode = keep
-    return mod
 
 
 @pytest.fixture

@@ -14,8 +14,6 @@ closes the plotter without rendering where the picture is not checked.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +21,7 @@ import pytest
 import trimesh
 
 import pyshadow
+from conftest import example_module as _example
 from pyshadow import viz
 
 pytest.importorskip("pyvista")
@@ -30,16 +29,6 @@ pytest.importorskip("pyvista")
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 
 
-def _example(name):
-    spec = importlib.util.spec_from_file_location(f"_vizexamples_{name}", EXAMPLES / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod            # dataclasses look their module up there
-    keep, sys.dont_write_bytecode = sys.dont_write_bytecode, True     # no __pycache__ in examples/
-    try:
-        spec.loader.exec_module(mod)
-    finally:
-        sys.dont_write_bytecode = keep
-    return mod
 
 
 @pytest.fixture

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 import trimesh
 from test_contact_moves import _digest
-from test_instance_bvh import _answers, _scene
+from test_instance_bvh import _scene
+from test_isolated_casters import answers_three_ways
 
 import pyshadow
 from pyshadow.contact_bodies import body_patches
@@ -26,22 +27,8 @@ def test_a_duplicated_stray_far_away_keeps_answers_bit_identical(monkeypatch, wh
     assert csm_backend.instance_accel(s) == "grid"
     rows = csm_backend._instance_data(s, s.anchor(), "nearest")[0]
     assert grid.isolated_casters(rows["centre"], rows["radius"]).tolist() == [len(rows) - 2, len(rows) - 1]
-    m = 1200
-    P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
-    D = rng.normal(size=(m, 3))
-    P[::7] = np.asarray(where) + rng.normal(0, 1.0, (len(P[::7]), 3))
-    D[::9] = np.asarray(where) - P[::9]
-    N = rng.normal(size=(m, 3))
-    N /= np.linalg.norm(N, axis=1, keepdims=True)
-    ids = rng.integers(-1, 41, m)
-    got = _answers(s, P, D, N, ids)
-    monkeypatch.setattr(csm_backend, "USE_GRID", False)
-    tree = _answers(s, P, D, N, ids)
-    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
-    flat = _answers(s, P, D, N, ids)
+    got = answers_three_ways(s, rng, k, where, 1200, 41, monkeypatch)
     assert not got[0][::63].all()                           # rays at the stray: it occludes
-    for g, t, f in zip(got, tree, flat):
-        assert np.array_equal(g, f) and np.array_equal(t, f)
 
 
 @pytest.fixture(scope="module")

@@ -50,6 +50,26 @@ def test_the_grid_asks_the_strays_of_every_ray_and_fits_its_cells_to_the_others(
     assert header["origin"][0][0] < 0.0 and header["origin"][0][0] + header["dims"][0][0] * header["cell"][0][0] < 30
 
 
+def answers_three_ways(s, rng, k, where, m, n_ids, monkeypatch):
+    """``_answers`` of ``m`` random queries over the ``k`` m square, every 7th near ``where`` and every 9th aimed
+    at it, on the grid, the tree and every caster: asserted bit-identical; the grid's answers."""
+    P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
+    D = rng.normal(size=(m, 3))
+    P[::7] = np.asarray(where) + rng.normal(0, 1.0, (len(P[::7]), 3))   # rays near and at the stray
+    D[::9] = np.asarray(where) - P[::9]
+    N = rng.normal(size=(m, 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    ids = rng.integers(-1, n_ids, m)
+    got = _answers(s, P, D, N, ids)
+    monkeypatch.setattr(csm_backend, "USE_GRID", False)
+    tree = _answers(s, P, D, N, ids)
+    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
+    flat = _answers(s, P, D, N, ids)
+    for g, t, f in zip(got, tree, flat):
+        assert np.array_equal(g, f) and np.array_equal(t, f)
+    return got
+
+
 @pytest.mark.parametrize("where", [(1e4, 0.3, 0.0), (0.0, -1e3, 0.0), (2.0, 40.0, 1.0)])
 def test_a_parked_caster_keeps_the_grid_with_answers_bit_identical(monkeypatch, where):
     rng = np.random.default_rng(5)
@@ -65,20 +85,6 @@ def test_a_parked_caster_keeps_the_grid_with_answers_bit_identical(monkeypatch, 
     header, cells, items = grid.instance_grid(rows["centre"], rows["radius"])
     assert items["instance"][cells[-1]:].tolist() == [len(rows) - 1]     # the stray, asked by every ray
     assert np.diff(cells).max() <= 8                          # before: cells stretched to list up to 60
-    m = 3000
-    P = np.c_[rng.uniform(-k / 2, k / 2, m), rng.uniform(0.0, 0.8, m), rng.uniform(-k / 2, k / 2, m)]
-    D = rng.normal(size=(m, 3))
-    P[::7] = np.asarray(where) + rng.normal(0, 1.0, (len(P[::7]), 3))   # rays near and at the stray
-    D[::9] = np.asarray(where) - P[::9]
-    N = rng.normal(size=(m, 3))
-    N /= np.linalg.norm(N, axis=1, keepdims=True)
-    ids = rng.integers(-1, 61, m)
-    got = _answers(s, P, D, N, ids)
-    monkeypatch.setattr(csm_backend, "USE_GRID", False)
-    tree = _answers(s, P, D, N, ids)
-    monkeypatch.setattr(csm_backend, "BVH_MIN_INSTANCES", 10 ** 9)
-    flat = _answers(s, P, D, N, ids)
+    got = answers_three_ways(s, rng, k, where, 3000, 61, monkeypatch)
     assert not all(np.all(v) for v in got[::4])               # something occludes
     assert not got[0][::63].any()                             # the rays from near the stray, aimed at it: it does
-    for g, t, f in zip(got, tree, flat):
-        assert np.array_equal(g, f) and np.array_equal(t, f)

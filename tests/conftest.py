@@ -59,25 +59,6 @@ _extract_dir: str | None = None
 _cache: dict = {}
 
 
-def example_module(name: str, fresh: bool = True):
-    """``examples/<name>.py`` loaded as a module (registered in ``sys.modules``: dataclasses look their module up
-    there), without writing ``__pycache__`` into examples/; ``fresh=False`` reuses one loaded before."""
-    import importlib.util
-
-    stem = name[:-3] if name.endswith(".py") else name
-    key = f"_example_{stem}"
-    if fresh or key not in sys.modules:
-        spec = importlib.util.spec_from_file_location(key, REPO / "examples" / f"{stem}.py")
-        mod = importlib.util.module_from_spec(spec)
-        sys.modules[key] = mod
-        keep, sys.dont_write_bytecode = sys.dont_write_bytecode, True
-        try:
-            spec.loader.exec_module(mod)
-        finally:
-            sys.dont_write_bytecode = keep
-    return sys.modules[key]
-
-
 def load(name: str, fill_holes: bool = False):
     """Load (and cache) a test mesh: a bundled one by name, or ``'pyvista:...'``."""
     import pyshadow

@@ -7,13 +7,13 @@ and stop at argument checks, before anything is rendered.
 """
 from __future__ import annotations
 
+import importlib.util
 import json
 import sys
 from pathlib import Path
 
 import pytest
 
-from conftest import example_module
 from pyshadow.bench.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
@@ -161,8 +161,23 @@ def test_empty_folder_path_is_refused(tmp_path, capsys, monkeypatch, option):
 # ---------------------------------------------------------------------------
 # the example scripts
 # ---------------------------------------------------------------------------
+def example_module(name: str, fresh: bool = True):
+    """``examples/<name>.py`` as a module registered in ``sys.modules`` (dataclasses look it up there), no
+    ``__pycache__`` written into examples/; ``fresh=False`` reuses one loaded before."""
+    key = "_example_" + name.removesuffix(".py")
+    if fresh or key not in sys.modules:
+        spec = importlib.util.spec_from_file_location(key, REPO / "examples" / (key[9:] + ".py"))
+        sys.modules[key] = mod = importlib.util.module_from_spec(spec)
+        keep, sys.dont_write_bytecode = sys.dont_write_bytecode, True
+        try:
+            spec.loader.exec_module(mod)
+        finally:
+            sys.dont_write_bytecode = keep
+    return sys.modules[key]
+
+
 def example_main(name):
-    """The ``main`` of ``examples/name``, the script loaded as a module once (:func:`conftest.example_module`)."""
+    """The ``main`` of ``examples/name``, the script loaded as a module once (:func:`example_module`)."""
     return example_module(name, fresh=False).main
 
 

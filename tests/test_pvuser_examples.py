@@ -6,8 +6,8 @@ frames; ``csm_heatmap.py --hilbert L --theta T --phi P`` built the Hilbert set a
 from pathlib import Path
 
 import pytest
+from test_bad_input_bench import example_module as _example
 
-from conftest import example_module as _example
 from pyshadow import viz
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

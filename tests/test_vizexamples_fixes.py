@@ -18,10 +18,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_bad_input_bench import example_module as _example
 import trimesh
 
 import pyshadow
-from conftest import example_module as _example
 from pyshadow import viz
 
 pytest.importorskip("pyvista")

@@ -119,10 +119,55 @@ def layer_rule(layers, mesh=None):
     raise ValueError(f"layers must be 'auto', 2 or 3, got {layers!r}")
 
 
+def _stage(bar, what: str) -> None:
+    """Name on the progress bar ``bar`` (None: none shown) the step of the build under way before the maps."""
+    if bar is not None:
+        bar.set_postfix_str(what)
+
+
+def available_memory():
+    """Bytes of memory the machine can still give without swapping (``MemAvailable`` of Linux's
+    /proc/meminfo), or None where unknown (another system)."""
+    try:
+        with open("/proc/meminfo", "rb") as f:
+            for line in f:
+                if line.startswith(b"MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _check_room(seg_bytes, done, maps, resolution) -> None:
+    """MemoryError where the segments of the first ``done`` of ``maps`` maps (``seg_bytes``, held) can no longer
+    be assembled: the assembly copies them into the CSM's arrays, and less memory than they take is left. Said
+    then, not after the remaining maps' work as the system's out-of-memory kill (which gives no reason)."""
+    free = available_memory()
+    if free is not None and seg_bytes > free:
+        raise MemoryError(f"CoherentShadowMap.build: after {done} of {maps} maps of {resolution}^2 texels the "
+                          f"segments hold {seg_bytes / 2**30:.2f} GiB and {free / 2**30:.2f} GiB of memory is "
+                          "left: the CSM's arrays need as much again, and the maps left more; ask fewer maps or a "
+                          "lower resolution (the CSM's size grows with both)")
+
+
+def _block_counts(counts, maps):
+    """A block's segments per texel kept for the assembly, in what the block emitted rather than one
+    number per texel: ``(None, counts)`` narrowed to the least unsigned dtype holding ``maps + 1`` (what a
+    block of ``maps`` maps emits at most per texel), or ``(texels, counts)`` of the texels that emitted
+    (uint32, and counts as narrow) where that is smaller. A block of maps of high resolution emits few
+    segments: R^2 4-byte counts a block held more than the CSM itself (benchmarks/README.md, bigjob)."""
+    dt = np.dtype(np.uint8 if maps < 255 else np.uint16 if maps < 65535 else np.uint32)
+    texels = np.flatnonzero(counts)
+    if len(texels) * (4 + dt.itemsize) < len(counts) * dt.itemsize:
+        return texels.astype(np.uint32), counts[texels].astype(dt)
+    return None, counts.astype(dt)
+
+
 def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int = 16,
               layers="auto", block: int | None = None, progress: bool = True,
               frame=None, footprint: bool = False, two_sided="auto"):
-    """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``."""
+    """:meth:`CoherentShadowMap.build` (which documents it) for the class ``cls``; MemoryError where the
+    segments of the maps built so far outgrow the memory left (:func:`_check_room`)."""
     t0 = time.perf_counter()
     check_arguments(views, resolution, depth_bits)
     if not isinstance(mesh, trimesh.Trimesh):
@@ -146,64 +191,70 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
         raise ValueError("two_sided=True is for open meshes (layers=2): a closed mesh's back faces are never asked")
     if footprint and R >= 4096:
         raise ValueError("footprint=True renders the corners at resolution + 1: resolution must be <= 4095")
-    centre, radius = (bounding_sphere(mesh) if frame is None
-                      else check_frame(np.asarray(mesh.vertices, np.float64), frame))
-    check_float32_frame(centre, radius)             # as a .csm file holds them
-    dtype_z = _depth_dtype(depth_bits)
-    dtype_i = _iend_dtype(D)
-    per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)
-    if footprint:
-        per_map += rule * (R + 1) ** 2 * 5
-    if block is None:
-        block = max(1, min(D, _cl.launch.block_budget(96 << 20) // per_map))
-    elif isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)):
-        raise TypeError(f"block must be an int, got {block!r}")
-    block = int(block)
-    if block < 1:
-        raise ValueError(f"block must be >= 1, got {block}")
-    block = min(block, D)
-
-    # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
-    both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
-    n_both = len(mesh.faces) if both_every else 0 if both is None else int(np.count_nonzero(both))
-    renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
-    defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every, open_sheet(mesh, both))
-    corner_args = ()
-    if footprint:
-        scale = footprint_scale(R)
-        corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True,
-                                both_sides=both)
-        cdepth_buf = _cl.empty(block * corners.bytes_per_map)
-        cfront_buf = _cl.empty(block * corners.facing_bytes_per_map)
-        corner_args = (cdepth_buf, cfront_buf, scale)
-        defs["FOOTPRINT"] = 1
-    k_fold = _cl.kernel("csm.cl", "csm_fold", defs)
-    k_compact = _cl.kernel("csm.cl", "csm_compact", defs)
-    q = _cl.queue()
-    T = R * R
-    depth_buf = _cl.empty(block * renderer.bytes_per_map)
-    front_buf = _cl.empty(block * renderer.facing_bytes_per_map)
-    state = _cl.empty(T * 16)
-    fill(q, state, np.uint32(0), T * 16)
-    slots = block + 1          # a block emits at most one segment per map, plus the last
-    seg_z = _cl.empty(T * slots * dtype_z.itemsize)
-    seg_i = _cl.empty(T * slots * 4)
-    count_buf = _cl.empty(T * 4)
-    device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16
-                    + T * slots * (dtype_z.itemsize + 4)
-                    + T * 8 + 36 * renderer.n_faces)
-    if footprint:
-        device_bytes += block * (corners.bytes_per_map + corners.facing_bytes_per_map) + 36 * corners.n_faces
-    counts = np.empty(T, np.uint32)
-    blocks = []
-    host_bytes = 0
-    starts = range(0, D, block)
+    # the bar from here: the bounding sphere and the exposed backs of a mesh of 10^6 faces take seconds
+    # (benchmarks/README.md, bigjob) before the first map
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
         bar = tqdm(total=D, desc="CSM build", unit="map", disable=None, leave=False)
     try:
+        _stage(bar, "bounding sphere")
+        centre, radius = (bounding_sphere(mesh) if frame is None
+                          else check_frame(np.asarray(mesh.vertices, np.float64), frame))
+        check_float32_frame(centre, radius)             # as a .csm file holds them
+        dtype_z = _depth_dtype(depth_bits)
+        dtype_i = _iend_dtype(D)
+        per_map = rule * R * R * 5 + R * R * (dtype_z.itemsize + 4)
+        if footprint:
+            per_map += rule * (R + 1) ** 2 * 5
+        if block is None:
+            block = max(1, min(D, _cl.launch.block_budget(96 << 20) // per_map))
+        elif isinstance(block, (bool, np.bool_)) or not isinstance(block, (int, np.integer)):
+            raise TypeError(f"block must be an int, got {block!r}")
+        block = int(block)
+        if block < 1:
+            raise ValueError(f"block must be >= 1, got {block}")
+        block = min(block, D)
+
+        # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
+        _stage(bar, "exposed backs" if is_auto(two_sided) and rule == 2 else "")
+        both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
+        n_both = len(mesh.faces) if both_every else 0 if both is None else int(np.count_nonzero(both))
+        renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
+        defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every, open_sheet(mesh, both))
+        corner_args = ()
+        if footprint:
+            scale = footprint_scale(R)
+            corners = DepthRenderer(mesh, R + 1, rule, frame=corner_frame((centre, radius), R), facing=True,
+                                    both_sides=both)
+            cdepth_buf = _cl.empty(block * corners.bytes_per_map)
+            cfront_buf = _cl.empty(block * corners.facing_bytes_per_map)
+            corner_args = (cdepth_buf, cfront_buf, scale)
+            defs["FOOTPRINT"] = 1
+        k_fold = _cl.kernel("csm.cl", "csm_fold", defs)
+        k_compact = _cl.kernel("csm.cl", "csm_compact", defs)
+        q = _cl.queue()
+        T = R * R
+        depth_buf = _cl.empty(block * renderer.bytes_per_map)
+        front_buf = _cl.empty(block * renderer.facing_bytes_per_map)
+        state = _cl.empty(T * 16)
+        fill(q, state, np.uint32(0), T * 16)
+        slots = block + 1          # a block emits at most one segment per map, plus the last
+        seg_z = _cl.empty(T * slots * dtype_z.itemsize)
+        seg_i = _cl.empty(T * slots * 4)
+        count_buf = _cl.empty(T * 4)
+        device_bytes = (block * (renderer.bytes_per_map + renderer.facing_bytes_per_map) + T * 16
+                        + T * slots * (dtype_z.itemsize + 4)
+                        + T * 8 + 36 * renderer.n_faces)
+        if footprint:
+            device_bytes += block * (corners.bytes_per_map + corners.facing_bytes_per_map) + 36 * corners.n_faces
+        counts = np.empty(T, np.uint32)
+        per_texel = np.zeros(T, np.int64)
+        blocks = []
+        host_bytes = seg_bytes = 0
+        starts = range(0, D, block)
+        _stage(bar, "")
         for s in starts:
             e = min(D, s + block)
             renderer.render(views.bases[s:e], depth_buf, front_buf)
@@ -224,33 +275,40 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
                           out_z, out_i)
                 cl.enqueue_copy(q, zb, out_z)
                 cl.enqueue_copy(q, ib, out_i)
-            blocks.append((counts.copy(), zb, ib))
-            host_bytes += zb.nbytes + ib.nbytes + counts.nbytes
+            per_texel += counts
+            kept = (_block_counts(counts, e - s), zb, ib)
+            blocks.append(kept)
+            host_bytes += sum(a.nbytes for a in (*kept[0], zb, ib) if a is not None)
+            seg_bytes += zb.nbytes + ib.nbytes
+            _check_room(seg_bytes, e, D, R)
             if bar is not None:
                 bar.update(e - s)
     finally:
         if bar is not None:
             bar.close()
     # assemble the per-texel lists (blocks arrive in map order)
-    per_texel = np.zeros(T, np.int64)
-    for c, _, _ in blocks:
-        per_texel += c
     S = int(per_texel.sum())
     offsets = np.zeros(T + 1, _offsets_dtype(S))
     np.cumsum(per_texel, out=offsets[1:])
+    del per_texel
     zs = np.empty(S, dtype_z)
     ie = np.empty(S, dtype_i)
+    peak = device_bytes + host_bytes + zs.nbytes + ie.nbytes + offsets.nbytes + 16 * T
     cursor = offsets[:-1].astype(np.int64)
-    for c, zb, ib in blocks:
+    blocks.reverse()
+    while blocks:                       # each block dropped once placed: the lists' bytes are held once
+        (texels, c), zb, ib = blocks.pop()
         if len(zb) == 0:
             continue
-        texel = np.repeat(np.arange(T), c)
-        first = np.cumsum(c, dtype=np.int64) - c
-        pos = cursor[texel] + (np.arange(len(zb)) - first[texel])
+        if texels is None:              # dense counts (every texel's, narrow)
+            texels = np.flatnonzero(c)
+            c = c[texels]
+        c = c.astype(np.int64)
+        pos = np.repeat(cursor[texels] - (np.cumsum(c) - c), c)     # a segment's place less its index
+        pos += np.arange(len(zb))
         zs[pos] = zb
         ie[pos] = ib
-        cursor += c
-    peak = device_bytes + host_bytes + zs.nbytes + ie.nbytes + offsets.nbytes
+        cursor[texels] += c
     return cls(views=views, resolution=R, depth_bits=depth_bits, layer_rule=rule,
                centre=centre, radius=radius, mesh_hash=digest, offsets=offsets,
                iend=ie, depth=zs, build_seconds=time.perf_counter() - t0, peak_bytes=peak,

@@ -128,7 +128,7 @@ def _announce(max_error, tried, entry, verify):
                   f"({p['lookup']}), predicted {p['disagreement']:.4f}, about {_mb(nbytes)} and "
                   f"{sec:.0f} s{' before its check' if verify else ''}{_most_accurate(tried, entry)}"
                   f"{_most_accurate(tried, entry, 0.25, 'a quarter of the size or less')}; "
-                  "pyshadow.csm.choose_csm(..., max_bytes=) caps the size", UserWarning, stacklevel=3)
+                  "pyshadow.csm.choose_csm(..., max_bytes=) caps the size", UserWarning, stacklevel=4)
 
 
 def _most_accurate(tried, entry, share=None, within="") -> str:
@@ -165,6 +165,38 @@ def _nearest_target(tried, need) -> int:
     reach = min(shortfall(best, _upper), NEAR_ENOUGH * shortfall(best))
     return min((j for j in todo if shortfall(j) <= reach or j == best),
                key=lambda j: (tried[j]["predicted_bytes"], -j))
+
+
+def _layout(cand) -> str:
+    """A candidate ``(theta, phi, resolution)`` as the error model names it: ``'16x32 r64'``."""
+    return f"{cand[0]}x{cand[1]} r{cand[2]}"
+
+
+class _Steps:
+    """A progress bar over the steps of a choice, naming the one under way (``progress`` False: none; shown on a
+    terminal only, as the build's): the pilots, the predictions, the builds and their checks of a large mesh take
+    minutes (benchmarks/README.md, bigjob). Entered, it gives ``note(step: str)``; closed on leaving, whatever
+    the exit."""
+
+    def __init__(self, progress):
+        self.bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(desc="CSM choice", unit="step", disable=None, leave=False)
+
+    def note(self, step: str) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(step, refresh=False)
+            self.bar.update(1)
+
+    def __enter__(self):
+        return self.note
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.close()
+        return False
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -308,6 +340,15 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         the smallest predicted size); a mesh :func:`pyshadow.mesh.check_mesh` refuses (no triangles, a
         vertex not finite, a face index outside the vertices).
     """
+    with _Steps(progress) as note:
+        return _choose_csm(note, mesh, max_error, lookup=lookup, depth_bits=depth_bits, layers=layers,
+                           verify=verify, points=points, samples=samples, near=near, seed=seed,
+                           progress=progress, candidates=candidates, max_bytes=max_bytes)
+
+
+def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, points, samples, near, seed,
+                progress, candidates, max_bytes):
+    """:func:`choose_csm`, each step named by ``note``."""
     check_mesh(mesh, "choose_csm")       # before the rays are drawn: a face past the vertices was IndexError
     max_error = _max_error(max_error)
     if lookup not in ("nearest", "vote", "auto"):
@@ -316,9 +357,11 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     max_bytes = None if max_bytes is None else _max_bytes(max_bytes)
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
+    note("rays of the error model")
     rays = rays_for(mesh, seed=seed, **draw)
     check = rays_for(mesh, seed=_check_seed(seed), **draw) if verify else None
     built = {}
+    note("pilot builds")
     size, size_info = size_model(mesh, depth_bits, layers, built)
     if max_bytes is not None:
         small = min(size(*c) for c in candidates)
@@ -336,6 +379,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     need = dict.fromkeys(lookups, max_error / (1.0 if verify else MODEL_RATIO[1]))
     tried, csm, entry = [], None, None
     for i, (cand, lk) in enumerate(order):
+        note(f"predict {_layout(cand)} ({lk})")
         pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)
         entry = {"predicted": pred, "predicted_bytes": size(*cand),
                  "predicted_seconds": size_info.get("seconds_per_work", 0.0) * _work(cand)}
@@ -350,10 +394,12 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
                 _announce(max_error, tried, entry, verify)
         _keep(built, {c for c, _ in order[i:]} | {cand})
         csm = None                     # the last miss: not held while the next one is built
+        note(f"build {_layout(cand)}")
         csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
         entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
         if not verify:
             break
+        note(f"verify {_layout(cand)} ({lk})")
         entry["measured"] = measure(csm, mesh, check, lk)
         got = entry["measured"]["disagreement"]
         if got <= max_error:
@@ -376,7 +422,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
             got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
                    "with the model's range")
         warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last built, {p['layout']} "
-                      f"({p['lookup']}): {got}{_most_accurate(tried, entry)}", UserWarning, stacklevel=3)
+                      f"({p['lookup']}): {got}{_most_accurate(tried, entry)}", UserWarning, stacklevel=4)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
@@ -414,6 +460,15 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     TypeError
         ``max_bytes`` not a real number (a bool or a string).
     """
+    with _Steps(progress) as note:
+        return _choose_within(note, mesh, max_bytes, lookup=lookup, depth_bits=depth_bits, layers=layers,
+                              verify=verify, points=points, samples=samples, near=near, seed=seed,
+                              progress=progress, candidates=candidates)
+
+
+def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify, points, samples, near, seed,
+                   progress, candidates):
+    """:func:`choose_within`, each step named by ``note``."""
     check_mesh(mesh, "choose_within")
     max_bytes = _max_bytes(max_bytes)
     if lookup not in ("nearest", "vote"):
@@ -421,17 +476,23 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     candidates = _candidates(candidates, "choose_within")
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
+    note("rays of the error model")
     rays = rays_for(mesh, seed=seed, **draw)
     built = {}
+    note("pilot builds")
     size, size_info = size_model(mesh, depth_bits, layers, built)
-    tried = [{"candidate": c, "predicted": predict(mesh, c[:2], c[2], depth_bits, lookup, rays=rays),
-              "predicted_bytes": size(*c)} for c in candidates]
+    tried = []
+    for c in candidates:
+        note(f"predict {_layout(c)} ({lookup})")
+        tried.append({"candidate": c, "predicted": predict(mesh, c[:2], c[2], depth_bits, lookup, rays=rays),
+                      "predicted_bytes": size(*c)})
     fits = sorted((t for t in tried if t["predicted_bytes"] <= max_bytes),
                   key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"]))
     csm = entry = None
     for j, entry in enumerate(fits):
         _keep(built, {t["candidate"] for t in fits[j:]})
         c = None
+        note(f"build {_layout(entry['candidate'])}")
         c, seconds = _build(mesh, entry["candidate"], depth_bits, layers, progress, built)
         entry.update(bytes=c.stats["bytes"], build_seconds=seconds)
         if c.stats["bytes"] <= max_bytes:
@@ -447,6 +508,7 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
                    f"{least['predicted']['layout']}, takes {least['bytes']} bytes")
         raise ValueError(f"no candidate CSM fits in {max_bytes} bytes ({why})")
     if verify:
+        note(f"verify {_layout(entry['candidate'])} ({lookup})")
         entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=_check_seed(seed), **draw), lookup)
     p = entry["predicted"]
     for t in tried:

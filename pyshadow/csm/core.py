@@ -264,7 +264,7 @@ class CoherentShadowMap:
             working set near 96 MiB. Peak memory depends on ``block`` and
             ``resolution``, not on ``len(views)``.
         progress : bool, optional
-            Progress bar over the blocks (shown only on a terminal).
+            Bars on a terminal: the maps, naming the steps before them, and a ``max_error`` choice's steps.
         frame : (centre, radius), optional
             The sphere the maps frame, in the mesh's units: centre shape (3,),
             radius > 0; it must hold every vertex a face uses. Default: the minimal

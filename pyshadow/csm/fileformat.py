@@ -254,8 +254,11 @@ def _header_values(path, head) -> dict:
             raise CSMFormatError(f"{path}: header {key!r} has the wrong type")
         return val
 
-    if head.get("format") != "pyshadow-csm" or head.get("version") != FORMAT_VERSION:
-        raise CSMFormatError(f"{path}: header is not a pyshadow-csm version {FORMAT_VERSION}")
+    # the version an integer: JSON's true (True == 1 in Python) and 1.0 are not version 1
+    if head.get("format") != "pyshadow-csm" or not _integer(head.get("version")) \
+            or head.get("version") != FORMAT_VERSION:
+        raise CSMFormatError(f"{path}: header is not a pyshadow-csm version {FORMAT_VERSION}, got format "
+                             f"{head.get('format')!r} version {head.get('version')!r}")
     R = need("resolution", int)
     D = need("maps", int)
     S = need("segments", int)

@@ -382,10 +382,10 @@ class Scene:
                   backend=None, **old):
         """Per-vertex AO of an instance's mesh (for display), as :meth:`ambient_occlusion`.
 
-        Points are the vertices of ``instances[instance_id].mesh`` in world space (a file or pyvista mesh
-        added is cleaned first: coincident points merged, so show it as that mesh, or put the values on the
-        pyvista dataset's own points with :func:`pyshadow.viz.point_values`), normals its area-weighted vertex normals; the default sampling is ``Sampling(64)``. Returns ``(V,)`` float32
-        (and ``(V, 3)`` bent normals with ``return_bent_normals=True``).
+        Points are the vertices of ``instances[instance_id].mesh`` in world space (a file or pyvista mesh added is
+        cleaned first: coincident points merged; :func:`pyshadow.viz.point_values` puts the values on a pyvista
+        dataset's own points), normals its area-weighted vertex normals; the default sampling is ``Sampling(64)``.
+        Returns ``(V,)`` float32 (and ``(V, 3)`` bent normals with ``return_bent_normals=True``).
         """
         sampling, bent, name = _query_options("Scene.vertex_ao", args, old, sampling, return_bent_normals,
                                               lookup, backend, Sampling(64))

@@ -587,11 +587,12 @@ def surface_colours(items, item, face, bary) -> np.ndarray:
     (N,) int and ``bary`` (N, 3) as :func:`pyshadow.shading_normals.pixel_surface`
     returns them. Points on meshes without a :class:`MeshVisual` get ones.
     """
+    from .gbuffer_items import pixels_by_item
+
     item = np.asarray(item, dtype=np.int64)
     out = np.ones((len(item), 3))
-    for i in np.unique(item):
+    for i, sel in pixels_by_item(item):
         visual = visual_of(items[i][0])
         if visual is not None:
-            sel = np.flatnonzero(item == i)
             out[sel] = point_colours(visual, np.asarray(face)[sel], np.asarray(bary)[sel])
     return out

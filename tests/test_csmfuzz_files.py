@@ -152,6 +152,13 @@ def _resealed(path, head_bytes):
     return path
 
 
+def resealed_with(path, **change):
+    """:func:`_resealed` with the header's fields ``change``d (sorted keys, the arrays moved to fit)."""
+    hlen = struct.unpack("<I", path.read_bytes()[12:16])[0]
+    head = json.loads(path.read_bytes()[16:16 + hlen])
+    return _resealed(path, json.dumps({**head, **change}, sort_keys=True).encode())
+
+
 def test_header_with_a_key_twice_is_refused(tmp_path, spot):
     """Was: a header holding "centre" twice (checksum valid) loaded, with the last centre, [0.5, 0, 0]
     instead of [0, 0.1007, 0.2652]: another JSON reader takes the first; which one the file means is not

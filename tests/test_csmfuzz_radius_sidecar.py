@@ -1,8 +1,6 @@
 """Second fuzzing round of .csm files and the CSM cache (6,000 mutated files): a header radius whose
 reciprocal float32 cannot hold loaded and failed every query; a damaged sidecar crashed the cache."""
-import hashlib
 import json
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +9,7 @@ import pytest
 import pyshadow
 from pyshadow import CoherentShadowMap, CSMFormatError
 from pyshadow.cache import CSMCache
-from pyshadow.csm import fileformat
+from test_csmfuzz_files import resealed_with
 
 
 @pytest.fixture(scope="module")
@@ -23,18 +21,7 @@ def small():
 def _with_header(path, csm, **change):
     """``csm`` saved at ``path`` with header fields ``change``d, the arrays moved to fit and the checksum made good."""
     csm.save(path)
-    raw = path.read_bytes()
-    hlen = struct.unpack("<I", raw[12:16])[0]
-    head = json.loads(raw[16:16 + hlen])
-    layout, _ = fileformat.array_layout(16 + hlen, head["resolution"], head["maps"], head["segments"],
-                                        head["depth_bits"], head["offsets_dtype"])
-    arrays = [raw[off:off + dt.itemsize * n] for _, dt, n, off in layout]
-    text = json.dumps({**head, **change}, sort_keys=True).encode()
-    out = bytearray(fileformat.MAGIC + struct.pack("<II", 1, len(text)) + text)
-    for a in arrays:
-        out += b"\0" * (-len(out) % 64) + a
-    path.write_bytes(bytes(out) + hashlib.sha256(bytes(out)).digest())
-    return path
+    return resealed_with(path, **change)
 
 
 @pytest.mark.parametrize("radius", [1e-45, 1e-320])

@@ -466,15 +466,16 @@ def vertex_terms(items, item, face, bary, normals, eye, lighting: PhongLighting)
         ``sum_j b_j max(0, n_j . l_j)`` and ``sum_j b_j max(0, e_j . r_j)^p``
         over the corners ``j``.
     """
+    from ..gbuffer_items import pixels_by_item
+
     item = np.asarray(item, np.int64)
     face = np.asarray(face, np.int64)
     bary = np.asarray(bary, np.float64)
     nrm = np.asarray(normals, np.float64)
     k = len(item)
     diffuse, spec = np.zeros(k), np.zeros(k)
-    for i in np.unique(item):
+    for i, sel in pixels_by_item(item):
         mesh, T = items[i]
-        sel = np.flatnonzero(item == i)
         T = np.asarray(T, np.float64)
         corners = np.asarray(mesh.faces)[face[sel]]                            # (S, 3)
         w = (np.asarray(mesh.vertices, np.float64) @ T[:3, :3].T + T[:3, 3])[corners]       # (S, 3, 3)

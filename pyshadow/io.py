@@ -323,8 +323,10 @@ def write_image(path, array) -> None:
         HDR: float, 1 or 3 channels, finite, >= 0 and below about 1.7e38;
         stored as RGBE, within 2^-8 of each pixel's largest channel.
         PNG/JPEG: linear float in [0, 1] (clipped, sRGB-encoded, rounded to
-        8 bits; no NaN) or ``uint8`` (written as is). See the module
+        8 bits; no NaN) or ``uint8`` (sRGB-encoded, written as is). See the module
         docstring for channel names and the alpha channel.
+        :func:`pyshadow.viz.image_panel` draws an RGB array as its PNG holds it;
+        a 2-D array it colour-maps instead (``'gray'`` draws 0.5 as 128, the PNG holds 188).
 
     Raises
     ------

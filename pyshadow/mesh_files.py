@@ -17,9 +17,9 @@ binary PLY, :func:`ply_ascii` turns the file into the same PLY in ASCII, which t
 size (every number written so it reads back to the same bits), also where the sizes add up and trimesh misread
 it. PLY and OFF polygons were fanned as OBJ's, PLY face colours not split with their polygons (IndexError),
 an OFF of pentagons beside triangles failed, and an OFF comment after data shifted the lines after it:
-:func:`ply_polygons` and :func:`off_text` rewrite such files (an OFF's concave quads too; a PLY's where it is
-rewritten: a PLY of triangles and quads without colours that trimesh reads is read as it is, fans of concave
-quads and all, as :func:`pyshadow.data.mesh` reads its PLY). A binary STL whose facet count is not its
+:func:`ply_polygons` and :func:`off_text` rewrite such files (concave quads too: an OFF's, and a PLY's also where
+trimesh reads it as it is, triangles and quads without colours, whose concave quads it fanned over ground outside
+them). A binary STL whose facet count is not its
 length's (0, as some CAD exporters write) "held no geometry" (read now); an ASCII STL cut short is refused.
 glTF files are read by :mod:`pyshadow.gltf_files`. An empty file is refused as such.
 """
@@ -495,7 +495,7 @@ def _stl_binary(data: bytes, label: str) -> bytes | None:
 
 def _ply_suspect(mesh) -> str:
     """Why trimesh's read of a PLY may be wrong: "misread" (binary lists not all as long as the first, as trimesh
-    takes them), "split" (faces of 5+ corners, or of 4 with colours: :func:`ply_polygons`), or ""."""
+    takes them), "split" (faces of 5+ corners, of 4 with colours, or a concave quad: :func:`ply_polygons`), or ""."""
     face = ((getattr(mesh, "metadata", None) or {}).get("_ply_raw") or {}).get("face") or {}
     data, props = face.get("data"), face.get("properties") or {}
     lists = [name for name, dtype in props.items() if "," in dtype]
@@ -505,25 +505,29 @@ def _ply_suspect(mesh) -> str:
         if isinstance(data, np.ndarray) and data.dtype.names:
             if (column["f0"] != column["f1"].shape[1]).any():
                 return "misread"
-            most = column["f1"].shape[1]
-        else:
-            most = column.shape[1] if column.ndim == 2 else max(map(len, column), default=0)
+            column = column["f1"]
+        most = column.shape[1] if column.ndim == 2 else max(map(len, column), default=0)
+        # a concave quad (a dart) trimesh fans from corner 0 over ground outside it (area 3 for 1)
+        quads = column if column.ndim == 2 else np.array([f for f in column if len(f) == 4], np.int64)
+        concave = most == 4 and np.shape(quads)[1:] == (4,) and 0 <= quads.min() and quads.max() < len(mesh.vertices) \
+            and len(_quad_flips(np.asarray(mesh.vertices, np.float64)[quads]))
     except (KeyError, TypeError, ValueError, IndexError, AttributeError):
         return ""
-    return "split" if most >= 5 or most >= 4 and sum(c in props for c in _PLY_COLOURS) > 2 else ""
+    return "split" if most >= 5 or most >= 4 and sum(c in props for c in _PLY_COLOURS) > 2 or concave else ""
 
 
-def _read_ply(path: Path):
-    """What trimesh reads from the PLY file ``path``, where needed from :func:`ply_ascii`'s, ply_polygons' text (an
-    ASCII PLY trimesh fails on with every polygon split: it failed on ``texcoord`` lists of triangles and quads)."""
+def _read_ply(path: Path | None, data: bytes | None = None):
+    """What trimesh reads from the PLY file ``path`` (or its contents ``data``: ``path`` None), where needed from
+    :func:`ply_ascii`'s, ply_polygons' text (an ASCII PLY trimesh fails on with every polygon split: it failed on
+    ``texcoord`` lists of triangles and quads)."""
     try:
-        mesh = trimesh.load(str(path), process=False)
+        mesh = trimesh.load(str(path) if data is None else io.BytesIO(data), file_type="ply", process=False)
         why, error = _ply_suspect(mesh), None
         if not why:
             return mesh
     except Exception as exc:                    # faces of several sizes in a binary PLY: read as ASCII
         mesh, why, error = None, "misread", exc
-    data = path.read_bytes()
+    data = path.read_bytes() if data is None else data
     text = ply_ascii(data)
     if text is None and mesh is None and (text := ply_polygons(data, split=True)) is None:
         raise error
@@ -531,7 +535,7 @@ def _read_ply(path: Path):
     if fixed is None and (text is None or why != "misread"):
         return mesh
     return trimesh.load(io.BytesIO(fixed or text), file_type="ply", process=False,
-                        resolver=trimesh.resolvers.FilePathResolver(str(path)))
+                        resolver=None if path is None else trimesh.resolvers.FilePathResolver(str(path)))
 
 
 def read_mesh_file(path: Path, label: str):

@@ -127,8 +127,11 @@ def mesh(name: str, fill_holes: bool = False) -> trimesh.Trimesh:
     from ..mesh import load_mesh
 
     full = _mesh_name(name)
-    raw = trimesh.load(io.BytesIO(mesh_bytes(full)), file_type=full.rsplit(".", 1)[1].lower(),
-                       process=False)
+    if full.lower().endswith(".ply"):           # as load_mesh reads the file: its concave quads tiled
+        from ..mesh_files import _read_ply
+        raw = _read_ply(None, mesh_bytes(full))
+    else:
+        raw = trimesh.load(io.BytesIO(mesh_bytes(full)), file_type=full.rsplit(".", 1)[1].lower(), process=False)
     return load_mesh(raw, fill_holes=fill_holes)
 
 

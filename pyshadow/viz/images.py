@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..io import linear_to_srgb
 from .plotter import TEXT_COLOR, _pv, _viewport_pixels, add_title
 
 __all__ = [
@@ -47,10 +48,14 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
     ----------
     plotter : pyvista.Plotter
     image : array_like, shape (H, W) numeric, or (H, W, 3) RGB
-        Scalar images are colour-mapped; RGB images are shown as colours:
-        ``uint8`` as is, floats (or bools) in [0, 1] scaled to 0..255
-        (clipped). Other integer RGB types raise TypeError (their range is
-        not known).
+        Scalar images are colour-mapped (the map's colours are display
+        values: ``'gray'`` draws 0.5 as 128). RGB images are shown as
+        colours, in the colour space of :func:`pyshadow.write_image`'s
+        PNG: ``uint8`` as is (sRGB-encoded, as :func:`pyshadow.lighting.tonemap`
+        gives), floats (or bools) as *linear* values in [0, 1], clipped,
+        sRGB-encoded and rounded to 0..255 (the bytes a PNG of the same
+        array holds: linear 0.5 draws 188). Other integer RGB types raise
+        TypeError (their range is not known).
     title : str, optional
         Text along the top edge of the subplot.
     title_fit : str, optional
@@ -123,7 +128,8 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
         if img.dtype != np.uint8:
             img = np.asarray(img, np.float64)
             keep &= np.isfinite(img).all(axis=2)
-            img = np.round(np.clip(np.nan_to_num(img), 0.0, 1.0) * 255.0).astype(np.uint8)
+            # linear, as write_image reads floats: its PNG's bytes (sRGB, rounded half up), not 255 x
+            img = np.floor(linear_to_srgb(np.clip(np.nan_to_num(img), 0.0, 1.0)) * 255.0 + 0.5).astype(np.uint8)
     else:
         img = np.asarray(img, dtype=np.float64)
         keep &= np.isfinite(img)

@@ -110,7 +110,11 @@ def polydata_to_mesh(poly):
     -------
     trimesh.Trimesh
         Vertices float64 (V, 3), the dataset's points; faces int64 (T, 3); not processed (nothing merged or
-        removed: :func:`pyshadow.load_mesh` cleans). Point and cell data (colours, normals) are not read.
+        removed: :func:`pyshadow.load_mesh` cleans). Colours: a uint8 point (else cell) array ``'RGB'`` or
+        ``'RGBA'`` (3 or 4 components, as VTK's PLY reader names a file's colours: ``pv.read``) becomes the
+        mesh's vertex (face) colours, sRGB-encoded as a PLY's, which the lit render multiplies the albedo by
+        (:mod:`pyshadow.materials`); ``Scene.add(pv.read("a.ply"))`` drew grey what ``Scene.add("a.ply")``
+        drew in its colours. Other point and cell data (normals, scalars) are not read.
         Per-vertex results of the cleaned mesh go back onto the dataset's own points through
         :func:`point_values`.
 
@@ -138,7 +142,21 @@ def polydata_to_mesh(poly):
     faces = cells.reshape(-1, 4)
     if (faces[:, 0] != 3).any():        # (triangulate leaves only triangles)
         raise ValueError("polydata_to_mesh: VTK's triangulate left polygons that are not triangles")
-    return trimesh.Trimesh(vertices=np.array(tri.points, dtype=np.float64), faces=faces[:, 1:], process=False)
+    return trimesh.Trimesh(vertices=np.array(tri.points, dtype=np.float64), faces=faces[:, 1:], process=False,
+                           **_colours(tri, len(faces)))
+
+
+def _colours(tri, n_faces: int) -> dict:
+    """``vertex_colors`` or ``face_colors`` (uint8 (V or T, 3 or 4)) of the triangulated dataset ``tri``: its point
+    (else cell) array ``'RGB'`` or ``'RGBA'`` (uint8, 3 or 4 components); {} where it has none."""
+    for data, key, n, first in ((tri.point_data, "vertex_colors", tri.n_points, 0),
+                                (tri.cell_data, "face_colors", n_faces, tri.n_verts + tri.n_lines)):
+        for name in ("RGBA", "RGB"):
+            rgb = np.asarray(data[name]) if name in data else None      # cells: vertices, lines, then polygons
+            if rgb is not None and rgb.dtype == np.uint8 and rgb.ndim == 2 and rgb.shape[1] == len(name) \
+                    and len(rgb) >= first + n:
+                return {key: rgb[first:first + n].copy()}
+    return {}
 
 
 def point_values(dataset, mesh, values):

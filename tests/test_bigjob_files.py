@@ -81,7 +81,7 @@ def test_bigjob_progress_bar_opens_before_the_slow_preparation(monkeypatch):
 
     real = build_mod.both_sided_faces
     monkeypatch.setattr(tqdm.auto, "tqdm", Bar)
-    monkeypatch.setattr(build_mod, "both_sided_faces", lambda *a: events.append("backs") or real(*a))
+    monkeypatch.setattr(build_mod, "both_sided_faces", lambda *a, **k: events.append("backs") or real(*a, **k))
     open_mesh = load("teapot.obj")
     assert not open_mesh.is_watertight
     CoherentShadowMap.build(open_mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=True)
@@ -90,7 +90,7 @@ def test_bigjob_progress_bar_opens_before_the_slow_preparation(monkeypatch):
     assert events[-1] == "close"
     # an error in the preparation closes the bar as well
     events.clear()
-    monkeypatch.setattr(build_mod, "both_sided_faces", lambda *a: (_ for _ in ()).throw(KeyboardInterrupt))
+    monkeypatch.setattr(build_mod, "both_sided_faces", lambda *a, **k: (_ for _ in ()).throw(KeyboardInterrupt))
     with pytest.raises(KeyboardInterrupt):
         CoherentShadowMap.build(open_mesh, pyshadow.ViewSet.zigzag(2, 4), resolution=8, progress=True)
     assert events[0] == "open" and events[-1] == "close"

@@ -219,7 +219,8 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
 
         # 'auto': the faces whose back is open to the outside keep the margin from either side (.exposure)
         _stage(bar, "exposed backs" if is_auto(two_sided) and rule == 2 else "")
-        both = both_sided_faces(mesh, (centre, radius), rule, two_sided)
+        both = both_sided_faces(mesh, (centre, radius), rule, two_sided,
+                                progress=lambda done, total: _stage(bar, f"exposed backs {done}/{total}"))
         n_both = len(mesh.faces) if both_every else 0 if both is None else int(np.count_nonzero(both))
         renderer = DepthRenderer(mesh, R, rule, frame=(centre, radius), facing=True, both_sides=both)
         defs = _defines(R, rule, rule, block, depth_bits, dtype_i, both_every, open_sheet(mesh, both))

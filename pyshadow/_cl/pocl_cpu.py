@@ -28,7 +28,7 @@ import platform
 import struct
 import sys
 
-__all__ = ["ENV", "TARGETS", "choose_target", "apply", "applied", "devices_hint"]
+__all__ = ["ENV", "TARGETS", "choose_target", "apply", "applied", "devices_hint", "compile_key"]
 
 ENV = "PYSHADOW_POCL_CPU"
 
@@ -117,6 +117,7 @@ def _apply() -> str | None:
     detected = ctypes.string_at(ptr).decode() if ptr else ""
     if ptr:
         libc.free(ptr)
+    _state["detected"] = detected
     if not want and detected not in ("", "generic"):
         return None
     name = want or choose_target(_cpu_flags())
@@ -158,6 +159,21 @@ def devices_hint() -> str:
         return ""
     return (f"; POCL_DEVICES={kinds!r} is set, and PoCL lists only devices of the kinds it names: unset it, or "
             "name a kind this PoCL has (its CPU device is 'pthread' in PoCL 3, 'cpu' in PoCL 4 and later)")
+
+
+# the /proc/cpuinfo flags of the instruction sets by which PoCL picks its builtin library and LLVM its code
+_ISA_PREFIXES = ("sse", "ssse", "avx", "fma", "f16c", "xop", "bmi", "popcnt", "movbe", "abm", "adx")
+
+
+def compile_key() -> str:
+    """What, beside the device's name and driver, decides the code PoCL compiles on this host: the CPU name
+    it compiles for (:func:`applied`, else its own detection), the host's instruction sets and
+    ``POCL_EXTRA_BUILD_FLAGS``. The lane-width probe's verdicts are cached under it (:mod:`.probe`): a CPU's
+    name (``pthread-Intel(R) Xeon(R) Processor`` in many virtual machines) does not tell its instruction
+    sets, so a cache shared by two machines of the same name would give one the other's verdicts."""
+    flags = sorted(f for f in _cpu_flags() if f.startswith(_ISA_PREFIXES))
+    return "|".join([applied() or _state.get("detected", ""), " ".join(flags),
+                     os.environ.get("POCL_EXTRA_BUILD_FLAGS", "").strip()])
 
 
 def applied() -> str | None:

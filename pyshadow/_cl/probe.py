@@ -8,7 +8,8 @@ builtin library, so 16-wide kernels crash, hang or come out wrong there. So
 each width is tried in a child process (``probe_child.py``: build, run,
 compare with NumPy) that can crash or hang without taking the caller along;
 the verdicts are cached per (platform version, device name, driver version,
-probe sources), so later runs pay nothing. A width whose child timed out or
+probe sources, and :func:`.pocl_cpu.compile_key`: the CPU PoCL compiles for,
+the host's instruction sets), so later runs pay nothing. A width whose child timed out or
 was killed (SIGKILL: the kernel's out-of-memory killer, say) is the
 exception: the machine, not the device, may have been to blame, so later runs
 probe that width again until it has failed so in :data:`TIMEOUT_RUNS` runs in
@@ -94,7 +95,7 @@ def cache_file() -> Path:
 def _key(platform, device, job: dict) -> str:
     h = hashlib.sha256()
     for part in (platform.version, device.name, device.driver_version, json.dumps(job),
-                 _CHILD.read_text(), str(LANE_WIDTHS), str(pocl_cpu.applied())):
+                 _CHILD.read_text(), str(LANE_WIDTHS), pocl_cpu.compile_key()):
         h.update(part.strip().encode() + b"\0")
     return h.hexdigest()[:24]
 

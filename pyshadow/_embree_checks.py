@@ -1,4 +1,5 @@
-"""Checks of what :mod:`pyshadow.embree` hands to Embree: float32 rays, lengths, thread counts.
+"""Checks of what :mod:`pyshadow.embree` hands to Embree: float32 rays, lengths, thread counts; and the split of a
+batch of rays over threads (:func:`traced_in_chunks`).
 
 Embree reads each ray from float32 arrays without looking at them: a
 direction array shorter than the origins is read past its end, a NaN or an
@@ -145,3 +146,20 @@ def check_unchanged(tracer) -> None:
     if scene_state(tracer.scene) != tracer._state:
         raise ValueError("EmbreeTracer: the scene changed since the tracer was built (a body moved or added, or "
                          "the ground); build a new EmbreeTracer for it")
+
+
+def traced_in_chunks(pool, threads: int, n: int, trace) -> np.ndarray:
+    """bool (n,): ``trace(s, e)`` (bool (e - s,), rays ``s:e``) over contiguous chunks of ``n`` rays, about four
+    a thread and each at least 4096 rays, traced concurrently on ``pool`` (a ThreadPoolExecutor of ``threads``;
+    None: one call here). embreex releases the GIL while it traces, and traces each ray alone: the split
+    changes no answer."""
+    step = max(4096, -(-n // (4 * threads)))
+    if pool is None or n <= step:
+        return trace(0, n) if n else np.empty(0, bool)
+    out = np.empty(n, bool)
+
+    def work(s):
+        out[s:s + step] = trace(s, min(n, s + step))
+
+    list(pool.map(work, range(0, n, step)))
+    return out

@@ -13,7 +13,8 @@ import numpy as np
 import trimesh
 
 from ._compat import keyword_only
-from ._embree_checks import check_frame, check_item, check_threads, float32_rays, prepare_inputs, scene_state
+from ._embree_checks import (check_frame, check_item, check_threads, float32_rays, prepare_inputs, scene_state,
+                             traced_in_chunks)
 from ._embree_lift import (ray_epsilon, surface_epsilon, end_epsilon, off_crossed_planes, off_own_surface,
                            occluded_again, point_surfaces)
 from ._validate import check_both, check_indices, check_values, flag, kernel_rows, unit_normals
@@ -521,18 +522,15 @@ class EmbreeTracer:
         if np.shape(o32) != (n, 3) or np.shape(d32) != (n, 3):    # chunks of shorter directions: read past their end
             raise ValueError(f"EmbreeTracer.occluded: origins and directions must both have shape (n, 3), got "
                              f"{np.shape(o32)} and {np.shape(d32)}")
-        out, step = np.empty(n, bool), max(4096, -(-n // (4 * self.threads)))
         # rays as prepare() makes them go to Embree unchecked (the benchmarks time this path)
         raw = (self.rays.unit == 1.0 and self.rays.n_triangles and o32.dtype == d32.dtype == np.float32
                and o32.flags.c_contiguous and d32.flags.c_contiguous)
 
-        def work(s):
-            o, d = o32[s:s + step], d32[s:s + step]
-            out[s:s + step] = np.asarray(self.rays._scene.run(o, d, query="OCCLUDED")) >= 0 if raw \
-                else self.rays.occluded(o, d)
+        def trace(s, e):
+            o, d = o32[s:e], d32[s:e]
+            return np.asarray(self.rays._scene.run(o, d, query="OCCLUDED")) >= 0 if raw else self.rays.occluded(o, d)
 
-        list(self.pool.map(work, range(0, n, step)))
-        return out
+        return traced_in_chunks(self.pool, self.threads, n, trace)
 
     def prepare(self, points, normals, dirs32, samples: int):
         """The rays of ``samples`` directions per point, as :func:`ambient_occlusion` builds them.

@@ -168,9 +168,14 @@ def _pixels(array, kind: str, path: Path) -> np.ndarray:
     if np.isnan(a).any():
         raise ValueError(f"image holds {int(np.isnan(a).sum())} NaN value(s), which 8-bit "
                          f"{path.suffix} cannot store")
+    return encode_8bit(a, slice(0, 3) if a.shape[2] == 4 else slice(None))
+
+
+def encode_8bit(a, colour=slice(None)) -> np.ndarray:
+    """The uint8 values an 8-bit PNG or JPEG holds of linear float values ``a`` (..., C): clipped to [0, 1], the
+    channels ``colour`` (a slice of the last axis; not alpha) sRGB-encoded, rounded half up; no NaN."""
     enc = np.clip(a, 0.0, 1.0).astype(np.float64)       # clipped first: a long double may overflow float64
-    colour = slice(0, 3) if a.shape[2] == 4 else slice(None)
-    enc[:, :, colour] = linear_to_srgb(enc[:, :, colour])
+    enc[..., colour] = linear_to_srgb(enc[..., colour])
     return np.floor(enc * 255.0 + 0.5).astype(np.uint8)
 
 

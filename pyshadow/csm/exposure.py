@@ -24,6 +24,7 @@ import os
 
 import numpy as np
 
+from .._embree_checks import float32_rays, traced_in_chunks
 from .._validate import check_int
 from .surface_rule import _fibonacci_sphere
 
@@ -38,8 +39,6 @@ EXPOSURE_DIRECTIONS = 64
 #: faces of a mesh traced along every direction first, to order the directions for the others (at most
 #: about ``_SAMPLE_FACES``, every ``_SAMPLE_STEP``-th at most)
 _SAMPLE_FACES, _SAMPLE_STEP = 4096, 16
-#: rays per thread's share of one direction's rays, at least
-_CHUNK = 4096
 
 
 def _threads() -> int:
@@ -54,13 +53,11 @@ class _Escapes:
     """The rays of :func:`exposed_back_faces` from behind faces ``idx`` along lattice direction ``k``,
     ``escapes(idx, k)`` -> bool (len(idx),), True where the ray meets no face: Embree's answers to the rays
     :meth:`pyshadow.embree.EmbreeScene.occluded` traces, the same float32 rays (checked here once, made
-    once), split over the process's cores (embreex releases the GIL; each ray is traced alone, so its
-    answer does not depend on the others). A context manager (its threads end with it)."""
+    once), split over the process's cores (:func:`pyshadow._embree_checks.traced_in_chunks`). A context
+    manager (its threads end with it)."""
 
     def __init__(self, scene, o, lattice):
         from concurrent.futures import ThreadPoolExecutor
-
-        from .._embree_checks import float32_rays
 
         self.run = scene._scene.run
         self.o32 = float32_rays(o, lattice[:1], None, scene.unit)[0]      # (those of faces of no area unused)
@@ -78,16 +75,8 @@ class _Escapes:
 
     def __call__(self, idx, k) -> np.ndarray:
         o, d = self.o32[idx], self.d32[k:k + 1]
-        step = max(_CHUNK, -(-len(o) // (4 * self.threads)))
-        if self.pool is None or len(o) <= step:
-            return np.asarray(self.run(o, d, query="OCCLUDED")) < 0
-        out = np.empty(len(o), bool)
-
-        def work(s):
-            out[s:s + step] = np.asarray(self.run(o[s:s + step], d, query="OCCLUDED")) < 0
-
-        list(self.pool.map(work, range(0, len(o), step)))
-        return out
+        return traced_in_chunks(self.pool, self.threads, len(o),
+                                lambda s, e: np.asarray(self.run(o[s:e], d, query="OCCLUDED")) < 0)
 
 
 def is_auto(two_sided) -> bool:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..io import linear_to_srgb
+from ..io import encode_8bit
 from .plotter import TEXT_COLOR, _pv, _viewport_pixels, add_title
 
 __all__ = [
@@ -128,8 +128,7 @@ def image_panel(plotter, image, *, title: str | None = None, cmap: str = "gray",
         if img.dtype != np.uint8:
             img = np.asarray(img, np.float64)
             keep &= np.isfinite(img).all(axis=2)
-            # linear, as write_image reads floats: its PNG's bytes (sRGB, rounded half up), not 255 x
-            img = np.floor(linear_to_srgb(np.clip(np.nan_to_num(img), 0.0, 1.0)) * 255.0 + 0.5).astype(np.uint8)
+            img = encode_8bit(np.nan_to_num(img))      # linear, as write_image reads floats: its PNG's bytes
     else:
         img = np.asarray(img, dtype=np.float64)
         keep &= np.isfinite(img)

@@ -94,6 +94,12 @@ def test_verdicts_under_pocl_extra_build_flags_do_not_outlive_them(bundled_pocl,
     out = subprocess.run([sys.executable, "-c", "import pyshadow; pyshadow.device_info()"], env=env,
                          capture_output=True, text=True, timeout=300)
     assert out.returncode != 0 and "DeviceNotSupportedError" in out.stderr
+    # the message names the variable and says PoCL's refusal once for the four widths (was: four copies of
+    # pyopencl's text, each cut at 300 characters and naming the device by its address, and no word of the flags)
+    message = out.stderr.strip().splitlines()[-1]
+    assert "POCL_EXTRA_BUILD_FLAGS='-no-such-flag' is set" in message, message
+    assert message.count("-no-such-flag") == 2 and "16, 8, 4, 1: building probe.cl failed" in message, message
+    assert " at 0x" not in message, message
     after = _run(tmp_path, cache)
     assert isinstance(after["visible"], list), after["visible"]
     assert 0.2 < np.mean(after["visible"]) < 0.99

@@ -307,11 +307,11 @@ def _probe_choice(st) -> dict:
     found, source = _probe.verdicts(*st["index"], plat, dev, _probe_job(dev))
     ok = [w for w in LANE_WIDTHS if found[w]["ok"]]
     name = dev.name.strip()
-    why = "; ".join(f"{w}: {v['why']}" for w, v in sorted(found.items(), reverse=True))
+    why = _probe.grouped_whys(found)
     if not ok:
-        hint = ""
+        hint = _probe.extra_flags_hint(why)
         if "unknown target CPU" in why:        # PoCL's LLVM does not know this CPU (pocl_cpu.py)
-            hint = (f" PoCL's compiler does not know this CPU ({_pocl_cpu.ENV}="
+            hint += (f" PoCL's compiler does not know this CPU ({_pocl_cpu.ENV}="
                     f"{os.environ.get(_pocl_cpu.ENV, '') or 'unset'}); set {_pocl_cpu.ENV} to a CPU name "
                     "it knows, e.g. x86-64, or unset it to let pyshadow choose.")
         raise DeviceNotSupportedError(

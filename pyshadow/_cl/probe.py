@@ -266,6 +266,25 @@ def _tail(text: str) -> str:
     return f": {lines[-1][:200]}" if lines else ""
 
 
+def grouped_whys(found: dict) -> str:
+    """The verdicts in a line, widest first, widths sharing a reason named together ('16, 8: ...; 4: ...'):
+    a build option PoCL refuses failed all four widths with the same compiler log, which was printed four times."""
+    groups: dict = {}
+    for w, v in sorted(found.items(), reverse=True):
+        groups.setdefault(v["why"], []).append(str(w))
+    return "; ".join(f"{', '.join(ws)}: {why}" for why, ws in groups.items())
+
+
+def extra_flags_hint(why: str) -> str:
+    """A sentence naming ``POCL_EXTRA_BUILD_FLAGS`` where it is set and a build failed: PoCL adds it to every
+    build, so a bad option there fails every kernel, whatever pyshadow passes."""
+    flags = os.environ.get("POCL_EXTRA_BUILD_FLAGS", "").strip()
+    if not flags or "building" not in why:
+        return ""
+    return (f" POCL_EXTRA_BUILD_FLAGS={flags!r} is set: PoCL adds it to every kernel build; unset it or "
+            "correct it.")
+
+
 def _timed_out(verdict: dict) -> bool:
     """The width failed by a timeout or a SIGKILL from outside: not final on its own (:data:`TIMEOUT_RUNS`)."""
     why = verdict["why"]

@@ -35,13 +35,27 @@ def expected(x, lanes):
     return np.stack([a, b, c, d]).astype(np.float32)
 
 
+def _failure(exc, prg, dev) -> str:
+    """A failed build in a line: the status's name and the compiler's own log (pyopencl's message repeats the
+    status and names the device by its address)."""
+    try:
+        status = cl.status_code.to_string(exc.code)
+    except Exception:
+        status = type(exc).__name__
+    try:
+        log = " ".join((prg.get_build_info(dev, cl.program_build_info.LOG) or "").split())
+    except cl.Error:
+        log = ""
+    return f"{status}: {log[:300]}" if log else f"{status} ({' '.join(str(exc).split())[:300]})"
+
+
 def _build(ctx, dev, src, options, label):
     """None on success, else why not."""
     prg = cl.Program(ctx, src)
     try:
         prg.build(options=options)
     except cl.Error as exc:
-        return f"building {label} failed: {str(exc).strip()[:300]}"
+        return f"building {label} failed: {_failure(exc, prg, dev)}"
     log = prg.get_build_info(dev, cl.program_build_info.LOG) or ""
     if ABI_WARNING in log:
         return (f"building {label}, the compiler warns that a vector argument of this width "

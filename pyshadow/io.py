@@ -404,12 +404,17 @@ def _radiance_header(inp, path: Path):
 def _radiance_with_format(path: Path):
     """A temporary copy of the Radiance HDR file ``path`` with a ``FORMAT=32-bit_rle_rgbe`` line added, where
     its header has none (the line is optional, that its default; OpenImageIO refuses such files), else None:
-    not a Radiance file (``#?`` first), or its header ends past 64 KiB or names a format. The caller removes
-    it."""
+    not a Radiance file (``#?`` first), or its header ends past 64 KiB or names the format; ValueError where it
+    names another (XYZE). The caller removes it."""
     with open(path, "rb") as f:
         head = f.read(1 << 16)
         end = head.find(b"\n\n")
-        if not head.startswith(b"#?") or end < 0 or re.search(rb"^FORMAT=", head[:end], re.M):
+        fmt = re.search(rb"^FORMAT=(.*)$", head[:max(end, 0)], re.M)
+        named = fmt.group(1).strip().decode(errors="replace") if fmt and head.startswith(b"#?") else None
+        if named not in (None, "32-bit_rle_rgbe"):             # OpenImageIO: "no FORMAT specifier found"
+            raise ValueError(f"cannot read image {path}: a Radiance HDR of FORMAT={named!r}; OpenImageIO reads "
+                             "only 32-bit_rle_rgbe (convert it: Radiance's ra_xyze -r)")
+        if not head.startswith(b"#?") or end < 0 or fmt:
             return None
         first = head.index(b"\n") + 1                  # after the magic line, as Radiance's writers put it
         fd, tmp = tempfile.mkstemp(suffix=".hdr", prefix="pyshadow-")

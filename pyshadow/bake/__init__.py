@@ -14,7 +14,8 @@ from .params import AssetParams, asset_key, code_digest
 from .library import MANIFEST_SCHEMA, bake_assets, find_assets
 from .runner import EXECUTORS, open_executor
 from .frames import bake_frames
+from .assets import read_baked_mesh
 from .motion import read_motion, write_motion
 
 __all__ = ["AssetParams", "EXECUTORS", "MANIFEST_SCHEMA", "asset_key", "bake_assets", "bake_frames", "code_digest",
-           "find_assets", "open_executor", "read_motion", "write_motion"]
+           "find_assets", "open_executor", "read_baked_mesh", "read_motion", "write_motion"]

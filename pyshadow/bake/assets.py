@@ -21,7 +21,7 @@ import numpy as np
 
 from .params import AssetParams, code_digest
 
-__all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "csm_file_bytes", "side_files"]
+__all__ = ["bake_asset", "output_names", "baked_mesh_bytes", "read_baked_mesh", "csm_file_bytes", "side_files"]
 
 
 def output_names(name: str, params: AssetParams) -> dict:
@@ -155,6 +155,70 @@ def baked_mesh_bytes(mesh, ao, bent, mesh_format: str) -> bytes:
     out.vertex_attributes["ao"] = ao
     out.vertex_attributes["bent_normal"] = bent
     return out.export(file_type="glb")
+
+
+def read_baked_mesh(path):
+    """A baked mesh file back: the mesh, its AO and its bent normals as :func:`baked_mesh_bytes` stored them.
+
+    pyvista's PLY reader (VTK's) keeps only the vertex colours of such a file, the AO's 8-bit grey; this reads
+    the float32 values themselves.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A ``.ply`` or ``.glb`` file written by ``pyshadow-bake assets``.
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        The vertices (float32 values, in the mesh's own frame) and faces, in the file's order.
+    ao : ndarray, float32, shape (V,)
+        AO per vertex in [0, 1], as stored.
+    bent : ndarray, float32, shape (V, 3)
+        Unit bent normals per vertex, in the mesh's own frame, as stored.
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at ``path``.
+    ValueError
+        A suffix other than ``.ply`` or ``.glb``, a file trimesh cannot read, a GLB holding other than one mesh,
+        or a mesh without the baked properties (``ao``, ``bent_nx/ny/nz``; GLB ``_ao``, ``_bent_normal``).
+    """
+    import trimesh
+
+    path = Path(os.fspath(path))
+    kind = path.suffix.lower().lstrip(".")
+    if kind not in ("ply", "glb"):
+        raise ValueError(f"{path}: a baked mesh is a .ply or .glb file, not {path.suffix or 'one without a suffix'}")
+    if not path.is_file():
+        raise FileNotFoundError(f"no baked mesh at {path}")
+    try:
+        loaded = trimesh.load(path, file_type=kind, process=False)
+    except Exception as exc:
+        raise ValueError(f"{path}: cannot read it as {kind.upper()} ({type(exc).__name__}: {exc})") from exc
+    if kind == "glb":
+        found = list(getattr(loaded, "geometry", {None: loaded}).values())
+        if len(found) != 1 or not isinstance(found[0], trimesh.Trimesh):
+            raise ValueError(f"{path}: a baked GLB holds one mesh, this one holds {len(found)} geometries")
+        mesh, attrs = found[0], found[0].vertex_attributes
+        names, get = ("_ao", "_bent_normal"), lambda k: np.asarray(attrs[k])
+        have = all(k in attrs for k in names)
+    else:
+        mesh = loaded
+        data = mesh.metadata.get("_ply_raw", {}).get("vertex", {}).get("data")
+        fields = () if data is None or data.dtype.names is None else data.dtype.names
+        names = ("ao", "bent_nx", "bent_ny", "bent_nz")
+        have = all(k in fields for k in names)
+        get = lambda k: np.asarray(data[k])   # noqa: E731
+    if not have:
+        raise ValueError(f"{path}: not a baked mesh (its vertices lack the properties {', '.join(names)})")
+    V = len(mesh.vertices)
+    ao = np.ascontiguousarray(get(names[0]).reshape(-1), np.float32)
+    bent = np.ascontiguousarray(np.column_stack([get(k) for k in names[1:]]).reshape(-1, 3), np.float32)
+    if ao.shape != (V,) or bent.shape != (V, 3):
+        raise ValueError(f"{path}: {V} vertices but {ao.shape[0]} AO values and {bent.shape[0]} bent normals")
+    return trimesh.Trimesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), process=False), ao, bent
 
 
 def other_code(worker_code, code: str, worker) -> str | None:

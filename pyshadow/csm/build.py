@@ -150,6 +150,20 @@ def _check_room(seg_bytes, done, maps, resolution) -> None:
                           "lower resolution (the CSM's size grows with both)")
 
 
+def _compact_starts(counts, maps):
+    """A block's segment count and each texel's first place in its packed output (uint32, as ``csm_compact``
+    takes them); ValueError where the block emitted more than 2^32 segments, whose places uint32 would wrap
+    (the kernel then writing outside its output): possible with a ``block`` of about a thousand maps at
+    2048^2 on a device allowing 17 GB buffers."""
+    total = int(counts.sum(dtype=np.int64))
+    if total > 1 << 32:
+        raise ValueError(f"a block of {maps} maps emitted {total:,} segments, more than the 2^32 that csm_compact "
+                         "addresses: build with a smaller block (or leave block to pyshadow)")
+    start = np.zeros(len(counts), np.uint32)
+    np.cumsum(counts[:-1], out=start[1:])
+    return total, start
+
+
 def _block_counts(counts, maps):
     """A block's segments per texel kept for the assembly, in what the block emitted rather than one
     number per texel: ``(None, counts)`` narrowed to the least unsigned dtype holding ``maps + 1`` (what a
@@ -264,9 +278,7 @@ def build_csm(cls, mesh, views: ViewSet, resolution: int = 128, depth_bits: int 
             k_fold(q, (T,), None, depth_buf, front_buf, *corner_args, np.int32(e - s), np.int32(s),
                    np.int32(e == D), state, seg_z, seg_i, count_buf)
             cl.enqueue_copy(q, counts, count_buf)
-            total = int(counts.sum(dtype=np.int64))
-            start = np.zeros(T, np.uint32)
-            np.cumsum(counts[:-1], out=start[1:])
+            total, start = _compact_starts(counts, e - s)
             zb = np.empty(total, dtype_z)
             ib = np.empty(total, dtype_i)
             if total:

@@ -8,8 +8,8 @@ Device choice
 -------------
 ``PYSHADOW_DEVICE`` selects the device:
 
-* unset: the first GPU of any platform, else the CPU device of PoCL (the
-  ``pocl-binary-distribution`` wheel), else any CPU device;
+* unset: the first GPU of any platform (not one typed CPU as well: a simulator, Oclgrind),
+  else the CPU device of PoCL (``pocl-binary-distribution``), else any CPU device;
 * ``gpu`` / ``cpu``: the first device of that type;
 * ``P:D``: device ``D`` of platform ``P`` (indices as listed by
   :func:`pyshadow.device_info` under ``"available"``).
@@ -173,8 +173,8 @@ def _choose_device(want: str | None = None):
     def of_type(t):
         return [f for f in found if f[3].type & t]
 
-    if want in ("", "auto"):
-        gpus = of_type(cl.device_type.GPU)
+    if want in ("", "auto"):       # a GPU that also claims the CPU type is a simulator (Oclgrind's 15): not chosen
+        gpus = [f for f in of_type(cl.device_type.GPU) if not f[3].type & cl.device_type.CPU]
         if gpus:
             return gpus[0]
         cpus = of_type(cl.device_type.CPU)

@@ -27,12 +27,81 @@ import pyopencl as cl
 ABI_WARNING = "changes the ABI"
 
 
-def expected(x, lanes):
-    a = np.ceil(np.minimum(x, np.float32(2))) + np.floor(np.maximum(x, np.float32(-2)))
-    b = np.where(x > 0, np.sqrt(np.abs(x)), -x).astype(np.float32)
-    c = np.trunc(x * np.float32(3)).astype(np.float32)
-    d = np.repeat((x.reshape(-1, lanes) > 1.5).any(axis=1), lanes).astype(np.float32)
-    return np.stack([a, b, c, d]).astype(np.float32)
+# the rows of lane_probe's outputs (kernels/probe.cl), named in a refusal's reason
+FLOAT_ROWS = ("ceil/floor/fmin/fmax", "select/sqrt/VSEL", "CONVERT/VSEL", "VANY/MASK", "VABS", "VSQRT",
+              "VMIN/unaligned VLOAD", "VMAX/unaligned VLOAD", "VSEL of -0", "DEINTERLEAVE3 X", "DEINTERLEAVE3 Y",
+              "DEINTERLEAVE3 Z", "LANE_GATHER", "LANE_LOAD/LANE_STORE (float)", "CONVERT int -> float")
+INT_ROWS = ("CONVERT float -> int", "LANE_BITS", "BIT_LOW", "VANY/VALL", "LANE_LOAD/LANE_STORE/IMIN (int)",
+            "VMIN/VMAX/LANE_IDS (int)", "CONVERT int -> uchar", "MASK/&/~/| (int)")
+# float rows compared within 4e-7 relative (sqrt may be 3 ulp off the correctly rounded value on some devices);
+# the rest bit for bit (negative zero included)
+SQRT_ROWS = (1, 5)
+
+
+def inputs(n, lanes):
+    """x (n + 16 float32: values of both signs, negative zero beside zero, values at and past 2^24), the lane
+    masks (n int32: per group of lanes none, all, the last lane only, the first only, the middle one only, or
+    mixed) and the (n, 3) float32 rows to deinterleave."""
+    x = np.linspace(-3.0, 3.0, n + 16, dtype=np.float32)
+    x[::7] *= -1.0
+    special = [-0.0, 0.0, -0.0, -0.0, 0.0, 2.0 ** 24, -2.0 ** 24, 2.0 ** 24 + 2, 5592405.0, -5592406.0, 1e7,
+               -1.5, 0.5, -0.3, -2.5, 1.5]
+    x[9:9 + len(special)] = special
+    groups = n // lanes
+    rng = np.random.default_rng(7)
+    masks = np.zeros((groups, lanes), np.int32)
+    for g in range(groups):
+        kind = g % 6
+        if kind == 1:
+            masks[g] = 1
+        elif kind in (2, 3, 4):
+            masks[g, (lanes - 1, 0, lanes // 2)[kind - 2]] = -1 if kind == 2 else 7
+        elif kind == 5:
+            masks[g] = rng.integers(0, 2, lanes) * 3
+    t = (np.arange(3 * n) * np.float32(0.75) - np.float32(200)).astype(np.float32).reshape(n, 3)
+    return x, masks.reshape(-1), t
+
+
+def expected(x, mi, t, n, lanes):
+    """The float32 (15, n) and int32 (8, n) rows lane_probe writes."""
+    v, w = x[:n], x[1:n + 1]
+    lane = np.arange(n) % lanes
+    group = np.arange(n) - lane
+    m = mi != 0
+    a = np.ceil(np.minimum(v, np.float32(2))) + np.floor(np.maximum(v, np.float32(-2)))
+    b = np.where(v > 0, np.sqrt(np.abs(v)), -v).astype(np.float32)
+    ci = np.trunc(v * np.float32(3)).astype(np.int32)
+    d = np.repeat((v.reshape(-1, lanes) > 1.5).any(axis=1), lanes).astype(np.float32)
+    lanes_v = w.copy()
+    lanes_v[lane == lanes - 1] = v[lane == 0]
+    fl = [a, b, ci.astype(np.float32), d, np.abs(v), np.sqrt(np.abs(v)), np.where(w < v, w, v),
+          np.where(w > v, w, v), np.where(m, np.float32(-0.0), v), t[:, 0], t[:, 1], t[:, 2],
+          x[group + (5 * lane + 3) % lanes], lanes_v, (3 * ci + 1).astype(np.float32)]
+    mg = m.reshape(-1, lanes)
+    bits = (mg * (1 << np.arange(lanes))).sum(axis=1)
+    seen = np.zeros(len(mg), np.int64)
+    for lo in range(lanes):
+        seen = np.where(mg[:, lo], 3 * seen + lo + 1, seen)
+    anyall = mg.any(1) + 2 * mg.all(1) + 4 * (~mg).any(1) + 8 * (~mg).all(1)
+    ints = [ci, np.repeat(bits, lanes), np.repeat(seen, lanes), np.repeat(anyall, lanes), np.minimum(ci, 2 - ci),
+            np.clip(ci + lane, -5, 5), (37 * ci) & 0xFF, -((m & ~(v > 1)) | (ci == 0)).astype(np.int32)]
+    return np.stack(fl).astype(np.float32), np.stack(ints).astype(np.int32)
+
+
+def compare(x, out, iout, want, iwant):
+    """None where lane_probe's answers (``out`` float32 (15, n), ``iout`` int32 (8, n)) are NumPy's
+    (``want``, ``iwant``), else the first wrong one in a line, named by its construct."""
+    exact = np.ones(out.shape, bool)
+    exact[list(SQRT_ROWS)] = False
+    ok = np.where(exact, out.view(np.int32) == want.view(np.int32),
+                  np.isclose(out, want, rtol=4e-7, atol=0))
+    for good, got, wants, names in ((ok, out, want, FLOAT_ROWS), (iout == iwant, iout, iwant, INT_ROWS)):
+        bad = np.argwhere(~good)
+        if len(bad):
+            r, k = (int(j) for j in bad[0])
+            return (f"wrong answers ({names[r]}, first at x={float(x[k])!r}, value {k}: got {got[r, k].item()!r}, "
+                    f"expected {wants[r, k].item()!r})")
+    return None
 
 
 def _failure(exc, prg, dev) -> str:
@@ -84,23 +153,18 @@ def main():
     if isinstance(prg, str):
         return {"ok": False, "why": prg}
     n = 256
-    x = np.linspace(-3.0, 3.0, n, dtype=np.float32)
-    x[::7] *= -1.0
+    x, mi, t = inputs(n, lanes)
     mf = cl.mem_flags
-    xb = cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=x)
-    ob = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 4 * n)
-    prg.lane_probe(q, (n // lanes,), None, xb, np.int32(n), ob)
-    out = np.empty((4, n), np.float32)
+    bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (x, mi, t)]
+    ob, iob = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 15 * n), cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 8 * n)
+    prg.lane_probe(q, (n // lanes,), None, *bufs, np.int32(n), ob, iob)
+    out, iout = np.empty((15, n), np.float32), np.empty((8, n), np.int32)
     cl.enqueue_copy(q, out, ob)
+    cl.enqueue_copy(q, iout, iob)
     q.finish()
-    want = expected(x, lanes)
-    exact = np.array_equal(out[[0, 2, 3]], want[[0, 2, 3]])
-    # sqrt may be 3 ulp off the correctly rounded value on some devices
-    close = np.allclose(out[1], want[1], rtol=4e-7, atol=0)
-    if not (exact and close):
-        bad = int(np.argmax(np.any(out != want, axis=0)))
-        return {"ok": False, "why": f"wrong answers (first at x={x[bad]!r}: got "
-                                    f"{out[:, bad].tolist()}, expected {want[:, bad].tolist()})"}
+    why = compare(x, out, iout, *expected(x, mi, t, n, lanes))
+    if why:
+        return {"ok": False, "why": why}
     for b in job["builds"]:
         r = _build(ctx, dev, b["source"], list(b["options"]) + [f"-DLANES={lanes}"], b["label"])
         if isinstance(r, str):

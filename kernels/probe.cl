@@ -27,12 +27,13 @@
  *                         x gathered at lane (5 l + 3) % LANES, x[+1] with
  *                         its last lane x[0] (private arrays), the float of
  *                         3 (int)(3 x) + 1
- *   iout  int (8, n)      written; rows: (int)(3 x), LANE_BITS(mask), the
+ *   iout  int (9, n)      written; rows: (int)(3 x), LANE_BITS(mask), the
  *                         set lanes visited by BIT_LOW (c = 3 c + l + 1),
  *                         VANY + 2 VALL of mask, + 4 / + 8 of ~mask,
  *                         IMIN(c, 2 - c) (private array), clamp(c + lane,
  *                         -5, 5) (VMIN / VMAX), (uchar)(37 c), the mask
- *                         (mask & ~(x > 1)) | (c == 0) (-1 where set)
+ *                         (mask & ~(x > 1)) | (c == 0) (-1 where set),
+ *                         VSEL(VSEL(c, 0, x < 0), 1, x > 0.5) (int, nested)
  * Macros: LANES; CPU_CLANG (optional, lanes.h).
  */
 #include "lanes.h"
@@ -75,9 +76,10 @@ __kernel void lane_probe(__global const float *x, __global const int *mi, __glob
     const int anyall = VANY(mk) + 2 * VALL(mk) + 4 * VANY(~mk) + 8 * VALL(~mk);
     const fv rows[15] = {a, bs, cs, d, VABS(v), VSQRT(VABS(v)), VMIN(v, w), VMAX(v, w), VSEL(v, (fv)(-0.0f), mk),
                          X, Y, Z, LANE_GATHER(fv, PROBE_PERM, 3), LANE_LOAD(fb + LANES), CONVERT(float, 3 * ci + 1)};
-    const iv irows[8] = {ci, (iv)(bits), (iv)(seen), (iv)(anyall), LANE_LOAD(ib),
+    const iv irows[9] = {ci, (iv)(bits), (iv)(seen), (iv)(anyall), LANE_LOAD(ib),
                          VMIN(VMAX(ci + LANE_IDS, (iv)(-5)), (iv)(5)), CONVERT(int, CONVERT(uchar, 37 * ci)),
-                         (mk & ~MASK(v > 1.0f)) | MASK(ci == 0)};
+                         (mk & ~MASK(v > 1.0f)) | MASK(ci == 0),
+                         VSEL(VSEL(ci, (iv)(0), MASK(v < 0.0f)), (iv)(1), MASK(v > 0.5f))};
     for (int r = 0; r < 15; ++r) VSTORE(rows[r], 0, out + r * n + i);
-    for (int r = 0; r < 8; ++r) VSTORE(irows[r], 0, iout + r * n + i);
+    for (int r = 0; r < 9; ++r) VSTORE(irows[r], 0, iout + r * n + i);
 }

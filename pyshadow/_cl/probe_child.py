@@ -32,7 +32,7 @@ FLOAT_ROWS = ("ceil/floor/fmin/fmax", "select/sqrt/VSEL", "CONVERT/VSEL", "VANY/
               "VMIN/unaligned VLOAD", "VMAX/unaligned VLOAD", "VSEL of -0", "DEINTERLEAVE3 X", "DEINTERLEAVE3 Y",
               "DEINTERLEAVE3 Z", "LANE_GATHER", "LANE_LOAD/LANE_STORE (float)", "CONVERT int -> float")
 INT_ROWS = ("CONVERT float -> int", "LANE_BITS", "BIT_LOW", "VANY/VALL", "LANE_LOAD/LANE_STORE/IMIN (int)",
-            "VMIN/VMAX/LANE_IDS (int)", "CONVERT int -> uchar", "MASK/&/~/| (int)")
+            "VMIN/VMAX/LANE_IDS (int)", "CONVERT int -> uchar", "MASK/&/~/| (int)", "VSEL (int)")
 # float rows compared within 4e-7 relative (sqrt may be 3 ulp off the correctly rounded value on some devices);
 # the rest bit for bit (negative zero included)
 SQRT_ROWS = (1, 5)
@@ -63,7 +63,7 @@ def inputs(n, lanes):
 
 
 def expected(x, mi, t, n, lanes):
-    """The float32 (15, n) and int32 (8, n) rows lane_probe writes."""
+    """The float32 (15, n) and int32 (9, n) rows lane_probe writes."""
     v, w = x[:n], x[1:n + 1]
     lane = np.arange(n) % lanes
     group = np.arange(n) - lane
@@ -84,12 +84,13 @@ def expected(x, mi, t, n, lanes):
         seen = np.where(mg[:, lo], 3 * seen + lo + 1, seen)
     anyall = mg.any(1) + 2 * mg.all(1) + 4 * (~mg).any(1) + 8 * (~mg).all(1)
     ints = [ci, np.repeat(bits, lanes), np.repeat(seen, lanes), np.repeat(anyall, lanes), np.minimum(ci, 2 - ci),
-            np.clip(ci + lane, -5, 5), (37 * ci) & 0xFF, -((m & ~(v > 1)) | (ci == 0)).astype(np.int32)]
+            np.clip(ci + lane, -5, 5), (37 * ci) & 0xFF, -((m & ~(v > 1)) | (ci == 0)).astype(np.int32),
+            np.where(v > 0.5, 1, np.where(v < 0, 0, ci))]
     return np.stack(fl).astype(np.float32), np.stack(ints).astype(np.int32)
 
 
 def compare(x, out, iout, want, iwant):
-    """None where lane_probe's answers (``out`` float32 (15, n), ``iout`` int32 (8, n)) are NumPy's
+    """None where lane_probe's answers (``out`` float32 (15, n), ``iout`` int32 (9, n)) are NumPy's
     (``want``, ``iwant``), else the first wrong one in a line, named by its construct."""
     exact = np.ones(out.shape, bool)
     exact[list(SQRT_ROWS)] = False
@@ -156,9 +157,9 @@ def main():
     x, mi, t = inputs(n, lanes)
     mf = cl.mem_flags
     bufs = [cl.Buffer(ctx, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in (x, mi, t)]
-    ob, iob = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 15 * n), cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 8 * n)
+    ob, iob = cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 15 * n), cl.Buffer(ctx, mf.WRITE_ONLY, 4 * 9 * n)
     prg.lane_probe(q, (n // lanes,), None, *bufs, np.int32(n), ob, iob)
-    out, iout = np.empty((15, n), np.float32), np.empty((8, n), np.int32)
+    out, iout = np.empty((15, n), np.float32), np.empty((9, n), np.int32)
     cl.enqueue_copy(q, out, ob)
     cl.enqueue_copy(q, iout, iob)
     q.finish()

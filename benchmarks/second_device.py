@@ -220,10 +220,29 @@ def child_main(out: Path, shape: str, work: Path, quick: bool) -> int:
     with launch.override(**kw):
         s = launch.shape()
         arrays, seconds, errors = run_cases(out, quick, csm_dir=work / "query_csm", log=sys.stderr)
+    if "oclgrind" in pcl.device_info()["platform"].lower():
+        _control(pcl)
     np.savez(out / "arrays.npz", **arrays)
     (out / "meta.json").write_text(json.dumps({"seconds": seconds, "errors": errors, "shape": s.as_dict(),
                                                "device": "{platform} / {name}".format(**pcl.device_info())}))
     return 0
+
+
+#: a kernel that reads one float past its buffer: Oclgrind must report it after the cases, else it has stopped
+#: reporting (OCLGRIND_MAX_ERRORS counts per process) and the cases' silence means nothing
+CONTROL = "__kernel void control_oob(__global const float *a, __global float *b) { b[0] = a[4]; }"
+
+
+def _control(pcl) -> None:
+    import pyopencl as cl
+
+    print("=== CASE (control)", file=sys.stderr, flush=True)
+    ctx, q = pcl.context(), pcl.queue()
+    a = cl.Buffer(ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=np.zeros(4, np.float32))
+    b = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, 4)
+    cl.Program(ctx, CONTROL).build().control_oob(q, (1,), None, a, b)
+    q.finish()
+    sys.stderr.flush()
 
 
 # ------------------------------------------------------------------ report
@@ -259,6 +278,7 @@ def report(shape: str, base: dict, dev: dict, names: tuple[str, str]) -> tuple[s
             for case, per in parse_findings(res["stderr"]).items():
                 for k, n in per.items():
                     findings.setdefault(case, {})[k] = findings.setdefault(case, {}).get(k, 0) + n
+    control = {k[1] for k in findings.pop("(control)", {}) if k[0] == "invalid read"}
     rows, status = summarize(base["arrays"], dev["arrays"], base["errors"], dev["errors"], findings)
     lines = [f"### shape {shape}: device {names[1]} against baseline {names[0]}", "",
              f"device launch shape: {dev.get('shape')}", "",
@@ -272,6 +292,11 @@ def report(shape: str, base: dict, dev: dict, names: tuple[str, str]) -> tuple[s
             last = re.findall(r"^=== CASE (\S+)", res["stderr"], re.M)
             lines.append(f"\n{who} child exit status {res['rc']}, " + (f"in case {last[-1]}" if last else
                                                                           "before its first case") + f":\n{tail}")
+    for name, res in zip(names, (base, dev)):
+        if "oclgrind" in name.lower() and res["rc"] == 0 and "control_oob" not in control:
+            status = 1
+            lines.append(f"\n{name}: Oclgrind did not report the control kernel's out-of-bounds read after the cases: "
+                         "it had stopped reporting (raise OCLGRIND_MAX_ERRORS), so their silence means nothing")
     setup = findings.get("(setup)", {})
     if setup:
         lines.append(f"\nfindings outside the cases: {setup}")

@@ -241,8 +241,9 @@ class Scene:
         return len(self.instances) - 1
 
     def _instance(self, instance_id) -> Instance:
-        if isinstance(instance_id, bool) or not isinstance(instance_id, (int, np.integer)) \
-                or not 0 <= instance_id < len(self.instances):
+        if isinstance(instance_id, bool) or not isinstance(instance_id, (int, np.integer)):    # was IndexError
+            raise TypeError(f"an instance id is an int (as Scene.add returns), got {instance_id!r}")
+        if not 0 <= instance_id < len(self.instances):
             raise IndexError(f"no instance {instance_id!r} (the scene has {len(self.instances)})")
         return self.instances[int(instance_id)]
 

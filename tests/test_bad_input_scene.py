@@ -73,10 +73,13 @@ def test_anchor_of_an_empty_scene_takes_any_point_array():
 @pytest.mark.parametrize("bad", [-1, -2, 2, 10 ** 30, 1.0, True, np.int64(-1), np.float64(0.0),
                                  np.uint64(2 ** 64 - 1)])
 def test_instance_ids_out_of_range_or_not_integers_are_refused(scene, bad):
-    """Guard: -1 must not wrap to the last instance; floats and bools are not ids."""
+    """Guard: -1 must not wrap to the last instance; floats and bools are not ids (a TypeError naming what an id
+    is, as a list's index; was IndexError 'no instance 1.0')."""
+    integer = isinstance(bad, (int, np.integer)) and not isinstance(bad, bool)
     for call in (scene.transform, scene.vertex_points, scene.vertex_ao,
                  lambda i: scene.set_transform(i, np.eye(4))):
-        with pytest.raises(IndexError, match="instance"):
+        with pytest.raises(IndexError if integer else TypeError,
+                           match="no instance" if integer else "an instance id is an int .*got"):
             call(bad)
 
 

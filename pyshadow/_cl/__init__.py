@@ -312,8 +312,8 @@ def _probe_choice(st) -> dict:
         hint = _probe.extra_flags_hint(why)
         if "unknown target CPU" in why:        # PoCL's LLVM does not know this CPU (pocl_cpu.py)
             hint += (f" PoCL's compiler does not know this CPU ({_pocl_cpu.ENV}="
-                    f"{os.environ.get(_pocl_cpu.ENV, '') or 'unset'}); set {_pocl_cpu.ENV} to a CPU name "
-                    "it knows, e.g. x86-64, or unset it to let pyshadow choose.")
+                     f"{os.environ.get(_pocl_cpu.ENV, '') or 'unset'}); set {_pocl_cpu.ENV} to a CPU name "
+                     "it knows, e.g. x86-64, or unset it to let pyshadow choose.")
         raise DeviceNotSupportedError(
             f"OpenCL device {name!r} ({plat.name.strip()}, driver {dev.driver_version.strip()}) "
             f"cannot run pyshadow's kernels at any lane width ({why}).{hint} Choose another device "

@@ -206,13 +206,13 @@ def footprints(scene) -> list:
     return [x for _, x, _ in _on_ground(scene, "contact", _footprints)]
 
 
-def _on_ground(scene, name, make):
+def _on_ground(scene, name, make, held=None):
     """``[(caster slot, x, tol)]`` over the casters whose mesh's box reaches down to the ground plane (within
     their own tolerance ``tol``, :func:`_face_tolerances`), ``x`` of ``make(scene, instance numbers, ground,
-    tolerances)``'s list where not None; kept with the scene's arrays as ``name``."""
+    tolerances)``'s list where not None; kept with the scene's arrays (``held``, or fetched here) as ``name``."""
     if scene.ground is None or not scene.instances:
         return []
-    held = scene_arrays(scene)
+    held = scene_arrays(scene) if held is None else held
     key = (name, float(scene.ground))
     if key not in held:
         tol = _face_tolerances(held)
@@ -313,10 +313,12 @@ def ground_sheet_slots(scene, points, own):
         own = own.astype(np.int32) if own.dtype.kind in "iu" or not len(own) else own
     if own.dtype.kind not in "iu":
         raise TypeError(f"own must hold integer caster slots, got dtype {own.dtype}")
-    found = _on_ground(scene, "sheets", _sheets) if len(own) else []
+    # the arrays first: another thread's move landing before the sheets are found keeps no parts of the old poses
+    held = scene_arrays(scene) if len(own) and scene.ground is not None and scene.instances else None
+    found = _on_ground(scene, "sheets", _sheets, held) if held is not None else []
     if not found:
         return own
-    tris, _, lo, hi, tol = _kept_parts(scene_arrays(scene), ("sheet parts", float(scene.ground)),
+    tris, _, lo, hi, tol = _kept_parts(held, ("sheet parts", float(scene.ground)),
                                        lambda: ([tri for _, tri, _ in found], None, [t for _, _, t in found]))
     off = _plane_offsets(scene, p)
     cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, tol.max()))
@@ -383,11 +385,13 @@ def contact_mask(scene, points):
         test).
     """
     p = check_rows(points, "points")
-    fps = _on_ground(scene, "contact", _footprints)     # footprints(scene), with the casters' slots
+    # the arrays first: another thread's move landing before the footprints are found keeps no parts of the old poses
+    held = scene_arrays(scene) if scene.ground is not None and scene.instances else None
+    fps = _on_ground(scene, "contact", _footprints, held)     # footprints(scene), with the casters' slots
     if not fps:
         return None
     mask = np.zeros(len(p), bool)
-    parts = _kept_parts(scene_arrays(scene), ("contact parts", float(scene.ground)), lambda: (
+    parts = _kept_parts(held, ("contact parts", float(scene.ground)), lambda: (
         [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps], [t for _, _, t in fps]))
     tol = parts[4]
     off = _plane_offsets(scene, p)

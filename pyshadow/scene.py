@@ -158,6 +158,8 @@ def _set_ground(scene, height) -> None:
 class Scene:
     """Rigid bodies with CSMs, receivers and an optional ground plane.
 
+    Threads may query one scene at once, but not change it meanwhile (:func:`pyshadow.scene_moves.set_transforms`).
+
     Parameters
     ----------
     ground : float, optional

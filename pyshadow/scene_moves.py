@@ -158,6 +158,18 @@ def set_transforms(scene, instance_ids, transforms) -> None:
     as :meth:`pyshadow.Scene.add` accepts). All transforms are checked
     before any instance moves: on an error none has moved.
 
+    Threads: queries of one scene from several threads at once are safe,
+    but a move (as ``Scene.add`` and setting ``Scene.ground``) is not atomic
+    with respect to another thread's query: one made while a query runs may
+    make that query answer for some instances (or, for
+    :meth:`pyshadow.Scene.render`, some stages: the image drawn at one pose,
+    its AO asked at the other) at the old poses and for others at the new
+    ones; the queries that start after the move answer for the new poses.
+    A simulation thread that moves bodies while a display thread renders
+    should move them between frames (a lock of its own, held around
+    ``set_transform`` and around each query, or a queue of moves that the
+    display thread applies before its next query).
+
     Parameters
     ----------
     scene : pyshadow.Scene

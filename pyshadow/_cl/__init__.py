@@ -235,8 +235,8 @@ def devices() -> list[str]:
 def use_device(spec: str):
     """Run the enclosed code on device ``spec`` ('P:D', 'cpu' or 'gpu'), then go back.
 
-    Buffers made inside belong to that device's context; objects that keep
-    device buffers (CSMs, scenes) rebuild them for the context in use.
+    Buffers made inside belong to that device's context; objects that keep device buffers (CSMs, scenes)
+    rebuild them for the context in use. Process-wide: every thread's queries run there meanwhile.
     """
     choice = _choose_device(spec)
     with _lock:
@@ -281,11 +281,11 @@ def lane_choice() -> dict:
     st = _init()
     override = _probe.parse_override(os.environ.get("PYSHADOW_LANES"))
     if override is not None:
-        dev = st["device"]
-        if st.get("override_checked", (None,))[0] != override:
-            found = _probe.check_override(override, *st["index"], st["platform"], dev, _probe_job(dev))
-            st["override_checked"] = (override, found)
-        found = st["override_checked"][1]
+        with _lock:         # one probe, not one a thread: threads' first queries at once each started one
+            if st.get("override_checked", (None,))[0] != override:
+                st["override_checked"] = (override, _probe.check_override(
+                    override, *st["index"], st["platform"], st["device"], _probe_job(st["device"])))
+            found = st["override_checked"][1]
         choice = {"lanes": override, "supported": [w for w in LANE_WIDTHS if found[w]["ok"]],
                   "verdicts": {w: v["why"] for w, v in found.items()}, "source": "PYSHADOW_LANES",
                   "reason": f"PYSHADOW_LANES={override} (checked by the probe)"}
@@ -362,7 +362,7 @@ def lanes() -> int:
 
 @contextmanager
 def use_lanes(width: int):
-    """Build and run kernels at ``width`` lanes inside the block (tests, benchmarks)."""
+    """Build and run kernels at ``width`` lanes inside the block (tests, benchmarks; process-wide: every thread's)."""
     if width not in LANE_WIDTHS:
         raise ValueError(f"lane width must be one of {LANE_WIDTHS}, got {width!r}")
     _lane_override.append(int(width))

@@ -101,7 +101,7 @@ def shape() -> LaunchShape:
 @contextmanager
 def override(**changes):
     """Launch with some fields of the shape changed inside the block (tests,
-    benchmarks): ``with override(query_chunk=1000): ...``."""
+    benchmarks): ``with override(query_chunk=1000): ...``; process-wide (every thread's launches)."""
     _overrides.append(changes)
     try:
         yield
@@ -266,12 +266,21 @@ _RESOURCE_ERRORS = {-4: "MEM_OBJECT_ALLOCATION_FAILURE", -5: "OUT_OF_RESOURCES",
                     -63: "INVALID_GLOBAL_WORK_SIZE"}
 
 
+#: held while a launch sets a kernel's arguments and enqueues it: :func:`pyshadow._cl.kernel` gives every thread
+#: the same kernel object, whose arguments are state of that object (``clSetKernelArg`` is not thread-safe), so
+#: two threads launching it at once enqueued one with the other's buffers (wrong answers, or a crash where those
+#: buffers were freed first). Enqueueing does not wait for the kernel: the lock is held for microseconds.
+_LAUNCH_LOCK = threading.Lock()
+
+
 class Kernel(cl.Kernel):
     """A ``pyopencl.Kernel`` (what :func:`pyshadow._cl.kernel` returns) whose
     launch, when the device refuses it for want of resources, raises
     :class:`DeviceNotSupportedError` naming the device's limits and what to
     ask for less of (see :func:`launch_error`), as does a launch of more than
-    :data:`MAX_WORK_ITEMS` work-items (before it runs); other errors pass unchanged."""
+    :data:`MAX_WORK_ITEMS` work-items (before it runs); other errors pass unchanged.
+    Threads may launch one kernel object at once: its arguments are set and the
+    launch enqueued under a lock (:data:`_LAUNCH_LOCK`)."""
 
     __slots__ = ()
 
@@ -282,7 +291,8 @@ class Kernel(cl.Kernel):
                 f"{MAX_WORK_ITEMS:,} (2**31 - 1) that pyshadow's kernels count with 32-bit integers in one "
                 "launch; ask for less at once (fewer points or a smaller image a call)")
         try:
-            return super().__call__(queue, global_size, local_size, *args, **kwargs)
+            with _LAUNCH_LOCK:
+                return super().__call__(queue, global_size, local_size, *args, **kwargs)
         except cl.Error as exc:
             err = launch_error(self, exc, global_size, local_size)
             if err is None:

@@ -153,11 +153,12 @@ def _instance_data(scene, anchor, lookup="nearest"):
     computing them instance by instance), and kept with those arrays per anchor and
     lookup until the scene changes (read-only; :func:`.held.held_at`).
     """
+    held = held_at(scene, anchor)       # first: a move landing before the arrays keeps no rows of the old poses
     arr = scene_arrays(scene)
     if not arr["casts"].any():              # an empty scene's anchor follows its points: nothing kept
         return _instance_rows(arr, np.asarray(anchor, np.float64), lookup)
     key = ("instance_data", np.asarray(anchor, np.float64).tobytes(), lookup)
-    return _kept(held_at(scene, anchor), key, lambda: _instance_rows(arr, np.asarray(anchor, np.float64), lookup))
+    return _kept(held, key, lambda: _instance_rows(arr, np.asarray(anchor, np.float64), lookup))
 
 
 def _instance_rows(arr, anchor, lookup):
@@ -196,12 +197,11 @@ _NO_NODES, _NO_ORDER = _read_only(np.zeros(1, BVH_NODE)), _read_only(np.zeros(1,
 _NO_GRID, _NO_PACKETS = _read_only(np.zeros(1, GRID)), _read_only(np.zeros(1, GRID_PACKET))
 
 
-def _accel_tables(scene, rows, anchor, points_extent):
+def _accel_tables(scene, rows, anchor, points_extent, held):
     """The kernels' tables of :func:`instance_accel`: the tree (nodes, order, box margin) and the
-    grid (header, packets); one-record placeholders for the one not used. Both are kept with the
-    scene's arrays (per anchor, :func:`.held.held_at`, and the grid per margin) until the scene changes."""
+    grid (header, packets); one-record placeholders for the one not used. Both are kept in ``held``
+    (:func:`.held.held_at` of the anchor, taken before ``rows``; the grid per margin) until the scene changes."""
     accel = instance_accel(scene)
-    held = held_at(scene, anchor)
     nodes, order, pad, grid, packets = _NO_NODES, _NO_ORDER, 0.0, _NO_GRID, _NO_PACKETS
     at = np.asarray(anchor, np.float64).tobytes()
     if accel == "tree":
@@ -331,13 +331,14 @@ class CSMVisibility(_SampledSky):
         queries' anchor-relative points (it sizes the margins of the instance tree's boxes and of the
         grid's spheres)."""
         atlas, _ = _device_atlas(scene)
+        # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points); taken
+        # before the rows: a move landing between them (another thread's) keeps no tables of the old poses
+        held = held_at(scene, anchor)
         rows, itype, ninst = _instance_data(scene, anchor, self.lookup)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = ground_tolerance(scene)
-        nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent)
-        # the tables are kept with the scene's arrays when it has casters (an empty scene's follow its points)
-        held = held_at(scene, anchor)
+        nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent, held)
         _kept(held, ("lookup checked", self.lookup), lambda: warn_unchosen_lookup(scene, self.lookup))
         dev = (lambda a: _on_device(held, a)) if ninst else _cl.to_device
         args = [*atlas["buffers"], dev(rows), dev(itype), np.int32(ninst), np.float32(gy),

@@ -16,6 +16,7 @@ query against 0.12 s within one region).
 """
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 import numpy as np
@@ -24,6 +25,10 @@ from .. import _cl
 from ..scene_arrays import scene_arrays
 
 __all__ = ["FAR_BYTES", "held_at", "kept", "on_device"]
+
+#: Held while the far anchors' entries are looked up, measured and evicted: threads querying one scene at once
+#: (read-only) changed them together ("RuntimeError: OrderedDict mutated during iteration").
+_FAR_LOCK = threading.Lock()
 
 #: Bytes of the tables kept for anchors other than the scene's (the most recently used first; the
 #: anchor asked last is kept whatever its size).
@@ -34,8 +39,8 @@ def _bytes(x, seen=None) -> int:
     """Bytes of the arrays and device buffers held in ``x`` (dicts, tuples and lists walked), each counted
     once (a device copy's entry holds its host array too, which the tables hold already)."""
     seen = set() if seen is None else seen
-    if isinstance(x, (dict, tuple, list)):
-        return sum(_bytes(v, seen) for v in (x.values() if isinstance(x, dict) else x))
+    if isinstance(x, (dict, tuple, list)):      # (a copy of a dict's values: another thread's query may add to it)
+        return sum(_bytes(v, seen) for v in (list(x.values()) if isinstance(x, dict) else x))
     if id(x) in seen or not isinstance(x, (np.ndarray, _cl.cl.MemoryObject)):
         return 0
     seen.add(id(x))
@@ -55,22 +60,23 @@ def held_at(scene, anchor) -> dict:
         return held
     if not held["casts"].any():                 # tables of nothing: made anew (as _instance_data's), not kept
         return {}
-    far = held.setdefault("far_anchors", OrderedDict())
-    sizes = held.setdefault("far_anchor_bytes", {})     # each entry's bytes, measured once it is filled
-    if at in far:
-        far.move_to_end(at)
-        sizes.pop(at, None)                     # the caller may add tables to it: measured again when needed
-        return far[at]
-    # every entry filled since it was last measured (its caller's query has ended), measured once: summing
-    # them all again for each new anchor took 1.94 s of a 3.46 s render with 137 anchors (137^2 / 2 walks)
-    for k, v in far.items():
-        if k not in sizes:
-            sizes[k] = _bytes(v)
-    total = sum(sizes.values())
-    while total > FAR_BYTES and far:           # the oldest out; the one asked now is kept whatever its size
-        total -= sizes.pop(far.popitem(last=False)[0])
-    got = far[at] = {}
-    return got
+    with _FAR_LOCK:
+        far = held.setdefault("far_anchors", OrderedDict())
+        sizes = held.setdefault("far_anchor_bytes", {})     # each entry's bytes, measured once it is filled
+        if at in far:
+            far.move_to_end(at)
+            sizes.pop(at, None)                     # the caller may add tables to it: measured again when needed
+            return far[at]
+        # every entry filled since it was last measured (its caller's query has ended), measured once: summing
+        # them all again for each new anchor took 1.94 s of a 3.46 s render with 137 anchors (137^2 / 2 walks)
+        for k, v in far.items():
+            if k not in sizes:
+                sizes[k] = _bytes(v)
+        total = sum(sizes.values())
+        while total > FAR_BYTES and far:           # the oldest out; the one asked now is kept whatever its size
+            total -= sizes.pop(far.popitem(last=False)[0])
+        got = far[at] = {}
+        return got
 
 
 def kept(held, key, make):

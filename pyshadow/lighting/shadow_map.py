@@ -95,10 +95,11 @@ from .. import _cl
 from .._cl.launch import fill
 from .._validate import check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
-from ..scene_arrays import check_meshes, scene_arrays
+from ..scene_arrays import scene_arrays
 from ._checks import _floats
 from .shadow_fit import _ortho_frame, cell_points, far_axis, part_limit, split_casters
 from .shadow_map_checks import PCF_SIZES, _check_bias, _check_pcf
+from .shadow_map_kept import _MAPS_LOCK, _keep_map, _kept_map, _placed_casters, _placed_state
 
 __all__ = ["ShadowMapVisibility", "ShadowMap", "light_of_rays", "render_reference", "lookup_reference",
            "BIAS_TEXELS", "NO_NORMAL_SLOPE", "TAN_MAX", "PCF_SIZES", "MIN_RESOLUTION", "MAX_RESOLUTION"]
@@ -266,20 +267,6 @@ class ShadowMap:
         if self.buffer is not None:
             cl.enqueue_copy(_cl.queue(), out, self.buffer)
         return out
-
-
-def _placed_casters(scene, arr):
-    """The casters' instance numbers, their instances and ``{id(mesh): trimesh's content hash}`` of each
-    distinct mesh (once each: many instances share one); ValueError for a caster without its mesh or with
-    one changed in place since :meth:`Scene.add` (refused as on the other backends)."""
-    check_meshes(scene)
-    casters = np.flatnonzero(arr["casts"])
-    placed = [scene.instances[i] for i in casters]
-    for i, p in zip(casters, placed):
-        if p.mesh is None:
-            raise ValueError(f"caster instance {int(i)} has no mesh: a shadow map rasterises the casters' "
-                             f"triangles (Scene.add(csm, mesh=...))")
-    return casters, placed, {k: hash(m) for k, m in {id(p.mesh): p.mesh for p in placed}.items()}
 
 
 class ShadowMapVisibility:
@@ -455,8 +442,7 @@ class ShadowMapVisibility:
             light = unit_normals(light[None], 1, "the light's direction")[0]
         arr = scene_arrays(scene)
         casters, placed, content = _placed_casters(scene, arr)
-        state = (id(_cl.context()), id(scene), kind, self.resolution,
-                 tuple((id(p.mesh), content[id(p.mesh)], p.transform.tobytes()) for p in placed))
+        state = _placed_state(scene, kind, self.resolution, placed, content)
         tol = LIGHT_TOL         # a point light: relative to its distance to the nearest caster (its shadows move by
         if kind == "point":     # that fraction), not to the world origin or the scene's size
             c, r = arr["world_centre"][casters], arr["world_radius"][casters]
@@ -464,21 +450,17 @@ class ShadowMapVisibility:
             near = float(np.maximum(dist - r, 0.0).min()) if len(casters) else 0.0
             reach = float((dist + r).max()) if len(casters) else 0.0
             tol = LIGHT_TOL * near + LIGHT_ULPS * float(np.spacing(max(float(np.abs(light).max()), reach)))
-        for key, sm in self._maps.items():
-            if key[0] == state and np.abs(sm.light - light).max() <= tol:
-                self._maps.move_to_end(key)
-                return sm
-        sm = (self._render_directional(scene, casters, light) if kind == "directional"
-              else self._render_point(scene, casters, light))
-        self.renders += 1
-        self._maps[(state, light.tobytes())] = sm
-        while len(self._maps) > CACHE_MAPS:
-            self._maps.popitem(last=False)
+        sm = _kept_map(self._maps, state, light, tol)
+        if sm is None:
+            sm = (self._render_directional(scene, casters, light) if kind == "directional"
+                  else self._render_point(scene, casters, light))
+            _keep_map(self, scene, state, sm, CACHE_MAPS)
         return sm
 
     def clear(self) -> None:
         """Forget the kept maps: the next query renders its map again."""
-        self._maps.clear()
+        with _MAPS_LOCK:
+            self._maps.clear()
 
     def _mesh_triangles(self, mesh):
         """(device buffer of (T, 9) float32 corners relative to the mesh's centre, T, centre)."""

@@ -12,6 +12,18 @@ from pathlib import Path
 __all__ = ["atomic_path", "write_bytes_atomic", "writable_folder"]
 
 
+def link_target(path: Path) -> Path:
+    """The file the symbolic link ``path`` leads to (which need not exist); OSError ELOOP naming ``path`` where
+    its links lead back to themselves (Python before 3.13 raised RuntimeError there, 3.13 returns a link)."""
+    try:
+        target = path.resolve()
+    except RuntimeError:
+        target = path
+    if target.is_symlink():
+        raise OSError(errno.ELOOP, "too many levels of symbolic links", str(path))
+    return target
+
+
 @contextmanager
 def atomic_path(path):
     """Yield a temporary path in ``path``'s folder; flush it to disk and rename it over ``path`` on success.
@@ -31,10 +43,7 @@ def atomic_path(path):
     path = Path(os.fspath(path))
     suffix = path.suffix                # the format asked for, whatever the name a link leads to
     if path.is_symlink():               # write through the link: the file it names is replaced, not the link
-        try:
-            path = path.resolve()
-        except RuntimeError:            # Python < 3.13: a link that leads back to itself
-            raise OSError(errno.ELOOP, "too many levels of symbolic links", str(path)) from None
+        path = link_target(path)
     if path.exists() and not path.is_file():
         raise FileExistsError(errno.EEXIST, "not a regular file, which a write would replace", str(path))
     if path.exists() and not os.access(path, os.W_OK):     # the rename would replace it all the same

@@ -293,7 +293,7 @@ def ply_ascii(data: bytes) -> bytes | None:
             pos = _ply_element(data, pos, order, count, [(code, n) for _, code, n in props], out)
     except (ValueError, struct.error):
         return None
-    return re.sub(rb"\nformat[ \t]+binary_\w+", b"\nformat ascii", data[:start], 1) + "".join(out).encode("ascii")
+    return re.sub(rb"\nformat[ \t]+binary_\w+", b"\nformat ascii", data[:start], count=1) + "".join(out).encode("ascii")
 
 
 def _ply_element(data: bytes, pos: int, order: str, count: int, props, out: list) -> int:
@@ -394,7 +394,8 @@ def ply_polygons(text: bytes, split: bool = False) -> bytes | None:
                 m = (len(words) - 1) // n if p in lists and n and (len(words) - 1) % n == 0 else 0
                 row += [str(3 * m).encode()] + [w for c in tri for w in words[1 + m * c:1 + m * c + m]] if m else words
             out.append(b" ".join(row))
-    header = re.sub(rb"(\nelement[ \t]+face[ \t]+)\d+", lambda h: h.group(1) + str(len(out)).encode(), text[:start], 1)
+    header = re.sub(rb"(\nelement[ \t]+face[ \t]+)\d+", lambda h: h.group(1) + str(len(out)).encode(), text[:start],
+                    count=1)
     return b"\n".join([header[:-1]] + lines[:f0] + out + lines[f0 + nf:]) + b"\n"
 
 

@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from .._files import writable_folder, write_bytes_atomic
+from .._files import link_target, writable_folder, write_bytes_atomic
 from ..cache import CSMCache, default_cache_dir
 from .answer import answer_text, run_max_error
 from .common import _PROGRESS, UsageError, _Log, drop_earlier_record
@@ -163,8 +163,14 @@ def _check_out(ap, out: Path, names=()):
         p = out / name
         if p.exists() and not p.is_file():
             ap.error(f"--out {out}: {name} exists there and is not a regular file, which the run would replace")
-        if p.is_symlink() and not p.resolve().parent.is_dir():     # written through the link: into no folder
-            ap.error(f"--out {out}: {name} is a symbolic link to {os.readlink(p)}, in a folder that does not exist")
+        if p.is_symlink():              # written through the link
+            try:
+                into = link_target(p).parent
+            except OSError:
+                ap.error(f"--out {out}: {name} is a symbolic link that leads back to itself")
+            if not into.is_dir():
+                ap.error(f"--out {out}: {name} is a symbolic link to {os.readlink(p)}, in a folder that does not "
+                         "exist")
 
 
 def _emit(obj, path: Path | None, as_json: bool):

@@ -162,8 +162,9 @@ def _floats(x, name: str, what: str) -> np.ndarray:
 
 
 def _not_a_number(x) -> bool:
-    """True for what ``float`` reads but is no number here: text, bools, complex numbers."""
-    return isinstance(x, (str, bytes, bool, np.bool_)) or np.iscomplexobj(x)
+    """True for what ``float`` reads but is no number here: text, bools, complex numbers, arrays of one value
+    (older NumPy read ``[2.0]`` as 2.0, warning at most)."""
+    return isinstance(x, (str, bytes, bool, np.bool_)) or np.iscomplexobj(x) or np.ndim(x) > 0
 
 
 def _number(x, name: str) -> float:

@@ -314,8 +314,8 @@ def ground_sheet_slots(scene, points, own):
     if own.dtype.kind not in "iu":
         raise TypeError(f"own must hold integer caster slots, got dtype {own.dtype}")
     # the arrays first: another thread's move landing before the sheets are found keeps no parts of the old poses
-    held = scene_arrays(scene) if len(own) and scene.ground is not None and scene.instances else None
-    found = _on_ground(scene, "sheets", _sheets, held) if held is not None else []
+    held = scene_arrays(scene)
+    found = _on_ground(scene, "sheets", _sheets, held) if len(own) else []
     if not found:
         return own
     tris, _, lo, hi, tol = _kept_parts(held, ("sheet parts", float(scene.ground)),
@@ -386,7 +386,7 @@ def contact_mask(scene, points):
     """
     p = check_rows(points, "points")
     # the arrays first: another thread's move landing before the footprints are found keeps no parts of the old poses
-    held = scene_arrays(scene) if scene.ground is not None and scene.instances else None
+    held = scene_arrays(scene)
     fps = _on_ground(scene, "contact", _footprints, held)     # footprints(scene), with the casters' slots
     if not fps:
         return None

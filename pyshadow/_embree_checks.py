@@ -135,7 +135,7 @@ def check_item(item, oid):
 
 def scene_state(scene) -> tuple:
     """What an :class:`pyshadow.embree.EmbreeTracer` was built from: the scene's version (advanced by
-    ``Scene.add`` and ``Scene.set_transform``) and ground height."""
+    ``Scene.add``, ``Scene.set_transform`` and ``Scene.remove``) and ground height."""
     return getattr(scene, "_version", None), scene.ground
 
 
@@ -144,8 +144,8 @@ def check_unchanged(tracer) -> None:
     the scene as it was, while the ground, the anchors of the points and the lift follow the scene now (a
     tracer half the old scene and half the new)."""
     if scene_state(tracer.scene) != tracer._state:
-        raise ValueError("EmbreeTracer: the scene changed since the tracer was built (a body moved or added, or "
-                         "the ground); build a new EmbreeTracer for it")
+        raise ValueError("EmbreeTracer: the scene changed since the tracer was built (a body moved, added or "
+                         "removed, or the ground); build a new EmbreeTracer for it")
 
 
 def traced_in_chunks(pool, threads: int, n: int, trace) -> np.ndarray:

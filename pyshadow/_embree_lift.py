@@ -51,8 +51,8 @@ def body_size(scene, points) -> np.ndarray:
     if not scene.instances:
         return np.full(len(P), scene.scale())
     arr = scene_arrays(scene)
-    r_all = arr["world_radius"]
-    c, r = arr["world_centre"][arr["casts"]], r_all[arr["casts"]]
+    r_all = arr["world_radius"][arr["live"]]        # (not those removed)
+    c, r = arr["world_centre"][arr["casts"]], arr["world_radius"][arr["casts"]]
     if not len(r) or r_all.min() == r_all.max():
         return np.full(len(P), scene.scale())
     return sphere_size(P, c, r)

@@ -152,7 +152,7 @@ def ground_quad(scene, size: float | None = None):
     anchor = scene.anchor()
     if size is None:                    # the instances' world spheres, stacked once per scene change
         held = scene_arrays(scene)      # (as Instance.world_sphere gives them, bit for bit)
-        c, r = held["world_centre"], held["world_radius"]
+        c, r = held["world_centre"][held["live"]], held["world_radius"][held["live"]]    # (not those removed)
         # the largest norm(c - anchor) + r: every row near the largest (within far more than the rounding
         # of a vectorised norm) taken again with np.linalg.norm itself, so the same float as row by row
         with np.errstate(over="ignore", invalid="ignore"):

@@ -26,8 +26,8 @@ from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from .sampling import Sampling
 from .scene_arrays import scene_arrays
-from .scene_moves import (add_instances, checked_ground, csm_options, held_transform, loaded_mesh, placed_vertices,
-                          set_transforms)
+from .scene_moves import (add_instances, checked_ground, csm_options, held_transform, live_instance, loaded_mesh,
+                          placed_vertices, remove_instances, set_transforms)
 from .vertex_points import corner_ao
 from .views import ViewSet
 
@@ -63,12 +63,10 @@ def _backend(where, lookup, backend, filtered, stacklevel=4):
 
 
 #: The fields of an :class:`Instance` its scene's kept tables are derived from (see ``Instance.__setattr__``).
-_HELD_FIELDS = frozenset({"transform", "casts", "csm", "mesh"})
-_PLACED_ONLY = ("Scene.instances is read-only: Scene.add places an object and Scene.set_transform moves one "
-                "(the queries keep tables derived from the list; an edit would leave them answering for the old one). "
-                "A scene has no removal: to drop an object, add the others to a new Scene "
-                "(new.add(inst.csm, inst.transform, mesh=inst.mesh) reuses a caster's CSM; a receiver: "
-                "new.add(inst.mesh, inst.transform, casts=False))")
+_HELD_FIELDS = frozenset({"transform", "casts", "csm", "mesh", "removed"})
+_PLACED_ONLY = ("Scene.instances is read-only: Scene.add places an object, Scene.set_transform moves one and "
+                "Scene.remove takes one out, the others keeping their ids (the queries keep tables derived from the "
+                "list; an edit would leave them answering for the old one)")
 
 
 class _Placed(list):
@@ -111,6 +109,7 @@ class Instance:
     _stamp: int | None = field(default=None, repr=False)
     # trimesh's hash of the receiver's mesh its _sphere was found for (a mesh changed in place: found again)
     _sphere_stamp: int | None = field(default=None, repr=False)
+    removed: bool = False       # a placeholder of Scene.remove (casts False, no CSM, no mesh) keeping its id's place
 
     @property
     def scale(self) -> float:
@@ -133,6 +132,8 @@ class Instance:
             self.transform.flags.writeable = False
 
     def object_sphere(self):
+        if self.removed:
+            raise ValueError("a removed instance (a placeholder of Scene.remove) has no bounding sphere")
         if self.csm is not None:
             return self.csm.centre, self.csm.radius
         stamp = hash(self.mesh)                 # a receiver: its mesh's sphere (a convex hull), found again
@@ -191,13 +192,14 @@ class Scene:
         self.progress = flag(progress, "progress")     # "no" drew progress bars
         self._placed = _Placed()
         self._built: dict = {}           # id(mesh) -> (mesh, CSM built by add())
-        self._version = 0                # advanced by add() and set_transform() (scene_arrays)
+        self._version = 0                # advanced by add(), set_transform() and remove() (scene_arrays)
 
     __copy__ = _copied                  # its own instance list and instances (see _copied)
+    remove = remove_instances           # take instances out, the others keeping their ids
     ground = property(lambda self: self._ground, _set_ground,
                       doc="Height of the ground plane (float, world units) or None; settable, checked as in __init__.")
     instances = property(lambda self: self._placed, doc="The placed :class:`Instance` objects, by instance id "
-                         "(a read-only list: :meth:`add` places, :meth:`set_transform` moves).")
+                         "(read-only: :meth:`add` places, :meth:`set_transform` moves, :meth:`remove` marks removed).")
 
     # ------------------------------------------------------------------
     # building the scene
@@ -247,7 +249,7 @@ class Scene:
             raise TypeError(f"an instance id is an int (as Scene.add returns), got {instance_id!r}")
         if not 0 <= instance_id < len(self.instances):
             raise IndexError(f"no instance {instance_id!r} (the scene has {len(self.instances)})")
-        return self.instances[int(instance_id)]
+        return live_instance(self.instances[int(instance_id)], instance_id)
 
     def set_transform(self, instance_id, transform) -> None:
         """Move an instance (id, 4x4 rigid transform as in :meth:`add`) or many: ids (k,), transforms (k, 4, 4).
@@ -282,18 +284,17 @@ class Scene:
         The mean of the instances' bounding-sphere centres (of ``points``
         for an empty scene).
         """
-        if self.instances:
-            held = scene_arrays(self)           # kept with the scene's arrays until it changes
+        held = scene_arrays(self)               # kept with the scene's arrays until it changes
+        if held["live"].any():                  # (a scene whose instances were all removed: as an empty one)
             if "anchor" not in held:
-                held["anchor"] = np.mean(held["world_centre"], axis=0)
+                held["anchor"] = np.mean(held["world_centre"][held["live"]], axis=0)
             return held["anchor"].copy()
         return _points_anchor(points)
 
     def scale(self) -> float:
-        """Largest world bounding-sphere radius of the instances (1 for an empty scene)."""
-        if not self.instances:
-            return 1.0
-        return float(scene_arrays(self)["world_radius"].max())
+        """Largest world bounding-sphere radius of the instances not removed (1 for none)."""
+        held = scene_arrays(self)
+        return float(held["world_radius"][held["live"]].max()) if held["live"].any() else 1.0
 
     # ------------------------------------------------------------------
     # queries: thin wrappers over pyshadow.visibility and pyshadow.render

@@ -3,7 +3,7 @@
 Every query needs each instance's transform and world bounding sphere; with
 10,000 instances, gathering them one Python object at a time costs more
 than the query. :func:`scene_arrays` stacks them once per change of the
-scene (``Scene.add`` and ``Scene.set_transform`` advance its version) and
+scene (``Scene.add``, ``Scene.set_transform`` and ``Scene.remove`` advance its version) and
 computes the world spheres for all instances at once, with the same
 operations, in the same order, as :meth:`pyshadow.scene.Instance.world_sphere`
 (so the results are bit-identical to it). :func:`anchor_groups` gives the
@@ -35,7 +35,9 @@ def scene_arrays(scene) -> dict:
         ``world_centre`` (n, 3), ``world_radius`` (n,); ``casts`` (n,) bool;
         ``types`` (the distinct CSMs of the casters, in first-use order),
         ``type_index`` (``{id(csm): index}``), ``itype`` (n,) int32 (each
-        instance's type, -1 for a receiver). Callers may keep derived data
+        instance's type, -1 for a receiver); ``live`` (n,) bool (False where
+        ``Scene.remove`` left a placeholder: no CSM, no mesh, ``casts``
+        False; its sphere a point at its last place). Callers may keep derived data
         of their own in the dict (it is dropped with it when the scene changes).
         ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`);
         ``receivers``: ``(mesh, trimesh's hash)`` of each distinct receiver mesh: one changed in place
@@ -43,22 +45,22 @@ def scene_arrays(scene) -> dict:
         each instance's mesh, 0 without one. After moves only (the same instances), the arrays the
         transforms do not change are kept.
     """
-    version = getattr(scene, "_version", None)
+    version, removals = getattr(scene, "_version", None), getattr(scene, "_removals", 0)    # (Scene.remove's count)
     held = _HELD.get(scene)
     insts = scene.instances
     n = len(insts)
-    if held is not None and version is not None and held["n"] == n \
+    if held is not None and version is not None and held["n"] == n and held["removals"] == removals \
             and all(hash(m) == h for m, h in held["receivers"]):
         if held["version"] == version:
             return held
-        # the same instances (the list only grows): only transforms moved; what they do not change is kept
+        # the same instances (the list only grows, none removed): only transforms moved; what they do not change is kept
         out = {k: held[k] for k in _STATIC}
         _HELD[scene] = out = _posed(out, np.stack([inst.transform for inst in insts]) if n else held["transform"],
                                     version)
         return out
-    receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts}
+    receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts and not i.removed}
     T = np.stack([inst.transform for inst in insts]) if n else np.zeros((0, 4, 4))
-    spheres = [inst.object_sphere() for inst in insts]
+    spheres = [(np.zeros(3), 0.0) if inst.removed else inst.object_sphere() for inst in insts]
     c = np.array([np.asarray(s[0], np.float64) for s in spheres]).reshape(n, 3)
     r = np.array([float(s[1]) for s in spheres], np.float64)
     types, index = [], {}
@@ -71,9 +73,10 @@ def scene_arrays(scene) -> dict:
     for k, inst in enumerate(insts):    # the casters' distinct meshes, each with an instance placing it
         if inst.casts and inst.mesh is not None and id(inst.mesh) not in meshes:
             meshes[id(inst.mesh)] = (k, inst.mesh)
-    out = {"types": tuple(types), "type_index": index, "itype": itype, "n": n, "object_centre": c, "object_radius": r,
+    out = {"types": tuple(types), "type_index": index, "itype": itype, "n": n, "removals": removals,
+           "object_centre": c, "object_radius": r,
            "casts": np.array([i.casts for i in insts], bool), "meshes": tuple(meshes.values()),
-           "receivers": tuple(receivers.values()),
+           "receivers": tuple(receivers.values()), "live": np.array([not i.removed for i in insts], bool),
            "mesh_id": np.array([0 if i.mesh is None else id(i.mesh) for i in insts], np.int64)}
     for v in out.values():
         if isinstance(v, np.ndarray):
@@ -97,7 +100,7 @@ def mesh_groups(held, ids, casters: bool = True) -> list:
 
 # what a move leaves as it was (the instances, their CSMs, meshes and object spheres)
 _STATIC = ("types", "type_index", "itype", "n", "object_centre", "object_radius", "casts", "meshes", "receivers",
-           "mesh_id")
+           "mesh_id", "live", "removals")
 
 
 def _posed(out, T, version):

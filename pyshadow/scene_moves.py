@@ -1,4 +1,4 @@
-"""Placing and moving the instances of a :class:`pyshadow.Scene`: their held transforms.
+"""Placing, moving and removing the instances of a :class:`pyshadow.Scene`: their held transforms.
 
 A scene keeps its own read-only copy of each instance's transform: its
 queries keep tables derived from the transforms until the scene changes (an
@@ -11,6 +11,7 @@ array, checked in one pass (``Scene.set_transform`` one at a time spends about
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterable
 
 import numpy as np
@@ -18,7 +19,7 @@ import numpy as np
 from ._validate import check_transform, check_transforms
 
 __all__ = ["add_instances", "checked_ground", "csm_options", "held_transform", "loaded_mesh", "placed_vertices",
-           "set_transforms"]
+           "set_transforms", "remove_instances"]
 
 
 def held_transform(transform) -> np.ndarray:
@@ -185,8 +186,8 @@ def set_transforms(scene, instance_ids, transforms) -> None:
     Raises
     ------
     IndexError
-        An id out of range (it names the id), or one id that is not an int
-        (as :meth:`pyshadow.Scene.transform` refuses it).
+        An id out of range or of a removed instance (it names the id), or
+        one id that is not an int (as :meth:`pyshadow.Scene.transform` refuses it).
     TypeError
         A sequence of ids that are not integers (bools included), a set or
         an iterator of ids, or transforms that are not real numbers.
@@ -195,29 +196,12 @@ def set_transforms(scene, instance_ids, transforms) -> None:
         not rigid, not affine, singular, mirrored or not finite (named by
         its position in ``transforms`` and its instance id).
     """
-    if isinstance(instance_ids, np.ndarray) and instance_ids.ndim == 0 and instance_ids.dtype.kind in "iu":
-        instance_ids = int(instance_ids)        # a 0-d int array was "no instance array(2)"
-    elif isinstance(instance_ids, Iterable) and not isinstance(instance_ids, (str, bytes, np.ndarray)) \
-            and np.ndim(instance_ids) == 0:     # a set or an iterator was "no instance {1, 2}"
-        raise TypeError("instance_ids must be an int or a 1-D sequence of ints (a list, tuple, range or array), "
-                        f"got a {type(instance_ids).__name__}")
-    if np.ndim(instance_ids) == 0:              # one instance: its 4x4
-        inst = scene._instance(instance_ids)
+    ids = checked_ids(scene, instance_ids)
+    if np.ndim(ids) == 0:                       # one instance: its 4x4
+        inst = scene._instance(ids)
         object.__setattr__(inst, "transform", held_transform(transforms))
         scene._version += 1
         return
-    ids = np.asarray(instance_ids)
-    if ids.shape == (0,):                       # no ids (an empty list reads as float64)
-        ids = ids.astype(np.int64)
-    if ids.dtype.kind not in "iu" or ids.ndim != 1:
-        raise TypeError(f"instance_ids must be an int or a 1-D sequence of ints, got {ids.dtype} shape {ids.shape}")
-    n = len(scene.instances)
-    bad = (ids < 0) | (ids >= n)
-    if bad.any():
-        raise IndexError(f"no instance {int(ids[bad][0])} (the scene has {n})")
-    if len(np.unique(ids)) != len(ids):
-        u, c = np.unique(ids, return_counts=True)
-        raise ValueError(f"instance_ids: instance {u[c > 1][0]} is given more than once")
     T = np.asarray(transforms)
     if not len(ids) and T.shape == (0,):        # no moves given as two empty lists (a frame that moves none)
         return
@@ -230,3 +214,101 @@ def set_transforms(scene, instance_ids, transforms) -> None:
         object.__setattr__(insts[i], "transform", T[k])
     if len(ids):
         scene._version += 1
+
+
+def checked_ids(scene, instance_ids):
+    """``instance_ids`` of ``Scene.set_transform`` and ``Scene.remove``: one id as given (an int, or a 0-d int
+    array as an int; ``Scene._instance`` checks it), or a sequence of ids as (k,) ints, checked here: each of an
+    instance placed and not removed, none twice (IndexError, ValueError; TypeError for other types)."""
+    if isinstance(instance_ids, np.ndarray) and instance_ids.ndim == 0 and instance_ids.dtype.kind in "iu":
+        return int(instance_ids)                # a 0-d int array was "no instance array(2)"
+    if isinstance(instance_ids, Iterable) and not isinstance(instance_ids, (str, bytes, np.ndarray)) \
+            and np.ndim(instance_ids) == 0:     # a set or an iterator was "no instance {1, 2}"
+        raise TypeError("instance_ids must be an int or a 1-D sequence of ints (a list, tuple, range or array), "
+                        f"got a {type(instance_ids).__name__}")
+    if np.ndim(instance_ids) == 0:
+        return instance_ids
+    ids = np.asarray(instance_ids)
+    if ids.shape == (0,):                       # no ids (an empty list reads as float64)
+        ids = ids.astype(np.int64)
+    if ids.dtype.kind not in "iu" or ids.ndim != 1:
+        raise TypeError(f"instance_ids must be an int or a 1-D sequence of ints, got {ids.dtype} shape {ids.shape}")
+    insts = scene.instances
+    n = len(insts)
+    bad = (ids < 0) | (ids >= n)
+    if bad.any():
+        raise IndexError(f"no instance {int(ids[bad][0])} (the scene has {n})")
+    if getattr(scene, "_removals", 0):          # (Scene.remove's count: none, no placeholder to look for)
+        for i in ids.tolist():
+            live_instance(insts[i], i)
+    if len(np.unique(ids)) != len(ids):
+        u, c = np.unique(ids, return_counts=True)
+        raise ValueError(f"instance_ids: instance {u[c > 1][0]} is given more than once")
+    return ids
+
+
+def live_instance(inst, instance_id):
+    """``inst``, the instance of id ``instance_id``, unless ``Scene.remove`` took it out (IndexError)."""
+    if inst.removed:
+        raise IndexError(f"instance {instance_id} was removed (Scene.remove; its id is not reused)")
+    return inst
+
+
+def remove_instances(scene, instance_ids) -> None:
+    """Take instances out of ``scene`` (``Scene.remove``): one id, or a sequence of ids (k,).
+
+    All ids are checked before any instance is removed, as
+    :meth:`pyshadow.Scene.set_transform` checks them. Ids are stable: a
+    removed id is never reused (``Scene.add`` returns new ones) and every
+    other instance keeps its own. ``scene.instances[i]`` of a removed id is
+    then a placeholder :class:`pyshadow.scene.Instance` (``removed`` True,
+    ``casts`` False, no CSM and no mesh, its last transform): it casts no
+    shadow, receives nothing and is not drawn; every query answers as for
+    a scene built without it (as a surface id of a query, its id names a
+    surface that casts nothing). :meth:`pyshadow.Scene.transform`,
+    ``set_transform``, ``vertex_ao``, ``vertex_points`` and ``remove``
+    refuse it, naming it.
+
+    The scene keeps no device buffers of a CSM none of its remaining
+    instances uses: its instance and the tables kept with the scene's
+    arrays go now, and the packed atlas of its caster types
+    (``pyshadow.visibility.csm``) where its types changed. A CSM that
+    ``Scene.add`` built for a mesh stays in the scene's host-side cache of
+    built CSMs, so that adding that mesh again does not build it again.
+    Threads: a removal is a change as a move is (:func:`set_transforms`).
+
+    Parameters
+    ----------
+    scene : pyshadow.Scene
+    instance_ids : int or array_like of int, shape (k,)
+        Instance ids (as :meth:`pyshadow.Scene.add` returned them), each at
+        most once; an empty sequence removes none.
+
+    Raises
+    ------
+    IndexError
+        An id out of range, or one of a removed instance (named).
+    TypeError
+        An id that is not an int (bools included), a set or an iterator.
+    ValueError
+        An id given twice.
+    """
+    ids = checked_ids(scene, instance_ids)
+    if np.ndim(ids) == 0:
+        scene._instance(ids)
+    ids = [int(ids)] if np.ndim(ids) == 0 else ids.tolist()
+    if not ids:
+        return
+    from .scene import Instance
+    from .scene_arrays import _HELD
+
+    placed = scene._placed
+    for i in ids:       # a placeholder in its place: the instance (its CSM, mesh) is the scene's no more
+        list.__setitem__(placed, i, Instance(placed[i].transform, False, removed=True))
+    scene._removals = getattr(scene, "_removals", 0) + len(ids)     # n is unchanged: the arrays are made anew
+    _HELD.pop(scene, None)                      # (not as after moves), and the tables kept with them go now
+    scene._version += 1
+    backend = sys.modules.get("pyshadow.visibility.csm")         # (not imported: no atlas was made)
+    atlas = None if backend is None else backend._ATLAS.get(scene)
+    if atlas is not None and atlas[0][1] != tuple(id(c) for c in scene.caster_types()[0]):
+        backend._ATLAS.pop(scene, None)         # the CSMs of other types: made by the next query that needs them

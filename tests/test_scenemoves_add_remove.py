@@ -56,7 +56,7 @@ def test_removing_an_instance_says_how_and_the_advice_answers_as_a_scene_built_w
         scene.add(csm, T, mesh=box)
     scene.set_transform(3, trimesh.transformations.translation_matrix([0.6, 0.15, 0.3]))
     for remove in (lambda: scene.instances.pop(2), lambda: scene.instances.__delitem__(2)):
-        with pytest.raises(TypeError, match=r"no removal.*new Scene.*inst\.csm, inst\.transform, mesh=inst\.mesh"):
+        with pytest.raises(TypeError, match=r"Scene\.remove takes one out"):
             remove()
     new = pyshadow.Scene(ground=0.0)
     for i, inst in enumerate(scene.instances):

@@ -214,8 +214,8 @@ class CubeProbe:
 
     @property
     def stale(self) -> bool:
-        """True when the scene changed (a transform set, an instance added, the ground's height) since the
-        probe was rendered."""
+        """True when the scene changed (a transform set, an instance added or removed, the ground's height) since
+        the probe was rendered."""
         sc = self.scene
         if getattr(sc, "_version", None) != self._version or len(sc.instances) != len(self._transforms) \
                 or sc.ground != self._ground:

@@ -11,7 +11,8 @@ One module (or package) a job: :mod:`~pyshadow.mesh`, :mod:`~pyshadow.views`,
 :mod:`~pyshadow.raster`, :mod:`~pyshadow.csm`, :mod:`~pyshadow.scene`
 (placement), :mod:`~pyshadow.visibility` (queries, backends by name),
 :mod:`~pyshadow.sampling`, :mod:`~pyshadow.gbuffer`, :mod:`~pyshadow.render`
-(the render stage), :mod:`~pyshadow.filters`, :mod:`~pyshadow.io`,
+(the render stage), :mod:`~pyshadow.lighting` (skies, lights, shading),
+:mod:`~pyshadow.filters`, :mod:`~pyshadow.io`,
 :mod:`~pyshadow.cubemap` (cube-map AO, seed 002) and :mod:`~pyshadow.ssao`
 (screen-space AO): the compared methods,
 :mod:`~pyshadow.cache`, :mod:`~pyshadow.embree` (ground truth),

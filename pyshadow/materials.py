@@ -5,7 +5,7 @@ per-vertex visual attributes of the file (a UV seam or a colour edge splits
 a vertex). It keeps them apart from the geometry instead, per *face
 corner*, in a :class:`MeshVisual` stored as ``mesh.metadata["pyshadow_visual"]``
 (:data:`VISUAL_KEY`; absent when the file has neither colours nor UVs).
-Vertices, faces and :func:`pyshadow.mesh_hash` are exactly those of a load
+Vertices, faces and :func:`pyshadow.mesh.mesh_hash` are exactly those of a load
 without it, so CSMs and caches do not change. A scene (several meshes, as
 a GLB or a multi-material OBJ loads) gets one visual per mesh, joined per
 face corner in the order its meshes are concatenated (:func:`join_visuals`):

@@ -50,7 +50,7 @@ class GBuffer:
 
         ``out``'s depth is float32: from a far camera its points lie off their faces by a float32
         spacing of the depth, where ``Scene.render`` shades points on the faces' planes in float64
-        (:func:`pyshadow.surface_points`); given ``scene`` (the rendered one), the points are those.
+        (:func:`pyshadow.render.surface_points`); given ``scene`` (the rendered one), the points are those.
         """
         sp = covered_pixels(camera, out, out["object_id"])      # the points Scene.render shades
         points = sp.points

@@ -216,6 +216,8 @@ def default_scene(*, views=None, resolution: int = 128, depth_bits: int = 16, la
         supply cached CSMs (``None``: build).
     width, height : int
         Image size of the returned camera.
+    progress : bool
+        Show the builders' progress bars for the CSMs built here.
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """pyshadow: ambient occlusion and shadows between moving rigid bodies from
 Coherent Shadow Maps, as OpenCL kernels (GPU, or CPU cores through PoCL).
 
-Conventions used throughout (DESIGN.md): right-handed, y up; directions from
+Conventions used throughout: right-handed, y up; directions from
 polar angles ``d(theta, phi) = (sin theta cos phi, cos theta, sin theta sin phi)``;
 AO is the unoccluded, cosine-weighted fraction of the hemisphere in [0, 1];
 every per-object structure lives in the object's normalised frame (bounding

@@ -1,6 +1,6 @@
 """Edge-aware filtering and upsampling of a screen-space AO image.
 
-Stage "bilateral filter" of the pipeline (DESIGN.md, "Filtering"): the AO
+Stage "bilateral filter" of the pipeline (README.md, the table of stages): the AO
 image computed with few samples per pixel is noisy; these filters average it
 over neighbours that lie on the same surface, which they recognise from the
 G-buffer (depth and normal) rather than from the noisy AO itself (seed 002,
@@ -13,7 +13,7 @@ Conventions shared by every function of this module
 ----------------------------------------------------
 * Images are ``(H, W)`` arrays, row 0 at the top; pixel ``(y, x)`` is row
   ``y``, column ``x``.
-* ``ao`` : float (H, W), AO in [0, 1] (1 = fully open, DESIGN.md). Any finite
+* ``ao`` : float (H, W), AO in [0, 1] (1 = fully open, as everywhere). Any finite
   value is filtered alike; NaN/inf are rejected where the depth is finite.
 * ``depth`` : float (H, W), distance from the eye along the pixel's ray in
   world units (as :func:`pyshadow.render_gbuffer` returns it), ``> 0``
@@ -407,8 +407,7 @@ def upsample(ao_low, depth, normal, *, scale=None, radius=2, sigma_spatial=None,
     compute AO at full resolution there if that matters.
 
     Joint bilateral upsampling: J. Kopf, M. Cohen, D. Lischinski,
-    M. Uyttendaele, "Joint Bilateral Upsampling", SIGGRAPH 2007; named as
-    future work in DESIGN.md "Filtering". The range term is the same depth
+    M. Uyttendaele, "Joint Bilateral Upsampling", SIGGRAPH 2007. The range term is the same depth
     and normal term as :func:`bilateral` (seed 002, eq. 3.6 with section
     4.5's geometric edges).
 

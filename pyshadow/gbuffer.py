@@ -1,6 +1,6 @@
 """G-buffer: per-pixel position, normal, object id and depth of a scene.
 
-Stage "G-buffer" of the pipeline (DESIGN.md). Triangles of every item are
+Stage "G-buffer" of the pipeline (README.md, the table of stages). Triangles of every item are
 moved into camera space on the host in float64 (relative to the eye, so a
 scene far from the world origin keeps its precision), clipped against the
 near plane and, those reaching far outside the view, against a guard band

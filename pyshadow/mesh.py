@@ -2,8 +2,8 @@
 
 Every per-object structure of pyshadow (depth maps, CSMs) lives in the
 object's *normalised frame*: ``p_norm = (p - centre) / radius`` with the
-object's bounding sphere (:func:`bounding_sphere`). See DESIGN.md,
-"Conventions".
+object's bounding sphere (:func:`bounding_sphere`). See the conventions
+in :mod:`pyshadow`.
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Layered orthographic depth maps (depth peeling) of a mesh for a view set.
 
-Stage "rasterise depth maps" of the pipeline (DESIGN.md); thesis 000,
-section 5.2.2. One OpenCL work-item renders one whole map: it walks every
+Stage "rasterise depth maps" of the pipeline (README.md, the table of stages);
+thesis 000, section 5.2.2. One OpenCL work-item renders one whole map: it walks every
 triangle and keeps, per texel, the ``layers`` nearest depths in sorted order.
 
 Convention (relied on by every later stage): in the object's normalised frame

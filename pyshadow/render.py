@@ -1,6 +1,6 @@
 """The render stage: a scene and a camera in, a :class:`Frame` of per-pixel buffers out.
 
-Stage "render" of the pipeline (DESIGN.md). The G-buffer is rasterised
+Stage "render" of the pipeline (README.md, the table of stages). The G-buffer is rasterised
 (:func:`pyshadow.render_gbuffer`; or any G-buffer of the same form, e.g.
 Embree's), the covered pixels become surface points (:func:`surface_points`,
 the one place that does so), their AO and bent normals come from a

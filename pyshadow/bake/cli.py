@@ -7,7 +7,7 @@ Usage::
     pyshadow-bake frames -o frames/ --frames 60            # the bundled scene, turning
     pyshadow-bake frames -o frames/ --mesh a.obj --mesh b.obj --motion motion.npz
     pyshadow-bake frames -o frames/ --camera camera.json     # {"eye": [x, y, z], "target": [x, y, z], ...}
-    pyshadow-bake motion motion.npz --frames 60            # the bundled scene's motion, as a file
+    pyshadow-bake motion motion.npz --frames 60            # the bundled scene's motion (4 bodies), as a file
 
 Exit status: 0 when every asset or frame is done, 1 when one failed, 2 on
 bad arguments, 130 when interrupted (Ctrl-C), 128 + the signal's number when

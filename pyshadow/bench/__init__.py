@@ -12,7 +12,7 @@ bunny and a torus on a ground plane, two walls) or on the user's own meshes:
 3. trace the *identical* rays -- the same G-buffer points, the same sample
    directions -- with Embree (embreex, one thread per core) and time them;
    per-ray agreement of the two isolates the CSM's discretisation error
-   (DESIGN.md, "Measuring");
+   (benchmarks/README.md);
 4. trace a converged Embree reference (1024 samples per pixel by default,
    cached like the CSMs) and measure the AO error against both references;
 5. print one table and write ``ao.png``, ``reference.png``,

@@ -1,7 +1,7 @@
 """Coherent Shadow Maps: the data, its streaming builder, device layout, file format and NumPy mirrors.
 
-Stage "compress" of the pipeline (DESIGN.md "CSM compression"; thesis 000,
-sections 4.2.1, 5.2.1-5.2.3; Ritschel et al. 2007).
+Stage "compress" of the pipeline (thesis 000, sections 4.2.1, 5.2.1-5.2.3;
+Ritschel et al. 2007).
 
 For every texel ``t`` the maps are visited in view-set order ``i = 0..D-1``.
 Map ``i`` allows a set of stored depths that still gives the right shadow

@@ -1,7 +1,7 @@
 """The CSM backends: the visibility kernels (``kernels/visibility.cl``) over a scene's casters.
 
-Stage "visibility kernel" of the pipeline (DESIGN.md "Visibility query",
-"Sampling"; thesis 000, 5.3, 5.3.1-5.3.3). ``"csm"`` asks one texel of each
+Stage "visibility kernel" of the pipeline (README.md, the table of stages;
+thesis 000, 5.3, 5.3.1-5.3.3). ``"csm"`` asks one texel of each
 caster's nearest map; ``"csm-vote"`` asks the four maps of
 :meth:`pyshadow.ViewSet.filter_window` times the four texels around the
 point and lets the weighted vote decide. The kernels are specialised to the

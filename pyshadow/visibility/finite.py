@@ -12,7 +12,7 @@ grown by 1e-6) met by the ray over ``[t0, t1]``:
 * ``t0 >= t`` (the sphere lies wholly beyond the end): the caster is culled;
 * ``t1 <= t`` (it ends before the end): it is answered as for an infinite ray
   -- the segment then holds every point of the caster the ray can meet, so
-  the two answers agree (``LIGHTING.md``, "What a CSM can and cannot do");
+  the two answers agree;
 * ``t0 < t < t1``, i.e. the end ``p + t w`` lies inside (or on) the sphere:
   a CSM cannot answer. Its maps store each occluder's depth only up to its
   compression interval (any depth in ``[z1, z2)``), not where along the ray

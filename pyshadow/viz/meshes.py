@@ -5,7 +5,7 @@ Turns trimesh meshes and the instances of a :class:`pyshadow.Scene` into
 frame, the instance transform going to the actor; points the camera of a
 subplot at a region of world space; and builds the ground grid the examples
 compute ground AO on. World units and frames are those of the scene (y up,
-DESIGN.md).
+:mod:`pyshadow`).
 """
 from __future__ import annotations
 

@@ -49,7 +49,7 @@
  *   one half. Up to 16 searches instead of one.
  *
  * Scene data ("atlas": every CSM type of the scene concatenated)
- *   types    csm_type_t (NTYPES): resolution, maps, layout (0 zigzag, 1
+ *   types    csm_type_t (one per CSM type): resolution, maps, layout (0 zigzag, 1
  *                  hilbert, 2 hilbert over two hemispheres), p1 (theta or
  *                  level), p2 (phi), texel, view and cell-table bases, the
  *                  zigzag grid steps' cos and sin (scene_types.h, generated
@@ -79,9 +79,10 @@
  *
  * Macros
  *   DEPTH_BITS, IEND_T, PAIR_WIDE   storage of the atlas (csm_common.h)
- *   NTYPES               number of CSM types (>= 0); 0 (no caster): no
- *                        sphere test, instance tree or grid, or CSM lookup
- *                        is compiled (csm_lookup.h, batch.h)
+ *   NTYPES               the CSM types: 0 (no caster: no sphere test,
+ *                        instance tree or grid, or CSM lookup is compiled;
+ *                        csm_lookup.h, batch.h), 1, or 2 for two or more
+ *                        (the tests are NTYPES, NTYPES > 1: one program)
  *   INSTANCE_BVH, INSTANCE_GRID  how the casters a ray can meet are found
  *                        (batch.h)
  *   GROUND               1: infinite ground plane y = ground_y (0: no

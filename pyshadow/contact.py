@@ -43,12 +43,11 @@ within a texel of the upper body's edge (AO up to 0.56 at 32 samples; Embree: 0)
 """
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from ._validate import check_rows, float32_exact
 from .contact_parts import _CHUNK, _grid_pairs, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines
+from .mesh_kept import MeshKept
 from .scene_arrays import mesh_groups, scene_arrays
 
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
@@ -56,8 +55,8 @@ __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts",
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
 # mesh -> its closed surface's distinct vertices and faces, or (None, None) where it is open (a mesh
-# changed in place hashes differently and misses)
-_SURFACES = weakref.WeakKeyDictionary()
+# changed in place misses, and is replaced)
+_SURFACES = MeshKept()
 
 
 def ground_tolerance(scene) -> float:
@@ -206,6 +205,17 @@ def footprints(scene) -> list:
     return [x for _, x, _ in _on_ground(scene, "contact", _footprints)]
 
 
+def _ground_key(held, name, ground):
+    """``(name, ground)``: the key of a table kept in ``held`` (a scene's arrays) for this ground height. The
+    tables of ``name`` at other heights go: they were kept until the scene changed, which setting
+    ``Scene.ground`` is not (a ground moved every frame under unmoved bodies kept four more tables a frame)."""
+    key = (name, float(ground))
+    if key not in held:
+        for old in [k for k in list(held) if type(k) is tuple and len(k) == 2 and k[0] == name]:
+            held.pop(old, None)
+    return key
+
+
 def _on_ground(scene, name, make, held=None):
     """``[(caster slot, x, tol)]`` over the casters whose mesh's box reaches down to the ground plane (within
     their own tolerance ``tol``, :func:`_face_tolerances`), ``x`` of ``make(scene, instance numbers, ground,
@@ -213,7 +223,7 @@ def _on_ground(scene, name, make, held=None):
     if scene.ground is None or not scene.instances:
         return []
     held = scene_arrays(scene) if held is None else held
-    key = (name, float(scene.ground))
+    key = _ground_key(held, name, scene.ground)
     if key not in held:
         tol = _face_tolerances(held)
         lowest = held["world_centre"][:, 1] - held["world_radius"]
@@ -318,7 +328,7 @@ def ground_sheet_slots(scene, points, own):
     found = _on_ground(scene, "sheets", _sheets, held) if len(own) else []
     if not found:
         return own
-    tris, _, lo, hi, tol = _kept_parts(held, ("sheet parts", float(scene.ground)),
+    tris, _, lo, hi, tol = _kept_parts(held, _ground_key(held, "sheet parts", scene.ground),
                                        lambda: ([tri for _, tri, _ in found], None, [t for _, _, t in found]))
     off = _plane_offsets(scene, p)
     cand = np.flatnonzero((np.asarray(own) == -2) & _on_plane(off, tol.max()))
@@ -391,7 +401,7 @@ def contact_mask(scene, points):
     if not fps:
         return None
     mask = np.zeros(len(p), bool)
-    parts = _kept_parts(held, ("contact parts", float(scene.ground)), lambda: (
+    parts = _kept_parts(held, _ground_key(held, "contact parts", scene.ground), lambda: (
         [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps], [t for _, _, t in fps]))
     tol = parts[4]
     off = _plane_offsets(scene, p)

@@ -18,12 +18,13 @@ import numpy as np
 from ._validate import float32_exact
 from .contact import _SURFACES, _closed_surface, _face_tolerances
 from .contact_parts import _expanded, _in_parts, _kept_parts, _outlines, _ragged, _slab_pairs
+from .mesh_kept import MeshKept
 from .scene_arrays import mesh_groups, scene_arrays
 
 __all__ = ["FACING", "body_patches", "body_hits"]
 
 FACING = 1.0 - 1e-6        # a normal (or ray) this close (cosine) to a contact face's inward normal faces into it
-_ORIENTED = weakref.WeakKeyDictionary()         # mesh -> _outward(mesh)
+_ORIENTED = MeshKept()         # mesh -> _outward(mesh)
 _PAIRS = 1 << 18            # face pairs of two bodies compared at most (about 10 ms; two boxes: 144)
 
 

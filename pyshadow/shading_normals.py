@@ -46,7 +46,6 @@ The hemisphere rule (:func:`below_geometric`)
 from __future__ import annotations
 
 import math
-import weakref
 
 import numpy as np
 
@@ -54,6 +53,7 @@ from ._validate import check_indices, check_rows, check_values, unit_normals
 from .gbuffer import face_corners
 from .gbuffer_items import pixels_by_item
 from .materials import barycentrics
+from .mesh_kept import MeshKept
 
 __all__ = ["NORMAL_MODES", "DEFAULT_CREASE_ANGLE", "corner_normals", "check_crease_angle", "shading_gbuffer",
            "pixel_surface", "below_geometric", "ambient_occlusion"]
@@ -76,8 +76,8 @@ _PAIRS = 1 << 18
 SLIVER_SPACINGS = 2.0**10
 
 # mesh -> {crease angle: (corner normals (T, 3, 3), smooth face mask (T,))}; a mesh changed in place
-# hashes differently and misses
-_CORNERS = weakref.WeakKeyDictionary()
+# misses (and is replaced)
+_CORNERS = MeshKept()
 
 
 def check_crease_angle(angle) -> float:

@@ -25,11 +25,10 @@ same directions as the AO kernels (:func:`pyshadow.sampling.sample_directions`).
 """
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from ._validate import check_values, squared_lengths
+from .mesh_kept import MeshKept
 
 __all__ = ["concave_vertices", "corner_ao"]
 
@@ -41,8 +40,8 @@ FLAT_TOL = 1e-6
 #: neighbours x faces held at once while the stars are tested
 _BLOCK_ELEMENTS = 2_000_000
 
-# mesh -> its concave vertices and their faces (_mesh_stars); a mesh changed in place hashes differently and misses
-_STARS = weakref.WeakKeyDictionary()
+# mesh -> its concave vertices and their faces (_mesh_stars); a mesh changed in place misses (and is replaced)
+_STARS = MeshKept()
 
 
 def concave_vertices(points, faces):

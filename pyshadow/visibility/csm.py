@@ -282,7 +282,7 @@ class CSMVisibility(_SampledSky):
         accel = instance_accel(scene)
         d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
              "SEARCH_BLOCK": SEARCH_BLOCK,
-             "NTYPES": atlas["ntypes"],
+             "NTYPES": min(atlas["ntypes"], 2),     # the kernels ask only 0, 1 or more: one program for 2..n types
              "GROUND": int(scene.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
              "LAYOUT_HILBERT": int("hilbert" in atlas["layouts"]),

@@ -95,6 +95,7 @@ from .. import _cl
 from .._cl.launch import fill
 from .._validate import check_both, kernel_rows, unit_normals
 from ..contact import ground_tolerance
+from ..mesh_kept import MeshKept
 from ..scene_arrays import scene_arrays
 from ._checks import _floats
 from .shadow_fit import _ortho_frame, cell_points, far_axis, part_limit, split_casters
@@ -304,10 +305,15 @@ class ShadowMapVisibility:
         self.bias_texels = _check_bias(bias_texels, "bias_texels")
         self.renders = 0
         self._maps: OrderedDict = OrderedDict()
-        self._meshes: dict = {}
+        self._meshes = MeshKept()          # mesh -> its triangles on the device (kept while the mesh lives)
 
     def __repr__(self) -> str:
         return f"<ShadowMapVisibility {self.resolution}^2 pcf={self.pcf}>"
+
+    def __getstate__(self) -> dict:
+        """Pickles and copies (Dask sends its tasks' arguments pickled) leave the kept maps and meshes' device
+        buffers behind, which do not pickle: a used backend was ``TypeError: cannot pickle 'Buffer'``."""
+        return {**self.__dict__, "_maps": OrderedDict(), "_meshes": MeshKept()}
 
     # -- the protocol --------------------------------------------------
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,
@@ -464,14 +470,14 @@ class ShadowMapVisibility:
 
     def _mesh_triangles(self, mesh):
         """(device buffer of (T, 9) float32 corners relative to the mesh's centre, T, centre)."""
-        held = self._meshes.get(id(mesh))      # its content by trimesh's hash: a mesh changed in place since
-        if held is None or held[0] is not mesh or held[4:] != (id(_cl.context()), hash(mesh)):   # (new scene)
+        held = self._meshes.get(mesh)      # for its content (trimesh's hash): a mesh changed in place since misses
+        if held is None or held[3] != id(_cl.context()):   # (another device's buffer)
             v = np.asarray(mesh.vertices, np.float64)
             centre = 0.5 * (v.min(axis=0) + v.max(axis=0))
             tris = (v - centre)[np.asarray(mesh.faces)].reshape(-1, 9)
-            held = (mesh, _cl.to_device(tris, np.float32), len(tris), centre, id(_cl.context()), hash(mesh))
-            self._meshes[id(mesh)] = held
-        return held[1:4]
+            # (not the mesh: an entry held it, and its buffer, for as long as the backend lived)
+            held = self._meshes[mesh] = (_cl.to_device(tris, np.float32), len(tris), centre, id(_cl.context()))
+        return held[:3]
 
     def _new_depth(self, faces):
         nbytes = 4 * faces * self.resolution ** 2

@@ -278,9 +278,9 @@ def _patches(scene, held):
     if "bodies" in held:
         return held["bodies"]
     out = []                    # stored when complete: another thread's query reads all of it or none
-    faced = np.zeros(len(scene.instances), bool)        # the instances with a mesh of faces, each mesh asked once
-    for first, rows in mesh_groups(held, np.arange(len(scene.instances)), casters=False):
-        mesh = scene.instances[first].mesh
+    faced = np.zeros(held["n"], bool)   # the instances (of the arrays) with a mesh of faces, each mesh asked once
+    for first, rows in mesh_groups(held, np.arange(held["n"]), casters=False):
+        mesh = held["placed"][first].mesh
         faced[rows] = mesh is not None and len(mesh.faces) > 0
     ids = np.flatnonzero(faced)
     both = _body_pairs(held, ids) if len(ids) >= 2 else np.zeros((0, 2), np.intp)
@@ -380,7 +380,7 @@ def _posed(scene, held, rows):
     gave the faces of its pose to the patches kept for the pose asked, found again only after another move
     (a box lifted onto another, moved away during the query and back: no patch, AO 1 on the lid under it)."""
     T = held["transform"]
-    return [_Posed(scene.instances[i].mesh, T[i]) for i in rows]
+    return [_Posed(held["placed"][i].mesh, T[i]) for i in rows]
 
 
 def _body_pairs(held, ids):

@@ -46,13 +46,15 @@ class MeshKept:
         return default if got is None else got[2]
 
     def __setitem__(self, mesh, value) -> None:
-        key, data = id(mesh), self._data
+        # (the callback holding the dict itself made a cycle: a dropped MeshKept's values lived until a collection)
+        key, kept = id(mesh), weakref.ref(self)
 
         def drop(ref):                  # the mesh is gone: its entry too, unless another took the key since
+            data = getattr(kept(), "_data", {})
             if data.get(key, (None,))[0] is ref:
                 data.pop(key, None)
 
-        data[key] = (weakref.ref(mesh, drop), hash(mesh), value)
+        self._data[key] = (weakref.ref(mesh, drop), hash(mesh), value)
 
     def setdefault(self, mesh, default):
         got = self._entry(mesh)

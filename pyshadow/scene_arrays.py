@@ -42,22 +42,25 @@ def scene_arrays(scene) -> dict:
         ``meshes``: ``(instance id, mesh)`` of each distinct caster mesh (:func:`check_meshes`);
         ``receivers``: ``(mesh, trimesh's hash)`` of each distinct receiver mesh: one changed in place
         (a receiver's may be) makes the arrays anew, with its sphere. ``mesh_id`` (n,) int64: ``id`` of
-        each instance's mesh, 0 without one. After moves only (the same instances), the arrays the
-        transforms do not change are kept.
+        each instance's mesh, 0 without one. ``placed``: the instances these rows describe (a tuple of
+        ``Scene.instances`` as it was; a query reads an instance there, not in the list, which another
+        thread's ``Scene.remove`` may have given a placeholder since). After moves only (the same
+        instances), the arrays the transforms do not change are kept.
     """
     version, removals = getattr(scene, "_version", None), getattr(scene, "_removals", 0)    # (Scene.remove's count)
     held = _HELD.get(scene)
-    insts = scene.instances
-    n = len(insts)
+    n = len(scene.instances)
     if held is not None and version is not None and held["n"] == n and held["removals"] == removals \
             and all(hash(m) == h for m, h in held["receivers"]):
         if held["version"] == version:
             return held
         # the same instances (the list only grows, none removed): only transforms moved; what they do not change is kept
         out = {k: held[k] for k in _STATIC}
-        _HELD[scene] = out = _posed(out, np.stack([inst.transform for inst in insts]) if n else held["transform"],
-                                    version)
+        _HELD[scene] = out = _posed(out, np.stack([inst.transform for inst in out["placed"]]) if n
+                                    else held["transform"], version)
         return out
+    insts = tuple(scene.instances)      # one list of them (another thread may add or remove meanwhile)
+    n = len(insts)
     receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts and not i.removed}
     T = np.stack([inst.transform for inst in insts]) if n else np.zeros((0, 4, 4))
     spheres = [(np.zeros(3), 0.0) if inst.removed else inst.object_sphere() for inst in insts]
@@ -77,7 +80,7 @@ def scene_arrays(scene) -> dict:
            "object_centre": c, "object_radius": r,
            "casts": np.array([i.casts for i in insts], bool), "meshes": tuple(meshes.values()),
            "receivers": tuple(receivers.values()), "live": np.array([not i.removed for i in insts], bool),
-           "mesh_id": np.array([0 if i.mesh is None else id(i.mesh) for i in insts], np.int64)}
+           "mesh_id": np.array([0 if i.mesh is None else id(i.mesh) for i in insts], np.int64), "placed": insts}
     for v in out.values():
         if isinstance(v, np.ndarray):
             v.flags.writeable = False
@@ -100,7 +103,7 @@ def mesh_groups(held, ids, casters: bool = True) -> list:
 
 # what a move leaves as it was (the instances, their CSMs, meshes and object spheres)
 _STATIC = ("types", "type_index", "itype", "n", "object_centre", "object_radius", "casts", "meshes", "receivers",
-           "mesh_id", "live", "removals")
+           "mesh_id", "live", "removals", "placed")
 
 
 def _posed(out, T, version):

@@ -221,6 +221,12 @@ def _beyond(tris, end):
     return np.concatenate(keep)
 
 
+def _placed_now(scene, casters) -> list:
+    """The instances ``casters`` of ``scene``, less any that another thread removed (``Scene.remove``) since the
+    caster ids were read: drawn as after the removal (a placeholder has no mesh)."""
+    return [inst for inst in (scene.instances[i] for i in casters) if not inst.removed]
+
+
 class ShadowMap:
     """One rendered shadow map (a device buffer) and the frame its lookups need.
 
@@ -507,8 +513,7 @@ class ShadowMapVisibility:
         if not len(casters):
             return ShadowMap("directional", direction, R, origin, frame, None, texel)
         buf = self._new_depth(1)
-        for i in casters:
-            inst = scene.instances[i]
+        for inst in _placed_now(scene, casters):
             tris, n_tris, centre = self._mesh_triangles(inst.mesh)
             T = inst.transform
             m = np.concatenate([A @ T[:3, :3], (A @ (T[:3, :3] @ centre + T[:3, 3] - origin) + b)[:, None]], axis=1)
@@ -532,7 +537,7 @@ class ShadowMapVisibility:
         if not len(casters):
             return ShadowMap("point", position, R, position, frame, None)
         buf = self._new_depth(6)
-        items = [(scene.instances[i].mesh, scene.instances[i].transform) for i in casters]
+        items = [(p.mesh, p.transform) for p in _placed_now(scene, casters)]
         if basis is not None:           # the casters placed in the fitted cube's coordinates
             items = [(mesh, np.block([[basis @ T[:3, :3], (basis @ (T[:3, 3] - position))[:, None]],
                                       [np.zeros((1, 3)), np.ones((1, 1))]])) for mesh, T in items]

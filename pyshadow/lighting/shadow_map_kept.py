@@ -22,7 +22,7 @@ def _placed_casters(scene, arr):
     one changed in place since :meth:`Scene.add` (refused as on the other backends)."""
     check_meshes(scene)
     casters = np.flatnonzero(arr["casts"])
-    placed = [scene.instances[i] for i in casters]
+    placed = [arr["placed"][i] for i in casters]       # (those of the arrays: not a placeholder removed since)
     for i, p in zip(casters, placed):
         if p.mesh is None:
             raise ValueError(f"caster instance {int(i)} has no mesh: a shadow map rasterises the casters' "

@@ -17,7 +17,7 @@ from ..csm.core import DEFAULT_BIAS_TEXELS, DEPTH_Q, VOTE_BIAS_TEXELS, lookup_bo
 from ..csm.reference import shadow_vote
 from ..csm.surface_rule import surface_horizon
 from ..sampling import ao_from_samples, sample_directions_reference
-from ..scene_arrays import check_meshes
+from ..scene_arrays import check_meshes, scene_arrays
 from .base import check_bias, check_sampling, register
 from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distance, check_straddle, ground_blocks,
                      ground_offsets, rays_ao)
@@ -68,8 +68,9 @@ def _visible_reference(scene, p, w, own, m, lookup, bias, tmax, ground=True):
     types, _ = scene.caster_types()
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     quantum = (1.0 / DEPTH_Q if bits == 16 else 0.0) + 1e-7
-    for slot, i in enumerate(scene.casters):
-        inst = scene.instances[i]
+    arr = scene_arrays(scene)           # the casters and their instances of one state (not a placeholder removed since)
+    for slot, i in enumerate(np.flatnonzero(arr["casts"]).tolist()):
+        inst = arr["placed"][i]
         own_rows = (own == -1) | (own == slot)
         occ |= caster_occludes(inst.csm, inst.world_sphere(), inst.rotation, inst.scale,
                                inst.transform[:3, 3], p, w, m, own_rows, ~occ, lookup=lookup, bias=bias,

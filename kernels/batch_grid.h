@@ -33,15 +33,31 @@ __attribute__((always_inline)) inline void pending_push(const scene_t *S, pendin
 /* A sphere lies in up to 8 cells, which a ray crosses one after another:
  * one the ray meets that is among the last GRID_SEEN it met (sn, per lane)
  * is not queued again (one met again after more is asked twice, with the
- * same answer) */
+ * same answer). With one CSM type, without a branch on the seen list: the
+ * pair is written whatever, and counted when it is new */
 #define GRID_SEEN 4
 __attribute__((always_inline)) inline void grid_met(const scene_t *S, pending_t *P, int *sn, const int i,
                                                     const int j, QUERY_PARAMS)
 {
+#if NTYPES > 1
     if (j == sn[0] || j == sn[1] || j == sn[2] || j == sn[3])
         return;
     sn[3] = sn[2]; sn[2] = sn[1]; sn[1] = sn[0]; sn[0] = j;
     pending_push(S, P, i, j, QUERY_ARGS);
+#else
+    const int fresh = (j != sn[0]) & (j != sn[1]) & (j != sn[2]) & (j != sn[3]);
+    sn[3] = fresh ? sn[2] : sn[3];
+    sn[2] = fresh ? sn[1] : sn[2];
+    sn[1] = fresh ? sn[0] : sn[1];
+    sn[0] = fresh ? j : sn[0];
+    P->q[P->n] = i;
+    P->j[P->n] = j;
+    P->n += fresh;
+    if (P->n == BATCH) {
+        batch_ask(S, P, BATCH, QUERY_ARGS);
+        P->n = 0;
+    }
+#endif
 }
 
 /* the walking lanes of group c all in the cell of packet K (rays from one
@@ -67,7 +83,8 @@ __attribute__((always_inline)) inline void grid_cell_shared(const scene_t *S, pe
     }
 }
 
-/* query i's ray against the list of its cell, from packet K, four spheres at a time */
+/* query i's ray against the list of its cell, from packet K, four spheres at a
+ * time (grid_cells_apart: the packets after a list's first) */
 __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pending_t *P,
                                                          __global const grid_packet_t *K, const int i, int *sn,
                                                          QUERY_PARAMS BATCH_TMAX_PARAMS)
@@ -82,6 +99,43 @@ __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pendi
         }
         if (K->instance[3] >= -1)
             break;
+    }
+}
+
+/* the walking lanes lw[0 .. na) of a group, lane l in its own cell ca[l],
+ * its query c + lq[l]: the first packet of every lane's list tested without
+ * a branch on the result, the (lane, sphere) pairs met kept as bits (4 a
+ * lane: 64 bits hold LANES <= 16), then queued lane by lane in slot order;
+ * a list that goes on (a link) is tested on by grid_cell_one after. Each
+ * lane makes the same tests and queues its casters in the same order as
+ * grid_cell_one alone would */
+#if CPU_CLANG
+#define BIT_LOW64(b) __builtin_ctzl((ulong)(b))
+#else
+#define BIT_LOW64(b) (63 - (int)clz((b) & -(b)))
+#endif
+__attribute__((always_inline)) inline void grid_cells_apart(const scene_t *S, pending_t *P, const int *lw,
+                                                            const int na, const int *ca, const int c,
+                                                            const int *lq, int (*seen)[GRID_SEEN],
+                                                            QUERY_PARAMS BATCH_TMAX_PARAMS)
+{
+    ulong bits = 0, links = 0;
+    for (int m = 0; m < na; ++m) {
+        const int l = lw[m], i = c + lq[l];
+        __global const grid_packet_t *K = S->gpackets + ca[l];
+        const int4 met = sphere_4(K, px[i], py[i], pz[i], wx[i], wy[i], wz[i] TMAX1_ARG(i));
+        const int4 b4 = met & (int4)(1, 2, 4, 8);
+        bits |= (ulong)(uint)(b4.x | b4.y | b4.z | b4.w) << (4 * m);
+        links |= (ulong)(K->instance[3] < -1) << m;
+    }
+    for (; bits; bits &= bits - 1) {
+        const int b = BIT_LOW64(bits), l = lw[b >> 2];
+        grid_met(S, P, seen[l], c + lq[l], S->gpackets[ca[l]].instance[b & 3], QUERY_ARGS);
+    }
+    for (; links; links &= links - 1) {
+        const int l = lw[BIT_LOW64(links)];
+        grid_cell_one(S, P, S->gpackets + (-2 - S->gpackets[ca[l]].instance[3]), c + lq[l], seen[l], QUERY_ARGS
+                      BATCH_TMAX_ARGS);
     }
 }
 
@@ -168,9 +222,12 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
         if (!VANY(W.walking))
             break;
         LANE_STORE(W.cid, ca);
-        for (int l = 0; l < LANES; ++l)
-            if (wa[l])
-                grid_cell_one(S, P, S->gpackets + ca[l], lq[l], seen[l], QUERY_ARGS BATCH_TMAX_ARGS);
+        int lw[LANES], na = 0;                  /* the walking lanes, packed without branches */
+        for (int l = 0; l < LANES; ++l) {
+            lw[na] = l;
+            na += wa[l] != 0;
+        }
+        grid_cells_apart(S, P, lw, na, ca, 0, lq, seen, QUERY_ARGS BATCH_TMAX_ARGS);
         grid_next_v(G, &W, p, inv);
         W.walking &= MASK(LANE_GATHER(iv, LANE_Q, occ) == 0);
     }
@@ -189,6 +246,9 @@ inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int 
     spill_t R;
     R.n = 0;
 #endif
+    int lane_id[LANES];
+    for (int l = 0; l < LANES; ++l)
+        lane_id[l] = l;
     for (int e = 0; e < ng; ++e) {
         const int c = gl[e];
         const fv p[3] = {LANE_LOAD(px + c), LANE_LOAD(py + c), LANE_LOAD(pz + c)};
@@ -218,9 +278,7 @@ inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int 
             if (VALL(~W.walking | MASK(W.cid == ca[act[0]]))) {
                 grid_cell_shared(S, P, S->gpackets + ca[act[0]], c, p, w, W.walking, seen, QUERY_ARGS BATCH_TMAX_ARGS);
             } else {
-                for (int m = 0; m < na; ++m)
-                    grid_cell_one(S, P, S->gpackets + ca[act[m]], c + act[m], seen[act[m]], QUERY_ARGS
-                                  BATCH_TMAX_ARGS);
+                grid_cells_apart(S, P, act, na, ca, c, lane_id, seen, QUERY_ARGS BATCH_TMAX_ARGS);
             }
             grid_next_v(G, &W, p, inv);
             W.walking &= MASK(LANE_LOAD(occ + c) == 0);

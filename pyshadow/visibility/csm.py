@@ -63,7 +63,7 @@ from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distan
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 from .grid import grid_margin, grid_packets, instance_grid, isolated_casters
-from .held import held_at, kept as _kept, on_device as _on_device
+from .held import check_tables, held_at, kept as _kept, on_device as _on_device
 from .sampled_sky import _SampledSky
 
 __all__ = ["CSMVisibility", "lane_table", "instance_accel"]
@@ -326,7 +326,7 @@ class CSMVisibility(_SampledSky):
         atlas, _ = _device_atlas(scene)
         return self._defines(scene, atlas, **extra)
 
-    def _scene_args(self, scene, anchor, bias, points_extent=0.0):
+    def _scene_args(self, scene, anchor, bias, points_extent=0.0, defines=None):
         """Kernel arguments of the scene tables; ``points_extent``: largest |coordinate| of the
         queries' anchor-relative points (it sizes the margins of the instance tree's boxes and of the
         grid's spheres)."""
@@ -335,6 +335,7 @@ class CSMVisibility(_SampledSky):
         # before the rows: a move landing between them (another thread's) keeps no tables of the old poses
         held = held_at(scene, anchor)
         rows, itype, ninst = _instance_data(scene, anchor, self.lookup)
+        check_tables(defines, atlas, itype, ninst)      # (the program compiled for the tables it is given)
         b_abs, b_tex, b_tan, b_other = self._bias(bias, atlas)
         gy = (scene.ground - anchor[1]) if scene.ground is not None else 0.0
         g_eps = ground_tolerance(scene)
@@ -411,7 +412,7 @@ class CSMVisibility(_SampledSky):
             p = (p - anchor).astype(np.float32)
             if w.dtype == np.float64:
                 w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
-        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb if fp64 else None))
+        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb if fp64 else None), defines)
         k = _cl.kernel("visibility.cl", "scene_visible", defines)
         # what the kernel subtracts from the points (the host already did on float-only devices)
         a = [np.float64(x) for x in anchor] if fp64 else [np.float32(0.0)] * 3
@@ -502,7 +503,7 @@ class CSMVisibility(_SampledSky):
         ``outs`` (ao, bent, tr, sky)."""
         ao, bent, tr, sky = outs
         N, S = len(p), int(defines["SAMPLES"])
-        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb))
+        _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb), defines)
         rel = np.empty(p.shape, np.float32)
         np.subtract(p, anchor, out=rel)     # anchor-relative in float64, rounded once
         q = _cl.queue()

@@ -24,7 +24,7 @@ import numpy as np
 from .. import _cl
 from ..scene_arrays import scene_arrays
 
-__all__ = ["FAR_BYTES", "held_at", "kept", "on_device"]
+__all__ = ["FAR_BYTES", "held_at", "kept", "on_device", "check_tables"]
 
 #: Held while the far anchors' entries are looked up, measured and evicted: threads querying one scene at once
 #: (read-only) changed them together ("RuntimeError: OrderedDict mutated during iteration").
@@ -94,3 +94,21 @@ def on_device(held, array):
     if got is None or got[0] is not array:      # (the array is kept with its copy: its id is not reused)
         got = held[key] = (array, _cl.to_device(array))
     return got[1]
+
+
+#: The compiled defines that say how the atlas is laid out (the kernel reads its buffers so).
+_ATLAS_DEFINES = {"DEPTH_BITS": "bits", "IEND_T": "iend_t", "PAIR_WIDE": "pair_wide"}
+
+
+def check_tables(defines, atlas, itype, ninst) -> None:
+    """That a query's kernel, compiled with ``defines``, may read the atlas and instance types it is given
+    (RuntimeError if not). Each is taken from the scene when it is needed; another thread's ``Scene.add`` of a
+    new CSM (or ``Scene.remove``) landing in between gave a type index past the atlas's types, or an atlas laid
+    out otherwise than compiled: the kernel would read past its buffers. The query is refused instead."""
+    same = defines is None or (all(defines[k] == atlas[a] for k, a in _ATLAS_DEFINES.items() if k in defines)
+                               and defines.get("NTYPES", 2) == min(atlas["ntypes"], 2)
+                               and all(defines.get(f"LAYOUT_{x.upper()}", 1) >= int(x in atlas["layouts"])
+                                       for x in ("zigzag", "hilbert")))
+    if not same or (ninst and not 0 <= int(np.min(itype[:ninst])) <= int(np.max(itype[:ninst])) < atlas["ntypes"]):
+        raise RuntimeError("the scene's caster types changed during this query (another thread's Scene.add or "
+                           "Scene.remove); ask again: change a scene between its queries")

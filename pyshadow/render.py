@@ -595,5 +595,6 @@ def _radiance(scene, camera, sp, frame, lighting, visibility, bias, ao_scale, sa
                           surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
     sun += lights_radiance(scene, full.points, nrm, lighting, albedo, backend=visibility, bias=bias,
                            surface_ids=full.surface_ids, indices=full.index, geometric_normals=geo)
-    out[full.index] = sky + sun
+    with np.errstate(over="ignore"):                    # beyond float32: +inf, as shade()'s (no warning)
+        out[full.index] = sky + sun
     return out.reshape(camera.height, camera.width, 3)

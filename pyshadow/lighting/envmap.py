@@ -172,8 +172,9 @@ class EnvironmentMap:
             self._set("cube", faces)
             return
         if a.ndim != 3 or a.shape[-1] != 3:
+            hint = "; a file is read by EnvironmentMap.from_file" if isinstance(radiance, (str, os.PathLike)) else ""
             raise ValueError(f"{name}: expected an RGB image of shape (H, W, 3) or cube faces "
-                             f"(6, N, N, 3) (got shape {a.shape})")
+                             f"(6, N, N, 3) (got shape {a.shape}){hint}")
         h, w = a.shape[:2]
         kind = _guess_layout(h, w, name) if layout == "auto" else layout
         if kind == "latlong":
@@ -218,11 +219,15 @@ class EnvironmentMap:
         ------
         FileNotFoundError
             No file at ``path``.
+        TypeError
+            ``path`` is not a str or os.PathLike.
         ValueError
             OpenImageIO cannot read it, or its contents fail the constructor's
             checks (the message names the file).
         """
         from ..io import read_image
+        if not isinstance(path, (str, os.PathLike)):
+            raise TypeError(f"path: expected a str or os.PathLike file name (got {type(path).__name__})")
         p = Path(os.fspath(path))
         img = read_image(p)
         if img.ndim == 2 or img.shape[2] not in (3, 4):

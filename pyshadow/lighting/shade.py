@@ -220,7 +220,7 @@ class Lighting:
             coef = sky.sh()
         else:
             coef = sh_coefficients(sky, "sky", "an EnvironmentMap or SH coefficients")
-        if mode not in MODES:
+        if not isinstance(mode, str) or mode not in MODES:     # (an array's `in` is no answer)
             raise ValueError(f"mode: expected one of {', '.join(MODES)} (got {mode!r})")
         if mode == "sampled" and sky is not None and env is None:
             raise ValueError("mode 'sampled' needs the sky as an EnvironmentMap (it looks up the map's radiance "

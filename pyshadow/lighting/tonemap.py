@@ -59,18 +59,32 @@ def auto_exposure(radiance, covered=None) -> float:
     radiance : array_like, shape (H, W, 3) or (N, 3), float
         Linear RGB: an image, or per-vertex colours.
     covered : array_like of bool, shape (H, W) or (N,), optional
-        The pixels to measure (``Frame.object_id >= 0`` leaves out the background); default every pixel
-        whose luminance is finite.
+        The pixels to measure (``Frame.object_id != -1`` leaves out the background and keeps the ground plane);
+        default every pixel whose luminance is finite.
 
     Returns
     -------
     float
         ``EXPOSURE_TARGET / percentile``; 1.0 where that percentile is 0 or not finite (a black image).
+
+    Raises
+    ------
+    ValueError
+        ``radiance`` not of shape (..., 3), or ``covered`` not of its shape less the last axis.
+    TypeError
+        ``covered`` not of dtype bool (ids such as ``Frame.object_id`` would index rows).
     """
     from .sky import LUMINANCE_WEIGHTS
 
-    lum = np.asarray(radiance, np.float64)[np.ones(np.shape(radiance)[:-1], bool) if covered is None else covered] \
-        @ LUMINANCE_WEIGHTS
+    a = np.asarray(radiance, np.float64)
+    if a.ndim < 2 or a.shape[-1] != 3:
+        raise ValueError(f"radiance: expected shape (H, W, 3) or (N, 3) (got shape {a.shape})")
+    keep = np.ones(a.shape[:-1], bool) if covered is None else np.asarray(covered)
+    if keep.dtype != np.bool_:                  # (ints, e.g. Frame.object_id, would index rows)
+        raise TypeError(f"covered: expected a bool mask such as Frame.object_id != -1 (got dtype {keep.dtype})")
+    if keep.shape != a.shape[:-1]:
+        raise ValueError(f"covered: expected shape {a.shape[:-1]} (got shape {keep.shape})")
+    lum = a[keep] @ LUMINANCE_WEIGHTS
     if covered is None:
         lum = lum[np.isfinite(lum)]
     p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0

@@ -220,19 +220,21 @@ def _on_ground(scene, name, make, held=None):
     """``[(caster slot, x, tol)]`` over the casters whose mesh's box reaches down to the ground plane (within
     their own tolerance ``tol``, :func:`_face_tolerances`), ``x`` of ``make(scene, instance numbers, ground,
     tolerances)``'s list where not None; kept with the scene's arrays (``held``, or fetched here) as ``name``."""
-    if scene.ground is None or not scene.instances:
+    ground = scene.ground               # (read once: another thread may set it meanwhile)
+    if ground is None or not scene.instances:
         return []
     held = scene_arrays(scene) if held is None else held
-    key = _ground_key(held, name, scene.ground)
-    if key not in held:
+    key = _ground_key(held, name, ground)
+    got = held.get(key)                 # (what is stored is returned: another height's store may drop the key)
+    if got is None:
         tol = _face_tolerances(held)
         lowest = held["world_centre"][:, 1] - held["world_radius"]
-        near = np.flatnonzero(held["casts"] & (lowest <= scene.ground + tol))
-        near = near[_box_bottom(scene, held, near) <= scene.ground + tol[near]]
+        near = np.flatnonzero(held["casts"] & (lowest <= ground + tol))
+        near = near[_box_bottom(scene, held, near) <= ground + tol[near]]
         slot = np.cumsum(held["casts"]) - 1            # a caster's position in Scene.casters
-        found = make(scene, near, scene.ground, tol[near])
-        held[key] = [(int(slot[i]), x, float(tol[i])) for i, x in zip(near, found) if x is not None]
-    return held[key]
+        found = make(scene, near, ground, tol[near])
+        got = held[key] = [(int(slot[i]), x, float(tol[i])) for i, x in zip(near, found) if x is not None]
+    return got
 
 
 def _sheets(scene, ids, ground, tols):

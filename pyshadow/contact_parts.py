@@ -123,14 +123,15 @@ def _kept_parts(held, key, make):
     ``make()`` gives as (triangles [(K, 3, 2)], outlines [(E, 2, 2)] or None, tolerances (P,) or None),
     :func:`_ragged_parts` each; made once and kept in ``held`` (a scene's arrays, dropped when it changes)
     as ``key``, not per query (``make`` is called only then)."""
-    if key not in held:
+    got = held.get(key)                 # (what is stored is returned: another query may drop the key meanwhile)
+    if got is None:
         tris, segs, tols = make()
         tri = _ragged_parts(tris)
         lo = np.minimum.reduceat(tri[0].min(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
         hi = np.maximum.reduceat(tri[0].max(axis=1), tri[1]) if len(tri[0]) else np.zeros((len(tri[1]), 2))
-        held[key] = (tri, None if segs is None else _ragged_parts(segs), lo, hi,
-                     None if tols is None else np.array(tols, np.float64))
-    return held[key]
+        got = held[key] = (tri, None if segs is None else _ragged_parts(segs), lo, hi,
+                           None if tols is None else np.array(tols, np.float64))
+    return got
 
 
 def _in_triangles_of(q, pid, tris):

@@ -12,6 +12,7 @@ lie far from it).
 """
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -21,6 +22,8 @@ from ._validate import FLOAT32_MAX, check_float32_points, uniform_scale
 __all__ = ["scene_arrays", "ANCHOR_REACH_RADII", "anchor_groups", "cube_groups", "points_bound", "check_meshes"]
 
 _HELD = weakref.WeakKeyDictionary()
+#: Held while arrays just made are kept for their scene (:func:`_kept_for`).
+_KEEP_LOCK = threading.Lock()
 
 
 def scene_arrays(scene) -> dict:
@@ -56,9 +59,8 @@ def scene_arrays(scene) -> dict:
             return held
         # the same instances (the list only grows, none removed): only transforms moved; what they do not change is kept
         out = {k: held[k] for k in _STATIC}
-        _HELD[scene] = out = _posed(out, np.stack([inst.transform for inst in out["placed"]]) if n
-                                    else held["transform"], version)
-        return out
+        return _kept_for(scene, _posed(out, np.stack([inst.transform for inst in out["placed"]]) if n
+                                       else held["transform"], version))
     insts = tuple(scene.instances)      # one list of them (another thread may add or remove meanwhile)
     n = len(insts)
     receivers = {id(i.mesh): (i.mesh, hash(i.mesh)) for i in insts if not i.casts and not i.removed}
@@ -84,8 +86,21 @@ def scene_arrays(scene) -> dict:
     for v in out.values():
         if isinstance(v, np.ndarray):
             v.flags.writeable = False
-    _HELD[scene] = out = _posed(out, T, version)
-    return out
+    return _kept_for(scene, _posed(out, T, version))
+
+
+def _kept_for(scene, out) -> dict:
+    """``out``, kept as ``scene``'s arrays; or the arrays of the same state another thread kept meanwhile (the
+    first queries of threads at once each made them: the tables one thread then kept with its own dict were
+    lost to the others, made again by each)."""
+    with _KEEP_LOCK:
+        cur = _HELD.get(scene)
+        if cur is not None and out["version"] is not None \
+                and all(cur[k] == out[k] for k in ("version", "n", "removals")) \
+                and all(hash(m) == h for m, h in cur["receivers"]):
+            return cur
+        _HELD[scene] = out
+        return out
 
 
 def mesh_groups(held, ids, casters: bool = True) -> list:

@@ -27,7 +27,8 @@ or a CSM with ``mesh=``) whose surface is closed have a footprint (every edge
 of its distinct faces shared by two, vertices of equal coordinates merged,
 whatever the faces' winding: duplicate, reversed and zero-area faces do not
 open it); an open mesh lying on the ground encloses nothing, and a body sunk
-below the plane does not rest on it.
+below the plane does not rest on it: the ground's points inside a body sunk
+partly into it are those of its section (:mod:`pyshadow.contact_sunk`).
 
 An open caster's faces that lie on the ground (the floor of a box without a
 lid, a sheet) coincide with the ground under them instead: a point of the
@@ -47,6 +48,7 @@ import numpy as np
 
 from ._validate import check_rows, float32_exact
 from .contact_parts import _CHUNK, _grid_pairs, _in_parts, _in_triangles_of, _inside, _kept_parts, _outlines
+from .contact_sunk import section_mask
 from .mesh_kept import MeshKept
 from .scene_arrays import mesh_groups, scene_arrays
 
@@ -123,23 +125,30 @@ def _closed_surface(mesh):
     (:data:`_SURFACES`)."""
     got = _SURFACES.get(mesh)
     if got is None:
-        v, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces)
-        u, merged = np.unique(v, axis=0, return_inverse=True)
-        f = np.sort(merged.reshape(-1)[faces], axis=1)
-        scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
-        if not 1e-100 < scale < 1e100 and np.isfinite(scale):
-            # areas of sizes beyond about 1e-154 or 1e154 under- or overflow: every face was dropped as
-            # zero-area; measured on the mesh moved to the origin and scaled by a power of two to size ~1
-            unit = 2.0 ** -int(np.frexp(scale)[1])
-            v, scale = (v - v.min(axis=0)) * unit, scale * unit
-        a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
-        area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
-        keep = (area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])
-        f, first = np.unique(f[keep], axis=0, return_index=True)
-        wound = merged.reshape(-1)[faces][keep][first]      # each distinct face in its first winding
+        u, f, wound = _distinct_surface(mesh)
         _, count = _edges(f)
         got = _SURFACES[mesh] = (u, f, wound) if len(f) and (count == 2).all() else (None, None, None)
     return None if got[0] is None else got[:2]
+
+
+def _distinct_surface(mesh):
+    """:func:`_closed_surface`'s distinct vertices (U, 3), distinct faces (F, 3) (sorted rows) and each face in
+    its first winding, of any mesh, open or closed (not kept)."""
+    v, faces = np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces)
+    u, merged = np.unique(v, axis=0, return_inverse=True)
+    f = np.sort(merged.reshape(-1)[faces], axis=1)
+    scale = max(float(np.ptp(v, axis=0).max()), 1e-300)
+    if not 1e-100 < scale < 1e100 and np.isfinite(scale):
+        # areas of sizes beyond about 1e-154 or 1e154 under- or overflow: every face was dropped as
+        # zero-area; measured on the mesh moved to the origin and scaled by a power of two to size ~1
+        unit = 2.0 ** -int(np.frexp(scale)[1])
+        v, scale = (v - v.min(axis=0)) * unit, scale * unit
+    a, b, c = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+    area2 = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    keep = (area2 > 1e-12 * scale * scale) & (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2])
+    f, first = np.unique(f[keep], axis=0, return_index=True)
+    wound = merged.reshape(-1)[faces][keep][first]      # each distinct face in its first winding
+    return u, f, wound
 
 
 def _edges(f):
@@ -228,9 +237,12 @@ def _on_ground(scene, name, make, held=None):
     got = held.get(key)                 # (what is stored is returned: another height's store may drop the key)
     if got is None:
         tol = _face_tolerances(held)
-        lowest = held["world_centre"][:, 1] - held["world_radius"]
-        near = np.flatnonzero(held["casts"] & (lowest <= ground + tol))
-        near = near[_box_bottom(scene, held, near) <= ground + tol[near]]
+        near_key = _ground_key(held, "near ground", ground)
+        near = held.get(near_key)       # found once for every table (its boxes were read per table)
+        if near is None:
+            lowest = held["world_centre"][:, 1] - held["world_radius"]
+            near = np.flatnonzero(held["casts"] & (lowest <= ground + tol))
+            near = held[near_key] = near[_box_bottom(scene, held, near) <= ground + tol[near]]
         slot = np.cumsum(held["casts"]) - 1            # a caster's position in Scene.casters
         found = make(scene, near, ground, tol[near])
         got = held[key] = [(int(slot[i]), x, float(tol[i])) for i, x in zip(near, found) if x is not None]
@@ -393,16 +405,18 @@ def contact_mask(scene, points):
         resting body's radius, or the rounding its height may carry where
         larger: :func:`_on_plane`), inside one of that body's contact faces
         seen from above and farther than ``1e-5`` of its radius from the
-        footprint's outline. None when the scene has no footprint (nothing to
-        test).
+        footprint's outline, or inside the section of a body sunk partly
+        into the ground (:mod:`pyshadow.contact_sunk`). None when the
+        scene has no footprint or section (nothing to test).
     """
     p = check_rows(points, "points")
     # the arrays first: another thread's move landing before the footprints are found keeps no parts of the old poses
     held = scene_arrays(scene)
     fps = _on_ground(scene, "contact", _footprints, held)     # footprints(scene), with the casters' slots
+    sunk = section_mask(scene, p, held)         # the ground inside bodies sunk partly into it
     if not fps:
-        return None
-    mask = np.zeros(len(p), bool)
+        return sunk
+    mask = np.zeros(len(p), bool) if sunk is None else sunk
     parts = _kept_parts(held, _ground_key(held, "contact parts", scene.ground), lambda: (
         [tri for _, (tri, _), _ in fps], [seg for _, (_, seg), _ in fps], [t for _, _, t in fps]))
     tol = parts[4]

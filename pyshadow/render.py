@@ -434,11 +434,11 @@ def render(scene, camera, *, visibility="csm", sampling=None, denoise=None, ao_s
     phong = False
     if lighting is not None:
         from .lighting.phong import PhongLighting
-        from .lighting.shade import Lighting, asks_ambient_occlusion
-
+        from .lighting.shade import Lighting, asks_ambient_occlusion, check_albedo_ids
         phong = isinstance(lighting, PhongLighting)
         if not (phong or isinstance(lighting, Lighting)):
             raise TypeError(f"lighting must be a pyshadow.lighting.Lighting or PhongLighting, got {lighting!r}")
+        check_albedo_ids(scene, lighting, "render")      # before any AO is traced
     smooth = normals == "smooth"
     colour = surface = None
     drawn, ids = scene.draw_items(ground_size)

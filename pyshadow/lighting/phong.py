@@ -384,6 +384,7 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     """
     from .. import visibility as vis
     from .._validate import rows3, unit_normals
+    from .shade_checks import check_albedo_ids
 
     if not isinstance(lighting, PhongLighting):
         raise TypeError(f"lighting: expected a PhongLighting (got {type(lighting).__name__})")
@@ -394,6 +395,7 @@ def phong_shade(scene, points, normals, eye, lighting: PhongLighting, ao=None, *
     if eye.shape != (3,) or not np.isfinite(eye).all():
         raise ValueError(f"eye: expected a finite 3-vector (got {eye!r})")
     _check_light_off_surfaces(scene, p, lighting.position)
+    check_albedo_ids(scene, lighting, "phong_shade")
     unlit = not lighting.ambient.any()      # c_a = 0: A weighs nothing, so it is neither needed nor traced
     if lighting.ao == "ao":
         if ao is None and not unlit:

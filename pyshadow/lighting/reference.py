@@ -96,7 +96,7 @@ def reference_radiance(scene, points, normals, lighting: Lighting, *, samples: i
     if lighting.env is None and np.any(lighting.sh != 0):
         raise ValueError("reference_radiance needs the sky's EnvironmentMap (Lighting(sky=EnvironmentMap)); "
                          "this Lighting holds SH coefficients only")
-    p, nrm, idx = _check_points(scene, points, normals, surface_ids, indices)
+    p, nrm, idx = _check_points(scene, points, normals, surface_ids, indices, lighting, "reference_radiance")
     n = len(p)
     if n == 0:
         return np.zeros((0, 3), np.float32)

@@ -64,12 +64,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._checks import _floats, check_seed, flag, in_range, light_tuple, sh_coefficients, unit_direction
+from ._checks import _floats, check_seed, flag, in_range, light_tuple, positive, sh_coefficients, unit_direction
 from ._value import ArrayValue
 from .envmap import EnvironmentMap
 from .local import lights_radiance
 from .sh import SH_COUNT, _irradiance
-from .shade_checks import _check_points, asks_ambient_occlusion
+from .shade_checks import _check_points, asks_ambient_occlusion, check_albedo_ids
 from .sun import sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
@@ -173,7 +173,8 @@ class Lighting:
     albedo : float or array_like (3,), optional
         RGB albedo in [0, 1] of every instance without one in ``albedos``.
     albedos : mapping {instance id: albedo}, optional
-        Per-instance RGB albedo.
+        Per-instance RGB albedo. Shading refuses an id its scene never held (``ValueError``); a removed
+        instance's id (``Scene.remove``) is accepted and colours nothing.
     ground_albedo : float or array_like (3,), optional
         RGB albedo of the ground plane (``pyshadow.scene.GROUND_ID``).
     mode : {"bent", "transfer", "sampled"}, optional
@@ -261,11 +262,11 @@ class Lighting:
         (TypeError otherwise: "no" was true)."""
         if not isinstance(env, EnvironmentMap):
             raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
+        radius = {} if sun_radius is None else {"radius": positive(sun_radius, "sun_radius")}   # also where unused
         if not flag(extract, "extract"):
             return cls(env, **kwargs)
         from .sun import extract_sun
-
-        sun, sky = extract_sun(env) if sun_radius is None else extract_sun(env, radius=sun_radius)
+        sun, sky = extract_sun(env, **radius)
         # none found (zero irradiance: a flat or black map, an overcast sky): no light to trace shadows of
         return cls(sky, sun=sun if (sun.irradiance > 0).any() else None, **kwargs)
 
@@ -565,7 +566,7 @@ def shade_terms(scene, points, normals, lighting: Lighting, *, backend="csm", sa
     from .. import visibility as vis
 
     _check_lighting(lighting)
-    p, nrm, idx = _check_points(scene, points, normals, surface_ids, indices)
+    p, nrm, idx = _check_points(scene, points, normals, surface_ids, indices, lighting, "shade_terms", sampling)
     albedo = lighting.albedo_of(surface_ids, len(p))
     n = len(p)
     if n == 0:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["answers_ambient_occlusion", "needs_ambient_occlusion", "asks_ambient_occlusion"]
+__all__ = ["answers_ambient_occlusion", "needs_ambient_occlusion", "asks_ambient_occlusion", "check_albedo_ids"]
 
 #: Backends that answer ambient occlusion, for the advice of :func:`asks_ambient_occlusion`'s error.
 AO_BACKENDS = "'csm', 'csm-vote' or 'embree'"
@@ -61,8 +61,34 @@ def asks_ambient_occlusion(lighting, backend, caller: str) -> bool:
     return False
 
 
-def _check_points(scene, points, normals, surface_ids, indices):
+def check_albedo_ids(scene, lighting, caller: str) -> None:
+    """Refuse a lighting whose ``albedos`` name an instance id the scene never held (``>= len(scene.instances)``:
+    a mistyped id coloured nothing, silently). An id of a removed instance (:meth:`pyshadow.Scene.remove`,
+    whose ids are not given again) is accepted: it names no surface.
+
+    Raises
+    ------
+    ValueError
+        Naming ``albedos``, the first such id and the scene's ids.
+    """
+    n = len(scene.instances)
+    bad = sorted(k for k in getattr(lighting, "albedos", None) or {} if k >= n)
+    if bad:
+        held = f"0 .. {n - 1}" if n else "none, it is empty"
+        raise ValueError(f"{caller}: {type(lighting).__name__}(albedos=) names instance id {bad[0]}, which the "
+                         f"scene has never held (its instance ids: {held}; ids are those Scene.add returned)")
+
+
+def _check_points(scene, points, normals, surface_ids, indices, lighting=None, caller="", sampling=None):
+    """The points, unit normals and pattern indices, checked by name with the ids, the lighting's albedo ids
+    and ``sampling`` (also where no AO is asked: no sky, no points; ``sampling=16`` passed unread there)."""
     from .._validate import check_indices, rows3, unit_normals
+    from ..sampling import Sampling
+
+    if lighting is not None:
+        check_albedo_ids(scene, lighting, caller)
+    if sampling is not None and not isinstance(sampling, Sampling):
+        raise TypeError(f"sampling must be a pyshadow.Sampling, got {sampling!r}")
 
     p = rows3(points, "points")
     nrm = unit_normals(normals, len(p))

@@ -107,6 +107,8 @@ def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma
         Display gamma of the exponential curve (ignored by "srgb").
     """
     a = _radiance(radiance, image=False)
+    if isinstance(exposure, str) and exposure != "auto" and exposure.strip().lower() == "auto":
+        raise ValueError(f"exposure: expected a number > 0 or 'auto' (lower case, no spaces; got {exposure!r})")
     s = auto_exposure(a) if isinstance(exposure, str) and exposure == "auto" else positive(exposure, "exposure")
     if not isinstance(curve, str) or curve not in CURVES:     # (an array's `in` is no answer)
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")

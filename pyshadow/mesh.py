@@ -19,6 +19,7 @@ import trimesh
 from ._validate import check_transform, flag
 from .materials import GLTF_SUFFIXES, VISUAL_KEY, _mesh_visual, join_visuals, visual_of
 from .mesh_files import read_mesh_file
+from .mesh_sphere import kept_per_mesh, minimum_nsphere
 
 __all__ = ["MeshCleanupWarning", "load_mesh", "bounding_sphere", "close_holes", "mesh_hash", "normalised_vertices",
            "normalised_bounds", "float32_unit"]
@@ -444,6 +445,7 @@ def referenced_mesh(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
                                                    process=False)
 
 
+@kept_per_mesh
 def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     """Minimal sphere around the vertices the mesh's faces use: the object's normalised frame.
 
@@ -462,14 +464,12 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
 
     Notes
     -----
-    The minimal enclosing sphere of the convex-hull vertices (trimesh's
-    ``minimum_nsphere``), so the result is deterministic and does not depend
-    on vertex order beyond round-off. That fit is the best vertex of a
-    furthest-site Voronoi diagram, or a least-squares sphere where the hull's
-    vertices lie on one: where it is over 1 % larger than the smallest
-    sphere (a tetrahedron's circumsphere, a dome's whole sphere) or qhull
-    fails (a flat mesh), the smallest sphere is taken instead; on the
-    bundled meshes the fit is 0.005-0.45 % larger than the smallest.
+    The minimal enclosing sphere of the convex-hull vertices (trimesh's ``minimum_nsphere``, bit for bit,
+    found faster by :mod:`pyshadow.mesh_sphere`; kept per mesh for its content), deterministic and independent
+    of vertex order beyond round-off. That fit is the best vertex of a furthest-site Voronoi diagram, or a
+    least-squares sphere where the hull's vertices lie on one: where it is over 1 % larger than the smallest
+    sphere (a tetrahedron's circumsphere, a dome's whole sphere) or qhull fails (a flat mesh), the smallest
+    sphere is taken instead; on the bundled meshes the fit is 0.005-0.45 % larger than the smallest.
     """
     mesh = referenced_mesh(mesh)
     verts = np.asarray(mesh.vertices, dtype=np.float64)
@@ -493,11 +493,9 @@ def bounding_sphere(mesh: trimesh.Trimesh) -> tuple[np.ndarray, float]:
     shift = 0.5 * (verts.min(axis=0) + verts.max(axis=0))
     if not float(np.abs(shift).max()) > 2.0 ** 20 * extent:
         shift = None
-    fit = mesh if unit == 1.0 and shift is None else trimesh.Trimesh(
-        (verts if shift is None else verts - shift) * unit, np.asarray(mesh.faces), process=False)
+    fit = verts if unit == 1.0 and shift is None else (verts if shift is None else verts - shift) * unit
     try:
-        with np.errstate(all="ignore"):
-            centre, _ = trimesh.nsphere.minimum_nsphere(fit)
+        centre, _ = minimum_nsphere(fit)        # trimesh's, bit for bit, faster (mesh_sphere; NumPy errors off)
         centre = np.asarray(centre, dtype=np.float64) / unit
         if shift is not None:
             centre = centre + shift

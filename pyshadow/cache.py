@@ -61,8 +61,8 @@ def default_cache_dir() -> Path:
 #: tests/test_cache.py; besides them only the device and launch choice of ``_cl``, whose answers are
 #: the same bit for bit at every width, and the argument checks of ``_compat`` and ``_validate`` run)
 BUILD_SOURCES = ("_embree_checks.py", "_embree_lift.py", "_views_checks.py", "csm/build.py", "csm/core.py",
-                 "csm/exposure.py", "csm/fileformat.py", "csm/surface_rule.py", "embree.py", "mesh.py", "raster.py",
-                 "views.py")
+                 "csm/exposure.py", "csm/fileformat.py", "csm/surface_rule.py", "embree.py", "mesh.py", "mesh_kept.py",
+                 "mesh_sphere.py", "raster.py", "views.py")
 
 
 def source_digest(paths=None, kernels=None) -> str:

@@ -102,8 +102,8 @@ __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pendi
     }
 }
 
-/* the walking lanes lw[0 .. na) of a group, lane l in its own cell ca[l],
- * its query c + lq[l]: the first packet of every lane's list tested without
+/* the walking lanes of a group (the bits of walk), lane l in its own cell
+ * ca[l], its query c + lq[l]: the first packet of every lane's list tested without
  * a branch on the result, the (lane, sphere) pairs met kept as bits (4 a
  * lane: 64 bits hold LANES <= 16), then queued lane by lane in slot order;
  * a list that goes on (a link) is tested on by grid_cell_one after. Each
@@ -114,18 +114,19 @@ __attribute__((always_inline)) inline void grid_cell_one(const scene_t *S, pendi
 #else
 #define BIT_LOW64(b) (63 - (int)clz((b) & -(b)))
 #endif
-__attribute__((always_inline)) inline void grid_cells_apart(const scene_t *S, pending_t *P, const int *lw,
-                                                            const int na, const int *ca, const int c,
+__attribute__((always_inline)) inline void grid_cells_apart(const scene_t *S, pending_t *P, int walk,
+                                                            const int *ca, const int c,
                                                             const int *lq, int (*seen)[GRID_SEEN],
                                                             QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
     ulong bits = 0, links = 0;
-    for (int m = 0; m < na; ++m) {
-        const int l = lw[m], i = c + lq[l];
+    int lw[LANES];
+    for (int m = 0; walk; walk &= walk - 1, ++m) {
+        const int l = BIT_LOW(walk), i = c + lq[l];
+        lw[m] = l;
         __global const grid_packet_t *K = S->gpackets + ca[l];
         const int4 met = sphere_4(K, px[i], py[i], pz[i], wx[i], wy[i], wz[i] TMAX1_ARG(i));
-        const int4 b4 = met & (int4)(1, 2, 4, 8);
-        bits |= (ulong)(uint)(b4.x | b4.y | b4.z | b4.w) << (4 * m);
+        bits |= (ulong)(uint)MASK4_BITS(met) << (4 * m);
         links |= (ulong)(K->instance[3] < -1) << m;
     }
     for (; bits; bits &= bits - 1) {
@@ -147,38 +148,44 @@ __attribute__((always_inline)) inline void grid_cells_apart(const scene_t *S, pe
  * sets their walks down (query, cells, seen list), and after the groups the
  * walks set down are taken up LANES at a time, a lane that leaves taking
  * the next: every walk visits the same cells in the same order with the
- * same tests as it would have, so the queries meet the same casters */
+ * same tests as it would have, so the queries meet the same casters, or
+ * ends early where its query is found occluded (the answer is then made) */
 #if LANES > 1
 #define GRID_SPILL_LANES (LANES / 4)        /* LANES / 2 and 3 LANES / 4 measured no faster */
+#define GRID_DRAIN 16                       /* pairs waiting that the walks set down ask (32: slower) */
 typedef struct {
     int n;
     int q[BATCH], cell[3][BATCH], seen[BATCH][GRID_SEEN];
 } spill_t;
 
-/* set down the walking lanes wa of group c (walk W, seen lists seen) */
-__attribute__((always_inline)) inline void grid_spill(spill_t *R, const walk_v_t *W, const int *wa, const int c,
+/* set down the walking lanes of group c (the bits of walk; walk W, seen lists seen) */
+__attribute__((always_inline)) inline void grid_spill(spill_t *R, const walk_v_t *W, int walk, const int c,
                                                       int (*seen)[GRID_SEEN])
 {
     LANE_ARRAY int k[3][LANES];
     for (int a = 0; a < 3; ++a)
         LANE_STORE(W->cell[a], k[a]);
-    for (int l = 0; l < LANES; ++l) {
-        if (!wa[l])
-            continue;
-        const int r = R->n++;
+    int r = R->n;
+    for (; walk; walk &= walk - 1, ++r) {
+        const int l = BIT_LOW(walk);
         R->q[r] = c + l;
         for (int a = 0; a < 3; ++a)
             R->cell[a][r] = k[a][l];
         for (int u = 0; u < GRID_SEEN; ++u)
             R->seen[r][u] = seen[l][u];
     }
+    R->n = r;
 }
 
-/* the walks set down, LANES at a time: a lane whose walk ends takes up the next */
+/* the walks set down, LANES at a time: a lane whose walk ends takes up the
+ * next whose query is still open. The pairs they queue are asked when
+ * GRID_DRAIN wait (whole lane groups; pending_drain), and walks whose query
+ * that finds occluded end there: the long walks (rays low over the casters)
+ * mostly meet a caster that occludes them in their first few cells. */
 inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY_PARAMS BATCH_TMAX_PARAMS)
 {
     __global const grid_t *G = S->grid;
-    LANE_ARRAY int lq[LANES], wa[LANES], ca[LANES], k[3][LANES];
+    LANE_ARRAY int lq[LANES], ca[LANES], k[3][LANES];
     int seen[LANES][GRID_SEEN];
     walk_v_t W;
     fv p[3], w[3], inv[3];
@@ -189,22 +196,24 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
         lq[l] = 0;                              /* lanes never taken: query 0, not walking */
 #define LANE_Q(l, a) a[lq[l]]                   /* lane l's query's value in array a */
     for (int h = 0;;) {
-        LANE_STORE(W.walking, wa);
-        if (h < R->n) {                         /* the lanes whose walk has ended take up the next */
+        int idle = ~LANE_BITS(W.walking) & LANE_ALL;
+        if (h < R->n && idle) {                 /* the lanes whose walk has ended take up the next */
             for (int a = 0; a < 3; ++a)
                 LANE_STORE(W.cell[a], k[a]);
             int took = 0;
-            for (int l = 0; l < LANES && h < R->n; ++l) {
-                if (wa[l])
-                    continue;
+            for (; idle; idle &= idle - 1) {
+                while (h < R->n && occ[R->q[h]])
+                    ++h;                        /* found occluded meanwhile: not walked on */
+                if (h == R->n)
+                    break;
+                const int l = BIT_LOW(idle);
                 lq[l] = R->q[h];
                 for (int a = 0; a < 3; ++a)
                     k[a][l] = R->cell[a][h];
                 for (int u = 0; u < GRID_SEEN; ++u)
                     seen[l][u] = R->seen[h][u];
-                wa[l] = -1;
+                took |= 1 << l;
                 ++h;
-                took = 1;
             }
             if (took) {
                 p[0] = LANE_GATHER(fv, LANE_Q, px); p[1] = LANE_GATHER(fv, LANE_Q, py);
@@ -215,21 +224,21 @@ inline void grid_spilled(const scene_t *S, pending_t *P, const spill_t *R, QUERY
                     inv[a] = (fv)(1.0f) / w[a];
                     W.cell[a] = LANE_LOAD(k[a]);
                 }
-                W.walking = LANE_LOAD(wa);
+                W.walking |= MASK((((iv)(took) >> LANE_IDS) & 1) != 0);
                 grid_at_v(G, &W, p, w, inv);
             }
         }
-        if (!VANY(W.walking))
+        const int walk = LANE_BITS(W.walking);
+        if (!walk)
             break;
         LANE_STORE(W.cid, ca);
-        int lw[LANES], na = 0;                  /* the walking lanes, packed without branches */
-        for (int l = 0; l < LANES; ++l) {
-            lw[na] = l;
-            na += wa[l] != 0;
-        }
-        grid_cells_apart(S, P, lw, na, ca, 0, lq, seen, QUERY_ARGS BATCH_TMAX_ARGS);
+        grid_cells_apart(S, P, walk, ca, 0, lq, seen, QUERY_ARGS BATCH_TMAX_ARGS);
+        const int ask = P->n >= GRID_DRAIN;
+        if (ask)
+            pending_drain(S, P, P->n, QUERY_ARGS);
         grid_next_v(G, &W, p, inv);
-        W.walking &= MASK(LANE_GATHER(iv, LANE_Q, occ) == 0);
+        if (ask)                                /* occ changes where pairs are asked */
+            W.walking &= MASK(LANE_GATHER(iv, LANE_Q, occ) == 0);
     }
 #undef LANE_Q
 }
@@ -260,31 +269,27 @@ inline void batch_grid(const scene_t *S, pending_t *P, const int *gl, const int 
         for (int l = 0; l < LANES; ++l)
             for (int q = 0; q < GRID_SEEN; ++q)
                 seen[l][q] = -1;
-        while (VANY(W.walking)) {
-            LANE_ARRAY int ca[LANES], wa[LANES];
-            LANE_STORE(W.cid, ca);
-            LANE_STORE(W.walking, wa);
-            int act[LANES], na = 0;             /* the walking lanes, packed without branches */
-            for (int l = 0; l < LANES; ++l) {
-                act[na] = l;
-                na += wa[l] != 0;
-            }
+        for (int walk; (walk = LANE_BITS(W.walking));) {      /* the walking lanes as bits */
 #if LANES > 1
-            if (na <= GRID_SPILL_LANES) {
-                grid_spill(&R, &W, wa, c, seen);
+            if (BIT_COUNT(walk) <= GRID_SPILL_LANES) {
+                grid_spill(&R, &W, walk, c, seen);
                 break;
             }
 #endif
-            if (VALL(~W.walking | MASK(W.cid == ca[act[0]]))) {
-                grid_cell_shared(S, P, S->gpackets + ca[act[0]], c, p, w, W.walking, seen, QUERY_ARGS BATCH_TMAX_ARGS);
+            LANE_ARRAY int ca[LANES];
+            LANE_STORE(W.cid, ca);
+            if (VALL(~W.walking | MASK(W.cid == ca[BIT_LOW(walk)]))) {
+                grid_cell_shared(S, P, S->gpackets + ca[BIT_LOW(walk)], c, p, w, W.walking, seen, QUERY_ARGS
+                                 BATCH_TMAX_ARGS);
             } else {
-                grid_cells_apart(S, P, act, na, ca, c, lane_id, seen, QUERY_ARGS BATCH_TMAX_ARGS);
+                grid_cells_apart(S, P, walk, ca, c, lane_id, seen, QUERY_ARGS BATCH_TMAX_ARGS);
             }
             grid_next_v(G, &W, p, inv);
             W.walking &= MASK(LANE_LOAD(occ + c) == 0);
         }
     }
 #if LANES > 1
+    pending_drain(S, P, P->n, QUERY_ARGS);      /* the walks of queries this finds occluded are not taken up */
     grid_spilled(S, P, &R, QUERY_ARGS BATCH_TMAX_ARGS);
 #endif
     pending_drain(S, P, P->n, QUERY_ARGS);       /* batch_instance: fewer than LANES wait */

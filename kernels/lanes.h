@@ -185,16 +185,35 @@ inline int lane_all(iv m)
 #define IMIN(a, b) ((a) < (b) ? (a) : (b))
 /* LANE_BITS(m): the lanes of mask m as the bits of an int (bit l: lane l);
  * BIT_LOW(b): the number of b's lowest set bit (b != 0) -- to visit the set
- * lanes of a sparse mask one after another, without a branch per lane */
+ * lanes of a sparse mask one after another, without a branch per lane;
+ * BIT_COUNT(b): the number of b's set bits; LANE_ALL: every lane's bit;
+ * MASK4_BITS(m): the elements of an int4 mask as the bits of an int (their
+ * sign bits: movmskps on x86 CPU_CLANG targets) */
 #if LANES > 1
 #define LANE_BITS(m) lane_or((m) & ((iv)(1) << LANE_IDS))
 #else
 #define LANE_BITS(m) ((m) != 0)
 #endif
+#define LANE_ALL ((1 << LANES) - 1)
 #if CPU_CLANG
 #define BIT_LOW(b) __builtin_ctz((uint)(b))
+#define BIT_COUNT(b) __builtin_popcount((uint)(b))
 #else
 #define BIT_LOW(b) (31 - clz((b) & -(b)))
+#define BIT_COUNT(b) ((int)popcount((uint)(b)))
+#endif
+#if CPU_CLANG && defined(__SSE__) && defined(__has_builtin)
+#if __has_builtin(__builtin_ia32_movmskps)
+#define MASK4_BITS(m) __builtin_ia32_movmskps(as_float4(m))
+#endif
+#endif
+#ifndef MASK4_BITS
+__attribute__((always_inline)) inline int mask4_bits(int4 m)
+{
+    const int4 b = m & (int4)(1, 2, 4, 8);
+    return b.x | b.y | b.z | b.w;
+}
+#define MASK4_BITS(m) mask4_bits(m)
 #endif
 /* private lane arrays: aligned to a whole lane vector, moved as whole
  * vectors (the type follows the array, so one macro serves float, int and

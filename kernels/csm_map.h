@@ -131,6 +131,15 @@ inline fv tap_bias_v(const scene_t *S, int R, fv b, fv pu, fv pv, fv pe, fv cx, 
 #endif
 
 #if FILTERED
+/* floor(x) of texel coordinates (x in [-1, R)): the truncation, less one
+ * where it lies above x -- the builtin's value, inline (PoCL calls its
+ * library's floor, and the call spills the live vector registers) */
+__attribute__((always_inline)) inline fv floor_texel_v(fv x)
+{
+    const fv t = CONVERT(float, CONVERT(int, x));
+    return VSEL(t, t - 1.0f, MASK(t > x));
+}
+
 /* sort four (weight w[i], item x[i], and z[i] unless z is 0) lane vectors by
  * weight, heaviest first (a sorting network) */
 inline void sort4_heaviest_first(fv *w, iv *x, fv *z)

@@ -70,7 +70,7 @@ from .envmap import EnvironmentMap
 from .local import lights_radiance
 from .sh import SH_COUNT, _irradiance
 from .shade_checks import _check_points, asks_ambient_occlusion, check_albedo_ids
-from .sun import sun_directions
+from .sun import extract_sun, sun_directions
 
 __all__ = ["Lighting", "DirectionalLight", "ShadedPoints", "shade", "shade_terms", "sky_radiance",
            "sampled_sky_radiance", "transfer_sky_radiance", "sun_radiance", "sun_directions", "MODES",
@@ -256,16 +256,16 @@ class Lighting:
     def from_environment(cls, env: EnvironmentMap, *, extract: bool = True, sun_radius: float | None = None,
                          **kwargs) -> "Lighting":
         """Lighting from an environment map: with ``extract``, its sun becomes a directional light
-        (:func:`pyshadow.lighting.extract_sun`, told the disc's angular radius ``sun_radius`` in rad,
+        (:func:`pyshadow.lighting.extract_sun`, told the disc's angular radius ``sun_radius`` in rad, in (0, pi / 4],
         default the real sun's: a much larger disc is otherwise found only in part; none where it has zero
         irradiance) and the rest the SH sky; else all of it is SH sky. ``extract`` is True or False
         (TypeError otherwise: "no" was true)."""
         if not isinstance(env, EnvironmentMap):
             raise TypeError(f"env: expected an EnvironmentMap (got {type(env).__name__})")
-        radius = {} if sun_radius is None else {"radius": positive(sun_radius, "sun_radius")}   # also where unused
+        r = None if sun_radius is None else positive(sun_radius, "sun_radius")     # also where unused
+        radius = {} if r is None else {"radius": in_range(r, "sun_radius", 0, MAX_SUN_RADIUS)}   # extract_sun's range
         if not flag(extract, "extract"):
             return cls(env, **kwargs)
-        from .sun import extract_sun
         sun, sky = extract_sun(env, **radius)
         # none found (zero irradiance: a flat or black map, an overcast sky): no light to trace shadows of
         return cls(sky, sun=sun if (sun.irradiance > 0).any() else None, **kwargs)

@@ -3,7 +3,8 @@
  * 5.3.3; the rule in visibility.cl's opening comment)
  *
  *   stored_v()      (csm_stored.h) the stored depth of (map, texel) for
- *                   every lane: the counting search over the padded lists
+ *                   every lane: the block by a binary search of the summary,
+ *                   the segment by counting in the block
  *   map_frame_v(), bias_v(), surface_rule_v()  (csm_map.h) a point seen
  *                   from a map, its depth tolerance, the surface rule
  *   instance_v()    the lookup: the nearest map (views_zigzag.h,
@@ -14,7 +15,7 @@
  *
  * Queries are answered LANES at a time (lanes.h; the host picks LANES per
  * device): the arithmetic runs on lane vectors (one lane per query), the
- * table reads (map bases, list offsets, the counting searches, stored
+ * table reads (map bases, list offsets, the searches, stored
  * depths) run lane by lane, each phase for all lanes before the next, with
  * the block summaries and the blocks prefetched as soon as their addresses
  * are known -- so the lanes' cache misses overlap instead of queueing
@@ -220,6 +221,9 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
 #ifndef VOTE_NEXT
 #define VOTE_NEXT 1
 #endif
+#if VOTE_FIRST < 1 || VOTE_FIRST > 16 || VOTE_NEXT < 1
+#error "VOTE_FIRST must lie in 1 .. 16 and VOTE_NEXT be at least 1"
+#endif
     LANE_ARRAY int tq[16][LANES];
     LANE_ARRAY float zq[16][LANES], bq[16][LANES], dq[4][LANES];
     fv tw[16], tb[16], dep[4];
@@ -268,8 +272,8 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
      * the taps read, in whatever order, weigh more than one half plus
      * VOTE_MARGIN on one side (the weights sum to 1, the rounding of these
      * sums is below 1e-5): so each lane reads its taps heaviest first over
-     * all four maps (a merge of the maps' sorted taps), 30 % fewer than in
-     * the rule's order, in rounds for the lanes still open -- the first
+     * all four maps (a merge of the maps' sorted taps), fewer than in the
+     * rule's order, in rounds for the lanes still open -- the first
      * VOTE_FIRST taps at once, so that their cache misses overlap. A lane
      * that has read all of its taps undecided (a vote within VOTE_MARGIN of
      * one half) replays the rule on them. */

@@ -39,7 +39,9 @@ typedef uint pair_t;
  * list's block-summary entries below map (that is the block holding the
  * answer), then the i_end values below map in that block of at most
  * SEARCH_BLOCK pairs. Branch-free counting over one or two cache lines each
- * (measured 1.5x faster than binary search on PoCL: no mispredicted jumps).
+ * (faster than a binary search on PoCL for one lane: no mispredicted
+ * jumps; stored_v() in csm_stored.h searches the summary of LANES lanes side
+ * by side by a binary search instead).
  * The lists are validated to be non-empty, strictly increasing and to end at
  * D - 1, so for 0 <= map < D the answer lies in the list; the scans never
  * leave [soff[t], soff[t+1]) and [offsets[t], offsets[t+1]) whatever `map`

@@ -20,7 +20,7 @@
  *     p' = A p + c (the instance's normalised frame) and w' = Rw w, the map k
  *     nearest w' (O(1), per layout) and the texel (row, col) of p' in map k,
  *     the point's depth (1 - p'.d_k)/2 exceeds the texel's stored depth for
- *     map k (the counting search of its segment list) plus the bias
+ *     map k (the search of its segment list) plus the bias
  *         bias_abs + (bias_texels + bias_tan * tan(angle(w', d_k))) / R
  *     when p may lie on instance j itself (owner[i] == j, or -1: unknown),
  *     else only

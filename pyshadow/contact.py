@@ -56,8 +56,8 @@ __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts",
            "ground_sheet_slots"]
 
 #: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
-# mesh -> its closed surface's distinct vertices and faces, or (None, None) where it is open (a mesh
-# changed in place misses, and is replaced)
+# mesh -> its distinct vertices, faces, faces in their first winding and the vertices of its edges not shared by
+# exactly two faces (:func:`kept_surface`; a mesh changed in place misses, and is replaced)
 _SURFACES = MeshKept()
 
 
@@ -123,12 +123,20 @@ def _closed_surface(mesh):
     (F, 3), each once whatever its winding (sorted indices), zero-area faces dropped; None where the
     surface is open (an edge not shared by exactly two of them). Object frame, found once per mesh
     (:data:`_SURFACES`)."""
+    u, f, _, open_ends = kept_surface(mesh)
+    return (u, f) if len(f) and not len(open_ends) else None
+
+
+def kept_surface(mesh):
+    """:func:`_distinct_surface` of ``mesh`` (distinct vertices, faces, each face in its first winding) and the
+    vertices of its edges not shared by exactly two faces (none: closed), found once per mesh (:data:`_SURFACES`;
+    the footprints, the touching bodies and the sections of sunk bodies share it)."""
     got = _SURFACES.get(mesh)
     if got is None:
         u, f, wound = _distinct_surface(mesh)
-        _, count = _edges(f)
-        got = _SURFACES[mesh] = (u, f, wound) if len(f) and (count == 2).all() else (None, None, None)
-    return None if got[0] is None else got[:2]
+        e, count = _edges(f)
+        got = _SURFACES[mesh] = (u, f, wound, np.unique(e[count != 2]))
+    return got
 
 
 def _distinct_surface(mesh):

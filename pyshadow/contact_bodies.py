@@ -43,7 +43,7 @@ def _outward(mesh):
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    u, _, wf = _SURFACES[mesh]
+    u, _, wf, _ = _SURFACES[mesh]
     got = None
     d = np.concatenate([wf[:, [0, 1]], wf[:, [1, 2]], wf[:, [2, 0]]])
     if len(np.unique(d, axis=0)) != len(d):             # an edge run the same way by both its faces

@@ -19,7 +19,7 @@ upwards meets it (Embree's do); where an opening reaches above the plane,
 rays may leave through it and the CSM answers alone.
 
 The section is the cut of the body's distinct surface (that of
-:func:`pyshadow.contact._closed_surface`, as placed) by the plane: one
+:func:`pyshadow.contact.kept_surface`, as placed) by the plane: one
 segment per face with corners on both sides of it, taken at the body's
 tolerance above the plane (a corner within it counts as below: a face flush
 with the ground is the ground there), whose ends are the crossing points of
@@ -39,28 +39,9 @@ from __future__ import annotations
 import numpy as np
 
 from .contact_parts import _expanded, _grid_pairs, _ragged_parts, _square_distance
-from .mesh_kept import MeshKept
 from .scene_arrays import mesh_groups, scene_arrays
 
 __all__ = ["sections", "section_mask"]
-
-# mesh -> its distinct vertices and faces and the vertices of its open edges (a mesh changed in place misses)
-_CAPS = MeshKept()
-
-
-def _surface(mesh):
-    """The mesh's distinct vertices (U, 3) and faces (F, 3) (sorted rows; :func:`pyshadow.contact._closed_surface`'s,
-    of any mesh) and the vertices of its edges not shared by exactly two faces (an open or non-manifold mesh's),
-    found once per mesh (:data:`_CAPS`)."""
-    from .contact import _distinct_surface, _edges
-
-    got = _CAPS.get(mesh)
-    if got is None:
-        u, f, _ = _distinct_surface(mesh)
-        e, count = _edges(f) if len(f) else (np.zeros((0, 2), np.intp), np.zeros(0, np.intp))
-        got = _CAPS[mesh] = (u, f, np.unique(e[count != 2]))
-    return got
-
 
 def _cut(u, f, h):
     """Segments (E, 2, 2) in (x, z) where the plane ``h = 0`` cuts the closed surfaces of vertices ``u`` (B, V, 3),
@@ -89,13 +70,15 @@ def _sections(scene, ids, ground, tols):
     """Per instance ``ids[k]``: the outline segments (E, 2, 2) of its section by the plane, in the ground's
     (x, z), or None (open, resting within ``tols[k]``, wholly below or above). Instances sharing a mesh are
     cut together (the same values as one at a time)."""
+    from .contact import kept_surface
+
     out, held = [None] * len(ids), scene_arrays(scene)
     ids = np.asarray(ids, np.intp)
     for first, rows in mesh_groups(held, ids):
         inst = scene.instances[ids[first]]
         if inst.mesh is None or not inst.casts or not len(inst.mesh.faces):
             continue
-        u, f, edge = _surface(inst.mesh)
+        u, f, _, edge = kept_surface(inst.mesh)
         if not len(f):
             continue
         rows = np.asarray(rows)

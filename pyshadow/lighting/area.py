@@ -52,6 +52,7 @@ light (``n . n_L <= 0``) its irradiance is undefined (0 on the plane, about
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import InitVar, dataclass
 
 import numpy as np
@@ -73,6 +74,9 @@ PLANE_TOL = 1e-9
 #: Largest |cos| of the angle between a rectangle's edges u and v (that of float32 data: a rotation held in
 #: float32 leaves up to about 1e-7; the light normals' unit-length tolerance is the same 1e-6).
 ORTHO_TOL = 1e-6
+#: Smallest disc radius and rectangle edge length, world units: the square root of the smallest normal float64,
+#: so that areas and squared lengths stay normal numbers.
+MIN_EXTENT = math.sqrt(sys.float_info.min)
 
 
 def _flux(obj, intensity, power):
@@ -88,7 +92,19 @@ def _extent(x, name):
     r = _number(x, name)
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"{name}: must be finite and > 0 (a zero-area light has no radiance; got {x!r})")
+    if r < MIN_EXTENT:              # its square underflows: the area (and the rectangle's normal) came out 0, the
+        raise ValueError(f"{name}: must be at least MIN_EXTENT = {MIN_EXTENT:.6g} (its square underflows "
+                         f"float64, and the light's radiance with it; got {x!r})")    # radiance inf: NaN or 0 lit
     return r
+
+
+def _finite_radiance(light):
+    """Refuse ``light`` where its radiance ``I / A`` overflows float64 (a tiny, bright light)."""
+    with np.errstate(over="ignore"):
+        finite = np.isfinite(light.radiance).all()
+    if not finite:
+        raise ValueError(f"light intensity: {light.intensity.tolist()} over the area {light.area:.6g} is a radiance "
+                         f"beyond float64 (a smaller intensity or a larger light)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,10 +118,10 @@ class DiscLight(ArrayValue):
     normal : ndarray, shape (3,), float64
         Unit normal; the disc emits into the half-space it points to.
     radius : float
-        Radius, world units (finite, > 0).
+        Radius, world units (finite, >= ``MIN_EXTENT``, about 1.5e-154).
     intensity : ndarray, shape (3,), float64
-        RGB intensity along the normal, ``I = L pi radius^2`` (>= 0; module
-        docstring). Give this or ``power`` (init only: ``Phi = pi I``).
+        RGB intensity along the normal, ``I = L pi radius^2`` (>= 0, and ``L``
+        finite in float64; module docstring). Give this or ``power`` (init only: ``Phi = pi I``).
     """
 
     position: np.ndarray
@@ -119,6 +135,7 @@ class DiscLight(ArrayValue):
         self._set("normal", unit_direction(self.normal, "light normal"))
         self._set("radius", _extent(self.radius, "disc light radius"))
         self._set("intensity", _flux(self, self.intensity, power))
+        _finite_radiance(self)
 
     @property
     def area(self) -> float:
@@ -150,11 +167,11 @@ class RectLight(ArrayValue):
     position : ndarray, shape (3,), float64
         World position of the rectangle's centre.
     u, v : ndarray, shape (3,), float64
-        Edge half-vectors, world units (finite, non-zero, orthogonal to a
+        Edge half-vectors, world units (finite, of length >= ``MIN_EXTENT``, orthogonal to a
         relative 1e-6, as float32 data are): the corners are ``position +-
         u +- v``; the light emits along its normal ``u x v / |u x v|``.
     intensity : ndarray, shape (3,), float64
-        RGB intensity along the normal, ``I = L 4 |u| |v|`` (>= 0). Give
+        RGB intensity along the normal, ``I = L 4 |u| |v|`` (>= 0, ``L`` finite). Give
         this or ``power`` (init only: ``Phi = pi I``).
     """
 
@@ -174,6 +191,7 @@ class RectLight(ArrayValue):
         if abs(self.u @ self.v) > ORTHO_TOL * nu * nv:
             raise ValueError(f"rectangle light: edges u and v must be orthogonal (u.v = {self.u @ self.v:.6g})")
         self._set("intensity", _flux(self, self.intensity, power))
+        _finite_radiance(self)
 
     @classmethod
     def facing(cls, position, normal, width: float, height: float, *, intensity=None, power=None):
@@ -192,7 +210,11 @@ class RectLight(ArrayValue):
     def normal(self) -> np.ndarray:
         """Unit normal ``u x v / |u x v|``, (3,)."""
         c = np.cross(self.u, self.v)
-        return c / np.linalg.norm(c)
+        m = np.linalg.norm(c)
+        if m < MIN_EXTENT:              # its square underflows (edges of 1e-100: a NaN normal, the light black)
+            c = np.cross(self.u / np.linalg.norm(self.u), self.v / np.linalg.norm(self.v))
+            m = np.linalg.norm(c)
+        return c / m
 
     @property
     def area(self) -> float:

@@ -333,7 +333,10 @@ def point_light_radiance(scene, points, normals, light: PointLight, albedo, *, b
     f = 1.0 / d
     if light.radius > 0 and k > 1:
         f = np.where(rho < 1e-8, f, 2.0 * np.sin(0.5 * half) / light.radius)
-    e = (light.intensity[None, :] * f[:, None]) * (f * shaded)[:, None]
+    fs = f * shaded
+    with np.errstate(over="ignore", invalid="ignore"):      # beyond float64: +inf, as shade's float32 (no warning)
+        e = (light.intensity[None, :] * f[:, None]) * fs[:, None]
+    e = np.where(fs[:, None] > 0, e, 0.0)       # unlit (shadow, behind, outside the cone): 0, not I f = inf times 0
     return alb / math.pi * e, np.where(live, lit.mean(axis=1), 0.0)
 
 

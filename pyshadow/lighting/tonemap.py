@@ -87,7 +87,8 @@ def auto_exposure(radiance, covered=None) -> float:
     lum = a[keep] @ LUMINANCE_WEIGHTS
     if covered is None:
         lum = lum[np.isfinite(lum)]
-    p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0
+    with np.errstate(invalid="ignore"):        # a percentile among +inf pixels (covered): inf - inf, NaN: 1.0
+        p = float(np.percentile(lum, EXPOSURE_PERCENTILE)) if lum.size else 0.0
     return EXPOSURE_TARGET / p if p > 0 and np.isfinite(p) else 1.0
 
 
@@ -110,6 +111,9 @@ def tonemap(radiance, exposure: float | str = 1.0, curve: str = "srgb", *, gamma
     if isinstance(exposure, str) and exposure != "auto" and exposure.strip().lower() == "auto":
         raise ValueError(f"exposure: expected a number > 0 or 'auto' (lower case, no spaces; got {exposure!r})")
     s = auto_exposure(a) if isinstance(exposure, str) and exposure == "auto" else positive(exposure, "exposure")
+    if s == np.inf:                             # "auto" of a subnormal percentile: 0.8 / p overflows (NaN from 0 * inf);
+        a = np.ldexp(a.astype(np.float64), 600)     # the exposure is scale-free: scale by 2^600 (exact) and ask again
+        s = auto_exposure(a)
     if not isinstance(curve, str) or curve not in CURVES:     # (an array's `in` is no answer)
         raise ValueError(f"curve: expected one of {', '.join(CURVES)} (got {curve!r})")
     with np.errstate(over="ignore"):            # beyond float64: +inf, white as documented

@@ -87,10 +87,15 @@ typedef struct {
  * answer is the OR over its pairs. The one-texel lookup runs in two halves:
  * every group's maps, texels and depths first (instance_v), then the
  * searches of all of them together (stored_v), so that the cache misses of
- * all the groups are in flight at once, not one group's after another's. */
+ * all the groups are in flight at once, not one group's after another's.
+ * So does the vote: VOTE_GROUPS groups' votes planned (instance_v), then
+ * read together, round by round (vote_occluded(), csm_vote.h). */
 inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY_PARAMS)
 {
-#if !FILTERED
+#if FILTERED
+    vote_t V;
+    int qv[VOTE_LANES], g = 0;  /* each planned lane's query; the lanes planned */
+#else
     LANE_ARRAY int ka[STORED_MAX], ta[STORED_MAX], va[STORED_MAX], qa[STORED_MAX];
     LANE_ARRAY float dz[STORED_MAX], bz[STORED_MAX], za[STORED_MAX];
     int m = 0;      /* lanes asked, whole groups: every group but the last is full, so m is at most cnt
@@ -119,15 +124,21 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
 #endif
 #if !FILTERED
                                 , ka + m, ta + m, dz + m, bz + m
+#else
+                                , &V, g
 #endif
                                 );
 #undef PAIR_Q
 #undef PAIR_J
 #if FILTERED
-        LANE_ARRAY int ra[LANES];
-        LANE_STORE(r, ra);
-        for (int l = 0; l < n; ++l)
-            occ[gi[l]] |= ra[l];
+        (void)r;
+        for (int l = 0; l < LANES; ++l)
+            qv[g + l] = gi[l];
+        g += LANES;
+        if (g == VOTE_LANES) {
+            vote_occluded(S, S->types + P->type, &V, g / LANES, qv, occ);
+            g = 0;
+        }
 #else
         LANE_STORE(r, va + m);
         for (int l = 0; l < LANES; ++l)
@@ -135,7 +146,10 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
         m += LANES;
 #endif
     }
-#if !FILTERED
+#if FILTERED
+    if (g)
+        vote_occluded(S, S->types + P->type, &V, g / LANES, qv, occ);
+#else
     if (m == 0)
         return;
     stored_v(S, S->types + P->type, ka, ta, va, za, m);

@@ -10,8 +10,9 @@
  *   instance_v()    the lookup: the nearest map (views_zigzag.h,
  *                   views_hilbert.h) and its texel, the stored depth asked
  *                   afterwards by the caller (batch.h's batch_ask, for
- *                   several lane groups at once), or with FILTERED the vote
- *                   of four maps times four texels
+ *                   several lane groups at once), or with FILTERED the
+ *                   plan of the vote of four maps times four texels, whose
+ *                   taps vote_occluded() (csm_vote.h) reads afterwards
  *
  * Queries are answered LANES at a time (lanes.h; the host picks LANES per
  * device): the arithmetic runs on lane vectors (one lane per query), the
@@ -28,13 +29,13 @@
  * (csm_search.h); LAYOUT_ZIGZAG, LAYOUT_HILBERT, FILTERED, FILTER_ANGLE_EPS
  * (FILTERED only); SURFACE_NORMALS (0/1) and SURFACE_LIFT_TEXELS (float,
  * SURFACE_NORMALS only: the surface rule); optional PROFILE_SKIP_NEAREST, PROFILE_SKIP_SEARCH
- * (visibility.cl); optional VOTE_FIRST, VOTE_NEXT, VOTE_MARGIN (FILTERED: the taps of the first
- * and later rounds, the margin of a decided vote; the answers do not depend on them).
+ * (visibility.cl); optional VOTE_FIRST, VOTE_NEXT, VOTE_MARGIN, VOTE_GROUPS (FILTERED: csm_vote.h).
  */
 #ifndef PYSHADOW_CSM_LOOKUP_H
 #define PYSHADOW_CSM_LOOKUP_H
 
 #include "csm_search.h"
+#include "csm_vote.h"
 #include "csm_stored.h"
 #include "lanes.h"
 #include "scene_tables.h"
@@ -52,14 +53,15 @@
 /* The CSM lookup of the lanes act against caster instance j, each lane its
  * own instance j[l] (j0: one of them), all of CSM type t; with
  * SURFACE_NORMALS each lane's unit surface normal (mx, my, mz), world frame.
- * FILTERED: the lanes (-1) occluded. Otherwise its first half: the lanes
+ * FILTERED: the plan of the lanes' votes, written to group g (its first
+ * lane's offset) of V, for vote_occluded(); returns act. Otherwise its first half: the lanes
  * (-1) whose point lies in the square of its map, with that map ka[l], the
  * texel ta[l], the point's depth dz_out[l] and its bias bz_out[l] (lane
  * arrays) -- the lane is occluded when depth > stored + bias, the stored
  * depth of stored_v(), which the caller asks for many lane groups at once
  * (batch_ask): their cache misses overlap. */
 #if FILTERED
-#define LOOKUP_OUT_PARAMS
+#define LOOKUP_OUT_PARAMS , vote_t *V, const int g
 #else
 #define LOOKUP_OUT_PARAMS , int *ka, int *ta, float *dz_out, float *bz_out
 #endif
@@ -172,8 +174,8 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     /* the four maps of ViewSet.filter_window, each asked by a bilinear vote
      * of the four texels around the point (texel centres; border texels
      * repeated); the instance shadows a lane when the weighted votes exceed
-     * one half (scene.visible_reference(filtered=True)) */
-    LANE_ARRAY int kw[4][LANES];
+     * one half (scene.visible_reference(filtered=True)); the maps (kw) in V */
+    int *kw[4] = {V->kw[0] + g, V->kw[1] + g, V->kw[2] + g, V->kw[3] + g};
     LANE_ARRAY float mw[4][LANES];
 #if LAYOUT_ZIGZAG
     if (layout == 0) {
@@ -214,28 +216,17 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
 #endif
     /* each map's point, depth, bias and its four taps: the texels around
      * the point (texel centres; border texels repeated) with their bilinear
-     * weights, heaviest first (tap i = 4 m + c) */
-#ifndef VOTE_FIRST
-#define VOTE_FIRST 4
-#endif
-#ifndef VOTE_NEXT
-#define VOTE_NEXT 1
-#endif
-#if VOTE_FIRST < 1 || VOTE_FIRST > 16 || VOTE_NEXT < 1
-#error "VOTE_FIRST must lie in 1 .. 16 and VOTE_NEXT be at least 1"
-#endif
-    LANE_ARRAY int tq[16][LANES];
-    LANE_ARRAY float zq[16][LANES], bq[16][LANES], dq[4][LANES];
-    fv tw[16], tb[16], dep[4];
+     * weights, heaviest first (tap i = 4 m + c); the vote's rounds:
+     * vote_occluded() (csm_vote.h) */
     iv ins[4];
     for (int n = 0; n < 4; ++n) {
-        fv dx, dy, dz, depth, fx, fy;
+        fv dx, dy, dz, depth, fx, fy, tw[4], tb[4];
         NORMAL_PLANE_DECL
         const iv inside = act & map_frame_v(S->bases + 9 * vbase, kw[n], R, qx, qy, qz, cqx, cqy, cqz,
                                             &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
         ins[n] = inside;
-        dep[n] = VSEL(depth, (fv)(2.0f), beyond);
-        LANE_STORE(dep[n], dq[n]);
+        LANE_STORE(inside, V->ins[n] + g);
+        LANE_STORE(VSEL(depth, (fv)(2.0f), beyond), V->dq[n] + g);
         const fv wm = LANE_LOAD(mw[n]);
         const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS);
         const fv gx = VSEL((fv)(0.0f), fx - 0.5f, inside), gy = VSEL((fv)(0.0f), fy - 0.5f, inside);
@@ -246,103 +237,34 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         for (int c = 0; c < 4; ++c) {
             const int ddy = c >> 1, ddx = c & 1;
             tt[c] = VMIN(VMAX(y0 + ddy, (iv)(0)), (iv)(R - 1)) * R + VMIN(VMAX(x0 + ddx, (iv)(0)), (iv)(R - 1));
-            tw[4 * n + c] = wm * (ddy ? ty : 1.0f - ty) * (ddx ? tx : 1.0f - tx);
+            tw[c] = wm * (ddy ? ty : 1.0f - ty) * (ddx ? tx : 1.0f - tx);
 #if SURFACE_NORMALS && PLANE_BIAS       /* the tap's centre lies (ddx - tx, ddy - ty) texels from the point */
-            tb[4 * n + c] = tap_bias_v(S, R, bias, pu, pv, pe, (float)ddx - tx, (float)ddy - ty);
+            tb[c] = tap_bias_v(S, R, bias, pu, pv, pe, (float)ddx - tx, (float)ddy - ty);
 #else
-            tb[4 * n + c] = bias;
+            tb[c] = bias;
 #endif
         }
 #if SURFACE_NORMALS && PLANE_BIAS
-        sort4_heaviest_first(tw + 4 * n, tt, tb + 4 * n);      /* texels heaviest first, too */
+        sort4_heaviest_first(tw, tt, tb);       /* texels heaviest first, too */
 #else
-        sort4_heaviest_first(tw + 4 * n, tt, 0);
+        sort4_heaviest_first(tw, tt, 0);
 #endif
         for (int c = 0; c < 4; ++c) {
-            LANE_STORE(tt[c], tq[4 * n + c]);
-            LANE_STORE(tb[4 * n + c], bq[4 * n + c]);
-            LANE_STORE((fv)(INFINITY), zq[4 * n + c]);
+            LANE_STORE(tt[c], V->tq[4 * n + c] + g);
+            LANE_STORE(tw[c], V->tw[4 * n + c] + g);
+            LANE_STORE(tb[c], V->tb[4 * n + c] + g);
         }
     }
-    /* The rule of the vote (replayed below): maps heaviest first, each
-     * map's taps heaviest first, a lane asking no more once its shadowing
-     * votes exceed one half or the weight still to come cannot take them
-     * there (a margin of 1e-5 for the rounding of the running sums); the
-     * answer: the votes exceed one half. That answer is known as soon as
-     * the taps read, in whatever order, weigh more than one half plus
-     * VOTE_MARGIN on one side (the weights sum to 1, the rounding of these
-     * sums is below 1e-5): so each lane reads its taps heaviest first over
-     * all four maps (a merge of the maps' sorted taps), fewer than in the
-     * rule's order, in rounds for the lanes still open -- the first
-     * VOTE_FIRST taps at once, so that their cache misses overlap. A lane
-     * that has read all of its taps undecided (a vote within VOTE_MARGIN of
-     * one half) replays the rule on them. */
-#ifndef VOTE_MARGIN
-#define VOTE_MARGIN 1e-4f
-#endif
-    const float decisive = 0.5f + VOTE_MARGIN;
-    fv ws = (fv)(0.0f), wl = (fv)(0.0f);        /* weights read shadowing and lit (maps not holding the point: lit) */
+    fv wl = (fv)(0.0f);         /* the weight of the maps not holding the point: lit */
     for (int m = 0; m < 4; ++m)
         wl += VSEL(LANE_LOAD(mw[m]), (fv)(0.0f), ins[m]);
-    iv open = act & MASK(wl <= decisive), exhausted = (iv)(0), head[4] = {(iv)(0), (iv)(0), (iv)(0), (iv)(0)};
-    for (int r = 0; r < 16 && VANY(open);) {
-        const int nb = r ? (VOTE_NEXT < 16 - r ? VOTE_NEXT : 16 - r) : VOTE_FIRST;
-        LANE_ARRAY int ia[16][LANES], ka[16 * LANES], ta[16 * LANES], va[16 * LANES];
-        LANE_ARRAY float za[16 * LANES];
-        fv bw[16];
-        for (int b = 0; b < nb; ++b) {          /* each lane's next tap: the heaviest of the maps' next ones */
-            fv w = (fv)(-1.0f);
-            iv bi = (iv)(0), bm = (iv)(-1);
-            for (int m = 0; m < 4; ++m) {
-                fv h = (fv)(-1.0f);
-                for (int c = 0; c < 4; ++c)
-                    h = VSEL(h, tw[4 * m + c], MASK(head[m] == c) & ins[m]);
-                const iv take = MASK(h > w);
-                w = VSEL(w, h, take);
-                bm = VSEL(bm, (iv)(m), take);
-                bi = VSEL(bi, 4 * m + head[m], take);
-            }
-            for (int m = 0; m < 4; ++m)
-                head[m] -= MASK(bm == m);
-            bw[b] = w;
-            LANE_STORE(bi, ia[b]);
-            LANE_STORE(open & MASK(bm >= 0), va + b * LANES);
-            for (int l = 0; l < LANES; ++l) {
-                ka[b * LANES + l] = kw[ia[b][l] >> 2][l];
-                ta[b * LANES + l] = tq[ia[b][l]][l];
-            }
-        }
-        stored_v(S, T, ka, ta, va, za, nb * LANES);
-        for (int b = 0; b < nb; ++b, ++r) {
-            LANE_ARRAY float zb[LANES], db[LANES];
-            for (int l = 0; l < LANES; ++l) {
-                const int i = ia[b][l];
-                zq[i][l] = va[b * LANES + l] ? za[b * LANES + l] : zq[i][l];     /* taps read, for the replay */
-                zb[l] = za[b * LANES + l] + bq[i][l];
-                db[l] = dq[i >> 2][l];
-            }
-            const iv has = open & MASK(bw[b] >= 0.0f);
-            const iv sh = MASK(LANE_LOAD(db) > LANE_LOAD(zb));
-            ws += VSEL((fv)(0.0f), bw[b], has & sh);
-            wl += VSEL((fv)(0.0f), bw[b], has & ~sh);
-            exhausted |= open & ~has;
-            open = has & MASK(ws <= decisive) & MASK(wl <= decisive);
-        }
-    }
-    exhausted |= open;
-    iv shadow = MASK(ws > decisive);
-    if (VANY(exhausted)) {      /* the rule itself, on the taps read (every tap of the maps holding the point) */
-        fv v = (fv)(0.0f), rest = (fv)(1.0f);
-        iv o = exhausted;
-        for (int i = 0; i < 16; ++i) {
-            const int m = i >> 2;
-            v += VSEL((fv)(0.0f), tw[i], o & ins[m] & MASK(dep[m] > LANE_LOAD(zq[i]) + tb[i]));
-            rest -= tw[i];
-            o &= MASK(v <= 0.5f) & MASK(v + rest > 0.5f - 1e-5f);
-        }
-        shadow = VSEL(shadow, MASK(v > 0.5f), exhausted);
-    }
-    return act & shadow;
+    LANE_STORE(wl, V->wl + g);
+    LANE_STORE((fv)(0.0f), V->ws + g);
+    LANE_STORE(act & MASK(wl <= 0.5f + VOTE_MARGIN), V->open + g);
+    LANE_STORE((iv)(0), V->exh + g);
+    for (int m = 0; m < 4; ++m)
+        LANE_STORE((iv)(0), V->head[m] + g);
+    return act;
 #else
     iv k = (iv)(0);
 #if LAYOUT_ZIGZAG

@@ -19,9 +19,13 @@
 #error "BATCH (queries per work-item, a multiple of LANES) must be defined by the host"
 #endif
 /* the most lanes one stored_v() asks: a batch's queue (batch.h), or with
- * FILTERED a lane group's 16 taps (csm_lookup.h) */
-#if FILTERED && 16 * LANES > BATCH + LANES
-#define STORED_MAX (16 * LANES)
+ * FILTERED a round of the votes or a lane group's 16 taps (csm_vote.h,
+ * included first) */
+#if FILTERED
+#ifndef VOTE_LANES
+#error "csm_vote.h must be included before csm_stored.h"
+#endif
+#define STORED_MAX (16 * LANES > VOTE_ROUND * VOTE_LANES ? 16 * LANES : VOTE_ROUND * VOTE_LANES)
 #else
 #define STORED_MAX (BATCH + LANES)
 #endif

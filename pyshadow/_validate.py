@@ -10,9 +10,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-__all__ = ["rows3", "squared_lengths", "check_values", "check_both", "kernel_rows", "check_rows", "nonzero",
-           "check_transform", "check_transforms", "check_indices", "check_int", "FLOAT32_MAX", "check_float32_points",
-           "check_float32_instances"]
+__all__ = ["rows3", "squared_lengths", "check_values", "checked_bound", "check_both", "kernel_rows", "check_rows",
+           "nonzero", "check_transform", "check_transforms", "check_indices", "check_int", "FLOAT32_MAX",
+           "check_float32_points", "check_float32_instances"]
 
 
 def rows3(a, name, n=None, dtype=np.float64):
@@ -51,27 +51,63 @@ def check_values(a, name, nonzero=False):
                 raise ValueError(f"{name}: {zero} rows are zero vectors")
 
 
+#: Rows a chunk of the batch checks reads at a time: 768 KiB of float64 rows, which a core's cache holds
+#: while the chunk is read a second time (each check then reads the batch from memory once)
+CHECK_ROWS = 1 << 15
+
+
+def _row_chunks(a):
+    return (a[s:s + CHECK_ROWS] for s in range(0, len(a), CHECK_ROWS))
+
+
+def checked_bound(a, name) -> float:
+    """check_values of an (N, 3) array, returning its largest |coordinate|
+    (``pyshadow.scene_arrays.points_bound``'s value; 0.0 for no rows).
+
+    The chunks' maxima and minima: a NaN or an infinity makes them
+    non-finite, and then the rows are counted as check_values counts them.
+    """
+    if len(a) == 0:
+        return 0.0
+    ext = np.array([(c.max(), c.min()) for c in _row_chunks(a)])
+    hi, lo = ext[:, 0].max(), ext[:, 1].min()
+    if not (np.isfinite(hi) and np.isfinite(lo)):
+        check_values(a, name)
+    return max(abs(float(hi)), abs(float(lo)))
+
+
+def _check_chunks(a, name, nonzero):
+    """check_values chunk by chunk (the same rows refused; a refusal's counts are those of the whole array)."""
+    try:
+        for c in _row_chunks(a):
+            check_values(c, name, nonzero)
+    except ValueError:
+        check_values(a, name, nonzero)
+        raise
+
+
 _checker = None
 
 
-def check_both(p, p_name, w, w_name):
+def check_both(p, p_name, w, w_name) -> float:
     """check_values of points and of (non-zero) directions, side by side on
     two threads for large batches (NumPy releases the GIL); the first error in
-    argument order is raised."""
+    argument order is raised. Returns the points' largest |coordinate|
+    (:func:`checked_bound`), which the points' check reads on the way."""
     global _checker
     if len(p) < 100_000:
-        check_values(p, p_name)
+        bound = checked_bound(p, p_name)
         check_values(w, w_name, nonzero=True)
-        return
+        return bound
     if _checker is None:
         _checker = ThreadPoolExecutor(1, thread_name_prefix="pyshadow-check")
-    future = _checker.submit(check_values, p, p_name)
+    future = _checker.submit(checked_bound, p, p_name)
     try:
-        check_values(w, w_name, nonzero=True)
+        _check_chunks(w, w_name, True)
     except ValueError:
         future.result()                 # points first, as in the sequential order
         raise
-    future.result()
+    return future.result()
 
 
 def kernel_rows(a, name, n=None):

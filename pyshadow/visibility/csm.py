@@ -356,7 +356,7 @@ class CSMVisibility(_SampledSky):
         """
         p = kernel_rows(points, "points")
         w = kernel_rows(directions, "directions", len(p))
-        check_both(p, "points", w, "directions")
+        pb = check_both(p, "points", w, "directions")
         n = len(p)
         own = scene.caster_slots(surface_ids, n, p)
         m = None if normals is None else unit_normals(normals, n).astype(np.float32)
@@ -365,17 +365,18 @@ class CSMVisibility(_SampledSky):
         check_straddle(straddle)        # a bad value is an error, as on the other backends
         if tmax is not None and n:
             return answer_finite(scene, np.asarray(p, np.float64), unit_directions(w), tmax, straddle,
-                                 lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax)))
-        return self._visible(scene, p, w, own, m, bias, None)
+                                 lambda: self._visible(scene, p, w, own, m, bias, _float32_lengths(tmax), pb=pb))
+        return self._visible(scene, p, w, own, m, bias, None, pb=pb)
 
-    def _visible(self, scene, p, w, own, m, bias, tmax, ground=True):
+    def _visible(self, scene, p, w, own, m, bias, tmax, ground=True, pb=None):
         """:meth:`_visible_kernel`, then the footprints of bodies resting on the ground (:mod:`pyshadow.contact`)."""
-        return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax, ground=ground))
+        return occlude_contacts(scene, p, w, self._visible_kernel(scene, p, w, own, m, bias, tmax, ground=ground,
+                                                                  pb=pb))
 
-    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True, anchor=None, ground=True):
+    def _visible_kernel(self, scene, p, w, own, m, bias, tmax, coherent=True, anchor=None, ground=True, pb=None):
         """The kernel's answers for validated rows (``tmax``: float32 (N,) lengths, or None; order: :mod:`.order`;
         ``anchor``: the rows' anchor, or None: :func:`~pyshadow.scene_arrays.anchor_groups`'s; ``ground``
-        False: the casters alone, the kernel compiled with ``GROUND=0``)."""
+        False: the casters alone, the kernel compiled with ``GROUND=0``; ``pb``: ``points_bound(p)``, or None)."""
         n = len(p)
         out = np.empty(n, np.bool_)
         if n == 0:
@@ -393,9 +394,8 @@ class CSMVisibility(_SampledSky):
         if defines is None:             # nothing occludes: no kernel
             out[:] = True
             return out
-        pb = None
         if anchor is None:
-            pb = points_bound(p)
+            pb = points_bound(p) if pb is None else pb
             groups = anchor_groups(scene, p, pb)
             if len(groups) > 1:             # points far apart: each group relative to an anchor of its own
                 for rows, a in groups:

@@ -67,8 +67,11 @@ def cycle_table(lines: int, seed: int = 0) -> np.ndarray:
     return table.reshape(-1)
 
 
-def chase(table: np.ndarray, chains: int, items: int, steps: int, rounds: int = 1):
+def chase(table, chains: int, items: int, steps: int, rounds: int = 1):
     """Run the chase kernel: ``items`` work-items of ``chains`` chains, ``steps`` reads each.
+
+    ``table``: :func:`cycle_table`'s array, or a device buffer of it (so that one upload serves every
+    chain count).
 
     Returns ``(out, seconds)``: each work-item's sum of its chains' last lines (uint32; wraps), and the
     median time of ``rounds`` timed launches after one untimed one (compile, page in the table).
@@ -78,8 +81,8 @@ def chase(table: np.ndarray, chains: int, items: int, steps: int, rounds: int = 
     from pyshadow import _cl
 
     ctx, queue = _cl.context(), _cl.queue()
-    lines = len(table) // 16
-    buf = cl.Buffer(ctx, cl.mem_flags.READ_ONLY | cl.mem_flags.COPY_HOST_PTR, hostbuf=table)
+    buf = table if isinstance(table, cl.Buffer) else _cl.to_device(table)
+    lines = buf.size // 64
     knl = cl.Kernel(_cl.build_source(SOURCE, "memory_bound", {"CHAINS": chains}), "chase")
     out = cl.Buffer(ctx, cl.mem_flags.WRITE_ONLY, 4 * items)
     knl.set_args(buf, out, np.uint32(steps), np.uint32(lines), np.uint32(starts_stride(lines, items * chains)))
@@ -103,7 +106,7 @@ def measure(mbytes: int, chains: list, rounds: int, reads: int) -> list:
     from pyshadow import _cl
 
     lines = max(1024, mbytes * (1 << 20) // 64)
-    table = cycle_table(lines)
+    table = _cl.to_device(cycle_table(lines))                 # uploaded once for every chain count
     cores = int(_cl.device().max_compute_units)
     rows = []
     for c in chains:

@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 import pyopencl as cl
 
+from . import memo as _memo
 from . import pocl_cpu as _pocl_cpu
 from . import probe as _probe
 from .launch import Kernel, check_alloc, new_buffer, open_device
@@ -480,7 +481,8 @@ def _with_lanes(source_file: str, defines: dict | None) -> dict:
 
 
 def program(source_file: str, defines: dict | None = None) -> cl.Program:
-    """Built program for ``source_file`` with ``-D`` ``defines`` (memoised).
+    """Built program for ``source_file`` with ``-D`` ``defines`` (memoised; while one builds, other threads'
+    programs and kernels are found and built: :mod:`.memo`).
 
     Files that include ``lanes.h`` get ``LANES`` from :func:`lanes` unless
     ``defines`` holds it.
@@ -489,12 +491,7 @@ def program(source_file: str, defines: dict | None = None) -> cl.Program:
     defines = _with_lanes(source_file, defines)
     opts = _options(defines)
     key = (id(st["context"]), source_file, opts)
-    with _lock:
-        prg = _programs.get(key)
-        if prg is None:
-            prg = build_source(kernel_source(source_file), source_file, defines)
-            _programs[key] = prg
-        return prg
+    return _memo.once(_programs, key, lambda: build_source(kernel_source(source_file), source_file, defines))
 
 
 ABI_WARNING = "changes the ABI"     # clang's, as probe_child.py's (4 doubles at an SSE2 target: 1 ray in 3 wrong)
@@ -544,12 +541,7 @@ def kernel(source_file: str, name: str, defines: dict | None = None) -> cl.Kerne
     """
     defines = _with_lanes(source_file, defines)
     key = (id(context()), source_file, name, _options(defines))
-    with _lock:
-        k = _kernels.get(key)
-        if k is None:
-            k = Kernel(program(source_file, defines), name)
-            _kernels[key] = k
-        return k
+    return _memo.once(_kernels, key, lambda: Kernel(program(source_file, defines), name))
 
 
 def to_device(array: np.ndarray, dtype=None) -> cl.Buffer:

@@ -132,18 +132,27 @@ def _cached_verdicts(entry) -> dict | None:
     return {int(w): {"ok": x["ok"], "why": x["why"]} for w, x in v.items()}
 
 
+#: Seconds a process waits for another's write of lanes.json before leaving its own entry out
+CACHE_LOCK_S = 10.0
+
+
 def _write_cache(key: str, entry: dict) -> None:
+    """Add ``key: entry`` to lanes.json: read, merged and replaced under a lock file beside it
+    (``lanes.json.lock``), so that processes probing at once keep each other's entries."""
+    import filelock
+
     from .._files import write_bytes_atomic
 
     path = cache_file()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        entries = {**_read_cache(), key: entry}
-        data = {"format": _CACHE_FORMAT, "version": _CACHE_VERSION, "entries": entries,
-                "sha256": _entries_digest(entries)}
-        write_bytes_atomic(path, json.dumps(data, indent=1, sort_keys=True).encode())
-    except OSError:
-        pass            # a read-only cache only costs the probe again next time
+        with filelock.FileLock(f"{path}.lock", timeout=CACHE_LOCK_S):
+            entries = {**_read_cache(), key: entry}
+            data = {"format": _CACHE_FORMAT, "version": _CACHE_VERSION, "entries": entries,
+                    "sha256": _entries_digest(entries)}
+            write_bytes_atomic(path, json.dumps(data, indent=1, sort_keys=True).encode())
+    except (OSError, filelock.Timeout):
+        pass            # a read-only cache, or one held too long, only costs the probe again next time
 
 
 def _child_env() -> dict:

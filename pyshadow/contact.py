@@ -55,7 +55,6 @@ from .scene_arrays import mesh_groups, scene_arrays
 __all__ = ["ground_tolerance", "footprints", "contact_mask", "occlude_contacts", "close_contacts", "sheets",
            "ground_sheet_slots"]
 
-#: points tested against one footprint's triangles at a time (memory: 24 bytes x this x triangles)
 # mesh -> its distinct vertices, faces, faces in their first winding and the vertices of its edges not shared by
 # exactly two faces (:func:`kept_surface`; a mesh changed in place misses, and is replaced)
 _SURFACES = MeshKept()

@@ -9,8 +9,9 @@ from pyshadow._cl import memo
 WAIT_S = 10.0           # far beyond any step here; a deadlock fails the test instead of hanging the suite
 
 
-def _in_thread(fn):
-    """Run fn in a daemon thread; returns (thread, box): box["value"] or box["error"] once it ends."""
+def _in_thread(fn, start=True):
+    """Run fn in a daemon thread (started unless ``start`` is False); returns (thread, box): box["value"] or
+    box["error"] once it ends."""
     box = {}
 
     def run():
@@ -20,7 +21,8 @@ def _in_thread(fn):
             box["error"] = exc
 
     t = threading.Thread(target=run, daemon=True)
-    t.start()
+    if start:
+        t.start()
     return t, box
 
 
@@ -89,15 +91,7 @@ def test_a_failed_build_is_built_again_by_a_waiting_caller(monkeypatch):
 
     t, first = _in_thread(lambda: memo.once(table, "k", build))
     assert first_in.wait(WAIT_S)
-    box = {}
-
-    def run():
-        try:
-            box["value"] = memo.once(table, "k", build)
-        except Exception as exc:                    # noqa: BLE001
-            box["error"] = exc
-
-    u = threading.Thread(target=run, daemon=True)
+    u, box = _in_thread(lambda: memo.once(table, "k", build), start=False)
     seen.thread = u
     u.start()
     t.join(WAIT_S)

@@ -45,6 +45,20 @@ def scene_of(n, csm, mesh):
     return s
 
 
+def workload():
+    """The body and the queries: (mesh, csm, points (25000, 3), their up normals, the rays' points P and unit
+    directions D (400000, 3) float64: each point's 16 cosine-weighted AO directions)."""
+    import pyshadow
+
+    mesh = pyshadow.data.mesh("spot")
+    csm = pyshadow.CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False)
+    rng = np.random.default_rng(1)
+    pts = np.c_[rng.uniform(-2, 2, 25000), np.zeros(25000), rng.uniform(-2, 2, 25000)]
+    up = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
+    D = pyshadow.sample_directions(up, sampling=pyshadow.Sampling(16)).reshape(-1, 3).astype(np.float64)
+    return mesh, csm, pts, up, np.repeat(pts, 16, axis=0), D
+
+
 def walk_counts(header, cells, items, P, D):
     """What the grid's walk meets, per ray (means): cells crossed, listed spheres tested, spheres met.
 
@@ -100,13 +114,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.rounds < 1 or min(args.counts) < 1:
         ap.error(f"--rounds and every --counts must be >= 1, got {args.rounds} and {args.counts}")
-    mesh = pyshadow.data.mesh("spot")
-    csm = pyshadow.CoherentShadowMap.build(mesh, pyshadow.ViewSet.zigzag(16, 32), resolution=64, progress=False)
-    rng = np.random.default_rng(1)
-    pts = np.c_[rng.uniform(-2, 2, 25000), np.zeros(25000), rng.uniform(-2, 2, 25000)]
-    up = np.tile([0.0, 1.0, 0.0], (len(pts), 1))
-    D = pyshadow.sample_directions(up, sampling=pyshadow.Sampling(16)).reshape(-1, 3).astype(np.float64)
-    P = np.repeat(pts, 16, axis=0)
+    mesh, csm, pts, up, P, D = workload()
     default_min = backend.BVH_MIN_INSTANCES
     modes = {"grid": (default_min, True), "tree": (default_min, False), "flat": (10 ** 9, True)}
     scenes = {n: scene_of(n, csm, mesh) for n in args.counts}

@@ -98,6 +98,9 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
 #else
     LANE_ARRAY int ka[STORED_MAX], ta[STORED_MAX], va[STORED_MAX], qa[STORED_MAX];
     LANE_ARRAY float dz[STORED_MAX], bz[STORED_MAX], za[STORED_MAX];
+#if EMPTY_RUNS
+    int searched = 0;   /* lanes that search (instance_v: inside the map, not on an empty run) */
+#endif
     int m = 0;      /* lanes asked, whole groups: every group but the last is full, so m is at most cnt
                      * (a queue's length, <= BATCH + LANES) rounded up to LANES: STORED_MAX */
 #endif
@@ -144,12 +147,32 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
         for (int l = 0; l < LANES; ++l)
             qa[m + l] = gi[l];
         m += LANES;
+#if EMPTY_RUNS
+        searched += BIT_COUNT(LANE_BITS(r));
+#endif
 #endif
     }
 #if FILTERED
     if (g)
         vote_occluded(S, S->types + P->type, &V, g / LANES, qv, occ);
 #else
+#if EMPTY_RUNS
+    /* where that spares a lane group, the lanes that still search moved to
+     * the front (va 0: outside the map, or on an empty run of maps, answered
+     * open by instance_v), without branches, in whole groups: the last padded
+     * with lanes that ask nothing */
+    if (m - searched >= LANES) {
+        int w = 0;
+        for (int l = 0; l < m; ++l) {
+            ka[w] = ka[l]; ta[w] = ta[l]; va[w] = va[l]; qa[w] = qa[l]; dz[w] = dz[l]; bz[w] = bz[l];
+            w += va[l] != 0;
+        }
+        m = (w + LANES - 1) / LANES * LANES;
+        for (int l = w; l < m; ++l) {
+            ka[l] = 0; ta[l] = 0; va[l] = 0; qa[l] = qa[0]; dz[l] = 0.0f; bz[l] = 0.0f;
+        }
+    }
+#endif
     if (m == 0)
         return;
     stored_v(S, S->types + P->type, ka, ta, va, za, m);

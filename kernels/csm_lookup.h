@@ -299,15 +299,31 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
         LANE_STORE((fv)(0.0f), bz_out);
         return valid;
     }
-    LANE_STORE(VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1)), ta);
+    const iv tex = VMIN(CONVERT(int, fy), (iv)(R - 1)) * R + VMIN(CONVERT(int, fx), (iv)(R - 1));
+    LANE_STORE(tex, ta);
     LANE_STORE(depth, dz_out);
+#if EMPTY_RUNS
+    /* a lane whose run of maps is empty at its texel (every map of it a miss:
+     * stored depth +inf, never below depth + bias; csm.device.empty_bits) is
+     * answered open here, as the search would answer it, and asks none
+     * (batch_ask). Index of a lane outside the map: the type's first word */
+    const iv run = LANE_LOAD(ka) >> T->empty_shift;
+    LANE_ARRAY int wi[LANES];
+    LANE_STORE(VSEL((iv)(T->empty_base), T->empty_base + tex * T->empty_words + (run >> 5), valid), wi);
+#define EMPTY_WORD(l, a) (int)S->empty[a[l]]
+    const iv word = LANE_GATHER(iv, EMPTY_WORD, wi);
+#undef EMPTY_WORD
+    const iv found = valid & MASK(((word >> (run & 31)) & 1) == 0);
+#else
+    const iv found = valid;
+#endif
     const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS);
 #if SURFACE_NORMALS && PLANE_BIAS           /* the texel's centre lies (floor(f) + 1/2 - f) texels from the point */
     LANE_STORE(tap_bias_v(S, R, bias, pu, pv, pe, floor(fx) + 0.5f - fx, floor(fy) + 0.5f - fy), bz_out);
 #else
     LANE_STORE(bias, bz_out);
 #endif
-    return valid;
+    return found;
 #endif
 }
 

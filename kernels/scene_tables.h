@@ -36,6 +36,7 @@ typedef struct {
     __global const pair_t *pairs;
     __global const float *bases;
     __global const int *cells;
+    __global const uint *empty;         /* per texel, words of empty-map bits (csm_lookup.h) */
     __global const instance_t *inst;
     __global const int *itype;
     int ninst;
@@ -52,6 +53,7 @@ typedef struct {
                    __global const uint *soff, __global const IEND_T *summary,            \
                    __global const pair_t *pairs,                                         \
                    __global const float *bases, __global const int *cells,              \
+                   __global const uint *empty,                                           \
                    __global const instance_t *inst, __global const int *itype,          \
                    const int ninst, const float ground_y, const float ground_eps,        \
                    const float bias_abs,                                                 \
@@ -61,7 +63,7 @@ typedef struct {
                    __global const grid_packet_t *gpackets
 
 #define SCENE_INIT scene_t S = {types, offsets, soff, summary, pairs, bases, cells,     \
-                                inst, itype,                                            \
+                                empty, inst, itype,                                            \
                                 ninst, ground_y, ground_eps, bias_abs, bias_texels, bias_tan,   \
                                 bias_other, nodes, order, bvh_pad, grid, gpackets}
 

@@ -299,7 +299,7 @@ def test_table_structs_match_their_dtypes_on_the_device():
     prg.offsets(_cl.queue(), (1,), None, _cl.empty(256), buf)
     cl.enqueue_copy(_cl.queue(), out, buf)
     assert out.tolist() == want
-    assert tables.CSM_TYPE.itemsize == 76 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
+    assert tables.CSM_TYPE.itemsize == 88 and tables.INSTANCE.itemsize == 104 and tables.BVH_NODE.itemsize == 32
     assert tables.GRID.itemsize == 52 and tables.GRID_PACKET.itemsize == 80
 
 

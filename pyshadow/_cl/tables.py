@@ -27,6 +27,9 @@ CSM_TYPE = np.dtype([
     ("zigzag_offset", "<f4"),   # zigzag: row i at theta (i + offset) pi / theta (ViewSet.zigzag row_offset)
     ("box_lo", "<f4", (3,)),    # the mesh's bounding box in the normalised frame (CoherentShadowMap.box)
     ("box_hi", "<f4", (3,)),
+    ("empty_base", "<i4"),      # first word of this type in the empty-map bits (csm.device.empty_bits)
+    ("empty_words", "<i4"),     # their words per texel
+    ("empty_shift", "<i4"),     # a bit for each run of 2^empty_shift maps
 ])
 
 # one record per caster instance (scene.Scene._instance_data); world

@@ -13,7 +13,11 @@ from .. import _cl
 from .._cl.tables import CSM_TYPE
 from .core import DEPTH_Q, SEARCH_BLOCK, lookup_box, query_indices
 
-__all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas"]
+__all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas", "empty_words", "empty_bits",
+           "empty_table", "EMPTY_BYTES"]
+
+#: bytes of empty-map bits a CSM type may take (``empty_words``): an eighth of a CPU core's 2 MiB L2
+EMPTY_BYTES = 256 * 1024
 
 _LAYOUT_CODE = {"zigzag": 0, "hilbert": 1}
 
@@ -106,6 +110,70 @@ def device_buffers(csm):
     return csm._device[2]
 
 
+def empty_words(resolution: int, maps: int, budget: int = EMPTY_BYTES) -> int:
+    """uint32 words of :func:`empty_bits` per texel: a bit per map where ``budget`` bytes hold them, else
+    as many words as it holds (at least one)."""
+    return max(1, min(-(-maps // 32), budget // (4 * resolution * resolution)))
+
+
+def _empty_shift(maps: int, words) -> int:
+    """The smallest shift that cuts ``maps`` maps into at most ``32 * words`` runs of ``2**shift``."""
+    if isinstance(words, bool) or not isinstance(words, (int, np.integer)) or words < 1:
+        raise ValueError(f"words must be an integer >= 1, got {words!r}")
+    shift = 0
+    while maps > (32 * words) << shift:
+        shift += 1
+    return shift
+
+
+def empty_table(atlas: dict, used) -> "cl.Buffer":
+    """The device buffer of :func:`empty_bits` of every type of a :func:`scene_atlas`, each at its row's
+    ``empty_base``: built on first ``used`` (the kernels compiled with ``EMPTY_RUNS``) and kept in the atlas;
+    one word, never read, where not ``used``."""
+    held = atlas["empty"]
+    if not used:
+        return held.setdefault("unused", _cl.to_device(np.zeros(1, np.uint32)))
+    if "bits" not in held:
+        bits = [empty_bits(c, empty_words(c.resolution, c.maps))[0].reshape(-1) for c in held["types"]]
+        held["bits"] = _cl.to_device(np.concatenate(bits) if bits else np.zeros(1, np.uint32))
+    return held["bits"]
+
+
+def empty_bits(csm, words: int) -> tuple[np.ndarray, int]:
+    """Per texel, the runs of maps whose every map misses the mesh there: the lookups they answer need no search.
+
+    The maps ``0 .. D-1`` are cut into runs of ``2**shift`` consecutive maps, ``shift`` the smallest that
+    leaves at most ``32 * words`` runs. Bit ``c`` of texel ``t`` (word ``c // 32``, bit ``c % 32``) is set
+    where every map ``k`` with ``k >> shift == c`` stores a miss (+inf) at ``t``: a lookup there is
+    answered open whatever its depth and bias, as the search would answer it. Neighbouring maps look
+    along neighbouring directions (both layouts order them along a curve), so a run is mostly either
+    empty or not.
+
+    Returns
+    -------
+    bits : ndarray of uint32, shape (R*R, words)
+    shift : int
+    """
+    R, D = csm.resolution, csm.maps
+    shift = _empty_shift(D, words)
+    runs = 32 * words
+    offsets, iend, depth = _resident(csm)
+    lens = np.diff(offsets.astype(np.int64))
+    end = iend.astype(np.int64)
+    first = np.zeros(len(end), bool)
+    first[offsets[:-1][lens > 0].astype(np.int64)] = True
+    start = np.where(first, 0, np.r_[0, end[:-1] + 1])      # each segment's maps: start .. end
+    texel = np.repeat(np.arange(R * R, dtype=np.int64), lens)
+    hit = ~np.isinf(csm.stored_to_depth(depth))
+    # the runs a surface segment touches: +1 at its first run, -1 after its last, summed along the runs
+    lo, hi = texel[hit] * (runs + 1) + (start[hit] >> shift), texel[hit] * (runs + 1) + (end[hit] >> shift) + 1
+    marks = (np.bincount(lo, minlength=R * R * (runs + 1)) - np.bincount(hi, minlength=R * R * (runs + 1)))
+    touched = np.cumsum(marks.reshape(R * R, runs + 1)[:, :runs], axis=1) > 0
+    empty = ~touched & (np.arange(runs) < -(-D >> shift))     # runs past the last map: never asked
+    packed = np.packbits(empty, axis=1, bitorder="little")    # bit c of byte c // 8
+    return np.ascontiguousarray(packed).view("<u4").astype(np.uint32), shift
+
+
 def segment_index(csm, map_index, rows, cols) -> np.ndarray:
     """:meth:`CoherentShadowMap.segment_index`: the kernels' search (``csm_find``) on the device."""
     m, r, c, shape = query_indices(csm, map_index, rows, cols)     # int64 (N,), within the maps and texels
@@ -137,7 +205,8 @@ def scene_atlas(types) -> dict:
         one 16-bit step, 0 for 32-bit) and ``buffers``: the device buffers
         of the ``CSM_TYPE`` rows (``kernels/scene_types.h``), texel offsets,
         block-summary offsets, summaries, pairs, view bases and Hilbert
-        cells, each type's tables following the previous type's.
+        cells, each type's tables following the previous type's; ``empty``:
+        what :func:`empty_table` builds the empty runs' bits from.
     """
     bits = 16 if all(c.depth_bits == 16 for c in types) else 32
     wide_iend = any(c.iend.dtype != np.uint16 for c in types)
@@ -145,7 +214,7 @@ def scene_atlas(types) -> dict:
     di = np.uint32 if wide_iend else np.uint16
     trow = np.zeros(max(1, len(types)), CSM_TYPE)
     offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], []
-    seg = blk = view = cell = tex = 0
+    seg = blk = view = cell = tex = ebase = 0
     for ti, c in enumerate(types):
         R, D = c.resolution, c.maps
         a = c.search_arrays(wide=wide, padded=True)
@@ -165,7 +234,10 @@ def scene_atlas(types) -> dict:
                   np.sin(2 * np.pi / p2)] if c.views.layout == "zigzag" else [0.0] * 4)
         box = lookup_box(c)
         offset = p.get("row_offset", 0.0) if c.views.layout == "zigzag" else 0.0
-        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), offset, box[0], box[1])
+        words = empty_words(R, D)         # the bits themselves: empty_table, where a kernel reads them
+        trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), offset, box[0], box[1],
+                    ebase, words, _empty_shift(D, words))
+        ebase += R * R * words
         offs.append(a["offsets"][:-1].astype(np.int64) + seg)
         soffs.append(a["soff"][:-1].astype(np.int64) + blk)
         summ.append(a["summary"].astype(di))
@@ -203,5 +275,6 @@ def scene_atlas(types) -> dict:
             _cl.to_device(cat(bases, np.float32, np.zeros(9))),
             _cl.to_device(cat(cells, np.int32, [0])),
         ],
+        "empty": {"types": list(types)},
     }
     return atlas

@@ -52,7 +52,7 @@ from ..contact import close_contacts, ground_tolerance, occlude_contacts
 from ..csm import SEARCH_BLOCK
 from ..csm.choose import warn_unchosen_lookup
 from ..csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, PLANE_BIAS_TEXELS, VOTE_BIAS_TEXELS
-from ..csm.device import scene_atlas
+from ..csm.device import empty_table, scene_atlas
 from ..csm.surface_rule import SURFACE_LIFT_TEXELS, surface_horizon
 from ..sampling import ao_from_samples, direction_table, pattern_indices
 from ..scene_arrays import anchor_groups, points_bound, scene_arrays
@@ -281,7 +281,7 @@ class CSMVisibility(_SampledSky):
     def _defines(self, scene, atlas, **extra):
         accel = instance_accel(scene)
         d = {"DEPTH_BITS": atlas["bits"], "IEND_T": atlas["iend_t"], "PAIR_WIDE": atlas["pair_wide"],
-             "SEARCH_BLOCK": SEARCH_BLOCK,
+             "SEARCH_BLOCK": SEARCH_BLOCK, "EMPTY_RUNS": int(accel in ("tree", "grid") and not self._vote),
              "NTYPES": min(atlas["ntypes"], 2),     # the kernels ask only 0, 1 or more: one program for 2..n types
              "GROUND": int(scene.ground is not None),
              "LAYOUT_ZIGZAG": int("zigzag" in atlas["layouts"]),
@@ -342,9 +342,10 @@ class CSMVisibility(_SampledSky):
         nodes, order, pad, grid, packets = _accel_tables(scene, rows, anchor, points_extent, held)
         _kept(held, ("lookup checked", self.lookup), lambda: warn_unchosen_lookup(scene, self.lookup))
         dev = (lambda a: _on_device(held, a)) if ninst else _cl.to_device
-        args = [*atlas["buffers"], dev(rows), dev(itype), np.int32(ninst), np.float32(gy),
-                np.float32(g_eps), np.float32(b_abs), np.float32(b_tex), np.float32(b_tan), np.float32(b_other),
-                dev(nodes), dev(order), np.float32(pad), dev(grid), dev(packets)]
+        args = [*atlas["buffers"], empty_table(atlas, defines is None or defines.get("EMPTY_RUNS", 1)), dev(rows),
+                dev(itype), np.int32(ninst), np.float32(gy), np.float32(g_eps), np.float32(b_abs), np.float32(b_tex),
+                np.float32(b_tan), np.float32(b_other), dev(nodes), dev(order), np.float32(pad), dev(grid),
+                dev(packets)]
         return atlas, args
 
     def visible(self, scene, points, directions, *, bias=None, surface_ids=None, normals=None,

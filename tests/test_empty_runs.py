@@ -140,11 +140,22 @@ def test_bits_claiming_every_run_empty_open_every_caster_lookup(monkeypatch):
     s, k = _two_type_scene(40)
     P, D, up = _queries(k, 4000)
     real = s.visible(P, D)
-    bits = device.empty_bits
-    monkeypatch.setattr(device, "empty_bits", lambda csm, words: (lambda b, shift: (b | 0xFFFFFFFF, shift))(
-        *bits(csm, words)))
+    bits = device._empty_bits
+    monkeypatch.setattr(device, "_empty_bits", lambda *source: (lambda b, shift: (b | 0xFFFFFFFF, shift))(
+        *bits(*source)))
     t, _ = _two_type_scene(40)                              # its atlas built with the claimed bits
     claimed = t.visible(P, D)
     assert (~real).sum() > 100 and claimed.all()            # the ground occludes none of these upward rays
     # the vote reads no bits: its answers stay
     assert np.array_equal(t.visible(P, D, lookup="vote"), s.visible(P, D, lookup="vote"))
+
+
+def test_bits_follow_the_arrays_the_atlas_was_built_from():
+    s, k = _two_type_scene(40)
+    P, D, up = _queries(k, 4000)
+    vote = s.visible(P, D, lookup="vote")                  # builds the atlas; the vote reads no bits
+    csm = s.caster_types()[0][0]
+    want = _two_type_scene(40)[0].visible(P, D)
+    csm.depth = np.full_like(csm.depth, np.iinfo(np.uint16).max)   # every segment a miss, set after the atlas
+    assert np.array_equal(s.visible(P, D), want)           # the bits of the atlas's arrays, not these
+    assert np.array_equal(s.visible(P, D, lookup="vote"), vote)

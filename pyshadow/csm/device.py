@@ -11,7 +11,7 @@ import pyopencl as cl
 
 from .. import _cl
 from .._cl.tables import CSM_TYPE
-from .core import DEPTH_Q, SEARCH_BLOCK, lookup_box, query_indices
+from .core import DEPTH_Q, SEARCH_BLOCK, decode_depth, lookup_box, query_indices
 
 __all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas", "empty_words", "empty_bits",
            "empty_table", "EMPTY_BYTES"]
@@ -85,13 +85,18 @@ def _resident(csm):
     """``csm``'s offsets, iend and depth, in memory: those of a mapped file (``load(mmap=True)``), which
     may have changed since it was checked, copied and checked again, so that the device gets what was
     checked."""
-    arrays = {"offsets": csm.offsets, "iend": csm.iend, "depth": csm.depth}
+    return _resident_arrays(csm.offsets, csm.iend, csm.depth, csm.resolution, csm.maps, csm.depth_bits)
+
+
+def _resident_arrays(offsets, iend, depth, resolution, maps, depth_bits):
+    """:func:`_resident` of a CSM's arrays and sizes."""
+    arrays = {"offsets": offsets, "iend": iend, "depth": depth}
     if any(isinstance(a, np.memmap) for a in arrays.values()):
         from .fileformat import _validate_arrays
 
         arrays = {k: np.array(a) for k, a in arrays.items()}
-        _validate_arrays("a mapped CSM file (changed since it was loaded)", arrays, csm.resolution, csm.maps,
-                         len(arrays["depth"]), csm.depth_bits)
+        _validate_arrays("a mapped CSM file (changed since it was loaded)", arrays, resolution, maps,
+                         len(arrays["depth"]), depth_bits)
     return tuple(np.asarray(arrays[k]) for k in ("offsets", "iend", "depth"))
 
 
@@ -128,13 +133,14 @@ def _empty_shift(maps: int, words) -> int:
 
 def empty_table(atlas: dict, used) -> "cl.Buffer":
     """The device buffer of :func:`empty_bits` of every type of a :func:`scene_atlas`, each at its row's
-    ``empty_base``: built on first ``used`` (the kernels compiled with ``EMPTY_RUNS``) and kept in the atlas;
-    one word, never read, where not ``used``."""
+    ``empty_base``: built on first ``used`` (the kernels compiled with ``EMPTY_RUNS``) and kept in the atlas,
+    from the arrays and sizes the atlas was built from (a CSM's attributes set since change neither the
+    table's size nor its bits); one word, never read, where not ``used``."""
     held = atlas["empty"]
     if not used:
         return held.setdefault("unused", _cl.to_device(np.zeros(1, np.uint32)))
     if "bits" not in held:
-        bits = [empty_bits(c, empty_words(c.resolution, c.maps))[0].reshape(-1) for c in held["types"]]
+        bits = [_empty_bits(*source)[0].reshape(-1) for source in held["sources"]]
         held["bits"] = _cl.to_device(np.concatenate(bits) if bits else np.zeros(1, np.uint32))
     return held["bits"]
 
@@ -154,17 +160,21 @@ def empty_bits(csm, words: int) -> tuple[np.ndarray, int]:
     bits : ndarray of uint32, shape (R*R, words)
     shift : int
     """
-    R, D = csm.resolution, csm.maps
+    return _empty_bits(csm.offsets, csm.iend, csm.depth, csm.depth_bits, csm.resolution, csm.maps, words)
+
+
+def _empty_bits(offsets, iend, depth, depth_bits, R, D, words):
+    """:func:`empty_bits` of a CSM's arrays and sizes (those of a mapped file copied and checked first)."""
     shift = _empty_shift(D, words)
+    offsets, iend, depth = _resident_arrays(offsets, iend, depth, R, D, depth_bits)
     runs = 32 * words
-    offsets, iend, depth = _resident(csm)
-    lens = np.diff(offsets.astype(np.int64))
-    end = iend.astype(np.int64)
+    lens = np.diff(np.asarray(offsets).astype(np.int64))
+    end = np.asarray(iend).astype(np.int64)
     first = np.zeros(len(end), bool)
-    first[offsets[:-1][lens > 0].astype(np.int64)] = True
+    first[np.asarray(offsets)[:-1][lens > 0].astype(np.int64)] = True
     start = np.where(first, 0, np.r_[0, end[:-1] + 1])      # each segment's maps: start .. end
     texel = np.repeat(np.arange(R * R, dtype=np.int64), lens)
-    hit = ~np.isinf(csm.stored_to_depth(depth))
+    hit = ~np.isinf(decode_depth(depth, depth_bits))
     # the runs a surface segment touches: +1 at its first run, -1 after its last, summed along the runs
     lo, hi = texel[hit] * (runs + 1) + (start[hit] >> shift), texel[hit] * (runs + 1) + (end[hit] >> shift) + 1
     marks = (np.bincount(lo, minlength=R * R * (runs + 1)) - np.bincount(hi, minlength=R * R * (runs + 1)))
@@ -213,7 +223,7 @@ def scene_atlas(types) -> dict:
     wide = bits == 32 or wide_iend
     di = np.uint32 if wide_iend else np.uint16
     trow = np.zeros(max(1, len(types)), CSM_TYPE)
-    offs, soffs, summ, pairs, bases, cells = [], [], [], [], [], []
+    offs, soffs, summ, pairs, bases, cells, sources = [], [], [], [], [], [], []
     seg = blk = view = cell = tex = ebase = 0
     for ti, c in enumerate(types):
         R, D = c.resolution, c.maps
@@ -238,6 +248,7 @@ def scene_atlas(types) -> dict:
         trow[ti] = (R, D, layout, p1, p2, tex, view, cell, np.array(steps, np.float32), offset, box[0], box[1],
                     ebase, words, _empty_shift(D, words))
         ebase += R * R * words
+        sources.append((c.offsets, c.iend, c.depth, c.depth_bits, R, D, words))    # as search_arrays read them
         offs.append(a["offsets"][:-1].astype(np.int64) + seg)
         soffs.append(a["soff"][:-1].astype(np.int64) + blk)
         summ.append(a["summary"].astype(di))
@@ -275,6 +286,6 @@ def scene_atlas(types) -> dict:
             _cl.to_device(cat(bases, np.float32, np.zeros(9))),
             _cl.to_device(cat(cells, np.int32, [0])),
         ],
-        "empty": {"types": list(types)},
+        "empty": {"sources": sources},
     }
     return atlas

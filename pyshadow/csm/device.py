@@ -168,12 +168,11 @@ def _empty_bits(offsets, iend, depth, depth_bits, R, D, words):
     shift = _empty_shift(D, words)
     offsets, iend, depth = _resident_arrays(offsets, iend, depth, R, D, depth_bits)
     runs = 32 * words
-    lens = np.diff(np.asarray(offsets).astype(np.int64))
-    end = np.asarray(iend).astype(np.int64)
-    first = np.zeros(len(end), bool)
-    first[np.asarray(offsets)[:-1][lens > 0].astype(np.int64)] = True
-    start = np.where(first, 0, np.r_[0, end[:-1] + 1])      # each segment's maps: start .. end
-    texel = np.repeat(np.arange(R * R, dtype=np.int64), lens)
+    off = offsets.astype(np.int64)
+    end = iend.astype(np.int64)
+    start = np.r_[0, end[:-1] + 1]          # each segment's maps: start .. end (lists are never empty:
+    start[off[:-1]] = 0                     # every list's first segment starts at map 0)
+    texel = np.repeat(np.arange(R * R, dtype=np.int64), np.diff(off))
     hit = ~np.isinf(decode_depth(depth, depth_bits))
     # the runs a surface segment touches: +1 at its first run, -1 after its last, summed along the runs
     lo, hi = texel[hit] * (runs + 1) + (start[hit] >> shift), texel[hit] * (runs + 1) + (end[hit] >> shift) + 1

@@ -9,8 +9,11 @@ same points' AO (16 samples). Each count is timed three ways, interleaved,
 medians of ``--rounds``: "grid", the default from 16 casters (the uniform grid
 over the casters' spheres, ``INSTANCE_GRID``, where it is balanced); "tree"
 (the instance tree, ``INSTANCE_BVH``); "flat" (every caster visited; one
-round from 5,000 casters). Answers must be identical. Memory: the instance
-table (104 bytes a caster), the tree and the grid. And what a ray's walk of
+round from 5,000 casters), each after an untimed call of the same size: the
+steady state (the first call after another scene costs 1-2 ms more, a
+larger share of the lone body's time, which made the ratios look smaller).
+Answers must be identical. Memory: the instance table (104 bytes a caster),
+the tree and the grid. And what a ray's walk of
 the grid meets (a NumPy walk of every 64th ray): cells, listed spheres, and
 distinct spheres met (the CSM lookups it asks).
 
@@ -128,8 +131,10 @@ def main(argv=None) -> int:
                     continue                             # seconds a round; one is enough to see it
                 backend.BVH_MIN_INSTANCES, backend.USE_GRID = least, use_grid
                 accel[n][mode] = backend.instance_accel(s)
-                s.visible(P[:64], D[:64])                # compile outside the timing
-                s.ambient_occlusion(pts[:8], up[:8], sampling=pyshadow.Sampling(16))
+                # untimed: the builds, and the first full-size call after another scene or mode (its tables'
+                # cache misses, the query arrays' first use), which costs 1-2 ms more than the next
+                s.visible(P, D)
+                s.ambient_occlusion(pts, up, sampling=pyshadow.Sampling(16))
                 t0 = time.perf_counter()
                 v = s.visible(P, D)
                 t1 = time.perf_counter()

@@ -131,8 +131,8 @@ def main(argv=None) -> int:
                     continue                             # seconds a round; one is enough to see it
                 backend.BVH_MIN_INSTANCES, backend.USE_GRID = least, use_grid
                 accel[n][mode] = backend.instance_accel(s)
-                # untimed: the builds, and the first full-size call after another scene or mode (its tables'
-                # cache misses, the query arrays' first use), which costs 1-2 ms more than the next
+                # untimed: the builds, and the first full-size call after another scene or mode, which costs
+                # 1-2 ms more than the next (measured; cold caches, most likely: not measured)
                 s.visible(P, D)
                 s.ambient_occlusion(pts, up, sampling=pyshadow.Sampling(16))
                 t0 = time.perf_counter()

@@ -138,7 +138,9 @@ def empty_table(atlas: dict, used) -> "cl.Buffer":
     table's size nor its bits); one word, never read, where not ``used``."""
     held = atlas["empty"]
     if not used:
-        return held.setdefault("unused", _cl.to_device(np.zeros(1, np.uint32)))
+        if "unused" not in held:
+            held["unused"] = _cl.to_device(np.zeros(1, np.uint32))
+        return held["unused"]
     if "bits" not in held:
         bits = [_empty_bits(*source)[0].reshape(-1) for source in held["sources"]]
         held["bits"] = _cl.to_device(np.concatenate(bits) if bits else np.zeros(1, np.uint32))

@@ -14,13 +14,19 @@
 3. A detailed and a smooth body (the bundled scene's bunny and torus) at
    ``max_error=0.01``: agreement on each body's AO rays in the scene, and
    the bytes of the chosen CSMs against both at the bunny's parameters.
+4. With ``--shapes``: part 1's rows for shapes made here (:data:`SHAPES`),
+   meshes the model was not calibrated on -- a thin plate, a capsule, a
+   rough sphere, a comb of thin fins, an open tube, a thin ring.
 
-    python benchmarks/error_model.py [--quick] [--meshes NAME ...] [--targets E ...] [--meshes-only] [--json]
+    python benchmarks/error_model.py [--quick] [--meshes NAME ...] [--targets E ...] [--meshes-only]
+                                     [--shapes [NAME ...]] [--lookup auto|nearest|vote] [--json]
 
 ``--quick``: 2 % and 1 % only, four meshes. ``--meshes`` and ``--targets``
 choose the rows of part 1 (and the targets of part 2), each over what
 ``--quick`` would choose (so not all three together); ``--meshes-only``
-skips parts 2 and 3.
+skips parts 2 and 3. ``--shapes`` alone runs part 4 only (every shape, or
+those named), at ``--targets``. ``--lookup`` (``auto``, the default;
+``nearest``, ``vote``): the lookup the rows of parts 1 and 4 choose for.
 """
 from __future__ import annotations
 
@@ -38,6 +44,54 @@ from _common import check_meshes, emit, environment
 TARGETS = (0.02, 0.01, 0.005)
 
 
+def _comb():
+    """Eight fins 0.05 thick, 0.6 tall, 0.14 apart, on a base plate: thin parts and narrow gaps."""
+    import trimesh
+
+    box = trimesh.creation.box
+    move = trimesh.transformations.translation_matrix
+    fins = [box((0.05, 1.0, 0.6), move((x, 0.0, 0.0))) for x in np.linspace(-0.5, 0.5, 8)]
+    return trimesh.util.concatenate(fins + [box((1.1, 1.0, 0.05), move((0.0, 0.0, -0.3)))])
+
+
+def _rough():
+    """An icosphere (2,562 vertices) with each vertex moved along its radius by 8 % noise: detail at the
+    scale of a face, everywhere."""
+    import trimesh
+
+    m = trimesh.creation.icosphere(4)
+    v = m.vertices * (1 + 0.08 * np.random.default_rng(3).standard_normal(len(m.vertices)))[:, None]
+    return trimesh.Trimesh(v, m.faces)
+
+
+def _tube():
+    """A cylinder's side without its caps (radius 0.3, length 1.5): open, its inside as much surface as its
+    outside, with walls of no thickness at the rims."""
+    import trimesh
+
+    m = trimesh.creation.cylinder(0.3, 1.5, sections=48)
+    return trimesh.Trimesh(m.vertices, m.faces[np.abs(m.face_normals[:, 2]) < 0.5])
+
+
+def _shape(make, *args, **kw):
+    def build():
+        import trimesh
+
+        return getattr(trimesh.creation, make)(*args, **kw)
+    return build
+
+
+#: part 4's shapes: meshes none of the model's rules or constants were fitted on (name -> a function making it)
+SHAPES = {
+    "plate": _shape("box", (1.0, 1.0, 0.01)),
+    "capsule": _shape("capsule", 1.0, 0.25),
+    "rough": _rough,
+    "comb": _comb,
+    "tube": _tube,
+    "ring": _shape("torus", 0.6, 0.08, major_sections=64, minor_sections=16),
+}
+
+
 def choose(mesh, target, layers="auto", lookup="auto"):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)         # a miss is reported in the row
@@ -45,8 +99,8 @@ def choose(mesh, target, layers="auto", lookup="auto"):
                                                 progress=False)
 
 
-def mesh_row(name, mesh, target):
-    csm = choose(mesh, target)
+def mesh_row(name, mesh, target, lookup="auto"):
+    csm = choose(mesh, target, lookup=lookup)
     c = csm.stats["choice"]
     p, m = c["predicted"], c["measured"]
     built = [t for t in c["tried"] if "build_seconds" in t]
@@ -158,6 +212,10 @@ def main(argv=None):
     ap.add_argument("--meshes", nargs="+", metavar="NAME", help="bundled meshes (file name or stem)")
     ap.add_argument("--targets", nargs="+", type=float, metavar="E")
     ap.add_argument("--meshes-only", action="store_true", help="part 1 only")
+    ap.add_argument("--shapes", nargs="*", metavar="NAME", choices=tuple(SHAPES),
+                    help=f"part 4 only: shapes made here ({', '.join(SHAPES)}; all where none is named)")
+    ap.add_argument("--lookup", choices=("auto", "nearest", "vote"), default="auto",
+                    help="the lookup part 1 and part 4 choose for (default: auto)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.targets and not all(0 < t < 1 for t in args.targets):
@@ -165,17 +223,24 @@ def main(argv=None):
     if args.quick and args.meshes and args.targets:
         ap.error("--quick chooses meshes and targets; with both --meshes and --targets given it has no effect")
     check_meshes(ap, "--meshes", args.meshes or (), files=False)
+    if args.shapes is not None and (args.meshes or args.quick or args.meshes_only):
+        ap.error("--shapes runs part 4 alone: give it without --meshes, --quick and --meshes-only")
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
-    names = ("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick else pyshadow.data.MESHES
-    if args.meshes:
-        names = tuple(_mesh_name(n) for n in args.meshes)
-    meshes = {n: pyshadow.data.mesh(n) for n in set(names) | {"stanford-bunny.obj", "fandisk.obj", "torus.STL"}}
+    if args.shapes is not None:
+        names = tuple(args.shapes) or tuple(SHAPES)
+        meshes = {n: SHAPES[n]() for n in names}
+    else:
+        names = (("stanford-bunny.obj", "fandisk.obj", "torus.STL", "homer.obj") if args.quick
+                 else pyshadow.data.MESHES)
+        if args.meshes:
+            names = tuple(_mesh_name(n) for n in args.meshes)
+        meshes = {n: pyshadow.data.mesh(n) for n in set(names) | {"stanford-bunny.obj", "fandisk.obj", "torus.STL"}}
 
     rows, chosen = [], {}
     for name in names:
         for target in targets:
-            csm, row = mesh_row(name, meshes[name], target)
+            csm, row = mesh_row(name, meshes[name], target, args.lookup)
             chosen[name, target] = csm
             rows.append(row)
             if not args.json:
@@ -186,9 +251,10 @@ def main(argv=None):
                       f"{row['build_seconds']:.1f} s", flush=True)
 
     two, mixed_out = {}, None
-    if not args.meshes_only:
+    if not args.meshes_only and args.shapes is None:
         two, mixed_out = scenes(meshes, chosen, targets, args.json)
     res = {"benchmark": "error_model", **environment(), "model_ratio": MODEL_RATIO, "targets": targets,
+           "rows_are": "shapes made here" if args.shapes is not None else "bundled meshes", "lookup": args.lookup,
            "meshes": rows, "two_objects": {str(k): v for k, v in two.items()}, "mixed": mixed_out,
            "all_within_1_5": all(r["within_1_5"] for r in rows) and all(
                v["all"]["ratio"] is not None and 1 / 1.5 <= v["all"]["ratio"] <= 1.5 for v in two.values()),

@@ -26,7 +26,8 @@ choose the rows of part 1 (and the targets of part 2), each over what
 ``--quick`` would choose (so not all three together); ``--meshes-only``
 skips parts 2 and 3. ``--shapes`` alone runs part 4 only (every shape, or
 those named), at ``--targets``. ``--lookup`` (``auto``, the default;
-``nearest``, ``vote``): the lookup the rows of parts 1 and 4 choose for.
+``nearest``, ``vote``): the lookup the rows of parts 1 and 4 choose for
+(with ``--meshes-only`` or ``--shapes``).
 """
 from __future__ import annotations
 
@@ -225,6 +226,9 @@ def main(argv=None):
     check_meshes(ap, "--meshes", args.meshes or (), files=False)
     if args.shapes is not None and (args.meshes or args.quick or args.meshes_only):
         ap.error("--shapes runs part 4 alone: give it without --meshes, --quick and --meshes-only")
+    if args.lookup != "auto" and not (args.meshes_only or args.shapes is not None):
+        ap.error("--lookup applies to the rows of parts 1 and 4: give it with --meshes-only or --shapes "
+                 "(parts 2 and 3 reuse part 1's choices)")
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
     if args.shapes is not None:

@@ -34,8 +34,10 @@ from __future__ import annotations
 import argparse
 import time
 import warnings
+from functools import partial
 
 import numpy as np
+import trimesh
 
 import pyshadow
 from pyshadow import embree
@@ -47,8 +49,6 @@ TARGETS = (0.02, 0.01, 0.005)
 
 def _comb():
     """Eight fins 0.05 thick, 0.6 tall, 0.14 apart, on a base plate: thin parts and narrow gaps."""
-    import trimesh
-
     box = trimesh.creation.box
     move = trimesh.transformations.translation_matrix
     fins = [box((0.05, 1.0, 0.6), move((x, 0.0, 0.0))) for x in np.linspace(-0.5, 0.5, 8)]
@@ -58,8 +58,6 @@ def _comb():
 def _rough():
     """An icosphere (2,562 vertices) with each vertex moved along its radius by 8 % noise: detail at the
     scale of a face, everywhere."""
-    import trimesh
-
     m = trimesh.creation.icosphere(4)
     v = m.vertices * (1 + 0.08 * np.random.default_rng(3).standard_normal(len(m.vertices)))[:, None]
     return trimesh.Trimesh(v, m.faces)
@@ -68,28 +66,18 @@ def _rough():
 def _tube():
     """A cylinder's side without its caps (radius 0.3, length 1.5): open, its inside as much surface as its
     outside, with walls of no thickness at the rims."""
-    import trimesh
-
     m = trimesh.creation.cylinder(0.3, 1.5, sections=48)
     return trimesh.Trimesh(m.vertices, m.faces[np.abs(m.face_normals[:, 2]) < 0.5])
 
 
-def _shape(make, *args, **kw):
-    def build():
-        import trimesh
-
-        return getattr(trimesh.creation, make)(*args, **kw)
-    return build
-
-
 #: part 4's shapes: meshes none of the model's rules or constants were fitted on (name -> a function making it)
 SHAPES = {
-    "plate": _shape("box", (1.0, 1.0, 0.01)),
-    "capsule": _shape("capsule", 1.0, 0.25),
+    "plate": partial(trimesh.creation.box, (1.0, 1.0, 0.01)),
+    "capsule": partial(trimesh.creation.capsule, 1.0, 0.25),
     "rough": _rough,
     "comb": _comb,
     "tube": _tube,
-    "ring": _shape("torus", 0.6, 0.08, major_sections=64, minor_sections=16),
+    "ring": partial(trimesh.creation.torus, 0.6, 0.08, major_sections=64, minor_sections=16),
 }
 
 
@@ -163,7 +151,6 @@ def _mesh_name(name):
 def scenes(meshes, chosen, targets, quiet):
     """Parts 2 and 3: the two-object scene at each target, the mixed scene at 1 %."""
     bunny, fandisk, torus = (meshes[n] for n in ("stanford-bunny.obj", "fandisk.obj", "torus.STL"))
-    import trimesh
     rot = trimesh.transformations.rotation_matrix(0.9, [0.3, 1.0, 0.2])[:3, :3]
     two = {}
     for target in targets:

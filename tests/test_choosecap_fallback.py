@@ -5,6 +5,8 @@ import warnings
 import pytest
 import trimesh
 
+import pyshadow
+
 import pyshadow.csm.choose as choose
 from pyshadow.csm.choose import choose_csm, size_model
 
@@ -120,3 +122,49 @@ def test_size_model_estimates_build_seconds_from_its_pilots(box):
     size, info = size_model(box, built=built)
     rates = [built[c][1] / choose._work(c) for c in choose.PILOTS]
     assert 0.0 < info["seconds_per_work"] == min(rates)
+
+
+def _fake_measure(disagreement):
+    def fake(csm, mesh, rays, lookup="nearest"):
+        return {"disagreement": disagreement}
+    return fake
+
+
+def test_max_bytes_with_max_error_keeps_no_csm_built_past_it(box, monkeypatch):
+    """Was: with both, choose_csm capped only the predicted sizes (a CSM built past the cap came back), and
+    CoherentShadowMap.build refused the pair (TypeError 'not both'), so 'the cheapest meeting 1 % within 10 kB' could
+    not be asked of build. The size model here predicts 2,000, 4,000 and 50,000 bytes, under what the box's CSMs take
+    (7,376, 16,568 and 65,160): one built past the cap is not kept, and none predicted as large or larger is built."""
+    sizes = {LADDER[0]: 2000.0, LADDER[1]: 4000.0, LADDER[2]: 50000.0}
+    monkeypatch.setattr(choose, "size_model", lambda *a, **k: ((lambda t, p, r: sizes[(t, p, r)]), {}))
+    table = {LADDER[0]: (0.02, (0.015, 0.025)), LADDER[1]: (0.006, (0.005, 0.007)), LADDER[2]: (0.005, (0.004, 0.006))}
+    monkeypatch.setattr(choose, "predict", _fake_predict(table))
+    # 8x16 r32 is never looked at; 8x16 r16, predicted to meet 1 % (within the model's range), is built at 16,568
+    # bytes: past 10,000. 4x8 r16, predicted smaller, is the one left: built (7,376) though predicted to miss
+    with pytest.warns(UserWarning, match=r"no candidate CSM meets max_error=0.01; keeping the last built, 4x8 r16"):
+        csm, c = choose_csm(box, 0.01, verify=False, **TINY, candidates=LADDER, max_bytes=10_000)
+    assert (csm.maps, csm.resolution, csm.stats["bytes"]) == (32, 16, 7376)
+    assert [(t.get("bytes"), t.get("over_budget", False)) for t in c["tried"]] == [(7376, False), (16568, True)]
+    assert all("candidate" not in t for t in c["tried"])
+    with pytest.raises(ValueError, match=r"no candidate CSM fits in max_bytes=7000: each one built came out larger "
+                                         r"\(none predicted as large as one that did is built\); the smallest built, "
+                                         r"4x8 r16 16b, takes 7376 bytes"):
+        choose_csm(box, 0.01, verify=False, **TINY, candidates=LADDER, max_bytes=7000)
+    # verified: 4x8 r16, predicted to meet, measures 0.02; 8x16 r16, asked next, is built past the cap; the one
+    # within it, held, is what comes back (with the miss said), not a CSM over the cap and not an error
+    table[LADDER[0]] = (0.005, (0.004, 0.006))
+    table[LADDER[1]] = (0.002, (0.001, 0.003))
+    monkeypatch.setattr(choose, "measure", _fake_measure(0.02))
+    with pytest.warns(UserWarning, match=r"keeping the last built, 4x8 r16 16b \(nearest\): measured 0.0200"):
+        csm, c = choose_csm(box, 0.01, verify=True, **TINY, candidates=LADDER, max_bytes=10_000)
+    assert (csm.maps, csm.resolution, c["met"]) == (32, 16, False)
+    assert [t.get("over_budget", False) for t in c["tried"]] == [False, True]
+
+
+def test_build_takes_max_error_and_max_bytes_together(box):
+    """CoherentShadowMap.build(mesh, max_error=, max_bytes=): choose_csm with the cap. The box's smallest default
+    candidate (16x32 maps at 64^2) meets 2 % and takes 617,292 bytes."""
+    csm = pyshadow.CoherentShadowMap.build(box, max_error=0.02, max_bytes=700_000, verify=False, progress=False)
+    assert csm.stats["bytes"] <= 700_000 and csm.choice["target"] == 0.02 and csm.choice["met"]
+    with pytest.raises(ValueError, match=r"no candidate CSM fits in max_bytes=30000 \(the smallest is predicted at "):
+        pyshadow.CoherentShadowMap.build(box, max_error=0.02, max_bytes=30_000, verify=False, progress=False)

@@ -196,8 +196,6 @@ def test_budget_gives_the_most_accurate_that_fits(torus):
     assert c["measured"] is not None
     with pytest.raises(ValueError, match="no candidate CSM fits in 1000 bytes"):
         choose_within(torus, 1000, points=100, samples=4, near=500, candidates=cands)
-    with pytest.raises(TypeError, match="not both"):
-        pyshadow.CoherentShadowMap.build(torus, max_error=0.01, max_bytes=10**6)
 
 
 def test_auto_lookup_takes_the_vote_only_where_one_texel_cannot(torus):

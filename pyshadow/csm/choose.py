@@ -150,17 +150,19 @@ def _mb(nbytes) -> str:
     return f"{nbytes / 1e6:.0f} MB" if nbytes >= 1e7 else f"{nbytes / 1e6:.2g} MB"
 
 
-def _nearest_target(tried, need) -> int:
+def _nearest_target(tried, need, fits=lambda t: True) -> int | None:
     """Index in ``tried`` of the candidate to build where none not built yet is predicted to meet the target:
     of those predicted as near as the one nearest the target (the least disagreement over ``need`` of its
     lookup, the target the walk still asks, narrowed by the misses measured), within :data:`NEAR_ENOUGH` times
     its disagreement and the upper end of its 95 % interval, the smallest by predicted bytes; the later of
-    equals."""
+    equals; None where no candidate not built yet ``fits`` (the cap on bytes)."""
     def shortfall(j, value=lambda p: p["disagreement"]):
         p = tried[j]["predicted"]
         # a target narrowed to 0 (the model predicted 0 and missed): ranked still by the disagreement, not all inf
         return value(p) / max(need[p["lookup"]], np.finfo(np.float64).tiny)
-    todo = [j for j, t in enumerate(tried) if "bytes" not in t]
+    todo = [j for j, t in enumerate(tried) if "bytes" not in t and fits(t)]
+    if not todo:
+        return None
     best = min(todo, key=lambda j: (shortfall(j), -j))
     reach = min(shortfall(best, _upper), NEAR_ENOUGH * shortfall(best))
     return min((j for j in todo if shortfall(j) <= reach or j == best),
@@ -310,7 +312,9 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         every other candidate has missed with every lookup.
     max_bytes : int, optional
         A cap on the CSM's size, bytes: candidates predicted
-        (:func:`size_model`, within about 15 %) above it are never built.
+        (:func:`size_model`, within about 15 %) above it are never built,
+        and one built larger is not kept: the walk goes on among those
+        predicted smaller than it.
         Verifying a CSM holds about ten times its bytes while the check's
         scene is set up (a 433 MB CSM: 4.1 GB more).
 
@@ -337,8 +341,8 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     ------
     ValueError
         ``max_error`` outside (0, 1) or NaN; no candidate predicted within ``max_bytes`` (the message gives
-        the smallest predicted size); a mesh :func:`pyshadow.mesh.check_mesh` refuses (no triangles, a
-        vertex not finite, a face index outside the vertices).
+        the smallest predicted size), or none built within it; a mesh :func:`pyshadow.mesh.check_mesh`
+        refuses (no triangles, a vertex not finite, a face index outside the vertices).
     """
     with _Steps(progress) as note:
         return _choose_csm(note, mesh, max_error, lookup=lookup, depth_bits=depth_bits, layers=layers,
@@ -377,26 +381,42 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
     # with the check, the central prediction decides what to build first (a miss costs a build, the
     # check catches it); without, the prediction widened by the model's measured range
     need = dict.fromkeys(lookups, max_error / (1.0 if verify else MODEL_RATIO[1]))
-    tried, csm, entry = [], None, None
-    for i, (cand, lk) in enumerate(order):
-        note(f"predict {_layout(cand)} ({lk})")
-        pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)
-        entry = {"predicted": pred, "predicted_bytes": size(*cand),
-                 "predicted_seconds": size_info.get("seconds_per_work", 0.0) * _work(cand)}
-        tried.append(entry)
-        if pred["disagreement"] > need[lk]:
-            if i < len(order) - 1:
-                continue
+    tried, csm, entry, kept, kept_csm, i = [], None, None, None, None, 0
+    over = math.inf             # the least predicted size of those built past max_bytes: none predicted larger fits
+    fits = (lambda t: True) if max_bytes is None else (lambda t: t["predicted_bytes"] < over)
+    while True:
+        if i < len(order):
+            (cand, lk), i = order[i], i + 1
+            note(f"predict {_layout(cand)} ({lk})")
+            pred = predict(mesh, cand[:2], cand[2], depth_bits, lk, rays=rays)
+            entry = {"predicted": pred, "predicted_bytes": size(*cand), "candidate": (cand, lk),
+                     "predicted_seconds": size_info.get("seconds_per_work", 0.0) * _work(cand)}
+            tried.append(entry)
+            if pred["disagreement"] > need[lk] or not fits(entry):
+                if i < len(order):
+                    continue
+                entry = None
+        if entry is None:
             # the last misses too: the smallest predicted about as near as the one predicted nearest the target
-            j = _nearest_target(tried, need)
-            (cand, lk), entry = order[j], tried[j]
+            j = _nearest_target(tried, need, fits)
+            if j is None:
+                break
+            entry = tried[j]
+            cand, lk = entry["candidate"]
             if cand not in built:
                 _announce(max_error, tried, entry, verify)
-        _keep(built, {c for c, _ in order[i:]} | {cand})
+        _keep(built, {c for c, _ in order[i - 1:]} | {cand})
         csm = None                     # the last miss: not held while the next one is built
         note(f"build {_layout(cand)}")
         csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
         entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
+        if max_bytes is not None and entry["bytes"] > max_bytes:       # the size model under-predicted this body
+            over, csm, entry["over_budget"] = min(over, entry["predicted_bytes"]), None, True
+            built.pop(cand)
+            entry = None if i == len(order) else entry
+            continue
+        # with a cap, the last CSM within it is held (at most max_bytes) in case every later one is built past it
+        kept, kept_csm = entry, (csm if max_bytes is not None else None)
         if not verify:
             break
         note(f"verify {_layout(cand)} ({lk})")
@@ -404,10 +424,22 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
         got = entry["measured"]["disagreement"]
         if got <= max_error:
             break
-        if pred["disagreement"] > 0:       # the model missed by got / predicted on this body: ask that much more
-            need[lk] = min(need[lk], max_error * pred["disagreement"] / got)
+        if entry["predicted"]["disagreement"] > 0:  # the model missed by got / predicted here: ask that much more
+            need[lk] = min(need[lk], max_error * entry["predicted"]["disagreement"] / got)
         else:
             need[lk] = 0.0
+        if i == len(order):
+            break
+    for t in tried:
+        t.pop("candidate")
+    if csm is None and kept is not None:      # those built after the last within max_bytes were built past it
+        csm = kept_csm
+    elif csm is None:           # every candidate predicted within max_bytes was built larger
+        least = min((t for t in tried if "bytes" in t), key=lambda t: t["bytes"])
+        raise ValueError(f"no candidate CSM fits in max_bytes={max_bytes}: each one built came out larger (none "
+                         f"predicted as large as one that did is built); the smallest built, "
+                         f"{least['predicted']['layout']}, takes {least['bytes']} bytes")
+    entry = kept
     p = entry["predicted"]
     # unverified: met by the walk's own test (the prediction against the target narrowed by the model's range)
     met = entry["measured"]["disagreement"] <= max_error if verify else p["disagreement"] <= need[p["lookup"]]
@@ -521,19 +553,18 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
 
 def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_error, max_bytes, lookup, depth_bits,
                  layers, verify, progress):
-    """:meth:`CoherentShadowMap.build` with ``max_error`` or ``max_bytes``: the chosen CSM, ``choice`` set."""
+    """:meth:`CoherentShadowMap.build` with ``max_error``, ``max_bytes`` or both (the cheapest meeting ``max_error``
+    within ``max_bytes``: :func:`choose_csm`'s cap): the chosen CSM, ``choice`` set."""
     from ..mesh import load_mesh
     from .exposure import is_auto
 
     if views is not None or resolution is not None or frame is not None or footprint or not is_auto(two_sided):
         raise TypeError("CoherentShadowMap.build: max_error and max_bytes choose views and resolution; "
                         "leave out views, resolution, frame, footprint and two_sided")
-    if max_error is not None and max_bytes is not None:
-        raise TypeError("CoherentShadowMap.build: pass max_error or max_bytes, not both")
     mesh = mesh if hasattr(mesh, "faces") else load_mesh(mesh)
     check_mesh(mesh, "CoherentShadowMap.build")     # as the build without max_error names what is wrong
     kw = dict(lookup=lookup, depth_bits=depth_bits, layers=layers, verify=verify, progress=progress)
-    csm, choice = (choose_csm(mesh, max_error, **kw) if max_error is not None
+    csm, choice = (choose_csm(mesh, max_error, max_bytes=max_bytes, **kw) if max_error is not None
                    else choose_within(mesh, max_bytes, **kw))
     csm.choice = choice
     return csm

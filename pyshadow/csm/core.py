@@ -291,7 +291,7 @@ class CoherentShadowMap:
             (:mod:`pyshadow.csm.choose`), is at most this fraction of rays.
             How it chose is in ``stats["choice"]``.
         max_bytes : int, optional
-            The other way round: the most accurate CSM within this size.
+            The most accurate CSM within this many bytes; with ``max_error``, the cheapest meeting it within them.
         lookup : {'nearest', 'vote', 'auto'}, optional
             With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with
             (``'auto'``, ``max_error`` only: one-texel where it can meet it, else the vote).

@@ -321,7 +321,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
     Returns
     -------
     csm : CoherentShadowMap
-        The choice; when none meets the target, the last built, with a ``UserWarning``: where no
+        The choice; when none meets the target, the last built (within ``max_bytes``), with a ``UserWarning``: where no
         candidate left is predicted to meet it, the smallest of those predicted as near as the one
         predicted nearest it (its disagreement over the target, narrowed by the misses measured;
         within :data:`NEAR_ENOUGH` times that one's and its 95 % interval), not the last by predicted
@@ -333,7 +333,8 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         ``resolution``, ``depth_bits``, ``predicted`` (the model's record),
         ``measured`` (or None), ``tried`` (every candidate looked at:
         prediction, predicted bytes and build seconds (estimated from the
-        pilots), and bytes, build seconds and measurement where built),
+        pilots), and bytes, build seconds and measurement where built;
+        ``over_budget`` True where built past ``max_bytes``),
         ``size_model``, ``seconds`` (model, pilots, builds and checks
         together).
 

@@ -150,7 +150,7 @@ def _mb(nbytes) -> str:
     return f"{nbytes / 1e6:.0f} MB" if nbytes >= 1e7 else f"{nbytes / 1e6:.2g} MB"
 
 
-def _nearest_target(tried, need, fits=lambda t: True) -> int | None:
+def _nearest_target(tried, need, fits) -> int | None:
     """Index in ``tried`` of the candidate to build where none not built yet is predicted to meet the target:
     of those predicted as near as the one nearest the target (the least disagreement over ``need`` of its
     lookup, the target the walk still asks, narrowed by the misses measured), within :data:`NEAR_ENOUGH` times
@@ -382,7 +382,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
     # with the check, the central prediction decides what to build first (a miss costs a build, the
     # check catches it); without, the prediction widened by the model's measured range
     need = dict.fromkeys(lookups, max_error / (1.0 if verify else MODEL_RATIO[1]))
-    tried, csm, entry, kept, kept_csm, i = [], None, None, None, None, 0
+    tried, csm, entry, kept, i = [], None, None, None, 0
     over = math.inf             # the least predicted size of those built past max_bytes: none predicted larger fits
     fits = (lambda t: True) if max_bytes is None else (lambda t: t["predicted_bytes"] < over)
     while True:
@@ -407,17 +407,19 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             if cand not in built:
                 _announce(max_error, tried, entry, verify)
         _keep(built, {c for c, _ in order[i - 1:]} | {cand})
-        csm = None                     # the last miss: not held while the next one is built
+        if max_bytes is None:
+            csm = None                 # the last miss: not held while the next one is built
+        # (with a cap, the last CSM within it is held, at most max_bytes, in case every later one is built past it)
         note(f"build {_layout(cand)}")
-        csm, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
-        entry.update(bytes=csm.stats["bytes"], build_seconds=seconds)
+        new, seconds = _build(mesh, cand, depth_bits, layers, progress, built)     # one CSM serves both lookups
+        entry.update(bytes=new.stats["bytes"], build_seconds=seconds)
         if max_bytes is not None and entry["bytes"] > max_bytes:       # the size model under-predicted this body
-            over, csm, entry["over_budget"] = min(over, entry["predicted_bytes"]), None, True
-            built.pop(cand)
+            over, entry["over_budget"] = min(over, entry["predicted_bytes"]), True
+            del new, built[cand]
             entry = None if i == len(order) else entry
             continue
-        # with a cap, the last CSM within it is held (at most max_bytes) in case every later one is built past it
-        kept, kept_csm = entry, (csm if max_bytes is not None else None)
+        csm, kept = new, entry
+        del new                         # csm alone holds it
         if not verify:
             break
         note(f"verify {_layout(cand)} ({lk})")
@@ -433,9 +435,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             break
     for t in tried:
         t.pop("candidate")
-    if csm is None and kept is not None:      # those built after the last within max_bytes were built past it
-        csm = kept_csm
-    elif csm is None:           # every candidate predicted within max_bytes was built larger
+    if csm is None:             # every candidate predicted within max_bytes was built larger
         least = min((t for t in tried if "bytes" in t), key=lambda t: t["bytes"])
         raise ValueError(f"no candidate CSM fits in max_bytes={max_bytes}: each one built came out larger (none "
                          f"predicted as large as one that did is built); the smallest built, "

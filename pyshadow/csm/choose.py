@@ -116,27 +116,29 @@ def _upper(p) -> float:
     return p["disagreement"] if top is None else max(p["disagreement"], float(top["interval"][1]))
 
 
-def _announce(max_error, tried, entry, verify):
+def _announce(max_error, tried, entry, verify, fits):
     """Warn, before it starts, of a build for a target no candidate is predicted to meet that is predicted to take
     :data:`LONG_BUILD` seconds or bytes or more: what it is predicted to reach, what it costs, the most accurate
-    prediction (and its cost) where that is another candidate."""
+    prediction (and its cost) where that is another candidate that ``fits`` (the cap on bytes)."""
     sec, nbytes = entry["predicted_seconds"], entry["predicted_bytes"]
     if sec < LONG_BUILD[0] and nbytes < LONG_BUILD[1]:
         return
     p = entry["predicted"]
     warnings.warn(f"no candidate CSM is predicted to meet max_error={max_error:g}: building {p['layout']} "
                   f"({p['lookup']}), predicted {p['disagreement']:.4f}, about {_mb(nbytes)} and "
-                  f"{sec:.0f} s{' before its check' if verify else ''}{_most_accurate(tried, entry)}"
-                  f"{_most_accurate(tried, entry, 0.25, 'a quarter of the size or less')}; "
+                  f"{sec:.0f} s{' before its check' if verify else ''}{_most_accurate(tried, entry, fits)}"
+                  f"{_most_accurate(tried, entry, fits, 0.25, 'a quarter of the size or less')}; "
                   "pyshadow.csm.choose_csm(..., max_bytes=) caps the size", UserWarning, stacklevel=4)
 
 
-def _most_accurate(tried, entry, share=None, within="") -> str:
-    """'; the most accurate predicted, ...': the candidate of ``tried`` not measured with the least predicted
-    disagreement and its estimated cost, where that is less than ``entry``'s (with ``share``: of those at most
-    ``share`` times its predicted bytes, where there is one); '' otherwise."""
+def _most_accurate(tried, entry, fits, share=None, within="") -> str:
+    """'; the most accurate predicted, ...': the candidate of ``tried`` not measured, not built past the cap on
+    bytes and that ``fits`` it, with the least predicted disagreement and its estimated cost, where that is less
+    than ``entry``'s (with ``share``: of those at most ``share`` times its predicted bytes, where there is one); ''
+    otherwise."""
     cap = math.inf if share is None else share * entry["predicted_bytes"]
-    best = min((t for t in tried if "measured" not in t and t["predicted_bytes"] <= cap),
+    best = min((t for t in tried if "measured" not in t and "over_budget" not in t and fits(t)
+                and t["predicted_bytes"] <= cap),
                key=lambda t: t["predicted"]["disagreement"], default=None)
     if best is None or (share is None and best["predicted"]["disagreement"] >= entry["predicted"]["disagreement"]):
         return ""
@@ -405,7 +407,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             entry = tried[j]
             cand, lk = entry["candidate"]
             if cand not in built:
-                _announce(max_error, tried, entry, verify)
+                _announce(max_error, tried, entry, verify, fits)
         _keep(built, {c for c, _ in order[i - 1:]} | {cand})
         if max_bytes is None:
             csm = None                 # the last miss: not held while the next one is built
@@ -455,7 +457,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
                    "with the model's range")
         warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last built, {p['layout']} "
-                      f"({p['lookup']}): {got}{_most_accurate(tried, entry)}", UserWarning, stacklevel=4)
+                      f"({p['lookup']}): {got}{_most_accurate(tried, entry, fits)}", UserWarning, stacklevel=4)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,

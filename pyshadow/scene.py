@@ -21,7 +21,7 @@ from ._compat import deprecated, keyword_only, legacy_sampling
 from ._validate import FLOAT32_MAX, LOOKUPS, check_lookup, flag, uniform_scale
 from .contact import ground_sheet_slots
 from .csm import CoherentShadowMap
-from .csm.choose import _max_error
+from .csm.choose import _max_bytes, _max_error
 from .csm.core import DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, VOTE_BIAS_TEXELS
 from .mesh import bounding_sphere, check_mesh, mesh_hash, normalised_bounds, referenced_mesh
 from .sampling import Sampling
@@ -206,7 +206,7 @@ class Scene:
     # ------------------------------------------------------------------
     @keyword_only("Scene.add", old=1)
     def add(self, obj, transform=None, *, casts: bool = True, mesh=None, max_error: float | None = None,
-            lookup: str = "nearest") -> int:
+            max_bytes: int | None = None, lookup: str = "nearest") -> int:
         """Place an object; returns its instance id, or the ids (k,) int64 of k transforms (k, 4, 4).
 
         Parameters
@@ -217,19 +217,17 @@ class Scene:
             A mesh with ``casts=True`` gets a CSM built with the scene's options
             (once per geometry: equal meshes share one); with ``casts=False`` it only receives.
         transform : array_like, shape (4, 4) or (k, 4, 4), optional
-            Object-to-world transform: rotation (5 decimals suffice: placed as
-            the nearest), translation, uniform positive scale. Default identity.
-            A stack places the object k times at once (one CSM, one check of
-            the stack: :func:`pyshadow.scene_moves.add_instances`); an empty
-            one (``[]``) places none.
+            Object-to-world transform: rotation (5 decimals suffice: placed as the nearest), translation,
+            uniform positive scale. Default identity. A stack places the object k times at once (one CSM, one
+            check of the stack: :func:`pyshadow.scene_moves.add_instances`); an empty one (``[]``) places none.
         casts : bool, optional
         mesh : trimesh.Trimesh, optional
             The mesh of a CSM given as ``obj``, needed to draw it
             (:meth:`render`) and for :meth:`vertex_ao` and the Embree
             reference; it must be the mesh the CSM was built from.
-        max_error, lookup : optional
-            For a mesh that casts: its CSM's maps and resolution chosen for
-            this accuracy and lookup (:meth:`CoherentShadowMap.build`).
+        max_error, max_bytes, lookup : optional
+            For a mesh that casts: its CSM's maps and resolution chosen for this accuracy (disagreement
+            with Embree), within these bytes, or both, and this lookup (:meth:`CoherentShadowMap.build`).
 
         Raises
         ------
@@ -237,10 +235,11 @@ class Scene:
             Non-rigid transform, a CSM added with ``casts=False``, or a mesh
             that does not match the CSM.
         """
+        chosen = (max_error, max_bytes, lookup)
         if np.ndim(transform) == 3 or np.shape(transform) == (0,):     # a stack, or no transforms ([])
-            return add_instances(self, transform, lambda T: _new_instance(self, obj, T, casts, mesh, max_error, lookup))
+            return add_instances(self, transform, lambda T: _new_instance(self, obj, T, casts, mesh, *chosen))
         T = held_transform(np.eye(4) if transform is None else transform)
-        list.append(self._placed, _new_instance(self, obj, T, casts, mesh, max_error, lookup))
+        list.append(self._placed, _new_instance(self, obj, T, casts, mesh, *chosen))
         self._version += 1
         return len(self.instances) - 1
 
@@ -469,7 +468,7 @@ def _points_anchor(points) -> np.ndarray:
     return points.mean(axis=0) if len(points) else np.zeros(3)
 
 
-def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") -> Instance:
+def _new_instance(scene, obj, T, casts, mesh, max_error=None, max_bytes=None, lookup="nearest") -> Instance:
     """The :class:`Instance` that :meth:`Scene.add` places (building a caster's CSM once per mesh)."""
     if not isinstance(casts, (bool, np.bool_)):
         raise TypeError(f"casts must be True or False, got {casts!r}")
@@ -478,8 +477,8 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
     if isinstance(obj, CoherentShadowMap):
         if not casts:
             raise ValueError("a CoherentShadowMap always casts; add its mesh with casts=False instead")
-        if max_error is not None:
-            raise ValueError("max_error= chooses the CSM built for a mesh; this CSM is built already")
+        if max_error is not None or max_bytes is not None:
+            raise ValueError("max_error= and max_bytes= choose the CSM built for a mesh; this CSM is built already")
         if mesh is not None:
             mesh = loaded_mesh(scene, mesh)
             if (digest := mesh_hash(mesh)) != obj.mesh_hash:
@@ -495,19 +494,22 @@ def _new_instance(scene, obj, T, casts, mesh, max_error=None, lookup="nearest") 
         if casts:
             # one CSM per geometry and options: twenty equal boxes made apart built twenty (7 s each) before
             digest = mesh_hash(obj)             # (of the mesh now: one edited in place since gets its own)
-            key = ("csm", digest) if max_error is None else ("csm", digest, _max_error(max_error), lookup)
+            target = (None if max_error is None else _max_error(max_error),
+                      None if max_bytes is None else _max_bytes(max_bytes))
+            key = ("csm", digest) if target == (None, None) else ("csm", digest, *target, lookup)
             csm = scene._built[key][1] if key in scene._built else None
             o = scene.csm_options
-            if csm is None and max_error is not None:
+            if csm is None and target != (None, None):
                 csm = CoherentShadowMap.build(obj, depth_bits=o["depth_bits"], layers=o["layers"], lookup=lookup,
-                                              progress=scene.progress, max_error=max_error, footprint=o["footprint"])
+                                              progress=scene.progress, max_error=target[0], max_bytes=target[1],
+                                              footprint=o["footprint"])
             elif csm is None:
                 csm = CoherentShadowMap.build(obj, o["views"], resolution=o["resolution"],
                                               depth_bits=o["depth_bits"], layers=o["layers"],
                                               progress=scene.progress, footprint=o["footprint"])
             scene._built[key] = (obj, csm)
-        elif max_error is not None:
-            raise ValueError("max_error= chooses a caster's CSM; a receiver (casts=False) has none")
+        elif max_error is not None or max_bytes is not None:
+            raise ValueError("max_error= and max_bytes= choose a caster's CSM; a receiver (casts=False) has none")
         inst = Instance(T, bool(casts), csm=csm, mesh=obj, _stamp=hash(obj) if casts else None)
     return inst
 

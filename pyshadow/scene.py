@@ -191,7 +191,7 @@ class Scene:
         self.csm_options = csm_options(views, resolution, depth_bits, layers, footprint)    # checked now, not at add
         self.progress = flag(progress, "progress")     # "no" drew progress bars
         self._placed = _Placed()
-        self._built: dict = {}           # id(mesh) -> (mesh, CSM built by add())
+        self._built: dict = {}           # ("csm", mesh hash[, max_error, max_bytes, lookup]) -> (mesh, its CSM)
         self._version = 0                # advanced by add(), set_transform() and remove() (scene_arrays)
 
     __copy__ = _copied                  # its own instance list and instances (see _copied)

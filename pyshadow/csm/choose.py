@@ -132,13 +132,12 @@ def _announce(max_error, tried, entry, verify, fits):
 
 
 def _most_accurate(tried, entry, fits, share=None, within="") -> str:
-    """'; the most accurate predicted, ...': the candidate of ``tried`` not measured, not built past the cap on
-    bytes and that ``fits`` it, with the least predicted disagreement and its estimated cost, where that is less
-    than ``entry``'s (with ``share``: of those at most ``share`` times its predicted bytes, where there is one); ''
-    otherwise."""
+    """'; the most accurate predicted, ...': the candidate of ``tried`` not measured that ``fits`` the cap on bytes
+    (one built past it does not: none predicted as large does), with the least predicted disagreement and its
+    estimated cost, where that is less than ``entry``'s (with ``share``: of those at most ``share`` times its
+    predicted bytes, where there is one); '' otherwise."""
     cap = math.inf if share is None else share * entry["predicted_bytes"]
-    best = min((t for t in tried if "measured" not in t and "over_budget" not in t and fits(t)
-                and t["predicted_bytes"] <= cap),
+    best = min((t for t in tried if "measured" not in t and fits(t) and t["predicted_bytes"] <= cap),
                key=lambda t: t["predicted"]["disagreement"], default=None)
     if best is None or (share is None and best["predicted"]["disagreement"] >= entry["predicted"]["disagreement"]):
         return ""

@@ -417,7 +417,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
         if max_bytes is not None and entry["bytes"] > max_bytes:       # the size model under-predicted this body
             over, entry["over_budget"] = min(over, entry["predicted_bytes"]), True
             del new, built[cand]
-            entry = None if i == len(order) else entry
+            entry = None                # the next candidate, or where none is left the nearest within the cap
             continue
         csm, kept = new, entry
         del new                         # csm alone holds it

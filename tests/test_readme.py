@@ -65,6 +65,10 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     assert c["met"] and c["measured"]["disagreement"] <= 0.02 and c["target"] == 0.02
     assert ns["scene"].instances[ns["t"]].csm.stats["choice"]["measured"]["disagreement"] <= 0.02
     assert ns["small"].stats["bytes"] <= 2_000_000
+    # either lookup within the same bytes: the most accurate of a superset of the one-texel's pairs, never worse
+    best = ns["best"].stats["choice"]
+    assert ns["best"].stats["bytes"] <= 2_000_000 and best["lookup"] in ("nearest", "vote")
+    assert best["predicted"]["disagreement"] <= ns["small"].stats["choice"]["predicted"]["disagreement"]
     # 2 % within 5 MB: the one-texel lookup needs 7.3 MB for it on the bunny; measured: the vote, 2.0 MB, 1.40 %
     capped = ns["capped"].stats
     assert capped["bytes"] <= 5_000_000 and capped["choice"]["met"]

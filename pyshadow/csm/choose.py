@@ -477,7 +477,10 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     mesh : trimesh.Trimesh
     max_bytes : int
         Largest ``csm.stats["bytes"]`` allowed.
-    lookup, depth_bits, layers, verify, points, samples, near, seed, progress, candidates :
+    lookup : {'nearest', 'vote', 'auto'}
+        As :func:`choose_csm`; ``'auto'``: every candidate predicted with both lookups, and the most accurate
+        (candidate, lookup) pair that fits taken (one-texel on a tie); ``choice["lookup"]`` says which.
+    depth_bits, layers, verify, points, samples, near, seed, progress, candidates :
         As :func:`choose_csm`; ``verify`` measures the result (reported only).
 
     Returns
@@ -505,9 +508,10 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
     """:func:`choose_within`, each step named by ``note``."""
     check_mesh(mesh, "choose_within")
     max_bytes = _max_bytes(max_bytes)
-    if lookup not in ("nearest", "vote"):
-        raise ValueError(f"lookup must be 'nearest' or 'vote', got {lookup!r}")
+    if lookup not in ("nearest", "vote", "auto"):
+        raise ValueError(f"lookup must be 'nearest', 'vote' or 'auto', got {lookup!r}")
     candidates = _candidates(candidates, "choose_within")
+    lookups = ("nearest", "vote") if lookup == "auto" else (lookup,)
     t0 = time.perf_counter()
     draw = dict(points=points, samples=samples, near=near)
     note("rays of the error model")
@@ -517,11 +521,14 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
     size, size_info = size_model(mesh, depth_bits, layers, built)
     tried = []
     for c in candidates:
-        note(f"predict {_layout(c)} ({lookup})")
-        tried.append({"candidate": c, "predicted": predict(mesh, c[:2], c[2], depth_bits, lookup, rays=rays),
-                      "predicted_bytes": size(*c)})
+        for lk in lookups:
+            note(f"predict {_layout(c)} ({lk})")
+            tried.append({"candidate": c, "predicted": predict(mesh, c[:2], c[2], depth_bits, lk, rays=rays),
+                          "predicted_bytes": size(*c)})
+    # the most accurate first; of equals the smaller, then the one-texel lookup (the faster query)
     fits = sorted((t for t in tried if t["predicted_bytes"] <= max_bytes),
-                  key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"]))
+                  key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"],
+                                 t["predicted"]["lookup"] != "nearest"))
     csm = entry = None
     for j, entry in enumerate(fits):
         _keep(built, {t["candidate"] for t in fits[j:]})
@@ -541,13 +548,13 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
                    f"{'were' if len(fits) > 1 else 'was'} built larger; the smallest built, "
                    f"{least['predicted']['layout']}, takes {least['bytes']} bytes")
         raise ValueError(f"no candidate CSM fits in {max_bytes} bytes ({why})")
-    if verify:
-        note(f"verify {_layout(entry['candidate'])} ({lookup})")
-        entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=_check_seed(seed), **draw), lookup)
     p = entry["predicted"]
+    if verify:
+        note(f"verify {_layout(entry['candidate'])} ({p['lookup']})")
+        entry["measured"] = measure(csm, mesh, rays_for(mesh, seed=_check_seed(seed), **draw), p["lookup"])
     for t in tried:
         t.pop("candidate")
-    return csm, {"budget_bytes": max_bytes, "lookup": lookup, "verified": bool(verify),
+    return csm, {"budget_bytes": max_bytes, "lookup": p["lookup"], "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
                  "seconds": time.perf_counter() - t0}
@@ -573,14 +580,16 @@ def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_er
 
 
 def warn_unchosen_lookup(scene, lookup: str) -> None:
-    """A UserWarning where a caster's CSM was chosen for an accuracy (``max_error``) with the other lookup than
-    ``lookup``, the one a query asks (``Scene.add(mesh, max_error=..., lookup="auto")`` may choose the vote;
+    """A UserWarning where a caster's CSM was chosen for an accuracy (``max_error``, or the most accurate within
+    ``max_bytes``) with the other lookup than ``lookup``, the one a query asks (``lookup="auto"`` may choose the vote;
     queries ask ``"nearest"`` unless told): the accuracy chosen holds for its own lookup only. Asked once
     per scene change and lookup (:class:`pyshadow.visibility.CSMVisibility`)."""
     for csm in scene.caster_types()[0]:
         choice = getattr(csm, "choice", None) or {}
-        if "target" in choice and choice.get("lookup", lookup) != lookup:
-            warnings.warn(f"a CSM of this scene was chosen for max_error={choice['target']:g} with "
+        if ("target" in choice or "budget_bytes" in choice) and choice.get("lookup", lookup) != lookup:
+            why = (f"max_error={choice['target']:g}" if "target" in choice
+                   else f"its accuracy within max_bytes={choice['budget_bytes']}")
+            warnings.warn(f"a CSM of this scene was chosen for {why} with "
                           f"lookup={choice['lookup']!r}; this query asks lookup={lookup!r}, whose error the choice "
                           f"did not measure: pass lookup={choice['lookup']!r} to the query", UserWarning, stacklevel=2)
             return

@@ -293,8 +293,8 @@ class CoherentShadowMap:
         max_bytes : int, optional
             The most accurate CSM within this many bytes; with ``max_error``, the cheapest meeting it within them.
         lookup : {'nearest', 'vote', 'auto'}, optional
-            With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with
-            (``'auto'``, ``max_error`` only: one-texel where it can meet it, else the vote).
+            With ``max_error`` or ``max_bytes``: the lookup the CSM will be queried with (``'auto'``: with
+            ``max_error``, one-texel where it can meet it, else the vote; ``max_bytes`` alone: the more accurate).
         verify : bool, optional
             With ``max_error``: measure the built CSM against Embree on independent rays, and go on to the
             next candidate where it misses; with ``max_bytes``: measure it (reported).

@@ -530,8 +530,12 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
                   key=lambda t: (t["predicted"]["disagreement"], t["predicted_bytes"],
                                  t["predicted"]["lookup"] != "nearest"))
     csm = entry = None
+    past = {}                   # candidate -> its bytes, built past max_bytes: its other lookup is not built again
     for j, entry in enumerate(fits):
-        _keep(built, {t["candidate"] for t in fits[j:]})
+        if entry["candidate"] in past:
+            entry["bytes"] = past[entry["candidate"]]
+            continue
+        _keep(built, {t["candidate"] for t in fits[j:]} - set(past))
         c = None
         note(f"build {_layout(entry['candidate'])}")
         c, seconds = _build(mesh, entry["candidate"], depth_bits, layers, progress, built)
@@ -539,6 +543,7 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
         if c.stats["bytes"] <= max_bytes:
             csm = c
             break
+        past[entry["candidate"]] = c.stats["bytes"]
     if csm is None:
         small = min(t["predicted_bytes"] for t in tried)
         why = f"the smallest is predicted at {small:.0f} bytes"

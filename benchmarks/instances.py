@@ -15,6 +15,9 @@ more: the lone body's ``visible`` after the 10,000 casters read 6.0, 4.2, 3.4,
 3.4 ms in its first four calls (medians of 5), its AO 3.0, 2.6, 2.6, 2.4 ms.
 That is a larger share of the lone body's time, so with one untimed call the
 ratios looked smaller than they are.
+"vs n=1" is the ratio of the medians over every round; "per round" the median
+of the ratios within each round (the first count's median over its modes in
+that round), less moved when the machine's speed drifts between rounds.
 Answers must be identical. Memory: the instance table (104 bytes a caster),
 the tree and the grid. And what a ray's walk of
 the grid meets (a NumPy walk of every 64th ray): cells, listed spheres, and
@@ -179,9 +182,17 @@ def main(argv=None) -> int:
     first = args.counts[0]
     pool = list(modes) if first < default_min else ["grid"]
     ref = {q: statistics.median([t for m in pool for t in times[first][m][q]]) for q in ("visible", "ao")}
+    # per round: the grid's time in each round over the first count's in the same round (the median of its
+    # modes there, as above), side by side within minutes, so less moved by the machine's slower and faster
+    # phases than the ratio of the medians over every round; the median of those ratios
+    per_round = {q: [statistics.median([times[first][m][q][k] for m in pool]) for k in range(args.rounds)]
+                 for q in ("visible", "ao")}
     for r in rows:
         r["visible_vs_first"] = {m: r["visible_ns_per_ray"][m] * len(P) / 1e9 / ref["visible"] for m in modes}
         r["ao_vs_first"] = {m: r["ao_ns_per_sample"][m] * 16 * len(pts) / 1e9 / ref["ao"] for m in modes}
+        r["vs_first_per_round"] = {q: statistics.median(t / f for t, f in zip(times[r["instances"]]["grid"][q],
+                                                                              per_round[q])) for q in per_round}
+        r["seconds_per_round"] = {m: d for m, d in times[r["instances"]].items()}
     result = {"benchmark": "instances", **environment(), "rays": len(P), "rows": rows,
               "first_reference_ns": {"visible": 1e9 * ref["visible"] / len(P), "ao": 1e9 * ref["ao"] / len(P)}}
     if args.json:
@@ -189,15 +200,16 @@ def main(argv=None) -> int:
         return 0
     print(f"{len(P)} rays (25,000 ground points x 16 directions) among n instances of one CSM; "
           f"medians of {args.rounds} rounds; vs n=1: the default (grid) over n=1 (the median of its rounds in "
-          f"every mode, which run the same code below {default_min} casters)")
+          f"every mode, which run the same code below {default_min} casters); per round: the median over rounds "
+          f"of that ratio within each round")
     print(f"{'n':>6} {'visible ns/ray: grid / tree / flat':>36} {'AO ns/sample: grid / tree / flat':>36} "
-          f"{'vs n=1':>12} {'same':>5} {'grid bytes':>11}")
+          f"{'vs n=1':>12} {'per round':>12} {'same':>5} {'grid bytes':>11}")
     for r in rows:
-        v, a = r["visible_ns_per_ray"], r["ao_ns_per_sample"]
+        v, a, pr = r["visible_ns_per_ray"], r["ao_ns_per_sample"], r["vs_first_per_round"]
         print(f"{r['instances']:>6} {v['grid']:>10.1f} / {v['tree']:>8.1f} / {v['flat']:>9.1f}   "
               f"{a['grid']:>10.1f} / {a['tree']:>8.1f} / {a['flat']:>9.1f}   "
               f"{r['visible_vs_first']['grid']:>5.2f}x/{r['ao_vs_first']['grid']:>5.2f}x "
-              f"{str(r['identical']):>5} {r['grid_bytes']:>11}")
+              f"{pr['visible']:>5.2f}x/{pr['ao']:>5.2f}x {str(r['identical']):>5} {r['grid_bytes']:>11}")
     return 0
 
 

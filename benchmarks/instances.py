@@ -183,8 +183,8 @@ def main(argv=None) -> int:
     pool = list(modes) if first < default_min else ["grid"]
     ref = {q: statistics.median([t for m in pool for t in times[first][m][q]]) for q in ("visible", "ao")}
     # per round: the grid's time in each round over the first count's in the same round (the median of its
-    # modes there, as above), side by side within minutes, so less moved by the machine's slower and faster
-    # phases than the ratio of the medians over every round; the median of those ratios
+    # modes there, as above), timed seconds apart, so less moved by the machine's slower and faster phases
+    # than the ratio of the medians over every round; the median of those ratios
     per_round = {q: [statistics.median([times[first][m][q][k] for m in pool]) for k in range(args.rounds)]
                  for q in ("visible", "ao")}
     for r in rows:
@@ -192,7 +192,7 @@ def main(argv=None) -> int:
         r["ao_vs_first"] = {m: r["ao_ns_per_sample"][m] * 16 * len(pts) / 1e9 / ref["ao"] for m in modes}
         r["vs_first_per_round"] = {q: statistics.median(t / f for t, f in zip(times[r["instances"]]["grid"][q],
                                                                               per_round[q])) for q in per_round}
-        r["seconds_per_round"] = {m: d for m, d in times[r["instances"]].items()}
+        r["seconds_per_round"] = times[r["instances"]]
     result = {"benchmark": "instances", **environment(), "rays": len(P), "rows": rows,
               "first_reference_ns": {"visible": 1e9 * ref["visible"] / len(P), "ao": 1e9 * ref["ao"] / len(P)}}
     if args.json:

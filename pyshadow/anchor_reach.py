@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["caster_buckets", "reach_bound", "DISTANCE_SHARE"]
+__all__ = ["caster_buckets", "reach_bound", "run_starts", "DISTANCE_SHARE"]
 
 #: The share ``s`` of a point's distance to a caster's sphere that its distance to its anchor may reach
 #: (module docstring): 1 lets the anchor's rounding match the one its rays carry to that caster. Smaller
@@ -77,6 +77,17 @@ def caster_buckets(centres, radii) -> list:
     return out
 
 
+def run_starts(a) -> np.ndarray:
+    """(N,) bool: True at each row of ``a`` (N, K) that differs from the row before it (the first row too): the
+    starts of its runs of equal rows (-0.0 equal to 0.0, a NaN equal to nothing)."""
+    start = np.ones(len(a), bool)
+    if len(a) > 1:
+        np.not_equal(a[1:, 0], a[:-1, 0], out=start[1:])
+        for c in range(1, a.shape[1]):
+            start[1:] |= a[1:, c] != a[:-1, c]
+    return start
+
+
 def reach_bound(points, extent, buckets, radii: float) -> np.ndarray:
     """A lower bound of ``reach(p)`` (module docstring) at each point, world units.
 
@@ -106,6 +117,9 @@ def reach_bound(points, extent, buckets, radii: float) -> np.ndarray:
     """
     from scipy.spatial import cKDTree
 
+    start = run_starts(points)      # rays from one point come as runs of equal rows (its AO directions): one ask a run
+    if not start.all():
+        return reach_bound(points[start], extent[start], buckets, radii)[np.cumsum(start) - 1]
     out = np.full(len(points), np.inf)
     for b in buckets:
         floor = radii * b["rmin"]
@@ -116,6 +130,6 @@ def reach_bound(points, extent, buckets, radii: float) -> np.ndarray:
             b["tree"] = cKDTree(b["centres"])
         # farther than extent / share + rmax, a caster cannot bring a point below its extent
         top = float(extent[rows].max()) / DISTANCE_SHARE + b["rmax"]
-        dist = b["tree"].query(points[rows], distance_upper_bound=top)[0]
+        dist = b["tree"].query(points[rows], distance_upper_bound=top, workers=-1)[0]     # (each point on its own)
         out[rows] = np.minimum(out[rows], np.maximum(floor, DISTANCE_SHARE * (dist - b["rmax"])))
     return out

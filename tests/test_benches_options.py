@@ -27,6 +27,8 @@ def _main(module, argv, monkeypatch):
 @pytest.mark.parametrize("module, argv, option", [
     ("instances", ["--counts", "1", "--rounds", "0"], "--rounds"),
     ("scene_cost", ["--rays", "16", "--rounds", "0"], "--rounds"),
+    ("anchor_groups", ["--rounds", "0"], "--rounds"),
+    ("anchor_groups", ["--radius", "0"], "--radius"),
     ("contact_cost", ["--pile", "0"], "--pile"),
     ("direct_light", ["--maps", "64x"], "--maps"),
     ("pole_window", ["--maps", "4"], "--maps"),

@@ -63,6 +63,7 @@ from .finite import (answer_finite, ao_nodes, check_ao_options, check_max_distan
                      shell_clear, unit_directions)
 from .bvh import BVH_MIN_INSTANCES, STACK as BVH_STACK, box_pad, instance_bvh
 from .grid import grid_margin, grid_packets, instance_grid, isolated_casters
+from .grouped import ao_grouped, visible_grouped
 from .held import check_tables, held_at, kept as _kept, on_device as _on_device
 from .sampled_sky import _SampledSky
 
@@ -399,9 +400,8 @@ class CSMVisibility(_SampledSky):
             pb = points_bound(p) if pb is None else pb
             groups = anchor_groups(scene, p, pb)
             if len(groups) > 1:             # points far apart: each group relative to an anchor of its own
-                for rows, a in groups:
-                    out[rows] = self._visible_kernel(scene, p[rows], w[rows], own[rows], None if m is None else m[rows],
-                                                     bias, None if tmax is None else tmax[rows], False, a, ground)
+                k = _cl.kernel("visibility.cl", "scene_visible", defines)
+                visible_grouped(self, scene, k, defines, groups, p, w, own, m, tmax, bias, fp64, out, _extent)
                 return out
             anchor = groups[0][1]
         if not fp64:
@@ -485,15 +485,13 @@ class CSMVisibility(_SampledSky):
                                                              sampling.seed)))
             pidx = pattern_indices(idx, sampling.patterns, sampling.seed)
             pb = points_bound(p)
-            for rows, anchor in anchor_groups(scene, p, pb):   # one group but where points lie far apart
-                pick = (lambda a: a) if rows is None else (lambda a: None if a is None else a[rows])
-                outs = tuple(None if a is None else (a if rows is None else np.empty_like(a[rows]))
-                             for a in (ao, bent, tr, sky))
-                self._ao_launch(scene, k, defines, table, anchor, bias, pick(p), pick(n), pick(pidx), pick(own),
-                                pick(tmax), sky_env, outs, bent_normals, transfer, pb if rows is None else None)
-                for a, got in zip((ao, bent, tr, sky), outs if rows is not None else ()):
-                    if a is not None:
-                        a[rows] = got
+            groups = anchor_groups(scene, p, pb)
+            if len(groups) == 1 and groups[0][0] is None:      # every point at the scene's anchor
+                self._ao_launch(scene, k, defines, table, groups[0][1], bias, p, n, pidx, own, tmax, sky_env,
+                                (ao, bent, tr, sky), bent_normals, transfer, pb)
+            else:       # points far apart: each group relative to an anchor of its own, uploaded together
+                ao_grouped(self, scene, k, defines, table, groups, bias, p, n, pidx, own, tmax, sky_env,
+                           (ao, bent, tr, sky), bent_normals, transfer, _extent)
         close_contacts(scene, p, n, ao, bent, tr, sky)
         return (sky, ao, bent) if sky_env is not None else (ao, bent, tr)
 

@@ -1,7 +1,8 @@
 """Points in several anchor groups: one upload a window, a launch per group (pyshadow.visibility.grouped).
 
 The answers must be those of the launch per group that the grouped path replaced, to the bit: the AO
-kernel's ``_ao_launch`` over each group's rows alone, and ``_visible_kernel`` with each group's anchor.
+kernel's ``_ao_launch`` over each group's rows alone (AO and bent normals, the shadowed SH transfer, the
+sampled sky), and ``_visible_kernel`` with each group's anchor.
 Both are compared over a scene whose points make many groups (1 mm boxes spread over 12 m beside a
 0.3 m box near the origin, points beside the tiny boxes), with the windows the defaults give, windows
 smaller than a group (a group split over several), one window per group (the table budget at 1 byte),
@@ -22,6 +23,8 @@ from pyshadow.visibility import grouped
 
 BOX = trimesh.creation.box((1.0, 1.0, 1.0))
 SAMPLES = 8
+#: a lat-long sky of 8 x 16 texels, each its own radiance (the sampled sky's output)
+ENV = np.random.default_rng(3).uniform(0.0, 2.0, (8, 16, 3)).astype(np.float32)
 
 
 @pytest.fixture(scope="module")
@@ -54,41 +57,56 @@ def setup():
     return scene, p, normals, groups
 
 
-def _ao_per_group(backend, scene, p, normals, groups):
-    """AO and bent normals by one ``_ao_launch`` per group (the path before the grouped one)."""
+def _ao_per_group(backend, scene, p, normals, groups, output):
+    """The AO kernel's outputs by one ``_ao_launch`` per group (the path before the grouped one): (ao, bent),
+    (ao, bent, transfer) or (sky, ao, bent) for ``output`` 'ao', 'transfer' or 'sky'."""
     sampling = pyshadow.Sampling(SAMPLES)
-    defines = backend.query_defines(scene, "scene_ao", SAMPLES=SAMPLES, BENT_NORMALS=1, TRANSFER=0,
-                                    SURFACE_NORMALS=1)
+    extra = {"TRANSFER": int(output == "transfer")} | ({"SKY_SAMPLED": 1} if output == "sky" else {})
+    defines = backend.query_defines(scene, "scene_ao", SAMPLES=SAMPLES, BENT_NORMALS=1, SURFACE_NORMALS=1, **extra)
     k = _cl.kernel("visibility.cl", "scene_ao", defines)
     table = _cl.to_device(launch.lane_table(direction_table(SAMPLES, sampling.strategy, sampling.patterns,
                                                             sampling.seed)))
     n = normals.astype(np.float32)
     pidx = pattern_indices(np.arange(len(p)), sampling.patterns, sampling.seed)
     own = scene.caster_slots(None, len(p), p)
-    ao, bent = np.full(len(p), np.nan, np.float32), np.full((len(p), 3), np.nan, np.float32)
+    sky_env = [_cl.to_device(ENV), np.int32(ENV.shape[0]), np.int32(ENV.shape[1])] if output == "sky" else None
+    N = len(p)
+    ao, bent = np.full(N, np.nan, np.float32), np.full((N, 3), np.nan, np.float32)
+    tr = np.full((N, 9), np.nan, np.float32) if output == "transfer" else None
+    sky = np.zeros((N, 3), np.float32) if output == "sky" else None
     for rows, anchor in groups:
-        outs = (np.empty(len(rows), np.float32), np.empty((len(rows), 3), np.float32), None, None)
+        outs = tuple(None if a is None else np.empty((len(rows), *a.shape[1:]), np.float32)
+                     for a in (ao, bent, tr, sky))
         backend._ao_launch(scene, k, defines, table, anchor, None, p[rows], n[rows], pidx[rows], own[rows], None,
-                           None, outs, True, False, None)
-        ao[rows], bent[rows] = outs[0], outs[1]
-    close_contacts(scene, p, n, ao, bent)      # (the tiny boxes rest on the ground: their footprints' points)
-    return ao, bent
+                           sky_env, outs, True, output == "transfer", None)
+        for a, got in zip((ao, bent, tr, sky), outs):
+            if a is not None:
+                a[rows] = got
+    close_contacts(scene, p, n, ao, bent, tr, sky)      # (the tiny boxes rest on the ground: their footprints)
+    return {"ao": (ao, bent), "transfer": (ao, bent, tr), "sky": (sky, ao, bent)}[output]
 
 
+@pytest.mark.parametrize("output", ["ao", "transfer", "sky"])
 @pytest.mark.parametrize("window", ["default", "split", "one group a window"])
-def test_grouped_ao_is_the_launch_per_group_to_the_bit(setup, window, monkeypatch):
+def test_grouped_ao_is_the_launch_per_group_to_the_bit(setup, window, output, monkeypatch):
     scene, p, normals, groups = setup
     backend = pyshadow.visibility.get_backend("csm")
-    ref_ao, ref_bent = _ao_per_group(backend, scene, p, normals, groups)
+    want = _ao_per_group(backend, scene, p, normals, groups, output)
     if window == "split":           # windows of 64 points: the 300 near the origin and larger groups split
         monkeypatch.setattr(launch, "_overrides", [{"ao_chunk_samples": 64 * SAMPLES}])
     elif window == "one group a window":
         monkeypatch.setattr(grouped, "WINDOW_TABLE_BYTES", 1)
-    ao, bent = backend.ambient_occlusion(scene, p, normals, sampling=pyshadow.Sampling(SAMPLES),
-                                         return_bent_normals=True)
+    sampling = pyshadow.Sampling(SAMPLES)
+    if output == "ao":
+        got = backend.ambient_occlusion(scene, p, normals, sampling=sampling, return_bent_normals=True)
+    elif output == "transfer":
+        got = backend.sh_transfer(scene, p, normals, sampling=sampling)
+    else:
+        got = backend.sampled_sky(scene, p, normals, ENV, sampling=sampling)
+    ao = got[1] if output == "sky" else got[0]
     assert 0.05 < (ao < 1).mean() < 0.95            # the tiny boxes and the body occlude some points
-    np.testing.assert_array_equal(ao, ref_ao)
-    np.testing.assert_array_equal(bent, ref_bent)
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
 
 
 @pytest.mark.parametrize("case", ["default", "split", "one group a window", "float-only device", "float32 rows"])

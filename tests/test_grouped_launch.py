@@ -109,12 +109,15 @@ def test_grouped_ao_is_the_launch_per_group_to_the_bit(setup, window, output, mo
         np.testing.assert_array_equal(g, w)
 
 
-@pytest.mark.parametrize("case", ["default", "split", "one group a window", "float-only device", "float32 rows"])
+@pytest.mark.parametrize("case", ["default", "split", "one group a window", "float-only device", "float32 rows",
+                                  "vote lookup", "surface normals", "finite rays"])
 def test_grouped_visible_is_the_launch_per_group_to_the_bit(setup, case, monkeypatch):
     scene, p, normals, groups = setup
-    backend = pyshadow.visibility.get_backend("csm")
+    backend = pyshadow.visibility.get_backend("csm-vote" if case == "vote lookup" else "csm")
     d = pyshadow.sample_directions(normals, sampling=pyshadow.Sampling(4)).reshape(-1, 3)
     P = np.repeat(p, 4, axis=0)
+    m = np.repeat(normals, 4, axis=0).astype(np.float32) if case == "surface normals" else None
+    tm = np.random.default_rng(1).uniform(1e-4, 4e-3, len(P)).astype(np.float32) if case == "finite rays" else None
     if case == "float32 rows":
         P, d = P.astype(np.float32), d.astype(np.float32)
     if case == "float-only device":
@@ -122,11 +125,12 @@ def test_grouped_visible_is_the_launch_per_group_to_the_bit(setup, case, monkeyp
     own = scene.caster_slots(None, len(P), P)
     ref = np.zeros(len(P), bool)
     for rows, anchor in anchor_groups(scene, P.astype(np.float64)):
-        ref[rows] = backend._visible_kernel(scene, P[rows], d[rows], own[rows], None, None, None, False, anchor)
+        ref[rows] = backend._visible_kernel(scene, P[rows], d[rows], own[rows], None if m is None else m[rows], None,
+                                            None if tm is None else tm[rows], False, anchor)
     if case == "split":             # windows of 2 batches: groups split over several
         monkeypatch.setattr(launch, "_overrides", [{"query_chunk": 2 * launch.shape().query_batch}])
     elif case == "one group a window":
         monkeypatch.setattr(grouped, "WINDOW_TABLE_BYTES", 1)
-    got = backend._visible_kernel(scene, P, d, own, None, None, None, False)    # (no contact rule, no reordering)
+    got = backend._visible_kernel(scene, P, d, own, m, None, tm, False)         # (no contact rule, no reordering)
     assert 0.02 < (~got).mean() < 0.9
     np.testing.assert_array_equal(got, ref)

@@ -134,3 +134,42 @@ def test_grouped_visible_is_the_launch_per_group_to_the_bit(setup, case, monkeyp
     got = backend._visible_kernel(scene, P, d, own, m, None, tm, False)         # (no contact rule, no reordering)
     assert 0.02 < (~got).mean() < 0.9
     np.testing.assert_array_equal(got, ref)
+
+
+def test_a_refused_launch_waits_for_the_launches_before_it(setup, monkeypatch):
+    """The rows of a window are host memory the kernels read in place: where a launch after the first is
+    refused, the call waits for those already enqueued before it raises (and the rows are freed)."""
+    scene, p, normals, _ = setup
+    backend = pyshadow.visibility.get_backend("csm")
+    d = pyshadow.sample_directions(normals, sampling=pyshadow.Sampling(4)).reshape(-1, 3)
+    P = np.repeat(p, 4, axis=0)
+    own = scene.caster_slots(None, len(P), P)
+    real_kernel, real_queue = csm_backend._cl.kernel, _cl.queue
+    events = []
+
+    class Refusing:                 # the kernel: its third launch refused
+        def __init__(self, k):
+            self.k = k
+
+        def __getattr__(self, name):
+            return getattr(self.k, name)
+
+        def __call__(self, queue, *args, **kw):
+            events.append("launch")
+            if events.count("launch") == 3:
+                raise RuntimeError("refused")
+            return self.k(queue.q, *args, **kw)
+
+    class Queue:                    # the queue: its waits noted
+        def __init__(self, q):
+            self.q = q
+
+        def finish(self):
+            events.append("finish")
+            return self.q.finish()
+
+    monkeypatch.setattr(csm_backend._cl, "kernel", lambda *a, **k: Refusing(real_kernel(*a, **k)))
+    monkeypatch.setattr(grouped._cl, "queue", lambda: Queue(real_queue()))
+    with pytest.raises(RuntimeError, match="refused"):
+        backend._visible_kernel(scene, P, d, own, None, None, None, False)
+    assert events == ["launch", "launch", "launch", "finish"]

@@ -164,9 +164,13 @@ def _visible_window(k, B, pieces, size, p, w, own, m, tmax, fp64, out):
     buf = hb(res, writable=True)
     q = _cl.queue()
     group = launch.shape().query_group
-    for _, args, (_, a), rows, start, _ in pieces:
-        k(q, *launch.grid(-(-len(rows) // B), group, k), *args, np.int32(start + len(rows)), *ins, *a, *tail, buf,
-          global_offset=(start // B,))
+    try:
+        for _, args, (_, a), rows, start, _ in pieces:
+            k(q, *launch.grid(-(-len(rows) // B), group, k), *args, np.int32(start + len(rows)), *ins, *a, *tail,
+              buf, global_offset=(start // B,))
+    except BaseException:           # (a launch refused, Ctrl-C): those enqueued end before the rows they read go
+        q.finish()
+        raise
     _cl.sync_host_buffer(buf, res)
     for _, _, _, rows, start, _ in pieces:
         out[rows] = res[start:start + len(rows)].view(np.bool_)

@@ -396,6 +396,13 @@ class CSMVisibility(_SampledSky):
         if defines is None:             # nothing occludes: no kernel
             out[:] = True
             return out
+        if not fp64 and w.dtype == np.float64:
+            # float-only device: the host does what the kernel does in double
+            # elsewhere, with the same roundings: float64 directions scaled by
+            # a power of two (exact) so their largest component lies in
+            # [0.5, 1) before they are rounded to float32 (row by row, for
+            # every anchor group alike); points relative to their anchor below
+            w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
         if anchor is None:
             pb = points_bound(p) if pb is None else pb
             groups = anchor_groups(scene, p, pb)
@@ -405,14 +412,7 @@ class CSMVisibility(_SampledSky):
                 return out
             anchor = groups[0][1]
         if not fp64:
-            # float-only device: the host does what the kernel does in double
-            # elsewhere, with the same roundings: points relative to the
-            # anchor, rounded once to float32; float64 directions scaled by a
-            # power of two (exact) so their largest component lies in
-            # [0.5, 1) before they are rounded to float32
-            p = (p - anchor).astype(np.float32)
-            if w.dtype == np.float64:
-                w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
+            p = (p - anchor).astype(np.float32)     # relative to the anchor, rounded once to float32
         _, args = self._scene_args(scene, anchor, bias, _extent(p, anchor, pb if fp64 else None), defines)
         k = _cl.kernel("visibility.cl", "scene_visible", defines)
         # what the kernel subtracts from the points (the host already did on float-only devices)

@@ -76,29 +76,31 @@ def ao_grouped(backend, scene, k, defines, table, groups, bias, p, n, pidx, own,
     window = max(P, launch.shape().ao_chunk_samples // S // P * P)
 
     def args_of(rows, anchor):
-        return backend._scene_args(scene, anchor, bias, extent(p[rows], anchor), defines)[1], None
+        pg = p[rows]
+        return backend._scene_args(scene, anchor, bias, extent(pg, anchor), defines)[1], pg
     for pieces, size in _windows(groups, len(p), P, window, args_of):
-        _ao_window(k, P, table, pieces, size, p, n, pidx, own, tmax, sky_env, outs, bent_normals, transfer)
+        _ao_window(k, P, table, pieces, size, n, pidx, own, tmax, sky_env, outs, bent_normals, transfer)
 
 
-def _ao_window(k, P, table, pieces, size, p, n, pidx, own, tmax, sky_env, outs, bent_normals, transfer):
+def _gathered(pieces, size, *arrays):
+    """Each of ``arrays`` (None stays None) as a window's rows: every piece's rows at its place, zeros between."""
+    out = [None if a is None else np.zeros((size, *a.shape[1:]), a.dtype) for a in arrays]
+    for _, _, _, rows, start, _ in pieces:
+        for o, a in zip(out, arrays):
+            if o is not None:
+                o[start:start + len(rows)] = a[rows]
+    return out
+
+
+def _ao_window(k, P, table, pieces, size, n, pidx, own, tmax, sky_env, outs, bent_normals, transfer):
     """One window of :func:`ao_grouped`: its rows gathered and uploaded, a launch per piece, one copy back of
     each output (the rows between pieces are never read)."""
     rel = np.zeros((size, 3), np.float32)
-    nrm = np.zeros((size, 3), np.float32)
-    pid = np.zeros(size, np.int32)
-    ows = np.zeros(size, own.dtype)
-    tms = None if tmax is None else np.zeros(size, np.float32)
-    for anchor, _, _, rows, start, _ in pieces:
-        end = start + len(rows)
-        np.subtract(p[rows], anchor, out=rel[start:end])    # anchor-relative in float64, rounded once
-        nrm[start:end] = n[rows]
-        pid[start:end] = pidx[rows]
-        ows[start:end] = own[rows]
-        if tms is not None:
-            tms[start:end] = tmax[rows]
-    ins = [_cl.to_device(rel), _cl.to_device(nrm), _cl.to_device(pid), _cl.to_device(ows)]
-    ins += [] if tms is None else [_cl.to_device(tms)]
+    for anchor, _, pg, rows, start, s in pieces:        # anchor-relative in float64, rounded once
+        np.subtract(pg[s:s + len(rows)], anchor, out=rel[start:start + len(rows)])
+    nrm, pid, ows, tms = _gathered(pieces, size, n, pidx, own, tmax)
+    ins = [_cl.to_device(rel), _cl.to_device(nrm), _cl.to_device(pid, np.int32), _cl.to_device(ows)]
+    ins += [] if tms is None else [_cl.to_device(tms, np.float32)]
     ao_buf = _cl.empty(4 * size)
     bent_buf = _cl.empty(12 * size if bent_normals else 4)
     tr_buf = _cl.empty(36 * size if transfer else 4)
@@ -126,12 +128,10 @@ def visible_grouped(backend, scene, k, defines, groups, p, w, own, m, tmax, bias
     the group's anchor), the rows gathered a window (at most ``query_chunk`` of them).
 
     ``fp64``: the kernel subtracts each group's anchor in double (its rows as given); otherwise the host does,
-    rounding once to float32, and scales float64 directions as ``_visible_kernel`` does.
+    rounding once to float32 (``w`` already as ``_visible_kernel`` gives it to a float-only device).
     """
     B = int(defines["BATCH"])
     window = max(B, launch.shape().query_chunk // B * B)
-    if not fp64 and w.dtype == np.float64:     # row by row: the same as for each group's rows alone
-        w = np.ldexp(w, -np.frexp(np.abs(w).max(axis=1, keepdims=True))[1]).astype(np.float32)
 
     def args_of(rows, anchor):
         pg = p[rows] if fp64 else (p[rows] - anchor).astype(np.float32)
@@ -144,20 +144,10 @@ def visible_grouped(backend, scene, k, defines, groups, p, w, own, m, tmax, bias
 def _visible_window(k, B, pieces, size, p, w, own, m, tmax, fp64, out):
     """One window of :func:`visible_grouped`: its rows gathered, a launch per piece, one wait."""
     pw = np.zeros((size, 3), p.dtype if fp64 else np.float32)
-    ww = np.zeros((size, 3), w.dtype)
-    ow = np.zeros(size, own.dtype)
-    mw = None if m is None else np.zeros((size, 3), m.dtype)
-    tw = None if tmax is None else np.zeros(size, tmax.dtype)
+    for _, _, (pg, _), rows, start, s in pieces:        # (each group's rows as args_of placed them)
+        pw[start:start + len(rows)] = pg[s:s + len(rows)]
+    ww, ow, mw, tw = _gathered(pieces, size, w, own, m, tmax)
     res = np.zeros(size, np.uint8)
-    for _, _, (pg, _), rows, start, s in pieces:
-        end = start + len(rows)
-        pw[start:end] = pg[s:s + len(rows)]
-        ww[start:end] = w[rows]
-        ow[start:end] = own[rows]
-        if mw is not None:
-            mw[start:end] = m[rows]
-        if tw is not None:
-            tw[start:end] = tmax[rows]
     hb = _cl.host_buffer
     ins = [hb(pw), hb(ww)]
     tail = [hb(ow), *([] if mw is None else [hb(mw)]), *([] if tw is None else [hb(tw)])]

@@ -35,8 +35,10 @@ def _forced(backend, mode):
 
 
 def lookup_shares(scene, csm, P, D):
-    """(empty, caught, lookups): the share of the mirror's one-texel lookups on a missing (map, texel), the
-    share on a run the bits mark empty, and their number."""
+    """(empty, caught, known, lookups): the share of the mirror's one-texel lookups on a missing (map, texel),
+    the share on a run the bits mark empty, the share the bits answer occluded (a point behind every surface,
+    depth 2, over a (map, texel) with a surface, where the bits hold one per map: ``instance_v``), and their
+    number."""
     import pyshadow.csm.reference as ref
     from pyshadow.csm import device
     from pyshadow.visibility.mirror import visible_reference
@@ -45,7 +47,8 @@ def lookup_shares(scene, csm, P, D):
 
     def record(*a, **k):
         for t in own(*a, **k):
-            taps.append((t[0][t[6]], t[1][t[6]]))          # map, texel of the taps inside their map
+            b = np.broadcast_to(t[5], t[4].shape)
+            taps.append((t[0][t[6]], t[1][t[6]], t[4][t[6]], b[t[6]]))   # map, texel, depth, bias: inside
             yield t
     ref.shadow_taps = record
     try:
@@ -59,7 +62,10 @@ def lookup_shares(scene, csm, P, D):
     bits, shift = device.empty_bits(csm, device.empty_words(csm.resolution, csm.maps))
     run = k >> shift
     caught = (bits[tex, run >> 5] >> (run & 31).astype(np.uint32)) & 1
-    return float(empty.mean()), float(caught.mean()), int(len(k))
+    depth, bias = np.concatenate([t[2] for t in taps]), np.concatenate([t[3] for t in taps])
+    top = np.float32(1.0 if csm.depth_bits == 16 else 2.0)    # STORED_MAX_DEPTH
+    known = (shift == 0) & (caught == 0) & (depth == 2.0) & (top + bias.astype(np.float32) < np.float32(2.0))
+    return float(empty.mean()), float(caught.mean()), float(known.mean()), int(len(k))
 
 
 def timed(calls, rounds, mode):
@@ -103,11 +109,12 @@ def main(argv=None) -> int:
     S = pyshadow.Sampling(16)
     scene = scene_of(args.casters, csm, mesh)
     sub = slice(0, len(P), 200)                               # 2,000 rays through the mirror
-    empty, caught, n = lookup_shares(scene_of(min(args.casters, 100), csm, mesh), csm, P[sub], D[sub])
+    empty, caught, known, n = lookup_shares(scene_of(min(args.casters, 100), csm, mesh), csm, P[sub], D[sub])
     calls = {"visible": lambda: scene.visible(P, D),
              "ao": lambda: scene.ambient_occlusion(pts, up, sampling=S)}
     result = {"benchmark": "empty_runs", **environment(), "casters": args.casters, "rounds": args.rounds,
               "mirror_lookups": n, "lookups_on_misses": empty, "lookups_on_empty_runs": caught,
+              "lookups_known_occluded": known,
               "timings": timed(calls, args.rounds, mode)}
     if args.bunny:
         from peers import bunny_workload
@@ -119,7 +126,8 @@ def main(argv=None) -> int:
         emit(result, True)
         return 0
     print(f"mirror: {n} one-texel lookups among {min(args.casters, 100)} casters: {100 * empty:.1f} % on a missing "
-          f"(map, texel), {100 * caught:.1f} % on runs the bits mark empty")
+          f"(map, texel), {100 * caught:.1f} % on runs the bits mark empty, {100 * known:.1f} % answered occluded "
+          f"from them (behind every surface)")
     for group, rows in (("instances", result["timings"]), ("bunny", result.get("bunny", {}))):
         for name, r in rows.items():
             print(f"{group:9s} {name:18s} off {r['off_ms']:8.2f} ms  on {r['on_ms']:8.2f} ms  "

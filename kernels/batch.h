@@ -118,6 +118,9 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
 #define PAIR_Q(l, a) a[gi[l]]                   /* pair l's query's value in array a */
 #define PAIR_J(l, u) ja[l]
         const iv act = MASK(LANE_IDS < n);
+#if !FILTERED
+        iv known;               /* lanes answered occluded without a search (instance_v, EMPTY_RUNS) */
+#endif
         const iv r = instance_v(S, P->type, LANE_GATHER(iv, PAIR_J, 0), ja[0], LANE_GATHER(fv, PAIR_Q, px),
                                 LANE_GATHER(fv, PAIR_Q, py), LANE_GATHER(fv, PAIR_Q, pz), LANE_GATHER(fv, PAIR_Q, wx),
                                 LANE_GATHER(fv, PAIR_Q, wy), LANE_GATHER(fv, PAIR_Q, wz), LANE_GATHER(iv, PAIR_Q, own),
@@ -126,7 +129,7 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
                                 , LANE_GATHER(fv, PAIR_Q, nx), LANE_GATHER(fv, PAIR_Q, ny), LANE_GATHER(fv, PAIR_Q, nz)
 #endif
 #if !FILTERED
-                                , ka + m, ta + m, dz + m, bz + m
+                                , ka + m, ta + m, dz + m, bz + m, &known
 #else
                                 , &V, g
 #endif
@@ -146,6 +149,14 @@ inline void batch_ask(const scene_t *S, const pending_t *P, const int cnt, QUERY
         LANE_STORE(r, va + m);
         for (int l = 0; l < LANES; ++l)
             qa[m + l] = gi[l];
+#if EMPTY_RUNS
+        if (VANY(known)) {      /* their queries' later pairs are passed over, as after a search */
+            LANE_ARRAY int kn[LANES];
+            LANE_STORE(known, kn);
+            for (int l = 0; l < LANES; ++l)
+                occ[gi[l]] |= kn[l];
+        }
+#endif
         m += LANES;
 #if EMPTY_RUNS
         searched += BIT_COUNT(LANE_BITS(r));

@@ -15,12 +15,17 @@
 
 #pragma OPENCL FP_CONTRACT OFF
 
+/* STORED_MAX_DEPTH: no finite stored depth is larger (16 bits: k / DEPTH_Q
+ * with k <= DEPTH_Q; 32 bits: the host refuses depths beyond 2,
+ * csm.file_checks.check_arrays) */
 #if DEPTH_BITS == 16
 #define DEPTH_Q 65534.0f
 #define KEY_MISS 65535u
+#define STORED_MAX_DEPTH 1.0f
 typedef ushort depth_t;
 #elif DEPTH_BITS == 32
 #define KEY_MISS 0x7f800000u
+#define STORED_MAX_DEPTH 2.0f
 typedef float depth_t;
 #else
 #error "DEPTH_BITS must be 16 or 32"

@@ -59,11 +59,13 @@
  * texel ta[l], the point's depth dz_out[l] and its bias bz_out[l] (lane
  * arrays) -- the lane is occluded when depth > stored + bias, the stored
  * depth of stored_v(), which the caller asks for many lane groups at once
- * (batch_ask): their cache misses overlap. */
+ * (batch_ask): their cache misses overlap. Lanes whose answer is known
+ * without the search (EMPTY_RUNS: occluded) are not among them, but in
+ * *known. */
 #if FILTERED
 #define LOOKUP_OUT_PARAMS , vote_t *V, const int g
 #else
-#define LOOKUP_OUT_PARAMS , int *ka, int *ta, float *dz_out, float *bz_out
+#define LOOKUP_OUT_PARAMS , int *ka, int *ta, float *dz_out, float *bz_out, iv *known
 #endif
 inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz, fv wx, fv wy, fv wz, iv own,
                      iv act NORMAL_PARAMS LOOKUP_OUT_PARAMS)
@@ -293,6 +295,7 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
     const iv valid = act & map_frame_v(S->bases + 9 * vbase, ka, R, qx, qy, qz, cqx, cqy, cqz,
                                        &dx, &dy, &dz, &depth, &fx, &fy NORMAL_LIFT_ARGS);
     depth = VSEL(depth, (fv)(2.0f), beyond);
+    *known = (iv)(0);
     if (!VANY(valid)) {
         LANE_STORE((iv)(0), ta);
         LANE_STORE((fv)(0.0f), dz_out);
@@ -319,9 +322,22 @@ inline iv instance_v(const scene_t *S, int t, iv j, int j0, fv px, fv py, fv pz,
 #endif
     const fv bias = bias_v(S, R, j, own, vx, vy, vz, dx, dy, dz NORMAL_BIAS_ARGS);
 #if SURFACE_NORMALS && PLANE_BIAS           /* the texel's centre lies (floor(f) + 1/2 - f) texels from the point */
-    LANE_STORE(tap_bias_v(S, R, bias, pu, pv, pe, floor(fx) + 0.5f - fx, floor(fy) + 0.5f - fy), bz_out);
+    const fv bz = tap_bias_v(S, R, bias, pu, pv, pe, floor(fx) + 0.5f - fx, floor(fy) + 0.5f - fy);
 #else
-    LANE_STORE(bias, bz_out);
+    const fv bz = bias;
+#endif
+    LANE_STORE(bz, bz_out);
+#if EMPTY_RUNS
+    /* With a bit for every map (shift 0), a clear bit says that the lane's
+     * own map stores a surface at its texel: a finite stored depth, at most
+     * STORED_MAX_DEPTH. A lane behind every surface of the caster (beyond:
+     * depth 2) is then occluded, as the search would answer it, wherever
+     * STORED_MAX_DEPTH + bias < 2 (so any stored depth + bias is below 2:
+     * float addition is monotone), and asks none */
+    if (T->empty_shift == 0) {
+        *known = found & beyond & MASK(STORED_MAX_DEPTH + bz < 2.0f);
+        return found & ~*known;
+    }
 #endif
     return found;
 #endif

@@ -1,8 +1,11 @@
 """Empty runs of maps (pyshadow.csm.device.empty_bits; EMPTY_RUNS in kernels/csm_lookup.h and
 kernels/batch.h): the one-texel lookups whose maps all miss the mesh at their texel are answered
-open without a search. The bits against a per-map reading of the segment lists, on every shared
-mesh; the kernels' answers bit-identical with and without them; bits that claim everything
-empty change the answers (the kernels read them)."""
+open without a search; with a bit for every map, those whose point lies behind every surface of
+the caster (its sphere far behind, or another body) over a texel that holds a surface are answered
+occluded without one. The bits against a per-map reading of the segment lists, on every shared
+mesh; the kernels' answers bit-identical with and without them, with a bit for every map and for
+runs of maps, and under a bias that leaves the search the only answer; bits that claim everything
+empty, or nothing, change the answers (the kernels read them)."""
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -125,6 +128,47 @@ def test_kernels_answer_bit_identical_with_and_without_empty_runs(monkeypatch, n
     for x, y in zip(on, off):
         assert np.array_equal(x, y)
     assert 50 < (~on[0]).sum() < 0.9 * len(P)               # rays the casters occlude, and open ones
+
+
+@pytest.mark.parametrize("words, bias", [(None, None), (1, None), (None, 1.5)])
+def test_lookups_behind_every_surface_answer_as_the_search(monkeypatch, words, bias):
+    """A bit for every map (shift 0: both types here) answers the lookups behind every surface; runs of maps
+    (one word: shifts 2 and 4) leave them to the search; a bias of 1.5 (a stored depth of 0.5 and more plus
+    the bias is not below the depth 2 of such a point) too."""
+    if words is not None:
+        monkeypatch.setattr(device, "empty_words", lambda R, D: words)
+    s, k = _two_type_scene(40)
+    shifts = [device._empty_shift(c.maps, device.empty_words(c.resolution, c.maps)) for c in s.caster_types()[0]]
+    assert shifts == ([0, 0] if words is None else [2, 4])
+    P, D, up = _queries(k, 6000, seed=8)
+    D[::2] = -P[::2] + [0.0, 1.0, 0.0]                     # half of them towards a caster's height over the origin
+    D[::2, 1] = np.abs(D[::2, 1])
+
+    def answers():
+        return [s.visible(P, D, bias=bias), s.visible(P, D, normals=up, bias=bias)]
+    with monkeypatch.context() as m:
+        _forced(m, True)
+        on = answers()
+    _forced(monkeypatch, False)
+    off = answers()
+    for x, y in zip(on, off):
+        assert np.array_equal(x, y)
+    assert 100 < (~on[0]).sum() < 0.9 * len(P)
+
+
+def test_bits_claiming_no_run_empty_occlude_the_lookups_behind_every_surface(monkeypatch):
+    """Bits that claim a surface in every map of every texel: the lookups of points behind every surface of
+    their caster are answered occluded from them (the search would open those over texels without one);
+    the others still search and keep their answers."""
+    s, k = _two_type_scene(40)
+    P, D, up = _queries(k, 4000)
+    real = s.visible(P, D)
+    bits = device._empty_bits
+    monkeypatch.setattr(device, "_empty_bits", lambda *source: (lambda b, shift: (b & 0, shift))(*bits(*source)))
+    t, _ = _two_type_scene(40)
+    claimed = t.visible(P, D)
+    assert not (claimed & ~real).any()                      # nothing opens
+    assert (real & ~claimed).sum() > 100                    # and many more are occluded
 
 
 def test_empty_runs_are_read_among_many_casters_and_by_the_one_texel_lookup_only():

@@ -155,7 +155,9 @@ def empty_bits(csm, words: int) -> tuple[np.ndarray, int]:
     where every map ``k`` with ``k >> shift == c`` stores a miss (+inf) at ``t``: a lookup there is
     answered open whatever its depth and bias, as the search would answer it. Neighbouring maps look
     along neighbouring directions (both layouts order them along a curve), so a run is mostly either
-    empty or not.
+    empty or not. With a bit for every map (``shift`` 0), a clear bit says that map ``k`` stores a surface
+    at ``t``: a lookup from behind every surface of the caster (depth 2) is then answered occluded
+    without a search where the largest stored depth plus its bias stays below 2.
 
     Returns
     -------

@@ -39,6 +39,9 @@ def _main(module, argv, monkeypatch):
      "--repeats"),
     ("filters", ["--repeats", "0", "--width", "8", "--height", "8"], "--repeats"),
     ("raster", ["--repeats", "0", "--theta", "2", "--phi", "4", "--resolution", "8"], "--repeats"),
+    ("texel_blocks", ["--resolution", "63"], "--resolution"),
+    ("texel_blocks", ["--maps", "4"], "--maps"),
+    ("texel_blocks", ["--meshes", "no-such-mesh"], "--meshes"),
 ])
 def test_bad_option_is_a_usage_error(module, argv, option, monkeypatch, capsys):
     """Was: a traceback after part of the work -- instances.py --rounds 0: KeyError 'grid' after building

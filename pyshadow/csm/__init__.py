@@ -103,7 +103,8 @@ from .core import (DEPTH_Q, FRONT_MARGIN_TEXELS, MISS16, SEARCH_BLOCK, SLOPE_SLA
                    CSMFormatError, front_margin, slope_slack)
 from .build import corner_frame, footprint_corners, footprint_scale
 from .fileformat import FORMAT_VERSION, MAGIC
-from .reference import compress_reference, first_slope, footprint_interval, second_bound, second_slope, shadow_vote
+from .reference import (compress_reference, first_slope, footprint_interval, map_intervals, second_bound, second_slope,
+                        shadow_vote)
 from .choose import choose_csm, choose_within
 from .exposure import both_sided_faces, escape_fractions, exposed_back_faces, open_sheet
 from . import build, choose, core, device, error_model, exposure, fileformat, reference
@@ -111,7 +112,7 @@ from . import build, choose, core, device, error_model, exposure, fileformat, re
 __all__ = ["CoherentShadowMap", "CSMFormatError", "DEPTH_Q", "MISS16", "SEARCH_BLOCK", "FRONT_MARGIN_TEXELS",
            "SLOPE_SLACK_QUANTA", "FORMAT_VERSION", "MAGIC", "compress_reference", "front_margin", "slope_slack",
            "first_slope", "second_bound", "second_slope", "corner_frame",
-           "footprint_corners", "footprint_interval", "footprint_scale", "shadow_vote",
+           "footprint_corners", "footprint_interval", "footprint_scale", "map_intervals", "shadow_vote",
            "choose_csm", "choose_within", "both_sided_faces", "escape_fractions", "exposed_back_faces",
            "open_sheet",
            "build", "choose", "core", "device", "error_model", "exposure", "fileformat", "reference"]

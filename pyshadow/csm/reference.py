@@ -13,8 +13,8 @@ from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TE
                    slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
-__all__ = ["compress_reference", "footprint_interval", "second_bound", "second_slope", "segment_index_reference",
-           "shadow_taps", "shadow_vote"]
+__all__ = ["compress_reference", "footprint_interval", "map_intervals", "second_bound", "second_slope",
+           "segment_index_reference", "shadow_taps", "shadow_vote"]
 
 
 def _depths(a, name):
@@ -194,6 +194,89 @@ def footprint_interval(z1, hic, c1, c2, c2_front, margin, scale):
     return lo, hi
 
 
+def _interval_inputs(layers, front, rule, depth_bits, margin_depth, corners, corner_front, two_sided, open_air):
+    """compress_reference's arguments checked and normalised (the same errors, in the same order)."""
+    if not (real_scalar(rule) and rule in (2, 3)):
+        raise ValueError(f"rule must be 2 or 3, got {rule!r}")
+    check_depth_bits(depth_bits)
+    layers = _depths(layers, "layers")
+    front = _flags(front, "front")
+    if layers.ndim != 4 or layers.shape[2] != layers.shape[3] or 0 in layers.shape:
+        raise ValueError(f"layers must have shape (D, L, R, R) with D, L, R >= 1, got {layers.shape}")
+    D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
+    if corners is not None:
+        if corner_front is None:
+            raise ValueError("corner_front must be given with corners (the corner maps' facing flags)")
+        corners, corner_front = _depths(corners, "corners"), _flags(corner_front, "corner_front")
+        if corners.shape[:2] != (D, L) or corners.shape[2:] != (R + 1, R + 1) or corner_front.shape != corners.shape:
+            raise ValueError(f"corners and corner_front must have shape {(D, L, R + 1, R + 1)}, got "
+                             f"{corners.shape} and {corner_front.shape}")
+    if L < rule:
+        raise ValueError(f"rule {rule} needs {rule} layers, got {L}")
+    if front.shape != layers.shape:
+        raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
+    if margin_depth is None:
+        margin = front_margin(R)
+    elif real_scalar(margin_depth) and np.float32(margin_depth) >= 0 and np.isfinite(np.float32(margin_depth)):
+        margin = np.float32(margin_depth)
+    else:       # NaN was cast to a key with a RuntimeWarning; a negative margin moved z2' behind z2
+        raise ValueError(f"margin_depth must be a finite number >= 0 (normalised depth), got {margin_depth!r}")
+    two_sided, open_air = flag(two_sided, "two_sided"), flag(open_air, "open_air")
+    return layers, front, rule, depth_bits, margin, corners, corner_front, two_sided, open_air
+
+
+def _intervals(layers, front, rule, depth_bits, margin, corners, corner_front, two_sided, open_air):
+    """Each map's keys per texel, in view-set order: (lo, hi2, hi3), int64 (R*R,) each (checked inputs)."""
+    D, R = layers.shape[0], layers.shape[2]
+    miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
+    for i in range(D):
+        z1, z2 = layers[i, 0].ravel(), layers[i, 1].ravel()
+        hit, two = np.isfinite(z1), np.isfinite(z2)
+        mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
+        front2 = front[i, 1].ravel()
+        z2b = second_bound(layers[i, 0], layers[i, 1], front[i, 1] | two_sided, margin).ravel()
+        air = two & (two_sided | ~front[i, 0].ravel() | (open_air & front2))       # free space behind z1
+        with np.errstate(invalid="ignore"):
+            z1s = (layers[i, 0] + first_slope(layers[i, 0], margin)).astype(np.float32).ravel()
+        z2b = np.where(air, np.minimum(z2b, z1s), z2b)
+        k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
+        mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
+        if corners is not None:
+            c1, c2, cf = (np.stack([a[i, layer, r:r + R, c:c + R].ravel() for r in (0, 1) for c in (0, 1)], 1)
+                          for a, layer in ((corners, 0), (corners, 1), (corner_front, 1)))
+            use = hit & two
+            flo, fhi = footprint_interval(np.where(use, z1, 0), np.where(use, z2b, 1), c1, c2, cf | two_sided, margin,
+                                          footprint_scale(R))
+            klo = _keys_at_or_above(flo, depth_bits)
+            khi = _keys_below(fhi, depth_bits)
+            use &= khi >= klo
+            mlo = np.where(use, klo, mlo)
+            mhi2 = np.where(use, khi, mhi2)
+        mhi3 = mhi2
+        if rule == 3:
+            z3 = layers[i, 2].ravel()
+            z3m = z3 - margin
+            re_enter = two & ~air & ~front2 & np.isfinite(z3) & (z3m > z2)
+            mhi3 = np.where(re_enter, np.maximum(_keys_below(np.where(re_enter, z3m, 0), depth_bits), mhi2),
+                            mhi2)
+        yield mlo, mhi2, mhi3
+
+
+def map_intervals(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None, corners=None,
+                  corner_front=None, two_sided: bool = False, open_air: bool = False):
+    """The interval of every map and texel that :func:`compress_reference` joins into runs.
+
+    Takes the arguments of :func:`compress_reference` (and raises its errors
+    at the call). Returns an iterator over the maps in view-set order, each
+    item ``(lo, hi2, hi3)``: int64 arrays of shape (R*R,) of depth keys (the
+    16-bit depth ``k``, or a float32's bits at 32 bits). A run of maps can
+    share one stored depth at a texel while ``max(lo) <= min(hi3)`` over its
+    maps; ``lo`` is the miss key where the texel sees nothing.
+    """
+    return _intervals(*_interval_inputs(layers, front, rule, depth_bits, margin_depth, corners, corner_front,
+                                        two_sided, open_air))
+
+
 def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margin_depth=None,
                        corners=None, corner_front=None, two_sided: bool = False, open_air: bool = False):
     """NumPy version of the compression kernel: greedy runs per texel, in map order.
@@ -247,32 +330,10 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         ``margin_depth`` that is not a finite number >= 0, ``corners``
         without ``corner_front``.
     """
-    if not (real_scalar(rule) and rule in (2, 3)):
-        raise ValueError(f"rule must be 2 or 3, got {rule!r}")
-    check_depth_bits(depth_bits)
-    layers = _depths(layers, "layers")
-    front = _flags(front, "front")
-    if layers.ndim != 4 or layers.shape[2] != layers.shape[3] or 0 in layers.shape:
-        raise ValueError(f"layers must have shape (D, L, R, R) with D, L, R >= 1, got {layers.shape}")
-    D, L, R = layers.shape[0], layers.shape[1], layers.shape[2]
-    if corners is not None:
-        if corner_front is None:
-            raise ValueError("corner_front must be given with corners (the corner maps' facing flags)")
-        corners, corner_front = _depths(corners, "corners"), _flags(corner_front, "corner_front")
-        if corners.shape[:2] != (D, L) or corners.shape[2:] != (R + 1, R + 1) or corner_front.shape != corners.shape:
-            raise ValueError(f"corners and corner_front must have shape {(D, L, R + 1, R + 1)}, got "
-                             f"{corners.shape} and {corner_front.shape}")
-    if L < rule:
-        raise ValueError(f"rule {rule} needs {rule} layers, got {L}")
-    if front.shape != layers.shape:
-        raise ValueError(f"front has shape {front.shape}, layers {layers.shape}")
-    if margin_depth is None:
-        margin = front_margin(R)
-    elif real_scalar(margin_depth) and np.float32(margin_depth) >= 0 and np.isfinite(np.float32(margin_depth)):
-        margin = np.float32(margin_depth)
-    else:       # NaN was cast to a key with a RuntimeWarning; a negative margin moved z2' behind z2
-        raise ValueError(f"margin_depth must be a finite number >= 0 (normalised depth), got {margin_depth!r}")
-    two_sided, open_air = flag(two_sided, "two_sided"), flag(open_air, "open_air")
+    args = _interval_inputs(layers, front, rule, depth_bits, margin_depth, corners, corner_front, two_sided,
+                            open_air)
+    layers, depth_bits = args[0], args[3]
+    D, R = layers.shape[0], layers.shape[2]
     miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
@@ -290,36 +351,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         m = np.where(lo == miss_key, lo, np.clip(m, lo, hi))
         return m.astype(np.uint32).view(np.float32)
 
-    for i in range(D):
-        z1, z2 = layers[i, 0].ravel(), layers[i, 1].ravel()
-        hit, two = np.isfinite(z1), np.isfinite(z2)
-        mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
-        front2 = front[i, 1].ravel()
-        z2b = second_bound(layers[i, 0], layers[i, 1], front[i, 1] | two_sided, margin).ravel()
-        air = two & (two_sided | ~front[i, 0].ravel() | (open_air & front2))       # free space behind z1
-        with np.errstate(invalid="ignore"):
-            z1s = (layers[i, 0] + first_slope(layers[i, 0], margin)).astype(np.float32).ravel()
-        z2b = np.where(air, np.minimum(z2b, z1s), z2b)
-        k2 = _keys_below(np.where(two, z2b, 0), depth_bits)
-        mhi2 = np.where(two & (k2 >= mlo), k2, mlo)   # hit once, or no key below the bound: {z1}
-        if corners is not None:
-            c1, c2, cf = (np.stack([a[i, layer, r:r + R, c:c + R].ravel() for r in (0, 1) for c in (0, 1)], 1)
-                          for a, layer in ((corners, 0), (corners, 1), (corner_front, 1)))
-            use = hit & two
-            flo, fhi = footprint_interval(np.where(use, z1, 0), np.where(use, z2b, 1), c1, c2, cf | two_sided, margin,
-                                          footprint_scale(R))
-            klo = _keys_at_or_above(flo, depth_bits)
-            khi = _keys_below(fhi, depth_bits)
-            use &= khi >= klo
-            mlo = np.where(use, klo, mlo)
-            mhi2 = np.where(use, khi, mhi2)
-        mhi3 = mhi2
-        if rule == 3:
-            z3 = layers[i, 2].ravel()
-            z3m = z3 - margin
-            re_enter = two & ~air & ~front2 & np.isfinite(z3) & (z3m > z2)
-            mhi3 = np.where(re_enter, np.maximum(_keys_below(np.where(re_enter, z3m, 0), depth_bits), mhi2),
-                            mhi2)
+    for i, (mlo, mhi2, mhi3) in enumerate(_intervals(*args)):
         if started:
             nlo, nhi3 = np.maximum(lo, mlo), np.minimum(hi3, mhi3)
             join = nlo <= nhi3

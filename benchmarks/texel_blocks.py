@@ -6,18 +6,17 @@ store one depth, because the intervals of their maps at that texel
 section 7 (Fig. 7.1) proposes runs shared by a block of coherent texels:
 one stored depth valid for every texel of the block over the run's maps,
 while the intersection of all their intervals stays non-empty. Each texel
-keeps the guarantee of its own list (the stored depth lies in each of its
-maps' intervals), so points on surfaces get the same answers; points
-between two surfaces may get others.
+keeps the guarantee its own list is built for (the stored depth lies in
+each of its maps' intervals: lit at the first surface the texel sees,
+shadowed from the second on); other points may be answered otherwise.
 
 Neighbouring lists are seldom identical ("repeated": the segments of lists
 that equal an earlier texel's, mostly texels that see nothing in any map;
 "left": the share of run ends that also end a run of the left neighbour's
 list, "same": and with the same stored depth), so sharing has to be by
-intervals. The script
-renders the CSM's own maps (``pyshadow.render_depth``, the build's frame and
-layers), takes every map's intervals, and counts in map order, greedily,
-for 2x2 blocks:
+intervals. The script renders the CSM's own maps (``pyshadow.render_depth``,
+the build's frame and layers), takes every map's intervals, and counts in
+map order, greedily, for 2x2 blocks:
 
 * a **shared run** while the block's intersection over its maps stays
   non-empty (one pair: 4 bytes, as a segment today);

@@ -26,8 +26,11 @@ map order, greedily, for 2x2 blocks:
   map where the block intersects again and one of the texels' runs ends;
   then the four runs end and a shared run starts.
 
-Against it: the CSM as built (the same count per texel, checked against
-its segments), and the CSM built at half the resolution (what the same
+Each block may also keep whichever is smaller, its shared lists or its
+four own lists (one bit a block says which; "chosen": the greedy scheme
+can cost more pairs than the lists it replaces where the block's texels
+disagree often). Against it: the CSM as built (the same count per texel,
+checked against its segments), and the CSM built at half the resolution (what the same
 saving costs without sharing: coarser maps). Bytes are those of the pairs
 (4 per segment; offsets and summaries come on top of both). How fast a
 lookup could read such lists is not measured: it would need the block's
@@ -61,13 +64,18 @@ def block_indices(R: int) -> np.ndarray:
 def count_runs(intervals, R: int, miss: int) -> dict:
     """Pairs of the per-texel lists and of the 2x2 block scheme, greedy in map order (module docstring), and
     the share of (block, map) where a texel of the block sees the mesh and the four intervals do not meet.
+    ``chosen_pairs``: each block's fewer of the two (its four own lists or its shared ones), ``blocks_sharing``:
+    the blocks whose shared lists are fewer; ``floor_pairs``: the least any scheme of shared and own runs
+    could keep, each block its largest own list (a texel's own list is the fewest runs its intervals allow,
+    and every run that covers it, shared or not, is one of its runs).
 
     ``intervals``: an iterator of ``(lo, hi2, hi3)`` per map (``map_intervals``); R even; ``miss``: the miss
     key (``lo`` where a texel sees nothing).
     """
     idx = block_indices(R)
     texel_lo = texel_hi = None
-    texel_runs = seen = apart = 0
+    texel_runs = np.ones(R * R, np.int64)            # each texel's list: its first run, then one a run it ends
+    seen = apart = 0
     for i, (lo, _, hi3) in enumerate(intervals):
         l, h = lo[idx], hi3[idx]
         blo, bhi = l.max(axis=1), h.min(axis=1)
@@ -79,12 +87,13 @@ def count_runs(intervals, R: int, miss: int) -> dict:
             texel_lo, texel_hi = lo, hi3
             split = ~share
             slo, shi, tlo, thi = blo, bhi, l, h
-            shared_runs, marks, split_runs = 0, int(split.sum()), 0
+            shared_runs, marks, split_runs = np.zeros(len(idx), np.int64), split.astype(np.int64), \
+                np.zeros(len(idx), np.int64)                 # per block
             continue
         # the per-texel lists (as compress_reference joins them)
         nlo, nhi = np.maximum(texel_lo, lo), np.minimum(texel_hi, hi3)
         join = nlo <= nhi
-        texel_runs += int((~join).sum())
+        texel_runs += ~join
         texel_lo, texel_hi = np.where(join, nlo, lo), np.where(join, nhi, hi3)
         # the blocks
         nslo, nshi = np.maximum(slo, blo), np.minimum(shi, bhi)
@@ -95,20 +104,23 @@ def count_runs(intervals, R: int, miss: int) -> dict:
         leave = split & share & ~t_join.all(axis=1)          # back to a shared run: the four runs end
         stay = split & ~leave
         enter = s_end & ~share                               # a split region starts
-        shared_runs += int(s_end.sum())
-        split_runs += 4 * int(leave.sum()) + int((~t_join & stay[:, None]).sum())
-        marks += int(enter.sum())
+        shared_runs += s_end
+        split_runs += 4 * leave + (~t_join & stay[:, None]).sum(axis=1)
+        marks += enter
         start = (s_end & share) | leave
         slo = np.where(s_join, nslo, np.where(start, blo, slo))
         shi = np.where(s_join, nshi, np.where(start, bhi, shi))
         keep = stay[:, None] & t_join
         tlo, thi = np.where(keep, ntlo, l), np.where(keep, nthi, h)
         split = stay | enter
-    texel_runs += R * R
-    shared_runs += int((~split).sum())
-    split_runs += 4 * int(split.sum())
-    return {"texel_segments": texel_runs, "shared_runs": shared_runs, "split_markers": marks,
-            "split_runs": split_runs, "block_pairs": shared_runs + marks + split_runs,
+    shared_runs += ~split
+    split_runs += 4 * split
+    block = shared_runs + marks + split_runs
+    own = texel_runs[idx].sum(axis=1)                    # the block's four lists as they are
+    return {"texel_segments": int(texel_runs.sum()), "shared_runs": int(shared_runs.sum()),
+            "split_markers": int(marks.sum()), "split_runs": int(split_runs.sum()), "block_pairs": int(block.sum()),
+            "chosen_pairs": int(np.minimum(block, own).sum()), "blocks_sharing": int((block < own).sum()),
+            "floor_pairs": int(texel_runs[idx].max(axis=1).sum()),
             "blocks_apart": apart / max(seen, 1)}
 
 
@@ -146,11 +158,14 @@ def measure(name: str, maps, R: int) -> dict:
             ends += int(hit.sum())
             same += int((depth[b][k[hit]] == depth[a][hit]).sum())
     full, blocks, halved = 4 * len(csm.iend), 4 * runs["block_pairs"], 4 * len(half.iend)
+    chosen = 4 * runs["chosen_pairs"] + (R * R // 4 + 7) // 8          # and a bit per block
     return {"mesh": name, "maps": f"{maps[0]}x{maps[1]}", "resolution": R, **runs,
             "repeated_list_segments": int(repeated), "left_shared_ends": ends / len(iend),
             "left_same_depth": same / len(iend),
             "pair_bytes": full, "block_pair_bytes": blocks, "half_resolution_pair_bytes": halved,
-            "blocks_over_texels": blocks / full, "half_over_full": halved / full,
+            "chosen_pair_bytes": chosen, "blocks_over_texels": blocks / full, "chosen_over_texels": chosen / full,
+            "floor_over_texels": runs["floor_pairs"] / len(csm.iend),
+            "half_over_full": halved / full,
             "seconds": time.perf_counter() - t0}
 
 
@@ -177,11 +192,14 @@ def main(argv=None) -> int:
         emit({"benchmark": "texel_blocks", **environment(), "rows": rows}, True)
         return 0
     print(f"zigzag {args.maps} maps at {args.resolution}^2: pair bytes of the per-texel lists, of 2x2 blocks "
-          f"sharing runs (greedy), and of the CSM at {args.resolution // 2}^2")
-    print(f"{'mesh':<20} {'per texel':>11} {'2x2 blocks':>11} {'ratio':>6} {'shared runs':>11} {'split':>9} "
-          f"{'markers':>8} {'apart':>6} {'half res':>11} {'ratio':>6} {'repeated':>8} {'left':>5} {'same':>5}")
+          f"sharing runs (greedy), each block's smaller of the two with its bit (chosen), the least any such scheme "
+          f"could keep (floor), and of the CSM at {args.resolution // 2}^2")
+    print(f"{'mesh':<20} {'per texel':>11} {'2x2 blocks':>11} {'ratio':>6} {'chosen':>6} {'floor':>5} "
+          f"{'shared runs':>11} {'split':>9} {'markers':>8} {'apart':>6} {'half res':>11} {'ratio':>6} {'repeated':>8} {'left':>5} "
+          f"{'same':>5}")
     for r in rows:
         print(f"{r['mesh']:<20} {r['pair_bytes']:>11,} {r['block_pair_bytes']:>11,} {r['blocks_over_texels']:>6.3f} "
+              f"{r['chosen_over_texels']:>6.3f} {r['floor_over_texels']:>5.3f} "
               f"{r['shared_runs']:>11,} {r['split_runs']:>9,} {r['split_markers']:>8,} {r['blocks_apart']:>6.3f} "
               f"{r['half_resolution_pair_bytes']:>11,} {r['half_over_full']:>6.3f} {r['repeated_list_segments']:>8,} "
               f"{r['left_shared_ends']:>5.2f} {r['left_same_depth']:>5.2f}")

@@ -25,7 +25,20 @@ def test_block_runs_counted_by_hand():
     seq = [(np.array([t[0] for t in m]), None, np.array([t[1] for t in m])) for m in maps]
     got = count_runs(iter(seq), 2, miss=65535)
     assert got == {"texel_segments": 8, "shared_runs": 2, "split_markers": 1, "split_runs": 4, "block_pairs": 7,
-                   "blocks_apart": 0.25}
+                   "chosen_pairs": 7, "blocks_sharing": 1, "floor_pairs": 2, "blocks_apart": 0.25}
+
+
+def test_a_block_keeps_its_own_lists_where_sharing_costs_more():
+    """Texel 0 leaves its neighbours every other map: the greedy scheme pays two shared runs, two markers and
+    eight split runs (12 pairs) where the four own lists hold 4 + 1 + 1 + 1; the block keeps those (7)."""
+    from texel_blocks import count_runs
+
+    a, c = (0, 10), (20, 30)
+    maps = [[a] * 4, [c, a, a, a], [a] * 4, [c, a, a, a]]
+    seq = [(np.array([t[0] for t in m]), None, np.array([t[1] for t in m])) for m in maps]
+    got = count_runs(iter(seq), 2, miss=65535)
+    assert got == {"texel_segments": 7, "shared_runs": 2, "split_markers": 2, "split_runs": 8, "block_pairs": 12,
+                   "chosen_pairs": 7, "blocks_sharing": 0, "floor_pairs": 4, "blocks_apart": 0.5}
 
 
 def test_intervals_hold_the_stored_depths_and_give_the_segments():

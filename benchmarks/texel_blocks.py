@@ -195,8 +195,8 @@ def main(argv=None) -> int:
           f"sharing runs (greedy), each block's smaller of the two with its bit (chosen), the least any such scheme "
           f"could keep (floor), and of the CSM at {args.resolution // 2}^2")
     print(f"{'mesh':<20} {'per texel':>11} {'2x2 blocks':>11} {'ratio':>6} {'chosen':>6} {'floor':>5} "
-          f"{'shared runs':>11} {'split':>9} {'markers':>8} {'apart':>6} {'half res':>11} {'ratio':>6} {'repeated':>8} {'left':>5} "
-          f"{'same':>5}")
+          f"{'shared runs':>11} {'split':>9} {'markers':>8} {'apart':>6} {'half res':>11} {'ratio':>6} "
+          f"{'repeated':>8} {'left':>5} {'same':>5}")
     for r in rows:
         print(f"{r['mesh']:<20} {r['pair_bytes']:>11,} {r['block_pair_bytes']:>11,} {r['blocks_over_texels']:>6.3f} "
               f"{r['chosen_over_texels']:>6.3f} {r['floor_over_texels']:>5.3f} "

@@ -127,6 +127,7 @@ def count_runs(intervals, R: int, miss: int) -> dict:
 def measure(name: str, maps, R: int) -> dict:
     import pyshadow
     from pyshadow.csm import both_sided_faces, map_intervals, open_sheet
+    from pyshadow.csm.reference import miss_key
 
     mesh = load_mesh(name)
     views = pyshadow.ViewSet.zigzag(*maps)
@@ -142,7 +143,7 @@ def measure(name: str, maps, R: int) -> dict:
             layers, front = pyshadow.render_depth(mesh, views[s:s + CHUNK], resolution=R, layers=csm.layer_rule,
                                                   frame=frame, facing=True, both_sides=both)
             yield from map_intervals(layers, front, csm.layer_rule, csm.depth_bits, open_air=open_air)
-    runs = count_runs(intervals(), R, 65535 if csm.depth_bits == 16 else int(np.float32(np.inf).view(np.uint32)))
+    runs = count_runs(intervals(), R, miss_key(csm.depth_bits))
     if runs["texel_segments"] != len(csm.iend):
         raise RuntimeError(f"{name}: {runs['texel_segments']} runs counted, the CSM has {len(csm.iend)} segments "
                            "(the intervals are not the build's)")

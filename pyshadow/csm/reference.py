@@ -9,11 +9,11 @@ import numpy as np
 
 from .._validate import check_int, check_rows, check_values, flag, real_scalar
 from .build import check_depth_bits, footprint_scale
-from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, PLANE_BIAS_TEXELS, front_margin, query_indices,
-                   slope_slack)
+from .core import (DEFAULT_BIAS_TAN, DEFAULT_BIAS_TEXELS, DEPTH_Q, MISS16, PLANE_BIAS_TEXELS, front_margin,
+                   query_indices, slope_slack)
 from .surface_rule import SURFACE_LIFT_TEXELS
 
-__all__ = ["compress_reference", "footprint_interval", "map_intervals", "second_bound", "second_slope",
+__all__ = ["compress_reference", "footprint_interval", "map_intervals", "miss_key", "second_bound", "second_slope",
            "segment_index_reference", "shadow_taps", "shadow_vote"]
 
 
@@ -225,14 +225,19 @@ def _interval_inputs(layers, front, rule, depth_bits, margin_depth, corners, cor
     return layers, front, rule, depth_bits, margin, corners, corner_front, two_sided, open_air
 
 
+def miss_key(depth_bits: int) -> int:
+    """The depth key of a texel that sees nothing: 16-bit ``MISS16``, or the bits of float32 +inf at 32 bits."""
+    return MISS16 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
+
+
 def _intervals(layers, front, rule, depth_bits, margin, corners, corner_front, two_sided, open_air):
     """Each map's keys per texel, in view-set order: (lo, hi2, hi3), int64 (R*R,) each (checked inputs)."""
     D, R = layers.shape[0], layers.shape[2]
-    miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
+    miss = miss_key(depth_bits)
     for i in range(D):
         z1, z2 = layers[i, 0].ravel(), layers[i, 1].ravel()
         hit, two = np.isfinite(z1), np.isfinite(z2)
-        mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss_key)
+        mlo = np.where(hit, _keys_at_or_above(np.where(hit, z1, 0), depth_bits), miss)
         front2 = front[i, 1].ravel()
         z2b = second_bound(layers[i, 0], layers[i, 1], front[i, 1] | two_sided, margin).ravel()
         air = two & (two_sided | ~front[i, 0].ravel() | (open_air & front2))       # free space behind z1
@@ -271,7 +276,7 @@ def map_intervals(layers, front, rule: int = 2, depth_bits: int = 16, margin_dep
     item ``(lo, hi2, hi3)``: int64 arrays of shape (R*R,) of depth keys (the
     16-bit depth ``k``, or a float32's bits at 32 bits). A run of maps can
     share one stored depth at a texel while ``max(lo) <= min(hi3)`` over its
-    maps; ``lo`` is the miss key where the texel sees nothing.
+    maps; ``lo`` is the miss key (:func:`miss_key`) where the texel sees nothing.
     """
     return _intervals(*_interval_inputs(layers, front, rule, depth_bits, margin_depth, corners, corner_front,
                                         two_sided, open_air))
@@ -334,7 +339,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
                             open_air)
     layers, depth_bits = args[0], args[3]
     D, R = layers.shape[0], layers.shape[2]
-    miss_key = 65535 if depth_bits == 16 else int(np.float32(np.inf).view(np.uint32))
+    miss = miss_key(depth_bits)
     T = R * R
     lo = hi2 = hi3 = np.zeros(T, np.int64)
     started = False
@@ -348,7 +353,7 @@ def compress_reference(layers, front, rule: int = 2, depth_bits: int = 16, margi
         b = hi.astype(np.uint32).view(np.float32)
         with np.errstate(invalid="ignore"):
             m = (a + (b - a) * np.float32(0.5)).view(np.uint32).astype(np.int64)
-        m = np.where(lo == miss_key, lo, np.clip(m, lo, hi))
+        m = np.where(lo == miss, lo, np.clip(m, lo, hi))
         return m.astype(np.uint32).view(np.float32)
 
     for i, (mlo, mhi2, mhi3) in enumerate(_intervals(*args)):

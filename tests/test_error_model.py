@@ -232,3 +232,23 @@ def test_large_candidates_only_after_every_smaller_one_with_every_lookup(torus, 
     with pytest.warns(UserWarning, match="no candidate CSM meets"):
         csm, c = choose_csm(torus, 1e-6, lookup="auto", points=200, samples=4, near=1000, candidates=cands)
     assert [t["predicted"]["lookup"] for t in c["tried"]] == ["nearest"] * 3 + ["vote"] * 3
+
+
+def test_stored_depth_keeps_a_miss_where_the_ray_from_the_map_meets_nothing():
+    """``_stored_depth`` traces from the map's plane the texel a tap found shadowed by a ray from the point.
+    The two rays are not the same in float32: one grazing an edge can meet it and the other not (the
+    held-out beetle, 32x64 maps at 64^2, vote lookup: one ray in 7,468). Such a texel keeps a miss (inf),
+    as the compression's ray would; the other rays of the call keep their depths. It had traced on from
+    inf, and the NaN origins stopped the whole prediction with a ValueError."""
+    from pyshadow.csm.error_model import _stored_depth
+    from pyshadow.embree import EmbreeScene
+
+    box = trimesh.creation.box(extents=(1.0, 1.0, 1.0))
+    tracer = EmbreeScene(box.vertices[box.faces])
+    front = np.array([[0.1, 0.2, 2.0], [5.0, 5.0, 2.0], [-0.3, 0.0, 2.0]])
+    axis = np.tile([0.0, 0.0, 1.0], (3, 1))
+    margin = 0.01
+    z = _stored_depth(tracer, front, axis, margin)
+    inside = 0.5 * (0.75 + 1.25 - margin)      # the box's top at t1 = 1.5 and bottom at 2.5: z1, z2 = t / 2
+    np.testing.assert_allclose(z[[0, 2]], inside, rtol=1e-6)
+    assert z[1] == np.inf

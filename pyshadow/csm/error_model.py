@@ -173,8 +173,13 @@ def _stored_depth(tracer, front, axis, margin):
     meets one surface only (:func:`pyshadow.csm.reference.compress_reference`: one map's interval, the
     middle of its keys)."""
     t1 = tracer.intersect(front, -axis)[0]
-    step = t1 + 1e-5
-    t2 = step + tracer.intersect(front - axis * step[:, None], -axis)[0]
+    # a ray grazing an edge or a corner can meet it one way and miss it the other (float32): the caller's
+    # ray from the point met the mesh, this one from the map's plane does not, so the texel keeps a miss
+    # (depth inf), as the compression's ray through its centre would; nothing is traced on from inf
+    met = np.flatnonzero(np.isfinite(t1))
+    t2 = np.full_like(t1, np.inf)
+    step = t1[met] + 1e-5
+    t2[met] = step + tracer.intersect(front[met] - axis[met] * step[:, None], -axis[met])[0]
     z1 = 0.5 * t1
     z2 = np.maximum(0.5 * t2 - margin, z1)                  # inf - margin: inf
     return np.where(np.isfinite(z2), 0.5 * (z1 + z2), z1)

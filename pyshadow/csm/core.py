@@ -374,12 +374,12 @@ class CoherentShadowMap:
                 "IEND_T": "ushort" if self.iend.dtype == np.uint16 else "uint",
                 "PAIR_WIDE": int(self.pair_wide), "SEARCH_BLOCK": SEARCH_BLOCK}
 
-    def search_arrays(self, wide: bool | None = None, padded: bool = False) -> dict:
+    def search_arrays(self, wide: bool | None = None, padded: bool = False, segment: bool = True) -> dict:
         """The device layout the search kernels read (:func:`pyshadow.csm.device.search_arrays`), the arrays
         checked first: :func:`pyshadow.csm.file_checks.checked_search_arrays`."""
         from .file_checks import checked_search_arrays
 
-        return checked_search_arrays(self, wide, padded)
+        return checked_search_arrays(self, wide, padded, segment)
 
     def device_buffers(self):
         """(offsets, soff, summary, pairs) on the device, kept while its arrays stay (:mod:`.device`)."""

@@ -19,10 +19,14 @@ __all__ = ["search_arrays", "device_buffers", "segment_index", "scene_atlas", "e
 #: bytes of empty-map bits a CSM type may take (``empty_words``): an eighth of a CPU core's 2 MiB L2
 EMPTY_BYTES = 256 * 1024
 
+#: padded slots :func:`search_arrays` lays out at once: its temporaries stay a few times this many 8-byte
+#: words (tens of MB), whatever the CSM's size (the whole CSM at once took ten times its bytes)
+SEARCH_CHUNK = 1 << 21
+
 _LAYOUT_CODE = {"zigzag": 0, "hilbert": 1}
 
 
-def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
+def search_arrays(csm, wide: bool | None = None, padded: bool = False, segment: bool = True) -> dict:
     """The device layout the search kernels read (kernels/csm_search.h) for ``csm``.
 
     Parameters
@@ -36,6 +40,9 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
         layout of the scene kernels (kernels/visibility.cl). The copies
         have i_end = D - 1, so counting the i_end below a map index over
         a whole block gives the same answer.
+    segment : bool, optional
+        Return ``segment`` too (8 bytes a pair, twice the CSM's own 4 a
+        segment; the device tables do not need it).
 
     Returns
     -------
@@ -46,8 +53,10 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
         every block of ``SEARCH_BLOCK`` segments of a list; ``pairs``
         each segment's i_end and stored depth side by side: uint32
         ``depth << 16 | iend`` or, when ``wide``, uint32 (S, 2)
-        ``(iend, depth bits)``; ``segment`` int64, the index into
-        :attr:`iend` / :attr:`depth` of every pair.
+        ``(iend, depth bits)``; with ``segment``, ``segment`` int64, the
+        index into :attr:`iend` / :attr:`depth` of every pair.
+        Laid out :data:`SEARCH_CHUNK` pairs at a time: beside its output it
+        holds a few tens of MB, whatever the CSM's size.
     """
     wide = csm.pair_wide if wide is None else bool(wide)
     if csm.offsets.dtype != np.uint32:
@@ -58,27 +67,41 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False) -> dict:
     nblocks = -(-lens // SEARCH_BLOCK)
     soff = np.zeros(len(off), np.int64)
     np.cumsum(nblocks, out=soff[1:])
-    texel = np.repeat(np.arange(len(lens)), nblocks)
-    j = np.arange(int(soff[-1])) - soff[:-1][texel]
-    last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
+    starts = SEARCH_BLOCK * soff if padded else off        # padded: every list starts on a block boundary
     # in the kernels' IEND_T (CoherentShadowMap.defines): ushort for uint16 i_end, else uint (values < D <= 2^21)
-    summary = iend[last].astype(np.uint16 if iend.dtype == np.uint16 else np.uint32, copy=False)
-    if padded:
-        starts = SEARCH_BLOCK * soff            # every list starts on a block boundary
-        owner = np.repeat(np.arange(len(lens)), SEARCH_BLOCK * nblocks)
-        within = np.arange(int(starts[-1])) - starts[:-1][owner]
-        segment = off[:-1][owner] + np.minimum(within, lens[owner] - 1)
-        off = starts
-    else:
-        segment = np.arange(len(iend), dtype=np.int64)
-    if wide:
-        pairs = np.empty((len(segment), 2), np.uint32)
-        pairs[:, 0] = iend[segment]
-        pairs[:, 1] = depth[segment].view(np.uint32) if csm.depth_bits == 32 else depth[segment]
-    else:
-        pairs = ((depth.astype(np.uint32) << 16) | iend.astype(np.uint32))[segment]
-    return {"offsets": off.astype(np.uint32), "soff": soff.astype(np.uint32),
-            "summary": summary, "pairs": pairs, "segment": segment}
+    summary = np.empty(int(soff[-1]), np.uint16 if iend.dtype == np.uint16 else np.uint32)
+    pairs = np.empty((int(starts[-1]), 2) if wide else int(starts[-1]), np.uint32)
+    seg = np.empty(int(starts[-1]), np.int64) if segment else None
+    depth_bits = depth.view(np.uint32) if csm.depth_bits == 32 else depth
+    t0, T = 0, len(lens)
+    while t0 < T:           # texels t0 .. t1 - 1: about SEARCH_CHUNK pairs (a longer list alone)
+        t1 = max(t0 + 1, min(T, int(np.searchsorted(starts, starts[t0] + SEARCH_CHUNK, side="right")) - 1))
+        tex = np.arange(t0, t1)
+        b0, b1 = int(soff[t0]), int(soff[t1])
+        texel = np.repeat(tex, nblocks[t0:t1])
+        j = np.arange(b0, b1) - soff[:-1][texel]
+        last = np.minimum(off[:-1][texel] + SEARCH_BLOCK * j + SEARCH_BLOCK - 1, off[1:][texel] - 1)
+        summary[b0:b1] = iend[last]
+        s0, s1 = int(starts[t0]), int(starts[t1])
+        if padded:
+            owner = np.repeat(tex, SEARCH_BLOCK * nblocks[t0:t1])
+            within = np.arange(s0, s1) - starts[:-1][owner]
+            part = off[:-1][owner] + np.minimum(within, lens[owner] - 1)
+        else:
+            part = np.arange(s0, s1, dtype=np.int64)
+        if wide:
+            pairs[s0:s1, 0] = iend[part]
+            pairs[s0:s1, 1] = depth_bits[part]
+        else:
+            pairs[s0:s1] = (depth[part].astype(np.uint32) << 16) | iend[part].astype(np.uint32)
+        if segment:
+            seg[s0:s1] = part
+        t0 = t1
+    out = {"offsets": starts.astype(np.uint32), "soff": soff.astype(np.uint32), "summary": summary,
+           "pairs": pairs}
+    if segment:
+        out["segment"] = seg
+    return out
 
 
 def _resident(csm):
@@ -110,7 +133,7 @@ def device_buffers(csm):
     kept = csm._device
     if kept is None or kept[0] is not ctx or not all(
             a is b or (isinstance(a, int) and isinstance(b, int) and a == b) for a, b in zip(kept[1], held)):
-        a = csm.search_arrays()
+        a = csm.search_arrays(segment=False)
         csm._device = (ctx, held, tuple(_cl.to_device(a[k]) for k in ("offsets", "soff", "summary", "pairs")))
     return csm._device[2]
 
@@ -230,7 +253,7 @@ def scene_atlas(types) -> dict:
     seg = blk = view = cell = tex = ebase = 0
     for ti, c in enumerate(types):
         R, D = c.resolution, c.maps
-        a = c.search_arrays(wide=wide, padded=True)
+        a = c.search_arrays(wide=wide, padded=True, segment=False)
         if len(a["pairs"]) + seg >= 2**32:
             raise ValueError("the scene's CSMs hold 2^32 or more segments together")
         layout = _LAYOUT_CODE[c.views.layout]
@@ -270,8 +293,10 @@ def scene_atlas(types) -> dict:
     offs.append(np.array([seg], dtype=np.int64))
     soffs.append(np.array([blk], dtype=np.int64))
 
-    def cat(parts, dtype, empty):
-        return np.concatenate(parts).astype(dtype) if parts else np.asarray(empty, dtype)
+    def cat(parts, dtype, empty):       # one type's table as it is: no copy beside the device's
+        if not parts:
+            return np.asarray(empty, dtype)
+        return (parts[0] if len(parts) == 1 else np.concatenate(parts)).astype(dtype, copy=False)
 
     atlas = {
         "bits": bits,

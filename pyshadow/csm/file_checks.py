@@ -115,7 +115,7 @@ def _check_storage(csm, where) -> None:
         raise CSMFormatError(f"{where}: depth must be in native byte order, got {depth.dtype.str}")
 
 
-def checked_search_arrays(csm, wide=None, padded=False) -> dict:
+def checked_search_arrays(csm, wide=None, padded=False, segment=True) -> dict:
     """:meth:`CoherentShadowMap.search_arrays`: :func:`check_csm` (CSMFormatError where the constructor was
     given, or an attribute was set to, arrays the kernels would read outside of; the values of a mapped
     file's are checked when copied, :func:`pyshadow.csm.device.search_arrays`, their dtypes and the layout
@@ -126,4 +126,4 @@ def checked_search_arrays(csm, wide=None, padded=False) -> dict:
         _check_storage(csm, "CoherentShadowMap")     # the values when copied; an array set since, too
     else:
         check_csm(csm)
-    return search_arrays(csm, wide, padded)
+    return search_arrays(csm, wide, padded, segment)

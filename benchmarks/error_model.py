@@ -16,16 +16,20 @@
    the bytes of the chosen CSMs against both at the bunny's parameters.
 4. With ``--shapes``: part 1's rows for shapes made here (:data:`SHAPES`),
    meshes the model was not calibrated on -- a thin plate, a capsule, a
-   rough sphere, a comb of thin fins, an open tube, a thin ring.
+   rough sphere, a comb of thin fins, an open tube, a thin ring. With
+   ``--files``: the same for mesh files (held out: meshes from elsewhere
+   that no rule or constant of the model was fitted on).
 
     python benchmarks/error_model.py [--quick] [--meshes NAME ...] [--targets E ...] [--meshes-only]
-                                     [--shapes [NAME ...]] [--lookup auto|nearest|vote] [--json]
+                                     [--shapes [NAME ...] | --files PATH ...] [--lookup auto|nearest|vote]
+                                     [--json]
 
 ``--quick``: 2 % and 1 % only, four meshes. ``--meshes`` and ``--targets``
 choose the rows of part 1 (and the targets of part 2), each over what
 ``--quick`` would choose (so not all three together); ``--meshes-only``
 skips parts 2 and 3. ``--shapes`` alone runs part 4 only (every shape, or
-those named), at ``--targets``. ``--lookup`` (``auto``, the default;
+those named), at ``--targets``; ``--files`` likewise (a row whose
+choice finds no candidate in the memory free records the MemoryError). ``--lookup`` (``auto``, the default;
 ``nearest``, ``vote``): the lookup the rows of parts 1 and 4 choose for
 (with ``--meshes-only`` or ``--shapes``).
 """
@@ -35,6 +39,7 @@ import argparse
 import time
 import warnings
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -42,7 +47,7 @@ import trimesh
 import pyshadow
 from pyshadow import embree
 from pyshadow.csm.error_model import MODEL_RATIO, Body, Layout, ao_rays, model_visible, truth_visible, wilson
-from _common import check_meshes, emit, environment
+from _common import check_file, check_meshes, emit, environment
 
 TARGETS = (0.02, 0.01, 0.005)
 
@@ -202,6 +207,8 @@ def main(argv=None):
     ap.add_argument("--meshes-only", action="store_true", help="part 1 only")
     ap.add_argument("--shapes", nargs="*", metavar="NAME", choices=tuple(SHAPES),
                     help=f"part 4 only: shapes made here ({', '.join(SHAPES)}; all where none is named)")
+    ap.add_argument("--files", nargs="+", metavar="PATH",
+                    help="part 4 only: mesh files (any format load_mesh reads) in place of the shapes")
     ap.add_argument("--lookup", choices=("auto", "nearest", "vote"), default="auto",
                     help="the lookup part 1 and part 4 choose for (default: auto)")
     ap.add_argument("--json", action="store_true")
@@ -211,14 +218,21 @@ def main(argv=None):
     if args.quick and args.meshes and args.targets:
         ap.error("--quick chooses meshes and targets; with both --meshes and --targets given it has no effect")
     check_meshes(ap, "--meshes", args.meshes or (), files=False)
-    if args.shapes is not None and (args.meshes or args.quick or args.meshes_only):
-        ap.error("--shapes runs part 4 alone: give it without --meshes, --quick and --meshes-only")
-    if args.lookup != "auto" and not (args.meshes_only or args.shapes is not None):
+    for f in args.files or ():
+        check_file(ap, "--files", f)
+    part4 = args.shapes is not None or args.files is not None
+    if part4 and (args.meshes or args.quick or args.meshes_only or (args.shapes is not None and args.files)):
+        ap.error("--shapes and --files run part 4 alone: give one of them without --meshes, --quick and "
+                 "--meshes-only")
+    if args.lookup != "auto" and not (args.meshes_only or part4):
         ap.error("--lookup applies to the rows of parts 1 and 4: give it with --meshes-only or --shapes "
                  "(parts 2 and 3 reuse part 1's choices)")
     t0 = time.perf_counter()
     targets = args.targets or (TARGETS[:2] if args.quick else TARGETS)
-    if args.shapes is not None:
+    if args.files is not None:
+        meshes = {Path(f).name: pyshadow.load_mesh(f) for f in args.files}
+        names = tuple(meshes)
+    elif args.shapes is not None:
         names = tuple(args.shapes) or tuple(SHAPES)
         meshes = {n: SHAPES[n]() for n in names}
     else:
@@ -231,7 +245,15 @@ def main(argv=None):
     rows, chosen = [], {}
     for name in names:
         for target in targets:
-            csm, row = mesh_row(name, meshes[name], target, args.lookup)
+            try:
+                csm, row = mesh_row(name, meshes[name], target, args.lookup)
+            except MemoryError as e:
+                if args.files is None:
+                    raise
+                rows.append({"mesh": name, "target": target, "memory_error": str(e), "within_1_5": False,
+                             "met": False, "ratio": None})
+                print(f"{name:20s} {target:.3f} {e}", flush=True)
+                continue
             chosen[name, target] = csm
             rows.append(row)
             if not args.json:
@@ -242,10 +264,11 @@ def main(argv=None):
                       f"{row['build_seconds']:.1f} s", flush=True)
 
     two, mixed_out = {}, None
-    if not args.meshes_only and args.shapes is None:
+    if not args.meshes_only and not part4:
         two, mixed_out = scenes(meshes, chosen, targets, args.json)
     res = {"benchmark": "error_model", **environment(), "model_ratio": MODEL_RATIO, "targets": targets,
-           "rows_are": "shapes made here" if args.shapes is not None else "bundled meshes", "lookup": args.lookup,
+           "rows_are": ("mesh files" if args.files is not None else "shapes made here" if args.shapes is not None
+                        else "bundled meshes"), "lookup": args.lookup,
            "meshes": rows, "two_objects": {str(k): v for k, v in two.items()}, "mixed": mixed_out,
            "all_within_1_5": all(r["within_1_5"] for r in rows) and all(
                v["all"]["ratio"] is not None and 1 / 1.5 <= v["all"]["ratio"] <= 1.5 for v in two.values()),

@@ -90,6 +90,8 @@ def within(request):
     ("error_model", ["--shapes", "nosuch"], "--shapes"),
     ("error_model", ["--shapes", "comb", "--meshes", "fandisk"], "--shapes"),
     ("error_model", ["--lookup", "vote", "--targets", "0.02"], "--lookup"),
+    ("error_model", ["--files", "{tmp}/none.obj"], "--files"),
+    ("error_model", ["--files", "{tmp}/a_file", "--shapes", "comb"], "--files"),
     ("exposure", ["--meshes", "nosuch.obj"], "--meshes"),
     ("extremes", ["--resolution", "0", "--rows", "grazing"], "--resolution"),
     ("fig65", ["--backend", "foo"], "--backend"),

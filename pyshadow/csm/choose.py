@@ -28,10 +28,12 @@ import warnings
 
 import numpy as np
 
+from .._progress import Steps
 from .._validate import check_int
 from ..mesh import check_mesh
 from .core import _iend_dtype, _offsets_dtype
 from .error_model import CANDIDATES, LARGE_WORK, MODEL_RATIO, _count, predict, rays_for
+from .room import left_out_note, within_memory
 
 __all__ = ["build_chosen", "choose_csm", "choose_within", "measure", "size_model", "PILOTS"]
 
@@ -116,10 +118,11 @@ def _upper(p) -> float:
     return p["disagreement"] if top is None else max(p["disagreement"], float(top["interval"][1]))
 
 
-def _announce(max_error, tried, entry, verify, fits):
+def _announce(max_error, tried, entry, verify, fits, left_out):
     """Warn, before it starts, of a build for a target no candidate is predicted to meet that is predicted to take
     :data:`LONG_BUILD` seconds or bytes or more: what it is predicted to reach, what it costs, the most accurate
-    prediction (and its cost) where that is another candidate that ``fits`` (the cap on bytes)."""
+    prediction (and its cost) where that is another candidate that ``fits`` (the cap on bytes), the candidates
+    ``left_out`` for memory."""
     sec, nbytes = entry["predicted_seconds"], entry["predicted_bytes"]
     if sec < LONG_BUILD[0] and nbytes < LONG_BUILD[1]:
         return
@@ -127,8 +130,9 @@ def _announce(max_error, tried, entry, verify, fits):
     warnings.warn(f"no candidate CSM is predicted to meet max_error={max_error:g}: building {p['layout']} "
                   f"({p['lookup']}), predicted {p['disagreement']:.4f}, about {_mb(nbytes)} and "
                   f"{sec:.0f} s{' before its check' if verify else ''}{_most_accurate(tried, entry, fits)}"
-                  f"{_most_accurate(tried, entry, fits, 0.25, 'a quarter of the size or less')}; "
-                  "pyshadow.csm.choose_csm(..., max_bytes=) caps the size", UserWarning, stacklevel=4)
+                  f"{_most_accurate(tried, entry, fits, 0.25, 'a quarter of the size or less')}"
+                  f"{left_out_note(left_out)}; pyshadow.csm.choose_csm(..., max_bytes=) caps the size",
+                  UserWarning, stacklevel=4)
 
 
 def _most_accurate(tried, entry, fits, share=None, within="") -> str:
@@ -173,33 +177,6 @@ def _nearest_target(tried, need, fits) -> int | None:
 def _layout(cand) -> str:
     """A candidate ``(theta, phi, resolution)`` as the error model names it: ``'16x32 r64'``."""
     return f"{cand[0]}x{cand[1]} r{cand[2]}"
-
-
-class _Steps:
-    """A progress bar over the steps of a choice, naming the one under way (``progress`` False: none; shown on a
-    terminal only, as the build's): the pilots, the predictions, the builds and their checks of a large mesh take
-    minutes (benchmarks/README.md, bigjob). Entered, it gives ``note(step: str)``; closed on leaving, whatever
-    the exit."""
-
-    def __init__(self, progress):
-        self.bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            self.bar = tqdm(desc="CSM choice", unit="step", disable=None, leave=False)
-
-    def note(self, step: str) -> None:
-        if self.bar is not None:
-            self.bar.set_postfix_str(step, refresh=False)
-            self.bar.update(1)
-
-    def __enter__(self):
-        return self.note
-
-    def __exit__(self, *exc):
-        if self.bar is not None:
-            self.bar.close()
-        return False
 
 
 def _build(mesh, cand, depth_bits, layers, progress, built):
@@ -315,9 +292,8 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         A cap on the CSM's size, bytes: candidates predicted
         (:func:`size_model`, within about 15 %) above it are never built,
         and one built larger is not kept: the walk goes on among those
-        predicted smaller than it.
-        Verifying a CSM holds about ten times its bytes while the check's
-        scene is set up (a 433 MB CSM: 4.1 GB more).
+        predicted smaller than it. Whatever the cap, candidates predicted to
+        need more memory than is free are not tried (:mod:`pyshadow.csm.room`).
 
     Returns
     -------
@@ -337,7 +313,7 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         pilots), and bytes, build seconds and measurement where built;
         ``over_budget`` True where built past ``max_bytes``),
         ``size_model``, ``seconds`` (model, pilots, builds and checks
-        together).
+        together), ``left_out_for_memory`` (:func:`~pyshadow.csm.room.within_memory`).
 
     Raises
     ------
@@ -345,8 +321,10 @@ def choose_csm(mesh, max_error: float, *, lookup: str = "nearest", depth_bits: i
         ``max_error`` outside (0, 1) or NaN; no candidate predicted within ``max_bytes`` (the message gives
         the smallest predicted size), or none built within it; a mesh :func:`pyshadow.mesh.check_mesh`
         refuses (no triangles, a vertex not finite, a face index outside the vertices).
+    MemoryError
+        No candidate predicted to fit in the memory free.
     """
-    with _Steps(progress) as note:
+    with Steps(progress, "CSM choice") as note:
         return _choose_csm(note, mesh, max_error, lookup=lookup, depth_bits=depth_bits, layers=layers,
                            verify=verify, points=points, samples=samples, near=near, seed=seed,
                            progress=progress, candidates=candidates, max_bytes=max_bytes)
@@ -375,6 +353,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
         if not candidates:
             raise ValueError(f"no candidate CSM fits in max_bytes={max_bytes} (the smallest is predicted at "
                              f"{small:.0f} bytes)")
+    candidates, left_out = within_memory(candidates, size, verify, "choose_csm", _layout)
     lookups = ("nearest", "vote") if lookup == "auto" else (lookup,)
     # by predicted size, every lookup's; a layout above LARGE_WORK only after every smaller one of every lookup
     ranked = sorted(candidates, key=lambda c: (size(*c), c[0] * c[1] * c[2] ** 2))
@@ -406,7 +385,7 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             entry = tried[j]
             cand, lk = entry["candidate"]
             if cand not in built:
-                _announce(max_error, tried, entry, verify, fits)
+                _announce(max_error, tried, entry, verify, fits, left_out)
         _keep(built, {c for c, _ in order[i - 1:]} | {cand})
         if max_bytes is None:
             csm = None                 # the last miss: not held while the next one is built
@@ -456,11 +435,12 @@ def _choose_csm(note, mesh, max_error, *, lookup, depth_bits, layers, verify, po
             got = (f"predicted {p['disagreement']:.4f}, up to {p['disagreement'] * MODEL_RATIO[1]:.4f} "
                    "with the model's range")
         warnings.warn(f"no candidate CSM meets max_error={max_error:g}; keeping the last built, {p['layout']} "
-                      f"({p['lookup']}): {got}{_most_accurate(tried, entry, fits)}", UserWarning, stacklevel=4)
+                      f"({p['lookup']}): {got}{_most_accurate(tried, entry, fits)}{left_out_note(left_out)}",
+                      UserWarning, stacklevel=4)
     return csm, {"target": max_error, "lookup": p["lookup"], "met": bool(met), "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
-                 "seconds": time.perf_counter() - t0}
+                 "seconds": time.perf_counter() - t0, "left_out_for_memory": left_out}
 
 
 def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: int = 16, layers="auto",
@@ -494,10 +474,12 @@ def choose_within(mesh, max_bytes: int, *, lookup: str = "nearest", depth_bits: 
     ValueError
         If no candidate fits (the message gives the smallest predicted size, or, where those predicted to
         fit were built larger, the smallest built); ``max_bytes`` below 1 or not finite.
+    MemoryError
+        No candidate predicted to fit in the memory free (:mod:`pyshadow.csm.room`).
     TypeError
         ``max_bytes`` not a real number (a bool or a string).
     """
-    with _Steps(progress) as note:
+    with Steps(progress, "CSM choice") as note:
         return _choose_within(note, mesh, max_bytes, lookup=lookup, depth_bits=depth_bits, layers=layers,
                               verify=verify, points=points, samples=samples, near=near, seed=seed,
                               progress=progress, candidates=candidates)
@@ -519,6 +501,7 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
     built = {}
     note("pilot builds")
     size, size_info = size_model(mesh, depth_bits, layers, built)
+    candidates, left_out = within_memory(candidates, size, verify, "choose_within", _layout)
     tried = []
     for c in candidates:
         for lk in lookups:
@@ -562,7 +545,7 @@ def _choose_within(note, mesh, max_bytes, *, lookup, depth_bits, layers, verify,
     return csm, {"budget_bytes": max_bytes, "lookup": p["lookup"], "verified": bool(verify),
                  "maps": p["maps"], "resolution": p["resolution"], "depth_bits": p["depth_bits"],
                  "predicted": p, "measured": entry.get("measured"), "tried": tried, "size_model": size_info,
-                 "seconds": time.perf_counter() - t0}
+                 "seconds": time.perf_counter() - t0, "left_out_for_memory": left_out}
 
 
 def build_chosen(mesh, views, resolution, frame, footprint, two_sided, *, max_error, max_bytes, lookup, depth_bits,

@@ -72,7 +72,7 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False, segment: 
     summary = np.empty(int(soff[-1]), np.uint16 if iend.dtype == np.uint16 else np.uint32)
     pairs = np.empty((int(starts[-1]), 2) if wide else int(starts[-1]), np.uint32)
     seg = np.empty(int(starts[-1]), np.int64) if segment else None
-    depth_bits = depth.view(np.uint32) if csm.depth_bits == 32 else depth
+    depth_word = depth.view(np.uint32) if csm.depth_bits == 32 else depth     # the pairs' depth half, as stored
     t0, T = 0, len(lens)
     while t0 < T:           # texels t0 .. t1 - 1: about SEARCH_CHUNK pairs (a longer list alone)
         t1 = max(t0 + 1, min(T, int(np.searchsorted(starts, starts[t0] + SEARCH_CHUNK, side="right")) - 1))
@@ -91,7 +91,7 @@ def search_arrays(csm, wide: bool | None = None, padded: bool = False, segment: 
             part = np.arange(s0, s1, dtype=np.int64)
         if wide:
             pairs[s0:s1, 0] = iend[part]
-            pairs[s0:s1, 1] = depth_bits[part]
+            pairs[s0:s1, 1] = depth_word[part]
         else:
             pairs[s0:s1] = (depth[part].astype(np.uint32) << 16) | iend[part].astype(np.uint32)
         if segment:
